@@ -1,0 +1,1 @@
+"""isp — a RAW processing pipeline, one replaceable operation at a time."""

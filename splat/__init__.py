@@ -1,0 +1,1 @@
+"""splat — N-channel Gaussian splatting in JAX, trained on RAW images from several cameras."""

@@ -1,0 +1,37 @@
+"""Project exceptions: one hierarchy, messages that say what was wrong and what to do."""
+
+from __future__ import annotations
+
+__all__ = [
+    "GeometryError",
+    "InfeasibleResponseError",
+    "SpectralDataError",
+    "ZonotopeError",
+]
+
+
+class ZonotopeError(Exception):
+    """Base class of every error raised on purpose by ``zonotope``, ``isp`` and ``splat``."""
+
+
+class SpectralDataError(ZonotopeError, ValueError):
+    """Spectral curves that cannot be used: NaN, negative, non-monotonic, disjoint ranges, ..."""
+
+
+class GeometryError(ZonotopeError, ValueError):
+    """A geometric object cannot be built or queried as asked (wrong dimension, too large, ...)."""
+
+
+class InfeasibleResponseError(ZonotopeError, ValueError):
+    """A source response no reflectance in [0, 1] can produce.
+
+    Attributes
+    ----------
+    distance
+        How far outside the source object-colour solid the response lies (the smallest
+        per-channel tolerance ``delta`` that would make it feasible, in response units).
+    """
+
+    def __init__(self, message: str, *, distance: float | None = None) -> None:
+        super().__init__(message)
+        self.distance = distance

@@ -1,0 +1,607 @@
+"""Spectral data layer: one wavelength grid, built-in curves by name, loaders, generator matrices.
+
+Every curve in the library is a :class:`colour.MultiSpectralDistributions` (or a
+:class:`colour.SpectralDistribution` for one curve). Arrays follow colour's layout:
+``(n_wavelengths, n_channels)``.
+
+Grid policy (read this once)
+----------------------------
+Curves measured by different people cover different ranges (camspec stops at 720 nm, the
+Sigma SD Merrill data at 680 nm, Stockman & Sharpe start at 390 nm). :func:`common_shape`
+returns the **intersection** of the ranges, stepped at the **coarsest** interval among the
+inputs unless one is given, with both ends snapped *inwards* to multiples of the interval.
+Curves are then resampled onto that grid by **linear interpolation only**:
+
+- nothing is ever extrapolated; a grid that leaves a curve's measured range raises
+  :class:`SpectralDataError` naming the curve and both ranges;
+- linear interpolation cannot ring, so non-negative data stay non-negative, and a grid that is a
+  subset of the measured wavelengths returns the measured values exactly.
+
+Generators
+----------
+:func:`generators` multiplies sensitivities by an illuminant and Δλ on the grid. With the
+default ``normalise="channel"`` every channel is scaled so that the perfect white reflector
+(x = 1 at every wavelength) gives exactly 1, which makes the object-colour solid of any camera
+live in the unit cube corner ``[0, 1]^k`` with white at ``(1, …, 1)``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+from collections.abc import Callable, Iterable, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import colour
+import numpy as np
+
+from ._errors import SpectralDataError
+
+__all__ = [
+    "CAMERAS",
+    "ILLUMINANTS",
+    "OBSERVERS",
+    "REFLECTANCES",
+    "camera",
+    "common_shape",
+    "generators",
+    "illuminant",
+    "list_builtin",
+    "observer",
+    "read_camera",
+    "read_reflectances",
+    "read_sfu1995",
+    "read_spectral_csv",
+    "reflectances",
+    "resample",
+    "spectral_matrix",
+]
+
+Curve = colour.MultiSpectralDistributions | colour.SpectralDistribution
+CurveLike = Curve | str | tuple[Any, Any]
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation
+# ---------------------------------------------------------------------------------------------
+
+
+def _check(wavelengths: np.ndarray, values: np.ndarray, what: str, *, allow_negative: bool):
+    """Validate one curve or set of curves; return float64 arrays ``(n,)`` and ``(n, k)``."""
+    w = np.asarray(wavelengths, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    if v.ndim == 1:
+        v = v[:, None]
+    if w.ndim != 1 or v.ndim != 2 or v.shape[0] != w.shape[0]:
+        raise SpectralDataError(
+            f"{what}: wavelengths of shape {w.shape} and values of shape {v.shape} do not match; "
+            "expected wavelengths (n,) and values (n,) or (n, k)."
+        )
+    if w.size < 2:
+        raise SpectralDataError(f"{what}: needs at least 2 wavelengths, got {w.size}.")
+    if not np.all(np.isfinite(w)):
+        raise SpectralDataError(f"{what}: wavelengths contain NaN or inf.")
+    if not np.all(np.diff(w) > 0):
+        bad = int(np.argmin(np.diff(w)))
+        raise SpectralDataError(
+            f"{what}: wavelengths must increase strictly; {w[bad]} nm is followed by "
+            f"{w[bad + 1]} nm. Sort the rows (and drop duplicates) before loading."
+        )
+    if not np.all(np.isfinite(v)):
+        rows, cols = np.nonzero(~np.isfinite(v))
+        raise SpectralDataError(
+            f"{what}: {rows.size} values are NaN or inf (first at {w[rows[0]]} nm, column "
+            f"{cols[0]}). Fill or trim the gaps before use; nothing is guessed here."
+        )
+    if not allow_negative and np.any(v < 0):
+        rows, cols = np.nonzero(v < 0)
+        raise SpectralDataError(
+            f"{what}: {rows.size} negative values (most negative {v.min():.4g} at "
+            f"{w[rows[np.argmin(v[rows, cols])]]} nm). Clip them, or pass allow_negative=True "
+            "if the negative lobes are real (e.g. RGB colour-matching functions)."
+        )
+    return w, v
+
+
+def _as_curve(obj: CurveLike, what: str, lookup: Callable[[str], Curve] | None = None) -> Curve:
+    """Accept a colour curve, a built-in name or a ``(wavelengths, values)`` pair."""
+    if isinstance(obj, colour.MultiSpectralDistributions | colour.SpectralDistribution):
+        return obj
+    if isinstance(obj, str):
+        if lookup is None:
+            raise SpectralDataError(f"{what}: names are not accepted here, pass a curve.")
+        return lookup(obj)
+    if isinstance(obj, tuple) and len(obj) == 2:
+        w, v = _check(obj[0], obj[1], what, allow_negative=True)
+        return colour.MultiSpectralDistributions(v, w, name=what)
+    raise SpectralDataError(
+        f"{what}: expected a colour SpectralDistribution / MultiSpectralDistributions, a built-in "
+        f"name or a (wavelengths, values) tuple, got {type(obj).__name__}."
+    )
+
+
+def _arrays(curve: Curve) -> tuple[np.ndarray, np.ndarray]:
+    v = np.asarray(curve.values, dtype=np.float64)
+    return np.asarray(curve.wavelengths, dtype=np.float64), v if v.ndim == 2 else v[:, None]
+
+
+# ---------------------------------------------------------------------------------------------
+# Grid
+# ---------------------------------------------------------------------------------------------
+
+
+def common_shape(*curves: Curve, interval: float | None = None) -> colour.SpectralShape:
+    """Largest grid on which every curve is measured (the intersection of the ranges).
+
+    Parameters
+    ----------
+    *curves
+        colour spectral distributions (single or multi).
+    interval
+        Grid step in nm. Default: the coarsest sampling step among ``curves``, so no detail is
+        invented.
+
+    Returns
+    -------
+    colour.SpectralShape
+        ``start`` and ``end`` are multiples of ``interval`` snapped inwards.
+
+    Raises
+    ------
+    SpectralDataError
+        When the ranges do not overlap by at least two grid steps.
+    """
+    if not curves:
+        raise SpectralDataError("common_shape needs at least one curve.")
+    arrays = [_arrays(c)[0] for c in curves]
+    start = max(w[0] for w in arrays)
+    end = min(w[-1] for w in arrays)
+    step = float(interval) if interval is not None else max(float(np.max(np.diff(w))) for w in arrays)
+    if not step > 0:
+        raise SpectralDataError(f"interval must be positive, got {interval}.")
+    lo = math.ceil(start / step - 1e-9) * step
+    hi = math.floor(end / step + 1e-9) * step
+    if hi - lo < step:
+        ranges = ", ".join(
+            f"{getattr(c, 'name', '?')}: {w[0]:g}–{w[-1]:g} nm" for c, w in zip(curves, arrays)
+        )
+        raise SpectralDataError(
+            f"the curves share no common wavelength range at {step:g} nm steps ({ranges}). "
+            "Use curves that overlap, or pass a finer interval."
+        )
+    return colour.SpectralShape(lo, hi, step)
+
+
+def _grid(shape: colour.SpectralShape | Sequence[float] | np.ndarray) -> np.ndarray:
+    if isinstance(shape, colour.SpectralShape):
+        return np.asarray(shape.wavelengths, dtype=np.float64)
+    w = np.asarray(shape, dtype=np.float64)
+    if w.ndim != 1 or w.size < 2 or not np.all(np.diff(w) > 0) or not np.all(np.isfinite(w)):
+        raise SpectralDataError(
+            "a wavelength grid must be a colour.SpectralShape or a strictly increasing 1-D array "
+            f"of at least 2 finite wavelengths; got {w!r}."
+        )
+    return w
+
+
+def resample(
+    curve: Curve, shape: colour.SpectralShape | np.ndarray, *, allow_negative: bool = False
+) -> np.ndarray:
+    """Values of ``curve`` on the grid, by linear interpolation, never extrapolating.
+
+    Returns
+    -------
+    ndarray of shape (n_wavelengths, n_channels)
+    """
+    name = getattr(curve, "name", "curve")
+    w, v = _check(*_arrays(curve), name, allow_negative=allow_negative)
+    grid = _grid(shape)
+    eps = 1e-9 * max(1.0, abs(w[-1]))
+    if grid[0] < w[0] - eps or grid[-1] > w[-1] + eps:
+        raise SpectralDataError(
+            f"{name}: measured on {w[0]:g}–{w[-1]:g} nm but the grid asks for "
+            f"{grid[0]:g}–{grid[-1]:g} nm. Nothing is extrapolated: use common_shape(...) or a "
+            "grid inside the measured range."
+        )
+    grid = np.clip(grid, w[0], w[-1])
+    return np.stack([np.interp(grid, w, v[:, j]) for j in range(v.shape[1])], axis=1)
+
+
+# ---------------------------------------------------------------------------------------------
+# Built-in curves
+# ---------------------------------------------------------------------------------------------
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[^0-9a-z]+", "", name.lower().replace("°", "deg"))
+
+
+def _rawtoaces_5d_mark_ii() -> colour.MultiSpectralDistributions:
+    path = resources.files("colour.characterisation") / "datasets/rawtoaces"
+    path = path / "CANON_EOS_5DMark_II_RGB_Sensitivities.csv"
+    data = np.loadtxt(io.StringIO(path.read_text()), delimiter=",", skiprows=1)
+    return colour.MultiSpectralDistributions(
+        data[:, 1:], data[:, 0], labels=["red", "green", "blue"], name="Canon EOS 5D Mark II"
+    )
+
+
+def _sds_to_msds(sds: dict, name: str) -> colour.MultiSpectralDistributions:
+    msds = colour.colorimetry.sds_and_msds_to_msds(list(sds.values()))
+    msds.name = name
+    return msds
+
+
+#: Built-in cameras: canonical name → loader. Sources: Darrodi et al. 2015 (NPL) and the
+#: rawtoaces CSV, both as shipped by colour-science.
+CAMERAS: dict[str, Callable[[], colour.MultiSpectralDistributions]] = {
+    "Nikon 5100 (NPL)": lambda: colour.MSDS_CAMERA_SENSITIVITIES["Nikon 5100 (NPL)"].copy(),
+    "Sigma SDMerill (NPL)": lambda: colour.MSDS_CAMERA_SENSITIVITIES["Sigma SDMerill (NPL)"].copy(),
+    "Canon EOS 5D Mark II": _rawtoaces_5d_mark_ii,
+}
+_CAMERA_ALIASES = {
+    "nikon5100": "Nikon 5100 (NPL)",
+    "nikond5100": "Nikon 5100 (NPL)",
+    "sigmasdmerrill": "Sigma SDMerill (NPL)",
+    "sigmasd1merrill": "Sigma SDMerill (NPL)",
+    "sigmasdmerill": "Sigma SDMerill (NPL)",
+    "canon5dmarkii": "Canon EOS 5D Mark II",
+    "canoneos5dmarkii": "Canon EOS 5D Mark II",
+}
+
+#: Built-in observers / cone fundamentals (colour.MSDS_CMFS), with short aliases.
+OBSERVERS: dict[str, str] = {
+    "Stockman & Sharpe 2°": "Stockman & Sharpe 2 Degree Cone Fundamentals",
+    "Stockman & Sharpe 10°": "Stockman & Sharpe 10 Degree Cone Fundamentals",
+    "CIE 1931 2°": "CIE 1931 2 Degree Standard Observer",
+    "CIE 1964 10°": "CIE 1964 10 Degree Standard Observer",
+    "CIE 2015 2°": "CIE 2015 2 Degree Standard Observer",
+    "CIE 2015 10°": "CIE 2015 10 Degree Standard Observer",
+}
+_OBSERVER_ALIASES = {"lms": "Stockman & Sharpe 2°", "lms2": "Stockman & Sharpe 2°",
+                     "lms10": "Stockman & Sharpe 10°", "xyz": "CIE 1931 2°",
+                     "cie1931": "CIE 1931 2°", "cie1964": "CIE 1964 10°"}
+
+#: Every illuminant colour-science ships (``colour.SDS_ILLUMINANTS``), by its colour name.
+ILLUMINANTS: tuple[str, ...] = tuple(colour.SDS_ILLUMINANTS)
+
+#: Built-in reflectance sets: name → loader returning one column per sample.
+REFLECTANCES: dict[str, Callable[[], colour.MultiSpectralDistributions]] = {
+    "ColorChecker N Ohta": lambda: _sds_to_msds(
+        colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"], "ColorChecker N Ohta"),
+    "BabelColor Average": lambda: _sds_to_msds(
+        colour.SDS_COLOURCHECKERS["BabelColor Average"], "BabelColor Average"),
+    "rawtoaces 190": lambda: colour.characterisation.read_training_data_rawtoaces_v1(),
+    "CIE 1995 TCS": lambda: _sds_to_msds(colour.quality.datasets.SDS_TCS["CIE 1995"],
+                                         "CIE 1995 TCS"),
+    "NIST CQS 9.0": lambda: _sds_to_msds(colour.quality.datasets.SDS_VS["NIST CQS 9.0"],
+                                         "NIST CQS 9.0"),
+}
+_REFLECTANCE_ALIASES = {"colorchecker": "ColorChecker N Ohta", "cc24": "ColorChecker N Ohta",
+                        "babelcolor": "BabelColor Average", "rawtoaces": "rawtoaces 190",
+                        "training190": "rawtoaces 190", "tcs": "CIE 1995 TCS"}
+
+
+def _resolve(name: str, table: Iterable[str], aliases: dict[str, str], kind: str) -> str:
+    keys = {_key(k): k for k in table}
+    k = _key(name)
+    if k in keys:
+        return keys[k]
+    if k in aliases:
+        return aliases[k]
+    raise SpectralDataError(
+        f"unknown {kind} {name!r}. Built-in {kind}s: {', '.join(table)}. "
+        f"Load your own with zonotope.read_{'camera' if kind == 'camera' else 'reflectances'}(path)."
+        if kind in ("camera", "reflectance set")
+        else f"unknown {kind} {name!r}. Built-in {kind}s: {', '.join(table)}."
+    )
+
+
+def camera(name: str | colour.MultiSpectralDistributions) -> colour.MultiSpectralDistributions:
+    """A built-in camera's RGB sensitivities by name (case and punctuation ignored).
+
+    >>> camera("nikon 5100").labels
+    ('red', 'green', 'blue')
+    """
+    if isinstance(name, colour.MultiSpectralDistributions):
+        return name
+    resolved = _resolve(name, CAMERAS, _CAMERA_ALIASES, "camera")
+    msds = CAMERAS[resolved]()
+    msds.name = resolved
+    return msds
+
+
+def observer(name: str | colour.MultiSpectralDistributions = "Stockman & Sharpe 2°"):
+    """Colour-matching functions or cone fundamentals by name (e.g. ``"lms"``, ``"CIE 1931 2°"``).
+
+    Any key of ``colour.MSDS_CMFS`` is accepted as well.
+    """
+    if isinstance(name, colour.MultiSpectralDistributions):
+        return name
+    if name in colour.MSDS_CMFS:
+        return colour.MSDS_CMFS[name].copy()
+    return colour.MSDS_CMFS[OBSERVERS[_resolve(name, OBSERVERS, _OBSERVER_ALIASES, "observer")]].copy()
+
+
+def illuminant(name: str | colour.SpectralDistribution = "D65") -> colour.SpectralDistribution:
+    """Any colour-science illuminant by name (``"D65"``, ``"A"``, ``"FL2"``, ``"LED-B1"``, ...)."""
+    if isinstance(name, colour.SpectralDistribution):
+        return name
+    return colour.SDS_ILLUMINANTS[_resolve(name, ILLUMINANTS, {}, "illuminant")].copy()
+
+
+_illuminant = illuminant
+
+
+def reflectances(name: str | colour.MultiSpectralDistributions) -> colour.MultiSpectralDistributions:
+    """A built-in reflectance set, one column per sample."""
+    if isinstance(name, colour.MultiSpectralDistributions):
+        return name
+    resolved = _resolve(name, REFLECTANCES, _REFLECTANCE_ALIASES, "reflectance set")
+    msds = REFLECTANCES[resolved]()
+    msds.name = resolved
+    return msds
+
+
+def list_builtin() -> dict[str, list[str]]:
+    """Names of every built-in curve, by kind: cameras, observers, illuminants, reflectances."""
+    return {
+        "cameras": list(CAMERAS),
+        "observers": list(OBSERVERS),
+        "illuminants": list(ILLUMINANTS),
+        "reflectances": list(REFLECTANCES),
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Loaders
+# ---------------------------------------------------------------------------------------------
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def read_spectral_csv(path: str | Path, *, name: str | None = None,
+                      allow_negative: bool = False) -> colour.MultiSpectralDistributions:
+    """Read a spectral table in either orientation.
+
+    Accepted layouts (``#`` comment lines and free-text preambles are skipped):
+
+    - one row per wavelength: ``wavelength,ch1,ch2,...`` with or without a header
+      (camspec / dcamprof CSV, ``wavelength,R,G,B``, colour-science exports);
+    - one row per sample: header ``name,380,390,...`` then ``label,v1,v2,...``
+      (Munsell tables).
+    """
+    path = Path(path)
+    name = name or path.stem
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as error:
+        raise SpectralDataError(f"cannot read {path}: {error}") from error
+    rows = [r for r in csv.reader(line for line in text.splitlines()
+                                  if line.strip() and not line.lstrip().startswith("#"))]
+    rows = [[c.strip() for c in r if c.strip() != ""] for r in rows]
+    start = next((i for i in range(len(rows) - 1)
+                  if len(rows[i]) >= 2 and len(rows[i + 1]) == len(rows[i])
+                  and all(_is_number(c) for c in rows[i + 1][1:])), None)
+    if start is None:
+        raise SpectralDataError(
+            f"{path}: no table of numbers found. Expected comma-separated rows such as "
+            "'wavelength,R,G,B' then '400,0.01,0.02,0.10'."
+        )
+    header = None if all(_is_number(c) for c in rows[start]) else rows[start]
+    body = rows[start + (header is not None):]
+    body = [r for r in body if len(r) == len(rows[start])]
+    if header is not None and all(_is_number(c) for c in header[1:]):
+        wavelengths = np.array([float(c) for c in header[1:]])
+        labels = [r[0] for r in body]
+        values = np.array([[float(c) for c in r[1:]] for r in body]).T
+    else:
+        data = np.array([[float(c) for c in r] for r in body])
+        wavelengths, values = data[:, 0], data[:, 1:]
+        labels = header[1:] if header is not None else [str(i + 1) for i in range(values.shape[1])]
+    w, v = _check(wavelengths, values, f"{path}", allow_negative=allow_negative)
+    return colour.MultiSpectralDistributions(v, w, labels=list(labels), name=name)
+
+
+def read_camera(path: str | Path, *, allow_negative: bool = False) -> colour.MultiSpectralDistributions:
+    """Read camera sensitivities: rawtoaces JSON, dcamprof/camspec JSON or any CSV layout.
+
+    The channel count is not restricted to three (multispectral cameras load too).
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".json":
+        return read_spectral_csv(path, allow_negative=allow_negative)
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise SpectralDataError(f"cannot read camera JSON {path}: {error}") from error
+    if "spectral_data" in doc:  # rawtoaces / AMPAS schema
+        header = doc.get("header", {})
+        data = doc["spectral_data"]["data"]["main"]
+        labels = doc["spectral_data"]["index"]["main"]
+        w = np.array([float(k) for k in data])
+        order = np.argsort(w)
+        v = np.array([data[k] for k in data], dtype=np.float64)[order]
+        name = " ".join(x for x in (header.get("manufacturer"), header.get("model")) if x)
+        w, v = _check(w[order], v, f"{path}", allow_negative=allow_negative)
+        return colour.MultiSpectralDistributions(v, w, labels=labels, name=name or path.stem)
+    if "ssf_bands" in doc:  # dcamprof
+        keys = [k for k in ("red_ssf", "green_ssf", "blue_ssf") if k in doc]
+        v = np.stack([np.asarray(doc[k], dtype=np.float64) for k in keys], axis=1)
+        w, v = _check(doc["ssf_bands"], v, f"{path}", allow_negative=allow_negative)
+        return colour.MultiSpectralDistributions(
+            v, w, labels=["red", "green", "blue"][: len(keys)],
+            name=doc.get("camera_name", path.stem))
+    raise SpectralDataError(
+        f"{path}: unknown JSON layout; expected rawtoaces ('spectral_data') or dcamprof "
+        "('ssf_bands', 'red_ssf', ...)."
+    )
+
+
+def read_sfu1995(path: str | Path) -> colour.MultiSpectralDistributions:
+    """Read the SFU 1995-reflectance database (``reflect_db.reflect``, Barnard et al. 2002).
+
+    Spectra are blank-line separated blocks of one value per line on 380–780 nm / 4 nm.
+    """
+    spectra: list[list[float]] = []
+    current: list[float] = []
+    origin, step = 380.0, 4.0
+    for line in Path(path).read_text().splitlines():
+        line = line.strip()
+        if line.startswith("#!"):
+            o = re.search(r"o=([\d.]+)", line)
+            s = re.search(r"s=([\d.]+)", line)
+            origin, step = float(o.group(1)), float(s.group(1))
+        if not line or line.startswith("#"):
+            if current:
+                spectra.append(current)
+                current = []
+            continue
+        current.append(float(line))
+    if current:
+        spectra.append(current)
+    lengths = {len(s) for s in spectra}
+    if len(lengths) != 1:
+        raise SpectralDataError(f"{path}: spectra of unequal lengths {sorted(lengths)}.")
+    values = np.array(spectra).T
+    w = origin + step * np.arange(values.shape[0])
+    w, values = _check(w, values, str(path), allow_negative=False)
+    return colour.MultiSpectralDistributions(
+        values, w, labels=[f"sfu{i:04d}" for i in range(values.shape[1])], name="SFU 1995")
+
+
+def read_reflectances(path: str | Path) -> colour.MultiSpectralDistributions:
+    """Read a reflectance set from a CSV/TXT table (either orientation) or an SFU ``.reflect`` file."""
+    path = Path(path)
+    if path.suffix == ".reflect":
+        return read_sfu1995(path)
+    if path.suffix.lower() == ".json":
+        doc = json.loads(path.read_text())
+        data = doc["spectral_data"]["data"]["main"]
+        w = np.array([float(k) for k in data])
+        v = np.array(list(data.values()), dtype=np.float64)
+        w, v = _check(w, v, str(path), allow_negative=False)
+        return colour.MultiSpectralDistributions(
+            v, w, labels=doc["spectral_data"]["index"]["main"], name=path.stem)
+    return read_spectral_csv(path)
+
+
+# ---------------------------------------------------------------------------------------------
+# Generator matrices
+# ---------------------------------------------------------------------------------------------
+
+
+def _flatten_sensitivities(sensitivities) -> list[Curve]:
+    items = [sensitivities] if isinstance(
+        sensitivities, str | colour.MultiSpectralDistributions | colour.SpectralDistribution | tuple
+    ) else list(sensitivities)
+    if not items:
+        raise SpectralDataError("no sensitivities given; pass a camera, an observer or a list.")
+    out = []
+    for item in items:
+        if isinstance(item, str):
+            try:
+                out.append(camera(item))
+            except SpectralDataError:
+                out.append(observer(item))
+        else:
+            out.append(_as_curve(item, "sensitivities"))
+    return out
+
+
+def spectral_matrix(curves, shape: colour.SpectralShape | np.ndarray | None = None, *,
+                    allow_negative: bool = False):
+    """Stack curves (cameras, observers, ...) channel-wise on one grid.
+
+    Returns
+    -------
+    wavelengths : ndarray of shape (n,)
+    values : ndarray of shape (n, k)
+        ``k`` = total number of channels.
+    labels : list of str
+    """
+    curves = _flatten_sensitivities(curves)
+    shape = shape if shape is not None else common_shape(*curves)
+    grid = _grid(shape)
+    blocks, labels = [], []
+    many = len(curves) > 1
+    for c in curves:
+        blocks.append(resample(c, grid, allow_negative=allow_negative))
+        names = getattr(c, "labels", None) or [c.name]
+        labels += [f"{c.name}: {lab}" if many else str(lab) for lab in names]
+    return grid, np.concatenate(blocks, axis=1), labels
+
+
+def generators(sensitivities, illuminant: CurveLike | None = "D65",
+               shape: colour.SpectralShape | np.ndarray | None = None, *,
+               normalise: str | int | None = "channel",
+               allow_negative: bool = False) -> colour.MultiSpectralDistributions:
+    """Generator matrix G = S(λ)·E(λ)·Δλ of one or more cameras/observers under an illuminant.
+
+    Parameters
+    ----------
+    sensitivities
+        A camera or observer (colour MSDS, built-in name, ``(wavelengths, values)``), or a list of
+        them: their channels are stacked (two cameras give 6 channels).
+    illuminant
+        Illuminant (SD or name, default ``"D65"``); ``None`` for an equal-energy illuminant.
+    shape
+        Wavelength grid; default :func:`common_shape` of all the curves.
+    normalise
+        ``"channel"`` (default): each channel scaled so the perfect white reflector gives 1.
+        An integer ``i``: one common factor so that channel ``i`` of the white gives 1 (e.g.
+        ``1`` for XYZ with Y_white = 1, keeping the white point's chromaticity).
+        ``None``: raw S·E·Δλ.
+    allow_negative
+        Accept negative sensitivities (e.g. RGB colour-matching functions).
+
+    Returns
+    -------
+    colour.MultiSpectralDistributions of shape (n_wavelengths, k)
+        The generators as columns; ``values[i]`` is the response to a unit reflectance at
+        wavelength i alone, so a reflectance ``x`` (n,) gives the response ``x @ values``.
+
+    Raises
+    ------
+    SpectralDataError
+        Bad curves (see module docs), disjoint ranges, or a channel that is zero on the grid.
+    """
+    curves = _flatten_sensitivities(sensitivities)
+    light = None if illuminant is None else _as_curve(illuminant, "illuminant", _illuminant)
+    if shape is None:
+        shape = common_shape(*curves, *([light] if light is not None else []))
+    grid, S, labels = spectral_matrix(curves, shape, allow_negative=allow_negative)
+    E = np.ones(grid.size) if light is None else resample(light, grid)[:, 0]
+    dl = np.gradient(grid)
+    G = S * (E * dl)[:, None]
+    white = G.sum(axis=0)
+    dead = np.nonzero(np.abs(G).sum(axis=0) == 0)[0]
+    if dead.size:
+        raise SpectralDataError(
+            f"channel(s) {[labels[i] for i in dead]} are zero on {grid[0]:g}–{grid[-1]:g} nm "
+            "under this illuminant; such a channel measures nothing. Drop it or widen the grid."
+        )
+    if normalise == "channel":
+        if np.any(white <= 0):
+            raise SpectralDataError(
+                "per-channel normalisation needs a positive white response in every channel; "
+                f"got {white}. Use normalise=None for signed sensitivities."
+            )
+        G = G / white
+    elif isinstance(normalise, int | np.integer) and not isinstance(normalise, bool):
+        if not 0 <= normalise < G.shape[1]:
+            raise SpectralDataError(f"normalise={normalise} is not a channel index (k={G.shape[1]}).")
+        G = G / white[normalise]
+    elif normalise is not None:
+        raise ValueError(f"normalise must be 'channel', a channel index or None; got {normalise!r}.")
+    return colour.MultiSpectralDistributions(G, grid, labels=labels, name="generators")
