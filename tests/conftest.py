@@ -1,0 +1,24 @@
+"""Shared fixtures: the real measured data in ../shared/data (tests skip cleanly without it)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+#: ../shared/data relative to the repository root (override with ZONOTOPE_SHARED_DATA).
+SHARED_DATA = Path(
+    os.environ.get("ZONOTOPE_SHARED_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data")
+)
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """Path of ../shared/data; skips the test when the folder is absent."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"shared data folder {SHARED_DATA} not present")
+    return SHARED_DATA
