@@ -55,3 +55,8 @@ __all__ = [
     "spectral_matrix",
 ]
 __version__ = "0.1.0"
+
+from ._tol import TOL, Tolerances
+from .solid import Support, Zonotope
+
+__all__ += ["TOL", "Support", "Tolerances", "Zonotope"]
