@@ -60,3 +60,7 @@ from ._tol import TOL, Tolerances
 from .solid import Support, Zonotope
 
 __all__ += ["TOL", "Support", "Tolerances", "Zonotope"]
+
+from .vora import CameraSetScore, projector, rank_camera_sets, vora_value  # noqa: E402
+
+__all__ += ["CameraSetScore", "projector", "rank_camera_sets", "vora_value"]

@@ -1,0 +1,3 @@
+from zonotope.cli import main
+
+raise SystemExit(main())
