@@ -343,8 +343,12 @@ def reflectances(name: str | colour.MultiSpectralDistributions) -> colour.MultiS
         return name
     resolved = _resolve(name, REFLECTANCES, _REFLECTANCE_ALIASES, "reflectance set")
     msds = REFLECTANCES[resolved]()
-    msds.name = resolved
-    return msds
+    values = np.asarray(msds.values, dtype=np.float64)
+    if np.any(values < -1e-12):  # pragma: no cover - colour's datasets are non-negative
+        raise SpectralDataError(f"built-in set {resolved} has negative reflectances.")
+    # a few entries of colour's tables are -2e-16 (float noise, e.g. rawtoaces 190): clear them
+    return colour.MultiSpectralDistributions(np.maximum(values, 0.0), msds.wavelengths,
+                                             labels=list(msds.labels), name=resolved)
 
 
 def list_builtin() -> dict[str, list[str]]:
