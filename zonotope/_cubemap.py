@@ -99,6 +99,9 @@ class CubeMap:
         assert d_plus.shape[0] == half
         fdir = np.concatenate([d_plus, -d_plus])  # point symmetry about the centre
         falpha = np.concatenate([a_plus, a_plus])
+        # a cap wider than a hemisphere is not spherically convex, so it may not hold the
+        # facet's shadow: such (huge, close) facets are candidates everywhere
+        falpha = np.where(falpha >= 0.5 * np.pi - 1e-6, 2.0 * np.pi, falpha)
         self.K = K or int(np.clip(np.sqrt(m / 12.0), 4, 48))
         cdir, crad = _cells(self.K)
         reach = falpha[None, :] + 1e-9

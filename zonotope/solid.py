@@ -98,15 +98,17 @@ def _range_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
 
 
 def _is_closed_manifold(F: np.ndarray, n_vertices: int) -> bool:
-    """Every directed edge appears once and its reverse once: closed, consistently oriented."""
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]).astype(np.int64)
-    fwd = e[:, 0] * n_vertices + e[:, 1]
-    rev = e[:, 1] * n_vertices + e[:, 0]
-    fwd_sorted = np.sort(fwd)
-    if np.any(np.diff(fwd_sorted) == 0):
+    """Every edge is shared by exactly two triangles that traverse it in opposite directions."""
+    a = F.reshape(-1).astype(np.int64)
+    b = np.roll(F, -1, axis=1).reshape(-1).astype(np.int64)
+    key = np.sort((np.minimum(a, b) * n_vertices + np.maximum(a, b)) * 2 + (a < b))
+    if key.size % 2:
         return False
-    pos = np.searchsorted(fwd_sorted, rev)
-    return bool(np.all(pos < fwd.size) and np.all(fwd_sorted[np.minimum(pos, fwd.size - 1)] == rev))
+    first, second = key[0::2], key[1::2]
+    same_edge = np.all(first // 2 == second // 2)
+    opposite = np.all(first % 2 == 0) and np.all(second % 2 == 1)
+    only_two = np.all(first[1:] // 2 != second[:-1] // 2)
+    return bool(same_edge and opposite and only_two)
 
 
 def _hull_mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -312,19 +314,24 @@ class Zonotope:
         Kp = cumr[ii, hi] - cumr[ii, lo]
         n = np.cross(H[ii], H[jj])
         volume = float(np.einsum("ij,ij->", n, 2.0 * Bp - T)) / 3.0
-        # generators coplanar with (i, j): angle within tol of θ_j or θ_j + π (mod 2π)
-        bounds = [(np.searchsorted(flat_as, th + c - tol, "left"),
-                   np.searchsorted(flat_as, th + c + tol, "right"))
-                  for c in (0.0, two_pi, -two_pi, np.pi, -np.pi)]
-        n_zero = sum(b - a for a, b in bounds) - 1
-        keep = n_zero == 0
+        # generators coplanar with (i, j): angle within tol of θ_j or θ_j + π (mod 2π). Cheap
+        # test first (neighbours in sorted order), exact windows only for the flagged pairs.
+        prev = np.where(tt > 0, a_s[ii, tt - 1], a_s[ii, m - 1] - two_pi) + big * ii
+        flag = (lo > tt + 1) | (th - prev <= tol)
+        flag |= flat_a2[np.minimum(hi, w2 - 1) + ii * w2] <= th + np.pi + tol
+        keep = ~flag
         zonogons = []
-        deg = np.nonzero(~keep)[0]
+        deg = np.nonzero(flag)[0]
         if deg.size:
+            thd = th[deg]
+            bounds = [(np.searchsorted(flat_as, thd + c - tol, "left"),
+                       np.searchsorted(flat_as, thd + c + tol, "right"))
+                      for c in (0.0, two_pi, -two_pi, np.pi, -np.pi)]
             g_flat = order.ravel()
-            mins = np.min([_range_min(g_flat, a[deg], b[deg]) for a, b in bounds], axis=0)
-            for d in deg[mins >= jj[deg]]:
-                zset = np.concatenate([[ii[d]]] + [g_flat[a[d]:b[d]] for a, b in bounds])
+            mins = np.min([_range_min(g_flat, a, b) for a, b in bounds], axis=0)
+            for e in np.nonzero(mins >= jj[deg])[0]:
+                d = deg[e]
+                zset = np.concatenate([[ii[d]]] + [g_flat[a[e]:b[e]] for a, b in bounds])
                 zonogons.append(self._zonogon(H, r, n[d], off + Bp[d], Kp[d], np.unique(zset)))
         return _Facets3(
             pairs=np.stack([ii[keep], jj[keep]], axis=1), normals=n[keep], bases=off + Bp[keep],

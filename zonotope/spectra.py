@@ -98,6 +98,12 @@ def _check(wavelengths: np.ndarray, values: np.ndarray, what: str, *, allow_nega
             f"{what}: {rows.size} values are NaN or inf (first at {w[rows[0]]} nm, column "
             f"{cols[0]}). Fill or trim the gaps before use; nothing is guessed here."
         )
+    if not allow_negative:
+        # interpolation in colour leaves values like -3e-22 where a curve reaches 0: that is
+        # float noise, not a negative lobe, so it is cleared (relative threshold 1e-12)
+        noise = (v < 0) & (v >= -1e-12 * max(float(np.abs(v).max()), 1e-300))
+        if np.any(noise):
+            v = np.where(noise, 0.0, v)
     if not allow_negative and np.any(v < 0):
         rows, cols = np.nonzero(v < 0)
         raise SpectralDataError(

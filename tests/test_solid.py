@@ -1,0 +1,228 @@
+"""Exact object-colour solids, checked against brute force, colour-science and real data."""
+
+from __future__ import annotations
+
+import itertools
+
+import colour
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy.spatial import ConvexHull, Delaunay
+
+import zonotope
+from zonotope import GeometryError, Zonotope
+
+
+def corners(G):
+    X = np.array(list(itertools.product([0.0, 1.0], repeat=G.shape[0])))
+    return X @ G
+
+
+def rows(a, decimals=9):
+    return {tuple(r) for r in np.round(a, decimals)}
+
+
+gens = arrays(np.float64, st.tuples(st.integers(3, 9), st.just(3)),
+              elements=st.floats(-1.0, 1.0, allow_nan=False, width=64))
+
+
+@settings(max_examples=40, deadline=None)
+@given(gens)
+def test_matches_brute_force_hull(G):
+    Z = Zonotope(G)
+    P = corners(G)
+    if np.linalg.matrix_rank(G, tol=1e-6) < 3 or np.linalg.svd(G, compute_uv=False)[-1] < 1e-3:
+        return  # near-flat draws are covered by the degenerate tests
+    hull = ConvexHull(P)
+    assert Z.volume == pytest.approx(hull.volume, rel=1e-9, abs=1e-12)
+    # same set: every brute-force corner is in the solid and every vertex is a corner
+    assert np.all(Z.contains(P, tol=1e-9))
+    assert np.all(hull.equations[:, :3] @ Z.vertices.T + hull.equations[:, 3:] <= 1e-9)
+    U = G / np.maximum(np.linalg.norm(G, axis=1, keepdims=True), 1e-300)
+    cross = np.linalg.norm(np.cross(U[:, None], U[None]), axis=-1)
+    dets = [abs(np.linalg.det(U[list(c)])) for c in itertools.combinations(range(len(G)), 3)]
+    separated = np.all(cross[np.triu_indices(len(G), 1)] > 1e-3) and min(dets) > 1e-6
+    if separated:  # no (near-)parallel pairs or (near-)coplanar triples: identical vertex sets
+        assert rows(Z.vertices, 7) == rows(P[hull.vertices], 7)
+    # random points: cube-map test, dense H-rep test and Delaunay agree
+    rng = np.random.default_rng(0)
+    lo, hi = P.min(0), P.max(0)
+    Q = lo + (hi - lo) * rng.random((500, 3))
+    tri = Delaunay(P[hull.vertices])
+    truth = tri.find_simplex(Q) >= 0
+    A, b = Z.halfspaces
+    margin = (Q @ A.T - b).max(axis=1)
+    clear = np.abs(margin) > 1e-9
+    np.testing.assert_array_equal(Z.contains(Q)[clear], truth[clear])
+    np.testing.assert_array_equal(Z.contains_reference(Q)[clear], truth[clear])
+
+
+def test_unit_cube_and_closed_forms():
+    Z = Zonotope(np.eye(3))
+    assert Z.volume == 1.0 and Z.n_facets == 6 and Z.vertices.shape == (8, 3)
+    np.testing.assert_array_equal(Z.centroid, [0.5, 0.5, 0.5])
+    # general position: n(n-1)+2 vertices, n(n-1) facets, volume Σ|det|
+    G = np.random.default_rng(3).normal(size=(10, 3))
+    Z = Zonotope(G)
+    assert Z.vertices.shape[0] == 10 * 9 + 2 and Z.n_facets == 90
+    brute = sum(abs(np.linalg.det(G[list(c)])) for c in itertools.combinations(range(10), 3))
+    assert Z.volume == pytest.approx(brute, rel=1e-12)
+
+
+def test_zero_and_parallel_generators_are_merged_not_changing_the_solid():
+    G = np.random.default_rng(4).random((6, 3))
+    G2 = np.vstack([G, np.zeros(3), 0.5 * G[0], -0.25 * G[1]])
+    Z, Z2 = Zonotope(G), Zonotope(G2)
+    assert Z2._reduced[0].shape[0] == 6
+    hull = ConvexHull(corners(G2))
+    assert Z2.volume == pytest.approx(hull.volume, rel=1e-12)
+    assert rows(Z2.vertices, 9) == rows(corners(G2)[hull.vertices], 9)
+    assert Z.volume < Z2.volume
+
+
+def test_coplanar_generators_give_one_zonogon_facet():
+    rng = np.random.default_rng(5)
+    flat = np.column_stack([rng.random((5, 2)), np.zeros(5)])  # five generators in z = 0
+    G = np.vstack([flat, rng.random((3, 3)) + 0.1])
+    Z = Zonotope(G)
+    assert len(Z._facets.zonogons) == 1
+    hull = ConvexHull(corners(G))
+    assert Z.volume == pytest.approx(hull.volume, rel=1e-12)
+    assert rows(Z.vertices, 9) == rows(corners(G)[hull.vertices], 9)
+    mesh = Z.to_trimesh()
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(hull.volume, rel=1e-12)
+
+
+def test_support_and_optimal_stimulus():
+    G = zonotope.generators("nikon 5100", "D65")
+    Z = Zonotope(G)
+    u = np.random.default_rng(6).normal(size=(50, 3))
+    s = Z.support(u)
+    np.testing.assert_allclose(s.point, s.reflectance @ G.values, atol=1e-15)
+    # no 0/1 corner of the cube does better than the optimal stimulus
+    X = np.random.default_rng(7).integers(0, 2, size=(5000, G.values.shape[0])).astype(float)
+    assert np.all((X @ G.values @ u.T).max(axis=0) <= s.value + 1e-12)
+    assert np.all(s.transitions >= 0)
+    # the support point is on the boundary: it satisfies one facet with equality
+    A, b = Z.halfspaces
+    slack = (s.point @ A.T - b).max(axis=1)
+    np.testing.assert_allclose(slack, 0.0, atol=1e-12)
+    np.testing.assert_allclose(Z.centroid, 0.5 * Z.white)
+
+
+def test_cie1931_solid_volume_matches_zonohedra_figure():
+    """CIE 1931 2° at 380–780 nm / 5 nm, raw CMF generators: 4070.3 (zonohedra, R)."""
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    G = cmfs.values[(cmfs.wavelengths >= 380) & (cmfs.wavelengths <= 780)][::5]
+    assert G.shape == (81, 3)
+    Z = Zonotope(G)
+    assert Z.volume == pytest.approx(4070.3, rel=1e-4)
+    brute = 0.0
+    for i, j in itertools.combinations(range(81), 2):
+        brute += np.abs(np.cross(G[i], G[j]) @ G[j + 1:].T).sum()
+    assert Z.volume == pytest.approx(brute, rel=1e-12)
+    mesh = Z.to_trimesh()
+    assert mesh.is_watertight and mesh.volume == pytest.approx(Z.volume, rel=1e-10)
+
+
+def test_colour_outer_surface_points_are_on_the_solid():
+    shape = colour.SpectralShape(360, 780, 10)
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
+    illuminant = colour.SDS_ILLUMINANTS["E"].copy().align(shape)
+    XYZ = colour.volume.XYZ_outer_surface(cmfs, illuminant)
+    G = zonotope.generators(cmfs, illuminant, shape, normalise=1)
+    Z = Zonotope(G)
+    assert np.all(Z.contains(XYZ, tol=1e-9))
+    A, b = Z.halfspaces
+    distance = (XYZ @ A.T - b).max(axis=1)
+    assert distance.max() < 1e-9
+    # most pulse waves are optimal colours; CIE 1931's locus is not perfectly convex, so a few
+    # optimal colours need more than two transitions and those pulse waves fall inside
+    assert np.mean(np.abs(distance) < 1e-9) > 0.9
+
+
+def test_mesh_conversions_agree():
+    Z = Zonotope(zonotope.generators("canon 5d mark ii", "D65", colour.SpectralShape(400, 700, 10)))
+    mesh = Z.to_trimesh()
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(Z.volume, rel=1e-10)
+    manifold = Z.to_manifold()
+    assert manifold.volume() == pytest.approx(Z.volume, rel=1e-9)
+    poly = Z.to_pyvista()
+    assert poly.n_cells == mesh.faces.shape[0] and poly.volume == pytest.approx(Z.volume, rel=1e-9)
+
+
+def test_cube_map_inside_test_equals_dense_test_near_the_boundary():
+    Z = Zonotope(zonotope.generators("lms", "D65"))
+    rng = np.random.default_rng(8)
+    V = Z.vertices[rng.choice(Z.vertices.shape[0], 2000)]
+    c = Z.centroid
+    Q = np.concatenate([c + (V - c) * (1 + 1e-6), c + (V - c) * (1 - 1e-6), rng.random((20000, 3))])
+    np.testing.assert_array_equal(Z.contains(Q, tol=0.0), Z.contains_reference(Q, tol=0.0))
+    assert Z.contains(Q[:2000], tol=0.0).sum() == 0 and Z.contains(Q[2000:4000], tol=0.0).all()
+
+
+@pytest.mark.parametrize("dims", [2, 4])
+def test_nd_support_contains_and_volume_against_brute_force(dims):
+    rng = np.random.default_rng(dims)
+    G = rng.random((7, dims))
+    Z = Zonotope(G)
+    P = corners(G)
+    hull = ConvexHull(P)
+    assert Z.volume == pytest.approx(hull.volume, rel=1e-9)
+    Q = P.min(0) + (P.max(0) - P.min(0)) * rng.random((40, dims))
+    truth = Delaunay(P[hull.vertices]).find_simplex(Q) >= 0
+    np.testing.assert_array_equal(Z.contains(Q), truth)
+    u = rng.normal(size=(10, dims))
+    np.testing.assert_allclose(Z.support(u).value, (P @ u.T).max(axis=0), rtol=1e-12)
+
+
+def test_flat_solids_are_honest():
+    G = np.random.default_rng(9).random((8, 2))
+    Z = Zonotope(np.column_stack([G, G[:, 0]]))  # third channel duplicates the first
+    assert Z.rank == 2 and Z.volume == 0.0
+    with pytest.raises(GeometryError, match="flat"):
+        _ = Z.halfspaces
+    inside = Z.centroid
+    outside = Z.centroid + np.array([0.0, 0.0, 0.1])
+    np.testing.assert_array_equal(Z.contains([inside, outside]), [True, False])
+
+
+@pytest.mark.parametrize(
+    ("G", "match"),
+    [(np.zeros((0, 3)), "shape"), (np.full((4, 3), np.nan), "NaN"), (np.ones((2, 2, 2)), "shape")],
+)
+def test_bad_generators_raise(G, match):
+    with pytest.raises(GeometryError, match=match):
+        Zonotope(G)
+
+
+def test_bad_points_raise():
+    Z = Zonotope(np.eye(3))
+    with pytest.raises(GeometryError, match="shape"):
+        Z.contains(np.zeros(4))
+    with pytest.raises(GeometryError, match="NaN"):
+        Z.contains([np.nan, 0, 0])
+
+
+# ---- real data -----------------------------------------------------------------------------------
+
+
+def test_real_reflectances_are_inside_their_solids(shared_data):
+    sets = [
+        zonotope.read_reflectances(shared_data / "reflectance_munsell_matte_joensuu_5nm"
+                                   / "munsell_matte_1269_380_780_5nm.csv"),
+        zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
+        zonotope.read_reflectances(shared_data / "reflectance_colorchecker" / "ColorChecker_N_Ohta.csv"),
+    ]
+    shape = colour.SpectralShape(400, 700, 10)
+    for sensor in ["nikon 5100", "canon 5d mark ii", "lms", "CIE 1931 2°"]:
+        G = zonotope.generators(sensor, "D65", shape)
+        Z = Zonotope(G)
+        for refl in sets:
+            x = zonotope.resample(refl, shape).T
+            assert np.all(Z.contains(x @ G.values)), (sensor, refl.name)
