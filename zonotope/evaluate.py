@@ -1,0 +1,324 @@
+"""Evaluation harness: CIEDE2000 of every estimator on natural and atypical reflectance sets.
+
+For a camera set (1–3 cameras, channels stacked), an illuminant and a training set, every estimator
+of :data:`zonotope.correct.CORRECTION_METHODS` is fitted once and applied to the responses of each
+test set; the table reports ΔE00 mean / median / 95th percentile / max against the true target
+colours, the fraction of regression estimates that lie inside the metamer mismatch volume (MMV),
+and MMV volume statistics (XYZ units, Y_white = 1).
+
+Test sets
+---------
+Built in (always available): ColorChecker N Ohta, CIE 1995 TCS, NIST CQS 9.0, and the seeded
+atypical generator :func:`zonotope.atypical.atypical_reflectances`. With a data folder laid out
+like ``../shared/data`` (see its README) also: a seeded subset of the 1269 matte Munsell chips,
+the SFU 1995 Krinov natural surfaces and Vrhel objects (subsets), and the CIE 224:2017 colour
+evaluation samples. Test reflectances are clipped to [0, 1] (a few measured values exceed 1 by
+fluorescence or gloss; they would be outside the object-colour solid).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import spectra
+from ._errors import SpectralDataError
+from .atypical import atypical_reflectances
+from .correct import (
+    CorrectionProblem,
+    correction_problem,
+    fit_correction,
+    project_to_mmv,
+)
+
+__all__ = [
+    "DEFAULT_METHODS",
+    "Evaluation",
+    "EvaluationRow",
+    "TestSet",
+    "evaluate",
+    "natural_test_sets",
+]
+
+#: Estimators evaluated by default (every one of CORRECTION_METHODS).
+DEFAULT_METHODS: tuple[str, ...] = ("Cheung 2004", "Finlayson 2015", "Dyer 2017", "Centroid",
+                                    "Projection", "MAP", "Prior")
+_REGRESSIONS = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
+
+
+@dataclass(frozen=True, eq=False)
+class TestSet:
+    """Reflectances to evaluate on.
+
+    Attributes
+    ----------
+    name : str
+    reflectances : ndarray of shape (N, n)
+        On the evaluation grid, in [0, 1].
+    kind : str
+        ``"natural"`` or ``"atypical"``.
+    """
+
+    name: str
+    reflectances: np.ndarray
+    kind: str = "natural"
+
+
+def _subset(R: np.ndarray, n: int | None, seed: int) -> np.ndarray:
+    if n is None or n >= R.shape[0]:
+        return R
+    return R[np.sort(np.random.default_rng(seed).choice(R.shape[0], n, replace=False))]
+
+
+def natural_test_sets(wavelengths, *, data_dir: str | Path | None = None, size: int | None = 150,
+                      seed: int = 0) -> list[TestSet]:
+    """Natural reflectance sets on a grid: built-ins, plus real data from ``data_dir`` if given.
+
+    Parameters
+    ----------
+    wavelengths : array_like of shape (n,)
+    data_dir
+        A folder laid out like ``../shared/data``; missing sub-folders are skipped.
+    size
+        Large sets (Munsell, SFU subsets, CIE 224) are subsampled to this many spectra (seeded).
+    seed
+        Subsampling seed.
+
+    Returns
+    -------
+    list of TestSet
+    """
+    w = np.asarray(wavelengths, dtype=np.float64)
+    out = []
+    for name in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0"):
+        out.append(TestSet(name, np.clip(spectra.resample(spectra.reflectances(name), w).T, 0, 1)))
+    if data_dir is None:
+        return out
+    root = Path(data_dir)
+    munsell = root / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
+    if munsell.is_file():
+        R = spectra.resample(spectra.read_reflectances(munsell), w).T
+        out.append(TestSet(f"Munsell matte ({min(size or R.shape[0], R.shape[0])})",
+                           np.clip(_subset(R, size, seed), 0, 1)))
+    sfu = root / "reflectance_sfu1995" / "reflect_db.reflect"
+    if sfu.is_file():
+        R = spectra.resample(spectra.read_sfu1995(sfu), w).T
+        for name, first, count in (("SFU Krinov", 201, 355), ("SFU Vrhel", 1825, 170)):
+            block = R[first:first + count]
+            out.append(TestSet(f"{name} ({min(size or count, count)})",
+                               np.clip(_subset(block, size, seed), 0, 1)))
+    ces = root / "reflectance_cie_test_colour_samples" / "CIE_224_2017_CES99_5nm.csv"
+    if ces.is_file():
+        R = spectra.resample(spectra.read_reflectances(ces), w).T
+        out.append(TestSet("CIE 224 CES", np.clip(_subset(R, size, seed), 0, 1)))
+    return out
+
+
+@dataclass(frozen=True)
+class EvaluationRow:
+    """ΔE00 statistics of one estimator on one test set (``inside``: fraction in the MMV)."""
+
+    cameras: str
+    test_set: str
+    kind: str
+    method: str
+    n: int
+    mean: float
+    median: float
+    p95: float
+    max: float
+    inside: float | None = None
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """Result of :func:`evaluate`.
+
+    Attributes
+    ----------
+    rows : list of EvaluationRow
+    volumes : dict
+        ``(cameras, test_set) → (mean, median, max)`` MMV volume (XYZ units, Y_white = 1).
+    notes : list of str
+        Estimators skipped and why, infeasible responses, settings.
+    """
+
+    rows: list[EvaluationRow]
+    volumes: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self, kind: str, cameras: str | None = None) -> dict[str, float]:
+        """Mean of the per-set ΔE00 means of each method over test sets of one kind."""
+        out: dict[str, list[float]] = {}
+        for r in self.rows:
+            if r.kind == kind and (cameras is None or r.cameras == cameras):
+                out.setdefault(r.method, []).append(r.mean)
+        return {m: float(np.mean(v)) for m, v in out.items()}
+
+    def pooled(self, kind: str, cameras: str) -> dict[str, tuple[float, float]]:
+        """Sample-weighted mean and the max ΔE00 of each method over test sets of one kind."""
+        acc: dict[str, list] = {}
+        for r in self.rows:
+            if r.kind == kind and r.cameras == cameras:
+                a = acc.setdefault(r.method, [0.0, 0, 0.0])
+                a[0] += r.mean * r.n
+                a[1] += r.n
+                a[2] = max(a[2], r.max)
+        return {m: (a[0] / a[1], a[2]) for m, a in acc.items()}
+
+    def to_markdown(self) -> str:
+        """The table as GitHub Markdown."""
+        head = ("| cameras | test set | estimator | n | mean | median | p95 | max | in MMV |\n"
+                "|---|---|---|---:|---:|---:|---:|---:|---:|\n")
+        body = "".join(
+            f"| {r.cameras} | {r.test_set} | {r.method} | {r.n} | {r.mean:.3f} | {r.median:.3f} | "
+            f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} |\n"
+            for r in self.rows)
+        vol = ""
+        if self.volumes:
+            vol = ("\n| cameras | test set | MMV volume mean | median | max |\n|---|---|---:|---:|---:|\n"
+                   + "".join(f"| {c} | {t} | {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
+                             for (c, t), v in self.volumes.items()))
+        notes = "".join(f"\n- {n}" for n in self.notes)
+        return head + body + vol + (f"\nNotes:{notes}\n" if notes else "")
+
+
+def _stats(dE: np.ndarray) -> tuple[float, float, float, float]:
+    return (float(np.mean(dE)), float(np.median(dE)), float(np.percentile(dE, 95)), float(np.max(dE)))
+
+
+def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: float):
+    """Centroids (N, m) and volumes (N,) of the MMVs of responses C (N, k)."""
+    from .mismatch import metamer_mismatch
+
+    cents = np.empty((C.shape[0], problem.m))
+    vols = np.empty(C.shape[0])
+    for i, c in enumerate(C):
+        mmv = metamer_mismatch(problem.Phi, problem.Psi, c, delta=delta, eps=eps, on_infeasible="nearest")
+        cents[i] = mmv.centroid
+        vb = getattr(mmv, "volume_bounds", None)
+        vols[i] = float(np.mean(vb)) if vb is not None else float(mmv.volume)
+    return cents, vols
+
+
+def evaluate(
+    camera_sets: Sequence,
+    *,
+    methods: Sequence[str] = DEFAULT_METHODS,
+    illuminant="D65",
+    target="CIE 2015 2°",
+    shape=None,
+    training="rawtoaces 190",
+    test_sets: Sequence[TestSet] | None = None,
+    atypical: int = 100,
+    noise: float = 0.0,
+    seed: int = 0,
+    centroid_eps: float = 1e-3,
+    progress: Callable[[str, int], None] | None = None,
+) -> Evaluation:
+    """ΔE00 of each estimator, for each camera set and test set.
+
+    Parameters
+    ----------
+    camera_sets
+        Sequence of camera sets; each is one camera or a list of 1–3 cameras (names or files).
+    methods
+        Estimators (keys or aliases of :data:`zonotope.correct.CORRECTION_METHODS`). Those that do
+        not apply (the ACES IDT with stacked cameras; MMV estimators without
+        :mod:`zonotope.mismatch`) are skipped with a note.
+    illuminant, target, training
+        See :func:`zonotope.correct.correction_problem`.
+    shape
+        Wavelength grid; default 400–700 nm / 10 nm.
+    test_sets
+        Default: :func:`natural_test_sets` (built-ins) and ``atypical`` atypical spectra.
+    atypical
+        Number of atypical spectra added when ``test_sets`` is None (0 for none).
+    noise
+        Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
+        ``delta = 3σ``) are told about it.
+    seed
+        Seed of the atypical spectra and of the noise.
+    centroid_eps
+        Certification tolerance of the MMVs.
+    progress
+        Called as ``progress(description, n_steps)`` before each step (for progress bars).
+
+    Returns
+    -------
+    Evaluation
+
+    Raises
+    ------
+    SpectralDataError
+        An empty test set, or an invalid camera set (see :func:`correction_problem`).
+    """
+    import colour
+
+    shape = colour.SpectralShape(400, 700, 10) if shape is None else shape
+    w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, float)
+    if test_sets is None:
+        test_sets = natural_test_sets(w)
+        if atypical:
+            X, _ = atypical_reflectances(w, atypical, seed=seed)
+            test_sets.append(TestSet(f"atypical ({atypical})", X, "atypical"))
+    for ts in test_sets:
+        if ts.reflectances.ndim != 2 or ts.reflectances.shape[0] == 0:
+            raise SpectralDataError(f"test set {ts.name!r} is empty; give at least one reflectance.")
+        if ts.reflectances.shape[1] != w.size:
+            raise SpectralDataError(
+                f"test set {ts.name!r} has {ts.reflectances.shape[1]} wavelengths; the grid has {w.size}.")
+    rows: list[EvaluationRow] = []
+    volumes: dict = {}
+    notes: list[str] = []
+    rng = np.random.default_rng(seed)
+    for cams in camera_sets:
+        cams = [cams] if isinstance(cams, str) or not isinstance(cams, Sequence) else list(cams)
+        problem = correction_problem(cams, target=target, illuminant=illuminant, shape=shape,
+                                     training=training)
+        label = " + ".join(problem.sources)
+        fitted = {}
+        for m in methods:
+            opts = {"noise": noise} if m in ("Projection", "MAP", "Prior") and noise > 0 else {}
+            if m == "Centroid":
+                opts = {"delta": 3 * noise, "eps": centroid_eps}
+            try:
+                if m == "Centroid":
+                    import importlib
+
+                    importlib.import_module("zonotope.mismatch")
+                fitted[m] = fit_correction(problem, method=m, **opts)
+            except (SpectralDataError, ImportError) as error:
+                notes.append(f"{label}: {m} skipped ({error})")
+        for ts in test_sets:
+            X = ts.reflectances
+            C, T = problem.source_of(X), problem.target_of(X)
+            if noise > 0:
+                C = C + rng.normal(0.0, noise, C.shape)
+            if "Centroid" in fitted:
+                if progress:
+                    progress(f"{label} · {ts.name}: MMVs", len(C))
+                t0 = time.perf_counter()
+                cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise)
+                volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))
+                mmv_time = time.perf_counter() - t0
+            for m, est in fitted.items():
+                if progress:
+                    progress(f"{label} · {ts.name}: {m}", len(C))
+                t0 = time.perf_counter()
+                E = cents if m == "Centroid" else est(C)
+                secs = time.perf_counter() - t0 + (mmv_time if m == "Centroid" else 0.0)
+                dE = problem.delta_E(E, T)
+                inside = None
+                if m in _REGRESSIONS:
+                    inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
+                rows.append(EvaluationRow(label, ts.name, ts.kind, m, len(C), *_stats(dE),
+                                          inside=inside, seconds=secs))
+    notes.append(f"grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, illuminant {illuminant}, target "
+                 f"{target} (XYZ, Y_white = 1), training {training}, noise σ = {noise:g}.")
+    return Evaluation(rows, volumes, notes)
