@@ -1,4 +1,9 @@
-"""``zonotope`` command line: ``zonotope summary`` (built-in cameras), more subcommands to come."""
+"""``zonotope`` command line.
+
+- ``zonotope summary``: object-colour solids and Vora values of cameras;
+- ``zonotope evaluate``: ΔE00 of every colour-correction estimator on natural and atypical sets;
+- ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set.
+"""
 
 from __future__ import annotations
 
@@ -56,6 +61,101 @@ def _summary(args: argparse.Namespace) -> int:
     return 0
 
 
+def _shape(args: argparse.Namespace):
+    import colour
+
+    return colour.SpectralShape(args.start, args.end, args.interval)
+
+
+def _rich_progress(console):
+    """A (progress, callback) pair: callback(description, n) starts a new task."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    progress = Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(),
+                        console=console, transient=True)
+    state = {"task": None}
+
+    def callback(description: str, n: int) -> None:
+        if state["task"] is not None:
+            progress.update(state["task"], completed=1)
+        state["task"] = progress.add_task(description, total=1)
+
+    return progress, callback
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from .atypical import atypical_reflectances
+    from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
+
+    console = Console(width=max(Console().width, 130))
+    shape = _shape(args)
+    w = shape.wavelengths
+    sets = natural_test_sets(w, data_dir=args.data, size=args.size, seed=args.seed)
+    for path in args.test_set or []:
+        from . import spectra
+
+        R = spectra.resample(spectra.read_reflectances(path), w).T
+        sets.append(TestSet(path, R.clip(0, 1)))
+    if args.atypical:
+        X, _ = atypical_reflectances(w, args.atypical, seed=args.seed)
+        sets.append(TestSet(f"atypical ({args.atypical})", X, "atypical"))
+    camera_sets = [args.camera] if not args.pairs else [[c] for c in args.camera] + [args.camera]
+    progress, callback = _rich_progress(console)
+    with progress:
+        ev = evaluate(camera_sets, methods=args.method or DEFAULT_METHODS, illuminant=args.illuminant,
+                      shape=shape, training=args.training, test_sets=sets, noise=args.noise,
+                      seed=args.seed, progress=callback)
+    table = Table(title="CIEDE2000 per estimator")
+    for col in ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"):
+        table.add_column(col, justify="left" if col in ("cameras", "test set", "estimator") else "right")
+    for r in ev.rows:
+        table.add_row(r.cameras, r.test_set, r.method, str(r.n), f"{r.mean:.3f}", f"{r.median:.3f}",
+                      f"{r.p95:.3f}", f"{r.max:.2f}", "" if r.inside is None else f"{100 * r.inside:.0f} %")
+    console.print(table)
+    for cams in dict.fromkeys(r.cameras for r in ev.rows):
+        for kind in ("natural", "atypical"):
+            pooled = ev.pooled(kind, cams)
+            if pooled:
+                console.print(f"{cams} · {kind} (pooled mean / max): " + ", ".join(
+                    f"{m} {v[0]:.3f}/{v[1]:.1f}" for m, v in pooled.items()))
+    for note in ev.notes:
+        console.print(f"note: {note}")
+    if args.markdown:
+        from pathlib import Path
+
+        Path(args.markdown).write_text(ev.to_markdown(), encoding="utf-8")
+        console.print(f"wrote {args.markdown}")
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from .report import write_report
+
+    console = Console()
+    progress, callback = _rich_progress(console)
+    with progress:
+        path = write_report(args.camera, args.output, illuminant=args.illuminant, shape=_shape(args),
+                            force=args.force, data_dir=args.data, atypical=args.atypical,
+                            size=args.size, progress=callback)
+    console.print(f"report written to {path / 'index.html'} (and report.md)")
+    return 0
+
+
+def _grid_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--illuminant", default="D65")
+    p.add_argument("--start", type=float, default=400.0, help="grid start in nm (default 400)")
+    p.add_argument("--end", type=float, default=700.0, help="grid end in nm (default 700)")
+    p.add_argument("--interval", type=float, default=10.0, help="grid step in nm (default 10)")
+    p.add_argument("--data", help="folder laid out like ../shared/data (Munsell, SFU, CIE 224 sets)")
+    p.add_argument("--atypical", type=int, default=100, help="number of atypical spectra (0: none)")
+    p.add_argument("--size", type=int, default=150, help="subsample large natural sets to this size")
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zonotope", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -67,6 +167,27 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--end", type=float, default=700.0)
     p.add_argument("--interval", type=float, default=5.0)
     p.set_defaults(func=_summary)
+
+    p = sub.add_parser("evaluate", help="ΔE00 of every colour-correction estimator")
+    p.add_argument("--camera", action="append", required=True,
+                   help="camera name or file (repeat for 2–3 cameras; channels are stacked)")
+    p.add_argument("--pairs", action="store_true",
+                   help="also evaluate each camera alone before the stacked set")
+    p.add_argument("--method", action="append", help="estimator (repeatable; default all)")
+    p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
+    p.add_argument("--test-set", action="append", help="extra test reflectance file (repeatable)")
+    p.add_argument("--noise", type=float, default=0.0, help="response noise σ (white = 1)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--markdown", help="also write the table to this Markdown file")
+    _grid_options(p)
+    p.set_defaults(func=_evaluate)
+
+    p = sub.add_parser("report", help="HTML + Markdown report for a camera set")
+    p.add_argument("--camera", action="append", required=True, help="camera name or file (repeatable)")
+    p.add_argument("-o", "--output", required=True, help="output folder (must not exist unless --force)")
+    p.add_argument("--force", action="store_true", help="replace an existing report")
+    _grid_options(p)
+    p.set_defaults(func=_report)
     return parser
 
 
