@@ -428,10 +428,29 @@ class Zonotope:
     def _key_all(self) -> np.int64:
         return self._keys_r.sum(dtype=np.int64)
 
-    @property
+    @cached_property
     def vertices(self) -> np.ndarray:
-        """Exact vertices, ndarray of shape (V, 3): n(n−1)+2 for n generators in general position."""
-        return self._mesh[0]
+        """Exact vertices, ndarray of shape (V, 3): n(n−1)+2 for n generators in general position.
+
+        Every vertex is the lowest or the highest corner of some facet (its upward edges form one
+        contiguous arc around it), so the bottom and top corners of all facets, and their point
+        reflections, are all the vertices: no mesh is needed.
+        """
+        if "_mesh" in self.__dict__:
+            return self._mesh[0]
+        f = self._facets
+        H, _ = self._reduced
+        rr = self._keys_r
+        top = f.bases + H[f.pairs[:, 0]] + H[f.pairs[:, 1]]
+        ktop = f.keys + rr[f.pairs[:, 0]] + rr[f.pairs[:, 1]]
+        pts = [f.bases, top] + [z[1] for z in f.zonogons]
+        keys = [f.keys, ktop] + [z[2] for z in f.zonogons]
+        pts = np.concatenate(pts)
+        keys = np.concatenate(keys)
+        pts = np.concatenate([pts, 2.0 * self.centroid - pts])
+        keys = np.concatenate([keys, self._key_all - keys])
+        _, first = np.unique(keys, return_index=True)
+        return pts[first]
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """Watertight triangulated surface: ``(vertices (V, 3), faces (F, 3))``, outward CCW."""
