@@ -59,15 +59,14 @@ import numpy as np
 
 from . import spectra
 from ._errors import SpectralDataError, ZonotopeError
+from .prior import ReflectancePrior, map_reflectance, project_to_mmv
 
 __all__ = [
     "CORRECTION_METHODS",
     "CorrectionProblem",
     "Corrector",
-    "ReflectancePrior",
     "correct",
     "correction_problem",
-    "fiber_lsq",
     "fit_Centroid",
     "fit_Cheung2004",
     "fit_Dyer2017",
@@ -76,9 +75,7 @@ __all__ = [
     "fit_Prior",
     "fit_Projection",
     "fit_correction",
-    "map_reflectance",
     "mmv_centroids",
-    "project_to_mmv",
     "root_polynomial_terms",
 ]
 
@@ -470,167 +467,6 @@ def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
               / np.sum((C @ full @ X2T) ** 2))
     full = s * full @ X2T
     return Corrector("Dyer 2017", problem, lambda c: c @ full, {"M": full, "M_IDT": M})
-
-
-# ---------------------------------------------------------------------------------------------
-# Reflectance-space quadratic programs (batched ADMM)
-# ---------------------------------------------------------------------------------------------
-
-
-def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) -> np.ndarray:
-    """Minimise ``‖A x − b‖²`` over reflectances ``0 ≤ x ≤ 1`` that produce ``responses``.
-
-    With ``noise = 0`` the constraint ``Φᵀx = c`` is exact (``x`` lies in the *fiber* of ``c``,
-    whose image under Ψ is the metamer mismatch volume); it is imposed as ``weight``-scaled rows
-    of a bounded least-squares problem (relative accuracy ≈ 1/weight²). With ``noise = σ > 0``
-    those rows have weight ``1/σ``: the Gaussian likelihood ``‖Φᵀx − c‖² / σ²``, always feasible.
-    Each problem is solved exactly by the bounded-variable least-squares active-set method
-    (``scipy.optimize.lsq_linear(method="bvls")``, Stark & Parker 1995), ~2 ms for 31 bands.
-
-    Parameters
-    ----------
-    Phi : ndarray of shape (n, k)
-    responses : ndarray of shape (N, k)
-    A : ndarray of shape (p, n) or (N, p, n)
-        Objective rows, shared or one block per response.
-    b : ndarray of shape (p,) or (N, p)
-    noise
-        Response noise σ (response units, white = 1); 0 for the exact constraint.
-    weight
-        Relative weight of the exact constraint rows (``noise = 0`` only).
-
-    Returns
-    -------
-    ndarray of shape (N, n)
-        Reflectances in [0, 1]. A response outside the object-colour solid (``noise = 0``) gives the
-        reflectance whose response is nearest to it.
-    """
-    from scipy.optimize import lsq_linear
-
-    Phi = np.asarray(Phi, dtype=np.float64)
-    C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
-    N, n = C.shape[0], Phi.shape[0]
-    A = np.asarray(A, dtype=np.float64)
-    b = np.broadcast_to(np.asarray(b, dtype=np.float64), (N, A.shape[-2]))
-    out = np.empty((N, n))
-    for i in range(N):
-        Ai = A if A.ndim == 2 else A[i]
-        s = (1.0 / noise) if noise > 0 else weight * np.linalg.norm(Ai, 2) / np.linalg.norm(Phi, 2)
-        M = np.vstack([Ai, s * Phi.T])
-        r = np.concatenate([b[i], s * C[i]])
-        res = lsq_linear(M, r, bounds=(0.0, 1.0), method="bvls")
-        if not res.success:  # pragma: no cover - BVLS failing to converge; TRF is slower but sure
-            res = lsq_linear(M, r, bounds=(0.0, 1.0), method="trf", tol=1e-12)
-        out[i] = np.clip(res.x, 0.0, 1.0)
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class ReflectancePrior:
-    """Gaussian model of natural reflectances, ``x ~ N(mean, cov)``.
-
-    Attributes
-    ----------
-    mean : ndarray of shape (n,)
-    cov : ndarray of shape (n, n)
-        Sample covariance shrunk towards ``shrinkage · tr(cov)/n · I`` (Ledoit–Wolf style), so
-        that it is invertible with fewer samples than wavelengths.
-    """
-
-    mean: np.ndarray
-    cov: np.ndarray
-
-    @classmethod
-    def fit(cls, reflectances, *, shrinkage: float = 0.01) -> ReflectancePrior:
-        """Learn the prior from reflectances ``(N, n)``."""
-        R = np.asarray(reflectances, dtype=np.float64)
-        if R.shape[0] < 2:
-            raise SpectralDataError(
-                f"a reflectance prior needs at least 2 training samples, got {R.shape[0]}.")
-        S = np.cov(R.T)
-        S = (1 - shrinkage) * S + shrinkage * np.trace(S) / S.shape[0] * np.eye(S.shape[0])
-        return cls(R.mean(axis=0), S)
-
-    @property
-    def precision(self) -> np.ndarray:
-        """Inverse covariance, shape (n, n)."""
-        return np.linalg.inv(self.cov)
-
-    @property
-    def root(self) -> np.ndarray:
-        """Upper Cholesky factor ``U`` of the precision (``UᵀU = cov⁻¹``), shape (n, n)."""
-        return np.linalg.cholesky(self.precision).T
-
-    def energy(self, x) -> np.ndarray:
-        """``½ (x − mean)ᵀ cov⁻¹ (x − mean)`` for reflectances ``(..., n)`` → ``(...)``."""
-        d = np.asarray(x, dtype=np.float64) - self.mean
-        return 0.5 * np.einsum("...i,ij,...j->...", d, self.precision, d)
-
-
-def map_reflectance(problem: CorrectionProblem, responses, prior: ReflectancePrior, *,
-                    noise: float = 0.0) -> np.ndarray:
-    """Most probable natural reflectance that the source could have seen.
-
-    ``argmin_x ½ (x − μ)ᵀΣ⁻¹(x − μ)  s.t.  Φᵀx = c,  0 ≤ x ≤ 1`` (see :func:`fiber_lsq`).
-
-    Parameters
-    ----------
-    problem : CorrectionProblem
-    responses : ndarray of shape (N, k)
-    prior : ReflectancePrior
-
-    Returns
-    -------
-    ndarray of shape (N, n)
-    """
-    return fiber_lsq(problem.Phi, responses, prior.root, prior.root @ prior.mean, noise=noise)
-
-
-def project_to_mmv(problem: CorrectionProblem, responses, estimates, *,
-                   prior: ReflectancePrior | None = None, noise: float = 0.0,
-                   tol_dE: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """Closest point of the metamer mismatch volume to each estimate, in linearised CIELAB.
-
-    Minimises ``(Ψᵀx − t)ᵀ W (Ψᵀx − t)`` over the fiber of ``c`` (reflectances in [0, 1] with
-    ``Φᵀx = c``), with ``W = JᵀJ`` the CIELAB metric at ``t`` (:meth:`CorrectionProblem.lab_metric`).
-    This is the projection of ``t`` onto the MMV ``Ψ{x : Φᵀx = c, 0 ≤ x ≤ 1}`` in that metric,
-    computed in reflectance space (:func:`fiber_lsq`); a tiny prior term picks a natural
-    reflectance among the ties.
-
-    Parameters
-    ----------
-    problem : CorrectionProblem
-    responses : ndarray of shape (N, k)
-    estimates : ndarray of shape (N, m)
-    prior : ReflectancePrior, optional
-        Tie-breaker; default fitted on the problem's training set.
-    noise
-        Response noise σ; > 0 relaxes the fiber constraint (see :func:`fiber_lsq`).
-    tol_dE
-        Estimates whose projection moves them by less than this (ΔE*ab, linearised) are returned
-        unchanged (they are inside the MMV up to the solver's accuracy).
-
-    Returns
-    -------
-    projected : ndarray of shape (N, m)
-    inside : ndarray of bool, shape (N,)
-        Whether each estimate already lay in the MMV.
-    """
-    prior = prior or ReflectancePrior.fit(problem.training)
-    t = np.atleast_2d(np.asarray(estimates, dtype=np.float64))
-    W = problem.lab_metric(t)  # (N, m, m)
-    L = np.swapaxes(np.linalg.cholesky(W + 1e-12 * np.eye(problem.m)), -1, -2)  # LᵀL = W
-    U = prior.root
-    tie = 1e-4 * np.linalg.norm(L, 2, axis=(-2, -1)).mean() * np.linalg.norm(problem.Psi, 2) \
-        / np.linalg.norm(U, 2)
-    A = np.concatenate([L @ problem.Psi.T, np.broadcast_to(tie * U, (t.shape[0], *U.shape))], axis=1)
-    b = np.concatenate([np.einsum("nij,nj->ni", L, t),
-                        np.broadcast_to(tie * U @ prior.mean, (t.shape[0], U.shape[0]))], axis=1)
-    y = fiber_lsq(problem.Phi, responses, A, b, noise=noise) @ problem.Psi
-    d = y - t
-    moved = np.sqrt(np.einsum("ni,nij,nj->n", d, W, d))
-    inside = moved < tol_dE
-    return np.where(inside[:, None], t, y), inside
 
 
 # ---------------------------------------------------------------------------------------------
