@@ -30,10 +30,11 @@ from ._errors import SpectralDataError
 from .atypical import atypical_reflectances
 from .correct import (
     CorrectionProblem,
+    _resolve_method,
     correction_problem,
     fit_correction,
-    project_to_mmv,
 )
+from .prior import project_to_mmv
 
 __all__ = [
     "DEFAULT_METHODS",
@@ -66,6 +67,7 @@ class TestSet:
     name: str
     reflectances: np.ndarray
     kind: str = "natural"
+    __test__ = False  # not a pytest class, despite the name
 
 
 def _subset(R: np.ndarray, n: int | None, seed: int) -> np.ndarray:
@@ -283,7 +285,7 @@ def evaluate(
                                      training=training)
         label = " + ".join(problem.sources)
         fitted = {}
-        for m in methods:
+        for m in dict.fromkeys(_resolve_method(m) for m in methods):
             opts = {"noise": noise} if m in ("Projection", "MAP", "Prior") and noise > 0 else {}
             if m == "Centroid":
                 opts = {"delta": 3 * noise, "eps": centroid_eps}

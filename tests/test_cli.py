@@ -1,0 +1,40 @@
+"""The zonotope command line (summary, evaluate, report)."""
+
+from __future__ import annotations
+
+import pytest
+
+from zonotope.cli import main
+
+
+def test_summary_still_works(capsys):
+    assert main(["summary", "--camera", "Nikon 5100 (NPL)", "--start", "400", "--end", "700",
+                 "--interval", "10"]) == 0
+    assert "Nikon 5100" in capsys.readouterr().out
+
+
+def test_evaluate_command(tmp_path, capsys):
+    md = tmp_path / "table.md"
+    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--method", "root-polynomial",
+                 "--method", "prior", "--atypical", "4", "--markdown", str(md)]) == 0
+    out = capsys.readouterr().out
+    assert "CIEDE2000" in out and "Prior" in out
+    assert "| Nikon 5100 (NPL) |" in md.read_text()
+
+
+def test_evaluate_unknown_camera_is_a_clear_error(capsys):
+    assert main(["evaluate", "--camera", "Nikon 9999", "--atypical", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown camera" in err and "Built-in cameras" in err
+
+
+def test_evaluate_duplicated_camera(capsys):
+    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--camera", "nikon 5100",
+                 "--atypical", "2"]) == 2
+    assert "more than once" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["evaluate"], ["report", "--camera", "x"]])
+def test_missing_required_options(argv):
+    with pytest.raises(SystemExit):
+        main(argv)

@@ -1,0 +1,232 @@
+"""zonotope.correct / zonotope.prior / zonotope.image: estimators against independent implementations."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from zonotope._errors import SpectralDataError
+from zonotope._lp import distance_to_zonotope
+from zonotope.atypical import atypical_reflectances
+from zonotope.correct import (
+    CORRECTION_METHODS,
+    correct,
+    correction_problem,
+    fit_correction,
+    root_polynomial_terms,
+)
+from zonotope.image import correct_image
+from zonotope.prior import ReflectancePrior, fiber_lsq, map_reflectance, project_to_mmv
+
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return correction_problem("Nikon 5100 (NPL)", shape=GRID)
+
+
+@pytest.fixture(scope="module")
+def problem2():
+    return correction_problem(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], shape=GRID)
+
+
+@pytest.fixture(scope="module")
+def checker(problem):
+    from zonotope import spectra
+
+    return np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), GRID).T, 0, 1)
+
+
+def in_mmv(problem, c, t, tol=1e-5):
+    """Reference containment: (c, t) in the joint zonotope of [Φ Ψ] (one HiGHS LP)."""
+    G = np.hstack([problem.Phi, problem.Psi])
+    return distance_to_zonotope(G, np.zeros(G.shape[1]), np.concatenate([c, t]))[0] <= tol
+
+
+# -- regressions against colour-science ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3])
+def test_root_polynomial_terms_match_colour(degree):
+    rgb = np.random.default_rng(1).uniform(0.01, 1, (7, 3))
+    ours = root_polynomial_terms(rgb, degree=degree)
+    ref = colour.characterisation.polynomial_expansion_Finlayson2015(rgb, degree)
+    assert ours.shape == ref.shape
+    # same set of columns (order may differ)
+    assert np.allclose(np.sort(ours, axis=1), np.sort(ref, axis=1))
+
+
+def test_root_polynomial_general_k_counts_and_exposure():
+    c = np.random.default_rng(2).uniform(0.01, 1, (5, 6))
+    assert root_polynomial_terms(c, degree=2).shape == (5, 6 + 15)
+    assert np.allclose(root_polynomial_terms(3 * c, degree=3), 3 * root_polynomial_terms(c, degree=3))
+
+
+def test_finlayson2015_matches_colour_fit(problem, checker):
+    est = fit_correction(problem, method="root-polynomial")
+    C, T = problem.source_of(problem.training), problem.target_of(problem.training)
+    M = colour.characterisation.matrix_colour_correction_Finlayson2015(C, T, degree=2)
+    test = problem.source_of(checker)
+    ref = colour.characterisation.colour_correction(test, C, T, method="Finlayson 2015", degree=2)
+    assert M.shape == (3, 6)
+    assert np.allclose(est(test), ref, atol=1e-6)
+
+
+def test_cheung2004_is_least_squares(problem2):
+    est = fit_correction(problem2, method="least squares")
+    C, T = problem2.source_of(problem2.training), problem2.target_of(problem2.training)
+    M = np.linalg.lstsq(C, T, rcond=None)[0]
+    # the tiny ridge moves the coefficients of the near-collinear 6-channel stack, not the fit
+    assert np.allclose(est(C), C @ M, atol=1e-4)
+
+
+def test_idt_single_camera_only(problem, problem2, checker):
+    est = fit_correction(problem, method="idt")
+    dE = problem.delta_E(est(problem.source_of(checker)), problem.target_of(checker))
+    assert dE.mean() < 3.0
+    with pytest.raises(SpectralDataError, match="one RGB camera"):
+        fit_correction(problem2, method="idt")
+
+
+# -- shapes, NaN, errors ------------------------------------------------------------------------
+
+
+def test_batch_shapes_and_nan(problem, checker):
+    est = fit_correction(problem, method="Finlayson 2015")
+    C = problem.source_of(checker[:6]).reshape(2, 3, 3)
+    out = est(C)
+    assert out.shape == (2, 3, 3)
+    assert np.allclose(out.reshape(6, 3), est(C.reshape(6, 3)))
+    C[0, 1, 2] = np.nan
+    out = est(C)
+    assert np.isnan(out[0, 1]).all() and np.isfinite(out[1]).all()
+    with pytest.raises(SpectralDataError, match="3 source channels"):
+        est(np.zeros((4, 6)))
+
+
+def test_unknown_method_lists_valid_ones(problem):
+    with pytest.raises(ValueError, match="Cheung 2004"):
+        fit_correction(problem, method="neural net")
+    assert set(CORRECTION_METHODS) >= {"Cheung 2004", "Finlayson 2015", "Centroid", "Prior"}
+
+
+def test_reliability_messages():
+    with pytest.raises(SpectralDataError, match="more than once"):
+        correction_problem(["Nikon 5100 (NPL)", "nikon 5100"], shape=GRID)
+    with pytest.raises(SpectralDataError, match="700"):  # Sigma data stop at 680 nm: grid outside
+        correction_problem("Sigma SDMerill (NPL)", shape=GRID)
+    with pytest.raises(SpectralDataError, match="no reflectances"):
+        correction_problem("Nikon 5100 (NPL)", shape=GRID, training=np.zeros((0, GRID.size)))
+    one = correction_problem("Nikon 5100 (NPL)", shape=GRID, training=np.full((1, GRID.size), 0.5))
+    with pytest.raises(SpectralDataError, match="training set has 1 samples"):
+        fit_correction(one, method="root-polynomial")
+
+
+def test_lms_target_maps_to_xyz():
+    lms = correction_problem("Nikon 5100 (NPL)", shape=GRID, target="Stockman & Sharpe 2°")
+    xyz = correction_problem("Nikon 5100 (NPL)", shape=GRID)
+    assert np.allclose(lms.Psi @ lms.XYZ_from_target, xyz.Psi, atol=2e-3)
+    assert np.allclose(lms.white_XYZ, xyz.white_XYZ, atol=2e-3)
+
+
+# -- reflectance-space programs vs scipy SLSQP (reference twin) --------------------------------
+
+
+def test_map_reflectance_matches_slsqp(problem, checker):
+    prior = ReflectancePrior.fit(problem.training)
+    X = np.vstack([checker[[1, 13]], atypical_reflectances(GRID, 1, seed=3)[0]])
+    C = problem.source_of(X)
+    x = map_reflectance(problem, C, prior)
+    assert np.all((x >= 0) & (x <= 1))
+    assert np.allclose(x @ problem.Phi, C, atol=1e-6)
+    for i in range(len(C)):
+        ref = minimize(lambda v: prior.energy(v), np.full(GRID.size, 0.5), method="SLSQP",
+                       jac=lambda v: prior.precision @ (v - prior.mean),
+                       bounds=[(0, 1)] * GRID.size, options={"ftol": 1e-12, "maxiter": 500},
+                       constraints=[{"type": "eq", "fun": lambda v, c=C[i]: v @ problem.Phi - c}])
+        assert prior.energy(x[i]) <= ref.fun * (1 + 1e-4) + 1e-9
+
+
+def test_fiber_lsq_noise_is_feasible_for_outside_response(problem):
+    c = np.array([[1.2, 0.1, 0.1]])  # outside the object-colour solid
+    x = fiber_lsq(problem.Phi, c, np.eye(GRID.size), np.full(GRID.size, 0.5), noise=0.01)
+    assert np.all((x >= 0) & (x <= 1))
+
+
+def test_projection_inside_unchanged_outside_lands_in_mmv(problem2, checker):
+    X = checker[[2, 5]]
+    C, T = problem2.source_of(X), problem2.target_of(X)
+    y, inside = project_to_mmv(problem2, C, T)
+    assert inside.all() and np.array_equal(y, T)
+    far = T + np.array([0.05, -0.03, 0.04])
+    y, inside = project_to_mmv(problem2, C, far)
+    assert not inside.any()
+    for c, t in zip(C, y):
+        assert in_mmv(problem2, c, t)
+    # the projection is closer (Lab metric) than the true colour, which is also in the MMV
+    W = problem2.lab_metric(far)
+    d_proj = np.einsum("ni,nij,nj->n", y - far, W, y - far)
+    d_true = np.einsum("ni,nij,nj->n", T - far, W, T - far)
+    assert np.all(d_proj <= d_true + 1e-9)
+
+
+# -- prior-aware estimator -----------------------------------------------------------------------
+
+
+def test_prior_estimator_natural_vs_atypical(problem2, checker):
+    prior_est = fit_correction(problem2, method="Prior")
+    rp = fit_correction(problem2, method="Finlayson 2015")
+    C = problem2.source_of(checker)
+    weights = prior_est.params["weights"]
+    x = map_reflectance(problem2, C, prior_est.params["prior"])
+    assert np.median(weights(C, x)) > 0.9  # natural → trust the regression
+    dE = problem2.delta_E(prior_est(C), problem2.target_of(checker))
+    dE_rp = problem2.delta_E(rp(C), problem2.target_of(checker))
+    assert dE.mean() < dE_rp.mean() + 0.1
+    A, _ = atypical_reflectances(GRID, 4, seed=5, kinds=["narrow-band"])
+    CA = problem2.source_of(A)
+    assert np.median(weights(CA, map_reflectance(problem2, CA, prior_est.params["prior"]))) < 0.5
+    for c, t in zip(CA, prior_est(CA)):
+        assert in_mmv(problem2, c, t, tol=1e-4)
+
+
+def test_prior_with_noise_runs(problem, checker):
+    est = fit_correction(problem, method="Prior", noise=0.005)
+    rng = np.random.default_rng(0)
+    C = problem.source_of(checker[:4]) + rng.normal(0, 0.005, (4, 3))
+    assert np.isfinite(est(C)).all()
+
+
+def test_centroid_inside_mmv(problem, checker):
+    pytest.importorskip("zonotope.mismatch")
+    est = fit_correction(problem, method="Centroid")
+    C = problem.source_of(checker[:3])
+    for c, t in zip(C, est(C)):
+        assert in_mmv(problem, c, t, tol=1e-4)
+
+
+# -- images ----------------------------------------------------------------------------------------
+
+
+def test_correct_image_matches_per_pixel_and_caches(problem, checker, tmp_path):
+    est = fit_correction(problem, method="MAP")
+    img = problem.source_of(checker[np.random.default_rng(0).integers(0, 24, (6, 7))])
+    img[0, 0] = np.nan
+    exact = correct_image(img, est, quantum=0)
+    ref = est(img)
+    assert np.allclose(exact, ref, equal_nan=True)
+    cached = correct_image(img, est, cache_dir=tmp_path)
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    again = correct_image(img, est, cache_dir=tmp_path)
+    assert np.allclose(cached, again, equal_nan=True)
+    assert np.nanmax(problem.delta_E(cached, exact)) < 0.05
+    with pytest.raises(SpectralDataError, match="3 stacked channels"):
+        correct_image(np.zeros((2, 2, 4)), est)
+
+
+def test_correct_one_call():
+    xyz = correct(np.array([1.0, 1.0, 1.0]), "Nikon 5100 (NPL)", method="root-polynomial", shape=GRID)
+    assert abs(xyz[1] - 1.0) < 0.05
