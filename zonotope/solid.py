@@ -74,26 +74,31 @@ class _Facets3:
     volume: float
 
 
-def _range_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """min(values[lo:hi]) for many ranges at once (sparse table); +inf for empty ranges."""
+def _range_min(values: np.ndarray, ranges: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """min(values[lo:hi]) over several ranges per query (sparse table, built once).
+
+    Returns the element-wise minimum over all the given ``(lo, hi)`` arrays; empty ranges
+    count as +inf.
+    """
     table = [values.astype(np.float64)]
     width = 1
     while 2 * width <= values.size:
         prev = table[-1]
         table.append(np.minimum(prev[:-width], prev[width:]))
         width *= 2
-    length = hi - lo
-    out = np.full(lo.shape, np.inf)
-    ok = length > 0
-    if np.any(ok):
+    out = np.full(ranges[0][0].shape, np.inf)
+    for lo, hi in ranges:
+        length = hi - lo
+        ok = np.nonzero(length > 0)[0]
+        if ok.size == 0:
+            continue
         level = np.floor(np.log2(length[ok])).astype(int)
-        lo_ok, hi_ok = lo[ok], hi[ok]
-        res = np.empty(lo_ok.size)
+        res = np.empty(ok.size)
         for lev in np.unique(level):
             sel = level == lev
             t = table[lev]
-            res[sel] = np.minimum(t[lo_ok[sel]], t[hi_ok[sel] - (1 << lev)])
-        out[ok] = res
+            res[sel] = np.minimum(t[lo[ok][sel]], t[hi[ok][sel] - (1 << lev)])
+        out[ok] = np.minimum(out[ok], res)
     return out
 
 
@@ -220,15 +225,16 @@ class Zonotope:
         H, off = G[keep].copy(), self.offset.copy()
         if H.shape[0] == 0:
             return H, off
-        w = np.random.default_rng(12345).normal(size=self.dim)
+        w = np.sin(1.2345 * np.arange(1, self.dim + 1) + 0.5)  # fixed generic direction
         flip = H @ w < 0
         off += H[flip].sum(axis=0)
         H[flip] *= -1.0
         U = H / np.linalg.norm(H, axis=1, keepdims=True)
+        # candidates by cosine (cheap), confirmed by |u_i − u_j|, which resolves tiny angles
+        ci, cj = np.nonzero(U @ U.T >= 1.0 - 1e-6)
+        d2 = np.einsum("ij,ij->i", U[ci] - U[cj], U[ci] - U[cj])
         close = np.zeros((U.shape[0], U.shape[0]), dtype=bool)
-        for s in range(0, U.shape[0], 256):  # |u_i − u_j| resolves angles that cosines cannot
-            diff = U[s:s + 256, None, :] - U[None, :, :]
-            close[s:s + 256] = np.einsum("ijk,ijk->ij", diff, diff) <= self.tol.parallel**2
+        close[ci, cj] = d2 <= self.tol.parallel**2
         label = np.argmax(close, axis=1)
         uniq, inverse = np.unique(label, return_inverse=True)
         merged = np.zeros((uniq.size, self.dim))
@@ -328,7 +334,7 @@ class Zonotope:
                        np.searchsorted(flat_as, thd + c + tol, "right"))
                       for c in (0.0, two_pi, -two_pi, np.pi, -np.pi)]
             g_flat = order.ravel()
-            mins = np.min([_range_min(g_flat, a, b) for a, b in bounds], axis=0)
+            mins = _range_min(g_flat, bounds)
             for e in np.nonzero(mins >= jj[deg])[0]:
                 d = deg[e]
                 zset = np.concatenate([[ii[d]]] + [g_flat[a[e]:b[e]] for a, b in bounds])
