@@ -1,0 +1,265 @@
+"""Vora-value report of a camera set: HTML and Markdown with tables and pictures.
+
+:func:`write_report` computes, for the given cameras (1 or more; channels stacked):
+
+1. the Vora value of each camera and of every combination, and the greedy order;
+2. metamer mismatch volumes (MMVs) along the grey axis and for the ColorChecker patches, for each
+   camera alone and for the whole stack;
+3. the evaluation table of every colour-correction estimator (:func:`zonotope.evaluate.evaluate`);
+4. pictures: sensitivities against the target, Vora value vs number of channels, the object-colour
+   solid with its spectral locus, MMVs along the grey axis, one MMV with one camera vs all.
+
+Everything is written into a temporary folder next to the output, which is renamed into place
+only when complete: an interrupted run never replaces (or half-writes) a good report. An existing
+report is replaced only with ``force=True``.
+"""
+
+from __future__ import annotations
+
+import html
+import shutil
+import tempfile
+from collections.abc import Callable, Sequence
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import SpectralDataError, ZonotopeError
+
+__all__ = ["ReportExistsError", "write_report"]
+
+GREY_LEVELS = (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 0.9)
+
+
+class ReportExistsError(ZonotopeError, FileExistsError):
+    """The output folder exists and ``force`` was not given."""
+
+
+def _table_md(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    out = "| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n"
+    return out + "".join("| " + " | ".join(r) + " |\n" for r in rows)
+
+
+def _table_html(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    h = "".join(f"<th>{html.escape(c)}</th>" for c in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray | None:
+    try:
+        from .mismatch import metamer_mismatch
+    except ImportError:
+        return None
+    vols = []
+    for c in responses:
+        mmv = metamer_mismatch(problem.Phi, problem.Psi, c, eps=1e-3, on_infeasible="nearest")
+        vb = getattr(mmv, "volume_bounds", None)
+        vols.append(float(np.mean(vb)) if vb is not None else float(mmv.volume))
+    return np.array(vols)
+
+
+def write_report(
+    cameras: Sequence,
+    output: str | Path,
+    *,
+    illuminant: str = "D65",
+    shape=None,
+    force: bool = False,
+    data_dir: str | Path | None = None,
+    atypical: int = 100,
+    size: int | None = 150,
+    pictures: bool = True,
+    progress: Callable[[str, int], None] | None = None,
+) -> Path:
+    """Write ``index.html`` and ``report.md`` (plus PNGs) for a camera set into ``output``.
+
+    Parameters
+    ----------
+    cameras
+        Camera names or files (at least one; duplicates are refused).
+    output
+        Folder to create.
+    illuminant
+        Scene illuminant.
+    shape
+        Wavelength grid (default 400–700 nm / 10 nm).
+    force
+        Replace an existing ``output``.
+    data_dir
+        Folder laid out like ``../shared/data`` for the natural test sets (optional).
+    atypical
+        Number of atypical spectra in the evaluation.
+    size
+        Subsample size of large natural sets.
+    pictures
+        Render the pyvista and matplotlib pictures (needs an OpenGL context, e.g. EGL).
+    progress
+        ``progress(description, n)`` before each step.
+
+    Returns
+    -------
+    Path
+        The output folder.
+
+    Raises
+    ------
+    ReportExistsError
+        ``output`` exists and ``force`` is False.
+    SpectralDataError
+        No camera, duplicated cameras, or curves without a common range.
+    """
+    import colour
+
+    from . import spectra
+    from .correct import _load_camera, correction_problem
+    from .evaluate import TestSet, evaluate, natural_test_sets
+    from .vora import rank_camera_sets, vora_value
+
+    output = Path(output)
+    if output.exists() and not force:
+        raise ReportExistsError(
+            f"{output} already exists; choose another folder or pass force=True (--force) to replace it.")
+    cameras = list(cameras)
+    if not cameras:
+        raise SpectralDataError("write_report needs at least one camera.")
+    shape = colour.SpectralShape(400, 700, 10) if shape is None else shape
+    w = np.asarray(shape.wavelengths, dtype=np.float64)
+    step = progress or (lambda description, n: None)
+
+    step("loading cameras", len(cameras))
+    curves = [_load_camera(c) for c in cameras]
+    full = correction_problem(curves, illuminant=illuminant, shape=shape)  # also checks duplicates
+    names = list(full.sources)
+    singles = [correction_problem([c], illuminant=illuminant, shape=shape) for c in curves]
+    sets = [*singles, full] if len(curves) > 1 else [full]
+
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
+    tmp.chmod(0o755)  # mkdtemp makes it private; a report is meant to be read
+    try:
+        md: list[str] = [f"# Camera set report: {' + '.join(names)}\n",
+                         f"Illuminant {illuminant}, grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, "
+                         "target CIE 2015 2° XYZ (Y_white = 1); Vora values against Stockman & Sharpe "
+                         "2° LMS (the same space).\n"]
+        parts: list[str] = [f"<h1>Camera set report: {html.escape(' + '.join(names))}</h1>",
+                            f"<p>{html.escape(md[1])}</p>"]
+
+        def section(title: str, header, rows, note: str = "") -> None:
+            md.append(f"\n## {title}\n\n" + (note + "\n\n" if note else "") + _table_md(header, rows))
+            parts.append(f"<h2>{html.escape(title)}</h2>" + (f"<p>{html.escape(note)}</p>" if note else "")
+                         + _table_html(header, rows))
+
+        # 1. Vora values
+        step("Vora values", 1)
+        X = spectra.generators("Stockman & Sharpe 2°", illuminant, shape).values
+        rows = []
+        for r in range(1, len(curves) + 1):
+            for idx in combinations(range(len(curves)), r):
+                Q = np.concatenate([singles[i].Phi for i in idx], axis=1)
+                rows.append((" + ".join(names[i] for i in idx), str(Q.shape[1]), vora_value(Q, X)))
+        rows.sort(key=lambda t: -t[2])
+        section("Vora values", ("cameras", "channels", "Vora"), [(a, b, f"{v:.4f}") for a, b, v in rows])
+        chain = rank_camera_sets(curves, "Stockman & Sharpe 2°", illuminant, shape, method="greedy")
+        section("Greedy order", ("step", "cameras", "channels", "Vora"),
+                [(str(i + 1), " + ".join(s.cameras), str(s.channels), f"{s.vora:.4f}")
+                 for i, s in enumerate(chain)])
+
+        # 2. MMV volumes
+        step("MMV volumes along the grey axis", len(sets) * len(GREY_LEVELS))
+        grey = {" + ".join(pb.sources): _mmv_volumes(pb, np.outer(GREY_LEVELS, np.ones(pb.k)))
+                for pb in sets}
+        if all(v is None for v in grey.values()):
+            note = "zonotope.mismatch is not available: MMV volumes skipped."
+            md.append(f"\n{note}\n")
+            parts.append(f"<p>{note}</p>")
+        else:
+            section("MMV volume along the grey axis (XYZ units, × 10⁻⁶)",
+                    ("cameras", *[f"grey {g:g}" for g in GREY_LEVELS]),
+                    [(k, *[f"{1e6 * x:.3g}" for x in v]) for k, v in grey.items()])
+            step("MMV volumes of the ColorChecker", len(sets) * 24)
+            cc = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
+            labels = list(spectra.reflectances("ColorChecker N Ohta").labels)
+            vols = {" + ".join(pb.sources): _mmv_volumes(pb, pb.source_of(cc)) for pb in sets}
+            section("MMV volume of the ColorChecker patches (XYZ units, × 10⁻⁶)",
+                    ("patch", *vols), [(labels[i], *[f"{1e6 * v[i]:.3g}" for v in vols.values()])
+                                       for i in range(len(labels))])
+
+        # 3. evaluation
+        step("evaluation", len(sets))
+        tests = natural_test_sets(w, data_dir=data_dir, size=size)
+        if atypical:
+            from .atypical import atypical_reflectances
+
+            tests.append(TestSet(f"atypical ({atypical})", atypical_reflectances(w, atypical)[0], "atypical"))
+        camera_sets = [[c] for c in curves] + ([curves] if len(curves) > 1 else [])
+        ev = evaluate(camera_sets, illuminant=illuminant, shape=shape, test_sets=tests)
+        md.append("\n## Colour-correction evaluation (CIEDE2000)\n\n" + ev.to_markdown())
+        rows = [(r.cameras, r.test_set, r.method, str(r.n), f"{r.mean:.3f}", f"{r.median:.3f}",
+                 f"{r.p95:.3f}", f"{r.max:.2f}", "" if r.inside is None else f"{100 * r.inside:.0f} %")
+                for r in ev.rows]
+        parts.append("<h2>Colour-correction evaluation (CIEDE2000)</h2>" + _table_html(
+            ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"), rows)
+            + "".join(f"<p>{html.escape(n)}</p>" for n in ev.notes))
+
+        # 4. pictures
+        if pictures:
+            pics = _pictures(tmp, full, singles, chain, step)
+            md.append("\n## Pictures\n\n" + "".join(f"![{t}]({f})\n\n" for f, t in pics))
+            parts.append("<h2>Pictures</h2>" + "".join(
+                f"<figure><img src='{html.escape(f)}' alt='{html.escape(t)}'>"
+                f"<figcaption>{html.escape(t)}</figcaption></figure>" for f, t in pics))
+
+        (tmp / "report.md").write_text("".join(md), encoding="utf-8")
+        style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
+                 "margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}"
+                 "img{max-width:100%}")
+        (tmp / "index.html").write_text(
+            f"<!doctype html><html><head><meta charset='utf-8'><title>zonotope report</title>"
+            f"<style>{style}</style></head><body>{''.join(parts)}</body></html>", encoding="utf-8")
+        if output.exists():  # force: swap atomically, then drop the old report
+            old = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.old-"))
+            old.rmdir()
+            output.rename(old)
+            tmp.rename(output)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            tmp.rename(output)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return output
+
+
+def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]:
+    from . import viz
+
+    pics: list[tuple[str, str]] = []
+    step("pictures: charts", 2)
+    viz.plot_sensitivities(full, filename=folder / "sensitivities.png")
+    pics.append(("sensitivities.png", "Camera sensitivities against the target"))
+    viz.plot_vora_chain(chain, filename=folder / "vora_channels.png")
+    pics.append(("vora_channels.png", "Vora value vs number of channels (greedy order)"))
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+    step("pictures: solid", 1)
+    viz.plot_object_colour_solid(full, filename=folder / "solid.png", opacity=0.9).close()
+    pics.append(("solid.png", "Object-colour solid (CIE 2015 XYZ) and spectral locus"))
+    try:
+        import importlib
+
+        importlib.import_module("zonotope.mismatch")
+    except ImportError:
+        return pics
+    step("pictures: MMVs", 2)
+    viz.plot_grey_mmvs(full, filename=folder / "grey_mmvs.png").close()
+    pics.append(("grey_mmvs.png", f"MMVs along the grey axis, {' + '.join(full.sources)}"))
+    from . import spectra
+
+    x = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), full.wavelengths)[:, 2], 0, 1)
+    problems = [singles[0], full] if len(singles) > 1 else [full]
+    viz.plot_mmv_comparison(problems, x, filename=folder / "mmv_comparison.png").close()
+    pics.append(("mmv_comparison.png", "MMV of ColorChecker 'blue sky': one camera vs all cameras"))
+    return pics

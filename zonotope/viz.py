@@ -1,0 +1,291 @@
+"""Pictures: object-colour solids, spectral locus and metamer mismatch volumes (pyvista), charts (matplotlib).
+
+Every pyvista function draws into a ``pyvista.Plotter`` (a new off-screen one unless ``plotter`` is
+given) and returns it; ``filename`` saves a PNG. Without a display, set
+``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` before the first import of pyvista (this module
+does so when ``DISPLAY`` is unset). For an interactive window, pass
+``plotter=pyvista.Plotter()`` and call ``.show()`` on the result.
+
+Solids and MMVs are drawn in the target space of a :class:`zonotope.correct.CorrectionProblem`
+(XYZ, Y_white = 1 by default), coloured by their sRGB appearance (``colour.XYZ_to_sRGB``, clipped).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "mmv_polytope",
+    "plot_grey_mmvs",
+    "plot_mmv",
+    "plot_mmv_comparison",
+    "plot_object_colour_solid",
+    "plot_sensitivities",
+    "plot_spectral_locus",
+    "plot_vora_chain",
+]
+
+
+def _pv():
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    return pv
+
+
+def _plotter(plotter, shape=(1, 1), window_size=(900, 700)):
+    if plotter is not None:
+        return plotter
+    return _pv().Plotter(off_screen=True, shape=shape, window_size=window_size)
+
+
+def _finish(plotter, filename, *, axes: bool = True):
+    if axes:
+        plotter.show_axes()
+    if filename is not None:
+        Path(filename).parent.mkdir(parents=True, exist_ok=True)
+        plotter.screenshot(str(filename))
+    return plotter
+
+
+def _srgb(problem, target: np.ndarray) -> np.ndarray:
+    import colour
+
+    white = problem.white_XYZ
+    rgb = colour.XYZ_to_sRGB(problem.to_XYZ(target) / white[1], colour.XYZ_to_xy(white))
+    return np.clip(rgb, 0.0, 1.0)
+
+
+def _mesh(problem, polytope_or_zonotope, *, colour_by_srgb: bool = True):
+    mesh = polytope_or_zonotope.to_pyvista()
+    if colour_by_srgb:
+        mesh.point_data["sRGB"] = (255 * _srgb(problem, np.asarray(mesh.points))).astype(np.uint8)
+    return mesh
+
+
+def _camera(plotter, problem) -> None:
+    w = problem.white_XYZ
+    plotter.camera_position = [tuple(w * np.array([2.6, -1.2, 1.9])), tuple(0.45 * w), (0, 0, 1)]
+
+
+def plot_object_colour_solid(problem, *, plotter=None, filename=None, opacity: float = 1.0,
+                             locus: bool = True, show_edges: bool = False):
+    """The object-colour solid of the target (all colours of reflectances in [0, 1]).
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+        Its target generators Ψ (n, 3) span the solid.
+    plotter : pyvista.Plotter, optional
+    filename : str or Path, optional
+        PNG to write.
+    opacity, show_edges
+        Mesh style.
+    locus
+        Also draw the spectral locus (:func:`plot_spectral_locus`).
+
+    Returns
+    -------
+    pyvista.Plotter
+    """
+    from .solid import Zonotope
+
+    p = _plotter(plotter)
+    p.add_mesh(_mesh(problem, Zonotope(problem.Psi)), scalars="sRGB", rgb=True, opacity=opacity,
+               show_edges=show_edges, smooth_shading=False)
+    if locus:
+        plot_spectral_locus(problem, plotter=p)
+    _camera(p, problem)
+    return _finish(p, filename)
+
+
+def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 0.6):
+    """The spectral locus: the direction of each monochromatic light, as a curve on a cone.
+
+    Each wavelength's generator ``ψ_λ`` is scaled to ``scale × |white| / |ψ_λ|`` so that the curve
+    traces the cone of spectral directions in which the solid's edges lie.
+    """
+    pv = _pv()
+    p = _plotter(plotter)
+    G = problem.Psi
+    norms = np.linalg.norm(G, axis=1)
+    keep = norms > 1e-9 * norms.max()
+    pts = G[keep] / norms[keep, None] * scale * np.linalg.norm(problem.white_XYZ)
+    line = pv.lines_from_points(pts)
+    line.point_data["sRGB"] = (255 * _srgb(problem, pts / pts[:, 1:2].clip(1e-9) * 0.5)).astype(np.uint8)
+    p.add_mesh(line, scalars="sRGB", rgb=True, line_width=4)
+    rays = pv.PolyData(np.vstack([np.zeros(3), pts[::3]]))
+    rays.lines = np.hstack([[2, 0, i] for i in range(1, rays.n_points)])
+    p.add_mesh(rays, color="grey", opacity=0.4, line_width=1)
+    _camera(p, problem)
+    return _finish(p, filename)
+
+
+def mmv_polytope(problem, response, *, eps: float = 1e-4):
+    """The metamer mismatch volume of one source response as a :class:`zonotope.polytope.Polytope`.
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+    response : array_like of shape (k,)
+    eps
+        Certification tolerance; the certified inner polytope is returned.
+    """
+    from .mismatch import metamer_mismatch
+
+    mmv = metamer_mismatch(problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64),
+                           eps=eps, on_infeasible="nearest")
+    return getattr(mmv, "inner", mmv)
+
+
+def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: float = 0.12,
+             truth=None, estimates: dict | None = None):
+    """An MMV (opaque, sRGB-coloured) inside the translucent object-colour solid.
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+    response : array_like of shape (k,)
+    truth : array_like of shape (3,), optional
+        True target colour, drawn as a white sphere.
+    estimates : dict of str → array_like of shape (3,), optional
+        Estimates drawn as labelled points.
+    """
+    from .solid import Zonotope
+
+    pv = _pv()
+    p = _plotter(plotter)
+    p.add_mesh(Zonotope(problem.Psi).to_pyvista(), color="lightgrey", opacity=solid_opacity)
+    mmv = mmv_polytope(problem, response)
+    p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, show_edges=True, edge_color="black")
+    scale = float(np.linalg.norm(problem.white_XYZ))
+    if truth is not None:
+        p.add_mesh(pv.Sphere(radius=0.008 * scale, center=np.asarray(truth, float)), color="white")
+    for name, point in (estimates or {}).items():
+        p.add_point_labels(np.asarray(point, float)[None], [name], point_size=10, font_size=12,
+                           render_points_as_spheres=True)
+    p.camera.focal_point = tuple(mmv.centroid)
+    p.camera.position = tuple(np.asarray(mmv.centroid) + scale * np.array([0.9, -0.5, 0.6]))
+    p.camera.up = (0, 0, 1)
+    return _finish(p, filename)
+
+
+def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9), *, plotter=None,
+                   filename=None, solid_opacity: float = 0.1):
+    """MMVs of the greys ``c = level × (1, …, 1)`` along the achromatic axis (thesis fig. 4.2)."""
+    from .solid import Zonotope
+
+    pv = _pv()
+    p = _plotter(plotter)
+    p.add_mesh(Zonotope(problem.Psi).to_pyvista(), color="lightgrey", opacity=solid_opacity)
+    for level in levels:
+        mmv = mmv_polytope(problem, np.full(problem.k, float(level)))
+        p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, show_edges=True, edge_color="black")
+    p.add_mesh(pv.Line((0, 0, 0), tuple(problem.white_XYZ)), color="black", line_width=2)
+    _camera(p, problem)
+    return _finish(p, filename)
+
+
+def plot_mmv_comparison(problems: Sequence, reflectance, *, titles: Sequence[str] | None = None,
+                        filename=None, window_size=(1400, 650)):
+    """The MMV of one reflectance seen by different camera sets, side by side (e.g. 1 vs 2 cameras).
+
+    Parameters
+    ----------
+    problems : sequence of CorrectionProblem
+        Same target and grid, different sources.
+    reflectance : array_like of shape (n,)
+    titles : sequence of str, optional
+        One per panel (default the camera names).
+    """
+    p = _plotter(None, shape=(1, len(problems)), window_size=window_size)
+    x = np.asarray(reflectance, dtype=np.float64)
+    for i, pb in enumerate(problems):
+        p.subplot(0, i)
+        plot_mmv(pb, x @ pb.Phi, plotter=p, truth=x @ pb.Psi)
+        p.add_text(titles[i] if titles else " + ".join(pb.sources), font_size=11)
+        if i:
+            p.camera = p.renderers[0].camera  # same view in every panel
+    return _finish(p, filename)
+
+
+# -- matplotlib ------------------------------------------------------------------------------------
+
+
+def _figure(ax, figsize=(7, 4)):
+    import matplotlib
+
+    if ax is None:
+        matplotlib.use("Agg") if not os.environ.get("DISPLAY") else None
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=figsize, constrained_layout=True)
+        return fig, ax
+    return ax.figure, ax
+
+
+def _save(fig, filename):
+    if filename is not None:
+        Path(filename).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(filename, dpi=110)
+
+
+def plot_sensitivities(problem, *, ax=None, filename=None):
+    """Source channels against the target (both × illuminant, white-normalised), matplotlib.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, ax = _figure(ax)
+    w = problem.wavelengths
+    Phi = problem.Phi / problem.Phi.max(axis=0)
+    Psi = problem.Psi / problem.Psi.max(axis=0)
+    colours = ["tab:red", "tab:green", "tab:blue"]
+    per = 3 if problem.k % 3 == 0 else problem.k
+    styles = ["-", "--", ":", "-."]
+    for j in range(problem.k):
+        cam = j // per
+        name = problem.sources[cam] if cam < len(problem.sources) else f"channel {j}"
+        ax.plot(w, Phi[:, j], styles[cam % 4], color=colours[j % 3] if per == 3 else None, lw=1.4,
+                label=name if j % per == 0 else None)
+    for j in range(problem.m):
+        ax.plot(w, Psi[:, j], color="black", lw=2.2, alpha=0.5,
+                label=f"target ({problem.target})" if j == 0 else None)
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel(f"sensitivity × {problem.illuminant} (peak = 1)")
+    ax.legend(fontsize=8)
+    ax.set_title("Camera sensitivities against the target observer")
+    _save(fig, filename)
+    return fig
+
+
+def plot_vora_chain(chain, *, ax=None, filename=None):
+    """Vora value against the number of channels for a greedy camera chain (thesis fig. 5.2).
+
+    Parameters
+    ----------
+    chain : sequence of zonotope.vora.CameraSetScore
+        From ``rank_camera_sets(..., method="greedy")``.
+    """
+    fig, ax = _figure(ax, figsize=(6, 4))
+    ch = [s.channels for s in chain]
+    v = [s.vora for s in chain]
+    ax.plot(ch, v, "o-", color="tab:blue")
+    for s in chain:
+        ax.annotate(s.cameras[-1], (s.channels, s.vora), textcoords="offset points", xytext=(4, -12),
+                    fontsize=8)
+    ax.set_xlabel("number of channels (cameras stacked, greedy order)")
+    ax.set_ylabel("Vora value")
+    ax.set_ylim(min(v) - 0.02, 1.0)
+    ax.set_xticks(ch)
+    ax.set_xlim(min(ch) - 0.6, max(ch) + 2.4)
+    ax.grid(alpha=0.3)
+    ax.set_title("Vora value vs number of channels")
+    _save(fig, filename)
+    return fig
