@@ -71,6 +71,7 @@ def write_report(
     atypical: int = 100,
     size: int | None = 150,
     pictures: bool = True,
+    methods: Sequence[str] | None = None,
     progress: Callable[[str, int], None] | None = None,
 ) -> Path:
     """Write ``index.html`` and ``report.md`` (plus PNGs) for a camera set into ``output``.
@@ -95,6 +96,8 @@ def write_report(
         Subsample size of large natural sets.
     pictures
         Render the pyvista and matplotlib pictures (needs an OpenGL context, e.g. EGL).
+    methods
+        Estimators to evaluate (default all of :data:`zonotope.evaluate.DEFAULT_METHODS`).
     progress
         ``progress(description, n)`` before each step.
 
@@ -114,7 +117,7 @@ def write_report(
 
     from . import spectra
     from .correct import _load_camera, correction_problem
-    from .evaluate import TestSet, evaluate, natural_test_sets
+    from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
     from .vora import rank_camera_sets, vora_value
 
     output = Path(output)
@@ -194,7 +197,8 @@ def write_report(
 
             tests.append(TestSet(f"atypical ({atypical})", atypical_reflectances(w, atypical)[0], "atypical"))
         camera_sets = [[c] for c in curves] + ([curves] if len(curves) > 1 else [])
-        ev = evaluate(camera_sets, illuminant=illuminant, shape=shape, test_sets=tests)
+        ev = evaluate(camera_sets, methods=methods or DEFAULT_METHODS, illuminant=illuminant,
+                      shape=shape, test_sets=tests)
         md.append("\n## Colour-correction evaluation (CIEDE2000)\n\n" + ev.to_markdown())
         rows = [(r.cameras, r.test_set, r.method, str(r.n), f"{r.mean:.3f}", f"{r.median:.3f}",
                  f"{r.p95:.3f}", f"{r.max:.2f}", "" if r.inside is None else f"{100 * r.inside:.0f} %")

@@ -1,0 +1,59 @@
+"""zonotope.viz: headless plotting produces non-blank PNGs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from zonotope.correct import correction_problem
+
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+def _non_blank(path, min_colours: int = 8) -> bool:
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(path)[..., :3]
+    flat = (img.reshape(-1, 3) * 255).astype(int)
+    distinct = np.unique(flat[:: max(1, flat.shape[0] // 20000)], axis=0).shape[0]
+    return img.std() > 0.01 and distinct >= min_colours
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return correction_problem(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], shape=GRID)
+
+
+def test_solid_and_locus_png(problem, tmp_path):
+    from zonotope import viz
+
+    p = viz.plot_object_colour_solid(problem, filename=tmp_path / "solid.png")
+    p.close()
+    assert _non_blank(tmp_path / "solid.png", min_colours=50)
+    viz.plot_spectral_locus(problem, filename=tmp_path / "locus.png").close()
+    assert _non_blank(tmp_path / "locus.png")
+
+
+def test_matplotlib_charts(problem, tmp_path):
+    import matplotlib.pyplot as plt
+
+    from zonotope import viz
+    from zonotope.vora import CameraSetScore
+
+    viz.plot_sensitivities(problem, filename=tmp_path / "ssf.png")
+    chain = [CameraSetScore(("A",), 3, 0.93), CameraSetScore(("A", "B"), 6, 0.97)]
+    viz.plot_vora_chain(chain, filename=tmp_path / "vora.png")
+    plt.close("all")
+    assert _non_blank(tmp_path / "ssf.png") and _non_blank(tmp_path / "vora.png")
+
+
+def test_mmv_pictures(problem, tmp_path):
+    pytest.importorskip("zonotope.mismatch")
+    from zonotope import spectra, viz
+
+    viz.plot_grey_mmvs(problem, levels=(0.3, 0.7), filename=tmp_path / "grey.png").close()
+    assert _non_blank(tmp_path / "grey.png", min_colours=20)
+    single = correction_problem("Nikon 5100 (NPL)", shape=GRID)
+    x = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), GRID)[:, 2], 0, 1)
+    viz.plot_mmv_comparison([single, problem], x, filename=tmp_path / "cmp.png").close()
+    assert _non_blank(tmp_path / "cmp.png", min_colours=20)
