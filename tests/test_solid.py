@@ -227,3 +227,14 @@ def test_real_reflectances_are_inside_their_solids(shared_data):
         for refl in sets:
             x = zonotope.resample(refl, shape).T
             assert np.all(Z.contains(x @ G.values)), (sensor, refl.name)
+
+
+def test_mesh_stays_watertight_when_tolerances_make_facets_disagree():
+    """A loose coplanarity tolerance on CIE 1931 (near-parallel tails) forces the Qhull path."""
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    G = cmfs.values[(cmfs.wavelengths >= 380) & (cmfs.wavelengths <= 780)][::5]
+    Z = Zonotope(G, tol=zonotope.Tolerances(parallel=1e-10, coplanar=1e-8))
+    mesh = Z.to_trimesh()
+    assert Z.mesh_method in ("facets", "qhull")
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(4070.2465, rel=1e-6)

@@ -130,7 +130,41 @@ def _hull_mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     normal = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
     flip = np.einsum("ij,ij->i", normal, hull.equations[:, :3]) < 0
     F[flip] = F[flip][:, ::-1]
-    return V, remap[F]
+    return V, _fix_winding(remap[F], normal)
+
+
+def _fix_winding(F: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Make neighbouring triangles traverse shared edges in opposite directions (BFS).
+
+    Sliver triangles have no reliable normal of their own, so orientation is propagated from the
+    largest triangle across shared edges instead.
+    """
+    from collections import deque
+
+    F = F.copy()
+    edges: dict[tuple[int, int], list[int]] = {}
+    for f, tri in enumerate(F.tolist()):
+        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+            edges.setdefault((min(a, b), max(a, b)), []).append(f)
+    done = np.zeros(len(F), dtype=bool)
+    for seed in np.argsort(-np.linalg.norm(normal, axis=1)):
+        if done[seed]:
+            continue
+        done[seed] = True
+        queue = deque([int(seed)])
+        while queue:
+            f = queue.popleft()
+            tri = F[f].tolist()
+            for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+                for g in edges[(min(a, b), max(a, b))]:
+                    if done[g]:
+                        continue
+                    t = F[g].tolist()
+                    if (a, b) in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+                        F[g] = F[g][::-1]
+                    done[g] = True
+                    queue.append(g)
+    return F
 
 
 class Zonotope:
