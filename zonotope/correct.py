@@ -384,7 +384,18 @@ def _lstsq(A: np.ndarray, B: np.ndarray, ridge: float) -> np.ndarray:
     return np.linalg.solve(AtA + lam * np.eye(AtA.shape[0]), A.T @ B)
 
 
-def fit_Cheung2004(problem: CorrectionProblem, *, ridge: float = 1e-9) -> Corrector:
+def _training(problem: CorrectionProblem, noise: float, copies: int, seed: int):
+    """Training responses and targets, with ``copies`` noisy replicas when ``noise > 0``."""
+    C, T = problem.source_of(problem.training), problem.target_of(problem.training)
+    if noise <= 0:
+        return C, T
+    rng = np.random.default_rng(seed)
+    Cn = np.concatenate([C + rng.normal(0.0, noise, C.shape) for _ in range(copies)])
+    return Cn, np.tile(T, (copies, 1))
+
+
+def fit_Cheung2004(problem: CorrectionProblem, *, ridge: float = 1e-9, noise: float = 0.0,
+                   copies: int = 10, seed: int = 0) -> Corrector:
     """Least-squares ``k × m`` matrix from source to target responses (no offset).
 
     Parameters
@@ -392,18 +403,23 @@ def fit_Cheung2004(problem: CorrectionProblem, *, ridge: float = 1e-9) -> Correc
     problem : CorrectionProblem
     ridge
         Relative Tikhonov term (tiny by default; it only matters for dependent channels).
+    noise, copies, seed
+        With ``noise = σ > 0`` the regression is trained on ``copies`` replicas of the training
+        responses with seeded Gaussian noise σ, so it learns not to amplify noise (stacked cameras
+        have nearly collinear channels, which a noise-free fit exploits).
 
     Returns
     -------
     Corrector
         ``params["M"]`` of shape (k, m): ``target ≈ responses @ M``.
     """
-    C, T = problem.source_of(problem.training), problem.target_of(problem.training)
+    C, T = _training(problem, noise, copies, seed)
     M = _lstsq(C, T, ridge)
-    return Corrector("Cheung 2004", problem, lambda c: c @ M, {"M": M})
+    return Corrector("Cheung 2004", problem, lambda c: c @ M, {"M": M, "noise": noise})
 
 
-def fit_Finlayson2015(problem: CorrectionProblem, *, degree: int = 2, ridge: float = 1e-9) -> Corrector:
+def fit_Finlayson2015(problem: CorrectionProblem, *, degree: int = 2, ridge: float = 1e-9,
+                      noise: float = 0.0, copies: int = 10, seed: int = 0) -> Corrector:
     """Root-polynomial regression of any number of channels (Finlayson et al. 2015).
 
     Parameters
@@ -413,16 +429,18 @@ def fit_Finlayson2015(problem: CorrectionProblem, *, degree: int = 2, ridge: flo
         Root-polynomial degree (2 by default, the paper's recommendation for small training sets).
     ridge
         Relative Tikhonov term.
+    noise, copies, seed
+        Train on noisy replicas (see :func:`fit_Cheung2004`).
 
     Returns
     -------
     Corrector
         ``params["M"]`` of shape (n_terms, m): ``target ≈ root_polynomial_terms(c) @ M``.
     """
-    C, T = problem.source_of(problem.training), problem.target_of(problem.training)
+    C, T = _training(problem, noise, copies, seed)
     M = _lstsq(root_polynomial_terms(C, degree=degree), T, ridge)
-    return Corrector("Finlayson 2015", problem,
-                     lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, "degree": degree})
+    return Corrector("Finlayson 2015", problem, lambda c: root_polynomial_terms(c, degree=degree) @ M,
+                     {"M": M, "degree": degree, "noise": noise})
 
 
 def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
@@ -535,7 +553,7 @@ def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float 
     See :func:`project_to_mmv`. Inside estimates are returned unchanged, so on natural colours this
     equals ``"Finlayson 2015"``; outside ones move to the closest physically possible colour.
     """
-    reg = fit_Finlayson2015(problem, degree=degree)
+    reg = fit_Finlayson2015(problem, degree=degree, noise=noise)
     prior = ReflectancePrior.fit(problem.training)
 
     def predict(c):
@@ -596,7 +614,7 @@ def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float =
     Corrector
         ``params`` holds the prior, the regression and ``log_volume``.
     """
-    reg = fit_Finlayson2015(problem, degree=degree)
+    reg = fit_Finlayson2015(problem, degree=degree, noise=noise)
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
     log_vol = _log_volume(problem.Phi)
     Sc = problem.Phi.T @ prior.cov @ problem.Phi + noise**2 * np.eye(problem.k)

@@ -286,7 +286,7 @@ def evaluate(
         label = " + ".join(problem.sources)
         fitted = {}
         for m in dict.fromkeys(_resolve_method(m) for m in methods):
-            opts = {"noise": noise} if m in ("Projection", "MAP", "Prior") and noise > 0 else {}
+            opts = {"noise": noise} if m != "Dyer 2017" and noise > 0 else {}
             if m == "Centroid":
                 opts = {"delta": 3 * noise, "eps": centroid_eps}
             try:
