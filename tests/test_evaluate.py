@@ -55,6 +55,12 @@ def test_evaluate_with_noise_is_seeded():
     assert a.rows[0].mean == b.rows[0].mean
 
 
+def test_infeasible_noisy_responses_are_reported():
+    sets = [TestSet("dark", np.full((6, GRID.size), 0.01))]
+    ev = evaluate(["Nikon 5100 (NPL)"], methods=["least squares"], shape=GRID, test_sets=sets, noise=0.05)
+    assert any("outside the camera's object-colour solid" in n for n in ev.notes)
+
+
 def test_natural_sets_from_shared_data(shared_data):
     sets = natural_test_sets(GRID, data_dir=shared_data, size=20)
     names = " ".join(s.name for s in sets)

@@ -208,6 +208,15 @@ def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: 
     return cents, vols
 
 
+def _outside_solid(problem: CorrectionProblem, C: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+    """Which responses (N, k) no reflectance in [0, 1] can produce."""
+    from .prior import fiber_lsq
+
+    n = problem.Phi.shape[0]
+    x = fiber_lsq(problem.Phi, C, np.eye(n), np.full(n, 0.5))
+    return np.abs(x @ problem.Phi - C).max(axis=1) > tol
+
+
 def evaluate(
     camera_sets: Sequence,
     *,
@@ -302,6 +311,12 @@ def evaluate(
             C, T = problem.source_of(X), problem.target_of(X)
             if noise > 0:
                 C = C + rng.normal(0.0, noise, C.shape)
+                far = _outside_solid(problem, C)
+                if far.any():
+                    notes.append(
+                        f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
+                        "camera's object-colour solid (no reflectance produces them); the MMV estimators "
+                        "used the nearest feasible response (delta = 3σ), the others extrapolate.")
             if "Centroid" in fitted:
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", len(C))
