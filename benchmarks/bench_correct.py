@@ -48,7 +48,8 @@ def main() -> None:
     ap.add_argument("--tile", type=int, default=25, help="tile side in pixels")
     ap.add_argument("--vignette", action="store_true", help="add smooth radial shading (many more colours)")
     ap.add_argument("--method", default="Prior")
-    ap.add_argument("--quantum", type=float, default=2e-4)
+    ap.add_argument("--quantum", type=float, default=2e-3)
+    ap.add_argument("--no-base", action="store_true", help="no regression transfer within groups")
     args = ap.parse_args()
 
     shape = colour.SpectralShape(400, 700, 10)
@@ -75,35 +76,46 @@ def main() -> None:
     t_fit = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as cache:
         t0 = time.perf_counter()
-        fast = correct_image(image, est, quantum=args.quantum, cache_dir=cache)
+        base = None if args.no_base else "auto"
+        fast = correct_image(image, est, quantum=args.quantum, cache_dir=cache, base=base)
         t_fast = time.perf_counter() - t0
         t0 = time.perf_counter()
-        correct_image(image, est, quantum=args.quantum, cache_dir=cache)
+        correct_image(image, est, quantum=args.quantum, cache_dir=cache, base=base)
         t_cached = time.perf_counter() - t0
     n_q = np.unique(np.round(image.reshape(-1, 6) / args.quantum).astype(np.int64), axis=0).shape[0]
-    t0 = time.perf_counter()
-    exact = correct_image(image, est, quantum=0)  # exact: every distinct float response, no rounding
-    t_exact = time.perf_counter() - t0
     n_exact = np.unique(image.reshape(-1, 6), axis=0).shape[0]
+    if n_exact <= 20_000:  # exact: every distinct float response, no rounding, no transfer
+        t0 = time.perf_counter()
+        exact = correct_image(image, est, quantum=0)
+        t_exact = time.perf_counter() - t0
+        sample = np.ones(image.shape[:2], dtype=bool)
+    else:  # too many distinct colours for the exact estimator everywhere: a seeded pixel sample
+        sample = np.zeros(image.shape[:2], dtype=bool)
+        sample.flat[rng.choice(sample.size, 3000, replace=False)] = True
+        exact = np.full(truth.shape, np.nan)
+        t0 = time.perf_counter()
+        exact[sample] = est(image[sample])
+        t_exact = (time.perf_counter() - t0) * n_exact / 3000  # extrapolated to every colour
     rp = fit_correction(problem, method="Finlayson 2015")
     t0 = time.perf_counter()
     base = rp(image)
     t_rp = time.perf_counter() - t0
 
-    d_fast_exact = problem.delta_E(fast, exact)
+    d_fast_exact = problem.delta_E(fast[sample], exact[sample])
     d_fast = problem.delta_E(fast, truth)
-    d_exact = problem.delta_E(exact, truth)
+    d_exact = problem.delta_E(exact[sample], truth[sample])
     d_rp = problem.delta_E(base, truth)
     print(f"{'':34s} {'seconds':>8s} {'colours':>8s} {'ΔE00 vs truth mean/max':>24s}")
     label = f"{args.method} correct_image (q={args.quantum:g})"
     print(f"{label:34s} {t_fast + t_fit:8.2f} {n_q:8d} "
           f"{d_fast.mean():12.3f} / {d_fast.max():.2f}")
     print(f"{'  same, warm disk cache':34s} {t_cached:8.2f}")
-    print(f"{args.method + ' exact per pixel':34s} {t_exact + t_fit:8.2f} {n_exact:8d} "
+    what = "exact per pixel" + ("" if sample.all() else " (3000-px sample; time extrapolated)")
+    print(f"{args.method + ' ' + what:34s} {t_exact + t_fit:8.2f} {n_exact:8d} "
           f"{d_exact.mean():12.3f} / {d_exact.max():.2f}")
     print(f"{'Finlayson 2015 per pixel (baseline)':34s} {t_rp:8.2f} {image.shape[0] * image.shape[1]:8d} "
           f"{d_rp.mean():12.3f} / {d_rp.max():.2f}")
-    print(f"correct_image vs exact per-pixel: ΔE00 mean {d_fast_exact.mean():.4f}, "
+    print(f"correct_image vs exact per-pixel ({int(sample.sum())} px): ΔE00 mean {d_fast_exact.mean():.4f}, "
           f"p99 {np.percentile(d_fast_exact, 99):.4f}, max {d_fast_exact.max():.4f}")
     ok = (t_fast + t_fit) <= 30 and d_fast_exact.max() <= 0.5
     print(f"goal (≤ 30 s, ≤ 0.5 ΔE00 from exact): {'met' if ok else 'MISSED'}")

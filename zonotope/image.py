@@ -22,6 +22,8 @@ from .correct import Corrector, fit_correction
 
 __all__ = ["correct_image"]
 
+_CHEAP = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
+
 
 def _fingerprint(corrector: Corrector, quantum: float) -> str:
     h = hashlib.sha256()
@@ -58,7 +60,8 @@ def correct_image(
     cameras_or_corrector,
     *,
     method: str = "Prior",
-    quantum: float = 2e-4,
+    quantum: float = 2e-3,
+    base: Corrector | str | None = "auto",
     batch_size: int = 2048,
     cache_dir: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -79,6 +82,13 @@ def correct_image(
     quantum
         Pixels whose responses round to the same multiples of ``quantum`` form one group,
         corrected once at the response of its first pixel (0: exact deduplication only).
+    base
+        A cheap estimator used to carry each group's result to its pixels:
+        ``out = est(c₀) + base(c) − base(c₀)`` (``c₀`` the group's representative response), which
+        removes the first-order error of grouping and allows a coarse ``quantum`` on images with
+        smooth shading. ``"auto"``: the estimator's own regression (``params["regression"]``) or a
+        root-polynomial fit; ``None``: no transfer (``out = est(c₀)``). Regression estimators are
+        applied to every pixel directly (they are cheap), with no grouping.
     batch_size
         Distinct colours corrected per call of the estimator.
     cache_dir
@@ -114,6 +124,13 @@ def correct_image(
             f"got shape {img.shape}.")
     if batch_size < 1:
         raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
+    if corrector.method in _CHEAP:
+        return corrector(img)
+    if isinstance(base, str):
+        if base != "auto":
+            raise ValueError(f"base must be a Corrector, 'auto' or None; got {base!r}.")
+        base = corrector.params.get("regression") or fit_correction(corrector.problem,
+                                                                    method="Finlayson 2015")
     flat = img.reshape(-1, k)
     ok = np.all(np.isfinite(flat), axis=1)
     out = np.full((flat.shape[0], m), np.nan)
@@ -148,5 +165,8 @@ def correct_image(
             _save_cache(cache_path, cache, k, m)
         if progress is not None:
             progress(min(start + batch_size, todo.size), todo.size)
-    out[ok] = result[inverse.reshape(-1)]
+    inverse = inverse.reshape(-1)
+    out[ok] = result[inverse]
+    if base is not None and quantum > 0:
+        out[ok] += base(pixels) - base(colours)[inverse]
     return out.reshape(*img.shape[:-1], m)
