@@ -230,3 +230,14 @@ def test_correct_image_matches_per_pixel_and_caches(problem, checker, tmp_path):
 def test_correct_one_call():
     xyz = correct(np.array([1.0, 1.0, 1.0]), "Nikon 5100 (NPL)", method="root-polynomial", shape=GRID)
     assert abs(xyz[1] - 1.0) < 0.05
+
+
+def test_correct_image_transfer_on_shaded_image(problem, checker):
+    est = fit_correction(problem, method="Prior")
+    shade = np.linspace(0.5, 1.0, 10)[:, None, None] * np.linspace(0.8, 1.0, 8)[None, :, None]
+    img = problem.source_of(checker[[0, 11]])[np.arange(10) % 2][:, None, :] * shade  # (10, 8, 3)
+    fast = correct_image(img, est, quantum=0.02)
+    exact = est(img)
+    assert problem.delta_E(fast, exact).max() < 0.5
+    rp = fit_correction(problem, method="Finlayson 2015")
+    assert np.array_equal(correct_image(img, rp), rp(img))  # regressions: per pixel, no grouping
