@@ -506,21 +506,13 @@ def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -
     return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), 1e-300)))
 
 
-def _mmv_engine(problem: CorrectionProblem):
-    """``zonotope.mismatch.MetamerMismatch`` for the problem, and the map of its target to ours."""
-    try:
-        from .mismatch import MetamerMismatch
-    except ImportError as error:  # pragma: no cover - only while mismatch.py is missing
-        raise ZonotopeError(
-            "the 'Centroid' estimator needs zonotope.mismatch (metamer mismatch volumes), which "
-            f"could not be imported: {error}.") from error
-    mm = MetamerMismatch(problem.Phi, problem.Psi)
-    return mm
-
-
 def mmv_centroids(problem: CorrectionProblem, responses, *, eps: float = 1e-3,
                   delta: float = 0.0) -> np.ndarray:
-    """Volume centroids of the metamer mismatch volumes of ``responses (N, k)`` → ``(N, m)``."""
+    """Volume centroids of the metamer mismatch volumes of ``responses (N, k)`` → ``(N, m)``.
+
+    Uses :func:`zonotope.mismatch.metamer_mismatch` on the problem's Φ and Ψ; a response outside
+    the source solid is replaced by the nearest feasible one (``on_infeasible="nearest"``).
+    """
     from .mismatch import metamer_mismatch
 
     C = np.asarray(responses, dtype=np.float64)
@@ -538,11 +530,17 @@ def fit_Centroid(problem: CorrectionProblem, *, eps: float = 1e-3, delta: float 
     ----------
     problem : CorrectionProblem
     eps
-        Certification tolerance of the MMV (response units); the centroid of the certified inner
-        polytope is returned.
+        Certification tolerance of the MMV (response units); the certified MMV's centroid is used
+        (exact volume centroid for ``eps = 0``).
     delta
         Per-channel response tolerance of the MMV (use ≈ 3σ with noisy responses).
     """
+    try:
+        import zonotope.mismatch  # noqa: F401
+    except ImportError as error:  # pragma: no cover - only while mismatch.py is missing
+        raise ZonotopeError(
+            f"the 'Centroid' estimator needs zonotope.mismatch (metamer mismatch volumes): {error}."
+        ) from error
     return Corrector("Centroid", problem, lambda c: mmv_centroids(problem, c, eps=eps, delta=delta),
                      {"eps": eps, "delta": delta})
 

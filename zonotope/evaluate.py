@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from . import spectra
-from ._errors import SpectralDataError
+from ._errors import SpectralDataError, ZonotopeError
 from .atypical import atypical_reflectances
 from .correct import (
     CorrectionProblem,
@@ -299,12 +299,8 @@ def evaluate(
             if m == "Centroid":
                 opts = {"delta": 3 * noise, "eps": centroid_eps}
             try:
-                if m == "Centroid":
-                    import importlib
-
-                    importlib.import_module("zonotope.mismatch")
                 fitted[m] = fit_correction(problem, method=m, **opts)
-            except (SpectralDataError, ImportError) as error:
+            except ZonotopeError as error:
                 notes.append(f"{label}: {m} skipped ({error})")
         for ts in test_sets:
             X = ts.reflectances
