@@ -576,7 +576,7 @@ def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float
 
 
 def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float = 0.01,
-              odds: float = 1.0, noise: float = 0.0) -> Corrector:
+              odds: float = 10.0, noise: float = 0.0) -> Corrector:
     """Prior-aware estimator: Bayes-gated mixture of regression and constrained MAP.
 
     Model: a reflectance is either *natural* (Gaussian ``N(μ, Σ)`` learnt from the training set)
@@ -603,7 +603,11 @@ def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float =
     shrinkage
         Covariance shrinkage of the prior (:meth:`ReflectancePrior.fit`).
     odds
-        Prior odds natural : arbitrary (1 = no preference).
+        Prior odds natural : arbitrary (default 10: a photographed surface is far more often natural
+        than not). Chosen from {1, 3, 10, 30, 100}: 1 loses up to 0.09 ΔE00 to root-polynomial
+        regression on saturated natural sets (NIST CQS) with one camera; above 10 the two-camera
+        results on atypical spectra degrade slowly (measured on the sets of ``zonotope evaluate``,
+        so this is a choice made on the evaluation data; change it for other scene statistics).
     noise
         Response noise σ (white = 1); enters the evidence and relaxes the fiber constraint.
 
