@@ -13,6 +13,10 @@ _EXPORTS = {
     "camera": ["Camera", "look_at", "qvec_to_rotmat", "rotmat_to_qvec"],
     "rendering": ["RENDER_METHODS", "Projected", "RenderConfig", "RenderOutput", "project", "render",
                "render_reference", "render_tiled"],
+    "colmap": ["CAMERA_MODELS", "ColmapCamera", "ColmapFrame", "ColmapImage", "ColmapModel",
+               "ColmapPoint3D", "ColmapRig", "read_colmap", "write_colmap"],
+    "data": ["Capture", "View", "capture_from_colmap", "colmap_from_capture", "read_transforms",
+             "write_transforms"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -1,0 +1,210 @@
+"""Views of a multi-camera capture: poses, intrinsics, which channels each image measures, exposure.
+
+A :class:`Capture` holds the views and the channel map ``camera_id -> channel indices`` (e.g. camera 1
+measures channels 0–2 of a 9-channel scene, camera 2 channels 3–5, ...). Captures convert to and from
+COLMAP sparse models (:mod:`splat.colmap`) and nerfstudio ``transforms.json`` files.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+
+from ._errors import DataFormatError, SplatError
+from .camera import Camera, qvec_to_rotmat, rotmat_to_qvec
+from .colmap import ColmapCamera, ColmapImage, ColmapModel
+
+__all__ = ["Capture", "View", "capture_from_colmap", "colmap_from_capture", "read_transforms",
+           "write_transforms"]
+
+_GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+
+
+@dataclass(frozen=True)
+class View:
+    """One image of the capture.
+
+    Attributes
+    ----------
+    name : str
+        Image file name (relative to the image folder).
+    camera : Camera
+        Pose and intrinsics.
+    camera_id : int
+        The physical camera that took it (COLMAP ``CAMERA_ID``): selects its channels in the capture.
+    exposure : float
+        Relative exposure (shutter × gain / ISO ratio); the model's radiance times this is the image.
+    """
+
+    name: str
+    camera: Camera
+    camera_id: int
+    exposure: float = 1.0
+
+
+@dataclass(frozen=True)
+class Capture:
+    """Views and the channel map of a multi-camera capture.
+
+    Attributes
+    ----------
+    views : tuple of View
+    channels : dict int -> tuple of int
+        For each camera id, the indices of the scene channels its images measure.
+    labels : tuple of str, optional
+        Names of the N scene channels.
+    """
+
+    views: tuple[View, ...]
+    channels: dict[int, tuple[int, ...]]
+    labels: tuple[str, ...] = field(default=())
+
+    def __post_init__(self):
+        missing = sorted({v.camera_id for v in self.views} - set(self.channels))
+        if missing:
+            raise SplatError(f"views use camera id(s) {missing} that have no entry in channels "
+                             f"{self.channels}; give each camera id its channel indices.")
+        if self.labels and len(self.labels) != self.n_channels:
+            raise SplatError(f"{len(self.labels)} labels for {self.n_channels} channels.")
+
+    @property
+    def n_channels(self) -> int:
+        """N, one more than the largest channel index."""
+        return 1 + max((max(c) for c in self.channels.values() if c), default=-1)
+
+    def channel_mask(self, view: View) -> np.ndarray:
+        """Boolean mask of shape (N,) of the channels ``view`` measures."""
+        m = np.zeros(self.n_channels, bool)
+        m[list(self.channels[view.camera_id])] = True
+        return m
+
+
+def _camera(R, t, fx, fy, cx, cy, w, h) -> Camera:
+    f32 = jnp.float32
+    return Camera(jnp.asarray(R, f32), jnp.asarray(t, f32), jnp.asarray([fx, fy], f32),
+                  jnp.asarray([cx, cy], f32), int(w), int(h))
+
+
+def capture_from_colmap(model: ColmapModel, *, channels: dict[int, tuple[int, ...]] | None = None,
+                        exposures: dict[str, float] | None = None, labels=()) -> Capture:
+    """A :class:`Capture` from a COLMAP model.
+
+    Parameters
+    ----------
+    model : ColmapModel
+    channels : dict, optional
+        ``camera_id -> channel indices``; default: 3 consecutive channels per camera id, in id order.
+    exposures : dict, optional
+        ``image name -> exposure`` (default 1).
+    labels : sequence of str, optional
+
+    Returns
+    -------
+    Capture
+        Views in image-id order.
+    """
+    if channels is None:
+        channels = {cid: (3 * k, 3 * k + 1, 3 * k + 2) for k, cid in enumerate(sorted(model.cameras))}
+    exposures = exposures or {}
+    views = []
+    for iid in sorted(model.images):
+        im = model.images[iid]
+        if im.camera_id not in model.cameras:
+            raise DataFormatError(f"image {im.name!r} refers to camera {im.camera_id}, which the model "
+                                  "does not have.")
+        c = model.cameras[im.camera_id]
+        views.append(View(im.name, _camera(qvec_to_rotmat(im.qvec), im.tvec, *c.pinhole(), c.width, c.height),
+                          im.camera_id, float(exposures.get(im.name, 1.0))))
+    return Capture(tuple(views), {int(k): tuple(v) for k, v in channels.items()}, tuple(labels))
+
+
+def colmap_from_capture(capture: Capture) -> ColmapModel:
+    """A COLMAP model (PINHOLE cameras, no points) of a capture's views; intrinsics per camera id.
+
+    Raises
+    ------
+    SplatError
+        Two views of one camera id with different intrinsics (COLMAP shares them per camera).
+    """
+    cameras, images = {}, {}
+    for k, v in enumerate(capture.views, 1):
+        c = v.camera
+        params = (*map(float, np.asarray(c.focal)), *map(float, np.asarray(c.principal)))
+        cam = ColmapCamera(v.camera_id, "PINHOLE", c.width, c.height, params)
+        if cameras.setdefault(v.camera_id, cam) != cam:
+            raise SplatError(f"views of camera {v.camera_id} have different intrinsics "
+                             f"({cameras[v.camera_id].params} vs {params}); give them separate camera ids.")
+        images[k] = ColmapImage(k, rotmat_to_qvec(np.asarray(c.R, float)), np.asarray(c.t, float),
+                                v.camera_id, v.name)
+    return ColmapModel(cameras, images)
+
+
+def write_transforms(capture: Capture, path: str | Path) -> Path:
+    """Write a nerfstudio ``transforms.json`` (OpenGL camera-to-world, per-frame intrinsics).
+
+    Besides nerfstudio's keys, each frame stores ``camera_id`` and ``exposure``, and the top level
+    ``channels`` (the channel map) and ``channel_labels``; nerfstudio ignores keys it does not know.
+    """
+    frames = []
+    for v in capture.views:
+        c = v.camera
+        w2c = np.eye(4)
+        w2c[:3, :3], w2c[:3, 3] = np.asarray(c.R, float), np.asarray(c.t, float)
+        c2w = np.linalg.inv(w2c) @ _GL_FROM_CV
+        (fx, fy), (cx, cy) = np.asarray(c.focal, float), np.asarray(c.principal, float)
+        frames.append({"file_path": v.name, "transform_matrix": c2w.tolist(), "fl_x": fx, "fl_y": fy,
+                       "cx": cx, "cy": cy, "w": c.width, "h": c.height, "camera_id": v.camera_id,
+                       "exposure": v.exposure})
+    doc = {"camera_model": "OPENCV", "channels": {str(k): list(v) for k, v in capture.channels.items()},
+           "channel_labels": list(capture.labels), "frames": frames}
+    path = Path(path)
+    path.write_text(json.dumps(doc, indent=1))
+    return path
+
+
+def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | None = None) -> Capture:
+    """Read a nerfstudio ``transforms.json`` (global intrinsics with per-frame overrides).
+
+    Parameters
+    ----------
+    path : path
+    channels : dict, optional
+        Channel map, overriding the file's ``channels`` key; without either, every camera id gets
+        channels (0, 1, 2).
+
+    Returns
+    -------
+    Capture
+
+    Raises
+    ------
+    DataFormatError
+        Invalid JSON, or a frame without a pose or intrinsics.
+    """
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DataFormatError(f"{path}: not valid JSON ({e}).") from e
+    views = []
+    for k, fr in enumerate(doc.get("frames", [])):
+        get = lambda key, fr=fr: fr.get(key, doc.get(key))  # noqa: E731
+        try:
+            c2w = np.asarray(fr["transform_matrix"], float) @ _GL_FROM_CV
+            w2c = np.linalg.inv(c2w)
+            cam = _camera(w2c[:3, :3], w2c[:3, 3], float(get("fl_x")), float(get("fl_y") or get("fl_x")),
+                          float(get("cx")), float(get("cy")), int(get("w")), int(get("h")))
+        except (KeyError, TypeError, ValueError) as e:
+            raise DataFormatError(f"{path}: frame {k} lacks a pose or intrinsics ({e!r}).") from e
+        views.append(View(str(fr.get("file_path", f"frame_{k}")), cam, int(fr.get("camera_id", 1)),
+                          float(fr.get("exposure", 1.0))))
+    if channels is None:
+        if "channels" in doc:
+            channels = {int(k): tuple(v) for k, v in doc["channels"].items()}
+        else:
+            channels = {cid: (0, 1, 2) for cid in {v.camera_id for v in views}}
+    return Capture(tuple(views), channels, tuple(doc.get("channel_labels", ())))
