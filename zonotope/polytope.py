@@ -1,0 +1,605 @@
+"""Convex polytopes in V- and H-representation, of any affine dimension.
+
+A :class:`Polytope` is built from points (its convex hull) or from half-spaces ``A y ≤ b``.
+The affine hull is found first (SVD of the centred points), and the hull is computed inside it,
+so a point, a segment or a polygon in 3-D space is an honest lower-dimensional polytope
+(``dim`` 0, 1 or 2, ``volume`` 0) instead of a Qhull precision error.
+
+What is exact
+-------------
+- ``volume``: sum of the signed volumes of the tetrahedra (interior point, boundary triangle);
+  0 when ``dim`` < ambient dimension.
+- ``centroid``: the volume centroid by the same tetrahedral decomposition (3-D), the area centroid
+  of a polygon, the midpoint of a segment, the point itself (never the mean of the vertices).
+- ``halfspaces``: unit normals with coplanar triangles merged into one facet; lower-dimensional
+  polytopes also get the ± rows of their affine hull's equations.
+- ``project``: nearest point in the Euclidean metric or in ``(y − p)ᵀ W (y − p)``, by the
+  closest point over a triangulation of the boundary (inside points are returned unchanged).
+
+Ambient dimension 3 is complete; other dimensions support everything that does not need a
+boundary triangulation (``project`` and the mesh conversions need ``dim`` ≤ 3).
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+
+from ._errors import GeometryError
+
+__all__ = ["Polytope"]
+
+_RANK_TOL = 1e-9  # relative to the diameter: flatness of the affine hull
+_ANGLE_TOL = 1e-9  # merging coplanar hull triangles (1 − cos of the angle)
+
+
+def _affine_hull(P: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Origin (m,) and orthonormal basis (m, d) of the affine hull of points P (N, m)."""
+    o = P.mean(axis=0)
+    Q = P - o
+    if P.shape[0] < 2:
+        return o, np.zeros((P.shape[1], 0))
+    _, _, Vt = np.linalg.svd(Q, full_matrices=False)
+    dev = np.abs(Q @ Vt.T).max(axis=0) if Vt.size else np.zeros(0)
+    d = int(np.sum(dev > tol))
+    return o, Vt[:d].T.copy()
+
+
+def _hull_2d(Z: np.ndarray) -> np.ndarray:
+    """Indices of the CCW convex hull of 2-D points (Andrew's monotone chain, collinear dropped)."""
+    order = np.lexsort((Z[:, 1], Z[:, 0]))
+    pts = Z[order]
+
+    def half(seq):
+        out: list[int] = []
+        for i in seq:
+            while len(out) >= 2:
+                a, b = pts[out[-2]], pts[out[-1]]
+                cross = (b[0] - a[0]) * (pts[i][1] - a[1]) - (b[1] - a[1]) * (pts[i][0] - a[0])
+                if cross <= 1e-15 * (np.abs(b - a).max() * np.abs(pts[i] - a).max()):
+                    out.pop()
+                else:
+                    break
+            out.append(i)
+        return out
+
+    lower = half(range(len(pts)))
+    upper = half(range(len(pts) - 1, -1, -1))
+    return order[np.array(lower[:-1] + upper[:-1], dtype=int)]
+
+
+class Polytope:
+    """A bounded convex polytope in R^m of any affine dimension.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, m), optional
+        The polytope is their convex hull (V-representation).
+    halfspaces : tuple (A (F, m), b (F,)), optional
+        ``{y : A y ≤ b}``; with ``points`` too, the intersection of both.
+    tol : float, optional
+        Absolute tolerance (same units as the points) under which the points count as lying
+        in a lower-dimensional affine subspace and coplanar facets are merged; default
+        ``1e-9 ×`` the diameter.
+
+    Attributes
+    ----------
+    vertices : ndarray of shape (V, m)
+    dim : int
+        Affine dimension: -1 empty, 0 point, 1 segment, 2 polygon, 3 solid.
+    ambient_dim : int
+
+    Raises
+    ------
+    GeometryError
+        NaN/inf coordinates, unbounded half-spaces, or hull dimension > 3 in ambient > 3 for the
+        operations that need a boundary triangulation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cube = Polytope(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)]))
+    >>> cube.dim, float(cube.volume), cube.centroid.tolist()
+    (3, 1.0, [0.5, 0.5, 0.5])
+    >>> Polytope(np.array([[0.0, 0, 0], [1, 1, 1]])).dim
+    1
+    """
+
+    def __init__(self, points=None, halfspaces=None, *, tol: float | None = None) -> None:
+        if points is None and halfspaces is None:
+            raise GeometryError("Polytope needs points (N, m) and/or halfspaces (A, b).")
+        if halfspaces is not None:
+            A, b = (np.asarray(a, dtype=np.float64) for a in halfspaces)
+            if points is not None:
+                other = Polytope(points, tol=tol)
+                A2, b2 = other.halfspaces
+                A, b = np.concatenate([A, A2]), np.concatenate([b, b2])
+            points = _vertices_from_halfspaces(A, b, tol)
+        P = np.array(points, dtype=np.float64)
+        if P.ndim != 2:
+            raise GeometryError(f"points must have shape (N, m); got {P.shape}.")
+        if not np.all(np.isfinite(P)):
+            raise GeometryError("points contain NaN or inf.")
+        self.ambient_dim = P.shape[1]
+        span = float(np.ptp(P, axis=0).max()) if P.shape[0] else 0.0
+        self.tol = float(tol) if tol is not None else _RANK_TOL * max(span, 1e-300)
+        if P.shape[0] == 0:
+            self._o, self._B = np.zeros(self.ambient_dim), np.zeros((self.ambient_dim, 0))
+            self.dim = -1
+            self._Z = np.zeros((0, 0))
+            self.vertices = P
+            self._simplices = np.zeros((0, 0), dtype=int)
+            return
+        self._o, self._B = _affine_hull(P, self.tol)
+        self.dim = self._B.shape[1]
+        Z = (P - self._o) @ self._B
+        keep, simplices = self._hull(Z)
+        self.vertices = P[keep]
+        self.vertices.flags.writeable = False
+        self._Z = Z[keep]
+        self._simplices = simplices  # boundary simplices (dim ≥ 2) as rows of vertex indices
+
+    # -- construction helpers -------------------------------------------------------------------
+
+    def _hull(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        d = self.dim
+        if d == 0:
+            return np.array([0]), np.zeros((0, 1), dtype=int)
+        if d == 1:
+            i, j = int(np.argmin(Z[:, 0])), int(np.argmax(Z[:, 0]))
+            return np.array([i, j]), np.array([[0], [1]])
+        if d == 2:
+            idx = _hull_2d(Z)
+            M = idx.size
+            return idx, np.stack([np.arange(M), (np.arange(M) + 1) % M], axis=1)
+        from scipy.spatial import ConvexHull
+
+        hull = ConvexHull(Z)
+        keep = hull.vertices
+        remap = np.full(Z.shape[0], -1)
+        remap[keep] = np.arange(keep.size)
+        self._hull_equations = hull.equations
+        self._hull_neighbors = hull.neighbors
+        return keep, remap[hull.simplices]
+
+    @classmethod
+    def from_halfspaces(cls, A, b, *, tol: float | None = None) -> Polytope:
+        """The polytope ``{y : A y ≤ b}`` (A of shape (F, m), b of shape (F,)); may be empty."""
+        return cls(halfspaces=(A, b), tol=tol)
+
+    def __repr__(self) -> str:
+        return f"Polytope(dim={self.dim}, ambient_dim={self.ambient_dim}, n_vertices={len(self.vertices)})"
+
+    # -- facets ---------------------------------------------------------------------------------
+
+    @cached_property
+    def _facets_sub(self) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """Merged facets inside the affine hull: normals (F, d), offsets (F,), vertex index lists."""
+        d, Z = self.dim, self._Z
+        if d <= 0:
+            return np.zeros((0, max(d, 0))), np.zeros(0), []
+        if d == 1:
+            return np.array([[-1.0], [1.0]]), np.array([-Z[0, 0], Z[1, 0]]), [np.array([0]), np.array([1])]
+        if d == 2:
+            S = self._simplices
+            e = Z[S[:, 1]] - Z[S[:, 0]]
+            n = np.stack([e[:, 1], -e[:, 0]], axis=1)  # outward for a CCW polygon
+            n /= np.linalg.norm(n, axis=1, keepdims=True)
+            return n, np.einsum("ij,ij->i", n, Z[S[:, 0]]), [s for s in S]
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        eq = self._hull_equations
+        n, off = eq[:, :-1], -eq[:, -1]
+        T = n.shape[0]
+        nb = self._hull_neighbors
+        rows = np.repeat(np.arange(T), nb.shape[1])
+        cols = nb.ravel()
+        same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - _ANGLE_TOL) & (
+            np.abs(off[rows] - off[cols]) <= self.tol)
+        graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
+        ncomp, label = connected_components(graph, directed=False)
+        S = self._simplices
+        normals = np.zeros((ncomp, d))
+        np.add.at(normals, label, n)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        order = np.argsort(label, kind="stable")
+        bounds = np.searchsorted(label[order], np.arange(ncomp + 1))
+        members = [np.unique(S[order[bounds[i]:bounds[i + 1]]]) for i in range(ncomp)]
+        offsets = np.array([float((Z[v] @ normals[i]).max()) for i, v in enumerate(members)])
+        return normals, offsets, members
+
+    @property
+    def n_facets(self) -> int:
+        """Number of merged facets (of the polytope inside its affine hull)."""
+        return int(self._facets_sub[0].shape[0])
+
+    @cached_property
+    def halfspaces(self) -> tuple[np.ndarray, np.ndarray]:
+        """H-representation ``A y ≤ b`` with unit rows and coplanar facets merged.
+
+        Returns
+        -------
+        A : ndarray of shape (F, m)
+        b : ndarray of shape (F,)
+            For ``dim`` < m the first rows are the facets inside the affine hull, followed by
+            ± rows of the hull's equations (so ``A y ≤ b`` is exactly the polytope).
+        """
+        m = self.ambient_dim
+        if self.dim < 0:
+            e = np.eye(m)[:1]
+            return np.concatenate([e, -e]), np.array([-1.0, -1.0])  # y_0 ≤ -1 and y_0 ≥ 1
+        ns, offs, _ = self._facets_sub
+        A = ns @ self._B.T
+        b = offs + A @ self._o
+        if self.dim < m:
+            C = _complement(self._B)
+            A = np.concatenate([A, C, -C])
+            b = np.concatenate([b, C @ self._o, -(C @ self._o)])
+        return A, b
+
+    @property
+    def affine_hull(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(origin (m,), basis (m, dim))``: the affine hull is ``origin + basis @ z``."""
+        return self._o.copy(), self._B.copy()
+
+    # -- measures -------------------------------------------------------------------------------
+
+    @cached_property
+    def _simplex_measures(self) -> tuple[np.ndarray, np.ndarray]:
+        """Measures (T,) and centroids (T, d) of a decomposition into d-simplices (in the hull)."""
+        d, Z = self.dim, self._Z
+        if d < 1:
+            return np.zeros(0), np.zeros((0, max(d, 0)))
+        c = Z.mean(axis=0)
+        S = self._simplices
+        if d == 1:
+            return np.array([abs(Z[1, 0] - Z[0, 0])]), np.array([0.5 * (Z[0] + Z[1])])
+        E = Z[S] - c  # (T, d, d): each boundary facet simplex with the interior point c
+        meas = np.abs(np.linalg.det(E)) / float(np.prod(np.arange(1, d + 1)))
+        cents = (c + Z[S].sum(axis=1)) / (d + 1)
+        return meas, cents
+
+    @property
+    def volume(self) -> float:
+        """Exact m-dimensional volume (0 when ``dim`` < ambient dimension)."""
+        if self.dim < self.ambient_dim:
+            return 0.0
+        return float(self._simplex_measures[0].sum())
+
+    @property
+    def measure(self) -> float:
+        """Exact ``dim``-dimensional measure: volume, area, length, or 1 for a point (0 if empty)."""
+        if self.dim < 0:
+            return 0.0
+        if self.dim == 0:
+            return 1.0
+        return float(self._simplex_measures[0].sum())
+
+    @cached_property
+    def centroid(self) -> np.ndarray:
+        """Exact centroid of the ``dim``-dimensional measure, ndarray of shape (m,).
+
+        Volume centroid for solids (tetrahedral decomposition), area centroid for polygons,
+        midpoint for segments, the point itself for a point.
+        """
+        if self.dim < 0:
+            raise GeometryError("the polytope is empty; it has no centroid.")
+        if self.dim == 0:
+            return self.vertices[0].copy()
+        meas, cents = self._simplex_measures
+        z = (meas[:, None] * cents).sum(axis=0) / meas.sum()
+        return self._o + self._B @ z
+
+    @property
+    def diameter(self) -> float:
+        """Largest distance between two vertices."""
+        V = self.vertices
+        if V.shape[0] < 2:
+            return 0.0
+        best = 0.0
+        for s in range(0, V.shape[0], 512):
+            D = np.linalg.norm(V[s:s + 512, None, :] - V[None], axis=-1)
+            best = max(best, float(D.max()))
+        return best
+
+    def chebyshev_center(self, *, return_radius: bool = False):
+        """Centre of the largest ball inside the polytope, within its affine hull.
+
+        Parameters
+        ----------
+        return_radius : bool
+            Also return the radius.
+
+        Returns
+        -------
+        center : ndarray of shape (m,)
+        radius : float
+            Only with ``return_radius=True``; 0 for a point.
+        """
+        if self.dim < 0:
+            raise GeometryError("the polytope is empty; it has no Chebyshev centre.")
+        if self.dim == 0:
+            out = self.vertices[0].copy(), 0.0
+        else:
+            from scipy.optimize import linprog
+
+            ns, offs, _ = self._facets_sub
+            d = self.dim
+            cost = np.zeros(d + 1)
+            cost[-1] = -1.0
+            res = linprog(cost, A_ub=np.hstack([ns, np.ones((ns.shape[0], 1))]), b_ub=offs,
+                          bounds=[(None, None)] * d + [(0, None)], method="highs")
+            if res.status != 0:  # pragma: no cover - bounded nonempty polytope
+                raise GeometryError(f"Chebyshev-centre LP failed: {res.message}")
+            out = self._o + self._B @ res.x[:d], float(res.x[-1])
+        return out if return_radius else out[0]
+
+    # -- queries --------------------------------------------------------------------------------
+
+    def contains(self, points, tol: float | None = None) -> np.ndarray:
+        """Whether each point lies in the polytope (within ``tol``), vectorised.
+
+        Parameters
+        ----------
+        points : array_like of shape (..., m)
+        tol : float, optional
+            Absolute slack; default the polytope's ``tol``.
+
+        Returns
+        -------
+        ndarray of bool, shape (...)
+        """
+        P = self._check_points(points)
+        tol = self.tol if tol is None else float(tol)
+        A, b = self.halfspaces
+        flat = P.reshape(-1, self.ambient_dim)
+        out = np.empty(flat.shape[0], dtype=bool)
+        for s in range(0, flat.shape[0], 4096):
+            out[s:s + 4096] = (flat[s:s + 4096] @ A.T - b).max(axis=1, initial=-np.inf) <= tol
+        return out.reshape(P.shape[:-1])
+
+    def _check_points(self, points) -> np.ndarray:
+        P = np.asarray(points, dtype=np.float64)
+        if P.shape[-1:] != (self.ambient_dim,):
+            raise GeometryError(f"points must have shape (..., {self.ambient_dim}); got {P.shape}.")
+        if not np.all(np.isfinite(P)):
+            raise GeometryError("points contain NaN or inf.")
+        return P
+
+    def project(self, points, metric=None) -> np.ndarray:
+        """Nearest point of the polytope to each point.
+
+        Parameters
+        ----------
+        points : array_like of shape (..., m)
+        metric : array_like of shape (m, m), optional
+            Symmetric positive-definite W: minimise ``(y − p)ᵀ W (y − p)``; default identity.
+
+        Returns
+        -------
+        ndarray of shape (..., m)
+            Points already inside are returned unchanged.
+
+        Notes
+        -----
+        With W = L Lᵀ (Cholesky) the problem is Euclidean in ``z = Lᵀ y``; inside the affine
+        hull (origin o, basis B) it is Euclidean for the metric ``M = Bᵀ W B``, so the point is
+        first moved to its W-closest point of the hull, then projected onto the polytope by the
+        closest point over the boundary simplices (triangles, edges or the segment).
+        """
+        P = self._check_points(points)
+        if self.dim < 0:
+            raise GeometryError("cannot project onto an empty polytope.")
+        m = self.ambient_dim
+        W = np.eye(m) if metric is None else np.asarray(metric, dtype=np.float64)
+        if W.shape != (m, m) or not np.allclose(W, W.T):
+            raise GeometryError(f"metric must be a symmetric ({m}, {m}) matrix; got shape {W.shape}.")
+        flat = P.reshape(-1, m)
+        if self.dim == 0:
+            return np.broadcast_to(self.vertices[0], P.shape).copy()
+        B, o = self._B, self._o
+        M = B.T @ W @ B
+        try:
+            L = np.linalg.cholesky(M)  # M = L Lᵀ, coordinates s = Lᵀ z
+            np.linalg.cholesky(W)
+        except np.linalg.LinAlgError as error:
+            raise GeometryError("metric must be positive definite.") from error
+        # unconstrained minimiser in the hull: z* = M⁻¹ Bᵀ W (p − o)
+        zstar = np.linalg.solve(M, B.T @ W @ (flat - o).T).T
+        S = zstar @ L  # (N, d) Euclidean coordinates
+        V = self._Z @ L
+        if self.dim == 1:
+            lo, hi = np.sort(V[:, 0])
+            out = np.clip(S, lo, hi)
+        else:
+            out = S.copy()
+            if self.dim == 2:
+                simp = np.stack([np.zeros(len(V) - 2, int), np.arange(1, len(V) - 1),
+                                 np.arange(2, len(V))], axis=1)
+                out = _closest_on_triangles(S, V[simp])
+            elif self.dim == 3:
+                inside = self.contains(flat) if self.dim == m else np.zeros(len(flat), bool)
+                if self.dim < m:
+                    ns, offs, _ = self._facets_sub
+                    zin = np.linalg.solve(L.T, S.T).T
+                    inside = (zin @ ns.T - offs).max(axis=1) <= self.tol
+                out[~inside] = _closest_on_triangles(S[~inside], V[self._simplices])
+            else:
+                raise GeometryError(f"project supports polytopes of dimension ≤ 3 (dim={self.dim}).")
+        z = np.linalg.solve(L.T, out.T).T
+        return (o + z @ B.T).reshape(P.shape)
+
+    def intersect(self, other: Polytope, *, tol: float | None = None) -> Polytope:
+        """Intersection with another polytope of the same ambient dimension (may be empty)."""
+        if not isinstance(other, Polytope) or other.ambient_dim != self.ambient_dim:
+            raise GeometryError("intersect needs a Polytope of the same ambient dimension.")
+        A1, b1 = self.halfspaces
+        A2, b2 = other.halfspaces
+        t = tol if tol is not None else max(self.tol, other.tol)
+        return Polytope(halfspaces=(np.concatenate([A1, A2]), np.concatenate([b1, b2])), tol=t)
+
+    # -- conversions ----------------------------------------------------------------------------
+
+    def triangles(self) -> tuple[np.ndarray, np.ndarray]:
+        """Triangulated boundary (3-D) or polygon (2-D): ``(vertices (V, 3), faces (F, 3))``.
+
+        For a solid the faces are outward CCW. Segments and points have no faces (F = 0).
+        """
+        if self.ambient_dim != 3:
+            raise GeometryError("triangles are defined for polytopes in 3-D space.")
+        V = self.vertices
+        if self.dim == 3:
+            F = self._simplices.copy()
+            P = V[F]
+            nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+            flip = np.einsum("ij,ij->i", nrm, P[:, 0] - self.centroid) < 0
+            F[flip] = F[flip][:, ::-1]
+            return V, F
+        if self.dim == 2:
+            M = len(V)
+            return V, np.stack([np.zeros(M - 2, int), np.arange(1, M - 1), np.arange(2, M)], axis=1)
+        return V, np.zeros((0, 3), dtype=int)
+
+    def to_trimesh(self):
+        """:class:`trimesh.Trimesh` of the boundary (watertight for solids; faceless if dim < 2)."""
+        import trimesh
+
+        V, F = self.triangles()
+        return trimesh.Trimesh(vertices=V, faces=F, process=False)
+
+    def to_pyvista(self):
+        """:class:`pyvista.PolyData`: surface (3-D), polygon (2-D), line (1-D) or vertex (0-D)."""
+        import pyvista as pv
+
+        V, F = self.triangles()
+        if self.dim >= 2:
+            return pv.PolyData(V, np.hstack([np.full((F.shape[0], 1), 3), F]).ravel())
+        if self.dim == 1:
+            return pv.PolyData(V, lines=np.array([2, 0, 1]))
+        return pv.PolyData(V)
+
+    def to_manifold(self):
+        """:class:`manifold3d.Manifold` of a 3-D solid (float64 mesh) for booleans."""
+        if self.dim != 3 or self.ambient_dim != 3:
+            raise GeometryError(
+                f"to_manifold needs a solid in 3-D space (dim={self.dim}); flat polytopes have no "
+                "volume for booleans. Use Polytope.intersect instead.")
+        import manifold3d as m3d
+
+        V, F = self.triangles()
+        mesh = m3d.Mesh64(vert_properties=np.array(V, dtype=np.float64, order="C"),
+                          tri_verts=np.array(F, dtype=np.uint64, order="C"))
+        return m3d.Manifold(mesh)
+
+    @classmethod
+    def from_manifold(cls, manifold, *, tol: float | None = None) -> Polytope:
+        """Convex hull of the vertices of a :class:`manifold3d.Manifold`."""
+        mesh = manifold.to_mesh64() if hasattr(manifold, "to_mesh64") else manifold.to_mesh()
+        V = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
+        return cls(V if V.size else np.zeros((0, 3)), tol=tol)
+
+
+def _complement(B: np.ndarray) -> np.ndarray:
+    """Orthonormal rows spanning the orthogonal complement of the columns of B (m, d)."""
+    m, d = B.shape
+    if d == 0:
+        return np.eye(m)
+    Q, _ = np.linalg.qr(np.hstack([B, np.eye(m)]))
+    return Q[:, d:m].T.copy()
+
+
+def _closest_on_triangles(S: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Closest point to each S (N, d) over the triangles T (F, 3, d), any d ≥ 2.
+
+    Candidates per triangle: the orthogonal projection onto its plane when it falls inside
+    (barycentric test), and the clamped projections onto its three edges.
+    """
+    out = np.empty_like(S)
+    a, b, c = T[:, 0], T[:, 1], T[:, 2]
+    ab, ac = b - a, c - a
+    g11, g12, g22 = (ab * ab).sum(-1), (ab * ac).sum(-1), (ac * ac).sum(-1)
+    det = g11 * g22 - g12 * g12
+    step = max(1, 1_000_000 // max(T.shape[0], 1))
+    for s in range(0, S.shape[0], step):
+        p = S[s:s + step][:, None, :]  # (n, 1, d)
+        ap = p - a
+        r1, r2 = (ap * ab).sum(-1), (ap * ac).sum(-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v = np.where(det > 0, (g22 * r1 - g12 * r2) / det, -1.0)
+            w = np.where(det > 0, (g11 * r2 - g12 * r1) / det, -1.0)
+        q = a + v[..., None] * ab + w[..., None] * ac
+        inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+        cands = [q]
+        dists = [np.where(inside, ((q - p) ** 2).sum(-1), np.inf)]
+        for u0, u1 in ((a, b), (a, c), (b, c)):
+            e = u1 - u0
+            ee = (e * e).sum(-1)
+            t = np.clip(((p - u0) * e).sum(-1) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
+            cq = u0 + t[..., None] * e
+            cands.append(cq)
+            dists.append(((cq - p) ** 2).sum(-1))
+        D = np.stack(dists, axis=1)  # (n, 4, F)
+        best = np.argmin(D.reshape(D.shape[0], -1), axis=1)
+        kind, tri = np.divmod(best, D.shape[2])
+        C = np.stack(cands, axis=0)  # (4, n, F, d)
+        out[s:s + p.shape[0]] = C[kind, np.arange(p.shape[0]), tri]
+    return out
+
+
+def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None) -> np.ndarray:
+    """Vertices of the bounded polytope {y : A y ≤ b} (possibly empty or lower-dimensional)."""
+    if A.ndim != 2 or b.shape != (A.shape[0],):
+        raise GeometryError(f"halfspaces must be A (F, m) and b (F,); got {A.shape} and {b.shape}.")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise GeometryError("halfspaces contain NaN or inf.")
+    m = A.shape[1]
+    norms = np.linalg.norm(A, axis=1)
+    if np.any(norms == 0):
+        if np.any(b[norms == 0] < 0):
+            return np.zeros((0, m))
+        A, b, norms = A[norms > 0], b[norms > 0], norms[norms > 0]
+    A, b = A / norms[:, None], b / norms
+    from scipy.optimize import linprog
+
+    cost = np.zeros(m + 1)
+    cost[-1] = -1.0
+    res = linprog(cost, A_ub=np.hstack([A, np.ones((A.shape[0], 1))]), b_ub=b,
+                  bounds=[(None, None)] * m + [(0, None)], method="highs")
+    if res.status == 2:
+        return np.zeros((0, m))
+    if res.status == 3:
+        raise GeometryError("the half-spaces do not bound a polytope (unbounded region).")
+    if res.status != 0:  # pragma: no cover
+        raise GeometryError(f"Chebyshev LP failed: {res.message}")
+    centre, radius = res.x[:m], res.x[-1]
+    scale = max(float(np.abs(b).max()), 1.0)
+    t = tol if tol is not None else 1e-9 * scale
+    if radius > 10 * t and m >= 2:
+        from scipy.spatial import HalfspaceIntersection
+
+        hs = HalfspaceIntersection(np.hstack([A, -b[:, None]]), centre)
+        V = hs.intersections
+        if not np.all(np.isfinite(V)):
+            raise GeometryError("the half-spaces do not bound a polytope (unbounded region).")
+        return V
+    # thin or lower-dimensional: enumerate the vertices (m-subsets of rows)
+    from itertools import combinations
+
+    if A.shape[0] > 400:
+        raise GeometryError(f"a flat intersection of {A.shape[0]} half-spaces is too large to enumerate.")
+    combos = np.array(list(combinations(range(A.shape[0]), m)), dtype=int)
+    pts = []
+    for s in range(0, len(combos), 200_000):
+        cb = combos[s:s + 200_000]
+        M = A[cb]
+        ok = np.abs(np.linalg.det(M)) > 1e-12
+        y = np.linalg.solve(M[ok], b[cb[ok]][..., None])[..., 0]
+        feas = (y @ A.T - b).max(axis=1) <= t
+        pts.append(y[feas])
+    V = np.concatenate(pts) if pts else np.zeros((0, m))
+    if V.shape[0] == 0 and radius >= 0:
+        # feasible but no vertex found numerically: fall back to the Chebyshev centre
+        return centre[None]
+    return V
