@@ -1,1 +1,67 @@
-"""isp — a RAW processing pipeline, one replaceable operation at a time."""
+"""isp — a RAW processing pipeline, one replaceable operation at a time.
+
+Read a RAW/DNG file (:func:`read_raw`), develop it with a :class:`Pipeline` of small pure stages
+(:func:`default_pipeline`: linearise → white balance → demosaic → camera → XYZ → linear sRGB →
+tone mapping → sRGB encoding), replace or reorder any stage, inspect every intermediate, and write
+16-bit TIFF/PNG atomically (:func:`write_image`). :mod:`isp.simulate` renders spectral scenes
+through a camera's sensitivities into real DNG files.
+
+>>> import isp
+>>> isp.default_pipeline(demosaic="Menon 2007").names[2]
+'demosaic'
+"""
+
+from ._errors import PipelineError, RawFormatError
+from .dng import DNGProfile, camera_neutral_to_xy, matrix_interpolated, read_dng_tags, write_dng
+from .io import write_image
+from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
+from .raw import CFA_PATTERNS, RawImage, read_raw
+from .stages import (
+    DEMOSAIC_METHODS,
+    TONEMAP_METHODS,
+    XYZ_to_linear_sRGB,
+    apply_correction,
+    camera_to_XYZ,
+    cfa_masks,
+    demosaic,
+    encode_sRGB,
+    linearise,
+    matrix_XYZ_from_balanced,
+    mosaic,
+    tonemap,
+    white_balance,
+)
+
+__all__ = [
+    "CFA_PATTERNS",
+    "DEMOSAIC_METHODS",
+    "TONEMAP_METHODS",
+    "DNGProfile",
+    "Development",
+    "Pipeline",
+    "PipelineError",
+    "RawFormatError",
+    "RawImage",
+    "Stage",
+    "XYZ_to_linear_sRGB",
+    "apply_correction",
+    "camera_neutral_to_xy",
+    "camera_to_XYZ",
+    "cfa_masks",
+    "chain",
+    "correction_stage",
+    "default_pipeline",
+    "demosaic",
+    "develop",
+    "encode_sRGB",
+    "linearise",
+    "matrix_XYZ_from_balanced",
+    "matrix_interpolated",
+    "mosaic",
+    "read_dng_tags",
+    "read_raw",
+    "tonemap",
+    "white_balance",
+    "write_dng",
+    "write_image",
+]

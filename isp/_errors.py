@@ -1,0 +1,17 @@
+"""Exceptions of the ``isp`` package (part of the project's one hierarchy under ``ZonotopeError``)."""
+
+from __future__ import annotations
+
+from zonotope import ZonotopeError
+
+__all__ = ["PipelineError", "RawFormatError"]
+
+
+class RawFormatError(ZonotopeError, ValueError):
+    """A file that cannot be read as a camera RAW/DNG image (corrupt, truncated, not RAW, no pixels),
+    or RAW metadata that cannot be used (missing or singular colour matrix, bad CFA pattern)."""
+
+
+class PipelineError(ZonotopeError, ValueError):
+    """A pipeline asked for something it cannot do: unknown stage name, wrong array shape for a stage,
+    an output path that would overwrite the input, ..."""

@@ -1,0 +1,112 @@
+"""Image output: 16-bit TIFF and PNG, written atomically, never over an input file.
+
+Files are written to a temporary file in the destination folder and moved into place with
+``os.replace``, so a crash never leaves a half-written image and readers never see one.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import tempfile
+import zlib
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import PipelineError
+
+__all__ = ["IMAGE_FORMATS", "to_uint16", "write_image"]
+
+#: File suffixes :func:`write_image` understands.
+IMAGE_FORMATS: tuple[str, ...] = (".tif", ".tiff", ".png")
+
+
+def to_uint16(image) -> np.ndarray:
+    """Quantise an image in [0, 1] to 16 bits (values outside are clipped; NaN is an error).
+
+    Parameters
+    ----------
+    image : array_like of shape (H, W) or (H, W, c)
+
+    Returns
+    -------
+    ndarray of the same shape, uint16
+    """
+    a = np.asarray(image, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        raise PipelineError("image: contains NaN or inf; it cannot be written.")
+    return np.round(np.clip(a, 0.0, 1.0) * 65535.0).astype(np.uint16)
+
+
+def _png_bytes(img: np.ndarray) -> bytes:
+    """Encode a uint16 (H, W) or (H, W, 1|3|4) array as a 16-bit PNG (ISO/IEC 15948)."""
+    if img.ndim == 2:
+        img = img[..., None]
+    H, W, c = img.shape
+    colour_type = {1: 0, 2: 4, 3: 2, 4: 6}[c]
+    rows = img.astype(">u2").reshape(H, W * c).view(np.uint8).reshape(H, -1)
+    raw = np.concatenate([np.zeros((H, 1), np.uint8), rows], axis=1).tobytes()  # filter 0 per row
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", W, H, 16, colour_type, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6))
+            + chunk(b"IEND", b""))
+
+
+def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
+                protect: Iterable[str | os.PathLike] = ()) -> Path:
+    """Write an image in [0, 1] as a 16-bit TIFF or PNG, atomically.
+
+    Parameters
+    ----------
+    path
+        Destination; the suffix picks the format (:data:`IMAGE_FORMATS`).
+    image : array_like of shape (H, W) or (H, W, 3)
+        Values in [0, 1] (clipped), e.g. sRGB-encoded output.
+    overwrite
+        Replace an existing file (never one of ``protect``).
+    protect
+        Paths that must never be written (the input RAW files).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    PipelineError
+        Unknown suffix, existing file without ``overwrite``, ``path`` is a protected input, bad shape
+        or NaN values.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in IMAGE_FORMATS:
+        raise PipelineError(f"{path}: unknown image format {suffix!r}; use one of {list(IMAGE_FORMATS)}.")
+    for p in map(Path, protect):
+        if p.resolve() == path.resolve() or (p.exists() and path.exists() and os.path.samefile(p, path)):
+            raise PipelineError(f"{path} is an input file; refusing to overwrite it.")
+    if path.exists() and not overwrite:
+        raise PipelineError(f"{path} exists; pass overwrite=True (CLI: --overwrite) or choose another name.")
+    img = to_uint16(image)
+    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 3, 4)):
+        raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=suffix + ".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            if suffix == ".png":
+                fh.write(_png_bytes(img))
+            else:
+                import tifffile
+
+                tifffile.imwrite(fh, img, photometric="rgb" if img.ndim == 3 else "minisblack",
+                                 metadata=None, software="isp (zonotope)")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path

@@ -1,0 +1,333 @@
+"""A pipeline: an ordered list of named pure stages (optax ``chain``-like) that keeps every intermediate.
+
+A :class:`Stage` is a name and a function ``fn(x, raw) -> x`` where ``x`` is the current array and
+``raw`` the :class:`~isp.raw.RawImage` whose metadata the stage may read. A :class:`Pipeline` is an
+immutable tuple of stages; ``replace``, ``remove``, ``insert``, ``reorder`` and ``until`` return new
+pipelines. Running it returns a :class:`Development` with the output and every intermediate.
+
+>>> from isp import default_pipeline
+>>> p = default_pipeline(demosaic="bilinear")
+>>> p.names
+('linearise', 'white_balance', 'demosaic', 'camera_to_XYZ', 'XYZ_to_linear_sRGB', 'tonemap', 'encode_sRGB')
+>>> p.until("XYZ_to_linear_sRGB").names[-1]
+'XYZ_to_linear_sRGB'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import stages as st
+from ._errors import PipelineError
+from .raw import RawImage
+
+__all__ = ["Development", "Pipeline", "Stage", "chain", "correction_stage", "default_pipeline", "develop"]
+
+StageFn = Callable[[np.ndarray, RawImage], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One named operation ``fn(x, raw) -> x``.
+
+    Attributes
+    ----------
+    name : str
+        Unique within a pipeline; used to replace, remove or stop after it.
+    fn : callable
+        ``(array, RawImage) -> array``; must not modify its input.
+    """
+
+    name: str
+    fn: StageFn = field(repr=False)
+
+    def __call__(self, x: np.ndarray, raw: RawImage) -> np.ndarray:
+        return self.fn(x, raw)
+
+
+@dataclass(frozen=True, eq=False)
+class Development:
+    """The result of running a pipeline.
+
+    Attributes
+    ----------
+    image : ndarray
+        Output of the last stage that ran.
+    intermediates : dict of str → ndarray
+        Output of every stage, in order (``"input"`` first: the raw mosaic).
+    raw : RawImage
+    """
+
+    image: np.ndarray
+    intermediates: dict[str, np.ndarray]
+    raw: RawImage = field(repr=False)
+
+
+class Pipeline:
+    """An ordered, immutable list of uniquely named stages.
+
+    Parameters
+    ----------
+    stages
+        :class:`Stage` objects, or ``(name, fn)`` pairs.
+
+    Raises
+    ------
+    PipelineError
+        Duplicate names, or an item that is not a stage.
+    """
+
+    def __init__(self, stages: Iterable[Stage | tuple[str, StageFn]]) -> None:
+        items = []
+        for s in stages:
+            if isinstance(s, tuple) and len(s) == 2:
+                s = Stage(*s)
+            if not isinstance(s, Stage) or not callable(s.fn):
+                raise PipelineError(f"{s!r} is not a Stage or a (name, fn) pair with a callable fn.")
+            items.append(s)
+        names = [s.name for s in items]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise PipelineError(f"stage names must be unique; {dup} appear more than once.")
+        self._stages: tuple[Stage, ...] = tuple(items)
+
+    @property
+    def stages(self) -> tuple[Stage, ...]:
+        """The stages, in order."""
+        return self._stages
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Stage names, in order."""
+        return tuple(s.name for s in self._stages)
+
+    def __len__(self) -> int:
+        return len(self._stages)
+
+    def __repr__(self) -> str:
+        return f"Pipeline({' → '.join(self.names)})"
+
+    def _index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise PipelineError(f"no stage named {name!r}; stages are {list(self.names)}.") from None
+
+    def __getitem__(self, name: str) -> Stage:
+        return self._stages[self._index(name)]
+
+    # -- editing (each returns a new pipeline) ---------------------------------------------------
+    def replace(self, name: str, stage: Stage | StageFn) -> Pipeline:
+        """Replace stage ``name`` by ``stage`` (a Stage, or a function that keeps the name)."""
+        i = self._index(name)
+        new = stage if isinstance(stage, Stage) else Stage(name, stage)
+        return Pipeline((*self._stages[:i], new, *self._stages[i + 1:]))
+
+    def remove(self, name: str) -> Pipeline:
+        """Drop stage ``name``."""
+        i = self._index(name)
+        return Pipeline(self._stages[:i] + self._stages[i + 1:])
+
+    def insert(self, stage: Stage, *, before: str | None = None, after: str | None = None) -> Pipeline:
+        """Insert ``stage`` before or after a named stage (at the end when neither is given)."""
+        if before is not None and after is not None:
+            raise PipelineError("give before= or after=, not both.")
+        i = (self._index(before) if before is not None else
+             self._index(after) + 1 if after is not None else len(self._stages))
+        return Pipeline((*self._stages[:i], stage, *self._stages[i:]))
+
+    def reorder(self, names: Iterable[str]) -> Pipeline:
+        """The same stages in the order ``names`` (every name exactly once)."""
+        names = list(names)
+        if sorted(names) != sorted(self.names):
+            raise PipelineError(f"reorder needs each of {list(self.names)} exactly once; got {names}.")
+        return Pipeline(self[n] for n in names)
+
+    def until(self, name: str) -> Pipeline:
+        """The stages up to and including ``name`` (stop after it)."""
+        return Pipeline(self._stages[:self._index(name) + 1])
+
+    # -- running -------------------------------------------------------------------------------
+    def __call__(self, raw: RawImage, *, stop_after: str | None = None, keep: bool = True,
+                 on_stage: Callable[[int, str], None] | None = None) -> Development:
+        """Develop ``raw``.
+
+        Parameters
+        ----------
+        raw
+            The RAW image (its ``mosaic`` is the first input).
+        stop_after
+            Name of the last stage to run.
+        keep
+            Keep every intermediate (else only the input and the output).
+        on_stage
+            Called as ``on_stage(i, name)`` before each stage (progress displays).
+
+        Returns
+        -------
+        Development
+
+        Raises
+        ------
+        PipelineError
+            Unknown ``stop_after``; a stage that returned something other than a finite array.
+        """
+        run = self.until(stop_after) if stop_after is not None else self
+        x = np.asarray(raw.mosaic)
+        inter: dict[str, np.ndarray] = {"input": x}
+        for i, s in enumerate(run.stages):
+            if on_stage is not None:
+                on_stage(i, s.name)
+            y = s(x, raw)
+            if not isinstance(y, np.ndarray):
+                raise PipelineError(f"stage {s.name!r} returned {type(y).__name__}, not an ndarray.")
+            if y.dtype.kind == "f" and not np.all(np.isfinite(y)):
+                raise PipelineError(f"stage {s.name!r} produced NaN or inf; check its input and options.")
+            if keep:
+                inter[s.name] = y
+            x = y
+        if not keep and run.stages:
+            inter[run.stages[-1].name] = x
+        return Development(image=x, intermediates=inter, raw=raw)
+
+
+def chain(*stages: Stage | tuple[str, StageFn]) -> Pipeline:
+    """Build a :class:`Pipeline` from stages given in order."""
+    return Pipeline(stages)
+
+
+# ---------------------------------------------------------------------------------------------
+# Standard stages bound to RawImage metadata
+# ---------------------------------------------------------------------------------------------
+
+
+def _linearise(x, raw: RawImage):
+    table = None if raw.table_applied else raw.linearisation_table
+    return st.linearise(x, black_level=raw.black_level, white_level=raw.white_level, table=table)
+
+
+def _white_balance(x, raw: RawImage):
+    cfa = raw.cfa if np.ndim(x) == 2 else None
+    return st.white_balance(x, neutral=raw.as_shot_neutral, cfa=cfa)
+
+
+def _demosaic_stage(method: str) -> Stage:
+    st._resolve(method, st.DEMOSAIC_METHODS, "demosaic")  # fail early on a bad name
+    return Stage("demosaic", lambda x, raw: st.demosaic(x, cfa=raw.cfa, method=method))
+
+
+def _camera_to_XYZ(x, raw: RawImage):
+    return st.camera_to_XYZ(x, matrix=st.matrix_XYZ_from_balanced(raw.profile, raw.as_shot_neutral))
+
+
+def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
+                     balanced: bool = True, name: str = "camera_to_XYZ") -> Stage:
+    """A stage that replaces the DNG ColorMatrix by any ``(N, k) → (N, 3)`` estimator.
+
+    Parameters
+    ----------
+    XYZ_from_responses
+        Camera responses → XYZ (e.g. a fitted ``zonotope.correct`` corrector).
+    balanced
+        True: the stage expects white-balanced input (white = ones). False: un-balanced camera
+        RGB, the white being the image's AsShotNeutral (remove the ``white_balance`` stage).
+    name
+        Stage name (default replaces ``"camera_to_XYZ"``).
+
+    Returns
+    -------
+    Stage
+    """
+    def fn(x, raw: RawImage):
+        white = None if balanced else raw.as_shot_neutral
+        return st.apply_correction(x, XYZ_from_responses=XYZ_from_responses, white_response=white)
+
+    return Stage(name, fn)
+
+
+def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callable = "dng",
+                     tonemap: str | None = "Reinhard 2002", tonemap_options: dict | None = None,
+                     encode: bool = True) -> Pipeline:
+    """The standard development of a RAW file.
+
+    ``linearise → white_balance → demosaic → camera_to_XYZ → XYZ_to_linear_sRGB → tonemap →
+    encode_sRGB``.
+
+    Parameters
+    ----------
+    demosaic
+        Key of :data:`isp.DEMOSAIC_METHODS`.
+    correction
+        ``"dng"`` (ColorMatrix/ForwardMatrix of the file, CCT-interpolated) or a callable
+        ``(N, 3) → (N, 3)`` taking white-balanced camera RGB to XYZ (see :func:`correction_stage`).
+    tonemap
+        Key of :data:`isp.TONEMAP_METHODS`, or None for no tone mapping.
+    tonemap_options
+        Keyword options of the operator.
+    encode
+        End with the sRGB transfer function.
+
+    Returns
+    -------
+    Pipeline
+    """
+    if isinstance(correction, str):
+        if correction.lower() != "dng":
+            raise ValueError(f"correction={correction!r}: use 'dng' or a callable responses → XYZ.")
+        colour_stage = Stage("camera_to_XYZ", _camera_to_XYZ)
+    elif callable(correction):
+        colour_stage = correction_stage(correction)
+    else:
+        raise ValueError(f"correction must be 'dng' or a callable; got {type(correction).__name__}.")
+    stages = [
+        Stage("linearise", _linearise),
+        Stage("white_balance", _white_balance),
+        _demosaic_stage(demosaic),
+        colour_stage,
+        Stage("XYZ_to_linear_sRGB", lambda x, raw: st.XYZ_to_linear_sRGB(x)),
+    ]
+    if tonemap is not None:
+        st._resolve(tonemap, st.TONEMAP_METHODS, "tonemap")
+        opts = dict(tonemap_options or {})
+        stages.append(Stage("tonemap", lambda x, raw: st.tonemap(x, method=tonemap, **opts)))
+    if encode:
+        stages.append(Stage("encode_sRGB", lambda x, raw: st.encode_sRGB(x)))
+    return Pipeline(stages)
+
+
+def develop(source, *, pipeline: Pipeline | None = None, stop_after: str | None = None,
+            keep: bool = True, on_stage: Callable[[int, str], None] | None = None,
+            **options) -> Development:
+    """Read (if needed) and develop a RAW image.
+
+    Parameters
+    ----------
+    source
+        A :class:`~isp.raw.RawImage` or a path to a RAW/DNG file.
+    pipeline
+        The pipeline to run; default :func:`default_pipeline` built with ``**options``.
+    stop_after, keep, on_stage
+        See :meth:`Pipeline.__call__`.
+    **options
+        Keywords of :func:`default_pipeline` (only when ``pipeline`` is None).
+
+    Returns
+    -------
+    Development
+
+    Examples
+    --------
+    >>> dev = develop("photo.dng", demosaic="Menon 2007")  # doctest: +SKIP
+    >>> dev.intermediates["demosaic"].shape  # doctest: +SKIP
+    """
+    from .raw import read_raw
+
+    if pipeline is not None and options:
+        raise PipelineError(f"options {sorted(options)} apply to the default pipeline only; build your "
+                            "pipeline with them instead.")
+    raw = source if isinstance(source, RawImage) else read_raw(source)
+    p = pipeline if pipeline is not None else default_pipeline(**options)
+    return p(raw, stop_after=stop_after, keep=keep, on_stage=on_stage)

@@ -1,0 +1,219 @@
+"""RAW input: a camera mosaic and the metadata needed to develop it.
+
+Pixels are decoded by rawpy (LibRaw), which reads every common RAW format and DNG. The colour tags
+of DNG files are read with tifffile (:mod:`isp.dng`) because rawpy's ``rgb_xyz_matrix`` is all zeros
+for DNG (LibRaw #425, #751). For other formats the XYZ → camera matrix is LibRaw's built-in one
+(Adobe's ColorMatrix2, measured under D65) and the as-shot white balance is the camera's.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import RawFormatError
+from .dng import DNGProfile, read_dng_tags
+
+__all__ = ["CFA_PATTERNS", "RawImage", "check_cfa", "read_raw"]
+
+#: The 2 × 2 Bayer layouts the pipeline handles (top-left site first, row-major).
+CFA_PATTERNS: tuple[str, ...] = ("RGGB", "BGGR", "GRBG", "GBRG")
+
+
+def check_cfa(cfa: str) -> str:
+    """Return ``cfa`` upper-cased, or raise :class:`RawFormatError` naming the valid patterns."""
+    p = str(cfa).upper()
+    if p not in CFA_PATTERNS:
+        raise RawFormatError(f"cfa={cfa!r} is not a supported Bayer pattern; "
+                             f"use one of {list(CFA_PATTERNS)}.")
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class RawImage:
+    """A RAW mosaic with its metadata.
+
+    Attributes
+    ----------
+    mosaic : ndarray of shape (H, W), uint16
+        Raw values of the active (visible) area, black level included.
+    cfa : str
+        Bayer pattern of ``mosaic``, e.g. ``"RGGB"`` (see :data:`CFA_PATTERNS`).
+    black_level : ndarray of shape (2, 2)
+        Black level per CFA site (same layout as ``cfa``).
+    white_level : float
+        Saturation value of ``mosaic``.
+    linearisation_table : ndarray of shape (n,) or None
+        DNG LinearizationTable (raw value → linear value). LibRaw applies it while decoding, so
+        :attr:`table_applied` is True for files read by :func:`read_raw`.
+    table_applied : bool
+        Whether ``mosaic`` already went through ``linearisation_table``.
+    as_shot_neutral : ndarray of shape (3,)
+        Camera response to the scene white (DNG AsShotNeutral; for non-DNG files the inverse of the
+        camera's white-balance multipliers), normalised to max 1.
+    profile : DNGProfile
+        ColorMatrix1/2, CalibrationIlluminant1/2, CameraCalibration1/2, ForwardMatrix1/2,
+        AnalogBalance.
+    make, model : str
+    path : Path or None
+    baseline_exposure : float
+        DNG BaselineExposure (EV), 0 when absent.
+    tags : dict
+        Every tag read (DNG files), for inspection.
+    """
+
+    mosaic: np.ndarray
+    cfa: str
+    black_level: np.ndarray
+    white_level: float
+    profile: DNGProfile
+    as_shot_neutral: np.ndarray
+    linearisation_table: np.ndarray | None = None
+    table_applied: bool = True
+    make: str = ""
+    model: str = ""
+    path: Path | None = None
+    baseline_exposure: float = 0.0
+    tags: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        m = np.asarray(self.mosaic)
+        if m.ndim != 2 or m.shape[0] < 2 or m.shape[1] < 2:
+            raise RawFormatError(f"mosaic: expected an (H, W) array with H, W ≥ 2; got shape {m.shape}.")
+        object.__setattr__(self, "cfa", check_cfa(self.cfa))
+        black = np.broadcast_to(np.asarray(self.black_level, dtype=np.float64), (2, 2)).copy()
+        if not float(self.white_level) > black.max():
+            raise RawFormatError(f"white_level={self.white_level} must exceed the black level {black.max()}.")
+        object.__setattr__(self, "black_level", black)
+        n = np.asarray(self.as_shot_neutral, dtype=np.float64)
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.any(n <= 0):
+            raise RawFormatError(f"as_shot_neutral: expected 3 positive values, got {n}.")
+        object.__setattr__(self, "as_shot_neutral", n / n.max())
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(H, W) of the mosaic."""
+        return self.mosaic.shape  # type: ignore[return-value]
+
+    @property
+    def is_dng(self) -> bool:
+        """Whether the metadata came from DNG tags."""
+        return bool(self.tags)
+
+    def crop(self, top: int, left: int, height: int, width: int) -> RawImage:
+        """A copy restricted to ``mosaic[top:top+height, left:left+width]`` (CFA phase kept).
+
+        ``top`` and ``left`` must be even so the Bayer pattern stays the same.
+        """
+        if top % 2 or left % 2 or top < 0 or left < 0:
+            raise RawFormatError(f"crop origin ({top}, {left}) must be even and ≥ 0 to keep the CFA phase.")
+        sub = self.mosaic[top:top + height, left:left + width]
+        if sub.shape[0] < 2 or sub.shape[1] < 2:
+            raise RawFormatError(f"crop ({top}, {left}, {height}, {width}) leaves {sub.shape}; "
+                                 f"the mosaic is {self.shape}.")
+        from dataclasses import replace
+
+        return replace(self, mosaic=np.ascontiguousarray(sub))
+
+
+_COLOUR_LETTER = {0: "R", 1: "G", 2: "B", 3: "G"}
+
+
+def _cfa_from_rawpy(raw) -> str:
+    desc = raw.color_desc.decode()
+    if desc not in ("RGBG", "RGB"):
+        raise RawFormatError(f"colour filter array {desc!r} is not a Bayer RGB array; only RGGB-type "
+                             "Bayer sensors are supported (no X-Trans, CYGM or Foveon).")
+    colors = raw.raw_colors_visible[:2, :2]
+    return "".join(_COLOUR_LETTER[int(c)] for c in colors.ravel())
+
+
+def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImage:
+    """Read a RAW or DNG file.
+
+    Parameters
+    ----------
+    path
+        Any format LibRaw reads (DNG, CR2, CRW, NEF, ARW, ...).
+    metadata_only
+        Accept files whose pixel data are absent (decode to zeros), e.g. metadata test files.
+
+    Returns
+    -------
+    RawImage
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    RawFormatError
+        Not a RAW file, truncated or corrupt data, a non-Bayer sensor, an image with no pixel data
+        (unless ``metadata_only``), or colour metadata that cannot be used.
+
+    Examples
+    --------
+    >>> raw = read_raw("photo.dng")  # doctest: +SKIP
+    >>> raw.cfa, raw.black_level, raw.profile.color_matrix_1  # doctest: +SKIP
+    """
+    import rawpy
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file.")
+    try:
+        with rawpy.imread(str(path)) as raw:
+            mosaic = np.array(raw.raw_image_visible, dtype=np.uint16, copy=True)
+            cfa = _cfa_from_rawpy(raw)
+            idx = raw.raw_colors_visible[:2, :2]
+            black = np.asarray(raw.black_level_per_channel, dtype=np.float64)[idx]
+            white = float(raw.white_level)
+            cam_wb = np.asarray(raw.camera_whitebalance[:3], dtype=np.float64)
+            day_wb = np.asarray(raw.daylight_whitebalance[:3], dtype=np.float64)
+            libraw_cm = np.asarray(raw.rgb_xyz_matrix[:3], dtype=np.float64)
+    except rawpy.LibRawError as exc:
+        msg = exc.args[0].decode() if exc.args and isinstance(exc.args[0], bytes) else str(exc)
+        raise RawFormatError(f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
+                             "may be truncated, corrupt or of a format LibRaw does not know.") from exc
+    if not metadata_only and mosaic.max() == 0:
+        raise RawFormatError(f"{path}: the image has no pixel data (all zeros). Use "
+                             "read_raw(..., metadata_only=True) to read its metadata only.")
+    tags: dict = {}
+    with open(path, "rb") as fh:
+        magic = fh.read(4)
+    if magic in (b"II*\x00", b"MM\x00*"):
+        try:
+            tags = read_dng_tags(path)
+        except RawFormatError:
+            tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
+    if tags:
+        profile = DNGProfile.from_tags(tags)
+        if "AsShotNeutral" in tags:
+            neutral = np.asarray(tags["AsShotNeutral"], dtype=np.float64)
+        elif "AsShotWhiteXY" in tags:
+            import colour
+
+            xy = np.asarray(tags["AsShotWhiteXY"], dtype=np.float64)
+            neutral = profile.XYZ_to_camera(xy) @ colour.xy_to_XYZ(xy)
+        else:
+            neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
+        table = tags.get("LinearizationTable")
+        table = None if table is None else np.asarray(table, dtype=np.float64)
+        make = str(tags.get("Make", "") or "")
+        model = str(tags.get("Model", tags.get("UniqueCameraModel", "")) or "")
+        baseline = float(np.ravel(tags.get("BaselineExposure", [0.0]))[0])
+    else:
+        if not np.any(libraw_cm):
+            raise RawFormatError(f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
+                                 "or use a correction callable.")
+        profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
+        wb = cam_wb if np.all(cam_wb > 0) else day_wb
+        if not np.all(wb > 0):
+            wb = np.ones(3)
+        neutral = 1.0 / wb
+        table, make, model, baseline = None, "", "", 0.0
+    return RawImage(mosaic=mosaic, cfa=cfa, black_level=black, white_level=white, profile=profile,
+                    as_shot_neutral=neutral, linearisation_table=table, table_applied=True,
+                    make=make, model=model, path=path, baseline_exposure=baseline, tags=tags)

@@ -1,0 +1,536 @@
+"""The operations of a RAW pipeline, one pure function each (arrays in, arrays out).
+
+Order of a standard development (see :func:`isp.default_pipeline`)::
+
+    linearise → white_balance → demosaic → camera_to_XYZ (or apply_correction)
+              → XYZ_to_linear_sRGB → tonemap → encode_sRGB
+
+Conventions: mosaics are ``(H, W)`` float arrays with a 2 × 2 Bayer pattern named by ``cfa``
+(``"RGGB"`` ...); images are ``(..., 3)`` with channels last; linear values are relative to the
+sensor's saturation (1.0) or to the white (Y = 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import colour
+import numpy as np
+
+from ._errors import PipelineError
+from .dng import D50_xy, DNGProfile
+from .raw import check_cfa
+
+__all__ = [
+    "DEMOSAIC_METHODS",
+    "TONEMAP_METHODS",
+    "XYZ_to_linear_sRGB",
+    "apply_correction",
+    "camera_to_XYZ",
+    "cfa_masks",
+    "demosaic",
+    "demosaic_Malvar2004",
+    "demosaic_Menon2007",
+    "demosaic_bilinear",
+    "encode_sRGB",
+    "linearise",
+    "matrix_XYZ_from_balanced",
+    "mosaic",
+    "tonemap",
+    "tonemap_Reinhard2002",
+    "tonemap_clip",
+    "white_balance",
+]
+
+_CHANNEL = {"R": 0, "G": 1, "B": 2}
+
+
+def _mosaic_array(x, what: str = "mosaic") -> np.ndarray:
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] < 2 or a.shape[1] < 2:
+        raise PipelineError(f"{what}: expected a Bayer mosaic of shape (H, W) with H, W ≥ 2; got {a.shape}.")
+    return a
+
+
+def _image_array(x, what: str = "image") -> np.ndarray:
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim < 1 or a.shape[-1] != 3:
+        raise PipelineError(f"{what}: expected channels last, shape (..., 3); got {a.shape}. "
+                            "Demosaic a mosaic before this stage.")
+    return a
+
+
+def _finite(a: np.ndarray, what: str) -> None:
+    if not np.all(np.isfinite(a)):
+        raise PipelineError(f"{what}: contains NaN or inf ({int(np.sum(~np.isfinite(a)))} values).")
+
+
+def cfa_masks(shape: tuple[int, int], cfa: str) -> np.ndarray:
+    """Boolean masks of the R, G, B sites of a Bayer pattern.
+
+    Parameters
+    ----------
+    shape
+        (H, W) of the mosaic.
+    cfa
+        2 × 2 pattern, e.g. ``"RGGB"``.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3), bool
+    """
+    cfa = check_cfa(cfa)
+    H, W = shape
+    out = np.zeros((H, W, 3), dtype=bool)
+    for k, letter in enumerate(cfa):
+        i, j = divmod(k, 2)
+        out[i::2, j::2, _CHANNEL[letter]] = True
+    return out
+
+
+def _site_values(values2x2: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    H, W = shape
+    return np.tile(values2x2, ((H + 1) // 2, (W + 1) // 2))[:H, :W]
+
+
+def mosaic(rgb, *, cfa: str = "RGGB") -> np.ndarray:
+    """Sample a full RGB image through a Bayer colour filter array.
+
+    Parameters
+    ----------
+    rgb : array_like of shape (H, W, 3)
+    cfa
+        2 × 2 pattern.
+
+    Returns
+    -------
+    ndarray of shape (H, W)
+    """
+    a = _image_array(rgb, "rgb")
+    if a.ndim != 3:
+        raise PipelineError(f"rgb: expected shape (H, W, 3); got {a.shape}.")
+    return np.sum(a * cfa_masks(a.shape[:2], cfa), axis=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# Linearisation and white balance
+# ---------------------------------------------------------------------------------------------
+
+
+def linearise(mosaic, *, black_level, white_level: float, table=None, clip: bool = True) -> np.ndarray:
+    """Raw values → linear values with 0 at black and 1 at saturation.
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+        Raw values.
+    black_level : float or array_like of shape (2, 2)
+        Black level per CFA site.
+    white_level
+        Saturation value (after ``table`` when given).
+    table : array_like of shape (n,), optional
+        DNG LinearizationTable, applied first (raw value ``v`` → ``table[min(v, n-1)]``).
+    clip
+        Clip the result to [0, 1] (negative noise and over-range values).
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+    """
+    m = _mosaic_array(mosaic)
+    _finite(m, "mosaic")
+    if table is not None:
+        t = np.asarray(table, dtype=np.float64).ravel()
+        m = t[np.clip(m, 0, t.size - 1).astype(np.int64)]
+    black = _site_values(np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2)), m.shape)
+    span = float(white_level) - black
+    if np.any(span <= 0):
+        raise PipelineError(f"white_level={white_level} must exceed the black level ({black.max()}).")
+    out = (m - black) / span
+    return np.clip(out, 0.0, 1.0) if clip else out
+
+
+def white_balance(x, *, neutral, cfa: str | None = None, clip: bool = True) -> np.ndarray:
+    """Divide each channel by the camera neutral, so that the scene white becomes (1, 1, 1).
+
+    The neutral is first normalised to max 1, so every gain is ≥ 1 (as LibRaw does); with ``clip``
+    saturated pixels stay white instead of turning magenta.
+
+    Parameters
+    ----------
+    x : array_like of shape (H, W) with ``cfa``, or (..., 3)
+        Linear mosaic or image.
+    neutral : array_like of shape (3,)
+        Camera response to the scene white (DNG AsShotNeutral), any positive scale.
+    cfa
+        Bayer pattern when ``x`` is a mosaic.
+    clip
+        Clip the result at 1.
+
+    Returns
+    -------
+    ndarray of the shape of ``x``
+    """
+    n = np.asarray(neutral, dtype=np.float64).reshape(-1)
+    if n.shape != (3,) or not np.all(np.isfinite(n)) or np.any(n <= 0):
+        raise PipelineError(f"neutral: expected 3 positive finite values, got {n}.")
+    gains = n.max() / n
+    if cfa is not None:
+        m = _mosaic_array(x)
+        g2 = np.array([gains[_CHANNEL[c]] for c in check_cfa(cfa)]).reshape(2, 2)
+        out = m * _site_values(g2, m.shape)
+    else:
+        out = _image_array(x) * gains
+    return np.minimum(out, 1.0) if clip else out
+
+
+# ---------------------------------------------------------------------------------------------
+# Demosaicing
+# ---------------------------------------------------------------------------------------------
+
+#: Border padding (pixels, even so the CFA phase is kept) before calling colour-demosaicing, whose
+#: bilinear and Malvar kernels use scipy's ``reflect`` border mode: it repeats the edge row, which
+#: puts samples of the wrong colour under the kernel and spoils a 1–2 pixel frame. Mirroring
+#: (``numpy.pad(mode="reflect")``) keeps every site's colour; the pad is cropped off afterwards.
+_PAD = {"bilinear": 2, "Malvar 2004": 4, "Menon 2007": 8}
+
+
+def _padded(fn, m: np.ndarray, cfa: str, pad: int) -> np.ndarray:
+    # numpy's "reflect" mirrors about the edge sample (x → -x, x → 2(H-1) - x): parity, hence the
+    # CFA colour of every padded site, is preserved, also for pads larger than the image.
+    H, W = m.shape
+    out = fn(np.pad(m, pad, mode="reflect"), cfa)
+    return np.asarray(out[pad:pad + H, pad:pad + W], dtype=np.float64)
+
+
+def demosaic_bilinear(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
+    """Bilinear demosaicing (the method of the thesis).
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+    cfa
+        2 × 2 pattern.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+
+    Notes
+    -----
+    colour-demosaicing's implementation, on a mirror-padded mosaic (see ``_PAD``).
+    """
+    from colour_demosaicing import demosaicing_CFA_Bayer_bilinear
+
+    return _padded(demosaicing_CFA_Bayer_bilinear, _mosaic_array(mosaic), check_cfa(cfa), _PAD["bilinear"])
+
+
+def demosaic_Malvar2004(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
+    """Malvar, He & Cutler (2004) gradient-corrected linear demosaicing.
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+    cfa
+        2 × 2 pattern.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+
+    References
+    ----------
+    Malvar, H. S., He, L., & Cutler, R. (2004). High-quality linear interpolation for demosaicing of
+    Bayer-patterned color images. ICASSP 2004, vol. 3, 485–488 (the 5 × 5 filters of Fig. 2).
+    """
+    from colour_demosaicing import demosaicing_CFA_Bayer_Malvar2004
+
+    return _padded(demosaicing_CFA_Bayer_Malvar2004, _mosaic_array(mosaic), check_cfa(cfa),
+                   _PAD["Malvar 2004"])
+
+
+def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
+    """Menon, Andriani & Calvagno (2007) directional filtering and a posteriori decision (DDFAPD).
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+    cfa
+        2 × 2 pattern.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+
+    References
+    ----------
+    Menon, D., Andriani, S., & Calvagno, G. (2007). Demosaicing With Directional Filtering and a
+    posteriori Decision. IEEE TIP, 16(1), 132–141 (with the refining step of section IV).
+    """
+    from colour_demosaicing import demosaicing_CFA_Bayer_Menon2007
+
+    return _padded(demosaicing_CFA_Bayer_Menon2007, _mosaic_array(mosaic), check_cfa(cfa),
+                   _PAD["Menon 2007"])
+
+
+#: Demosaicing algorithms by name (``demosaic(..., method=name)``).
+DEMOSAIC_METHODS: dict[str, Callable[..., np.ndarray]] = {
+    "bilinear": demosaic_bilinear,
+    "Malvar 2004": demosaic_Malvar2004,
+    "Menon 2007": demosaic_Menon2007,
+}
+
+
+def _resolve(method: str, table: dict, what: str) -> str:
+    key = "".join(ch for ch in str(method).lower() if ch.isalnum())
+    for name in table:
+        if "".join(ch for ch in name.lower() if ch.isalnum()) == key:
+            return name
+    raise ValueError(f"{what}={method!r} is not known; choose one of {list(table)}.")
+
+
+def demosaic(mosaic, *, cfa: str = "RGGB", method: str = "Malvar 2004") -> np.ndarray:
+    """Reconstruct a full RGB image from a Bayer mosaic.
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+    cfa
+        2 × 2 pattern.
+    method
+        Key of :data:`DEMOSAIC_METHODS` (case, spaces and punctuation ignored: ``"menon2007"``).
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+
+    Raises
+    ------
+    ValueError
+        Unknown method (the message lists the valid ones).
+    """
+    m = _mosaic_array(mosaic)
+    _finite(m, "mosaic")
+    return DEMOSAIC_METHODS[_resolve(method, DEMOSAIC_METHODS, "method")](m, cfa=cfa)
+
+
+
+# ---------------------------------------------------------------------------------------------
+# Colour
+# ---------------------------------------------------------------------------------------------
+
+
+def matrix_XYZ_from_balanced(profile: DNGProfile, neutral) -> np.ndarray:
+    """DNG camera → XYZ D50 matrix for *white-balanced* camera RGB (see :func:`white_balance`).
+
+    Parameters
+    ----------
+    profile
+        The camera's DNG profile (ColorMatrix1/2, ...).
+    neutral : array_like of shape (3,)
+        AsShotNeutral (the scene white's camera response).
+
+    Returns
+    -------
+    ndarray of shape (3, 3)
+        ``XYZ_D50 = M @ rgb_balanced``; ``M @ (1, 1, 1)`` is the D50 white with Y = 1.
+    """
+    n = np.asarray(neutral, dtype=np.float64)
+    n = n / n.max()
+    return profile.camera_to_XYZ_D50(n) @ np.diag(n)
+
+
+def camera_to_XYZ(rgb, *, matrix) -> np.ndarray:
+    """Apply a 3 × 3 camera → XYZ matrix to every pixel.
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+    matrix : array_like of shape (3, 3)
+        ``XYZ = matrix @ rgb`` (e.g. :func:`matrix_XYZ_from_balanced`).
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    M = np.asarray(matrix, dtype=np.float64)
+    if M.shape != (3, 3) or not np.all(np.isfinite(M)):
+        raise PipelineError(f"matrix: expected a finite (3, 3) matrix, got shape {M.shape}.")
+    return _image_array(rgb, "rgb") @ M.T
+
+
+def apply_correction(responses, *, XYZ_from_responses: Callable[[np.ndarray], np.ndarray],
+                     white_response=None, cat: str = "Bradford") -> np.ndarray:
+    """Camera responses → XYZ D50 with any colour-correction callable (replaces the ColorMatrix).
+
+    The callable's white is taken as ``XYZ_from_responses(white_response)``; the result is adapted
+    from that white to D50 (``cat``) and scaled so the white has Y = 1, i.e. it is on the same
+    footing as :func:`camera_to_XYZ` with :func:`matrix_XYZ_from_balanced`.
+
+    Parameters
+    ----------
+    responses : array_like of shape (..., k)
+        Linear camera responses (white-balanced so the scene white is (1, …, 1) unless
+        ``white_response`` says otherwise).
+    XYZ_from_responses
+        ``(N, k) → (N, 3)`` estimator, e.g. a fitted ``zonotope.correct`` corrector or
+        ``lambda c: c @ M.T``.
+    white_response : array_like of shape (k,), optional
+        Response of the scene white; default all ones.
+    cat
+        Chromatic adaptation transform (colour-science name).
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+
+    Raises
+    ------
+    PipelineError
+        The callable returns the wrong shape, NaN, or a white with Y ≤ 0.
+    """
+    c = np.asarray(responses, dtype=np.float64)
+    k = c.shape[-1]
+    w = np.ones(k) if white_response is None else np.asarray(white_response, dtype=np.float64)
+    flat = c.reshape(-1, k)
+    XYZ = np.asarray(XYZ_from_responses(flat), dtype=np.float64)
+    white = np.asarray(XYZ_from_responses(w[None, :]), dtype=np.float64).reshape(-1)
+    if XYZ.shape != (flat.shape[0], 3) or white.shape != (3,):
+        raise PipelineError(f"XYZ_from_responses must map (N, {k}) → (N, 3); got {XYZ.shape} "
+                            f"(white {white.shape}).")
+    if not np.all(np.isfinite(XYZ)) or not np.all(np.isfinite(white)):
+        raise PipelineError("XYZ_from_responses returned NaN or inf; check the responses are inside "
+                            "its domain (e.g. finite, non-negative).")
+    if white[1] <= 0:
+        raise PipelineError(f"XYZ_from_responses maps the white {w} to XYZ {white} with Y ≤ 0.")
+    D50 = colour.xy_to_XYZ(D50_xy)
+    M = colour.adaptation.matrix_chromatic_adaptation_VonKries(white / white[1], D50, transform=cat)
+    return ((XYZ / white[1]) @ M.T).reshape(*c.shape[:-1], 3)
+
+
+def XYZ_to_linear_sRGB(XYZ, *, white_xy=D50_xy, cat: str = "Bradford") -> np.ndarray:
+    """XYZ (white ``white_xy``, Y = 1) → linear sRGB (D65), adapting the white when it differs.
+
+    Parameters
+    ----------
+    XYZ : array_like of shape (..., 3)
+    white_xy : array_like of shape (2,)
+        Chromaticity of the white of ``XYZ`` (default D50, the DNG connection space).
+    cat
+        Chromatic adaptation transform used when ``white_xy`` is not D65.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    X = _image_array(XYZ, "XYZ")
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    same = np.allclose(np.asarray(white_xy, dtype=np.float64), srgb.whitepoint, atol=1e-6)
+    return colour.XYZ_to_RGB(X, srgb, illuminant=np.asarray(white_xy, dtype=np.float64),
+                             chromatic_adaptation_transform=None if same else cat)
+
+
+def encode_sRGB(rgb, *, clip: bool = True) -> np.ndarray:
+    """Linear sRGB → non-linear sRGB with the IEC 61966-2-1 inverse EOTF (not a plain 2.2 gamma).
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+    clip
+        Clip to [0, 1] first (out-of-gamut and over-range values).
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    a = _image_array(rgb, "rgb")
+    if clip:
+        a = np.clip(a, 0.0, 1.0)
+    return colour.models.eotf_inverse_sRGB(a)
+
+
+# ---------------------------------------------------------------------------------------------
+# Tone mapping (global operators on linear RGB)
+# ---------------------------------------------------------------------------------------------
+
+_Y_sRGB = np.array(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
+
+
+def tonemap_Reinhard2002(rgb, *, key: float | None = 0.18, white: float | None = None,
+                         eps: float = 1e-6) -> np.ndarray:
+    """Reinhard et al. (2002) global photographic operator on luminance; chromaticity kept.
+
+    ``L = key / L̄ · Y`` with ``L̄`` the log-average luminance (eq. 1–2), then
+    ``L_d = L (1 + L / L_white²) / (1 + L)`` (eq. 4); RGB is scaled by ``L_d / Y``.
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+        Linear sRGB.
+    key
+        Middle-grey target of the log-average luminance; None keeps the exposure (``L = Y``).
+    white
+        Smallest luminance mapped to 1 (after scaling); default the largest ``L``.
+    eps
+        Offset in the log average (black pixels).
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+
+    References
+    ----------
+    Reinhard, E., Stark, M., Shirley, P., & Ferwerda, J. (2002). Photographic tone reproduction for
+    digital images. ACM TOG 21(3), 267–276, equations 1, 2 and 4.
+    """
+    a = _image_array(rgb, "rgb")
+    Y = np.maximum(a @ _Y_sRGB, 0.0)
+    scale = 1.0 if key is None else key / float(np.exp(np.mean(np.log(eps + Y))))
+    L = scale * Y
+    Lw = float(L.max()) if white is None else float(white)
+    if Lw <= 0:
+        return np.zeros_like(a)
+    Ld = L * (1.0 + L / Lw**2) / (1.0 + L)
+    ratio = np.divide(Ld, Y, out=np.zeros_like(Y), where=Y > 0)
+    return a * ratio[..., None]
+
+
+def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
+    """Exposure (EV) then clip to [0, 1]: no tone curve.
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+    exposure
+        Gain in stops.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    return np.clip(_image_array(rgb, "rgb") * 2.0**exposure, 0.0, 1.0)
+
+
+#: Global tone-mapping operators by name (``tonemap(..., method=name)``).
+TONEMAP_METHODS: dict[str, Callable[..., np.ndarray]] = {
+    "Reinhard 2002": tonemap_Reinhard2002,
+    "clip": tonemap_clip,
+}
+
+
+def tonemap(rgb, *, method: str = "Reinhard 2002", **options) -> np.ndarray:
+    """Apply a global tone-mapping operator of :data:`TONEMAP_METHODS`.
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+    method
+        Operator name (case and punctuation ignored).
+    **options
+        Keyword options of the operator (an unknown one raises ``TypeError``).
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    return TONEMAP_METHODS[_resolve(method, TONEMAP_METHODS, "method")](rgb, **options)
