@@ -196,8 +196,8 @@ def matrix_interpolated(CCT: float, CCT_1: float, CCT_2: float, M_1, M_2) -> np.
 
     >>> M_1 = [[0.5309, -0.0229, -0.0336], [-0.6241, 1.3265, 0.3337], [-0.0817, 0.1215, 0.6664]]
     >>> M_2 = [[0.4716, 0.0603, -0.0830], [-0.7798, 1.5474, 0.2480], [-0.1496, 0.1937, 0.6651]]
-    >>> matrix_interpolated(5000, 2850, 6500, M_1, M_2)[0].round(7)
-    array([ 0.4854908,  0.0408106, -0.0714282])
+    >>> matrix_interpolated(5000, 2850, 6500, M_1, M_2)[0].round(6)
+    array([ 0.485491,  0.040811, -0.071428])
     """
     M_1 = np.asarray(M_1, dtype=np.float64)
     M_2 = np.asarray(M_2, dtype=np.float64)

@@ -177,9 +177,14 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
         msg = exc.args[0].decode() if exc.args and isinstance(exc.args[0], bytes) else str(exc)
         raise RawFormatError(f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
                              "may be truncated, corrupt or of a format LibRaw does not know.") from exc
-    if not metadata_only and mosaic.max() == 0:
-        raise RawFormatError(f"{path}: the image has no pixel data (all zeros). Use "
+    # Stripped pixel data decode to zeros or to whatever LibRaw's buffers held, so judge by size:
+    # no RAW codec stores less than 0.5 bit per pixel.
+    stripped = path.stat().st_size < mosaic.size / 16 or np.count_nonzero(mosaic) < 1e-3 * mosaic.size
+    if not metadata_only and stripped:
+        raise RawFormatError(f"{path}: the image has no pixel data (file too small or all zeros). Use "
                              "read_raw(..., metadata_only=True) to read its metadata only.")
+    if stripped:
+        mosaic[:] = 0  # never hand out LibRaw's stale buffer contents
     tags: dict = {}
     with open(path, "rb") as fh:
         magic = fh.read(4)
