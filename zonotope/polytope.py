@@ -130,11 +130,13 @@ class Polytope:
             self._Z = np.zeros((0, 0))
             self.vertices = P
             self._simplices = np.zeros((0, 0), dtype=int)
+            self._keep = np.zeros(0, dtype=int)
             return
         self._o, self._B = _affine_hull(P, self.tol)
         self.dim = self._B.shape[1]
         Z = (P - self._o) @ self._B
         keep, simplices = self._hull(Z)
+        self._keep = keep  # indices of the vertices among the input points
         self.vertices = P[keep]
         self.vertices.flags.writeable = False
         self._Z = Z[keep]
@@ -155,7 +157,7 @@ class Polytope:
             return idx, np.stack([np.arange(M), (np.arange(M) + 1) % M], axis=1)
         from scipy.spatial import ConvexHull
 
-        hull = ConvexHull(Z)
+        hull = ConvexHull(Z, qhull_options="Qt")
         keep = hull.vertices
         remap = np.full(Z.shape[0], -1)
         remap[keep] = np.arange(keep.size)
@@ -174,19 +176,23 @@ class Polytope:
     # -- facets ---------------------------------------------------------------------------------
 
     @cached_property
-    def _facets_sub(self) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-        """Merged facets inside the affine hull: normals (F, d), offsets (F,), vertex index lists."""
+    def _facets_sub(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Merged facets inside the affine hull.
+
+        Returns normals (F, d) (unit, outward), offsets (F,) and, for every boundary simplex
+        (row of ``_simplices``), the index of the merged facet it belongs to (T,).
+        """
         d, Z = self.dim, self._Z
         if d <= 0:
-            return np.zeros((0, max(d, 0))), np.zeros(0), []
+            return np.zeros((0, max(d, 0))), np.zeros(0), np.zeros(0, dtype=int)
         if d == 1:
-            return np.array([[-1.0], [1.0]]), np.array([-Z[0, 0], Z[1, 0]]), [np.array([0]), np.array([1])]
+            return np.array([[-1.0], [1.0]]), np.array([-Z[0, 0], Z[1, 0]]), np.array([0, 1])
+        S = self._simplices
         if d == 2:
-            S = self._simplices
             e = Z[S[:, 1]] - Z[S[:, 0]]
             n = np.stack([e[:, 1], -e[:, 0]], axis=1)  # outward for a CCW polygon
             n /= np.linalg.norm(n, axis=1, keepdims=True)
-            return n, np.einsum("ij,ij->i", n, Z[S[:, 0]]), [s for s in S]
+            return n, np.einsum("ij,ij->i", n, Z[S[:, 0]]), np.arange(S.shape[0])
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
@@ -200,15 +206,13 @@ class Polytope:
             np.abs(off[rows] - off[cols]) <= self.tol)
         graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
         ncomp, label = connected_components(graph, directed=False)
-        S = self._simplices
         normals = np.zeros((ncomp, d))
         np.add.at(normals, label, n)
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        order = np.argsort(label, kind="stable")
-        bounds = np.searchsorted(label[order], np.arange(ncomp + 1))
-        members = [np.unique(S[order[bounds[i]:bounds[i + 1]]]) for i in range(ncomp)]
-        offsets = np.array([float((Z[v] @ normals[i]).max()) for i, v in enumerate(members)])
-        return normals, offsets, members
+        tri_max = np.einsum("tvd,td->tv", Z[S], normals[label]).max(axis=1)
+        offsets = np.full(ncomp, -np.inf)
+        np.maximum.at(offsets, label, tri_max)
+        return normals, offsets, label
 
     @property
     def n_facets(self) -> int:
