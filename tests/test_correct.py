@@ -241,3 +241,17 @@ def test_correct_image_transfer_on_shaded_image(problem, checker):
     assert problem.delta_E(fast, exact).max() < 0.5
     rp = fit_correction(problem, method="Finlayson 2015")
     assert np.array_equal(correct_image(img, rp), rp(img))  # regressions: per pixel, no grouping
+
+
+def test_projection_matches_polytope_project(problem, checker):
+    """Twin: Lab-metric projection in reflectance space vs Polytope.project on the exact MMV."""
+    mismatch = pytest.importorskip("zonotope.mismatch")
+    C = problem.source_of(checker[[3, 14]])
+    far = problem.target_of(checker[[3, 14]]) + np.array([0.04, -0.02, 0.03])
+    ours, inside = project_to_mmv(problem, C, far)
+    assert not inside.any()
+    W = problem.lab_metric(far)
+    for i in range(len(C)):
+        mmv = mismatch.metamer_mismatch(problem.Phi, problem.Psi, C[i], eps=0.0)
+        ref = mmv.project(far[i], metric=W[i])
+        assert problem.delta_E(ours[i], ref) < 0.02
