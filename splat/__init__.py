@@ -17,6 +17,10 @@ _EXPORTS = {
                "ColmapPoint3D", "ColmapRig", "read_colmap", "write_colmap"],
     "data": ["Capture", "View", "capture_from_colmap", "colmap_from_capture", "read_transforms",
              "write_transforms"],
+    "scenes": ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"],
+    "training": ["TrainConfig", "TrainResult", "TrainState", "init_state", "load_checkpoint", "rawnerf_loss",
+              "save_checkpoint", "stack_cameras", "train", "train_step"],
+    "outputs": ["pca_false_colour", "psnr", "render_views", "split_cameras"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

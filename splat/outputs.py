@@ -1,0 +1,97 @@
+"""What a trained model gives: (H, W, N) renders, per-camera images, PCA false colour, PSNR."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from ._errors import SplatError
+from .camera import Camera
+from .data import Capture
+from .gaussians import Gaussians
+from .rendering import RenderConfig, render
+
+__all__ = ["pca_false_colour", "psnr", "render_views", "split_cameras"]
+
+
+def render_views(gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled",
+                 config: RenderConfig | None = None) -> np.ndarray:
+    """Multispectral renders of several views, shape (V, H, W, N) (one image size).
+
+    Parameters
+    ----------
+    gaussians : Gaussians
+    cameras : iterable of Camera
+    mask : array_like of bool, shape (G,), optional
+        Alive Gaussians (e.g. :attr:`TrainResult.alive`).
+    method, config
+        As in :func:`splat.render` (default ``RenderConfig()``).
+    """
+    cams: list[Camera] = list(cameras)
+    config = config or RenderConfig()
+    out = [np.asarray(render(gaussians, c, method=method, config=config,
+                             mask=None if mask is None else jnp.asarray(mask)).image) for c in cams]
+    return np.stack(out)
+
+
+def split_cameras(image, capture: Capture) -> dict[int, np.ndarray]:
+    """Split a multispectral image into the images each camera would have taken (thesis fig. 3.2).
+
+    Parameters
+    ----------
+    image : array_like of shape (..., N)
+    capture : Capture
+        Its channel map says which channels belong to which camera.
+
+    Returns
+    -------
+    dict camera_id -> ndarray of shape (..., k)
+        ``k`` = number of channels of that camera; pixel-aligned across cameras.
+    """
+    image = np.asarray(image)
+    if image.shape[-1] != capture.n_channels:
+        raise SplatError(f"image has {image.shape[-1]} channels; the capture has {capture.n_channels}.")
+    return {cid: image[..., list(ch)] for cid, ch in capture.channels.items()}
+
+
+def pca_false_colour(image, *, mask=None, percentile: float = 99.0) -> np.ndarray:
+    """False-colour view of an N-channel image: its first 3 principal components as RGB (fig. 3.3).
+
+    Parameters
+    ----------
+    image : array_like of shape (H, W, N)
+    mask : array_like of bool, shape (H, W), optional
+        Pixels used to fit the components (e.g. alpha > 0.5); all pixels are coloured.
+    percentile : float
+        Each component is stretched so that this percentile of |score| maps to the edge of [0, 1].
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3) in [0, 1]
+        Component 1 → R, 2 → G, 3 → B (missing components, for N < 3, are 0.5); the sign of each
+        component is fixed so that its largest loading is positive.
+    """
+    image = np.asarray(image, float)
+    if image.ndim != 3:
+        raise SplatError(f"image must have shape (H, W, N); got {image.shape}.")
+    X = image.reshape(-1, image.shape[-1])
+    fit = X if mask is None else X[np.asarray(mask, bool).reshape(-1)]
+    if len(fit) < 2:
+        raise SplatError("pca_false_colour needs at least 2 pixels to fit the components.")
+    mu = fit.mean(0)
+    _, _, Vt = np.linalg.svd(fit - mu, full_matrices=False)
+    Vt = Vt[:3] * np.sign(Vt[:3][np.arange(min(3, len(Vt))), np.abs(Vt[:3]).argmax(1)])[:, None]
+    scores = (X - mu) @ Vt.T
+    s = np.percentile(np.abs((fit - mu) @ Vt.T), percentile, axis=0)
+    rgb = np.full((X.shape[0], 3), 0.5)
+    rgb[:, : scores.shape[1]] = 0.5 + 0.5 * scores / np.where(s > 0, s, 1)
+    return np.clip(rgb, 0, 1).reshape(*image.shape[:2], 3)
+
+
+def psnr(a, b, *, peak: float = 1.0) -> float:
+    """Peak signal-to-noise ratio ``10 log10(peak² / mean((a − b)²))`` in dB (arrays of one shape)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape:
+        raise SplatError(f"psnr needs arrays of one shape; got {a.shape} and {b.shape}.")
+    mse = np.mean((a - b) ** 2)
+    return float("inf") if mse == 0 else float(10 * np.log10(peak**2 / mse))

@@ -1,0 +1,44 @@
+"""splat.outputs: per-camera split, PCA false colour, PSNR."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from splat import Capture, SplatError, View, look_at, pca_false_colour, psnr, split_cameras
+
+
+def test_split_cameras():
+    cam = look_at((0, -3, 0), (0, 0, 0), width=4, height=4)
+    capture = Capture((View("a", cam, 1), View("b", cam, 2)), {1: (0, 1, 2), 2: (3, 4)})
+    image = np.arange(2 * 3 * 5).reshape(2, 3, 5)
+    parts = split_cameras(image, capture)
+    np.testing.assert_array_equal(parts[1], image[..., :3])
+    np.testing.assert_array_equal(parts[2], image[..., 3:])
+    with pytest.raises(SplatError, match="channels"):
+        split_cameras(image[..., :4], capture)
+
+
+def test_pca_false_colour():
+    rng = np.random.default_rng(0)
+    basis = rng.normal(size=(3, 9))
+    image = rng.normal(size=(8, 8, 3)) @ basis
+    rgb = pca_false_colour(image)
+    assert rgb.shape == (8, 8, 3) and rgb.min() >= 0 and rgb.max() <= 1
+    # invariant to adding a constant and to the sign/scale of the data
+    np.testing.assert_allclose(pca_false_colour(image * 2 + 5), rgb, atol=1e-9)
+    one = pca_false_colour(image[..., :1])
+    assert np.all(one[..., 1:] == 0.5)
+    mask = np.zeros((8, 8), bool)
+    mask[:4] = True
+    assert pca_false_colour(image, mask=mask).shape == (8, 8, 3)
+    with pytest.raises(SplatError):
+        pca_false_colour(image, mask=np.zeros((8, 8), bool))
+
+
+def test_psnr():
+    a = np.zeros((4, 4))
+    assert psnr(a, a) == float("inf")
+    assert psnr(a, a + 0.1) == pytest.approx(20.0)
+    with pytest.raises(SplatError):
+        psnr(a, a[:2])
