@@ -30,6 +30,11 @@ __all__ = [
 ]
 
 
+#: MMVs are small: light them mostly ambiently so their sRGB colour reads, outline the silhouette.
+_MMV_STYLE = {"ambient": 0.55, "diffuse": 0.5, "specular": 0.0,
+              "silhouette": {"color": "black", "line_width": 1.5}}
+
+
 def _pv():
     if not os.environ.get("DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -162,7 +167,7 @@ def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: f
     p = _plotter(plotter)
     p.add_mesh(Zonotope(problem.Psi).to_pyvista(), color="lightgrey", opacity=solid_opacity)
     mmv = mmv_polytope(problem, response)
-    p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, show_edges=True, edge_color="black")
+    p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
     scale = float(np.linalg.norm(problem.white_XYZ))
     if truth is not None:
         p.add_mesh(pv.Sphere(radius=0.008 * scale, center=np.asarray(truth, float)), color="white")
@@ -185,7 +190,7 @@ def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9),
     p.add_mesh(Zonotope(problem.Psi).to_pyvista(), color="lightgrey", opacity=solid_opacity)
     for level in levels:
         mmv = mmv_polytope(problem, np.full(problem.k, float(level)))
-        p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, show_edges=True, edge_color="black")
+        p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
     p.add_mesh(pv.Line((0, 0, 0), tuple(problem.white_XYZ)), color="black", line_width=2)
     _camera(p, problem)
     return _finish(p, filename)
