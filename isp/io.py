@@ -96,15 +96,15 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
         raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=suffix + ".tmp", dir=path.parent)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            if suffix == ".png":
-                fh.write(_png_bytes(img))
-            else:
-                import tifffile
+        if suffix == ".png":
+            Path(tmp).write_bytes(_png_bytes(img))
+        else:
+            import tifffile
 
-                tifffile.imwrite(fh, img, photometric="rgb" if img.ndim == 3 else "minisblack",
-                                 metadata=None, software="isp (zonotope)")
+            tifffile.imwrite(tmp, img, photometric="rgb" if img.ndim == 3 else "minisblack",
+                             metadata=None, software="isp (zonotope)")
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -195,6 +195,16 @@ def white_balance(x, *, neutral, cfa: str | None = None, clip: bool = True) -> n
 _PAD = {"bilinear": 2, "Malvar 2004": 4, "Menon 2007": 8}
 
 
+def _colour_demosaicing():
+    """Import colour-demosaicing, muting its scipy.ndimage.filters deprecation notice (not ours)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=DeprecationWarning, message=".*scipy.ndimage")
+        import colour_demosaicing
+    return colour_demosaicing
+
+
 def _padded(fn, m: np.ndarray, cfa: str, pad: int) -> np.ndarray:
     # numpy's "reflect" mirrors about the edge sample (x → -x, x → 2(H-1) - x): parity, hence the
     # CFA colour of every padded site, is preserved, also for pads larger than the image.
@@ -220,7 +230,7 @@ def demosaic_bilinear(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     -----
     colour-demosaicing's implementation, on a mirror-padded mosaic (see ``_PAD``).
     """
-    from colour_demosaicing import demosaicing_CFA_Bayer_bilinear
+    demosaicing_CFA_Bayer_bilinear = _colour_demosaicing().demosaicing_CFA_Bayer_bilinear
 
     return _padded(demosaicing_CFA_Bayer_bilinear, _mosaic_array(mosaic), check_cfa(cfa), _PAD["bilinear"])
 
@@ -243,7 +253,7 @@ def demosaic_Malvar2004(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     Malvar, H. S., He, L., & Cutler, R. (2004). High-quality linear interpolation for demosaicing of
     Bayer-patterned color images. ICASSP 2004, vol. 3, 485–488 (the 5 × 5 filters of Fig. 2).
     """
-    from colour_demosaicing import demosaicing_CFA_Bayer_Malvar2004
+    demosaicing_CFA_Bayer_Malvar2004 = _colour_demosaicing().demosaicing_CFA_Bayer_Malvar2004
 
     return _padded(demosaicing_CFA_Bayer_Malvar2004, _mosaic_array(mosaic), check_cfa(cfa),
                    _PAD["Malvar 2004"])
@@ -267,7 +277,7 @@ def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     Menon, D., Andriani, S., & Calvagno, G. (2007). Demosaicing With Directional Filtering and a
     posteriori Decision. IEEE TIP, 16(1), 132–141 (with the refining step of section IV).
     """
-    from colour_demosaicing import demosaicing_CFA_Bayer_Menon2007
+    demosaicing_CFA_Bayer_Menon2007 = _colour_demosaicing().demosaicing_CFA_Bayer_Menon2007
 
     return _padded(demosaicing_CFA_Bayer_Menon2007, _mosaic_array(mosaic), check_cfa(cfa),
                    _PAD["Menon 2007"])
@@ -490,7 +500,7 @@ def tonemap_Reinhard2002(rgb, *, key: float | None = 0.18, white: float | None =
     Lw = float(L.max()) if white is None else float(white)
     if Lw <= 0:
         return np.zeros_like(a)
-    Ld = L * (1.0 + L / Lw**2) / (1.0 + L)
+    Ld = (L + (L / Lw) ** 2) / (1.0 + L)  # = L (1 + L / Lw²) / (1 + L), without underflowing Lw²
     ratio = np.divide(Ld, Y, out=np.zeros_like(Y), where=Y > 0)
     return a * ratio[..., None]
 

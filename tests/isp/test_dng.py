@@ -9,8 +9,16 @@ import numpy as np
 import pytest
 import rawpy
 
-from isp import DNGProfile, PipelineError, RawFormatError, camera_neutral_to_xy, matrix_interpolated
-from isp import read_dng_tags, read_raw, write_dng
+from isp import (
+    DNGProfile,
+    PipelineError,
+    RawFormatError,
+    camera_neutral_to_xy,
+    matrix_interpolated,
+    read_dng_tags,
+    read_raw,
+    write_dng,
+)
 
 # Canon EOS 5D Mark II matrices of colour-hdri's documentation (ColorMatrix1 under A, 2 under D65).
 CM_A = np.array([[0.5309, -0.0229, -0.0336], [-0.6241, 1.3265, 0.3337], [-0.0817, 0.1215, 0.6664]])
