@@ -433,7 +433,10 @@ class Polytope:
             else:
                 raise GeometryError(f"project supports polytopes of dimension ≤ 3 (dim={self.dim}).")
         z = np.linalg.solve(L.T, out.T).T
-        return (o + z @ B.T).reshape(P.shape)
+        res = o + z @ B.T
+        keep = self.contains(flat)
+        res[keep] = flat[keep]  # inside: unchanged, bit for bit
+        return res.reshape(P.shape)
 
     def intersect(self, other: Polytope, *, tol: float | None = None) -> Polytope:
         """Intersection with another polytope of the same ambient dimension (may be empty)."""
