@@ -1,0 +1,298 @@
+"""Spectral forward model of a camera: reflectances × illuminant × SSF → RAW mosaic → real DNG.
+
+Used to test the pipeline against ground truth: the true XYZ of every pixel is known.
+
+Model (per pixel, per channel ``c``)::
+
+    q_c   = exposure · Σ_λ R(λ) S_c(λ) E(λ) Δλ / max_c' Σ_λ S_c'(λ) E(λ) Δλ     (white → ≤ 1)
+    e⁻    ~ Poisson(q_c · full_well)                                            (shot noise)
+    DN    = black + e⁻ / full_well · (white − black) + N(0, read_noise²)        (read noise)
+
+rounded and clipped to [0, white]. The camera's un-balanced white response is the AsShotNeutral, and
+the ColorMatrix (XYZ → camera) is fitted by least squares on training reflectances
+(:func:`fit_color_matrix`).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import colour
+import numpy as np
+
+from ._errors import PipelineError
+from .dng import write_dng
+from .raw import check_cfa
+from .stages import cfa_masks
+
+__all__ = [
+    "ILLUMINANT_LIGHT_SOURCE",
+    "Capture",
+    "SpectralSetup",
+    "chart_image",
+    "fit_color_matrix",
+    "simulate_capture",
+    "simulate_dng",
+    "spectral_setup",
+    "true_XYZ",
+]
+
+#: EXIF LightSource codes (DNG CalibrationIlluminant) of the illuminants the simulator names.
+ILLUMINANT_LIGHT_SOURCE: dict[str, int] = {"A": 17, "B": 18, "C": 19, "D50": 23, "D55": 20, "D65": 21,
+                                           "D75": 22}
+
+
+@dataclass(frozen=True, eq=False)
+class SpectralSetup:
+    """Camera and observer generators on one grid under one illuminant.
+
+    Attributes
+    ----------
+    wavelengths : ndarray of shape (n,)
+    camera : ndarray of shape (n, 3)
+        Un-balanced camera generators, scaled so the white's largest channel is 1.
+    observer : ndarray of shape (n, 3)
+        CIE 1931 2° XYZ generators with Y of the white = 1.
+    neutral : ndarray of shape (3,)
+        Camera response to the perfect white (max 1): the AsShotNeutral.
+    illuminant : str
+    """
+
+    wavelengths: np.ndarray
+    camera: np.ndarray
+    observer: np.ndarray
+    neutral: np.ndarray
+    illuminant: str
+
+
+def spectral_setup(camera, *, illuminant: str = "D65", shape=None) -> SpectralSetup:
+    """Generator matrices of a camera and of the CIE 1931 observer under an illuminant.
+
+    Parameters
+    ----------
+    camera
+        A built-in camera name, a path to a rawtoaces JSON / CSV file, or a colour MSDS.
+    illuminant
+        Illuminant name (``zonotope.illuminant``).
+    shape
+        Wavelength grid; default the common range of the curves at 5 nm.
+
+    Returns
+    -------
+    SpectralSetup
+    """
+    import zonotope
+
+    if isinstance(camera, str | os.PathLike) and str(camera).lower().endswith((".json", ".csv")):
+        camera = zonotope.read_camera(camera)
+    cam = zonotope.camera(camera)
+    obs = zonotope.observer("CIE 1931 2°")
+    light = zonotope.illuminant(illuminant)
+    if shape is None:
+        shape = zonotope.common_shape(cam, obs, light, interval=5)
+    G = zonotope.generators(cam, light, shape, normalise=None).values
+    white = G.sum(axis=0)
+    Psi = zonotope.generators(obs, light, shape, normalise=1).values
+    w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, dtype=np.float64)
+    return SpectralSetup(wavelengths=w, camera=G / white.max(), observer=Psi, neutral=white / white.max(),
+                         illuminant=str(illuminant))
+
+
+def _reflectance_array(R, n: int, what: str = "reflectances") -> np.ndarray:
+    a = np.asarray(R, dtype=np.float64)
+    if a.shape[-1:] != (n,):
+        raise PipelineError(f"{what}: last axis must have the {n} wavelengths of the grid; got {a.shape}.")
+    if not np.all(np.isfinite(a)) or a.min() < -1e-6 or a.max() > 1.5:
+        raise PipelineError(f"{what}: reflectances must be finite and within [0, 1] (got "
+                            f"{np.nanmin(a):.3g}…{np.nanmax(a):.3g}); divide percent data by 100.")
+    return a
+
+
+def true_XYZ(reflectances, setup: SpectralSetup) -> np.ndarray:
+    """CIE 1931 XYZ (Y_white = 1, under the setup's illuminant) of reflectances.
+
+    Parameters
+    ----------
+    reflectances : array_like of shape (..., n)
+    setup : SpectralSetup
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+    """
+    return _reflectance_array(reflectances, setup.wavelengths.size) @ setup.observer
+
+
+def fit_color_matrix(setup: SpectralSetup, training) -> np.ndarray:
+    """Least-squares XYZ → camera matrix (DNG ColorMatrix convention) with the white held exactly.
+
+    Parameters
+    ----------
+    setup
+        From :func:`spectral_setup`.
+    training : array_like of shape (N, n)
+        Training reflectances on the setup's grid.
+
+    Returns
+    -------
+    ndarray of shape (3, 3)
+        ``camera ≈ M @ XYZ``; ``M @ XYZ_white = neutral`` exactly.
+
+    Notes
+    -----
+    Minimises ``Σ ‖M x_i − c_i‖²`` subject to ``M x_w = c_w`` (Lagrange multipliers, one 3 × 3
+    solve per row), so the camera neutral maps back to exactly the illuminant's chromaticity.
+    """
+    R = _reflectance_array(training, setup.wavelengths.size, "training")
+    X = R @ setup.observer          # (N, 3)
+    C = R @ setup.camera            # (N, 3)
+    xw = setup.observer.sum(0)
+    cw = setup.camera.sum(0)
+    A = X.T @ X
+    K = np.block([[A, xw[:, None]], [xw[None, :], np.zeros((1, 1))]])
+    rhs = np.vstack([X.T @ C, cw[None, :]])   # (4, 3)
+    sol = np.linalg.solve(K, rhs)
+    return sol[:3].T
+
+
+def chart_image(reflectances, *, rows: int, cols: int, patch: int = 16, gap: int = 4):
+    """Lay out patch reflectances as a chart image.
+
+    Parameters
+    ----------
+    reflectances : array_like of shape (rows · cols, n)
+    rows, cols
+        Chart layout (row-major patch order).
+    patch, gap
+        Patch side and gap in pixels (use even values to keep every patch on the same CFA phase).
+
+    Returns
+    -------
+    image : ndarray of shape (H, W, n)
+        Gaps have reflectance 0.2 (a grey surround).
+    labels : ndarray of shape (H, W), int
+        Patch index per pixel, -1 in the gaps.
+    """
+    R = np.asarray(reflectances, dtype=np.float64)
+    if R.ndim != 2 or R.shape[0] != rows * cols:
+        raise PipelineError(f"reflectances: expected shape ({rows * cols}, n) for {rows} × {cols} patches; "
+                            f"got {R.shape}.")
+    H, W = rows * (patch + gap) + gap, cols * (patch + gap) + gap
+    labels = np.full((H, W), -1, dtype=np.int64)
+    for k in range(rows * cols):
+        i, j = divmod(k, cols)
+        y, x = gap + i * (patch + gap), gap + j * (patch + gap)
+        labels[y:y + patch, x:x + patch] = k
+    image = np.where(labels[..., None] >= 0, R[np.maximum(labels, 0)], 0.2)
+    return image, labels
+
+
+@dataclass(frozen=True, eq=False)
+class Capture:
+    """A simulated RAW capture.
+
+    Attributes
+    ----------
+    mosaic : ndarray of shape (H, W), uint16
+    cfa : str
+    black_level, white_level : int
+    responses : ndarray of shape (H, W, 3)
+        Noise-free linear camera responses (white's largest channel = 1 at exposure 1).
+    XYZ : ndarray of shape (H, W, 3)
+        True CIE 1931 XYZ under the illuminant (Y_white = 1).
+    color_matrix : ndarray of shape (3, 3)
+        Fitted XYZ → camera matrix (:func:`fit_color_matrix`).
+    neutral : ndarray of shape (3,)
+    setup : SpectralSetup
+    """
+
+    mosaic: np.ndarray
+    cfa: str
+    black_level: int
+    white_level: int
+    responses: np.ndarray
+    XYZ: np.ndarray
+    color_matrix: np.ndarray
+    neutral: np.ndarray
+    setup: SpectralSetup = field(repr=False)
+    exposure: float = 1.0
+
+
+def simulate_capture(reflectance_image, setup: SpectralSetup, *, training=None, exposure: float = 0.8,
+                     cfa: str = "RGGB", black_level: int = 512, white_level: int = 16383,
+                     full_well: float = 30000.0, read_noise: float = 2.0, seed: int | None = 0) -> Capture:
+    """Render a reflectance image through a camera into a noisy Bayer mosaic.
+
+    Parameters
+    ----------
+    reflectance_image : array_like of shape (H, W, n)
+        Reflectances on the setup's grid (H, W even).
+    setup
+        From :func:`spectral_setup`.
+    training : array_like of shape (N, n), optional
+        Reflectances for the ColorMatrix fit; default the image's distinct pixels.
+    exposure
+        Response of the white's largest channel, as a fraction of saturation.
+    cfa
+        Bayer pattern.
+    black_level, white_level
+        In DN.
+    full_well
+        Electrons at saturation (sets the shot noise; ``inf`` for none).
+    read_noise
+        Standard deviation of the read noise in DN (0 for none).
+    seed
+        Random seed (None: fresh randomness).
+
+    Returns
+    -------
+    Capture
+    """
+    R = _reflectance_array(reflectance_image, setup.wavelengths.size, "reflectance_image")
+    if R.ndim != 3 or R.shape[0] % 2 or R.shape[1] % 2:
+        raise PipelineError(f"reflectance_image: expected shape (H, W, n) with even H, W; got {R.shape}.")
+    cfa = check_cfa(cfa)
+    if not 0 < exposure <= 1:
+        raise PipelineError(f"exposure={exposure}: must lie in (0, 1] (fraction of saturation).")
+    rgb = exposure * (R @ setup.camera)
+    XYZ = R @ setup.observer
+    signal = np.sum(rgb * cfa_masks(rgb.shape[:2], cfa), axis=-1)
+    rng = np.random.default_rng(seed)
+    if np.isfinite(full_well):
+        signal = rng.poisson(np.clip(signal, 0, None) * full_well) / full_well
+    dn = black_level + signal * (white_level - black_level)
+    if read_noise > 0:
+        dn = dn + rng.normal(0.0, read_noise, size=dn.shape)
+    mosaic = np.clip(np.round(dn), 0, white_level).astype(np.uint16)
+    train = np.unique(R.reshape(-1, R.shape[-1]), axis=0) if training is None else training
+    M = fit_color_matrix(setup, train)
+    return Capture(mosaic=mosaic, cfa=cfa, black_level=black_level, white_level=white_level, responses=rgb,
+                   XYZ=XYZ, color_matrix=M, neutral=setup.neutral, setup=setup, exposure=exposure)
+
+
+def simulate_dng(path: str | os.PathLike, capture: Capture, *, model: str = "simulated",
+                 overwrite: bool = False) -> Path:
+    """Write a :class:`Capture` as a DNG (ColorMatrix1, CalibrationIlluminant1, AsShotNeutral, ...).
+
+    Parameters
+    ----------
+    path
+        Output file (written atomically).
+    capture
+        From :func:`simulate_capture`.
+    model
+        Model tag (e.g. the camera name).
+    overwrite
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+    """
+    code = ILLUMINANT_LIGHT_SOURCE.get(capture.setup.illuminant.upper().replace(" ", ""), 255)
+    return write_dng(path, capture.mosaic, cfa=capture.cfa, black_level=capture.black_level,
+                     white_level=capture.white_level, color_matrix_1=capture.color_matrix,
+                     as_shot_neutral=capture.neutral, calibration_illuminant_1=code, make="zonotope",
+                     model=model, overwrite=overwrite)
