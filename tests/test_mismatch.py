@@ -1,0 +1,277 @@
+"""Metamer mismatch volumes against independent truth: real reflectances, HiGHS, containments."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import zonotope
+from zonotope._errors import GeometryError, InfeasibleResponseError
+from zonotope._lp import distance_to_zonotope
+from zonotope._oracle import HighsOracle, SimplexOracle
+from zonotope.mismatch import (
+    CertifiedMMV,
+    MetamerMismatch,
+    channelwise_intersection,
+    metamer_mismatch,
+)
+from zonotope.polytope import Polytope
+from zonotope.solid import Zonotope
+
+G10 = np.arange(400.0, 701.0, 10.0)
+G20 = np.arange(400.0, 701.0, 20.0)
+G5 = np.arange(400.0, 701.0, 5.0)
+TARGET = "Stockman & Sharpe 2°"
+
+
+def gens(cams, grid):
+    return zonotope.generators(cams, "D65", grid).values
+
+
+def checker(grid):
+    return zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), grid).T
+
+
+@pytest.fixture(scope="module")
+def nikon10():
+    return gens("Nikon 5100 (NPL)", G10), gens(TARGET, G10), checker(G10)
+
+
+def hausdorff(A, B):
+    D = np.linalg.norm(A[:, None] - B[None], axis=2)
+    return max(D.min(axis=1).max(), D.min(axis=0).max())
+
+
+def test_oracles_agree_on_random_directions():
+    nik, two = "Nikon 5100 (NPL)", ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]
+    for grid, cams, delta in ((G5, nik, 0.0), (G10, two, 0.0), (G10, nik, 0.02)):
+        Phi, Psi, R = gens(cams, grid), gens(TARGET, grid), checker(grid)
+        c = R[7] @ Phi
+        U = np.random.default_rng(0).normal(size=(60, 3))
+        fast = SimplexOracle(Phi, Psi, c, delta)
+        v1, _, ids = fast.support(U)
+        v2, _, _ = HighsOracle(Phi, Psi, c, delta).support(U)
+        np.testing.assert_allclose(v1, v2, atol=1e-9)
+        v3, _, _ = fast.support(U[::-1] + 0.01, warm=ids)  # warm starts from other directions
+        v4, _, _ = HighsOracle(Phi, Psi, c, delta).support(U[::-1] + 0.01)
+        np.testing.assert_allclose(v3, v4, atol=1e-9)
+
+
+def test_exact_matches_highs_refinement_20nm():
+    Phi, Psi, R = gens("Nikon 5100 (NPL)", G20), gens(TARGET, G20), checker(G20)
+    for i in (2, 13):
+        c = R[i] @ Phi
+        ours = metamer_mismatch(Phi, Psi, c)
+        ref = metamer_mismatch(Phi, Psi, c, oracle="highs")
+        assert ours.volume == pytest.approx(ref.volume, rel=1e-6)
+        assert hausdorff(ours.vertices, ref.vertices) < 1e-7
+        np.testing.assert_allclose(ours.centroid, ref.centroid, atol=1e-7)
+
+
+@pytest.mark.parametrize("grid", [G10, G5], ids=["10nm", "5nm"])
+def test_exact_certified_by_highs(grid):
+    """Every sampled facet is a supporting plane per HiGHS, and every vertex is a feasible colour."""
+    Phi, Psi, R = gens("Nikon 5100 (NPL)", grid), gens(TARGET, grid), checker(grid)
+    c = R[18] @ Phi
+    mmv = metamer_mismatch(Phi, Psi, c)
+    assert mmv.dim == 3
+    A, b = mmv.halfspaces
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(A), size=min(40, len(A)), replace=False)
+    h, _, _ = HighsOracle(Phi, Psi, c).support(A[pick])
+    np.testing.assert_allclose(h, b[pick], atol=1e-8)
+    # vertices: feasible (Φᵀx = c, Ψᵀx = v) by the HiGHS distance LP on stacked channels
+    both = np.hstack([Phi, Psi])
+    for v in mmv.vertices[rng.choice(len(mmv.vertices), size=10, replace=False)]:
+        assert distance_to_zonotope(both, np.zeros(6), np.concatenate([c, v]))[0] < 1e-8
+
+
+def test_random_direction_sampling_inside(nikon10):
+    Phi, Psi, R = nikon10
+    c = R[0] @ Phi
+    mmv = metamer_mismatch(Phi, Psi, c)
+    U = np.random.default_rng(3).normal(size=(40, 3))
+    _, pts, _ = HighsOracle(Phi, Psi, c).support(U)
+    assert mmv.contains(pts, tol=1e-8).all()
+    _, pts, _ = SimplexOracle(Phi, Psi, c).support(U)
+    assert mmv.contains(pts, tol=1e-10).all()
+
+
+def test_mmv_inside_target_solid(nikon10):
+    Phi, Psi, R = nikon10
+    solid = Zonotope(Psi)
+    for i in (0, 9, 21):
+        mmv = metamer_mismatch(Phi, Psi, R[i] @ Phi)
+        assert solid.contains(mmv.vertices, tol=1e-9).all()
+        assert mmv.contains(R[i] @ Psi, tol=1e-9)
+
+
+def test_psi_equal_phi_gives_point(nikon10):
+    Phi, _, R = nikon10
+    c = R[4] @ Phi
+    mmv = metamer_mismatch(Phi, Phi, c)
+    assert mmv.dim == 0 and mmv.volume == 0.0
+    np.testing.assert_allclose(mmv.centroid, c, atol=1e-12)
+    cert = metamer_mismatch(Phi, Phi, c, eps=1e-3)
+    assert cert.dim == 0 and cert.volume_bounds == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("level", [0.0, 1.0])
+def test_black_and_white_give_a_point(nikon10, level):
+    Phi, Psi, _ = nikon10
+    assert np.all(np.abs(Phi).sum(axis=1) > 0)  # the camera sees every wavelength of the grid
+    x = np.full(len(Phi), level)
+    mmv = metamer_mismatch(Phi, Psi, x @ Phi)
+    assert mmv.dim == 0
+    np.testing.assert_allclose(mmv.centroid, x @ Psi, atol=1e-9)
+
+
+def test_boundary_response_is_lower_dimensional(nikon10):
+    Phi, Psi, _ = nikon10
+    sup = Zonotope(Phi).support(np.array([0.3, -1.0, 0.5]))  # optimal stimulus: on the boundary
+    mmv = metamer_mismatch(Phi, Psi, sup.point)
+    assert mmv.dim < 3 and mmv.volume == 0.0
+    assert mmv.contains(sup.reflectance @ Psi, tol=1e-9)
+
+
+def test_adding_a_camera_never_enlarges():
+    grid = np.arange(400.0, 681.0, 10.0)
+    one, two = gens("Nikon 5100 (NPL)", grid), gens(["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)"], grid)
+    Psi, R = gens(TARGET, grid), checker(grid)
+    for i in (1, 11):
+        big = metamer_mismatch(one, Psi, R[i] @ one)
+        small = metamer_mismatch(two, Psi, R[i] @ two)
+        assert big.contains(small.vertices, tol=1e-9).all()
+        assert small.volume < big.volume
+        assert small.contains(R[i] @ Psi, tol=1e-9)
+        outer = channelwise_intersection(two, Psi, R[i] @ two)
+        assert outer.contains(small.vertices, tol=1e-8).all()
+        assert outer.volume >= small.volume * (1 - 1e-9)
+
+
+def test_certified_bounds_and_shrinking_gap(nikon10):
+    Phi, Psi, R = nikon10
+    c = R[12] @ Phi
+    exact = metamer_mismatch(Phi, Psi, c)
+    gaps, errs = [], []
+    for eps in (3e-2, 3e-3, 3e-4):
+        res = metamer_mismatch(Phi, Psi, c, eps=eps)
+        assert isinstance(res, CertifiedMMV)
+        assert exact.contains(res.inner.vertices, tol=1e-9).all()
+        assert res.outer.contains(exact.vertices, tol=1e-9).all()
+        lo, hi = res.volume_bounds
+        assert lo <= exact.volume * (1 + 1e-9) and exact.volume <= hi * (1 + 1e-9)
+        assert np.linalg.norm(res.centroid - exact.centroid) <= res.centroid_error + 1e-12
+        gaps.append(hi - lo)
+        errs.append(res.centroid_error)
+    assert gaps[0] > gaps[1] > gaps[2] and errs[0] > errs[2]
+
+
+def test_noise_tolerance_grows_and_infeasible(nikon10):
+    Phi, Psi, R = nikon10
+    c = R[3] @ Phi
+    base = metamer_mismatch(Phi, Psi, c)
+    noisy = metamer_mismatch(Phi, Psi, c, delta=0.01)
+    assert noisy.contains(base.vertices, tol=1e-9).all() and noisy.volume > base.volume
+    outside = Zonotope(Phi).white * 1.02  # 2 % brighter than white: impossible
+    with pytest.raises(InfeasibleResponseError) as info:
+        metamer_mismatch(Phi, Psi, outside)
+    expect = distance_to_zonotope(Phi, np.zeros(3), outside)[0]
+    assert info.value.distance == pytest.approx(expect, rel=1e-6) and info.value.distance > 0.01
+    with pytest.raises(InfeasibleResponseError):
+        metamer_mismatch(Phi, Psi, outside, delta=0.5 * expect)
+    near = metamer_mismatch(Phi, Psi, outside, on_infeasible="nearest")
+    assert near.diameter < 1e-5  # the only response 0.02 from 1.02·white is white (δ rounded up)
+    np.testing.assert_allclose(near.centroid, Zonotope(Psi).white, atol=1e-6)
+    ok = metamer_mismatch(Phi, Psi, outside, delta=expect * 1.5)
+    assert ok.contains(Zonotope(Psi).white, tol=1e-9)
+
+
+def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
+    """Every real reflectance's true LMS lies in the MMV of its response, for 5 real cameras."""
+    paths = sorted((shared_data / "ssf_rawtoaces" / "data" / "camera").glob("*.json"))[::10][:5]
+    assert len(paths) == 5
+    cams = [zonotope.read_camera(p) for p in paths]
+    sets = [
+        zonotope.reflectances("ColorChecker N Ohta"),
+        zonotope.read_reflectances(shared_data / "reflectance_munsell_matte_joensuu_5nm"
+                                   / "munsell_matte_1269_380_780_5nm.csv"),
+        zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
+    ]
+    rng = np.random.default_rng(0)
+    R = []
+    for s, count in zip(sets, (24, 20, 20), strict=True):
+        X = zonotope.resample(s, G10).T
+        X = X[np.all((X >= 0) & (X <= 1), axis=1)]  # physical reflectances only (no clipping)
+        R.append(X[rng.choice(len(X), size=min(count, len(X)), replace=False)])
+    R = np.vstack(R)
+    Psi = gens(TARGET, G10)
+    eps = 1e-3
+    for cam in cams:
+        Phi = gens(cam, G10)
+        for x in R:
+            res = metamer_mismatch(Phi, Psi, x @ Phi, eps=eps)
+            truth = x @ Psi
+            assert res.outer.contains(truth, tol=1e-9)
+            # every inner facet is within eps of the support, so each MMV point is within eps of it
+            assert res.inner.contains(truth, tol=eps + 1e-9)
+
+
+def test_truth_in_exact_mmv_two_cameras():
+    mm = MetamerMismatch(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], shape=G10)
+    R = checker(G10)
+    for x in R[::6]:
+        mmv = mm(mm.source_of(x))
+        assert mmv.contains(mm.target_of(x), tol=1e-9)
+
+
+def test_metamer_mismatch_class_and_batch():
+    mm = MetamerMismatch("Nikon 5100 (NPL)", shape=G10)
+    assert mm.Phi.shape == (31, 3) and mm.Psi.shape == (31, 3) and mm.wavelengths.size == 31
+    np.testing.assert_allclose(mm.Phi.sum(axis=0), 1.0)
+    R = checker(G10)[:6].reshape(2, 3, 31)
+    C = mm.source_of(R)
+    out = mm.batch(C, eps=1e-3)
+    assert out.centroids.shape == (2, 3, 3) and out.volumes.shape == (2, 3)
+    assert out.volume_bounds.shape == (2, 3, 2) and out.lp_calls > 0
+    single = mm(C[1, 2], eps=1e-3)
+    np.testing.assert_allclose(out.centroids[1, 2], single.centroid, atol=1e-12)
+    exact = mm.batch(C[0], eps=0.0, progress=True)
+    for c, v in zip(C[0], exact.volumes, strict=True):
+        assert v == pytest.approx(mm(c).volume, rel=1e-12)
+    assert mm.target_of(R).shape == (2, 3, 3)
+    assert isinstance(mm.source_solid, Zonotope) and isinstance(mm.target_solid, Zonotope)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(8, 16), st.integers(1, 4), st.integers(2, 3))
+def test_random_generators_truth_and_reference(seed, n, k, m):
+    """Random non-negative generators, any k (1–4) and m (2–3): truth inside, HiGHS agrees."""
+    rng = np.random.default_rng(seed)
+    Phi, Psi = rng.random((n, k)), rng.random((n, m))
+    x = rng.random(n)
+    c = x @ Phi
+    mmv = metamer_mismatch(Phi, Psi, c)
+    assert isinstance(mmv, Polytope) and mmv.contains(x @ Psi, tol=1e-9)
+    U = rng.normal(size=(10, m))
+    h_ref, _, _ = HighsOracle(Phi, Psi, c).support(U)
+    h_ours = (U @ mmv.vertices.T).max(axis=1)
+    np.testing.assert_allclose(h_ours, h_ref, atol=1e-8)
+
+
+def test_input_errors(nikon10):
+    Phi, Psi, _ = nikon10
+    with pytest.raises(GeometryError, match="shape"):
+        metamer_mismatch(Phi, Psi, np.zeros(4))
+    with pytest.raises(GeometryError, match="NaN"):
+        metamer_mismatch(Phi, Psi, np.array([0.1, np.nan, 0.2]))
+    with pytest.raises(GeometryError, match="one wavelength grid"):
+        metamer_mismatch(Phi, Psi[:-1], np.full(3, 0.3))
+    with pytest.raises(ValueError, match="oracle"):
+        metamer_mismatch(Phi, Psi, np.full(3, 0.3), oracle="simplex")
+    with pytest.raises(ValueError, match="on_infeasible"):
+        metamer_mismatch(Phi, Psi, np.full(3, 0.3), on_infeasible="clip")
+    with pytest.raises(GeometryError, match="delta"):
+        metamer_mismatch(Phi, Psi, np.full(3, 0.3), delta=-1.0)
