@@ -15,7 +15,7 @@ def test_report_written_atomically(tmp_path):
     out = tmp_path / "rep"
     steps = []
     write_report(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], out, atypical=4, pictures=False,
-                 methods=["root-polynomial", "Prior", "Centroid"],
+                 methods=["root-polynomial", "Prior"], volumes=False,
                  progress=lambda d, n: steps.append(d))
     html = (out / "index.html").read_text()
     md = (out / "report.md").read_text()
@@ -40,7 +40,7 @@ def test_failed_report_never_replaces_a_good_one(tmp_path, monkeypatch):
     monkeypatch.setattr(zonotope.evaluate, "evaluate", boom)
     with pytest.raises(RuntimeError, match="interrupted"):
         write_report(["Nikon 5100 (NPL)"], out, force=True, atypical=0, pictures=False,
-                 methods=["least squares"])
+                 methods=["least squares"], volumes=False)
     assert (out / "report.md").read_text() == "good"
     assert [p.name for p in tmp_path.iterdir()] == ["rep"]
 
@@ -50,7 +50,7 @@ def test_force_replaces(tmp_path):
     out.mkdir()
     (out / "stale.txt").write_text("old")
     write_report(["Nikon 5100 (NPL)"], out, force=True, atypical=0, pictures=False,
-                 methods=["least squares"])
+                 methods=["least squares"], volumes=False)
     assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
@@ -65,6 +65,15 @@ def test_report_errors(tmp_path):
 
 def test_report_with_pictures(tmp_path):
     out = tmp_path / "rep"
-    write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["least squares"])
+    write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["least squares"], volumes=False)
     assert (out / "solid.png").stat().st_size > 10_000
     assert "solid.png" in (out / "index.html").read_text()
+
+
+def test_report_mmv_tables(tmp_path):
+    pytest.importorskip("zonotope.mismatch")
+    out = tmp_path / "rep"
+    write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["Centroid"], pictures=False)
+    md = (out / "report.md").read_text()
+    assert "MMV volume along the grey axis" in md and "MMV volume of the ColorChecker" in md
+    assert "| Nikon 5100 (NPL) | ColorChecker N Ohta | Centroid |" in md

@@ -72,6 +72,7 @@ def write_report(
     size: int | None = 150,
     pictures: bool = True,
     methods: Sequence[str] | None = None,
+    volumes: bool = True,
     progress: Callable[[str, int], None] | None = None,
 ) -> Path:
     """Write ``index.html`` and ``report.md`` (plus PNGs) for a camera set into ``output``.
@@ -98,6 +99,8 @@ def write_report(
         Render the pyvista and matplotlib pictures (needs an OpenGL context, e.g. EGL).
     methods
         Estimators to evaluate (default all of :data:`zonotope.evaluate.DEFAULT_METHODS`).
+    volumes
+        Compute the MMV volume tables (one MMV per grey level and ColorChecker patch and set).
     progress
         ``progress(description, n)`` before each step.
 
@@ -172,8 +175,10 @@ def write_report(
         # 2. MMV volumes
         step("MMV volumes along the grey axis", len(sets) * len(GREY_LEVELS))
         grey = {" + ".join(pb.sources): _mmv_volumes(pb, np.outer(GREY_LEVELS, np.ones(pb.k)))
-                for pb in sets}
-        if all(v is None for v in grey.values()):
+                for pb in sets} if volumes else {}
+        if not volumes:
+            pass
+        elif all(v is None for v in grey.values()):
             note = "zonotope.mismatch is not available: MMV volumes skipped."
             md.append(f"\n{note}\n")
             parts.append(f"<p>{note}</p>")

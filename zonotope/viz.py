@@ -131,7 +131,7 @@ def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 
     return _finish(p, filename)
 
 
-def mmv_polytope(problem, response, *, eps: float = 1e-4):
+def mmv_polytope(problem, response, *, eps: float = 1e-3):
     """The metamer mismatch volume of one source response as a :class:`zonotope.polytope.Polytope`.
 
     Parameters
