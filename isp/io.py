@@ -58,8 +58,8 @@ def _png_bytes(img: np.ndarray) -> bytes:
 
 
 def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
-                protect: Iterable[str | os.PathLike] = ()) -> Path:
-    """Write an image in [0, 1] as a 16-bit TIFF or PNG, atomically.
+                protect: Iterable[str | os.PathLike] = (), dtype: str = "uint16") -> Path:
+    """Write an image in [0, 1] as a 16-bit TIFF or PNG (or a float32 TIFF), atomically.
 
     Parameters
     ----------
@@ -71,6 +71,9 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
         Replace an existing file (never one of ``protect``).
     protect
         Paths that must never be written (the input RAW files).
+    dtype
+        ``"uint16"`` (values clipped to [0, 1] and quantised) or ``"float32"`` (TIFF only, values kept
+        as they are, e.g. pipeline intermediates).
 
     Returns
     -------
@@ -91,7 +94,14 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
             raise PipelineError(f"{path} is an input file; refusing to overwrite it.")
     if path.exists() and not overwrite:
         raise PipelineError(f"{path} exists; pass overwrite=True (CLI: --overwrite) or choose another name.")
-    img = to_uint16(image)
+    if dtype not in ("uint16", "float32") or (dtype == "float32" and suffix == ".png"):
+        raise PipelineError(f"dtype={dtype!r}: use 'uint16', or 'float32' with a .tif path.")
+    if dtype == "float32":
+        img = np.asarray(image, dtype=np.float32)
+        if not np.all(np.isfinite(img)):
+            raise PipelineError("image: contains NaN or inf; it cannot be written.")
+    else:
+        img = to_uint16(image)
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 3, 4)):
         raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -103,7 +113,8 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
         else:
             import tifffile
 
-            tifffile.imwrite(tmp, img, photometric="rgb" if img.ndim == 3 else "minisblack",
+            rgb = img.ndim == 3 and img.shape[-1] == 3
+            tifffile.imwrite(tmp, img, photometric="rgb" if rgb else "minisblack",
                              metadata=None, software="isp (zonotope)")
         os.replace(tmp, path)
     finally:

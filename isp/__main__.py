@@ -1,0 +1,3 @@
+from isp.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,139 @@
+"""``isp`` command line: develop RAW files.
+
+- ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF or PNG;
+- ``isp info IN``: print the RAW metadata the pipeline uses.
+
+Runnable as ``isp ...`` (console script) or ``python -m isp ...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _develop(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .io import write_image
+    from .pipeline import default_pipeline
+    from .raw import read_raw
+
+    console = Console(stderr=True)
+    src = Path(args.input)
+    out = Path(args.output)
+    tonemap = None if args.tonemap.lower() == "none" else args.tonemap
+    options = {}
+    if args.exposure is not None:
+        if tonemap is None or tonemap.lower() != "clip":
+            console.print("[red]error:[/] --exposure applies to --tonemap clip only "
+                          "(Reinhard 2002 sets the exposure from the image's log-average luminance).")
+            return 2
+        options = {"exposure": args.exposure}
+    pipeline = default_pipeline(demosaic=args.demosaic, correction=args.correction, tonemap=tonemap,
+                                tonemap_options=options)
+    if args.save_stages:
+        stage_dir = Path(args.save_stages)
+        if stage_dir.exists() and any(stage_dir.iterdir()) and not args.overwrite:
+            console.print(f"[red]error:[/] {stage_dir} is not empty; use --overwrite or another folder.")
+            return 2
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=console, disable=args.quiet) as progress:
+        task = progress.add_task(f"reading {src.name}", total=len(pipeline) + 2)
+        raw = read_raw(src)
+        if args.crop:
+            raw = raw.crop(*args.crop)
+        progress.advance(task)
+
+        def on_stage(i: int, name: str) -> None:
+            progress.update(task, completed=i + 1, description=name)
+
+        dev = pipeline(raw, on_stage=on_stage, keep=bool(args.save_stages))
+        progress.update(task, completed=len(pipeline) + 1, description=f"writing {out.name}")
+        write_image(out, dev.image, overwrite=args.overwrite, protect=[src])
+        if args.save_stages:
+            stage_dir.mkdir(parents=True, exist_ok=True)
+            for i, (name, arr) in enumerate(dev.intermediates.items()):
+                write_image(stage_dir / f"{i:02d}_{name}.tif", arr, dtype="float32", overwrite=args.overwrite,
+                            protect=[src])
+        progress.update(task, completed=len(pipeline) + 2, description="done")
+    if not args.quiet:
+        console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}, "
+                      f"{' → '.join(pipeline.names)})")
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    import numpy as np
+    from rich.console import Console
+    from rich.table import Table
+
+    from .raw import read_raw
+
+    raw = read_raw(args.input, metadata_only=args.metadata_only)
+    p = raw.profile
+    table = Table(title=str(args.input), show_header=False)
+    rows = {
+        "make / model": f"{raw.make} {raw.model}".strip() or "(not recorded)",
+        "size (H × W)": f"{raw.shape[0]} × {raw.shape[1]}",
+        "CFA": raw.cfa,
+        "black level": str(raw.black_level.ravel().tolist()),
+        "white level": f"{raw.white_level:g}",
+        "AsShotNeutral": np.array2string(raw.as_shot_neutral, precision=4),
+        "AnalogBalance": np.array2string(p.analog_balance, precision=4),
+        "CalibrationIlluminant1/2": f"{p.calibration_illuminant_1} / {p.calibration_illuminant_2}",
+    }
+    for name in ("color_matrix_1", "color_matrix_2", "camera_calibration_1", "camera_calibration_2",
+                 "forward_matrix_1", "forward_matrix_2"):
+        m = getattr(p, name)
+        rows[name] = "—" if m is None else np.array2string(m, precision=4)
+    for k, v in rows.items():
+        table.add_row(k, v)
+    Console().print(table)
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+
+    parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
+    d.add_argument("input", help="RAW or DNG file")
+    d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
+    d.add_argument("--demosaic", default="Malvar 2004",
+                   help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)")
+    d.add_argument("--correction", default="dng", choices=["dng"],
+                   help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated")
+    d.add_argument("--tonemap", default="Reinhard 2002",
+                   help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)")
+    d.add_argument("--exposure", type=float, default=None,
+                   help="gain in stops before clipping (with --tonemap clip only)")
+    d.add_argument("--crop", type=int, nargs=4, metavar=("TOP", "LEFT", "HEIGHT", "WIDTH"),
+                   help="develop only this part of the mosaic (TOP and LEFT even)")
+    d.add_argument("--save-stages", metavar="DIR", help="also write every intermediate as float32 TIFF")
+    d.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    d.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    d.set_defaults(func=_develop)
+    i = sub.add_parser("info", help="print the metadata of a RAW/DNG file")
+    i.add_argument("input")
+    i.add_argument("--metadata-only", action="store_true", help="accept files without pixel data")
+    i.set_defaults(func=_info)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``isp`` command; returns the exit status (2 for bad input)."""
+    from zonotope import ZonotopeError
+
+    args = _parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ZonotopeError, FileNotFoundError, ValueError) as exc:
+        print(f"isp: error: {exc}", file=sys.stderr)
+        return 2
