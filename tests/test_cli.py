@@ -34,6 +34,13 @@ def test_evaluate_duplicated_camera(capsys):
     assert "more than once" in capsys.readouterr().err
 
 
+def test_evaluate_mismatched_grid_hint(capsys):
+    # the Sigma data stop at 680 nm: the default 400–700 nm grid is refused with a hint
+    assert main(["evaluate", "--camera", "Sigma SDMerill (NPL)", "--atypical", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "680" in err and "--end" in err
+
+
 @pytest.mark.parametrize("argv", [["evaluate"], ["report", "--camera", "x"]])
 def test_missing_required_options(argv):
     with pytest.raises(SystemExit):

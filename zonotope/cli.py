@@ -199,7 +199,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return args.func(args)
     except ZonotopeError as error:
-        print(f"zonotope: error: {error}", file=sys.stderr)
+        hint = ""
+        if "the grid asks for" in str(error) and args.command in ("evaluate", "report"):
+            hint = " (on the command line: --start/--end/--interval set the grid, default 400–700/10 nm)"
+        print(f"zonotope: error: {error}{hint}", file=sys.stderr)
         return 2
 
 
