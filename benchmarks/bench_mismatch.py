@@ -60,7 +60,7 @@ def row(step, patches, mode, repeats, base_repeats):
         base_t += tb
         calls_b.append(refb.lp_calls)
         rel = abs(refb.inner.volume - ref.inner.volume) / max(refb.inner.volume, 1e-300)
-        if rel > 1e-6:
+        if mode == "exact" and rel > 1e-6:
             print(f"  warning: patch {i} volumes differ by {rel:.2e} (relative)")
     b, o = statistics.median(base_t), statistics.median(ours_t)
     return (f"{step:g} nm", "Nikon 5100", mode, f"{b * 1e3:.1f} ms", f"{o * 1e3:.2f} ms", f"{b / o:.0f}×",
