@@ -21,6 +21,7 @@ _EXPORTS = {
     "training": ["TrainConfig", "TrainResult", "TrainState", "init_state", "load_checkpoint", "rawnerf_loss",
               "save_checkpoint", "stack_cameras", "train", "train_step"],
     "outputs": ["pca_false_colour", "psnr", "render_views", "split_cameras"],
+    "poses": ["PoseConfig", "recover_poses"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -68,7 +68,7 @@ class RenderConfig:
     alpha_max: float = 0.99
     background: float = 0.0
     tile_size: int = 16
-    tile_capacity: int = 256
+    tile_capacity: int = 512
     chunk: int = 32
 
     def __post_init__(self):
