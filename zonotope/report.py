@@ -36,6 +36,11 @@ class ReportExistsError(ZonotopeError, FileExistsError):
     """The output folder exists and ``force`` was not given."""
 
 
+def _num(x: float) -> str:
+    """Volumes for tables: thousands separators above 100, three significant digits below."""
+    return f"{x:,.0f}" if abs(x) >= 100 else f"{x:.3g}"
+
+
 def _table_md(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     out = "| " + " | ".join(header) + " |\n|" + "---|" * len(header) + "\n"
     return out + "".join("| " + " | ".join(r) + " |\n" for r in rows)
@@ -185,13 +190,13 @@ def write_report(
         else:
             section("MMV volume along the grey axis (XYZ units, × 10⁻⁶)",
                     ("cameras", *[f"grey {g:g}" for g in GREY_LEVELS]),
-                    [(k, *[f"{1e6 * x:.3g}" for x in v]) for k, v in grey.items()])
+                    [(k, *[_num(1e6 * x) for x in v]) for k, v in grey.items()])
             step("MMV volumes of the ColorChecker", len(sets) * 24)
             cc = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
             labels = list(spectra.reflectances("ColorChecker N Ohta").labels)
             vols = {" + ".join(pb.sources): _mmv_volumes(pb, pb.source_of(cc)) for pb in sets}
             section("MMV volume of the ColorChecker patches (XYZ units, × 10⁻⁶)",
-                    ("patch", *vols), [(labels[i], *[f"{1e6 * v[i]:.3g}" for v in vols.values()])
+                    ("patch", *vols), [(labels[i], *[_num(1e6 * v[i]) for v in vols.values()])
                                        for i in range(len(labels))])
 
         # 3. evaluation
