@@ -7,7 +7,8 @@ One entry point, :func:`render`, over two back-ends with the same inputs and out
 - ``"tiled"`` — Gaussians are binned into square tiles by the bounding box of their cut-off ellipse
   and each tile composites at most ``tile_capacity`` of them (static shapes for JAX); Gaussians beyond
   the capacity are dropped and *counted* in :attr:`RenderOutput.n_dropped`. When nothing is dropped the
-  two back-ends agree up to floating-point rounding.
+  two back-ends agree up to floating-point rounding (and ``transmittance_min`` times the largest
+  colour, where early termination stops at different chunk boundaries).
 
 The footprint of a Gaussian is cut off sharply where its Mahalanobis distance exceeds
 ``sigma_cutoff`` (3σ by default) and where its alpha falls below ``alpha_min`` (1/255), in both
@@ -28,6 +29,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._errors import SplatError
 from .camera import Camera
@@ -51,6 +53,10 @@ class RenderConfig:
         A Gaussian covers the pixels within this Mahalanobis distance (3DGS: 3).
     alpha_min, alpha_max : float
         Alphas below ``alpha_min`` are skipped; alphas are clipped at ``alpha_max`` (3DGS: 1/255, 0.99).
+    transmittance_min : float
+        A pixel stops accumulating once its transmittance falls below this (3DGS: 1e-4), checked
+        every ``chunk`` Gaussians, so the back-ends may differ by up to this times the largest colour;
+        0 composites everything (exact and smooth, for gradient checks).
     background : float
         Value of every channel behind all Gaussians.
     tile_size : int
@@ -66,6 +72,7 @@ class RenderConfig:
     sigma_cutoff: float = 3.0
     alpha_min: float = 1.0 / 255.0
     alpha_max: float = 0.99
+    transmittance_min: float = 1e-4
     background: float = 0.0
     tile_size: int = 16
     tile_capacity: int = 512
@@ -78,6 +85,8 @@ class RenderConfig:
                 raise SplatError(f"RenderConfig.{name} must be a positive int; got {v!r}.")
         if not 0 <= self.alpha_min < self.alpha_max <= 1:
             raise SplatError(f"need 0 ≤ alpha_min < alpha_max ≤ 1; got {self.alpha_min}, {self.alpha_max}.")
+        if not 0 <= self.transmittance_min < 1:
+            raise SplatError(f"transmittance_min must lie in [0, 1); got {self.transmittance_min}.")
         if self.sigma_cutoff <= 0 or self.near <= 0 or self.eps2d < 0:
             raise SplatError("RenderConfig needs sigma_cutoff > 0, near > 0 and eps2d ≥ 0; got "
                              f"{self.sigma_cutoff}, {self.near}, {self.eps2d}.")
@@ -212,9 +221,13 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
     xs = (means2d.reshape(K // ch, ch, 2), conics.reshape(K // ch, ch, 3),
           opacities.reshape(K // ch, ch), colours.reshape(K // ch, ch, N))
 
+    log_tmin = float(np.log(config.transmittance_min)) if config.transmittance_min > 0 else -np.inf
+
     def blend(carry, g):
         logT, C = carry
         alpha = _alpha(px, g[0], g[1], g[2], config)  # [P, ch]
+        if config.transmittance_min > 0:  # saturated pixels stop (per chunk), as 3DGS does
+            alpha = jnp.where((logT > log_tmin)[:, None], alpha, 0.0)
         l1m = jnp.log1p(-alpha)
         cum = jnp.cumsum(l1m, axis=-1)
         w = alpha * jnp.exp(logT[:, None] + cum - l1m)
@@ -222,10 +235,14 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
 
     @jax.checkpoint
     def step(carry, g):
-        if n_used is None:
+        if n_used is None and config.transmittance_min <= 0:
             return blend(carry, g[1:]), None
-        # chunks past the last used Gaussian are skipped (a real branch outside vmap)
-        return jax.lax.cond(g[0] * ch < n_used, blend, lambda c, _: c, carry, g[1:]), None
+        # chunks past the last used Gaussian, or when every pixel is saturated, are skipped
+        # (a real branch: this runs under lax.map/scan, not vmap)
+        go = jnp.any(carry[0] > log_tmin)
+        if n_used is not None:
+            go = go & (g[0] * ch < n_used)
+        return jax.lax.cond(go, blend, lambda c, _: c, carry, g[1:]), None
 
     P = px.shape[0]
     init = (jnp.zeros((P,), colours.dtype), jnp.zeros((P, N), colours.dtype))

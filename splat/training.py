@@ -87,11 +87,11 @@ class TrainConfig:
     """
 
     steps: int = 3000
-    lr_means: float = 2e-3
+    lr_means: float = 1e-3
     lr_log_scales: float = 1e-2
     lr_quats: float = 5e-3
     lr_opacity: float = 5e-2
-    lr_colours: float = 2e-2
+    lr_colours: float = 1e-2
     lr_final: float = 0.05
     capacity: int = 1024
     densify_every: int = 100

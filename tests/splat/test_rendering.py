@@ -50,7 +50,8 @@ def test_gradients_pass_finite_differences_in_float64(method, make_gaussians):
         g = make_gaussians(G=8, N=2, seed=3, spread=0.5, dtype=jnp.float64)
         cam = look_at((0.2, -3.0, 0.3), (0, 0, 0), width=10, height=8, fov_deg=40, dtype=jnp.float64)
         # a smooth footprint (no cut-offs) so that finite differences are meaningful
-        cfg = RenderConfig(alpha_min=0.0, sigma_cutoff=1e3, tile_size=8, tile_capacity=8, chunk=4)
+        cfg = RenderConfig(alpha_min=0.0, sigma_cutoff=1e3, transmittance_min=0.0, tile_size=8,
+                           tile_capacity=8, chunk=4)
         w = jnp.asarray(np.random.default_rng(0).normal(size=(8, 10, 2)))
 
         def loss(params):
