@@ -126,7 +126,7 @@ def main() -> None:
     parser.add_argument("--skip-training", action="store_true")
     parser.add_argument("--no-progress", action="store_true")
     args = parser.parse_args()
-    console = Console()
+    console = Console(width=160)
     console.print(f"jax {jax.__version__} on {jax.devices()[0].platform}, {os.cpu_count()} CPU cores")
     step_times(args, console)
     if not args.skip_training:

@@ -1,5 +1,17 @@
 """splat — N-channel Gaussian splatting in JAX, trained on RAW images from several cameras.
 
+Several cameras photograph one scene; each image measures only its camera's channels (and only one
+of them per pixel behind a Bayer mosaic). One set of 3-D Gaussians with N = all cameras' channels
+is fitted to all the images, then renders pixel-aligned N-channel images from any view, ready for
+:mod:`zonotope` (metamer mismatch, colour correction).
+
+- model and renderer: :class:`Gaussians`, :func:`render` (``method="tiled"`` or ``"reference"``);
+- data: :func:`read_colmap` / :func:`write_colmap`, :func:`read_transforms` /
+  :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`;
+- training: :func:`train` with :class:`TrainConfig`; outputs: :func:`render_views`,
+  :func:`split_cameras`, :func:`pca_false_colour`, :func:`correct_image`;
+- a synthetic capture to try it all: :func:`synthetic_scene`.
+
 ``import splat`` is cheap: the submodules (and JAX) load on first use of a public name.
 """
 
@@ -20,7 +32,7 @@ _EXPORTS = {
     "scenes": ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"],
     "training": ["TrainConfig", "TrainResult", "TrainState", "init_state", "load_checkpoint", "rawnerf_loss",
               "save_checkpoint", "stack_cameras", "train", "train_step"],
-    "outputs": ["pca_false_colour", "psnr", "render_views", "split_cameras"],
+    "outputs": ["correct_image", "pca_false_colour", "psnr", "render_views", "split_cameras"],
     "poses": ["PoseConfig", "recover_poses"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}

@@ -11,7 +11,7 @@ from .data import Capture
 from .gaussians import Gaussians
 from .rendering import RenderConfig, render
 
-__all__ = ["pca_false_colour", "psnr", "render_views", "split_cameras"]
+__all__ = ["correct_image", "pca_false_colour", "psnr", "render_views", "split_cameras"]
 
 
 def render_views(gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled",
@@ -95,3 +95,37 @@ def psnr(a, b, *, peak: float = 1.0) -> float:
         raise SplatError(f"psnr needs arrays of one shape; got {a.shape} and {b.shape}.")
     mse = np.mean((a - b) ** 2)
     return float("inf") if mse == 0 else float(10 * np.log10(peak**2 / mse))
+
+
+def correct_image(image, capture: Capture, cameras, *, camera_ids=None, method: str = "Prior",
+                  **options) -> np.ndarray:
+    """Colour-correct a pixel-aligned multi-camera image with :func:`zonotope.correct.correct`.
+
+    Parameters
+    ----------
+    image : array_like of shape (H, W, N)
+        A render of the trained model (linear, white-balanced: the perfect white gives 1 per
+        channel, as in :func:`splat.synthetic_scene`).
+    capture : Capture
+        Its channel map picks each camera's channels.
+    cameras : sequence
+        The spectral cameras (names or curves for :mod:`zonotope`) of ``camera_ids``, in that order.
+    camera_ids : sequence of int, optional
+        Which cameras' channels to use, stacked in this order (default: all, in id order).
+    method, **options
+        See :func:`zonotope.correct.fit_correction`.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+        XYZ (or the target of ``options``).
+    """
+    from zonotope.correct import correct
+
+    image = np.asarray(image, float)
+    ids = sorted(capture.channels) if camera_ids is None else list(camera_ids)
+    if len(ids) != len(cameras):
+        raise SplatError(f"{len(cameras)} spectral cameras for camera ids {ids}; give one per id.")
+    idx = [c for i in ids for c in capture.channels[i]]
+    out = correct(image[..., idx].reshape(-1, len(idx)), list(cameras), method=method, **options)
+    return np.asarray(out).reshape(*image.shape[:-1], -1)

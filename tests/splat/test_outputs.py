@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from splat import Capture, SplatError, View, look_at, pca_false_colour, psnr, split_cameras
+from splat import Capture, SplatError, View, correct_image, look_at, pca_false_colour, psnr, split_cameras
 
 
 def test_split_cameras():
@@ -42,3 +42,24 @@ def test_psnr():
     assert psnr(a, a + 0.1) == pytest.approx(20.0)
     with pytest.raises(SplatError):
         psnr(a, a[:2])
+
+
+def test_correct_image_hands_the_aligned_channels_to_zonotope():
+    import zonotope
+    from zonotope.correct import correct
+
+    cams = ("Nikon 5100 (NPL)", "Canon EOS 5D Mark II")
+    shape = np.arange(400, 701, 10)
+    G = zonotope.generators(list(cams), "D65", shape).values
+    R = zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), shape).T[:16]
+    image = (R @ G).reshape(4, 4, 6)
+    view = look_at((0, -3, 0), (0, 0, 0), width=4, height=4)
+    capture = Capture((View("a", view, 1), View("b", view, 2)), {1: (0, 1, 2), 2: (3, 4, 5)})
+    opts = dict(method="Cheung 2004", shape=shape)
+    XYZ = correct_image(image, capture, cams, **opts)
+    assert XYZ.shape == (4, 4, 3)
+    np.testing.assert_allclose(XYZ.reshape(-1, 3), correct(R @ G, list(cams), **opts))
+    one = correct_image(image, capture, cams[1:], camera_ids=[2], **opts)
+    np.testing.assert_allclose(one.reshape(-1, 3), correct((R @ G)[:, 3:], [cams[1]], **opts))
+    with pytest.raises(SplatError, match="one per id"):
+        correct_image(image, capture, cams[:1])
