@@ -75,30 +75,20 @@ class _Facets3:
 
 
 def _range_min(values: np.ndarray, ranges: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    """min(values[lo:hi]) over several ranges per query (sparse table, built once).
+    """min(values[lo:hi]) over several ranges per query; empty ranges count as +inf.
 
-    Returns the element-wise minimum over all the given ``(lo, hi)`` arrays; empty ranges
-    count as +inf.
+    One ``np.minimum.reduceat`` per range set, on the interleaved bounds (lo₀, hi₀, lo₁, hi₁, …):
+    the even segments are the ranges, the odd ones are discarded.
     """
-    table = [values.astype(np.float64)]
-    width = 1
-    while 2 * width <= values.size:
-        prev = table[-1]
-        table.append(np.minimum(prev[:-width], prev[width:]))
-        width *= 2
+    v = np.append(values.astype(np.float64), np.inf)
     out = np.full(ranges[0][0].shape, np.inf)
     for lo, hi in ranges:
-        length = hi - lo
-        ok = np.nonzero(length > 0)[0]
+        ok = np.nonzero(hi > lo)[0]
         if ok.size == 0:
             continue
-        level = np.floor(np.log2(length[ok])).astype(int)
-        res = np.empty(ok.size)
-        for lev in np.unique(level):
-            sel = level == lev
-            t = table[lev]
-            res[sel] = np.minimum(t[lo[ok][sel]], t[hi[ok][sel] - (1 << lev)])
-        out[ok] = np.minimum(out[ok], res)
+        idx = np.empty(2 * ok.size, dtype=np.intp)
+        idx[0::2], idx[1::2] = lo[ok], hi[ok]
+        out[ok] = np.minimum(out[ok], np.minimum.reduceat(v, idx)[0::2])
     return out
 
 
@@ -265,7 +255,7 @@ class Zonotope:
         H[flip] *= -1.0
         U = H / np.linalg.norm(H, axis=1, keepdims=True)
         # candidates by cosine (cheap), confirmed by |u_i − u_j|, which resolves tiny angles
-        ci, cj = np.nonzero(U @ U.T >= 1.0 - 1e-6)
+        ci, cj = np.nonzero(U @ U.T >= 1.0 - 1e-12)  # ≈ 1.4e-6 rad ≫ TOL.parallel
         d2 = np.einsum("ij,ij->i", U[ci] - U[cj], U[ci] - U[cj])
         close = np.zeros((U.shape[0], U.shape[0]), dtype=bool)
         close[ci, cj] = d2 <= self.tol.parallel**2
@@ -338,28 +328,32 @@ class Zonotope:
         order = np.argsort(ang, axis=1)[:, :m]
         a_s = np.take_along_axis(ang, order, axis=1)  # (p, m)
         rows = np.arange(p)[:, None]
-        # doubled, row-offset sorted arrays for searches and prefix sums
-        a2 = np.concatenate([a_s, a_s + two_pi], axis=1) + big * rows
-        g2 = np.concatenate([order, order], axis=1)
-        cum = np.concatenate([np.zeros((p, 1, 3)), np.cumsum(H[g2], axis=1)], axis=1)
-        cumr = np.concatenate([np.zeros((p, 1), np.int64), np.cumsum(r[g2], axis=1)], axis=1)
-        flat_a2, flat_as = a2.ravel(), (a_s + big * rows).ravel()
+        # row-offset sorted angles for searches; prefix sums along each row. A half-turn window
+        # may wrap past the row's end: C(t) = cum[t] + cum[t − m] for t > m (cum[0] = 0).
+        flat_as = (a_s + big * rows).ravel()
+        cum = np.zeros((p, m + 1, 3))
+        np.cumsum(H[order], axis=1, out=cum[:, 1:])
+        cumr = np.zeros((p, m + 1), np.int64)
+        np.cumsum(r[order], axis=1, out=cumr[:, 1:])
         ii, tt = np.nonzero(order > np.arange(p)[:, None])  # pairs (i, j) with j > i
         jj = order[ii, tt]
-        th = a_s[ii, tt] + big * ii
-        w2 = 2 * m
-        lo = np.searchsorted(flat_a2, th + tol, "right") - ii * w2
-        hi = np.searchsorted(flat_a2, th + np.pi - tol, "left") - ii * w2
-        Bp = cum[ii, hi] - cum[ii, lo]
-        Kp = cumr[ii, hi] - cumr[ii, lo]
+        th = a_s[ii, tt]
+        base_row = ii * m
+        lo = np.searchsorted(flat_as, th + tol + big * ii, "right") - base_row
+        x = th + np.pi - tol
+        wrap = x > np.pi
+        hi = np.searchsorted(flat_as, x - two_pi * wrap + big * ii, "left") - base_row + m * wrap
+        hi1, hi2 = np.minimum(hi, m), np.maximum(hi - m, 0)
+        Bp = cum[ii, hi1] + cum[ii, hi2] - cum[ii, lo]
+        Kp = cumr[ii, hi1] + cumr[ii, hi2] - cumr[ii, lo]
         n = np.cross(H[ii], H[jj])
         volume = float(np.einsum("ij,ij->", n, 2.0 * Bp - T)) / 3.0
         # generators coplanar with (i, j): angle within tol of θ_j or θ_j + π (mod 2π). Cheap
         # test first (neighbours in sorted order), exact windows only for the flagged pairs.
-        prev = np.where(tt > 0, a_s[ii, tt - 1], a_s[ii, m - 1] - two_pi) + big * ii
-        flag = (lo > tt + 1) | (th - prev <= tol)
-        flag |= flat_a2[np.minimum(hi, w2 - 1) + ii * w2] <= th + np.pi + tol
-        keep = ~flag
+        prev = np.where(tt > 0, a_s[ii, tt - 1], a_s[ii, m - 1] - two_pi)
+        nxt = np.where(hi < 2 * m, a_s[ii, hi % m] + two_pi * (hi >= m), np.inf)
+        flag = (lo > tt + 1) | (th - prev <= tol) | (nxt <= th + np.pi + tol)
+        th = th + big * ii
         zonogons = []
         deg = np.nonzero(flag)[0]
         if deg.size:
@@ -373,10 +367,11 @@ class Zonotope:
                 d = deg[e]
                 zset = np.concatenate([[ii[d]]] + [g_flat[a[e]:b[e]] for a, b in bounds])
                 zonogons.append(self._zonogon(H, r, n[d], off + Bp[d], Kp[d], np.unique(zset)))
-        return _Facets3(
-            pairs=np.stack([ii[keep], jj[keep]], axis=1), normals=n[keep], bases=off + Bp[keep],
-            keys=Kp[keep], zonogons=zonogons, volume=volume,
-        )
+        if deg.size:
+            ii, jj, n, Bp, Kp = (np.delete(a, deg, axis=0) for a in (ii, jj, n, Bp, Kp))
+        Bp += off
+        return _Facets3(pairs=np.stack([ii, jj], axis=1), normals=n, bases=Bp, keys=Kp,
+                        zonogons=zonogons, volume=volume)
 
     @staticmethod
     def _zonogon(H, r, normal, base, key, zset):
@@ -472,25 +467,123 @@ class Zonotope:
     def vertices(self) -> np.ndarray:
         """Exact vertices, ndarray of shape (V, 3): n(n−1)+2 for n generators in general position.
 
-        Every vertex is the lowest or the highest corner of some facet (its upward edges form one
-        contiguous arc around it), so the bottom and top corners of all facets, and their point
-        reflections, are all the vertices: no mesh is needed.
+        Each vertex is found once, without sorting or hashing (see :meth:`_vertices_sweep`); when
+        the data are too degenerate for that, every facet corner is listed and duplicates are
+        removed by their generator-set keys.
         """
         if "_mesh" in self.__dict__:
             return self._mesh[0]
+        fast = self._vertices_sweep()
+        return fast if fast is not None else self._vertices_by_keys()
+
+    def _vertices_by_keys(self) -> np.ndarray:
+        """Every vertex is the lowest or the highest corner of some facet (its upward edges form one
+        contiguous arc around it): list those corners and their point reflections, drop repeats."""
         f = self._facets
         H, _ = self._reduced
         rr = self._keys_r
         top = f.bases + H[f.pairs[:, 0]] + H[f.pairs[:, 1]]
         ktop = f.keys + rr[f.pairs[:, 0]] + rr[f.pairs[:, 1]]
-        pts = [f.bases, top] + [z[1] for z in f.zonogons]
-        keys = [f.keys, ktop] + [z[2] for z in f.zonogons]
-        pts = np.concatenate(pts)
-        keys = np.concatenate(keys)
+        pts = np.concatenate([f.bases, top] + [z[1] for z in f.zonogons])
+        keys = np.concatenate([f.keys, ktop] + [z[2] for z in f.zonogons])
         pts = np.concatenate([pts, 2.0 * self.centroid - pts])
         keys = np.concatenate([keys, self._key_all - keys])
         _, first = np.unique(keys, return_index=True)
         return pts[first]
+
+    def _vertices_sweep(self) -> np.ndarray | None:
+        """Each vertex exactly once, from the arrangement of great circles ``h⊥`` on the sphere.
+
+        Vertices of the zonotope are the cells of that arrangement (the directions for which the
+        vertex is the support point); facets are its crossing points ``±(h_i × h_j)``. Seen in the
+        gnomonic chart of the hemisphere ``w · u > 0`` the circles are lines and every bounded cell
+        has one lowest corner for a generic height ``e`` (e ⊥ w): at each crossing the corner
+        whose two edges both climb. The cells that cross the equator ``w⊥`` are the 2p vertices
+        of the zonotope's shadow along ``w`` (one angular sweep); the lower hemisphere holds the
+        point reflections of the upper one. Returns None (the caller falls back to key
+        deduplication) if the fixed generic ``w, e`` happen to be tied with the data or the count
+        differs from Euler's ``V = 2 + E − F``.
+        """
+        f = self._facets
+        H, off = self._reduced
+        p = H.shape[0]
+        c2 = 2.0 * self.centroid
+        w = np.array([0.5459694, 0.3173211, 0.7752803])
+        w /= np.linalg.norm(w)
+        e = np.cross(w, [0.8314159, -0.2718281, 0.4845213])
+        e /= np.linalg.norm(e)
+        eps = 1e-9
+        # crossings in the upper hemisphere: the + facet (normal n) or its − twin (normal −n)
+        i, j = f.pairs[:, 0], f.pairs[:, 1]
+        n = f.normals
+        nn2 = np.einsum("ij,ij->i", n, n)
+        wn, en = n @ w, n @ e
+        if np.any(wn * wn <= eps * eps * nn2):
+            return None
+        up = wn > 0
+        # climbing direction γ = (w·N) e − (e·N) w at N = ±n, written γ_t = α h_i + β h_j; with
+        # n = h_i × h_j, n·(e × h_j) = |h_j|² e·h_i − (h_i·h_j) e·h_j (and alike): scalars only
+        gw, ge = np.abs(wn), np.where(up, en, -en)
+        He, Hw, H2 = H @ e, H @ w, np.einsum("ij,ij->i", H, H)
+        hij = np.einsum("ij,ij->i", H[i], H[j])
+        alpha = (gw * (H2[j] * He[i] - hij * He[j]) - ge * (H2[j] * Hw[i] - hij * Hw[j])) / nn2
+        beta = (gw * (H2[i] * He[j] - hij * He[i]) - ge * (H2[i] * Hw[j] - hij * Hw[i])) / nn2
+        small = eps * np.hypot(gw, ge)
+        if np.any(alpha * alpha * H2[i] <= small * small) or np.any(beta * beta * H2[j] <= small * small):
+            return None
+        # the chosen corner, mirrored through the centre on the − twins
+        zero = np.concatenate([H, np.zeros((1, 3))])
+        rz = np.concatenate([self._keys_r, np.zeros(1, np.int64)])
+        ci = np.where((alpha > 0) == up, i, p)
+        cj = np.where((beta > 0) == up, j, p)
+        sgn = np.where(up, 1.0, -1.0)[:, None]
+        corner = sgn * (f.bases + zero[ci] + zero[cj]) + (~up)[:, None] * c2
+        ckey = np.where(up, 1, -1) * (f.keys + rz[ci] + rz[cj]) + np.where(up, 0, self._key_all)
+        pts, keys = [corner], [ckey]
+        n_edges = 4 * i.size
+        for normal, verts, vkeys in f.zonogons:
+            M = verts.shape[0]
+            n_edges += M
+            wz = normal @ w
+            if abs(wz) <= eps * np.linalg.norm(normal):
+                return None
+            if wz < 0:
+                normal, verts, vkeys = -normal, (c2 - verts)[::-1], (self._key_all - vkeys)[::-1]
+            g = -((normal @ w) * e - (normal @ e) * w)
+            a = np.roll(verts, -1, axis=0) - verts
+            b = np.roll(verts, 1, axis=0) - verts
+            sa, sb = np.cross(a, g) @ normal, np.cross(g, b) @ normal
+            pick = (sa > 0) & (sb > 0)
+            if np.count_nonzero(pick) != M // 2 - 1:
+                return None
+            pts.append(verts[pick])
+            keys.append(vkeys[pick])
+        upper, ukeys = np.concatenate(pts), np.concatenate(keys)
+        # the equator: vertices of the shadow along w, one per gap between the 2p events φ ± π/2
+        a1 = np.cross(w, e)
+        phi = np.arctan2(He, H @ a1)
+        if np.any(np.hypot(He, H @ a1) <= eps * np.sqrt(H2)):
+            return None
+        events = np.sort(np.mod(np.concatenate([phi + np.pi / 2, phi - np.pi / 2]), 2.0 * np.pi))
+        gaps = np.diff(np.concatenate([events, events[:1] + 2.0 * np.pi]))
+        if gaps.min() <= eps:
+            return None
+        theta = events + 0.5 * gaps
+        S = np.stack([np.cos(theta), np.sin(theta)], axis=1) @ np.stack([H @ a1, H @ e]) > 0
+        equator = off + S @ H
+        ekeys = S.astype(np.int64) @ self._keys_r
+        # cells that cross the equator but still have a lowest corner are in both lists
+        # (a 2¹⁶-bucket table of their keys' low bits leaves ~1 % of candidates to search)
+        bucket = np.zeros(1 << 16, dtype=bool)
+        bucket[ekeys & 0xFFFF] = True
+        cand = np.nonzero(bucket[ukeys & 0xFFFF])[0]
+        es = np.sort(ekeys)
+        hit = cand[es[np.minimum(np.searchsorted(es, ukeys[cand]), es.size - 1)] == ukeys[cand]]
+        upper = np.delete(upper, hit, axis=0)
+        n_facets = 2 * (i.size + len(f.zonogons))
+        if 2 * upper.shape[0] + 2 * p != 2 + n_edges - n_facets:
+            return None
+        return np.concatenate([upper, c2 - upper, equator])
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """Watertight triangulated surface: ``(vertices (V, 3), faces (F, 3))``, outward CCW."""
