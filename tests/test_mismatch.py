@@ -16,6 +16,7 @@ from zonotope.mismatch import (
     MetamerMismatch,
     channelwise_intersection,
     metamer_mismatch,
+    metamer_mismatch_batch,
 )
 from zonotope.polytope import Polytope
 from zonotope.solid import Zonotope
@@ -259,6 +260,61 @@ def test_random_generators_truth_and_reference(seed, n, k, m):
     h_ref, _, _ = HighsOracle(Phi, Psi, c).support(U)
     h_ours = (U @ mmv.vertices.T).max(axis=1)
     np.testing.assert_allclose(h_ours, h_ref, atol=1e-8)
+
+
+def test_multi_response_oracle_matches_one_at_a_time():
+    """One simplex for several responses (shared matrix, own right-hand sides and artificial signs)."""
+    Phi, Psi = gens("Nikon 5100 (NPL)", G10), gens(TARGET, G10)
+    R = checker(G10)[[0, 5, 18, 23]]
+    C = np.concatenate([R @ Phi, [[2.0, 2.0, 2.0]]])  # the last one is outside the solid
+    multi = SimplexOracle(Phi, Psi, C, 0.0)
+    assert multi.feasible.tolist() == [True, True, True, True, False]
+    rng = np.random.default_rng(3)
+    U = rng.normal(size=(40, 3))
+    rows = rng.integers(0, 4, 40)
+    v, _, ids = multi.support(U, rows=rows)
+    for r in range(4):
+        sel = rows == r
+        ref, _, _ = HighsOracle(Phi, Psi, C[r]).support(U[sel])
+        np.testing.assert_allclose(v[sel], ref, atol=1e-9)
+    v2, _, _ = multi.support(U + 0.05, warm=ids, rows=rows)
+    np.testing.assert_allclose(v2, [HighsOracle(Phi, Psi, C[r]).support(u[None] + 0.05)[0][0]
+                                    for u, r in zip(U, rows)], atol=1e-9)
+    with pytest.raises(GeometryError, match="another response"):
+        multi.support(U[:2], warm=ids[:2], rows=(rows[:2] + 1) % 4)
+
+
+def test_batch_lockstep_equals_one_by_one(nikon10):
+    Phi, Psi, R = nikon10
+    C = np.concatenate([R[:7] @ Phi, [[1.5, 0.2, 0.2]]])  # an infeasible one among them
+    with pytest.raises(InfeasibleResponseError):
+        metamer_mismatch_batch(Phi, Psi, C, eps=1e-3)
+    out = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, on_infeasible="nearest", chunk=3)
+    for i, c in enumerate(C):
+        one = metamer_mismatch(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
+        np.testing.assert_allclose(out.centroids[i], one.centroid, atol=1e-12)
+        np.testing.assert_allclose(out.volume_bounds[i], one.volume_bounds, rtol=1e-9)
+    exact = metamer_mismatch_batch(Phi, Psi, C[:4], eps=0.0, chunk=4)
+    for i, c in enumerate(C[:4]):
+        assert exact.volumes[i] == pytest.approx(metamer_mismatch(Phi, Psi, c).volume, rel=1e-9)
+    highs = metamer_mismatch_batch(Phi, Psi, C[:2], eps=1e-3, oracle="highs")
+    np.testing.assert_allclose(highs.centroids, out.centroids[:2], atol=1e-6)
+    empty = metamer_mismatch_batch(Phi, Psi, np.zeros((0, 3)))
+    assert empty.centroids.shape == (0, 3) and empty.lp_calls == 0
+    with pytest.raises(ValueError, match="chunk"):
+        metamer_mismatch_batch(Phi, Psi, C, chunk=0)
+    with pytest.raises(ValueError, match="eps"):
+        metamer_mismatch_batch(Phi, Psi, C, eps=-1.0)
+
+
+@pytest.mark.slow
+def test_batch_in_two_processes_matches(nikon10):
+    Phi, Psi, R = nikon10
+    C = R @ Phi
+    one = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, chunk=6)
+    two = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, chunk=6, workers=2)
+    np.testing.assert_array_equal(one.centroids, two.centroids)
+    assert one.lp_calls == two.lp_calls
 
 
 def test_input_errors(nikon10):

@@ -68,3 +68,13 @@ def test_shared_cameras_vora(shared_data):
         G = zonotope.generators(cam, "D65", np.arange(400.0, 701.0, 10.0)).values
         values.append(vora_value(G, X_LMS))
     assert len(values) == 52 and 0.7 < min(values) and max(values) < 1.0
+
+
+def test_channels_of_wildly_different_scale_all_count():
+    """A channel 1e-226 times weaker than another spans the same space as a unit one (found by
+    hypothesis: its squares underflow, and a relative rank cut would drop it)."""
+    tiny = np.full((31, 1), 2.97639363e-226)
+    e0 = np.eye(31)[:, :1]
+    assert vora_value(tiny, X_LMS) == pytest.approx(vora_value(np.ones((31, 1)), X_LMS), rel=1e-12)
+    assert vora_value(np.hstack([tiny, e0]), X_LMS) >= vora_value(tiny, X_LMS)
+    assert vora_value(np.zeros((31, 2)), X_LMS) == 0.0

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .polytope import Polytope, _affine_hull, _complement
+from .polytope import Polytope, _affine_hull, _complement, _vertices_from_halfspaces
 
-__all__ = ["Refinement", "refine"]
+__all__ = ["Refinement", "refine", "refine_many", "refine_steps"]
 
 
 @dataclass(frozen=True)
@@ -70,7 +70,10 @@ class Refinement:
         b = self.values - self.directions @ o
         norms = np.linalg.norm(A, axis=1)
         keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
-        Z = Polytope(halfspaces=(A[keep], b[keep]), tol=self.inner.tol).vertices
+        inside = None
+        if self.inner.dim == d:  # the inner centroid is interior to the outer bound
+            inside = (self.inner.centroid - o) @ B
+        Z = _vertices_from_halfspaces(A[keep], b[keep], self.inner.tol, interior=inside)
         return Polytope(o + Z @ B.T, tol=self.inner.tol)
 
 
@@ -98,8 +101,53 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
     tol : float
         Absolute geometric tolerance (flatness, coplanarity).
     """
+    steps = refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds, max_points=max_points)
+    request = next(steps)
+    while True:
+        try:
+            request = steps.send(oracle.support(*request))
+        except StopIteration as done:
+            return done.value
+
+
+def refine_many(oracle, rows, m: int, *, threshold: float, tol: float, max_rounds: int = 200,
+                max_points: int = 200_000) -> list[Refinement]:
+    """:func:`refine` for several responses of one multi-response oracle, in lockstep.
+
+    Every round gathers the support queries of all unfinished responses into one oracle call
+    (``oracle.support(U, warm, rows)``), so the simplex's numpy overhead is shared.
+    """
+    rows = [int(r) for r in rows]
+    steps = {r: refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds,
+                             max_points=max_points) for r in rows}
+    pending = {r: next(s) for r, s in steps.items()}
+    done: dict[int, Refinement] = {}
+    while pending:
+        order = list(pending)
+        sizes = [len(pending[r][0]) for r in order]
+        U = np.concatenate([pending[r][0] for r in order])
+        warm = np.concatenate([pending[r][1] if pending[r][1] is not None else np.full(n, r)
+                               for r, n in zip(order, sizes)])
+        who = np.repeat(order, sizes)
+        vals, pts, ids = oracle.support(U, warm, who)
+        cuts = np.cumsum(sizes)[:-1]
+        for r, v, p, s in zip(order, np.split(vals, cuts), np.split(pts, cuts), np.split(ids, cuts)):
+            try:
+                pending[r] = steps[r].send((v, p, s))
+            except StopIteration as end:
+                done[r] = end.value
+                del pending[r]
+    return [done[r] for r in rows]
+
+
+def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
+                 max_points: int = 200_000):
+    """The refinement as a generator: yields ``(U, warm)`` support queries, is sent the oracle's
+    ``(values, points, ids)`` and returns the :class:`Refinement` (see :func:`refine`)."""
+    calls = 0
     U = _initial_directions(m)
-    vals, P, ids = oracle.support(U)
+    vals, P, ids = yield U, None
+    calls += len(U)
     dirs, hs = [U], [vals]
     rounds = 0
     # 1. affine hull: ask the directions orthogonal to the points' hull until none leaves it
@@ -109,7 +157,8 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
             break
         C = _complement(B)
         Uc = np.concatenate([C, -C])
-        v, p, s = oracle.support(Uc, np.full(len(Uc), ids[0]))
+        v, p, s = yield Uc, np.full(len(Uc), ids[0])
+        calls += len(Uc)
         dirs.append(Uc)
         hs.append(v)
         rounds += 1
@@ -122,7 +171,7 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
     max_gap = 0.0
     if d == 0:
         inner = Polytope(P, tol=tol)
-        return Refinement(inner, np.concatenate(dirs), np.concatenate(hs), o, B, oracle.n_calls,
+        return Refinement(inner, np.concatenate(dirs), np.concatenate(hs), o, B, calls,
                           rounds, max_gap, True)
     # 2. refinement inside the affine hull
     is_new = np.ones(len(P), dtype=bool)
@@ -146,7 +195,8 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
         Ua = ns[ask] @ poly._B.T
         ba = offs[ask] + Ua @ poly._o
         warm = ids[S[first[ask], 0]]
-        v, p, s = oracle.support(Ua, warm)
+        v, p, s = yield Ua, warm
+        calls += len(Ua)
         dirs.append(Ua)
         hs.append(v)
         rounds += 1
@@ -162,5 +212,5 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
         ids = np.concatenate([ids, sn[first]])
         is_new = np.zeros(len(P), dtype=bool)
         is_new[-first.size:] = True
-    return Refinement(poly, np.concatenate(dirs), np.concatenate(hs), o, B, oracle.n_calls,
+    return Refinement(poly, np.concatenate(dirs), np.concatenate(hs), o, B, calls,
                       rounds, max_gap, converged)

@@ -96,22 +96,32 @@ class SimplexOracle:
     ----------
     Phi : ndarray of shape (n, k)
     Psi : ndarray of shape (n, m)
-    c : ndarray of shape (k,)
+    c : ndarray of shape (k,) or (R, k)
+        One response, or R responses solved side by side (``support(..., rows=...)`` says which
+        response each direction belongs to); the constraint matrix is shared, only the right-hand
+        side differs, so LPs of different responses share every numpy call.
     delta : float or ndarray of shape (k,)
     max_iter : int
         Pivot limit per LP (per batch member); LPs that hit it (cycling) are re-solved by HiGHS.
 
+    Attributes
+    ----------
+    feasible : ndarray of bool, shape (R,)
+        Whether each response can be met within δ (phase 1).
+
     Raises
     ------
     Infeasible
-        From the constructor, when phase 1 proves the constraint set empty.
+        From the constructor, for a single response (c of shape (k,)) that phase 1 proves
+        infeasible. With several responses, see ``feasible`` instead.
 
     Notes
     -----
     Variables: the n reflectance values in [0, 1], k slacks s ∈ [−δ, δ] with Φᵀx + s = c (only when
-    some δ > 0), and k artificial variables used by phase 1 and then fixed at 0. A basis is k of
-    them; the others sit at a bound. Dantzig pricing, Harris-free ratio test with bound flips,
-    product-form updates of B⁻¹ and a fresh factorisation every 25 pivots and at the end.
+    some δ > 0), and k artificial variables used by phase 1 and then fixed at 0 (their column is
+    ± e_i, the sign per response making them start non-negative). A basis is k of them; the others
+    sit at a bound. Dantzig pricing, Harris-free ratio test with bound flips, product-form updates
+    of B⁻¹ and a fresh factorisation every 25 pivots and at the end.
     """
 
     def __init__(self, Phi, Psi, c, delta=0.0, *, max_iter: int | None = None) -> None:
@@ -119,7 +129,11 @@ class SimplexOracle:
         Psi = np.asarray(Psi, dtype=np.float64)
         n, k = Phi.shape
         self.k, self.m = k, Psi.shape[1]
-        self.c = np.asarray(c, dtype=np.float64)
+        C = np.asarray(c, dtype=np.float64)
+        single = C.ndim == 1
+        self.C = np.atleast_2d(C)
+        self.c = self.C[0]
+        R = self.C.shape[0]
         self.delta = _as_delta(delta, k)
         self.n_calls = 0
         self.n_fallback = 0
@@ -132,14 +146,16 @@ class SimplexOracle:
             lo.append(-self.delta)
             hi.append(self.delta)
         n_main = n + (k if use_slack else 0)
-        # artificials: sign chosen so that they start non-negative
+        self.n_main = n_main
+        # artificials: sign chosen per response so that they start non-negative
         x0 = np.concatenate(lo)
-        r = self.c - np.hstack(cols) @ x0
-        sign = np.where(r >= 0, 1.0, -1.0)
-        cols.append(np.diag(sign))
+        r = self.C - x0 @ np.hstack(cols).T
+        self.colscale = np.ones((R, n_main + k))
+        self.colscale[:, n_main:] = np.where(r >= 0, 1.0, -1.0)
+        cols.append(np.eye(k))
         lo.append(np.zeros(k))
         hi.append(np.full(k, np.inf))
-        self.A = np.ascontiguousarray(np.hstack(cols))  # (k, N)
+        self.A = np.ascontiguousarray(np.hstack(cols))  # (k, N); artificial columns × colscale
         self.lo, self.hi = np.concatenate(lo), np.concatenate(hi)
         self.N = self.A.shape[1]
         self.PsiX = np.zeros((self.N, self.m))
@@ -147,30 +163,36 @@ class SimplexOracle:
         self._Phi, self._Psi = Phi, Psi
         self.max_iter = max_iter or 50 * (self.N + k)
         self.scale = float(np.abs(Phi).sum(axis=0).max()) or 1.0
-        # phase 1
-        basis = np.arange(n_main, n_main + k)[None]
-        upper = np.zeros((1, self.N), dtype=bool)
-        W1 = np.zeros((1, self.N))
-        W1[0, n_main:] = -1.0
-        basis, upper, xB, _ = self._solve(W1, basis, upper)
-        infeas = float(xB[0][basis[0] >= n_main].sum()) if np.any(basis[0] >= n_main) else 0.0
-        if infeas > 1e-9 * max(self.scale, 1.0):
+        # phase 1, all responses at once
+        rows = np.arange(R)
+        basis = np.tile(np.arange(n_main, n_main + k), (R, 1))
+        upper = np.zeros((R, self.N), dtype=bool)
+        W1 = np.zeros((R, self.N))
+        W1[:, n_main:] = -1.0
+        basis, upper, xB, _ = self._solve(W1, basis, upper, rows)
+        infeas = np.where(basis >= n_main, xB, 0.0).sum(axis=1)
+        self.feasible = infeas <= 1e-9 * max(self.scale, 1.0)
+        if single and not self.feasible[0]:
             raise Infeasible
         self.hi[n_main:] = 0.0  # artificials fixed at zero from now on
         self._bases = [basis]
         self._uppers = [upper]
-        self._count = 1
+        self._rows = [rows]
+        self._count = R
 
     # -- public ---------------------------------------------------------------------------------
 
-    def support(self, U, warm=None):
+    def support(self, U, warm=None, rows=None):
         """Support of a batch of directions.
 
         Parameters
         ----------
         U : ndarray of shape (q, m)
         warm : ndarray of int, shape (q,), optional
-            Ids (from earlier calls) of the solutions to start from; default the phase-1 basis.
+            Ids (from earlier calls) of the solutions to start from; default the phase-1 basis of
+            each direction's response.
+        rows : ndarray of int, shape (q,), optional
+            Response of each direction (index into ``c``); default 0.
 
         Returns
         -------
@@ -181,43 +203,53 @@ class SimplexOracle:
         """
         U = np.atleast_2d(np.asarray(U, dtype=np.float64))
         q = U.shape[0]
-        bases = np.concatenate(self._bases) if len(self._bases) > 1 else self._bases[0]
-        uppers = np.concatenate(self._uppers) if len(self._uppers) > 1 else self._uppers[0]
-        self._bases, self._uppers = [bases], [uppers]
-        w = np.zeros(q, dtype=np.int64) if warm is None else np.asarray(warm, dtype=np.int64)
+        rows = np.zeros(q, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+        if len(self._bases) > 1:
+            self._bases = [np.concatenate(self._bases)]
+            self._uppers = [np.concatenate(self._uppers)]
+            self._rows = [np.concatenate(self._rows)]
+        bases, uppers, owner = self._bases[0], self._uppers[0], self._rows[0]
+        w = rows.copy() if warm is None else np.asarray(warm, dtype=np.int64)
+        if np.any(owner[w] != rows):
+            raise GeometryError("warm-start ids belong to another response.")
         W = U @ self.PsiX.T  # (q, N)
-        basis, upper, xB, failed = self._solve(W, bases[w].copy(), uppers[w].copy())
+        basis, upper, xB, failed = self._solve(W, bases[w].copy(), uppers[w].copy(), rows)
         x = np.where(upper, self.hi, self.lo)
         np.put_along_axis(x, basis, xB, axis=1)
         points = x @ self.PsiX
         if failed.any():
             self.n_fallback += int(failed.sum())
-            ref = HighsOracle(self._Phi, self._Psi, self.c, self.delta)
-            _, points[failed], _ = ref.support(U[failed])
+            for r in np.unique(rows[failed]):
+                sel = failed & (rows == r)
+                ref = HighsOracle(self._Phi, self._Psi, self.C[r], self.delta)
+                _, points[sel], _ = ref.support(U[sel])
         self.n_calls += q
         ids = np.arange(self._count, self._count + q)
         self._count += q
         self._bases.append(basis)
         self._uppers.append(upper)
+        self._rows.append(rows)
         return np.einsum("qm,qm->q", U, points), points, ids
 
     # -- the simplex ----------------------------------------------------------------------------
 
-    def _refactor(self, basis, upper):
+    def _refactor(self, basis, upper, cs, rhs):
         A, lo, hi = self.A, self.lo, self.hi
-        Bmat = A[:, basis].transpose(1, 0, 2)  # (q, k, k): columns = basic variables
-        Binv = np.linalg.inv(Bmat)
+        Bmat = A[:, basis].transpose(1, 0, 2) * np.take_along_axis(cs, basis, axis=1)[:, None, :]
+        Binv = np.linalg.inv(Bmat)  # (q, k, k): columns = basic variables
         xN = np.where(upper, hi, lo)
         np.put_along_axis(xN, basis, 0.0, axis=1)
         xN = np.where(np.isfinite(xN), xN, 0.0)
-        xB = np.einsum("qij,qj->qi", Binv, self.c - xN @ A.T)
+        xB = np.einsum("qij,qj->qi", Binv, rhs - (xN * cs) @ A.T)
         return Binv, xB
 
-    def _solve(self, W, basis, upper):
+    def _solve(self, W, basis, upper, rows):
         """Run the primal simplex on every row of W (q, N) from the given feasible bases."""
         A, lo, hi = self.A, self.lo, self.hi
         q, N = W.shape
-        Binv, xB = self._refactor(basis, upper)
+        cs = self.colscale[rows]  # (q, N) column signs (artificials)
+        rhs = self.C[rows]
+        Binv, xB = self._refactor(basis, upper, cs, rhs)
         isbasic = np.zeros((q, N), dtype=bool)
         np.put_along_axis(isbasic, basis, True, axis=1)
         dtol = 1e-11 * np.maximum(np.abs(W).max(axis=1), 1e-300)
@@ -232,7 +264,7 @@ class SimplexOracle:
                 if checked:
                     break
                 # final refactorisation of everyone, then re-price once
-                Binv, xB = self._refactor(basis, upper)
+                Binv, xB = self._refactor(basis, upper, cs, rhs)
                 since = 0
                 active = np.arange(q)[~failed]
                 checked = True
@@ -240,7 +272,7 @@ class SimplexOracle:
             Wa = W[a]
             wB = np.take_along_axis(Wa, basis[a], axis=1)
             v = np.einsum("qi,qij->qj", wB, Binv[a])
-            d = Wa - v @ A
+            d = Wa - (v @ A) * cs[a]
             up = upper[a]
             elig = ~isbasic[a] & free & (((~up) & (d > dtol[a, None])) | (up & (d < -dtol[a, None])))
             score = np.where(elig, np.abs(d), 0.0)
@@ -260,7 +292,7 @@ class SimplexOracle:
             iters[a] += 1
             self.n_pivots += a.size
             Bi = Binv[a]
-            alpha = np.einsum("qij,jq->qi", Bi, A[:, j])
+            alpha = np.einsum("qij,jq->qi", Bi, A[:, j] * cs[a, j])
             s = np.where(upper[a, j], -1.0, 1.0)
             rate = s[:, None] * alpha
             bB = basis[a]
@@ -307,6 +339,6 @@ class SimplexOracle:
             active = a
             since += 1
             if since >= 25:
-                Binv, xB = self._refactor(basis, upper)
+                Binv, xB = self._refactor(basis, upper, cs, rhs)
                 since = 0
         return basis, upper, xB, failed

@@ -510,17 +510,15 @@ def mmv_centroids(problem: CorrectionProblem, responses, *, eps: float = 1e-3,
                   delta: float = 0.0) -> np.ndarray:
     """Volume centroids of the metamer mismatch volumes of ``responses (N, k)`` → ``(N, m)``.
 
-    Uses :func:`zonotope.mismatch.metamer_mismatch` on the problem's Φ and Ψ; a response outside
-    the source solid is replaced by the nearest feasible one (``on_infeasible="nearest"``).
+    Uses :func:`zonotope.mismatch.metamer_mismatch_batch` on the problem's Φ and Ψ (responses
+    refined side by side); a response outside the source solid is replaced by the nearest feasible
+    one (``on_infeasible="nearest"``).
     """
-    from .mismatch import metamer_mismatch
+    from .mismatch import metamer_mismatch_batch
 
     C = np.asarray(responses, dtype=np.float64)
-    out = np.empty((C.shape[0], problem.m))
-    for i, c in enumerate(C):
-        out[i] = metamer_mismatch(problem.Phi, problem.Psi, c, delta=delta, eps=eps,
-                                  on_infeasible="nearest").centroid
-    return out
+    return metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta,
+                                  on_infeasible="nearest").centroids
 
 
 def fit_Centroid(problem: CorrectionProblem, *, eps: float = 1e-3, delta: float = 0.0) -> Corrector:

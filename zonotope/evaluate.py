@@ -196,16 +196,11 @@ def _stats(dE: np.ndarray) -> tuple[float, float, float, float]:
 
 def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: float):
     """Centroids (N, m) and volumes (N,) of the MMVs of responses C (N, k)."""
-    from .mismatch import metamer_mismatch
+    from .mismatch import metamer_mismatch_batch
 
-    cents = np.empty((C.shape[0], problem.m))
-    vols = np.empty(C.shape[0])
-    for i, c in enumerate(C):
-        mmv = metamer_mismatch(problem.Phi, problem.Psi, c, delta=delta, eps=eps, on_infeasible="nearest")
-        cents[i] = mmv.centroid
-        vb = getattr(mmv, "volume_bounds", None)
-        vols[i] = float(np.mean(vb)) if vb is not None else float(mmv.volume)
-    return cents, vols
+    out = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta,
+                                 on_infeasible="nearest")
+    return out.centroids, out.volumes
 
 
 def _outside_solid(problem: CorrectionProblem, C: np.ndarray, tol: float = 1e-6) -> np.ndarray:

@@ -204,8 +204,11 @@ class Polytope:
         cols = nb.ravel()
         same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - _ANGLE_TOL) & (
             np.abs(off[rows] - off[cols]) <= self.tol)
-        graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
-        ncomp, label = connected_components(graph, directed=False)
+        if same.any():
+            graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
+            ncomp, label = connected_components(graph, directed=False)
+        else:  # nothing coplanar to merge: every simplex is its own facet
+            ncomp, label = T, np.arange(T)
         normals = np.zeros((ncomp, d))
         np.add.at(normals, label, n)
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
@@ -555,8 +558,22 @@ def _closest_on_triangles(S: np.ndarray, T: np.ndarray) -> np.ndarray:
     return out
 
 
-def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None) -> np.ndarray:
-    """Vertices of the bounded polytope {y : A y ≤ b} (possibly empty or lower-dimensional)."""
+def _halfspace_intersection(A: np.ndarray, b: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    from scipy.spatial import HalfspaceIntersection
+
+    V = HalfspaceIntersection(np.hstack([A, -b[:, None]]), centre).intersections
+    if not np.all(np.isfinite(V)):
+        raise GeometryError("the half-spaces do not bound a polytope (unbounded region).")
+    return V
+
+
+def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
+                              interior: np.ndarray | None = None) -> np.ndarray:
+    """Vertices of the bounded polytope {y : A y ≤ b} (possibly empty or lower-dimensional).
+
+    ``interior`` (m,), optional: a point known to be well inside (e.g. the centroid of an inner
+    approximation); when every constraint holds there with margin, the Chebyshev LP is skipped.
+    """
     if A.ndim != 2 or b.shape != (A.shape[0],):
         raise GeometryError(f"halfspaces must be A (F, m) and b (F,); got {A.shape} and {b.shape}.")
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
@@ -568,6 +585,10 @@ def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None) -
             return np.zeros((0, m))
         A, b, norms = A[norms > 0], b[norms > 0], norms[norms > 0]
     A, b = A / norms[:, None], b / norms
+    scale = max(float(np.abs(b).max()), 1.0)
+    t = tol if tol is not None else 1e-9 * scale
+    if interior is not None and m >= 2 and float((b - A @ interior).min()) > 10 * t:
+        return _halfspace_intersection(A, b, np.asarray(interior, dtype=np.float64))
     from scipy.optimize import linprog
 
     cost = np.zeros(m + 1)
@@ -581,16 +602,8 @@ def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None) -
     if res.status != 0:  # pragma: no cover
         raise GeometryError(f"Chebyshev LP failed: {res.message}")
     centre, radius = res.x[:m], res.x[-1]
-    scale = max(float(np.abs(b).max()), 1.0)
-    t = tol if tol is not None else 1e-9 * scale
     if radius > 10 * t and m >= 2:
-        from scipy.spatial import HalfspaceIntersection
-
-        hs = HalfspaceIntersection(np.hstack([A, -b[:, None]]), centre)
-        V = hs.intersections
-        if not np.all(np.isfinite(V)):
-            raise GeometryError("the half-spaces do not bound a polytope (unbounded region).")
-        return V
+        return _halfspace_intersection(A, b, centre)
     # thin or lower-dimensional: enumerate the vertices (m-subsets of rows)
     from itertools import combinations
 

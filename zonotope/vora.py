@@ -39,10 +39,16 @@ def projector(A, *, rtol: float = TOL.rank) -> tuple[np.ndarray, int]:
     -------
     P : ndarray of shape (n, n)
     rank : int
+        Numerical rank of A with its columns scaled to unit length (zero columns dropped).
     """
     A = np.asarray(A, dtype=np.float64)
     if A.ndim != 2:
         raise SpectralDataError(f"expected a (n_wavelengths, channels) matrix, got shape {A.shape}.")
+    # unit columns first: the column space is the same, and a channel many orders of magnitude
+    # weaker than another (e.g. 1e-226 beside 1) still counts instead of falling under rtol
+    peak = np.abs(A).max(axis=0) if A.size else np.zeros(A.shape[1])
+    A = A[:, peak > 0] / peak[peak > 0]  # max-scaling first: squares of 1e-226 underflow
+    A = A / np.linalg.norm(A, axis=0)
     U, s, _ = np.linalg.svd(A, full_matrices=False)
     r = int(np.sum(s > rtol * (s[0] if s.size else 0.0)))
     Ur = U[:, :r]
