@@ -35,10 +35,14 @@ def test_evaluate_duplicated_camera(capsys):
 
 
 def test_evaluate_mismatched_grid_hint(capsys):
-    # the Sigma data stop at 680 nm: the default 400–700 nm grid is refused with a hint
-    assert main(["evaluate", "--camera", "Sigma SDMerill (NPL)", "--atypical", "2"]) == 2
+    # the Sigma data stop at 680 nm: an explicit 400–700 nm grid is refused with a hint ...
+    assert main(["evaluate", "--camera", "Sigma SDMerill (NPL)", "--end", "700", "--atypical", "2"]) == 2
     err = capsys.readouterr().err
     assert "680" in err and "--end" in err
+    # ... while the default grid narrows itself to the range the cameras share
+    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--camera", "Sigma SDMerill (NPL)",
+                 "--method", "Finlayson 2015", "--atypical", "2"]) == 0
+    assert "400–680 nm" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("argv", [["evaluate"], ["report", "--camera", "x"]])

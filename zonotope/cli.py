@@ -62,9 +62,18 @@ def _summary(args: argparse.Namespace) -> int:
 
 
 def _shape(args: argparse.Namespace):
+    """The grid: 400–700 nm by default, narrowed to the range every camera is measured on."""
     import colour
 
-    return colour.SpectralShape(args.start, args.end, args.interval)
+    from . import spectra
+    from .correct import _load_camera
+
+    start, end = args.start, args.end
+    if start is None or end is None:
+        common = spectra.common_shape(*(_load_camera(c) for c in args.camera))
+        start = max(400.0, common.start) if start is None else start
+        end = min(700.0, common.end) if end is None else end
+    return colour.SpectralShape(start, end, args.interval)
 
 
 def _rich_progress(console):
@@ -148,8 +157,8 @@ def _report(args: argparse.Namespace) -> int:
 
 def _grid_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--illuminant", default="D65")
-    p.add_argument("--start", type=float, default=400.0, help="grid start in nm (default 400)")
-    p.add_argument("--end", type=float, default=700.0, help="grid end in nm (default 700)")
+    p.add_argument("--start", type=float, help="grid start in nm (default 400, later if a camera does)")
+    p.add_argument("--end", type=float, help="grid end in nm (default 700, earlier if a camera does)")
     p.add_argument("--interval", type=float, default=10.0, help="grid step in nm (default 10)")
     p.add_argument("--data", help="folder laid out like ../shared/data (Munsell, SFU, CIE 224 sets)")
     p.add_argument("--atypical", type=int, default=100, help="number of atypical spectra (0: none)")
@@ -201,7 +210,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ZonotopeError as error:
         hint = ""
         if "the grid asks for" in str(error) and args.command in ("evaluate", "report"):
-            hint = " (on the command line: --start/--end/--interval set the grid, default 400–700/10 nm)"
+            hint = (" (on the command line: --start/--end/--interval set the grid, default 400–700/10 nm "
+                    "within the cameras' range)")
         print(f"zonotope: error: {error}{hint}", file=sys.stderr)
         return 2
 
