@@ -574,24 +574,31 @@ def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float
 
 
 def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float = 0.01,
-              odds: float = 10.0, noise: float = 0.0) -> Corrector:
-    """Prior-aware estimator: Bayes-gated mixture of regression and constrained MAP.
+              odds: float = 10.0, noise: float = 0.0, eps: float = 1e-3) -> Corrector:
+    """Prior-aware estimator: Bayes-gated mixture of regression and the MMV centroid.
 
     Model: a reflectance is either *natural* (Gaussian ``N(μ, Σ)`` learnt from the training set)
-    or *arbitrary* (any colour of the object-colour solid equally likely, density ``1/vol``).
-    Given the response ``c``, the posterior probability of "natural" is
+    or *arbitrary* (any reflectance in [0, 1]ⁿ, so any colour of the object-colour solid, equally
+    likely: density ``1/vol``). Given the response ``c``, the posterior probability of "natural" is
 
     ``w = σ(log odds + log p(c | natural) − log p(c | arbitrary))``
 
     with ``log p(c | natural) ≈ −E(x̂) − ½ log det(2π ΦᵀΣΦ + σ²I)`` — the Laplace approximation
     of the box-truncated Gaussian evidence, ``x̂`` the MAP reflectance of :func:`map_reflectance`
     and ``E`` its prior energy — and ``log p(c | arbitrary) = −log vol(source solid)``. The estimate
-    is ``w · t_nat + (1 − w) · Ψᵀx̂``, with ``t_nat`` the root-polynomial estimate projected onto
-    the MMV (:func:`fit_Projection`). Both terms lie in the MMV, hence so does the estimate.
+    is ``w · t_nat + (1 − w) · t_arb``: ``t_nat`` the root-polynomial estimate projected onto the
+    MMV (:func:`fit_Projection`), the natural branch's best estimate; ``t_arb`` the volume centroid
+    of the MMV (:func:`mmv_centroids`), the posterior mean when nothing is known about the
+    reflectance. Both terms lie in the MMV, hence so does the estimate; the centroid is computed
+    only for responses with ``w < 1 − 10⁻⁴``, so natural images cost little more than regression.
 
     On natural colours ``w ≈ 1`` and the estimate is the regression's; responses the natural model
     finds improbable (saturated, narrow-band, spiky spectra: large truncated-prior energy) move to
-    the physically constrained MAP, which measured better than the MMV centroid on such spectra.
+    the centroid. Measured with ``zonotope evaluate`` (400–700 nm / 10 nm, D65): natural sets within
+    0.03 ΔE00 of root-polynomial regression with one camera and 0.015 better with Nikon 5100 +
+    Sigma SD Merrill; on atypical spectra 1.6 ΔE00 better than the centroid with Nikon 5100 alone and
+    0.17 behind it with the pair. (Taking the constrained MAP ``Ψᵀx̂`` as the second branch instead
+    was 0.1 better with one camera but 0.6 behind the centroid with two.)
 
     Parameters
     ----------
@@ -607,12 +614,15 @@ def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float =
         results on atypical spectra degrade slowly (measured on the sets of ``zonotope evaluate``,
         so this is a choice made on the evaluation data; change it for other scene statistics).
     noise
-        Response noise σ (white = 1); enters the evidence and relaxes the fiber constraint.
+        Response noise σ (white = 1); enters the evidence, relaxes the fiber constraint and gives
+        the MMV a tolerance δ = 3σ.
+    eps
+        Certification tolerance of the MMV centroids (see :func:`fit_Centroid`).
 
     Returns
     -------
     Corrector
-        ``params`` holds the prior, the regression and ``log_volume``.
+        ``params`` holds the prior, the regression, ``log_volume`` and the ``weights`` function.
     """
     reg = fit_Finlayson2015(problem, degree=degree, noise=noise)
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
@@ -629,13 +639,17 @@ def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float =
 
     def predict(c):
         x = map_reflectance(problem, c, prior, noise=noise)
-        w = weights(c, x)[:, None]
-        t_map = x @ problem.Psi
-        t_nat = reg(c)
-        need = w[:, 0] > 1e-4
-        if need.any():
-            t_nat[need] = project_to_mmv(problem, c[need], t_nat[need], prior=prior, noise=noise)[0]
-        return w * t_nat + (1 - w) * t_map
+        w = weights(c, x)
+        out = reg(c)
+        nat = w > 1e-4
+        if nat.any():
+            out[nat] = project_to_mmv(problem, c[nat], out[nat], prior=prior, noise=noise)[0]
+        arb = w < 1.0 - 1e-4
+        if arb.any():
+            t_arb = mmv_centroids(problem, c[arb], eps=eps, delta=3.0 * noise)
+            wa = np.where(nat[arb], w[arb], 0.0)[:, None]  # w ≤ 1e-4: the centroid alone
+            out[arb] = wa * out[arb] + (1.0 - wa) * t_arb
+        return out
 
     return Corrector("Prior", problem, predict,
                      {"prior": prior, "regression": reg, "log_volume": log_vol, "weights": weights})
