@@ -331,3 +331,16 @@ def test_input_errors(nikon10):
         metamer_mismatch(Phi, Psi, np.full(3, 0.3), on_infeasible="clip")
     with pytest.raises(GeometryError, match="delta"):
         metamer_mismatch(Phi, Psi, np.full(3, 0.3), delta=-1.0)
+
+
+def test_thin_certified_mmv_outside_response_nearest():
+    """A response just outside the solid, taken to its nearest feasible set, gives an MMV ~1e-8
+    thick: its certified outer bound must still be computed (Qhull failed on it unscaled)."""
+    Phi = gens("Nikon 5100 (NPL)", G10)
+    Psi = gens("CIE 1931 2°", G10)
+    c = np.array([0.560083, 0.582359, 0.058088])
+    mmv = metamer_mismatch(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
+    lo, hi = mmv.volume_bounds
+    assert 0.0 <= lo <= hi
+    assert mmv.outer.contains(mmv.inner.vertices, tol=1e-9).all()
+    assert mmv.outer.contains(mmv.centroid, tol=1e-9)

@@ -70,10 +70,22 @@ class Refinement:
         b = self.values - self.directions @ o
         norms = np.linalg.norm(A, axis=1)
         keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
-        inside = None
-        if self.inner.dim == d:  # the inner centroid is interior to the outer bound
-            inside = (self.inner.centroid - o) @ B
-        Z = _vertices_from_halfspaces(A[keep], b[keep], self.inner.tol, interior=inside)
+        A, b = A[keep], b[keep]
+        if self.inner.dim == d and d >= 2:
+            # Work in the inner polytope's principal frame, scaled to unit spread: a very thin MMV
+            # (1e-8 thick, 1e-3 wide) is then well conditioned for Qhull. The inner centroid is
+            # interior to the outer bound; the map is affine, so vertices map back exactly.
+            c = (self.inner.centroid - o) @ B
+            W = (self.inner.vertices - self.inner.centroid) @ B
+            _, s, Vt = np.linalg.svd(W, full_matrices=False)
+            L = Vt.T * s  # z ↦ c + L z
+            AL = A @ L
+            n = np.linalg.norm(AL, axis=1)
+            Zw = _vertices_from_halfspaces(AL / n[:, None], (b - A @ c) / n, None,
+                                           interior=np.zeros(d))
+            Z = c + Zw @ L.T
+        else:
+            Z = _vertices_from_halfspaces(A, b, self.inner.tol)
         return Polytope(o + Z @ B.T, tol=self.inner.tol)
 
 

@@ -559,12 +559,24 @@ def _closest_on_triangles(S: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 
 def _halfspace_intersection(A: np.ndarray, b: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    from scipy.spatial import HalfspaceIntersection
+    """Vertices of {y : A y ≤ b} (unit rows) around a strictly interior ``centre`` (Qhull).
 
-    V = HalfspaceIntersection(np.hstack([A, -b[:, None]]), centre).intersections
+    Qhull's precision is relative to its (dual) coordinates, so the problem is first moved to the
+    centre and scaled to unit size: tiny polytopes (an MMV of a response on the solid's boundary
+    is ~1e-8 across) would otherwise fail its "feasible point is clearly inside" check.
+    """
+    from scipy.spatial import HalfspaceIntersection, QhullError
+
+    margin = b - A @ centre
+    s = float(margin.max())
+    try:
+        V = HalfspaceIntersection(np.hstack([A, -(margin / s)[:, None]]), np.zeros(A.shape[1])).intersections
+    except QhullError as error:
+        first = str(error).splitlines()[0]
+        raise GeometryError(f"half-space intersection failed (Qhull: {first}).") from error
     if not np.all(np.isfinite(V)):
         raise GeometryError("the half-spaces do not bound a polytope (unbounded region).")
-    return V
+    return centre + s * V
 
 
 def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
