@@ -3,8 +3,9 @@
 Read a RAW/DNG file (:func:`read_raw`), develop it with a :class:`Pipeline` of small pure stages
 (:func:`default_pipeline`: linearise → white balance → demosaic → camera → XYZ → linear sRGB →
 tone mapping → sRGB encoding), replace or reorder any stage, inspect every intermediate, and write
-16-bit TIFF/PNG atomically (:func:`write_image`). :mod:`isp.simulate` renders spectral scenes
-through a camera's sensitivities into real DNG files.
+16-bit TIFF/PNG atomically (:func:`write_image`). When the camera's spectral sensitivities are known,
+:func:`metamer_correction` replaces the DNG ColorMatrix by a ``zonotope.correct`` estimator.
+:mod:`isp.simulate` renders spectral scenes through a camera's sensitivities into real DNG files.
 
 >>> import isp
 >>> isp.default_pipeline(demosaic="Menon 2007").names[2]
@@ -14,7 +15,17 @@ through a camera's sensitivities into real DNG files.
 from ._errors import PipelineError, RawFormatError
 from .dng import DNGProfile, camera_neutral_to_xy, matrix_interpolated, read_dng_tags, write_dng
 from .io import write_image
-from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
+from .pipeline import (
+    Development,
+    MetamerCorrection,
+    Pipeline,
+    Stage,
+    chain,
+    correction_stage,
+    default_pipeline,
+    develop,
+    metamer_correction,
+)
 from .raw import CFA_PATTERNS, RawImage, read_raw
 from .stages import (
     DEMOSAIC_METHODS,
@@ -38,6 +49,7 @@ __all__ = [
     "TONEMAP_METHODS",
     "DNGProfile",
     "Development",
+    "MetamerCorrection",
     "Pipeline",
     "PipelineError",
     "RawFormatError",
@@ -57,6 +69,7 @@ __all__ = [
     "linearise",
     "matrix_XYZ_from_balanced",
     "matrix_interpolated",
+    "metamer_correction",
     "mosaic",
     "read_dng_tags",
     "read_raw",

@@ -1,6 +1,8 @@
 """``isp`` command line: develop RAW files.
 
 - ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF or PNG;
+  ``--correction metamer --camera NAME_OR_FILE [--method Prior] [--illuminant D65]`` replaces the
+  file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's sensitivities;
 - ``isp info IN``: print the RAW metadata the pipeline uses.
 
 Runnable as ``isp ...`` (console script) or ``python -m isp ...``.
@@ -14,6 +16,36 @@ from collections.abc import Sequence
 from pathlib import Path
 
 __all__ = ["main"]
+
+#: Options of ``isp develop`` that only the metamer correction uses (argparse dest → flag).
+_METAMER_OPTIONS = {"camera": "--camera", "method": "--method", "illuminant": "--illuminant",
+                    "training": "--training", "scene_white": "--scene-white", "quantum": "--quantum"}
+
+
+def _metamer(args: argparse.Namespace):
+    """The fitted metamer correction, or an error message (exit 2) when the options are wrong."""
+    from .pipeline import metamer_correction
+
+    if args.correction != "metamer":
+        given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]
+        return None, (f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to --correction metamer "
+                      "only." if given else None)
+    if args.camera is None:
+        import zonotope
+
+        return None, ("--correction metamer needs --camera NAME_OR_FILE (the camera's spectral "
+                      "sensitivities: a built-in name — " + ", ".join(zonotope.list_builtin()["cameras"])
+                      + " — or a file zonotope.read_camera reads).")
+    if args.quantum is not None and not args.quantum >= 0:
+        return None, f"--quantum {args.quantum}: must be ≥ 0."
+    if args.scene_white is not None and not 0 < args.scene_white < float("inf"):
+        return None, (f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just "
+                      "saturates).")
+    corr = metamer_correction(args.camera, method=args.method or "Prior", illuminant=args.illuminant or "D65",
+                              training=args.training or "rawtoaces 190",
+                              white_level=1.0 if args.scene_white is None else args.scene_white,
+                              quantum=2e-3 if args.quantum is None else args.quantum)
+    return corr, None
 
 
 def _develop(args: argparse.Namespace) -> int:
@@ -35,7 +67,12 @@ def _develop(args: argparse.Namespace) -> int:
                           "(Reinhard 2002 sets the exposure from the image's log-average luminance).")
             return 2
         options = {"exposure": args.exposure}
-    pipeline = default_pipeline(demosaic=args.demosaic, correction=args.correction, tonemap=tonemap,
+    metamer, error = _metamer(args)
+    if error:
+        console.print(f"[red]error:[/] {error}")
+        return 2
+    correction = metamer if metamer is not None else args.correction
+    pipeline = default_pipeline(demosaic=args.demosaic, correction=correction, tonemap=tonemap,
                                 tonemap_options=options)
     if args.save_stages:
         stage_dir = Path(args.save_stages)
@@ -49,6 +86,23 @@ def _develop(args: argparse.Namespace) -> int:
         if args.crop:
             raw = raw.crop(*args.crop)
         progress.advance(task)
+        if metamer is not None:
+            mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
+            if mismatch > 0.1:
+                console.print(f"[yellow]warning:[/] the file's AsShotNeutral differs by "
+                              f"{100 * mismatch:.0f} % from the white of {args.camera!r} under "
+                              f"{args.illuminant or 'D65'}: the light was not that illuminant (set "
+                              "--illuminant) or the sensitivities are not this camera's.")
+
+            colour_task = []
+
+            def on_colours(done: int, total: int) -> None:  # a second bar: distinct colours corrected
+                if not colour_task:
+                    colour_task.append(progress.add_task(f"  {metamer.method}: distinct colours",
+                                                         total=total))
+                progress.update(colour_task[0], completed=done, total=total)
+
+            metamer.progress = on_colours
 
         def on_stage(i: int, name: str) -> None:
             progress.update(task, completed=i + 1, description=name)
@@ -62,9 +116,15 @@ def _develop(args: argparse.Namespace) -> int:
                 write_image(stage_dir / f"{i:02d}_{name}.tif", arr, dtype="float32", overwrite=args.overwrite,
                             protect=[src])
         progress.update(task, completed=len(pipeline) + 2, description="done")
+    if metamer is not None and metamer.fallbacks:
+        console.print(f"[yellow]note:[/] {metamer.fallbacks} colour(s) had no {metamer.method} estimate "
+                      "(response on or outside the camera's object-colour solid); root-polynomial "
+                      "regression used for them.")
     if not args.quiet:
+        how = (f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
+               if metamer is not None else "DNG ColorMatrix")
         console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}, "
-                      f"{' → '.join(pipeline.names)})")
+                      f"{' → '.join(pipeline.names)}; {how})")
     return 0
 
 
@@ -99,6 +159,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from zonotope.correct import CORRECTION_METHODS
+
     from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
 
     parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
@@ -108,8 +170,28 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
     d.add_argument("--demosaic", default="Malvar 2004",
                    help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)")
-    d.add_argument("--correction", default="dng", choices=["dng"],
-                   help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated")
+    d.add_argument("--correction", default="dng", choices=["dng", "metamer"],
+                   help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated "
+                        "(default); metamer = a zonotope.correct estimator fitted on the camera's "
+                        "spectral sensitivities (needs --camera)")
+    m = d.add_argument_group("metamer correction (with --correction metamer)")
+    m.add_argument("--camera", metavar="NAME_OR_FILE",
+                   help="the camera's spectral sensitivities: a built-in name (zonotope.list_builtin()) or "
+                        "a rawtoaces/camspec JSON or CSV file")
+    m.add_argument("--method", help=f"zonotope.correct estimator: {', '.join(CORRECTION_METHODS)} or an "
+                                    "alias such as root-polynomial (case and punctuation ignored; default "
+                                    "Prior)")
+    m.add_argument("--illuminant", help="scene illuminant of the fit (default D65); the file's white "
+                                        "balance should be for this light")
+    m.add_argument("--training", metavar="NAME_OR_FILE",
+                   help="training reflectances: built-in set or file (default rawtoaces 190)")
+    m.add_argument("--scene-white", type=float, metavar="FRACTION",
+                   help="response of a perfect white reflector after white balance, as a fraction of "
+                        "saturation (default 1); the metamer-based estimators (not the regressions) "
+                        "depend on the exposure")
+    m.add_argument("--quantum", type=float,
+                   help="responses that round to the same multiple of this are corrected once "
+                        "(default 0.002, white = 1; 0 = exact colours only)")
     d.add_argument("--tonemap", default="Reinhard 2002",
                    help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)")
     d.add_argument("--exposure", type=float, default=None,

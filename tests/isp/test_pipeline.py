@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
+import colour
 import numpy as np
 import pytest
 
 from isp import (
+    MetamerCorrection,
     Pipeline,
     PipelineError,
     Stage,
@@ -14,6 +18,7 @@ from isp import (
     default_pipeline,
     develop,
     matrix_XYZ_from_balanced,
+    metamer_correction,
 )
 
 NAMES = ("linearise", "white_balance", "demosaic", "camera_to_XYZ", "XYZ_to_linear_sRGB", "tonemap",
@@ -100,3 +105,80 @@ def test_pipeline_accepts_pairs():
     assert p.names == ("double",) and len(p) == 1
     with pytest.raises(PipelineError, match="Stage"):
         Pipeline([42])
+
+
+def test_metamer_correction_fit_and_white():
+    m = metamer_correction("Nikon 5100 (NPL)", method="root-polynomial")
+    assert m.method == "Finlayson 2015"
+    w = m.corrector.problem.wavelengths
+    assert (w[0], w[-1], w[1] - w[0]) == (400, 700, 10)
+    # CIE 1931 2° XYZ under D65 with Y_white = 1: the white balanced responses map to D65's white
+    D65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    np.testing.assert_allclose(colour.XYZ_to_xy(m(np.ones((1, 3)))[0]), D65, atol=2e-3)
+    assert m.neutral.max() == pytest.approx(1.0) and m.neutral_mismatch(m.neutral * 3) == pytest.approx(0)
+    assert m.neutral_mismatch(m.neutral * [1.2, 1, 1]) == pytest.approx(0.2)
+    # a camera measured on a shorter range: the grid is narrowed to it, never extrapolated
+    sigma = metamer_correction("Sigma SDMerill (NPL)", method="matrix")
+    assert sigma.corrector.problem.wavelengths[-1] == 680
+    # negative responses (noise, demosaicing overshoot) count as 0
+    np.testing.assert_array_equal(m(np.array([[-0.2, 0.3, 0.4]])), m(np.array([[0.0, 0.3, 0.4]])))
+
+
+def test_metamer_correction_exposure():
+    """white_level: the estimate at exposure e with white_level e is e × the one at exposure 1, and
+    responses brighter than the white (the saturation white (1, 1, 1) among them) scale linearly."""
+    m1 = metamer_correction("Nikon 5100 (NPL)", method="MAP", quantum=0)
+    half = metamer_correction("Nikon 5100 (NPL)", method="MAP", quantum=0, white_level=0.5)
+    c = np.random.default_rng(2).uniform(0.02, 0.5, (10, 3))
+    np.testing.assert_allclose(half(0.5 * c), 0.5 * m1(c), rtol=1e-9, atol=1e-12)
+    white = m1(np.ones((1, 3)))
+    np.testing.assert_allclose(half(np.ones((1, 3))), white, rtol=1e-12)
+    np.testing.assert_allclose(m1(np.array([[2.0, 2.0, 2.0]])), 2 * white, rtol=1e-12)
+    with pytest.raises(ValueError, match="white_level"):
+        metamer_correction("Nikon 5100 (NPL)", method="matrix", white_level=0)
+
+
+def test_metamer_correction_errors(tmp_path):
+    with pytest.raises(ValueError, match="unknown camera"):
+        metamer_correction("Nikon 9999")
+    with pytest.raises(FileNotFoundError, match="not found"):
+        metamer_correction(str(tmp_path / "ssf.json"))
+    with pytest.raises(ValueError, match="not a correction method"):
+        metamer_correction("Nikon 5100 (NPL)", method="best")
+    cam = colour.MultiSpectralDistributions(np.abs(np.random.default_rng(0).normal(size=(31, 4))),
+                                            np.arange(400, 701, 10), name="four-channel")
+    with pytest.raises(ValueError, match="has 4 channels"):
+        metamer_correction(cam, method="matrix")
+
+
+def test_metamer_correction_falls_back_per_colour():
+    """A colour whose estimate raises (Qhull on a degenerate MMV) gets the regression; the others don't."""
+    base = metamer_correction("Nikon 5100 (NPL)", method="MAP")
+
+    def fragile(c):
+        if np.any(c[:, 0] > 0.5):
+            raise RuntimeError("QH6023 qhull input error")
+        return base.corrector.predict(c)
+
+    seen = []
+    m = MetamerCorrection(dataclasses.replace(base.corrector, predict=fragile), quantum=0, batch_size=4,
+                          progress=lambda done, total: seen.append((done, total)))
+    c = np.random.default_rng(1).uniform(0.05, 0.6, (20, 3))
+    out = m(c)
+    bad = c[:, 0] > 0.5
+    assert m.fallbacks == bad.sum() > 0
+    np.testing.assert_allclose(out[~bad], base(c[~bad]), atol=1e-9)
+    np.testing.assert_allclose(out[bad], m._regression(c[bad]), atol=1e-12)
+    assert seen[-1] == (20, 20) and len(seen) == 5  # per batch, distinct colours only
+    m(np.ones((1, 3)))  # the white alone: no progress report
+    assert len(seen) == 5
+
+
+def test_metamer_correction_in_pipeline(crop):
+    """The real 550D crop through a metamer correction (Canon 5D Mark II sensitivities stand in)."""
+    m = metamer_correction("Canon EOS 5D Mark II", method="root-polynomial")
+    out = default_pipeline(correction=m)(crop, stop_after="XYZ_to_linear_sRGB").image
+    dng = develop(crop, stop_after="XYZ_to_linear_sRGB").image
+    assert out.shape == dng.shape and np.all(np.isfinite(out))
+    # same white balance and exposure: the grey levels agree, the colours roughly
+    assert abs(np.median(out) / np.median(dng) - 1) < 0.1
