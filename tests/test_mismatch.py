@@ -299,6 +299,11 @@ def test_batch_lockstep_equals_one_by_one(nikon10):
         assert exact.volumes[i] == pytest.approx(metamer_mismatch(Phi, Psi, c).volume, rel=1e-9)
     highs = metamer_mismatch_batch(Phi, Psi, C[:2], eps=1e-3, oracle="highs")
     np.testing.assert_allclose(highs.centroids, out.centroids[:2], atol=1e-6)
+    inner_only = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, on_infeasible="nearest", outer=False)
+    np.testing.assert_allclose(inner_only.centroids, out.centroids, atol=1e-12)
+    np.testing.assert_allclose(inner_only.volume_bounds[:, 0], out.volume_bounds[:, 0], rtol=1e-9)
+    assert np.isnan(inner_only.volume_bounds[:, 1]).all() and np.isnan(inner_only.centroid_errors).all()
+    np.testing.assert_array_equal(inner_only.volumes, inner_only.volume_bounds[:, 0])
     empty = metamer_mismatch_batch(Phi, Psi, np.zeros((0, 3)))
     assert empty.centroids.shape == (0, 3) and empty.lp_calls == 0
     with pytest.raises(ValueError, match="chunk"):

@@ -518,7 +518,7 @@ def mmv_centroids(problem: CorrectionProblem, responses, *, eps: float = 1e-3,
 
     C = np.asarray(responses, dtype=np.float64)
     return metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta,
-                                  on_infeasible="nearest").centroids
+                                  on_infeasible="nearest", outer=False).centroids
 
 
 def fit_Centroid(problem: CorrectionProblem, *, eps: float = 1e-3, delta: float = 0.0) -> Corrector:
