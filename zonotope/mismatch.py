@@ -54,7 +54,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ._errors import GeometryError, InfeasibleResponseError
+from ._errors import GeometryError, InfeasibleResponseError, ZonotopeError
 from ._mmv_refine import Refinement, refine, refine_many
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
 from .polytope import Polytope
@@ -532,12 +532,21 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
             from concurrent.futures import ProcessPoolExecutor, as_completed
 
             ctx = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=min(workers, len(parts)), mp_context=ctx) as pool:
-                futures = {pool.submit(_batch_chunk, Phi, Psi, p, **args): i for i, p in enumerate(parts)}
-                for fut in as_completed(futures):
-                    results[futures[fut]] = fut.result()
-                    if bar is not None:
-                        bar.update(task, advance=len(parts[futures[fut]]))
+            from concurrent.futures.process import BrokenProcessPool
+
+            try:
+                with ProcessPoolExecutor(max_workers=min(workers, len(parts)), mp_context=ctx) as pool:
+                    futures = {pool.submit(_batch_chunk, Phi, Psi, p, **args): i
+                               for i, p in enumerate(parts)}
+                    for fut in as_completed(futures):
+                        results[futures[fut]] = fut.result()
+                        if bar is not None:
+                            bar.update(task, advance=len(parts[futures[fut]]))
+            except BrokenProcessPool as error:
+                raise ZonotopeError(
+                    "a worker process died before finishing its chunk. Worker processes re-import "
+                    "the main script: run from a file guarded by `if __name__ == \"__main__\":` (or a "
+                    "notebook), not from standard input, or use workers=1.") from error
         else:
             for i, p in enumerate(parts):
                 results[i] = _batch_chunk(Phi, Psi, p, **args)
