@@ -248,6 +248,8 @@ class SimplexOracle:
         A, lo, hi = self.A, self.lo, self.hi
         q, N = W.shape
         cs = self.colscale[rows]  # (q, N) column signs (artificials)
+        n_main = self.n_main
+        art_free = bool(np.any(hi[n_main:] > lo[n_main:]))
         rhs = self.C[rows]
         Binv, xB = self._refactor(basis, upper, cs, rhs)
         isbasic = np.zeros((q, N), dtype=bool)
@@ -270,11 +272,14 @@ class SimplexOracle:
                 checked = True
             a = active
             Wa = W[a]
-            wB = np.take_along_axis(Wa, basis[a], axis=1)
+            wB = Wa[np.arange(a.size)[:, None], basis[a]]
             v = np.einsum("qi,qij->qj", wB, Binv[a])
-            d = Wa - (v @ A) * cs[a]
+            d = Wa - v @ A
+            if art_free:  # phase 1: the artificial columns carry a per-response sign
+                d[:, n_main:] = Wa[:, n_main:] - v * cs[a, n_main:]
             up = upper[a]
-            elig = ~isbasic[a] & free & (((~up) & (d > dtol[a, None])) | (up & (d < -dtol[a, None])))
+            dt = dtol[a, None]
+            elig = ~isbasic[a] & free & np.where(up, d < -dt, d > dt)
             score = np.where(elig, np.abs(d), 0.0)
             bland = iters[a] > self.max_iter // 2
             j = np.argmax(score, axis=1)
@@ -299,10 +304,10 @@ class SimplexOracle:
             loB, hiB = lo[bB], hi[bB]
             xb = xB[a]
             ptol = 1e-9
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lim = np.where(rate > ptol, (xb - loB) / rate,
-                               np.where(rate < -ptol, (hiB - xb) / -rate, np.inf))
-            lim = np.maximum(lim, 0.0)
+            lim = np.full(rate.shape, np.inf)  # step until each basic variable hits a bound
+            np.divide(xb - loB, rate, out=lim, where=rate > ptol)
+            np.divide(xb - hiB, rate, out=lim, where=rate < -ptol)
+            np.maximum(lim, 0.0, out=lim)
             r = np.argmin(lim, axis=1)
             tmax = lim[np.arange(a.size), r]
             flip_len = hi[j] - lo[j]
