@@ -191,6 +191,11 @@ class Zonotope:
             )
         if not np.all(np.isfinite(G)):
             raise GeometryError("generators contain NaN or inf; check the spectral data.")
+        peak = float(np.abs(G).max())
+        if peak > 0 and not 1e-150 <= peak <= 1e150:
+            raise GeometryError(
+                f"generators of magnitude {peak:.3g}: products of two (cross products, volumes) would "
+                "underflow or overflow in float64. Rescale them, e.g. generators(..., normalise=1).")
         k = G.shape[1]
         off = np.zeros(k) if offset is None else np.array(offset, dtype=np.float64).reshape(-1)
         if off.shape != (k,) or not np.all(np.isfinite(off)):
@@ -507,6 +512,12 @@ class Zonotope:
         f = self._facets
         H, off = self._reduced
         p = H.shape[0]
+        # Each pair of generator directions spans exactly one plane, hence one ± facet pair: if the
+        # tolerant coplanarity tests of different sweeps disagreed, a facet is missing (or doubled)
+        # and the arrangement below would miss vertices, so leave it to the key method.
+        r_z = [z[1].shape[0] // 2 for z in f.zonogons]
+        if f.pairs.shape[0] + sum(r * (r - 1) // 2 for r in r_z) != p * (p - 1) // 2:
+            return None
         c2 = 2.0 * self.centroid
         w = np.array([0.5459694, 0.3173211, 0.7752803])
         w /= np.linalg.norm(w)
