@@ -501,8 +501,10 @@ def tonemap_Reinhard2002(rgb, *, key: float | None = 0.18, white: float | None =
     if Lw <= 0:
         return np.zeros_like(a)
     Ld = (L + (L / Lw) ** 2) / (1.0 + L)  # = L (1 + L / Lw²) / (1 + L), without underflowing Lw²
-    ratio = np.divide(Ld, Y, out=np.zeros_like(Y), where=Y > 0)
-    return a * ratio[..., None]
+    # a / Y first (chromaticity-like, O(1)), then × Ld: Ld / Y overflows when a whole image is
+    # subnormal (its brightest pixel still maps to 1; found by hypothesis)
+    chroma = np.divide(a, Y[..., None], out=np.zeros_like(a), where=Y[..., None] > 0)
+    return chroma * Ld[..., None]
 
 
 def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:

@@ -170,6 +170,12 @@ def test_reinhard_monotonic_in_luminance(values):
     assert out.max() <= 1 + 1e-12
 
 
+def test_reinhard_subnormal_image_stays_finite():
+    """Found by hypothesis: an all-subnormal image overflowed Ld / Y (its brightest pixel → 1)."""
+    out = tonemap_Reinhard2002(np.array([[0.0] * 3, [2.2250738585e-313] * 3]))
+    assert np.all(np.isfinite(out)) and out.max() <= 1 + 1e-12
+
+
 def test_apply_correction_matrix_callable():
     M = np.array([[0.6, 0.3, 0.1], [0.25, 0.7, 0.05], [0.0, 0.1, 0.9]])
     rgb = np.random.default_rng(7).uniform(size=(4, 5, 3))
