@@ -132,7 +132,6 @@ class SimplexOracle:
         C = np.asarray(c, dtype=np.float64)
         single = C.ndim == 1
         self.C = np.atleast_2d(C)
-        self.c = self.C[0]
         R = self.C.shape[0]
         self.delta = _as_delta(delta, k)
         self.n_calls = 0
