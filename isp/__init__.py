@@ -15,17 +15,8 @@ tone mapping → sRGB encoding), replace or reorder any stage, inspect every int
 from ._errors import PipelineError, RawFormatError
 from .dng import DNGProfile, camera_neutral_to_xy, matrix_interpolated, read_dng_tags, write_dng
 from .io import write_image
-from .pipeline import (
-    Development,
-    MetamerCorrection,
-    Pipeline,
-    Stage,
-    chain,
-    correction_stage,
-    default_pipeline,
-    develop,
-    metamer_correction,
-)
+from .metamer import MetamerCorrection, metamer_correction
+from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
 from .raw import CFA_PATTERNS, RawImage, read_raw
 from .stages import (
     DEMOSAIC_METHODS,

@@ -24,7 +24,7 @@ _METAMER_OPTIONS = {"camera": "--camera", "method": "--method", "illuminant": "-
 
 def _metamer(args: argparse.Namespace):
     """The fitted metamer correction, or an error message (exit 2) when the options are wrong."""
-    from .pipeline import metamer_correction
+    from .metamer import metamer_correction
 
     if args.correction != "metamer":
         given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]

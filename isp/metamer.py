@@ -1,0 +1,225 @@
+"""The bridge from :mod:`isp` to ``zonotope.correct``: metamer-based colour correction of RAW images.
+
+When the spectral sensitivities of the camera are known, :func:`metamer_correction` fits a
+``zonotope.correct`` estimator and returns a :class:`MetamerCorrection`, a callable white-balanced
+camera RGB ``(N, 3)`` → XYZ ``(N, 3)`` that replaces the DNG ColorMatrix in
+``isp.default_pipeline(correction=...)``. ``zonotope`` is imported lazily, inside the functions,
+so ``import isp`` stays light. (Split out of :mod:`isp.pipeline`, which knows nothing of spectra.)
+
+>>> import isp
+>>> isp.metamer.METAMER_RANGE
+(400.0, 700.0, 10.0)
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from zonotope.correct import Corrector
+
+__all__ = ["METAMER_RANGE", "MetamerCorrection", "metamer_correction"]
+
+
+#: Default wavelength range (nm) and step of the metamer correction fit: 31 samples keep fitting
+#: and the per-colour optimisations fast; the range is narrowed to the curves' common range.
+METAMER_RANGE = (400.0, 700.0, 10.0)
+_SPECTRAL_SUFFIXES = (".json", ".csv", ".txt", ".reflect", ".spd")
+
+#: Errors of one colour's metamer estimate that fall back to the regression (e.g. Qhull on the
+#: degenerate mismatch volume of a response on or outside the solid's boundary).
+_ESTIMATOR_ERRORS = (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError)
+
+
+def _spectral(source, builtin: Callable, read: Callable, what: str):
+    """A built-in curve set by name, or one read from a file (clear errors, no tracebacks)."""
+    if not isinstance(source, str | os.PathLike):
+        return source  # already a colour MSDS
+    path = Path(source)
+    if path.is_file():
+        try:
+            return read(path)
+        except (OSError, KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"cannot read {what} file {path}: {exc}") from exc
+    if path.suffix.lower() in _SPECTRAL_SUFFIXES or os.sep in str(source):
+        raise FileNotFoundError(f"{what} file {path} not found.")
+    return builtin(str(source))
+
+
+@dataclass(eq=False)
+class MetamerCorrection:
+    """White-balanced camera RGB ``(N, 3)`` → XYZ ``(N, 3)`` with a fitted ``zonotope.correct`` estimator.
+
+    Built by :func:`metamer_correction`; pass it as ``default_pipeline(correction=...)``. Calls go
+    through :func:`zonotope.image.correct_image`, which corrects each distinct colour (responses
+    rounded to ``quantum``) once and carries the result to its pixels with the estimator's
+    regression. A colour whose estimate fails (e.g. the degenerate metamer mismatch volume of a
+    response outside the object-colour solid) gets the root-polynomial regression's estimate
+    instead; ``fallbacks`` counts them.
+
+    Exposure: the estimators other than regressions are not exposure-invariant; they need the
+    response of a perfect white reflector, ``white_level`` (after white balance; 1 when the white
+    just saturates). Responses are divided by it, negative values (noise, demosaicing overshoot)
+    set to 0, and a response brighter than the white in some channel (a highlight, or the
+    pipeline's saturation white ``(1, 1, 1)`` when ``white_level < 1``) is corrected at the
+    exposure that brings it to the white's level and scaled back (exposure-linear above the
+    white). The result is multiplied by ``white_level``, so ``f(c)`` is the XYZ at the image's
+    exposure, on the same footing as the DNG ColorMatrix path.
+
+    Attributes
+    ----------
+    corrector : zonotope.correct.Corrector
+    quantum : float
+        Deduplication step in response units (white = 1); 0 for exact deduplication only.
+    batch_size : int
+        Distinct colours per call of the estimator.
+    progress : callable, optional
+        ``progress(done, total)`` in distinct colours while correcting an image (not the white).
+    white_level : float
+        White-balanced response of a perfect white reflector in the image (default 1).
+    fallbacks : int
+        Colours that fell back to the regression so far.
+    neutral : ndarray of shape (3,), optional
+        The camera's un-balanced response to the perfect white under the fit's illuminant, max 1
+        (compare with a file's AsShotNeutral: :meth:`neutral_mismatch`).
+    """
+
+    corrector: Corrector
+    quantum: float = 2e-3
+    batch_size: int = 64
+    progress: Callable[[int, int], None] | None = None
+    white_level: float = 1.0
+    fallbacks: int = 0
+    neutral: np.ndarray | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        import dataclasses
+
+        from zonotope.correct import fit_correction
+
+        if not (np.isfinite(self.white_level) and self.white_level > 0):
+            raise ValueError(f"white_level={self.white_level}: must be a positive number (the response of "
+                             "a perfect white reflector after white balance, 1 when it just saturates).")
+        c = self.corrector
+        self._regression = c.params.get("regression") or fit_correction(c.problem, method="Finlayson 2015")
+        self._safe = dataclasses.replace(c, predict=self._predict)
+
+    @property
+    def method(self) -> str:
+        """The estimator's name (key of ``zonotope.correct.CORRECTION_METHODS``)."""
+        return self.corrector.method
+
+    def neutral_mismatch(self, as_shot_neutral) -> float:
+        """Largest relative difference between a file's AsShotNeutral and :attr:`neutral`.
+
+        Both are normalised to the green channel. A large value (say > 0.1) means the file was
+        white-balanced for another light than the fit's illuminant, or that the sensitivities do
+        not belong to this camera. NaN when :attr:`neutral` is unknown.
+        """
+        if self.neutral is None:
+            return float("nan")
+        a = np.asarray(as_shot_neutral, dtype=np.float64).reshape(-1)
+        n = np.asarray(self.neutral, dtype=np.float64)
+        ratio = (a / a[1]) / (n / n[1])
+        return float(np.max(np.abs(ratio - 1.0)))
+
+    def _predict(self, c: np.ndarray) -> np.ndarray:
+        predict = self.corrector.predict
+        try:
+            return predict(c)
+        except _ESTIMATOR_ERRORS:
+            pass
+        out = np.empty((c.shape[0], self.corrector.problem.m))
+        for i in range(c.shape[0]):
+            try:
+                out[i] = predict(c[i:i + 1])[0]
+            except _ESTIMATOR_ERRORS:
+                out[i] = self._regression(c[i:i + 1])[0]
+                self.fallbacks += 1
+        return out
+
+    def __call__(self, responses) -> np.ndarray:
+        from zonotope.image import correct_image
+
+        c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0) / self.white_level
+        over = np.maximum(np.max(c, axis=-1, keepdims=True), 1.0)  # brighter than the white: scale down
+        progress = self.progress if c.ndim > 1 and c.size > c.shape[-1] else None
+        XYZ = correct_image(c / over, self._safe, quantum=self.quantum, batch_size=self.batch_size,
+                            progress=progress)
+        return XYZ * (over * self.white_level)
+
+
+def metamer_correction(camera, *, method: str = "Prior", illuminant="D65", training="rawtoaces 190",
+                       target="CIE 1931 2°", shape=None, white_level: float = 1.0, quantum: float = 2e-3,
+                       batch_size: int = 64, progress: Callable[[int, int], None] | None = None,
+                       **options) -> MetamerCorrection:
+    """Fit a metamer-based colour correction (``zonotope.correct``) for a camera with known SSF.
+
+    Replaces the DNG ColorMatrix by an estimator that knows the camera's spectral sensitivities
+    (use it with ``default_pipeline(correction=metamer_correction(...))``). The file's white
+    balance (AsShotNeutral) is kept: the estimators take white-balanced responses in which a
+    perfect white reflector under ``illuminant`` gives 1 in every channel.
+
+    Parameters
+    ----------
+    camera
+        Built-in camera name (``zonotope.list_builtin()["cameras"]``), a camera file readable by
+        ``zonotope.read_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
+    method
+        Estimator (key or alias of ``zonotope.correct.CORRECTION_METHODS``; default ``"Prior"``).
+    illuminant
+        Scene illuminant of the fit (name or SD); should match the light the file's white balance
+        was set for.
+    training
+        Training reflectances: built-in set name, a file readable by ``zonotope.read_reflectances``
+        or an MSDS.
+    target
+        Observer of the XYZ output; CIE 1931 2° (default) is the one of sRGB and DNG.
+    shape
+        Wavelength grid; default 400–700 nm every 10 nm (:data:`METAMER_RANGE`), narrowed to the
+        range all curves cover.
+    white_level, quantum, batch_size, progress
+        See :class:`MetamerCorrection`.
+    **options
+        Passed to the estimator's fitting function (e.g. ``noise=0.01``).
+
+    Returns
+    -------
+    MetamerCorrection
+
+    Raises
+    ------
+    ValueError
+        Unknown method, camera, illuminant or training set (``zonotope.SpectralDataError`` is a
+        ValueError), an unreadable file, or a camera without exactly 3 channels.
+    FileNotFoundError
+        A camera or training file that does not exist.
+    """
+    import colour
+
+    import zonotope
+    from zonotope.correct import fit_correction
+
+    cam = _spectral(camera, zonotope.camera, zonotope.read_camera, "camera")
+    train = _spectral(training, zonotope.reflectances, zonotope.read_reflectances, "training")
+    if shape is None:
+        lo, hi, step = METAMER_RANGE
+        curves = [cam, zonotope.observer(target), zonotope.illuminant(illuminant)]
+        if isinstance(train, colour.MultiSpectralDistributions):
+            curves.append(train)
+        common = zonotope.common_shape(*curves, interval=step)
+        shape = np.arange(max(common.start, lo), min(common.end, hi) + step / 2, step)
+    corrector = fit_correction(cam, method=method, target=target, illuminant=illuminant, shape=shape,
+                               training=train, **options)
+    if corrector.problem.k != 3:
+        raise ValueError(f"camera {getattr(cam, 'name', camera)!r} has {corrector.problem.k} channels; "
+                         "a Bayer RAW has 3.")
+    white = zonotope.generators(cam, illuminant, corrector.problem.wavelengths, normalise=None).values.sum(0)
+    return MetamerCorrection(corrector, quantum=quantum, batch_size=batch_size, progress=progress,
+                             white_level=white_level, neutral=white / white.max())
