@@ -63,6 +63,15 @@ class RawImage:
         DNG BaselineExposure (EV), 0 when absent.
     tags : dict
         Every tag read (DNG files), for inspection.
+    white_balance_source : str
+        Where :attr:`as_shot_neutral` came from: ``"AsShotNeutral"``, ``"AsShotWhiteXY"`` (DNG tags),
+        ``"camera"`` (the camera's as-shot multipliers, non-DNG), ``"daylight"`` (LibRaw's daylight
+        multipliers: the file records no usable as-shot white balance) or ``"none"`` (unit gains).
+    orientation : int
+        TIFF/EXIF Orientation code 1–8 of the picture (1 = as stored, 6 = rotate 90° clockwise).
+    capture : dict
+        Shooting metadata when recorded: ``exposure_time`` (s), ``f_number``, ``iso``, ``datetime``
+        (``"YYYY:MM:DD HH:MM:SS"``).
     """
 
     mosaic: np.ndarray
@@ -78,6 +87,9 @@ class RawImage:
     path: Path | None = None
     baseline_exposure: float = 0.0
     tags: dict = field(default_factory=dict, repr=False)
+    white_balance_source: str = "AsShotNeutral"
+    orientation: int = 1
+    capture: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         m = np.asarray(self.mosaic)
@@ -131,6 +143,43 @@ def _cfa_from_rawpy(raw) -> str:
     return "".join(_COLOUR_LETTER[int(c)] for c in colors.ravel())
 
 
+#: LibRaw's ``flip`` (dcraw's: bit 4 transpose, 2 flip rows, 1 flip columns) → TIFF Orientation.
+_FLIP_TO_ORIENTATION = {0: 1, 1: 2, 3: 3, 2: 4, 4: 5, 6: 6, 7: 7, 5: 8}
+
+
+def _capture_info(other) -> dict:
+    """Exposure, aperture, ISO and time from rawpy's ``other`` (only the values it recorded)."""
+    out: dict = {}
+    recorded = other.timestamp.year > 1970  # LibRaw's defaults when nothing is recorded: 1 s, f/1, the epoch
+    if other.shutter_speed > 0 and (recorded or other.shutter_speed != 1.0):
+        out["exposure_time"] = float(other.shutter_speed)
+    if other.aperture > 0 and other.aperture != 1.0:
+        out["f_number"] = round(float(other.aperture), 1)
+    if other.iso_speed > 0:
+        out["iso"] = round(other.iso_speed)
+    if other.timestamp.year > 1970:
+        out["datetime"] = other.timestamp.strftime("%Y:%m:%d %H:%M:%S")
+    return out
+
+
+def _capture_from_tags(tags: dict) -> dict:
+    """The same from DNG IFD 0 tags (they win over LibRaw's values)."""
+    out: dict = {}
+    for key, name in (("exposure_time", "ExposureTime"), ("f_number", "FNumber")):
+        v = tags.get(name)
+        if v is not None and np.size(v) and float(np.ravel(v)[0]) > 0:
+            out[key] = float(np.ravel(v)[0])
+    iso = tags.get("ISOSpeedRatings")
+    if iso is not None and np.size(iso) and float(np.ravel(iso)[0]) > 0:
+        out["iso"] = int(np.ravel(iso)[0])
+    for name in ("DateTimeOriginal", "DateTime"):
+        v = tags.get(name)
+        if isinstance(v, str) and v.strip(" \x00:"):
+            out["datetime"] = v.strip()
+            break
+    return out
+
+
 def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImage:
     """Read a RAW or DNG file.
 
@@ -173,6 +222,8 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             cam_wb = np.asarray(raw.camera_whitebalance[:3], dtype=np.float64)
             day_wb = np.asarray(raw.daylight_whitebalance[:3], dtype=np.float64)
             libraw_cm = np.asarray(raw.rgb_xyz_matrix[:3], dtype=np.float64)
+            orientation = _FLIP_TO_ORIENTATION.get(int(raw.sizes.flip), 1)
+            capture = _capture_info(raw.other)
     except rawpy.LibRawError as exc:
         msg = exc.args[0].decode() if exc.args and isinstance(exc.args[0], bytes) else str(exc)
         raise RawFormatError(f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
@@ -195,6 +246,7 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
     if tags:
         profile = DNGProfile.from_tags(tags)
+        source = "AsShotNeutral" if "AsShotNeutral" in tags else "AsShotWhiteXY"
         if "AsShotNeutral" in tags:
             neutral = np.asarray(tags["AsShotNeutral"], dtype=np.float64)
         elif "AsShotWhiteXY" in tags:
@@ -203,7 +255,9 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             xy = np.asarray(tags["AsShotWhiteXY"], dtype=np.float64)
             neutral = profile.XYZ_to_camera(xy) @ colour.xy_to_XYZ(xy)
         else:
+            source = "camera" if np.all(cam_wb > 0) else "none"
             neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
+        capture.update(_capture_from_tags(tags))
         table = tags.get("LinearizationTable")
         table = None if table is None else np.asarray(table, dtype=np.float64)
         make = str(tags.get("Make", "") or "")
@@ -214,11 +268,12 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             raise RawFormatError(f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
                                  "or use a correction callable.")
         profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
-        wb = cam_wb if np.all(cam_wb > 0) else day_wb
-        if not np.all(wb > 0):
-            wb = np.ones(3)
+        # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW)
+        source = "camera" if np.all(cam_wb > 0) else "daylight" if np.all(day_wb > 0) else "none"
+        wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
         neutral = 1.0 / wb
         table, make, model, baseline = None, "", "", 0.0
     return RawImage(mosaic=mosaic, cfa=cfa, black_level=black, white_level=white, profile=profile,
                     as_shot_neutral=neutral, linearisation_table=table, table_applied=True,
-                    make=make, model=model, path=path, baseline_exposure=baseline, tags=tags)
+                    make=make, model=model, path=path, baseline_exposure=baseline, tags=tags,
+                    white_balance_source=source, orientation=orientation, capture=capture)
