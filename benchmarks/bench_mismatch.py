@@ -103,13 +103,18 @@ def main() -> None:
     X = np.clip(rng.random((N, 31)) @ np.triu(np.ones((31, 31))) / 31 * rng.random((N, 1)) * 2, 0, 1)
     C = mm.source_of(X)
     n1 = min(N, 1000)
+    from zonotope.parallel import executor
+
     for label, n, kw in (("one by one (chunk=1), 1 core", n1, dict(chunk=1)),
                          ("lockstep chunks of 256, 1 core", n1, dict(chunk=256)),
-                         ("lockstep chunks of 256, 2 processes", N, dict(chunk=256, workers=2)),
-                         ("centroids only (outer=False), 2 processes", N,
-                          dict(chunk=256, workers=2, outer=False))):
+                         ("lockstep chunks of 256, local Dask cluster of 2", N,
+                          dict(chunk=256, where="local:2")),
+                         ("centroids only (outer=False), local Dask cluster of 2", N,
+                          dict(chunk=256, where="local:2", outer=False))):
+        where = kw.pop("where", "serial")
         t = time.perf_counter()
-        out = mm.batch(C[:n], eps=1e-3, **kw)
+        with executor(where) as ex:  # the cluster's start-up is part of the measured time
+            out = mm.batch(C[:n], eps=1e-3, executor=ex, **kw)
         dt = time.perf_counter() - t
         print(f"batch, {label}: {n} responses (10 nm, ε=1e-3) in {dt:.1f} s → {dt / n * 1e4:.0f} s "
               f"per 10⁴, {out.lp_calls / n:.0f} LPs per response")

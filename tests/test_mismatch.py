@@ -239,7 +239,9 @@ def test_metamer_mismatch_class_and_batch():
     assert out.volume_bounds.shape == (2, 3, 2) and out.lp_calls > 0
     single = mm(C[1, 2], eps=1e-3)
     np.testing.assert_allclose(out.centroids[1, 2], single.centroid, atol=1e-12)
-    exact = mm.batch(C[0], eps=0.0, progress=True)
+    seen = []
+    exact = mm.batch(C[0], eps=0.0, chunk=2, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(2, 3), (3, 3)]
     for c, v in zip(C[0], exact.volumes, strict=True):
         assert v == pytest.approx(mm(c).volume, rel=1e-12)
     assert mm.target_of(R).shape == (2, 3, 3)
@@ -316,10 +318,17 @@ def test_batch_lockstep_equals_one_by_one(nikon10):
 def test_batch_in_two_processes_matches(nikon10):
     Phi, Psi, R = nikon10
     C = R @ Phi
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
     one = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, chunk=6)
-    two = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, chunk=6, workers=2)
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
+        two = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, chunk=6, executor=pool)
     np.testing.assert_array_equal(one.centroids, two.centroids)
+    np.testing.assert_array_equal(one.volume_bounds, two.volume_bounds)
     assert one.lp_calls == two.lp_calls
+    with pytest.raises(ValueError, match="executor"):
+        metamer_mismatch_batch(Phi, Psi, C, executor=4)
 
 
 def test_input_errors(nikon10):

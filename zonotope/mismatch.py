@@ -49,15 +49,20 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._errors import GeometryError, InfeasibleResponseError, ZonotopeError
+from ._errors import GeometryError, InfeasibleResponseError
 from ._mmv_refine import Refinement, refine, refine_many
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
 from .polytope import Polytope
+
+if TYPE_CHECKING:
+    from concurrent.futures import Executor
 
 __all__ = [
     "ORACLES",
@@ -456,16 +461,18 @@ class MetamerMismatch:
                                         oracle=self.oracle)
 
     def batch(self, responses, *, eps: float = 1e-3, delta=0.0, on_infeasible: str = "raise",
-              progress: bool = False, chunk: int = 256, workers: int = 1, outer: bool = True) -> MMVBatch:
+              progress: Callable[[int, int], None] | None = None, chunk: int = 256,
+              executor: Executor | None = None, outer: bool = True) -> MMVBatch:
         """Volumes and centroids of the MMVs of many responses; see :func:`metamer_mismatch_batch`."""
         return metamer_mismatch_batch(self.Phi, self.Psi, responses, eps=eps, delta=delta,
                                       oracle=self.oracle, on_infeasible=on_infeasible,
-                                      progress=progress, chunk=chunk, workers=workers, outer=outer)
+                                      progress=progress, chunk=chunk, executor=executor, outer=outer)
 
 
 def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0, oracle: str = "fast",
-                           on_infeasible: str = "raise", progress: bool = False, chunk: int = 256,
-                           workers: int = 1, outer: bool = True) -> MMVBatch:
+                           on_infeasible: str = "raise", progress: Callable[[int, int], None] | None = None,
+                           chunk: int = 256, executor: Executor | None = None,
+                           outer: bool = True) -> MMVBatch:
     """Volumes and centroids of the MMVs of many responses (functional form of
     :meth:`MetamerMismatch.batch`).
 
@@ -479,15 +486,19 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
     delta : float or array_like of shape (k,)
     oracle : {"fast", "highs"}
     on_infeasible : {"raise", "nearest"}
-    progress : bool
-        Show a rich progress bar.
+    progress : callable, optional
+        Called as ``progress(done, total)`` (responses) after each chunk; the library draws nothing.
     chunk : int
         Responses refined side by side: every round of facet refinement asks the support LPs of
         all of them in one batched simplex call, which shares numpy's per-call overhead (≈ 2× faster
-        than one by one at 10 nm); memory grows with it.
-    workers : int
-        Processes to spread the chunks over (1: this process). Each worker starts a fresh
-        interpreter, so this pays off for thousands of responses, not tens.
+        than one by one at 10 nm); memory grows with it. Chunks are also the unit of work handed to
+        ``executor``.
+    executor : concurrent.futures.Executor, optional
+        Where the chunks run: any object whose ``map(fn, iterable)`` yields the results in the
+        order of ``iterable``, as :meth:`concurrent.futures.Executor.map` does (a
+        ``ProcessPoolExecutor``, or :func:`zonotope.parallel.executor` for a local or remote Dask
+        cluster). None: this process, one chunk after another. The results do not depend on it:
+        every chunk is computed by the same code on the same responses.
     outer : bool
         With ``eps > 0``, also compute each certified outer bound (a half-space intersection and a
         hull: about half the time per response at 10 nm). False when only centroids are
@@ -510,51 +521,25 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
         raise ValueError(f"oracle must be one of {sorted(ORACLES)}; got {oracle!r}.")
     if on_infeasible not in ("raise", "nearest"):
         raise ValueError(f"on_infeasible must be 'raise' or 'nearest'; got {on_infeasible!r}.")
-    if chunk < 1 or workers < 1:
-        raise ValueError(f"chunk and workers must be ≥ 1; got chunk={chunk!r}, workers={workers!r}.")
+    if chunk < 1:
+        raise ValueError(f"chunk must be ≥ 1; got chunk={chunk!r}.")
+    if executor is not None and not callable(getattr(executor, "map", None)):
+        raise ValueError(f"executor must have a map(fn, iterable) method (a concurrent.futures.Executor); "
+                         f"got {executor!r}.")
     flat = C.reshape(-1, k)
     if not np.all(np.isfinite(flat)):
         raise GeometryError("responses contain NaN or inf.")
     N = flat.shape[0]
-    parts = [flat[s:s + chunk] for s in range(0, N, chunk)]
-    args = dict(eps=eps, delta=delta, oracle=oracle, on_infeasible=on_infeasible, outer=outer)
-    results: list = [None] * len(parts)
-    bar = None
-    if progress:
-        from rich.progress import Progress
-
-        bar = Progress(transient=True)
-        bar.start()
-        task = bar.add_task("metamer mismatch volumes", total=N)
-    try:
-        if workers > 1 and len(parts) > 1:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            ctx = multiprocessing.get_context("spawn")
-            from concurrent.futures.process import BrokenProcessPool
-
-            try:
-                with ProcessPoolExecutor(max_workers=min(workers, len(parts)), mp_context=ctx) as pool:
-                    futures = {pool.submit(_batch_chunk, Phi, Psi, p, **args): i
-                               for i, p in enumerate(parts)}
-                    for fut in as_completed(futures):
-                        results[futures[fut]] = fut.result()
-                        if bar is not None:
-                            bar.update(task, advance=len(parts[futures[fut]]))
-            except BrokenProcessPool as error:
-                raise ZonotopeError(
-                    "a worker process died before finishing its chunk. Worker processes re-import "
-                    "the main script: run from a file guarded by `if __name__ == \"__main__\":` (or a "
-                    "notebook), not from standard input, or use workers=1.") from error
-        else:
-            for i, p in enumerate(parts):
-                results[i] = _batch_chunk(Phi, Psi, p, **args)
-                if bar is not None:
-                    bar.update(task, advance=len(p))
-    finally:
-        if bar is not None:
-            bar.stop()
+    parts = (flat[s:s + chunk] for s in range(0, N, chunk))  # views, made as the executor asks
+    work = partial(_batch_chunk, Phi, Psi, eps=eps, delta=delta, oracle=oracle,
+                   on_infeasible=on_infeasible, outer=outer)
+    results: list = []
+    done = 0
+    for r in (map(work, parts) if executor is None else executor.map(work, parts)):
+        results.append(r)
+        done += r[0].shape[0]
+        if progress is not None:
+            progress(done, N)
     lead = C.shape[:-1]
     if results:
         cents, bounds, errs, dims = (np.concatenate([r[j] for r in results]) for j in range(4))
