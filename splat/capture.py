@@ -1,0 +1,712 @@
+"""A capture on disk: ``capture.toml`` plus one folder of RAW files per physical camera.
+
+:func:`read_capture` reads and validates the capture file (stdlib ``tomllib``);
+:func:`load_views` turns every RAW file into a linear mosaic through :mod:`isp` — black and white
+level (and the DNG linearisation table, which LibRaw applies), **no** white balance and **no**
+demosaicing — with a per-pixel, per-channel weight that is 0 where a channel is not measured (the
+camera's own CFA phase), where the sensor saturated, and on dead pixels. Full-colour sensors
+(Foveon-type, ``LinearRaw`` DNG) measure all three channels at every pixel.
+
+Units
+-----
+Training uses the linear values as they are (0 at black, 1 at saturation, un-balanced), so the
+RawNeRF loss's clip at 1 is the sensor's saturation. Each view carries its relative exposure
+``ExposureTime × ISO / FNumber²`` (EXIF) divided by the median over all views. For colour
+correction the rendered responses (at exposure 1) are put on the scale :mod:`zonotope.correct`
+expects — a perfect white reflector under the capture's illuminant gives 1 in every channel — by
+:func:`white_scale`: ``c = raw / (k_cam · n_cam)`` with ``n_cam`` the camera's white response from
+its spectral sensitivities (max 1) and ``k_cam`` the raw level of the perfect white's largest channel
+at exposure 1, found by one of:
+
+``"patch"``
+    the user marks a box on a white/grey patch of known flat reflectance ρ in one image: that
+    camera's ``k`` is the patch's mean response / (ρ · exposure · n) (per channel, then the mean over
+    channels); the other cameras get theirs through the ratio of their brightest-neutral levels to
+    that camera's (the same bright surfaces are seen by every camera).
+``"brightest-neutral"`` (default)
+    the brightest neutral surface in each camera's views is taken for a perfect white: the 99.5th
+    percentile of the level of pixels (2 × 2 super-pixels behind a Bayer mosaic) whose channel ratios
+    are within 5 % of the white's. If that surface really has reflectance ρ < 1 every estimate is
+    too bright by 1/ρ: a lightness error of about ``116 (ρ^(-1/3) − 1)`` ΔL* at white (3.6 ΔE00
+    at L* = 96 for ρ = 0.9, less on darker colours) plus the small chromaticity change of the
+    non-exposure-invariant estimators. Mark a patch when accuracy matters; the benchmark reports
+    both.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import SplatError
+
+__all__ = [
+    "RAW_SUFFIXES",
+    "CameraSpec",
+    "CaptureError",
+    "CaptureSpec",
+    "RawView",
+    "WhiteSpec",
+    "exif_exposure",
+    "load_views",
+    "read_capture",
+    "read_linear",
+    "white_scale",
+]
+
+#: File suffixes treated as RAW files in a camera folder (case-insensitive).
+RAW_SUFFIXES = (
+    ".dng",
+    ".nef",
+    ".nrw",
+    ".cr2",
+    ".cr3",
+    ".crw",
+    ".arw",
+    ".srf",
+    ".sr2",
+    ".orf",
+    ".rw2",
+    ".raf",
+    ".pef",
+    ".srw",
+    ".x3f",
+    ".3fr",
+    ".iiq",
+    ".erf",
+    ".kdc",
+    ".mrw",
+    ".raw",
+    ".rwl",
+)
+
+_WHITE_METHODS = ("patch", "brightest-neutral")
+
+
+class CaptureError(SplatError):
+    """A capture folder or ``capture.toml`` that cannot be used (names the file, the key and the fix)."""
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """One ``[[camera]]`` table of ``capture.toml``.
+
+    Attributes
+    ----------
+    folder : str
+        Folder of this camera's RAW files, relative to the capture file.
+    ssf : str
+        Built-in camera name of :func:`zonotope.camera` or a path (resolved) to an SSF file.
+    cfa : str or None
+        Bayer pattern override (default: from the file).
+    black_level, white_level : float or None
+        Overrides in raw DN.
+    exposure : dict
+        ``file name -> exposure`` overrides (any scale; made relative with the EXIF ones).
+    """
+
+    folder: str
+    ssf: str
+    cfa: str | None = None
+    black_level: float | None = None
+    white_level: float | None = None
+    exposure: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class WhiteSpec:
+    """The ``[white]`` table: how responses are put on the white → 1 scale (see module notes)."""
+
+    method: str = "brightest-neutral"
+    image: str | None = None
+    box: tuple[int, int, int, int] | None = None
+    reflectance: float = 1.0
+
+
+@dataclass(frozen=True)
+class CaptureSpec:
+    """A validated ``capture.toml``.
+
+    Attributes
+    ----------
+    root : Path
+        Folder of the capture file.
+    illuminant : str
+        Colour-science illuminant name or a path to an SPD CSV.
+    observer : str
+        Target observer of colour correction.
+    cameras : tuple of CameraSpec
+    white : WhiteSpec
+    holdout : tuple of str
+        ``"<folder>/<file>"`` names kept out of training.
+    colmap, transforms : Path or None
+        User-supplied poses.
+    """
+
+    root: Path
+    illuminant: str
+    observer: str
+    cameras: tuple[CameraSpec, ...]
+    white: WhiteSpec = WhiteSpec()
+    holdout: tuple[str, ...] = ()
+    colmap: Path | None = None
+    transforms: Path | None = None
+
+    @property
+    def file(self) -> Path:
+        return self.root / "capture.toml"
+
+    def camera_index(self, folder: str) -> int:
+        """Index in :attr:`cameras` of the camera whose folder is ``folder``."""
+        for k, c in enumerate(self.cameras):
+            if c.folder == folder:
+                return k
+        raise CaptureError(
+            f"{self.file}: no [[camera]] has folder {folder!r}; folders are "
+            f"{[c.folder for c in self.cameras]}."
+        )
+
+    def raw_files(self, k: int) -> list[Path]:
+        """The RAW files of camera ``k``, sorted by name."""
+        folder = self.root / self.cameras[k].folder
+        return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in RAW_SUFFIXES)
+
+    def load_ssf(self, k: int):
+        """The spectral sensitivities of camera ``k`` (a colour MSDS with 3 channels)."""
+        import zonotope
+
+        s = self.cameras[k].ssf
+        try:
+            cam = zonotope.read_camera(s) if Path(s).is_file() else zonotope.camera(s)
+        except (OSError, KeyError, TypeError, ValueError) as e:
+            raise CaptureError(
+                f"{self.file}: camera {self.cameras[k].folder!r}: ssf = {s!r} is neither a "
+                f"built-in camera nor a readable SSF file ({e}). Use a name from "
+                "zonotope.list_builtin()['cameras'] or a rawtoaces/camspec JSON or CSV file."
+            ) from e
+        if len(cam.labels) != 3:
+            raise CaptureError(f"{self.file}: ssf {s!r} has {len(cam.labels)} channels; RAW cameras have 3.")
+        return cam
+
+
+def _need(doc: dict, key: str, kind, where: str, file: Path):
+    if key not in doc:
+        raise CaptureError(f"{file}: {where} lacks the key {key!r}.")
+    v = doc[key]
+    if not isinstance(v, kind):
+        raise CaptureError(f"{file}: {where}.{key} = {v!r} must be a {getattr(kind, '__name__', kind)}.")
+    return v
+
+
+def read_capture(path: str | os.PathLike) -> CaptureSpec:
+    """Read and validate ``capture.toml``.
+
+    Parameters
+    ----------
+    path : path
+        The capture folder or its ``capture.toml``.
+
+    Returns
+    -------
+    CaptureSpec
+
+    Raises
+    ------
+    CaptureError
+        Missing or invalid TOML, unknown keys, a camera folder that does not exist or holds no RAW
+        files, a duplicated folder, an unknown white method or a bad box, a hold-out image that does
+        not exist, a pose file that does not exist.
+    """
+    path = Path(path)
+    file = path / "capture.toml" if path.is_dir() else path
+    if not file.is_file():
+        raise CaptureError(
+            f"{file}: no capture file; write a capture.toml (see the README, 'Multispectral capture')."
+        )
+    try:
+        doc = tomllib.loads(file.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise CaptureError(f"{file}: not valid TOML ({e}).") from e
+    root = file.parent
+    known = {"illuminant", "observer", "camera", "white", "holdout", "poses"}
+    extra = sorted(set(doc) - known)
+    if extra:
+        raise CaptureError(f"{file}: unknown key(s) {extra}; known keys are {sorted(known)}.")
+    illuminant = str(doc.get("illuminant", "D65"))
+    observer = str(doc.get("observer", "CIE 1931 2 Degree Standard Observer"))
+    cams = doc.get("camera")
+    if not isinstance(cams, list) or not cams:
+        raise CaptureError(f"{file}: needs at least one [[camera]] table with folder and ssf.")
+    specs = []
+    for i, c in enumerate(cams):
+        where = f"[[camera]] #{i + 1}"
+        if not isinstance(c, dict):
+            raise CaptureError(f"{file}: {where} must be a table.")
+        bad = sorted(set(c) - {"folder", "ssf", "cfa", "black_level", "white_level", "exposure"})
+        if bad:
+            raise CaptureError(f"{file}: {where} has unknown key(s) {bad}.")
+        folder = _need(c, "folder", str, where, file)
+        ssf = _need(c, "ssf", str, where, file)
+        if (root / ssf).suffix.lower() in (".json", ".csv", ".txt") or "/" in ssf:
+            if not (root / ssf).is_file():
+                raise CaptureError(
+                    f"{file}: {where}: SSF file {root / ssf} does not exist; give a path "
+                    "relative to capture.toml or a built-in camera name."
+                )
+            ssf = str(root / ssf)
+        if not (root / folder).is_dir():
+            raise CaptureError(f"{file}: {where}: folder {root / folder} does not exist.")
+        exp = c.get("exposure", {})
+        if not isinstance(exp, dict) or not all(isinstance(v, int | float) and v > 0 for v in exp.values()):
+            raise CaptureError(f"{file}: {where}.exposure must map file names to positive numbers.")
+        cfa = c.get("cfa")
+        if cfa is not None:
+            from isp.raw import check_cfa
+
+            try:
+                cfa = check_cfa(cfa)
+            except ValueError as e:
+                raise CaptureError(f"{file}: {where}: {e}") from e
+        specs.append(CameraSpec(folder, ssf, cfa, c.get("black_level"), c.get("white_level"), dict(exp)))
+    folders = [s.folder for s in specs]
+    if len(set(folders)) != len(folders):
+        raise CaptureError(f"{file}: a camera folder is listed twice ({folders}); one [[camera]] per folder.")
+    w = doc.get("white", {})
+    method = str(w.get("method", "brightest-neutral"))
+    if method not in _WHITE_METHODS:
+        raise CaptureError(f"{file}: [white].method = {method!r}; use one of {list(_WHITE_METHODS)}.")
+    white = WhiteSpec(method, None, None, float(w.get("reflectance", 1.0)))
+    if not 0 < white.reflectance <= 1.5:
+        raise CaptureError(f"{file}: [white].reflectance = {white.reflectance} must lie in (0, 1.5].")
+    if method == "patch":
+        image = _need(w, "image", str, "[white]", file)
+        box = _need(w, "box", list, "[white]", file)
+        if len(box) != 4 or not all(isinstance(b, int) for b in box) or box[2] <= box[0] or box[3] <= box[1]:
+            raise CaptureError(
+                f"{file}: [white].box = {box} must be [x0, y0, x1, y1] integers, x1 > x0, "
+                "y1 > y0 (pixels, end exclusive)."
+            )
+        if not (root / image).is_file():
+            raise CaptureError(f"{file}: [white].image = {image!r} does not exist.")
+        white = WhiteSpec(method, image, tuple(box), white.reflectance)
+    holdout = tuple(doc.get("holdout", {}).get("images", ()))
+    for h in holdout:
+        if not (root / h).is_file():
+            raise CaptureError(f"{file}: [holdout] image {h!r} does not exist.")
+    poses = doc.get("poses", {})
+    colmap = transforms = None
+    if "colmap" in poses:
+        colmap = root / poses["colmap"]
+        if not colmap.is_dir():
+            raise CaptureError(f"{file}: [poses].colmap = {poses['colmap']!r} is not a folder.")
+    if "transforms" in poses:
+        transforms = root / poses["transforms"]
+        if not transforms.is_file():
+            raise CaptureError(f"{file}: [poses].transforms = {poses['transforms']!r} does not exist.")
+    spec = CaptureSpec(root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms)
+    for k, c in enumerate(specs):
+        if not spec.raw_files(k):
+            raise CaptureError(
+                f"{file}: folder {root / c.folder} holds no RAW files ({', '.join(RAW_SUFFIXES[:4])}, ...)."
+            )
+    return spec
+
+
+# ---------------------------------------------------------------------------------------------
+# RAW → linear mosaic
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class RawView:
+    """One RAW file as a linear mosaic.
+
+    Attributes
+    ----------
+    name : str
+        ``"<folder>/<file>"`` (the COLMAP image name).
+    camera : int
+        Index of the camera in :attr:`CaptureSpec.cameras`.
+    values : ndarray of shape (H, W, 3), float32
+        Linear values (0 black, 1 saturation), un-balanced; 0 where a channel is not measured.
+    weight : ndarray of shape (H, W, 3), float32
+        1 where the channel is measured and valid, 0 elsewhere (other CFA sites, saturated, dead).
+    exif : float or None
+        ``ExposureTime × ISO / FNumber²`` (or the capture file's override); None when unknown.
+    profile : isp.DNGProfile or None
+        The file's colour matrices (for the DNG-matrix development).
+    neutral : ndarray of shape (3,)
+        AsShotNeutral (max 1).
+    full_colour : bool
+    n_saturated, n_dead : int
+        Pixels given zero weight.
+    """
+
+    name: str
+    camera: int
+    values: np.ndarray
+    weight: np.ndarray
+    exif: float | None
+    profile: object
+    neutral: np.ndarray
+    full_colour: bool
+    n_saturated: int = 0
+    n_dead: int = 0
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.values.shape[:2]
+
+
+def _exif_from_tags(tags) -> dict:
+    out = {}
+    for code, name in ((33434, "ExposureTime"), (34855, "ISO"), (33437, "FNumber")):
+        t = tags.get(code)
+        if t is not None:
+            out[name] = t.value
+    exif = tags.get(34665)
+    if exif is not None and isinstance(exif.value, dict):
+        for name in ("ExposureTime", "ISOSpeedRatings", "PhotographicSensitivity", "FNumber"):
+            if name in exif.value:
+                out.setdefault(
+                    "ISO" if name in ("ISOSpeedRatings", "PhotographicSensitivity") else name,
+                    exif.value[name],
+                )
+    return out
+
+
+def _number(v) -> float:
+    if isinstance(v, tuple | list) and len(v) == 2 and all(isinstance(x, int) for x in v):
+        return v[0] / v[1] if v[1] else float("nan")
+    if isinstance(v, tuple | list):
+        return _number(v[0])
+    return float(v)
+
+
+def exif_exposure(path: str | os.PathLike) -> float | None:
+    """``ExposureTime × ISO / FNumber²`` from a TIFF-based RAW file's tags (IFD 0 or the EXIF IFD).
+
+    Returns None when the file is not TIFF-based or a tag is missing (a missing FNumber counts as
+    unknown, not as 1).
+    """
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            e = _exif_from_tags(tif.pages[0].tags)
+    except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError):
+        return None
+    if not {"ExposureTime", "ISO", "FNumber"} <= set(e):
+        return None
+    t, iso, f = _number(e["ExposureTime"]), _number(e["ISO"]), _number(e["FNumber"])
+    if not all(math.isfinite(x) and x > 0 for x in (t, iso, f)):
+        return None
+    return t * iso / f**2
+
+
+def _read_linear_raw_dng(path: Path):
+    """(H, W, 3) data, black (3,), white, tags of a LinearRaw (full-colour) DNG, or None."""
+    import tifffile
+
+    from isp.dng import read_dng_tags
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            page = None
+            for p in [tif.pages[0], *(getattr(tif.pages[0], "pages", None) or [])]:
+                ph = int(p.tags[262].value) if 262 in p.tags else -1
+                sub = p.tags.get(254)
+                if ph == 34892 and (sub is None or int(sub.value) == 0):
+                    page = p
+                    break
+            if page is None:
+                return None
+            data = page.asarray()
+    except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError):
+        return None
+    tags = read_dng_tags(path)
+    if data.ndim != 3 or data.shape[-1] != 3:
+        raise CaptureError(f"{path}: LinearRaw DNG with {data.shape} samples; expected (H, W, 3).")
+    black = np.broadcast_to(np.ravel(tags.get("BlackLevel", [0.0]))[:3], (3,)).astype(float)
+    white = float(
+        np.ravel(tags.get("WhiteLevel", [np.iinfo(data.dtype).max if data.dtype.kind == "u" else 1.0]))[0]
+    )
+    return data, black, white, tags
+
+
+def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
+    """Read one RAW file as a linear mosaic (see :class:`RawView` for the fields).
+
+    Returns
+    -------
+    values, weight : ndarray of shape (H, W, 3), float32
+    info : dict
+        ``profile``, ``neutral``, ``full_colour``, ``n_saturated``, ``n_dead``, ``cfa``.
+
+    Raises
+    ------
+    CaptureError
+        An unreadable file (the message says which and why).
+    """
+    from isp import DNGProfile, RawFormatError, read_raw
+    from isp.stages import cfa_masks
+
+    path = Path(path)
+    camera = camera or CameraSpec("", "")
+    lin = _read_linear_raw_dng(path) if path.suffix.lower() == ".dng" else None
+    if lin is not None:
+        data, black, white, tags = lin
+        if camera.black_level is not None:
+            black = np.full(3, float(camera.black_level))
+        if camera.white_level is not None:
+            white = float(camera.white_level)
+        raw_dn = data.astype(np.float64)
+        values = (raw_dn - black) / (white - black)
+        measured = np.ones(values.shape, bool)
+        saturated = np.any(raw_dn >= white, axis=-1, keepdims=True) & measured
+        dead = np.all(raw_dn <= 0, axis=-1, keepdims=True) & bool(np.all(black > 0)) & measured
+        try:
+            profile = DNGProfile.from_tags(tags)
+        except RawFormatError:
+            profile = None
+        neutral = np.asarray(tags.get("AsShotNeutral", np.ones(3)), float)
+        full, cfa = True, None
+    else:
+        try:
+            raw = read_raw(path)
+        except (RawFormatError, FileNotFoundError) as e:
+            raise CaptureError(
+                f"{path}: cannot read this RAW file ({e}). Remove it from the folder or convert it to DNG."
+            ) from e
+        cfa = camera.cfa or raw.cfa
+        black = raw.black_level if camera.black_level is None else np.full((2, 2), float(camera.black_level))
+        white = raw.white_level if camera.white_level is None else float(camera.white_level)
+        raw_dn = raw.mosaic.astype(np.float64)
+        H, W = raw_dn.shape
+        black_px = np.tile(black, ((H + 1) // 2, (W + 1) // 2))[:H, :W]
+        v = (raw_dn - black_px) / (white - black_px)
+        measured = cfa_masks((H, W), cfa)
+        values = v[..., None] * measured
+        saturated = (raw_dn >= white)[..., None] & measured
+        dead = ((raw_dn <= 0) & (black_px > 0))[..., None] & measured
+        profile, neutral, full = raw.profile, raw.as_shot_neutral, False
+    weight = measured & ~saturated & ~dead
+    values = np.where(measured, np.clip(values, -0.05, 1.0), 0.0)
+    info = dict(
+        profile=profile,
+        neutral=neutral / np.max(neutral),
+        full_colour=full,
+        cfa=cfa,
+        n_saturated=int(np.any(saturated, -1).sum()),
+        n_dead=int(np.any(dead, -1).sum()),
+    )
+    return values.astype(np.float32), weight.astype(np.float32), info
+
+
+def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
+    """Read every RAW file of the capture (all cameras), with relative exposures.
+
+    Parameters
+    ----------
+    spec : CaptureSpec
+    progress : callable, optional
+        ``progress(done, total)`` after each file.
+
+    Returns
+    -------
+    list of RawView
+        In camera order, then file order; ``exif`` is the relative exposure (median over all views
+        = 1), or 1 for every view when no file has EXIF exposure tags.
+
+    Raises
+    ------
+    CaptureError
+        Unreadable file; files of one camera with different sizes or full-colour/Bayer mixed; some
+        files with EXIF exposure and some without (give ``exposure`` overrides for those).
+    """
+    jobs = [(k, p) for k in range(len(spec.cameras)) for p in spec.raw_files(k)]
+    views: list[RawView] = []
+    for i, (k, p) in enumerate(jobs):
+        cam = spec.cameras[k]
+        values, weight, info = read_linear(p, cam)
+        e = cam.exposure.get(p.name)
+        e = float(e) if e is not None else exif_exposure(p)
+        views.append(
+            RawView(
+                f"{cam.folder}/{p.name}",
+                k,
+                values,
+                weight,
+                e,
+                info["profile"],
+                info["neutral"],
+                info["full_colour"],
+                info["n_saturated"],
+                info["n_dead"],
+            )
+        )
+        if progress is not None:
+            progress(i + 1, len(jobs))
+    for k, cam in enumerate(spec.cameras):
+        mine = [v for v in views if v.camera == k]
+        sizes = sorted({v.shape for v in mine})
+        if len(sizes) > 1:
+            ex = {s: next(v.name for v in mine if v.shape == s) for s in sizes}
+            raise CaptureError(
+                f"camera folder {cam.folder!r} mixes image sizes {ex}; one physical camera "
+                "has one resolution: move the odd files to a folder of their own (a "
+                "separate [[camera]]) or remove them."
+            )
+        if len({v.full_colour for v in mine}) > 1:
+            raise CaptureError(f"camera folder {cam.folder!r} mixes Bayer and full-colour files.")
+    known = [v.exif for v in views if v.exif is not None]
+    if known and len(known) < len(views):
+        missing = [v.name for v in views if v.exif is None][:5]
+        raise CaptureError(
+            f"no EXIF exposure (ExposureTime, ISO, FNumber) in {missing}...; give them "
+            "'exposure = {<file> = <value>}' in their [[camera]] table, in the units "
+            "time × ISO / f-number²."
+        )
+    med = float(np.median(known)) if known else 1.0
+    return [
+        RawView(
+            v.name,
+            v.camera,
+            v.values,
+            v.weight,
+            (v.exif / med) if known else 1.0,
+            v.profile,
+            v.neutral,
+            v.full_colour,
+            v.n_saturated,
+            v.n_dead,
+        )
+        for v in views
+    ]
+
+
+# ---------------------------------------------------------------------------------------------
+# White → 1 scale
+# ---------------------------------------------------------------------------------------------
+
+
+def camera_white(spec: CaptureSpec, k: int) -> np.ndarray:
+    """The un-balanced response of camera ``k`` to the perfect white under the illuminant, max 1, (3,)."""
+    import zonotope
+
+    cam = spec.load_ssf(k)
+    light = _illuminant(spec)
+    shape = zonotope.common_shape(cam, light, interval=5)
+    g = zonotope.generators(cam, light, shape, normalise=None).values.sum(0)
+    return g / g.max()
+
+
+def _illuminant(spec: CaptureSpec):
+    import zonotope
+
+    il = spec.illuminant
+    p = spec.root / il
+    try:
+        if p.is_file():
+            import colour
+
+            m = zonotope.read_spectral_csv(p)
+            if isinstance(m, colour.MultiSpectralDistributions):
+                m = m.to_sds()[0]
+            return m
+        return zonotope.illuminant(il)
+    except (OSError, KeyError, ValueError) as e:
+        raise CaptureError(
+            f"{spec.file}: illuminant = {il!r} is neither a built-in name nor a readable SPD CSV ({e})."
+        ) from e
+
+
+def _superpixels(v: RawView) -> tuple[np.ndarray, np.ndarray]:
+    """(M, 3) responses and (M,) validity of 2 × 2 super-pixels (or pixels of full-colour views)."""
+    if v.full_colour:
+        return v.values.reshape(-1, 3), np.all(v.weight > 0, -1).reshape(-1)
+    H, W = (v.shape[0] // 2) * 2, (v.shape[1] // 2) * 2
+    w = v.weight[:H, :W]
+    s = (v.values[:H, :W] * w).reshape(H // 2, 2, W // 2, 2, 3).sum((1, 3))
+    n = w.reshape(H // 2, 2, W // 2, 2, 3).sum((1, 3))
+    ok = np.all(n == np.array([1, 2, 1]), -1)  # every site of the Bayer quad valid (none saturated)
+    return (s / np.maximum(n, 1)).reshape(-1, 3), ok.reshape(-1)
+
+
+def brightest_neutral(
+    views: list[RawView], white: np.ndarray, *, tolerance: float = 0.05, percentile: float = 99.5
+) -> float:
+    """Raw level (largest channel, exposure 1) of the brightest neutral surface in ``views``.
+
+    Parameters
+    ----------
+    views : list of RawView
+        Views of one camera.
+    white : array_like of shape (3,)
+        The camera's white response (max 1).
+    tolerance : float
+        A pixel is neutral when each channel / white ratio is within this fraction of their mean.
+    percentile : float
+        Percentile of the neutral pixels' levels taken for the white.
+    """
+    white = np.asarray(white, float)
+    levels = []
+    for v in views:
+        c, ok = _superpixels(v)
+        r = c / white / v.exif
+        mean = r.mean(-1)
+        neutral = ok & (mean > 0) & np.all(np.abs(r / np.maximum(mean, 1e-12)[:, None] - 1) < tolerance, -1)
+        levels.append(mean[neutral])
+    lv = np.concatenate(levels) if levels else np.zeros(0)
+    if lv.size < 10:
+        raise CaptureError(
+            "too few neutral (grey/white) pixels to estimate the white level; mark a "
+            'white patch in capture.toml ([white] method = "patch").'
+        )
+    return float(np.percentile(lv, percentile))
+
+
+def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
+    """Per camera, the divisor that puts raw responses (exposure 1) on the white → 1 scale.
+
+    Returns
+    -------
+    dict
+        ``scale``: list of arrays (3,), ``c = raw / scale[k]``; ``method``; ``levels``: the
+        brightest-neutral level per camera; ``whites``: each camera's SSF white (max 1).
+    """
+    whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
+    levels = [
+        brightest_neutral([v for v in views if v.camera == k], whites[k]) for k in range(len(spec.cameras))
+    ]
+    ks = list(levels)
+    if spec.white.method == "patch":
+        k0 = spec.camera_index(Path(spec.white.image).parent.as_posix())
+        v = next((v for v in views if v.name == Path(spec.white.image).as_posix()), None)
+        if v is None:
+            raise CaptureError(f"[white].image {spec.white.image!r} is not one of the capture's views.")
+        x0, y0, x1, y1 = spec.white.box
+        H, W = v.shape
+        if x1 > W or y1 > H:
+            raise CaptureError(f"[white].box {spec.white.box} lies outside the {W}×{H} image.")
+        val = v.values[y0:y1, x0:x1].reshape(-1, 3)
+        wt = v.weight[y0:y1, x0:x1].reshape(-1, 3)
+        if np.any(wt.sum(0) == 0):
+            raise CaptureError(
+                f"[white].box {spec.white.box} has no valid pixel in some channel "
+                "(saturated or too small); choose a larger, unsaturated patch."
+            )
+        mean = (val * wt).sum(0) / wt.sum(0)
+        k_patch = float(np.mean(mean / (spec.white.reflectance * v.exif * whites[k0])))
+        ks = [k_patch * levels[k] / levels[k0] for k in range(len(spec.cameras))]
+    return {
+        "scale": [ks[k] * whites[k] for k in range(len(ks))],
+        "method": spec.white.method,
+        "levels": levels,
+        "whites": whites,
+    }

@@ -1,0 +1,851 @@
+"""RAW capture on disk → poses → N-channel Gaussians → renders → colour-corrected images → report.
+
+Each step reads the capture (never writes into it) and what earlier steps left in the output
+folder ``OUT``, writes its own files atomically (temporary file + ``os.replace``), and is skipped or
+resumed when its results are already there:
+
+=========  ==========================================================================================
+step       writes (under ``OUT``)
+=========  ==========================================================================================
+poses      ``previews/<folder>/<stem>.png`` (8-bit, developed by :mod:`isp`), ``poses/`` (COLMAP text
+           model with image names ``<folder>/<file>``), ``poses/summary.json``
+train      ``train/checkpoint.npz`` (resumable), ``train/model.npz``, ``train/summary.json``
+render     ``render/<folder>/<stem>/`` ``render.tiff`` (float32, H × W × N, exposure 1),
+           ``camera_<folder>.tiff`` per camera, ``pca.png``
+correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XYZ, white Y = 1),
+           ``<method>_sRGB.tiff`` (16-bit) + ``.png``, ``dng_<folder>_sRGB.png`` (each camera's own
+           DNG-matrix development of the view), ``correct/summary.json``
+report     ``report.html``
+=========  ==========================================================================================
+
+Ground truth (``truth/``) is never read here; :mod:`splat.scoring` does that.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import SplatError
+from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
+
+__all__ = [
+    "STEPS",
+    "PipelineConfig",
+    "correct_step",
+    "poses_step",
+    "render_step",
+    "report_step",
+    "run",
+    "train_step_",
+    "xyz_to_srgb",
+]
+
+STEPS = ("poses", "train", "render", "correct", "report")
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Options of the pipeline steps.
+
+    Attributes
+    ----------
+    steps : int
+        Training steps.
+    capacity : int
+        Gaussian buffer size.
+    camera : str or None
+        Folder of the camera whose views are rendered and corrected (besides the held-out ones);
+        default the first camera.
+    all_views : bool
+        Render every view of that camera (else only held-out views, or the first view when there are
+        none).
+    novel : int
+        Novel views rendered between consecutive registered views of the camera.
+    method : str
+        ``zonotope.correct`` estimator of the correct step (default Prior).
+    quantum : float
+        Colour deduplication step of :func:`zonotope.image.correct_image`.
+    seed, threads : int
+    min_registered : float
+        Fraction of each camera's views that must register.
+    """
+
+    steps: int = 3000
+    capacity: int = 4096
+    camera: str | None = None
+    all_views: bool = False
+    novel: int = 0
+    method: str = "Prior"
+    quantum: float = 5e-3
+    seed: int = 0
+    threads: int = -1
+    min_registered: float = 0.5
+    densify_until: int | None = None
+
+
+# ---------------------------------------------------------------------------------------------
+# small helpers
+# ---------------------------------------------------------------------------------------------
+
+
+def _atomic(path: Path, write: Callable[[Path], None]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp" + path.suffix)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def _write_json(path: Path, doc) -> Path:
+    return _atomic(path, lambda p: p.write_text(json.dumps(doc, indent=1, default=float)))
+
+
+def _write_tiff(path: Path, a: np.ndarray) -> Path:
+    import tifffile
+
+    a = np.asarray(a, np.float32)
+    if not np.all(np.isfinite(a)):
+        raise SplatError(f"{path}: refusing to write NaN/inf values.")
+    return _atomic(
+        path, lambda p: tifffile.imwrite(p, a, photometric="minisblack", planarconfig="contig", metadata=None)
+    )
+
+
+def _write_png8(path: Path, rgb: np.ndarray) -> Path:
+    from PIL import Image
+
+    img = (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+    return _atomic(path, lambda p: Image.fromarray(img).save(p, format="PNG"))
+
+
+def _check_out(spec: CaptureSpec, out: Path) -> Path:
+    out = Path(out).resolve()
+    root = spec.root.resolve()
+    if out == root or root in out.parents:
+        raise CaptureError(
+            f"output folder {out} lies inside the capture {root}; choose a folder outside "
+            "it (the capture is never written to)."
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _stem(name: str) -> str:
+    p = Path(name)
+    return f"{p.parent.as_posix()}/{p.stem}"
+
+
+def xyz_to_srgb(XYZ, white_XYZ) -> np.ndarray:
+    """XYZ (white ``white_XYZ``, Y = 1) → sRGB-encoded values in [0, 1] (Bradford to D65, clipped).
+
+    Parameters
+    ----------
+    XYZ : array_like of shape (..., 3)
+    white_XYZ : array_like of shape (3,)
+    """
+    import colour
+
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    w = np.asarray(white_XYZ, float)
+    rgb = colour.XYZ_to_RGB(
+        np.asarray(XYZ, float),
+        srgb,
+        illuminant=colour.XYZ_to_xy(w),
+        chromatic_adaptation_transform="Bradford",
+    )
+    return np.asarray(colour.models.eotf_inverse_sRGB(np.clip(rgb, 0, 1)))
+
+
+def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
+    """8-bit-ready sRGB-ish preview of a linear mosaic: isp bilinear demosaic, SSF white balance,
+    exposure normalised, sRGB transfer curve."""
+    from isp.stages import demosaic, encode_sRGB
+
+    img = (
+        v.values.astype(np.float64)
+        if v.full_colour
+        else demosaic(v.values.sum(-1), cfa=_cfa_of(v), method="bilinear")
+    )
+    img = np.maximum(img, 0) / white / max(v.exif, 1e-9)
+    img = img / max(np.percentile(img, 99.5), 1e-9)
+    return encode_sRGB(np.clip(img, 0, 1))
+
+
+def _cfa_of(v: RawView) -> str:
+    letters = "RGB"
+    m = v.values != 0
+    w = v.weight > 0
+    site = np.argmax(m[:2, :2] | w[:2, :2], axis=-1)
+    return "".join(letters[int(site[i, j])] for i in range(2) for j in range(2))
+
+
+# ---------------------------------------------------------------------------------------------
+# step 1: poses
+# ---------------------------------------------------------------------------------------------
+
+
+def poses_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: Progress | None = None,
+) -> dict:
+    """Recover (or read) the poses of every RAW file; one COLMAP camera per physical camera.
+
+    Returns
+    -------
+    dict
+        The summary written to ``poses/summary.json``: registered views per camera, source.
+
+    Raises
+    ------
+    CaptureError
+        A camera whose views do not register (fewer than ``min_registered`` of them, or fewer than 2).
+    """
+    from .colmap import ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, read_colmap, write_colmap
+    from .data import read_transforms
+    from .poses import PoseConfig, recover_poses
+
+    spec = read_capture(capture)
+    out = _check_out(spec, Path(out))
+    done = out / "poses" / "summary.json"
+    if done.is_file():
+        return json.loads(done.read_text())
+    t0 = time.perf_counter()
+    views = load_views(spec, progress=None if progress is None else lambda i, n: progress("read", i, n))
+    names = [v.name for v in views]
+    if spec.colmap is not None or spec.transforms is not None:
+        source = "colmap" if spec.colmap is not None else "transforms"
+        if spec.colmap is not None:
+            model = read_colmap(spec.colmap)
+        else:
+            from .data import colmap_from_capture
+
+            model = colmap_from_capture(read_transforms(spec.transforms))
+        by_name = {im.name: im for im in model.images.values()}
+    else:
+        source = "pycolmap"
+        from .capture import camera_white
+
+        whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
+        for i, v in enumerate(views):
+            path = out / "previews" / f"{_stem(v.name)}.png"
+            if not path.is_file():
+                _write_png8(path, _preview(v, whites[v.camera]))
+            if progress is not None:
+                progress("previews", i + 1, len(views))
+        if progress is not None:
+            progress("colmap", 0, 1)
+        work = out / "poses" / "colmap"
+        model = recover_poses(
+            out / "previews",
+            work,
+            config=PoseConfig(num_threads=config.threads, seed=config.seed, max_image_size=-1),
+        )
+        by_name = {}
+        for im in model.images.values():
+            stem = Path(im.name)
+            raw = next((n for n in names if _stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None)
+            if raw is not None:
+                by_name[raw] = im
+        if progress is not None:
+            progress("colmap", 1, 1)
+    # one camera id per physical camera, in the capture's order; COLMAP's own ids are remapped
+    cams, images, counts = {}, {}, {}
+    for k, c in enumerate(spec.cameras):
+        mine = [v for v in views if v.camera == k]
+        reg = [v for v in mine if v.name in by_name]
+        counts[c.folder] = {"views": len(mine), "registered": len(reg)}
+        need = max(2, int(np.ceil(config.min_registered * len(mine)))) if len(mine) >= 2 else 1
+        if len(reg) < need:
+            raise CaptureError(
+                f"only {len(reg)} of the {len(mine)} views of camera {c.folder!r} registered "
+                f"(need {need}); photograph more overlap with the other cameras, add "
+                "texture, or give poses in capture.toml ([poses] colmap = ...)."
+            )
+        src = model.cameras[by_name[reg[0].name].camera_id]
+        H, W = mine[0].shape
+        if (src.width, src.height) != (W, H):
+            raise CaptureError(
+                f"poses give camera {c.folder!r} the size {src.width}×{src.height}; its RAW "
+                f"files are {W}×{H}."
+            )
+        fx, fy, cx, cy = src.pinhole()
+        cams[k + 1] = ColmapCamera(k + 1, "PINHOLE", W, H, (fx, fy, cx, cy))
+        for v in reg:
+            im = by_name[v.name]
+            images[len(images) + 1] = ColmapImage(
+                len(images) + 1, np.asarray(im.qvec), np.asarray(im.tvec), k + 1, v.name
+            )
+    pts = {
+        i: ColmapPoint3D(i, p.xyz, p.rgb, p.error, np.zeros(0, np.int64), np.zeros(0, np.int64))
+        for i, p in model.points3D.items()
+    }  # tracks dropped: the images were renumbered
+    final = ColmapModel(cams, images, pts)
+    tmpdir = Path(tempfile.mkdtemp(dir=out, prefix=".poses"))
+    write_colmap(final, tmpdir / "model", binary=False)
+    (out / "poses").mkdir(parents=True, exist_ok=True)
+    if (out / "poses" / "model").exists():
+        import shutil
+
+        shutil.rmtree(out / "poses" / "model")
+    os.replace(tmpdir / "model", out / "poses" / "model")
+    os.rmdir(tmpdir)
+    summary = {
+        "source": source,
+        "cameras": counts,
+        "registered": sum(c["registered"] for c in counts.values()),
+        "views": len(views),
+        "points": len(pts),
+        "seconds": time.perf_counter() - t0,
+        "folders": [c.folder for c in spec.cameras],
+        "exposures": {v.name: v.exif for v in views},
+        "saturated": {v.name: v.n_saturated for v in views if v.n_saturated},
+        "dead": {v.name: v.n_dead for v in views if v.n_dead},
+    }
+    _write_json(done, summary)
+    return summary
+
+
+# ---------------------------------------------------------------------------------------------
+# step 2: train
+# ---------------------------------------------------------------------------------------------
+
+
+def _load_model_capture(spec: CaptureSpec, out: Path):
+    """The registered views as a :class:`Capture` (camera id k + 1 = capture camera k) and the model."""
+    from .colmap import read_colmap
+    from .data import capture_from_colmap
+
+    if not (out / "poses" / "summary.json").is_file():
+        raise CaptureError(f"{out}: no poses yet; run the poses step first (splat poses CAPTURE -o OUT).")
+    model = read_colmap(out / "poses" / "model")
+    n = len(spec.cameras)
+    channels = {k + 1: (3 * k, 3 * k + 1, 3 * k + 2) for k in range(n)}
+    labels = tuple(f"{c.folder}:{ch}" for c in spec.cameras for ch in "RGB")
+    exposures = json.loads((out / "poses" / "summary.json").read_text())["exposures"]
+    return model, capture_from_colmap(model, channels=channels, exposures=exposures, labels=labels)
+
+
+def _pad(a: np.ndarray, H: int, W: int) -> np.ndarray:
+    return np.pad(a, ((0, H - a.shape[0]), (0, W - a.shape[1]), (0, 0)))
+
+
+def train_step_(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: Progress | None = None,
+) -> dict:
+    """Train the N-channel Gaussians on every camera's RAW mosaics (held-out views excluded).
+
+    Views of different sizes are padded (right and bottom, weight 0) to the largest size so that
+    they stack; a view's intrinsics are unchanged by the padding. Resumes from
+    ``train/checkpoint.npz`` when present.
+
+    Returns
+    -------
+    dict
+        The summary written to ``train/summary.json``.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from .camera import Camera
+    from .data import Capture
+    from .training import TrainConfig, train
+
+    spec = read_capture(capture)
+    out = _check_out(spec, Path(out))
+    done = out / "train" / "summary.json"
+    if done.is_file() and (out / "train" / "model.npz").is_file():
+        return json.loads(done.read_text())
+    model, cap = _load_model_capture(spec, out)
+    raws = {v.name: v for v in load_views(spec)}
+    hold = set(spec.holdout)
+    views = [v for v in cap.views if v.name not in hold]
+    if not views:
+        raise CaptureError("every registered view is held out; nothing to train on.")
+    H = max(v.camera.height for v in views)
+    W = max(v.camera.width for v in views)
+    N = cap.n_channels
+    images = np.zeros((len(views), H, W, N), np.float32)
+    weights = np.zeros_like(images)
+    padded = []
+    for i, v in enumerate(views):
+        r = raws[v.name]
+        idx = list(cap.channels[v.camera_id])
+        images[i, : r.shape[0], : r.shape[1], idx] = np.moveaxis(r.values, -1, 0)
+        weights[i, : r.shape[0], : r.shape[1], idx] = np.moveaxis(r.weight, -1, 0)
+        c = v.camera
+        padded.append(type(v)(v.name, Camera(c.R, c.t, c.focal, c.principal, W, H), v.camera_id, v.exposure))
+    train_cap = Capture(tuple(padded), cap.channels, cap.labels)
+    xyz, rgb = model.points()
+    centres = np.array([np.asarray(v.camera.centre) for v in views])
+    if len(xyz) >= 8:
+        lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
+        keep = np.all((xyz >= lo) & (xyz <= hi), axis=1)
+        xyz, rgb = xyz[keep], rgb[keep]
+        pad = 0.1 * (hi - lo)
+        bounds = np.stack([lo - pad, hi + pad])
+    else:
+        lo, hi = centres.min(0), centres.max(0)
+        bounds = np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
+        xyz = rgb = None
+    valid = weights > 0
+    level = float(np.median(images[valid])) if valid.any() else 0.2
+    colours = None
+    if xyz is not None:
+        rng = np.random.default_rng(config.seed)
+        take = rng.permutation(len(xyz))[: config.capacity // 2]
+        xyz, rgb = xyz[take], rgb[take]
+        lum = (rgb.astype(float) / 255) ** 2.2
+        lum = lum.mean(1) / max(np.median(lum.mean(1)), 1e-6)
+        colours = np.clip(level * lum, 1e-3, 1)[:, None] * np.ones(N)
+    until = config.densify_until if config.densify_until is not None else int(0.7 * config.steps)
+    tc = TrainConfig(
+        steps=config.steps,
+        capacity=config.capacity,
+        checkpoint=out / "train" / "checkpoint.npz",
+        checkpoint_every=max(50, config.steps // 10),
+        progress=False,
+        seed=config.seed,
+        densify_from=min(200, config.steps // 5),
+        densify_until=until,
+        densify_every=max(25, min(100, config.steps // 20)),
+    )
+    resume = tc.checkpoint if Path(tc.checkpoint).is_file() else None
+    t0 = time.perf_counter()
+
+    def cb(step, state, loss):
+        if progress is not None and (step % 10 == 0 or step == config.steps):
+            progress("train", step, config.steps)
+
+    res = train(
+        train_cap,
+        images,
+        weights,
+        config=tc,
+        bounds=bounds,
+        points=xyz,
+        colours=colours,
+        resume=resume,
+        callback=cb,
+    )
+    seconds = time.perf_counter() - t0
+    # residual noise per channel (raw units at exposure 1) on up to 6 training views → δ of correct
+    from .outputs import render_views
+
+    alive = jnp.asarray(res.alive)
+    sq, cnt = np.zeros(N), np.zeros(N)
+    for i in np.linspace(0, len(padded) - 1, min(6, len(padded))).astype(int):
+        v = padded[i]
+        pred = render_views(res.gaussians, [v.camera], mask=alive)[0] * v.exposure
+        w = weights[i] * (pred < 1)
+        sq += np.sum(w * ((pred - images[i]) / v.exposure) ** 2, axis=(0, 1))
+        cnt += w.sum((0, 1))
+    sigma = np.sqrt(sq / np.maximum(cnt, 1))
+    params = res.gaussians.to_numpy()
+    _atomic(out / "train" / "model.npz", lambda p: np.savez(p, alive=np.asarray(res.alive), **params))
+    loss = np.asarray(res.history["loss"], float)
+    summary = {
+        "steps": config.steps,
+        "resumed_from": None if resume is None else int(res.state.step - len(loss)),
+        "views": len(views),
+        "size": [W, H],
+        "channels": N,
+        "gaussians": int(np.sum(res.alive)),
+        "seconds": seconds,
+        "loss_first": float(loss[:20].mean()) if loss.size else None,
+        "loss_last": float(loss[-20:].mean()) if loss.size else None,
+        "residual_sigma_raw": sigma.tolist(),
+        "bounds": bounds.tolist(),
+        "init_points": 0 if xyz is None else len(xyz),
+        "backend": jax.default_backend(),
+    }
+    _write_json(done, summary)
+    return summary
+
+
+def load_gaussians(out: str | os.PathLike):
+    """The trained :class:`Gaussians` and their alive mask from ``OUT/train/model.npz``."""
+    from .gaussians import Gaussians
+
+    path = Path(out) / "train" / "model.npz"
+    if not path.is_file():
+        raise CaptureError(f"{path}: no trained model; run the train step first.")
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files}
+    return Gaussians.from_numpy(arrays), arrays["alive"]
+
+
+# ---------------------------------------------------------------------------------------------
+# step 3: render
+# ---------------------------------------------------------------------------------------------
+
+
+def _novel_cameras(views, n: int):
+    """``n`` cameras between each pair of consecutive views (centre lerp, rotation slerp)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    from .camera import Camera
+
+    out = []
+    for a, b in itertools.pairwise(views):
+        ca, cb = a.camera, b.camera
+        rots = Rotation.from_matrix(np.stack([np.asarray(ca.R, float), np.asarray(cb.R, float)]))
+        slerp = Slerp([0, 1], rots)
+        for j in range(1, n + 1):
+            s = j / (n + 1)
+            R = slerp([s]).as_matrix()[0]
+            centre = (1 - s) * np.asarray(ca.centre, float) + s * np.asarray(cb.centre, float)
+            out.append(
+                (
+                    f"{Path(a.name).parent.as_posix()}/novel_{Path(a.name).stem}_{j}",
+                    Camera(
+                        np.asarray(R, np.float32),
+                        np.asarray(-R @ centre, np.float32),
+                        ca.focal,
+                        ca.principal,
+                        ca.width,
+                        ca.height,
+                    ),
+                    a.camera_id,
+                )
+            )
+    return out
+
+
+def render_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: Progress | None = None,
+) -> dict:
+    """Render held-out views, views of the chosen camera and novel views (N channels, exposure 1).
+
+    Returns
+    -------
+    dict
+        ``views``: name → {camera folder, kind ("holdout" / "view" / "novel"), files}.
+    """
+    from .outputs import pca_false_colour, render_views, split_cameras
+
+    spec = read_capture(capture)
+    out = _check_out(spec, Path(out))
+    _, cap = _load_model_capture(spec, out)
+    g, alive = load_gaussians(out)
+    folder = config.camera or spec.cameras[0].folder
+    k = spec.camera_index(folder)
+    hold = set(spec.holdout)
+    todo = [(v.name, v.camera, v.camera_id, "holdout") for v in cap.views if v.name in hold]
+    mine = [v for v in cap.views if v.camera_id == k + 1 and v.name not in hold]
+    chosen = mine if config.all_views else ([] if todo else mine[:1])
+    todo += [(v.name, v.camera, v.camera_id, "view") for v in chosen]
+    if config.novel:
+        todo += [(n, c, cid, "novel") for n, c, cid in _novel_cameras(mine, config.novel)]
+    index = {}
+    for i, (name, cam, cid, kind) in enumerate(todo):
+        d = out / "render" / _stem(name)
+        files = {"render": d / "render.tiff", "pca": d / "pca.png"}
+        if not all(p.is_file() for p in files.values()):
+            img = render_views(g, [cam], mask=alive)[0]
+            _write_tiff(files["render"], img)
+            for cid2, part in split_cameras(img, cap).items():
+                _write_tiff(d / f"camera_{spec.cameras[cid2 - 1].folder}.tiff", part)
+            _write_png8(files["pca"], pca_false_colour(img))
+        index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": _stem(name)}
+        if progress is not None:
+            progress("render", i + 1, len(todo))
+    _write_json(out / "render" / "index.json", index)
+    return index
+
+
+# ---------------------------------------------------------------------------------------------
+# step 4: correct
+# ---------------------------------------------------------------------------------------------
+
+
+def _read_tiff(path: Path) -> np.ndarray:
+    import tifffile
+
+    return np.asarray(tifffile.imread(path), np.float64)
+
+
+def white_of(spec: CaptureSpec, out: Path, views: list[RawView] | None = None) -> dict:
+    """The white → 1 scale (:func:`splat.capture.white_scale`), cached in ``OUT/correct/white.json``."""
+    path = out / "correct" / "white.json"
+    if path.is_file():
+        d = json.loads(path.read_text())
+        d["scale"] = [np.asarray(s) for s in d["scale"]]
+        return d
+    d = white_scale(spec, views if views is not None else load_views(spec))
+    _write_json(
+        path, {k: [np.asarray(x).tolist() for x in v] if isinstance(v, list) else v for k, v in d.items()}
+    )
+    d["scale"] = [np.asarray(s) for s in d["scale"]]
+    return d
+
+
+def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
+    """``zonotope.correct.CorrectionProblem`` of a subset of the capture's cameras (10 nm grid,
+    400–700 nm narrowed to the curves' common range, training set rawtoaces 190)."""
+    import zonotope
+    from zonotope.correct import correction_problem
+
+    from .capture import _illuminant
+
+    curves = [spec.load_ssf(k) for k in cameras]
+    light = _illuminant(spec)
+    obs = zonotope.observer(spec.observer)
+    common = zonotope.common_shape(*curves, obs, light, interval=10)
+    shape = np.arange(max(common.start, 400.0), min(common.end, 700.0) + 5, 10.0)
+    return correction_problem(
+        curves, target=spec.observer, illuminant=light, shape=shape, training="rawtoaces 190"
+    )
+
+
+def noise_sigma(out: Path, scale: np.ndarray) -> float:
+    """Response noise σ on the white → 1 scale: the median over channels of the training residual."""
+    s = json.loads((out / "train" / "summary.json").read_text())["residual_sigma_raw"]
+    return float(np.median(np.asarray(s) / scale))
+
+
+def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, sigma: float):
+    """A fitted estimator with the noise tolerance: Prior gets ``noise=σ`` (δ = 3σ in its MMV
+    branch), Centroid ``delta=3σ``; regressions are trained on noisy replicas (σ)."""
+    from zonotope.correct import CORRECTION_METHODS, fit_correction
+
+    problem = correction_problem_of(spec, cameras)
+    key = "".join(ch for ch in method.lower() if ch.isalnum())
+    name = next(
+        (m for m in CORRECTION_METHODS if "".join(ch for ch in m.lower() if ch.isalnum()) == key), method
+    )
+    opts = {
+        "Prior": {"noise": sigma},
+        "Centroid": {"delta": 3 * sigma},
+        "Projection": {"noise": sigma},
+        "MAP": {"noise": sigma},
+        "Finlayson 2015": {"noise": sigma},
+        "Cheung 2004": {"noise": sigma},
+    }.get(name, {})
+    return fit_correction(problem, method=name, **opts)
+
+
+def infeasible_share(problem, responses: np.ndarray, delta: float, *, n: int = 200, seed: int = 0) -> dict:
+    """Share of (sampled) responses farther than ``delta`` (max-norm) from the object-colour solid."""
+    from zonotope._lp import distance_to_zonotope
+
+    flat = responses.reshape(-1, responses.shape[-1])
+    rng = np.random.default_rng(seed)
+    pick = flat[rng.choice(len(flat), min(n, len(flat)), replace=False)]
+    d = np.array([distance_to_zonotope(problem.Phi, np.zeros(problem.k), c)[0] for c in pick])
+    return {
+        "sampled": len(pick),
+        "outside": float(np.mean(d > 1e-9)),
+        "beyond_delta": float(np.mean(d > delta)),
+        "max_distance": float(d.max()) if d.size else 0.0,
+    }
+
+
+def dng_matrix_XYZ(balanced: np.ndarray, profile, neutral, white_XYZ) -> np.ndarray:
+    """A camera's DNG development: white-balanced responses (white → 1) → XYZ of the scene white
+    ``white_XYZ`` (Y = 1): ColorMatrix → XYZ D50 (isp), Bradford back to the scene white."""
+    import colour
+
+    from isp.dng import D50_xy
+    from isp.stages import matrix_XYZ_from_balanced
+
+    M = matrix_XYZ_from_balanced(profile, neutral)
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        colour.xy_to_XYZ(D50_xy), np.asarray(white_XYZ) / white_XYZ[1], transform="Bradford"
+    )
+    return balanced @ (cat @ M).T
+
+
+def correct_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: Progress | None = None,
+) -> dict:
+    """Colour-correct every rendered view with all cameras (``config.method``), and develop each
+    camera's channels with its own DNG matrix; held-out RAW files are also developed by isp.
+
+    Returns
+    -------
+    dict
+        The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
+    """
+    from isp.stages import demosaic
+    from zonotope.image import correct_image
+
+    spec = read_capture(capture)
+    out = _check_out(spec, Path(out))
+    index_path = out / "render" / "index.json"
+    if not index_path.is_file():
+        raise CaptureError(f"{out}: nothing rendered yet; run the render step first.")
+    index = json.loads(index_path.read_text())
+    raws = {v.name: v for v in load_views(spec)}
+    white = white_of(spec, out, list(raws.values()))
+    scale = np.concatenate(white["scale"])
+    n = len(spec.cameras)
+    sigma = noise_sigma(out, scale)
+    corrector = fit_corrector(spec, list(range(n)), config.method, sigma)
+    problem = corrector.problem
+    wXYZ = problem.white_XYZ
+    mname = corrector.method.replace(" ", "")
+    profiles = {}
+    for v in raws.values():
+        profiles.setdefault(v.camera, (v.profile, v.neutral))
+    shares = {}
+    for i, (name, info) in enumerate(index.items()):
+        d = out / "render" / info["dir"]
+        o = out / "correct" / info["dir"]
+        img = _read_tiff(d / "render.tiff") / scale
+        if not (o / f"{mname}_XYZ.tiff").is_file():
+            XYZ = correct_image(np.maximum(img, 0), corrector, quantum=config.quantum)
+            _write_tiff(o / f"{mname}_XYZ.tiff", XYZ)
+            rgb = xyz_to_srgb(XYZ, wXYZ)
+            from isp import write_image
+
+            write_image(o / f"{mname}_sRGB.tiff", rgb, overwrite=True)
+            _write_png8(o / f"{mname}_sRGB.png", rgb)
+        if i == 0:
+            shares = infeasible_share(problem, np.maximum(img, 0), 3 * sigma)
+        for k in range(n):
+            prof, neutral = profiles[k]
+            f = o / f"dng_{spec.cameras[k].folder}_XYZ.tiff"
+            if prof is None or f.is_file():
+                continue
+            X = dng_matrix_XYZ(np.maximum(img[..., 3 * k : 3 * k + 3], 0), prof, neutral, wXYZ)
+            _write_tiff(f, X)
+            _write_png8(o / f"dng_{spec.cameras[k].folder}_sRGB.png", xyz_to_srgb(X, wXYZ))
+        r = raws.get(name)
+        if r is not None and r.profile is not None and not (o / "raw_dng_XYZ.tiff").is_file():
+            lin = (
+                r.values.astype(np.float64)
+                if r.full_colour
+                else demosaic(r.values.sum(-1), cfa=_cfa_of(r), method="Malvar 2004")
+            )
+            bal = np.maximum(lin, 0) / r.exif / white["scale"][r.camera]
+            X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
+            _write_tiff(o / "raw_dng_XYZ.tiff", X)
+            _write_png8(o / "raw_dng_sRGB.png", xyz_to_srgb(X, wXYZ))
+        if progress is not None:
+            progress("correct", i + 1, len(index))
+    summary = {
+        "method": corrector.method,
+        "sigma": sigma,
+        "delta": 3 * sigma,
+        "delta_rule": "δ = 3σ, σ = median over channels of the RMS training residual (render × "
+        "exposure − RAW, valid pixels, white → 1 units); infeasible responses within "
+        "δ are handled by the MMV's tolerance, farther ones by zonotope's "
+        "on_infeasible='nearest' (counted below)",
+        "infeasible": shares,
+        "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
+        "white_XYZ": np.asarray(wXYZ).tolist(),
+        "views": list(index),
+    }
+    _write_json(out / "correct" / "summary.json", summary)
+    return summary
+
+
+# ---------------------------------------------------------------------------------------------
+# step 5: report
+# ---------------------------------------------------------------------------------------------
+
+
+def report_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: Progress | None = None,
+) -> Path:
+    """Write ``OUT/report.html``: summaries of every step and, per rendered view, the corrected image,
+    each camera's DNG-matrix development, the PCA false colour (and ``score.json`` if a scoring run
+    left one)."""
+    import html
+
+    spec = read_capture(capture)
+    out = _check_out(spec, Path(out))
+    parts = [
+        "<!doctype html><meta charset='utf-8'><title>splat capture report</title>",
+        "<style>body{font-family:sans-serif} img{width:240px;image-rendering:pixelated;margin:2px}"
+        " figure{display:inline-block;margin:4px} pre{background:#f4f4f4;padding:6px}</style>",
+        f"<h1>splat: {html.escape(str(spec.root))}</h1>",
+    ]
+    for step in ("poses", "train", "correct"):
+        p = out / step / "summary.json"
+        if p.is_file():
+            doc = json.loads(p.read_text())
+            doc.pop("exposures", None)
+            doc.pop("views", None) if step == "correct" else None
+            parts.append(f"<h2>{step}</h2><pre>{html.escape(json.dumps(doc, indent=1))}</pre>")
+    if (out / "score.json").is_file():
+        parts.append(
+            "<h2>score (ground truth, computed outside the pipeline)</h2><pre>"
+            + html.escape((out / "score.json").read_text())
+            + "</pre>"
+        )
+    index = (
+        json.loads((out / "render" / "index.json").read_text())
+        if (out / "render" / "index.json").is_file()
+        else {}
+    )
+    for name, info in index.items():
+        parts.append(f"<h3>{html.escape(name)} ({info['kind']})</h3>")
+        for base, label in ((out / "correct" / info["dir"], None), (out / "render" / info["dir"], None)):
+            for png in sorted(base.glob("*.png")):
+                rel = png.relative_to(out).as_posix()
+                parts.append(
+                    f"<figure><img src='{html.escape(rel)}'><figcaption>{html.escape(png.stem)}"
+                    "</figcaption></figure>"
+                )
+            _ = label
+    path = out / "report.html"
+    _atomic(path, lambda p: p.write_text("\n".join(parts)))
+    return path
+
+
+def run(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    steps=STEPS,
+    progress: Progress | None = None,
+) -> dict:
+    """Run the steps in order (each skipped or resumed when its results exist); returns their results."""
+    fns = {
+        "poses": poses_step,
+        "train": train_step_,
+        "render": render_step,
+        "correct": correct_step,
+        "report": report_step,
+    }
+    bad = [s for s in steps if s not in fns]
+    if bad:
+        raise SplatError(f"unknown step(s) {bad}; steps are {list(STEPS)}.")
+    return {s: fns[s](capture, out, config=config, progress=progress) for s in steps}
