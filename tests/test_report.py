@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from zonotope._errors import SpectralDataError
+from zonotope._io import MARKER
 from zonotope.report import ReportExistsError, write_report
 
 GRID = np.arange(400.0, 701.0, 10.0)
@@ -32,6 +33,7 @@ def test_failed_report_never_replaces_a_good_one(tmp_path, monkeypatch):
     out = tmp_path / "rep"
     out.mkdir()
     (out / "report.md").write_text("good")
+    (out / MARKER).write_text("zonotope report\n")  # a previous report: force may replace it
     import zonotope.evaluate
 
     def boom(*args, **kwargs):
@@ -49,6 +51,7 @@ def test_force_replaces(tmp_path):
     out = tmp_path / "rep"
     out.mkdir()
     (out / "stale.txt").write_text("old")
+    (out / MARKER).write_text("zonotope report\n")
     write_report(["Nikon 5100 (NPL)"], out, force=True, atypical=0, pictures=False,
                  methods=["least squares"], volumes=False)
     assert not (out / "stale.txt").exists() and (out / "index.html").is_file()

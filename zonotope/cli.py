@@ -92,6 +92,10 @@ def _rich_progress(console):
     return progress, callback
 
 
+#: First line of every Markdown file ``evaluate --markdown`` writes (what ``--force`` may replace).
+_MD_SIGNATURE = "written by zonotope evaluate"
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -100,13 +104,23 @@ def _evaluate(args: argparse.Namespace) -> int:
     from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
 
     console = Console(width=max(Console().width, 130))
+    if args.markdown:  # refuse a bad output path before the long run, never an input file
+        from ._io import check_output
+
+        check_output(args.markdown, overwrite=args.force, signature=_MD_SIGNATURE, what="--markdown",
+                     inputs=[*args.camera, args.training, *(args.test_set or [])])
     shape = _shape(args)
     w = shape.wavelengths
     sets = natural_test_sets(w, data_dir=args.data, size=args.size, seed=args.seed)
     for path in args.test_set or []:
         from . import spectra
+        from ._errors import SpectralDataError
 
         R = spectra.resample(spectra.read_reflectances(path), w).T
+        if R.max() > 1.5 or R.min() < -1e-6:  # percent data are refused, not clipped to 1
+            raise SpectralDataError(
+                f"--test-set {path}: reflectances must lie in [0, 1] (got {R.min():.3g}…{R.max():.3g}); "
+                "divide percent data by 100.")
         sets.append(TestSet(path, R.clip(0, 1)))
     if args.atypical:
         X, _ = atypical_reflectances(w, args.atypical, seed=args.seed)
@@ -133,9 +147,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     for note in ev.notes:
         console.print(f"note: {note}")
     if args.markdown:
-        from pathlib import Path
+        from ._io import atomic_write_text, check_output
 
-        Path(args.markdown).write_text(ev.to_markdown(), encoding="utf-8")
+        check_output(args.markdown, overwrite=args.force, signature=_MD_SIGNATURE, what="--markdown")
+        atomic_write_text(args.markdown, f"<!-- {_MD_SIGNATURE} -->\n{ev.to_markdown()}")
         console.print(f"wrote {args.markdown}")
     return 0
 
@@ -187,7 +202,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--test-set", action="append", help="extra test reflectance file (repeatable)")
     p.add_argument("--noise", type=float, default=0.0, help="response noise σ (white = 1)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--markdown", help="also write the table to this Markdown file")
+    p.add_argument("--markdown", help="also write the table to this Markdown file (must not exist)")
+    p.add_argument("--force", action="store_true",
+                   help="replace a --markdown file written by an earlier 'zonotope evaluate'")
     _grid_options(p)
     p.set_defaults(func=_evaluate)
 
@@ -207,6 +224,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return args.func(args)
+    except KeyboardInterrupt:
+        print("zonotope: interrupted (no output was written or replaced)", file=sys.stderr)
+        return 130
+    except OSError as error:  # unreadable input, unwritable output folder, disk full: one line
+        if isinstance(error, ZonotopeError):
+            print(f"zonotope: error: {error}", file=sys.stderr)
+        else:
+            print(f"zonotope: error: {error.strerror or error}"
+                  + (f": {error.filename}" if error.filename else ""), file=sys.stderr)
+        return 2
     except ZonotopeError as error:
         hint = ""
         if "the grid asks for" in str(error) and args.command in ("evaluate", "report"):

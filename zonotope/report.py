@@ -10,30 +10,35 @@
    solid with its spectral locus, MMVs along the grey axis, one MMV with one camera vs all.
 
 Everything is written into a temporary folder next to the output, which is renamed into place
-only when complete: an interrupted run never replaces (or half-writes) a good report. An existing
-report is replaced only with ``force=True``.
+only when complete (:func:`zonotope._io.atomic_dir`): an interrupted run never replaces (or
+half-writes) a good report and leaves no temporary folder behind. An existing folder is replaced only
+with ``force=True`` and only if it is a report (it holds the ``.zonotope-output`` marker this function
+writes); any other folder is never touched. Both are checked before the long computation starts.
 """
 
 from __future__ import annotations
 
 import html
-import shutil
-import tempfile
 from collections.abc import Callable, Sequence
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
-from ._errors import SpectralDataError, ZonotopeError
+from ._errors import SpectralDataError
+from ._io import OutputExistsError, atomic_dir, check_output
 
 __all__ = ["ReportExistsError", "write_report"]
 
 GREY_LEVELS = (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 0.9)
 
 
-class ReportExistsError(ZonotopeError, FileExistsError):
-    """The output folder exists and ``force`` was not given."""
+#: First line of the marker file inside every report folder (what ``force`` may replace).
+SIGNATURE = "zonotope report"
+
+
+class ReportExistsError(OutputExistsError):
+    """The output folder exists and ``force`` was not given, or it exists and is not a report."""
 
 
 def _num(x: float) -> str:
@@ -129,10 +134,12 @@ def write_report(
     from .vora import rank_camera_sets, vora_value
 
     output = Path(output)
-    if output.exists() and not force:
-        raise ReportExistsError(
-            f"{output} already exists; choose another folder or pass force=True (--force) to replace it.")
     cameras = list(cameras)
+    try:
+        check_output(output, overwrite=force, signature=SIGNATURE, what="output",
+                     inputs=[c for c in cameras if isinstance(c, str | Path) and Path(c).is_file()])
+    except OutputExistsError as error:
+        raise ReportExistsError(str(error)) from None
     if not cameras:
         raise SpectralDataError("write_report needs at least one camera.")
     shape = colour.SpectralShape(400, 700, 10) if shape is None else shape
@@ -146,10 +153,7 @@ def write_report(
     singles = [correction_problem([c], illuminant=illuminant, shape=shape) for c in curves]
     sets = [*singles, full] if len(curves) > 1 else [full]
 
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
-    tmp.chmod(0o755)  # mkdtemp makes it private; a report is meant to be read
-    try:
+    with atomic_dir(output, signature=SIGNATURE, overwrite=force) as tmp:
         md: list[str] = [f"# Camera set report: {' + '.join(names)}\n",
                          f"Illuminant {illuminant}, grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, "
                          "target CIE 2015 2° XYZ (Y_white = 1); Vora values against Stockman & Sharpe "
@@ -232,17 +236,6 @@ def write_report(
         (tmp / "index.html").write_text(
             f"<!doctype html><html><head><meta charset='utf-8'><title>zonotope report</title>"
             f"<style>{style}</style></head><body>{''.join(parts)}</body></html>", encoding="utf-8")
-        if output.exists():  # force: swap atomically, then drop the old report
-            old = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.old-"))
-            old.rmdir()
-            output.rename(old)
-            tmp.rename(output)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(output)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return output
 
 
