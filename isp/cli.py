@@ -59,6 +59,10 @@ def _develop(args: argparse.Namespace) -> int:
     console = Console(stderr=True)
     src = Path(args.input)
     out = Path(args.output)
+    if src.is_dir():  # a folder batch: every RAW file, the same options (isp/batch.py)
+        from .batch import develop_folder
+
+        return develop_folder(args)
     tonemap = None if args.tonemap.lower() == "none" else args.tonemap
     options = {}
     if args.exposure is not None:
@@ -67,7 +71,8 @@ def _develop(args: argparse.Namespace) -> int:
                           "(Reinhard 2002 sets the exposure from the image's log-average luminance).")
             return 2
         options = {"exposure": args.exposure}
-    metamer, error = _metamer(args)
+    fitted = getattr(args, "fitted_metamer", None)  # a folder batch fits once for every file
+    metamer, error = (fitted, None) if fitted is not None else _metamer(args)
     if error:
         console.print(f"[red]error:[/] {error}")
         return 2
@@ -166,8 +171,10 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
-    d.add_argument("input", help="RAW or DNG file")
+    d.add_argument("input", help="RAW or DNG file, or a folder of them (then -o is a folder)")
     d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
+    d.add_argument("--scheduler", help="folders only: 'serial', 'local[:N]' or a Dask scheduler address "
+                                       "(default $ZONOTOPE_SCHEDULER, else a local cluster)")
     d.add_argument("--demosaic", default="Malvar 2004",
                    help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)")
     d.add_argument("--correction", default="dng", choices=["dng", "metamer"],

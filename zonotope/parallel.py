@@ -46,13 +46,18 @@ from ._errors import ZonotopeError
 
 __all__ = [
     "ENV_VAR",
+    "MANIFEST_COLUMNS",
     "DaskExecutor",
     "Executor",
+    "FileTask",
+    "ParallelError",
+    "ProgressCallback",
     "SerialExecutor",
     "TaskFailure",
     "dask_available",
     "executor",
     "resolve_scheduler",
+    "run_files",
 ]
 
 #: Environment variable read when ``scheduler=None``.
@@ -336,3 +341,172 @@ def executor(scheduler: str | None = None, *, tasks: int | None = None, min_task
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+# --------------------------------------------------------------------------------------------------
+# folder batches: one output per input, written atomically and at most once, resumable, with a manifest
+
+
+@dataclass(frozen=True)
+class FileTask:
+    """One input file and the output it becomes."""
+
+    input: str
+    output: str
+
+
+#: Columns of the manifest CSV written by :func:`run_files`.
+MANIFEST_COLUMNS = ("input", "output", "status", "seconds", "worker", "error")
+
+
+def _publish(tmp: Path, dest: Path) -> bool:
+    """Make ``tmp`` appear at ``dest`` atomically, only if nothing is there yet; True if it was ours.
+
+    ``os.link`` creates ``dest`` or fails, so two attempts of one task (a worker killed after
+    writing, its task re-run elsewhere) never both replace the file: the first one wins.
+    """
+    try:
+        os.link(tmp, dest)
+        return True
+    except FileExistsError:
+        return False
+    except OSError:  # file systems without hard links: an atomic rename (last attempt wins)
+        os.replace(tmp, dest)
+        return True
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _temp_for(dest: Path) -> Path:
+    import uuid
+
+    return dest.with_name(f".{dest.stem}.{uuid.uuid4().hex[:12]}.part{dest.suffix}")
+
+
+def _file_task(task: FileTask, shared) -> dict:
+    """Run ``work(input, temporary_output, options)`` for one file on a worker; never raises."""
+    import socket
+    import time
+
+    work, options = shared
+    dest = Path(task.output)
+    row = {"input": task.input, "output": task.output, "seconds": 0.0,
+           "worker": f"{socket.gethostname()}:{os.getpid()}", "error": ""}
+    if dest.exists():  # a re-run of a task whose first attempt finished (its worker then died)
+        return {**row, "status": "done"}
+    tmp = _temp_for(dest)
+    t0 = time.perf_counter()
+    try:
+        work(task.input, str(tmp), options)
+        if not tmp.is_file():
+            raise ZonotopeError(f"the task wrote nothing for {task.input}")
+        _publish(tmp, dest)
+    except Exception as error:  # one bad file is reported, the batch goes on
+        tmp.unlink(missing_ok=True)
+        return {**row, "status": "failed", "seconds": time.perf_counter() - t0,
+                "error": f"{type(error).__name__}: {error}".replace("\n", " ")}
+    return {**row, "status": "ok", "seconds": time.perf_counter() - t0}
+
+
+def _write_manifest(path: Path, rows: list[dict]) -> None:
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=MANIFEST_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{r[k]:.3f}" if k == "seconds" else r[k]) for k in MANIFEST_COLUMNS})
+    tmp = _temp_for(path)
+    tmp.write_text(buf.getvalue(), encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def run_files(tasks: Iterable[FileTask], work: Callable[[str, str, Any], None], options: Any = None, *,
+              manifest: str | os.PathLike, scheduler: str | None = None, min_tasks: int = 2,
+              progress: ProgressCallback | None = None) -> list[dict]:
+    """Make one output file per input file, on the chosen executor; resumable, with a manifest.
+
+    Parameters
+    ----------
+    tasks : iterable of FileTask
+        Inputs and their outputs (outputs must differ from every input and from each other).
+    work : callable
+        ``work(input_path, temporary_output_path, options)`` writes the output to the temporary
+        path (same folder and suffix as the output); a module-level function, so that workers can
+        import it. It may raise: the file is then reported ``failed`` and the others go on.
+    options : object
+        Sent to every worker once (e.g. a fitted estimator).
+    manifest : path
+        CSV rewritten atomically as the batch goes (columns :data:`MANIFEST_COLUMNS`).
+    scheduler, min_tasks
+        Where to run (see :func:`executor`).
+    progress : callable, optional
+        ``progress(done, total)`` over the files that had to be made.
+
+    Returns
+    -------
+    list of dict
+        One row per task, in input order: ``status`` is ``ok`` (made now), ``done`` (the output
+        already existed: skipped, which is how a rerun resumes) or ``failed`` (``error`` says why).
+
+    Notes
+    -----
+    Each output is written to a temporary file and published with a hard link, so it appears
+    complete or not at all, and a task run twice (its worker killed after writing) never writes it
+    a second time. Inputs are only read.
+    """
+    import time
+
+    tasks = list(tasks)
+    outs = [Path(t.output).resolve() for t in tasks]
+    ins = {Path(t.input).resolve() for t in tasks}
+    if len(set(outs)) != len(outs):
+        raise ZonotopeError("two inputs map to one output name; rename one of them or use another layout.")
+    clash = [str(o) for o in outs if o in ins]
+    if clash:
+        raise ZonotopeError(f"output {clash[0]} is one of the inputs; choose another output folder.")
+    manifest = Path(manifest)
+    rows: list[dict] = []
+    todo: list[int] = []
+    for i, t in enumerate(tasks):
+        if Path(t.output).exists():
+            rows.append({"input": t.input, "output": t.output, "status": "done", "seconds": 0.0,
+                         "worker": "", "error": ""})
+        else:
+            rows.append({"input": t.input, "output": t.output, "status": "pending", "seconds": 0.0,
+                         "worker": "", "error": ""})
+            todo.append(i)
+    _write_manifest(manifest, rows)
+    last = time.monotonic()
+    try:
+        with executor(scheduler, tasks=len(todo), min_tasks=min_tasks) as ex:
+            for j, out in ex.outcomes(_file_task, [tasks[i] for i in todo], shared=(work, options),
+                                      progress=progress):
+                i = todo[j]
+                if isinstance(out, TaskFailure):  # the task itself was lost (e.g. killed too often)
+                    out = {**rows[i], "status": "failed", "error": out.error.replace("\n", " ")}
+                rows[i] = out
+                if time.monotonic() - last > 2.0:
+                    _write_manifest(manifest, rows)
+                    last = time.monotonic()
+    finally:
+        _remove_temporaries(tasks)
+        _write_manifest(manifest, rows)
+    return rows
+
+
+def _remove_temporaries(tasks: list[FileTask]) -> None:
+    """Remove the temporaries of attempts whose worker died while writing (only this batch's)."""
+    names: dict[Path, set[str]] = {}
+    for t in tasks:
+        out = Path(t.output)
+        names.setdefault(out.parent, set()).add(out.stem)
+    pattern = re.compile(r"^\.(.+)\.[0-9a-f]{12}\.part(\.[^.]*)?$")
+    for folder, stems in names.items():
+        if not folder.is_dir():
+            continue
+        for entry in folder.iterdir():
+            m = pattern.match(entry.name)
+            if m and m.group(1) in stems and entry.is_file():
+                entry.unlink(missing_ok=True)

@@ -1,0 +1,105 @@
+"""``isp develop DIR -o OUTDIR``: develop every RAW file of a folder with the single-file options.
+
+Each file runs the single-file command itself (:func:`isp.cli._develop` on a copy of the options
+with that file as input), so every option of ``isp develop FILE`` means the same in a folder batch.
+A metamer correction is fitted once, here, and sent to the workers once. Outputs are
+``OUTDIR/<stem>.tif`` (16-bit TIFF), written atomically and at most once; a rerun skips outputs that
+exist (resume); a file that fails is listed with its error and the others go on;
+``OUTDIR/manifest.csv`` lists every input, its output, status, time and worker. Where the work runs
+is :func:`zonotope.parallel.executor`'s choice (``--scheduler``, ``ZONOTOPE_SCHEDULER``, or serial
+for one file and a local Dask cluster for more).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+from pathlib import Path
+
+from ._errors import PipelineError
+
+__all__ = ["RAW_SUFFIXES", "develop_folder", "raw_files"]
+
+#: File suffixes (lower case) taken as RAW files in a folder.
+RAW_SUFFIXES = frozenset({".dng", ".nef", ".nrw", ".cr2", ".cr3", ".crw", ".arw", ".srf", ".sr2", ".raf",
+                          ".orf", ".rw2", ".rwl", ".pef", ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc",
+                          ".mrw", ".mef", ".mos", ".raw"})
+
+
+def raw_files(folder: str | Path) -> list[Path]:
+    """The RAW files directly in ``folder`` (by suffix, :data:`RAW_SUFFIXES`), sorted by name."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise PipelineError(f"input folder {str(folder)!r} does not exist or is not a folder.")
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in RAW_SUFFIXES)
+
+
+def _develop_one(src: str, tmp_out: str, options) -> None:
+    """Worker side: ``isp develop src -o tmp_out`` with the batch's options; raises on failure."""
+    from .cli import _develop
+
+    values, fitted = options
+    ns = argparse.Namespace(**values)
+    ns.input, ns.output, ns.quiet, ns.overwrite = src, tmp_out, True, False
+    ns.fitted_metamer = fitted
+    if values.get("save_stages"):
+        ns.save_stages = str(Path(values["save_stages"]) / Path(src).stem)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(err):
+        rc = _develop(ns)
+    if rc != 0:
+        raise PipelineError(" ".join(err.getvalue().split()) or f"isp develop exited with status {rc}")
+
+
+def develop_folder(args: argparse.Namespace) -> int:
+    """The folder branch of ``isp develop`` (prints; returns the exit status).
+
+    Exit status 0 when every file was developed (now or by an earlier run), 1 when some failed
+    (listed, and in the manifest), 2 for bad options.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from zonotope.parallel import FileTask, resolve_scheduler, run_files
+
+    from .cli import _metamer
+
+    console = Console(stderr=True)
+    out_dir = Path(args.output)
+    if out_dir.exists() and not out_dir.is_dir():
+        console.print(f"[red]error:[/] -o {out_dir}: with an input folder the output must be a folder.")
+        return 2
+    files = raw_files(args.input)
+    if not files:
+        console.print(f"[red]error:[/] no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {args.input}.")
+        return 2
+    if out_dir.resolve() == Path(args.input).resolve():
+        console.print("[red]error:[/] -o must be another folder than the input folder (inputs are never "
+                      "touched).")
+        return 2
+    if getattr(args, "overwrite", False):
+        console.print("[red]error:[/] --overwrite does not apply to folders: a rerun keeps finished "
+                      "outputs (delete them to develop again).")
+        return 2
+    fitted, error = _metamer(args)  # fitted once, sent to every worker once
+    if error:
+        console.print(f"[red]error:[/] {error}")
+        return 2
+    out_dir.mkdir(parents=True, exist_ok=True)
+    values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
+    tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
+    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=console, disable=args.quiet) as bar:
+        task = bar.add_task(f"developing ({where})", total=len(tasks))
+        rows = run_files(tasks, _develop_one, (values, fitted), manifest=out_dir / "manifest.csv",
+                         scheduler=where, progress=lambda done, total: bar.update(task, completed=done))
+    failed = [r for r in rows if r["status"] == "failed"]
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
+    for r in failed:
+        console.print(f"[red]failed:[/] {r['input']}: {r['error']}")
+    if not args.quiet or failed:
+        console.print(f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
+                      f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})")
+    return 1 if failed else 0
