@@ -289,3 +289,37 @@ def test_vertex_sweep_declines_ties_and_the_fallback_is_exact():
     assert Z._vertices_sweep() is None
     P = corners(G)
     assert rows(Z.vertices, 9) == rows(P[ConvexHull(P).vertices], 9)
+
+
+def _near_coplanar(phi, order):
+    """Three unit generators, the third tilted ``phi`` rad out of the plane of the first two
+    (their row angles differ ~10×: 10·phi in two sweeps, ~phi in the third), plus four generic."""
+    alpha = 0.1
+    trip = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+            [np.cos(alpha) * np.cos(phi), np.sin(alpha) * np.cos(phi), np.sin(phi)]]
+    generic = [[0.3, 0.5, 0.8], [-0.4, 0.7, 0.6], [0.5, -0.3, 0.9], [0.2, 0.9, -0.35]]
+    return np.array([trip[o] for o in order] + generic)
+
+
+@pytest.mark.parametrize("phi", [3e-12, 8e-12])
+@pytest.mark.parametrize("order", list(itertools.permutations(range(3))))
+def test_one_coplanarity_decision_per_triple(phi, order):
+    """Between 1e-12 and 1e-11 rad the per-row angle tests disagreed (old code: a facet dropped
+    or doubled, the vertex sweep declined and the mesh fell back to Qhull for 4 of 6 orders)."""
+    G = _near_coplanar(phi, order)
+    Z = Zonotope(G)
+    f = Z._facets
+    p = Z._reduced[0].shape[0]
+    r = [z[1].shape[0] // 2 for z in f.zonogons]
+    assert f.pairs.shape[0] + sum(q * (q - 1) // 2 for q in r) == p * (p - 1) // 2  # each pair once
+    fast = Z._vertices_sweep()
+    assert fast is not None
+    assert rows(fast, 9) == rows(Z._vertices_by_keys(), 9)
+    mesh = Z.to_trimesh()
+    assert Z.mesh_method == "facets" and mesh.is_watertight and mesh.is_winding_consistent
+    vol = sum(abs(np.linalg.det(G[list(c)])) for c in itertools.combinations(range(len(G)), 3))
+    assert Z.volume == pytest.approx(vol, rel=1e-12) and mesh.volume == pytest.approx(vol, rel=1e-12)
+    # every facet plane supports the brute-force corner set
+    P = corners(G)
+    A, b = Z.halfspaces
+    assert np.abs((P @ A.T).max(axis=0) - b).max() <= 1e-12

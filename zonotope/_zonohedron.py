@@ -14,6 +14,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import combinations
 
 import numpy as np
 
@@ -30,24 +31,6 @@ class Facets3:
     keys: np.ndarray  # (P,) int64 hash of the lowest corner's generator set
     zonogons: list  # [(normal (3,), vertices (M, 3) CCW about normal, keys (M,))]
     volume: float
-
-
-def _range_min(values: np.ndarray, ranges: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-    """min(values[lo:hi]) over several ranges per query; empty ranges count as +inf.
-
-    One ``np.minimum.reduceat`` per range set, on the interleaved bounds (lo₀, hi₀, lo₁, hi₁, …):
-    the even segments are the ranges, the odd ones are discarded.
-    """
-    v = np.append(values.astype(np.float64), np.inf)
-    out = np.full(ranges[0][0].shape, np.inf)
-    for lo, hi in ranges:
-        ok = np.nonzero(hi > lo)[0]
-        if ok.size == 0:
-            continue
-        idx = np.empty(2 * ok.size, dtype=np.intp)
-        idx[0::2], idx[1::2] = lo[ok], hi[ok]
-        out[ok] = np.minimum(out[ok], np.minimum.reduceat(v, idx)[0::2])
-    return out
 
 
 def _is_closed_manifold(F: np.ndarray, n_vertices: int) -> bool:
@@ -195,23 +178,85 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     flag = (lo > tt + 1) | (th - prev <= tol) | (nxt <= th + np.pi + tol)
     th = th + big * ii
     zonogons = []
+    keep = np.ones(ii.size, dtype=bool)
     deg = np.nonzero(flag)[0]
     if deg.size:
-        thd = th[deg]
-        bounds = [(np.searchsorted(flat_as, thd + c - tol, "left"),
-                   np.searchsorted(flat_as, thd + c + tol, "right"))
-                  for c in (0.0, two_pi, -two_pi, np.pi, -np.pi)]
-        g_flat = order.ravel()
-        mins = _range_min(g_flat, bounds)
-        for e in np.nonzero(mins >= jj[deg])[0]:
-            d = deg[e]
-            zset = np.concatenate([[ii[d]]] + [g_flat[a[e]:b[e]] for a, b in bounds])
-            zonogons.append(zonogon(H, r, n[d], off + Bp[d], Kp[d], np.unique(zset)))
-    if deg.size:
-        ii, jj, n, Bp, Kp = (np.delete(a, deg, axis=0) for a in (ii, jj, n, Bp, Kp))
+        planes = _coplanar_classes(deg, ii, jj, th, flat_as, order.ravel(), tol)
+        if planes:
+            pid = ii * p + jj
+            inside = np.concatenate([np.array([a * p + b for a, b in combinations(S, 2)]) for S in planes])
+            keep &= ~np.isin(pid, inside)
+            for S in planes:
+                zonogons.append(_zonogon_of(H, r, off, np.array(S)))
+        # flagged pairs that are no zonogon's: parallelograms whose base is rebuilt from exact signs
+        # (the windows above left the near-coplanar generators out of the prefix sums)
+        redo = deg[keep[deg]]
+        if redo.size:
+            side = n[redo] @ H.T > 0.0
+            side[np.arange(redo.size), ii[redo]] = False
+            side[np.arange(redo.size), jj[redo]] = False
+            Bp[redo] = side @ H
+            Kp[redo] = side.astype(np.int64) @ r
+    ii, jj, n, Bp, Kp = (a[keep] for a in (ii, jj, n, Bp, Kp))
     Bp += off
     return Facets3(pairs=np.stack([ii, jj], axis=1), normals=n, bases=Bp, keys=Kp,
                     zonogons=zonogons, volume=volume)
+
+
+def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, tol) -> list[list[int]]:
+    """Coplanar generator sets (≥ 3) from the flagged pairs, with one decision per triple.
+
+    A plane's generator set is decided once, in the sweep of its smallest generator i: with j
+    the smallest other member, S = {i} ∪ {k : angle of k within ``tol`` of θ_j modulo π}. The
+    sweeps of the other members are not asked: their angle tests can disagree with row i's near
+    the tolerance (between 1e-12 and 1e-11 rad on near-coplanar data), which used to drop or
+    double a facet. Every pair inside S belongs to the zonogon and to no parallelogram; a pair
+    claimed by two sets (tolerances chaining through near-parallel generators) stays with the
+    first, and the vertex sweep's pair count then hands over to key deduplication.
+    """
+    thd = th[deg]
+    di, dk = [], []
+    for c in (0.0, 2.0 * np.pi, -2.0 * np.pi, np.pi, -np.pi):
+        a = np.searchsorted(flat_as, thd + c - tol, "left")
+        b = np.searchsorted(flat_as, thd + c + tol, "right")
+        cnt = np.maximum(b - a, 0)
+        total = int(cnt.sum())
+        if total == 0:
+            continue
+        pos = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt) + np.repeat(a, cnt)
+        di.append(np.repeat(np.arange(deg.size), cnt))
+        dk.append(g_flat[pos])
+    if not di:
+        return []
+    di, tk = np.concatenate(di), np.concatenate(dk)
+    ti, tj = ii[deg], jj[deg]
+    low = np.full(deg.size, np.iinfo(np.int64).max)
+    np.minimum.at(low, di, tk)
+    # the plane's smallest generator i sweeps it; its second smallest j names the pair (i, j)
+    planes, seen = [], set()
+    for e in np.nonzero((low >= tj) & (ti < tj))[0].tolist():
+        S = sorted({int(ti[e])} | set(tk[di == e].tolist()))
+        if len(S) < 3:
+            continue
+        pairs = set(combinations(S, 2))
+        if pairs & seen:  # tolerances chained two planes through a shared pair: keep the first
+            continue
+        seen |= pairs
+        planes.append(S)
+    return planes
+
+
+def _zonogon_of(H, r, off, S):
+    """Zonogon facet of the coplanar generators ``S``: normal from its widest pair, base from
+    the exact sides of all other generators."""
+    U = H[S] / np.linalg.norm(H[S], axis=1, keepdims=True)
+    w = np.linalg.norm(np.cross(U[:, None], U[None]), axis=-1)
+    a, b = np.unravel_index(np.argmax(w), w.shape)
+    a, b = min(a, b), max(a, b)
+    normal = np.cross(H[S[a]], H[S[b]])
+    side = H @ normal > 0.0
+    side[S] = False
+    return zonogon(H, r, normal, off + side @ H, side.astype(np.int64) @ r, S)
 
 
 def zonogon(H, r, normal, base, key, zset):
