@@ -1,14 +1,15 @@
 """Image output: 16-bit TIFF and PNG, written atomically, never over an input file.
 
-Files are written to a temporary file in the destination folder and moved into place with
-``os.replace``, so a crash never leaves a half-written image and readers never see one.
+Files are written to a temporary file in the destination folder, synced and moved into place with
+``os.replace`` (:func:`zonotope._io.atomic_path`), so a crash never leaves a half-written image,
+readers never see one, an interruption leaves no temporary behind and files get the usual
+umask-based permissions.
 """
 
 from __future__ import annotations
 
 import os
 import struct
-import tempfile
 import zlib
 from collections.abc import Iterable
 from pathlib import Path
@@ -58,7 +59,8 @@ def _png_bytes(img: np.ndarray) -> bytes:
 
 
 def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
-                protect: Iterable[str | os.PathLike] = (), dtype: str = "uint16") -> Path:
+                protect: Iterable[str | os.PathLike] = (), dtype: str = "uint16",
+                icc_profile: bytes | None = None, tiff_tags: Iterable[tuple] = ()) -> Path:
     """Write an image in [0, 1] as a 16-bit TIFF or PNG (or a float32 TIFF), atomically.
 
     Parameters
@@ -74,6 +76,11 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
     dtype
         ``"uint16"`` (values clipped to [0, 1] and quantised) or ``"float32"`` (TIFF only, values kept
         as they are, e.g. pipeline intermediates).
+    icc_profile
+        ICC profile of the pixel values, embedded in a TIFF (tag 34675); ignored for PNG.
+    tiff_tags
+        Extra TIFF tags as tifffile ``extratags`` tuples ``(code, dtype, count, value, writeonce)``,
+        e.g. :func:`isp.output_tags` (camera make, model, exposure); ignored for PNG.
 
     Returns
     -------
@@ -104,20 +111,18 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
         img = to_uint16(image)
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 3, 4)):
         raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=suffix + ".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    from zonotope._io import atomic_path
+
+    def write(tmp: Path) -> None:
         if suffix == ".png":
-            Path(tmp).write_bytes(_png_bytes(img))
+            tmp.write_bytes(_png_bytes(img))
         else:
             import tifffile
 
             rgb = img.ndim == 3 and img.shape[-1] == 3
             tifffile.imwrite(tmp, img, photometric="rgb" if rgb else "minisblack",
-                             metadata=None, software="isp (zonotope)")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+                             metadata=None, software="isp (zonotope)", iccprofile=icc_profile,
+                             extratags=list(tiff_tags))
+
+    atomic_path(path, write)  # temporary sibling, fsync, rename; no temporary survives an interruption
     return path

@@ -9,6 +9,7 @@ for DNG (LibRaw #425, #751). For other formats the XYZ → camera matrix is LibR
 from __future__ import annotations
 
 import os
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -180,6 +181,74 @@ def _capture_from_tags(tags: dict) -> dict:
     return out
 
 
+#: DNG Compression values LibRaw decodes: none, lossless JPEG, Deflate, lossy JPEG, JPEG XL.
+_DNG_COMPRESSIONS = {1: "uncompressed", 7: "lossless JPEG", 8: "Deflate", 34892: "lossy JPEG",
+                     52546: "JPEG XL"}
+
+
+def _check_dng_data(path: Path, size: int) -> None:
+    """Check that the raw IFD's pixel data exist and look like what its Compression tag says.
+
+    LibRaw does not report a decoder that fails to start (e.g. Compression=7 on data that are not
+    lossless JPEG): it returns its raw buffer unwritten, i.e. zeros the first time and leftover heap
+    memory afterwards. So the structure is checked before LibRaw is asked for pixels: every strip or
+    tile lies inside the file and starts with its codec's signature, and uncompressed data are large
+    enough for the image. Files tifffile cannot parse are left to LibRaw.
+    """
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            ifd0 = tif.pages[0]
+            if 50706 not in ifd0.tags:  # DNGVersion: other TIFF-based RAW formats are LibRaw's job
+                return
+            raw_ifd = None
+            for page in [ifd0, *(getattr(ifd0, "pages", None) or [])]:
+                sub = page.tags.get(254)
+                photometric = int(page.tags[262].value) if 262 in page.tags else -1
+                if (sub is None or int(sub.value) == 0) and photometric in (32803, 34892):
+                    raw_ifd = page
+                    break
+            if raw_ifd is None:
+                return
+            t = raw_ifd.tags
+            compression = int(t[259].value) if 259 in t else 1
+            offsets = t.get(324) or t.get(273)
+            counts = t.get(325) or t.get(279)
+            offsets = [int(x) for x in np.ravel(offsets.value)] if offsets is not None else []
+            counts = [int(x) for x in np.ravel(counts.value)] if counts is not None else []
+            width, height = int(raw_ifd.imagewidth), int(raw_ifd.imagelength)
+            bits = int(np.ravel(t[258].value)[0]) if 258 in t else 16
+            spp = int(t[277].value) if 277 in t else 1
+            heads = []
+            with open(path, "rb") as fh:
+                for off in offsets[:4096]:
+                    fh.seek(off)
+                    heads.append(fh.read(2))
+    except (tifffile.TiffFileError, OSError, ValueError, TypeError, KeyError, IndexError, struct.error):
+        return
+    def bad(detail: str) -> RawFormatError:
+        return RawFormatError(f"{path}: not a readable RAW file (no pixel data LibRaw can decode: {detail}). "
+                              "The file is truncated or corrupt; read_raw(..., metadata_only=True) reads its "
+                              "metadata only.")
+
+    if compression not in _DNG_COMPRESSIONS:
+        raise bad(f"Compression={compression} is not a DNG compression, known: {_DNG_COMPRESSIONS}")
+    if not offsets or len(offsets) != len(counts):
+        raise bad(f"{len(offsets)} strip/tile offsets for {len(counts)} byte counts")
+    if any(o < 8 or c <= 0 or o + c > size for o, c in zip(offsets, counts)):
+        raise bad(f"a strip or tile lies outside the file of {size} bytes")
+    if compression == 1 and sum(counts) * 8 < width * height * spp * bits:
+        raise bad(f"{sum(counts)} bytes of uncompressed data for a {width}×{height} image of {bits}-bit "
+                  "samples")
+    if compression in (7, 34892) and any(h != b"\xff\xd8" for h in heads):
+        raise bad(f"Compression={compression} ({_DNG_COMPRESSIONS[compression]}) but the data do not start "
+                  "with a JPEG marker")
+    if compression == 8 and any(len(h) < 2 or h[0] & 0x0F != 8 or int.from_bytes(h, "big") % 31
+                                for h in heads):
+        raise bad("Compression=8 (Deflate) but the data are not a zlib stream")
+
+
 def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImage:
     """Read a RAW or DNG file.
 
@@ -212,6 +281,9 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file.")
+    size = path.stat().st_size
+    if not metadata_only:
+        _check_dng_data(path, size)
     try:
         with rawpy.imread(str(path)) as raw:
             mosaic = np.array(raw.raw_image_visible, dtype=np.uint16, copy=True)
