@@ -380,6 +380,30 @@ def _is_number(s: str) -> bool:
     return True
 
 
+def _read_text(path: Path, what: str) -> str:
+    """The text of ``path``, or a :class:`SpectralDataError` for unreadable or binary files."""
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise SpectralDataError(f"cannot read {what} {path}: {error.strerror or error}.") from error
+    if b"\x00" in data[:65536]:  # text tables never hold NUL bytes; images and binaries do
+        raise SpectralDataError(
+            f"{path} is not a text file (binary data, e.g. an image); {what} must be a CSV/TXT table "
+            "or a JSON file.")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")  # old instrument exports
+
+
+def _float(cell, path: Path, where: str) -> float:
+    try:
+        return float(cell)
+    except (TypeError, ValueError):
+        raise SpectralDataError(f"{path}: {where}: {cell!r} is not a number. Fix or remove the row; "
+                                "rows are never skipped silently.") from None
+
+
 def read_spectral_csv(path: str | Path, *, name: str | None = None,
                       allow_negative: bool = False) -> colour.MultiSpectralDistributions:
     """Read a spectral table in either orientation.
@@ -390,16 +414,24 @@ def read_spectral_csv(path: str | Path, *, name: str | None = None,
       (camspec / dcamprof CSV, ``wavelength,R,G,B``, colour-science exports);
     - one row per sample: header ``name,380,390,...`` then ``label,v1,v2,...``
       (Munsell tables).
+
+    Raises
+    ------
+    SpectralDataError
+        Unreadable or binary file, no table found, or a malformed row inside the table (a missing or
+        extra cell, a non-numeric value): such rows are never dropped, since dropping them changes the
+        grid silently.
     """
     path = Path(path)
     name = name or path.stem
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as error:
-        raise SpectralDataError(f"cannot read {path}: {error}") from error
-    rows = [r for r in csv.reader(line for line in text.splitlines()
-                                  if line.strip() and not line.lstrip().startswith("#"))]
-    rows = [[c.strip() for c in r if c.strip() != ""] for r in rows]
+    text = _read_text(path, "a spectral table")
+    numbered = [(n + 1, line) for n, line in enumerate(text.splitlines())
+                if line.strip() and not line.lstrip().startswith("#")]
+    rows, lines = [], []
+    for n, line in numbered:
+        r = next(csv.reader([line]))
+        rows.append([c.strip() for c in r if c.strip() != ""])
+        lines.append(n)
     start = next((i for i in range(len(rows) - 1)
                   if len(rows[i]) >= 2 and len(rows[i + 1]) == len(rows[i])
                   and all(_is_number(c) for c in rows[i + 1][1:])), None)
@@ -409,49 +441,99 @@ def read_spectral_csv(path: str | Path, *, name: str | None = None,
             "'wavelength,R,G,B' then '400,0.01,0.02,0.10'."
         )
     header = None if all(_is_number(c) for c in rows[start]) else rows[start]
-    body = rows[start + (header is not None):]
-    body = [r for r in body if len(r) == len(rows[start])]
+    first = start + (header is not None)
+    width = len(rows[start])
+    for r, n in zip(rows[first:], lines[first:]):
+        if len(r) != width:
+            raise SpectralDataError(
+                f"{path}: line {n} has {len(r)} values where the table has {width} ({','.join(r)[:60]!r}). "
+                "Fix or remove the row; rows are never skipped silently.")
+    body = rows[first:]
+    body_lines = lines[first:]
     if header is not None and all(_is_number(c) for c in header[1:]):
-        wavelengths = np.array([float(c) for c in header[1:]])
+        wavelengths = np.array([_float(c, path, f"line {lines[start]}") for c in header[1:]])
         labels = [r[0] for r in body]
-        values = np.array([[float(c) for c in r[1:]] for r in body]).T
+        values = np.array([[_float(c, path, f"line {n}") for c in r[1:]]
+                           for r, n in zip(body, body_lines)]).T
     else:
-        data = np.array([[float(c) for c in r] for r in body])
+        data = np.array([[_float(c, path, f"line {n}") for c in r] for r, n in zip(body, body_lines)])
         wavelengths, values = data[:, 0], data[:, 1:]
         labels = header[1:] if header is not None else [str(i + 1) for i in range(values.shape[1])]
     w, v = _check(wavelengths, values, f"{path}", allow_negative=allow_negative)
     return colour.MultiSpectralDistributions(v, w, labels=list(labels), name=name)
 
 
+def _json(path: Path, what: str):
+    try:
+        return json.loads(_read_text(path, what))
+    except (json.JSONDecodeError, RecursionError) as error:
+        raise SpectralDataError(f"cannot read {what} {path}: not valid JSON ({error}).") from None
+
+
+def _wrong_shape(path: Path, expected: str, error: Exception) -> SpectralDataError:
+    return SpectralDataError(
+        f"{path}: JSON of an unexpected shape ({type(error).__name__}: {error}); expected {expected}.")
+
+
+_RAWTOACES = ("rawtoaces/AMPAS JSON: {'header': {...}, 'spectral_data': {'index': {'main': [labels]}, "
+              "'data': {'main': {'<nm>': [values]}}}}")
+
+
+def _rawtoaces(doc, path: Path, allow_negative: bool):
+    """(wavelengths, values, labels, header) of a rawtoaces / AMPAS spectral JSON document."""
+    try:
+        header = doc.get("header", {}) or {}
+        data = doc["spectral_data"]["data"]["main"]
+        labels = [str(x) for x in doc["spectral_data"]["index"]["main"]]
+        w = np.array([float(k) for k in data])
+        rows = [np.ravel(np.asarray(data[k], dtype=np.float64)) for k in data]
+        if len({r.size for r in rows}) > 1:
+            raise ValueError(f"rows of unequal lengths {sorted({r.size for r in rows})}")
+        v = np.array(rows, dtype=np.float64)
+        if not isinstance(header, dict):
+            raise TypeError("'header' is not an object")
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+        raise _wrong_shape(path, _RAWTOACES, error) from None
+    if v.ndim != 2 or v.shape[0] == 0 or len(labels) != v.shape[1]:
+        raise SpectralDataError(f"{path}: {len(labels)} labels in 'index' for values of shape {v.shape}; "
+                                "expected one label per column.")
+    order = np.argsort(w)
+    w, v = _check(w[order], v[order], f"{path}", allow_negative=allow_negative)
+    return w, v, labels, header
+
+
 def read_camera(path: str | Path, *, allow_negative: bool = False) -> colour.MultiSpectralDistributions:
     """Read camera sensitivities: rawtoaces JSON, dcamprof/camspec JSON or any CSV layout.
 
     The channel count is not restricted to three (multispectral cameras load too).
+
+    Raises
+    ------
+    SpectralDataError
+        Unreadable, binary or malformed files, JSON of another layout, bad values.
     """
     path = Path(path)
     if path.suffix.lower() != ".json":
         return read_spectral_csv(path, allow_negative=allow_negative)
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as error:
-        raise SpectralDataError(f"cannot read camera JSON {path}: {error}") from error
-    if "spectral_data" in doc:  # rawtoaces / AMPAS schema
-        header = doc.get("header", {})
-        data = doc["spectral_data"]["data"]["main"]
-        labels = doc["spectral_data"]["index"]["main"]
-        w = np.array([float(k) for k in data])
-        order = np.argsort(w)
-        v = np.array([data[k] for k in data], dtype=np.float64)[order]
-        name = " ".join(x for x in (header.get("manufacturer"), header.get("model")) if x)
-        w, v = _check(w[order], v, f"{path}", allow_negative=allow_negative)
+    doc = _json(path, "camera JSON")
+    if isinstance(doc, dict) and "spectral_data" in doc:  # rawtoaces / AMPAS schema
+        w, v, labels, header = _rawtoaces(doc, path, allow_negative)
+        name = " ".join(str(x) for x in (header.get("manufacturer"), header.get("model")) if x)
         return colour.MultiSpectralDistributions(v, w, labels=labels, name=name or path.stem)
-    if "ssf_bands" in doc:  # dcamprof
+    if isinstance(doc, dict) and "ssf_bands" in doc:  # dcamprof
         keys = [k for k in ("red_ssf", "green_ssf", "blue_ssf") if k in doc]
-        v = np.stack([np.asarray(doc[k], dtype=np.float64) for k in keys], axis=1)
-        w, v = _check(doc["ssf_bands"], v, f"{path}", allow_negative=allow_negative)
+        if not keys:
+            raise SpectralDataError(f"{path}: dcamprof JSON without 'red_ssf', 'green_ssf' or 'blue_ssf'.")
+        try:
+            v = np.stack([np.ravel(np.asarray(doc[k], dtype=np.float64)) for k in keys], axis=1)
+            bands = np.ravel(np.asarray(doc["ssf_bands"], dtype=np.float64))
+        except (TypeError, ValueError) as error:
+            raise _wrong_shape(path, "dcamprof JSON: 'ssf_bands' and 'red_ssf'/'green_ssf'/'blue_ssf' lists "
+                               "of numbers of one length", error) from None
+        w, v = _check(bands, v, f"{path}", allow_negative=allow_negative)
         return colour.MultiSpectralDistributions(
-            v, w, labels=["red", "green", "blue"][: len(keys)],
-            name=doc.get("camera_name", path.stem))
+            v, w, labels=[k.removesuffix("_ssf") for k in keys],  # a missing channel shifts no label
+            name=str(doc.get("camera_name", path.stem)))
     raise SpectralDataError(
         f"{path}: unknown JSON layout; expected rawtoaces ('spectral_data') or dcamprof "
         "('ssf_bands', 'red_ssf', ...)."
@@ -463,23 +545,28 @@ def read_sfu1995(path: str | Path) -> colour.MultiSpectralDistributions:
 
     Spectra are blank-line separated blocks of one value per line on 380–780 nm / 4 nm.
     """
+    path = Path(path)
     spectra: list[list[float]] = []
     current: list[float] = []
     origin, step = 380.0, 4.0
-    for line in Path(path).read_text().splitlines():
+    for n, line in enumerate(_read_text(path, "an SFU reflectance file").splitlines(), start=1):
         line = line.strip()
         if line.startswith("#!"):
             o = re.search(r"o=([\d.]+)", line)
             s = re.search(r"s=([\d.]+)", line)
-            origin, step = float(o.group(1)), float(s.group(1))
+            if o is None or s is None:
+                raise SpectralDataError(f"{path}: line {n}: a '#!' header needs o=<origin> and s=<step>.")
+            origin, step = _float(o.group(1), path, f"line {n}"), _float(s.group(1), path, f"line {n}")
         if not line or line.startswith("#"):
             if current:
                 spectra.append(current)
                 current = []
             continue
-        current.append(float(line))
+        current.append(_float(line, path, f"line {n}"))
     if current:
         spectra.append(current)
+    if not spectra:
+        raise SpectralDataError(f"{path}: no spectra found (blocks of one value per line).")
     lengths = {len(s) for s in spectra}
     if len(lengths) != 1:
         raise SpectralDataError(f"{path}: spectra of unequal lengths {sorted(lengths)}.")
@@ -491,18 +578,23 @@ def read_sfu1995(path: str | Path) -> colour.MultiSpectralDistributions:
 
 
 def read_reflectances(path: str | Path) -> colour.MultiSpectralDistributions:
-    """Read a reflectance set from a CSV/TXT table (either orientation) or an SFU ``.reflect`` file."""
+    """Read a reflectance set from a CSV/TXT table (either orientation), a rawtoaces-style JSON or an
+    SFU ``.reflect`` file.
+
+    Raises
+    ------
+    SpectralDataError
+        Unreadable, binary or malformed files, JSON of another layout, negative or non-finite values.
+    """
     path = Path(path)
     if path.suffix == ".reflect":
         return read_sfu1995(path)
     if path.suffix.lower() == ".json":
-        doc = json.loads(path.read_text())
-        data = doc["spectral_data"]["data"]["main"]
-        w = np.array([float(k) for k in data])
-        v = np.array(list(data.values()), dtype=np.float64)
-        w, v = _check(w, v, str(path), allow_negative=False)
-        return colour.MultiSpectralDistributions(
-            v, w, labels=doc["spectral_data"]["index"]["main"], name=path.stem)
+        doc = _json(path, "reflectance JSON")
+        if not isinstance(doc, dict):
+            raise _wrong_shape(path, _RAWTOACES, TypeError(f"top level is a {type(doc).__name__}"))
+        w, v, labels, _ = _rawtoaces(doc, path, allow_negative=False)
+        return colour.MultiSpectralDistributions(v, w, labels=labels, name=path.stem)
     return read_spectral_csv(path)
 
 
