@@ -214,6 +214,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing report")
     _grid_options(p)
     p.set_defaults(func=_report)
+
+    from ._batch_cli import add_commands  # correct (image folders) and survey: zonotope.parallel batches
+
+    add_commands(sub)
     return parser
 
 

@@ -1,0 +1,272 @@
+"""Camera-set survey: which cameras, stacked, best remove each other's metamer mismatch?
+
+For every set of ``size`` cameras drawn from a list (built-in names, files, or every camera file
+of a folder), one task computes
+
+- the Vora value of the stacked channels against the target (:func:`zonotope.vora.vora_value`);
+- the metamer mismatch volumes of the responses to a reflectance set (certified to ε, the volume
+  is the mean of the certified lower and upper bounds): their median and 90th percentile, in the
+  target's XYZ units (Y of the perfect white = 1);
+- the mean ΔE00 of the best colour regression (Cheung 2004, Finlayson 2015, Dyer 2017), fitted on
+  a training set and tested on the reflectance set.
+
+The tasks run where :func:`zonotope.parallel.executor` says (serial, a local Dask cluster or a
+running one); the cameras and reflectance sets are sent to each worker once. Each set is evaluated
+on its own grid: 400–700 nm at the given step, narrowed to the range all its cameras are measured
+on. The results are the same wherever they are computed (each task is a pure function of its set).
+
+Rows are ranked by the median MMV volume (smaller: the set leaves less colour undetermined), ties
+broken by the Vora value.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, fields
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import SpectralDataError, ZonotopeError
+
+__all__ = ["REGRESSIONS", "SurveyRow", "best_partners", "load_cameras", "survey", "write_table"]
+
+#: Regressions whose best mean ΔE00 is reported per camera set.
+REGRESSIONS = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
+
+
+@dataclass(frozen=True)
+class SurveyRow:
+    """The scores of one camera set (or the reason it failed, in ``error``)."""
+
+    cameras: tuple[str, ...]
+    channels: int
+    grid: str
+    vora: float
+    mmv_median: float
+    mmv_p90: float
+    best_regression: str
+    dE00: float
+    seconds: float
+    error: str = ""
+
+    def as_dict(self) -> dict:
+        """A flat dict (cameras joined with ``" + "``) for tables."""
+        d = asdict(self)
+        d["cameras"] = " + ".join(self.cameras)
+        return d
+
+
+def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[str]]:
+    """Cameras by name: a folder (every camera file below it), or names / files.
+
+    Parameters
+    ----------
+    spec
+        A folder: every ``.json`` / ``.csv`` file below it that :func:`zonotope.spectra.read_camera`
+        reads (others, e.g. ``aliases.json`` or curves with negative lobes, are skipped); one file
+        per camera name (the file stem without a ``_380_780_5`` grid suffix; JSON preferred).
+        Otherwise built-in camera names or camera files (a comma-separated string also works).
+
+    Returns
+    -------
+    cameras : dict of str to colour.MultiSpectralDistributions
+    skipped : list of str
+        Files of a folder that were not cameras, with the reason.
+    """
+    import re
+
+    from . import spectra
+
+    skipped: list[str] = []
+    if isinstance(spec, str | Path) and Path(spec).is_dir():
+        files = sorted(Path(spec).rglob("*"), key=lambda p: (p.suffix.lower() != ".json", str(p)))
+        cams: dict = {}
+        for f in files:
+            if f.suffix.lower() not in (".json", ".csv") or not f.is_file():
+                continue
+            name = re.sub(r"_\d+_\d+_\d+$", "", f.stem).removesuffix("_ssf")
+            if name in cams:
+                continue
+            try:
+                cams[name] = spectra.read_camera(f)
+            except (ZonotopeError, ValueError, OSError) as error:
+                skipped.append(f"{f}: {error}")
+        if not cams:
+            raise SpectralDataError(f"cameras: no camera file (rawtoaces/camspec JSON or CSV) in {spec}.")
+        return cams, skipped
+    names = [s.strip() for s in spec.split(",")] if isinstance(spec, str) else [str(s) for s in spec]
+    cams = {}
+    for n in names:
+        if not n:
+            continue
+        if Path(n).is_dir():
+            more, skip = load_cameras(Path(n))
+            cams.update(more)
+            skipped += skip
+            continue
+        curve = spectra.read_camera(n) if Path(n).is_file() else spectra.camera(n)
+        cams[Path(n).stem if Path(n).is_file() else curve.name] = curve
+    return cams, skipped
+
+
+def _grid(curves, interval: float) -> np.ndarray:
+    from . import spectra
+
+    common = spectra.common_shape(*curves)
+    start = max(400.0, math.ceil(common.start / interval) * interval)
+    end = min(700.0, math.floor(common.end / interval) * interval)
+    if end - start < 100:
+        raise SpectralDataError(f"the cameras share only {common.start:g}–{common.end:g} nm.")
+    return np.arange(start, end + interval / 2, interval)
+
+
+def _score(names: tuple[str, ...], shared) -> SurveyRow:
+    """One camera set → its :class:`SurveyRow` (a task; never raises for bad data)."""
+    from . import spectra
+    from .correct import correction_problem, fit_correction
+    from .mismatch import metamer_mismatch_batch
+    from .vora import vora_value
+
+    cameras, opts = shared
+    t0 = time.perf_counter()
+    k = 0
+    try:
+        curves = [cameras[n] for n in names]
+        w = _grid([*curves, spectra.observer(opts["target"])], opts["interval"])
+        train = opts["training"]
+        training = spectra.resample(spectra.reflectances(train) if isinstance(train, str) else train, w).T
+        problem = correction_problem(curves, target=opts["target"], illuminant=opts["illuminant"], shape=w,
+                                     training=training)
+        k = problem.Phi.shape[1]
+        R = np.clip(spectra.resample(opts["reflectances"], w).T, 0.0, 1.0)
+        C, T = problem.source_of(R), problem.target_of(R)
+        v = vora_value(problem.Phi, problem.Psi)
+        vols = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=opts["eps"],
+                                      on_infeasible="nearest").volumes
+        best, best_dE = "", math.inf
+        for m in REGRESSIONS:
+            try:
+                fitted = fit_correction(problem, method=m)
+            except SpectralDataError:  # e.g. the ACES IDT takes one RGB camera only
+                continue
+            dE = float(np.mean(problem.delta_E(fitted(C), T)))
+            if dE < best_dE:
+                best, best_dE = m, dE
+        return SurveyRow(names, k, f"{w[0]:g}–{w[-1]:g}/{w[1] - w[0]:g}", v, float(np.median(vols)),
+                         float(np.percentile(vols, 90)), best, best_dE, time.perf_counter() - t0)
+    except (ZonotopeError, ValueError, np.linalg.LinAlgError) as error:
+        return SurveyRow(names, k, "", math.nan, math.nan, math.nan, "", math.nan,
+                         time.perf_counter() - t0, f"{type(error).__name__}: {error}")
+
+
+def survey(cameras, *, size: int = 2, target="CIE 2015 2°", illuminant="D65", interval: float = 10.0,
+           reflectances="ColorChecker N Ohta", training="rawtoaces 190", eps: float = 1e-3,
+           containing: Iterable[str] | None = None, scheduler: str | None = None,
+           progress: Callable[[int, int], None] | None = None) -> list[SurveyRow]:
+    """Score every set of ``size`` cameras; ranked best first.
+
+    Parameters
+    ----------
+    cameras
+        As :func:`load_cameras` takes, or its dict of name → MSDS.
+    size
+        Cameras per set (1 = each camera alone).
+    target, illuminant
+        Observer (XYZ colour-matching functions or LMS) and scene illuminant.
+    interval
+        Grid step in nm (each set on 400–700 nm narrowed to its cameras' common range).
+    reflectances
+        Reflectance set (built-in name, file or MSDS) for the MMV volumes and the ΔE00 test.
+    training
+        Training set of the regressions.
+    eps
+        Certification tolerance of the MMVs (relative to the target scale).
+    containing
+        Only the sets that contain at least one of these camera names (e.g. partners of one camera).
+    scheduler
+        Where the tasks run (:func:`zonotope.parallel.executor`); one task per camera set.
+    progress
+        ``progress(done, total)`` in camera sets.
+
+    Returns
+    -------
+    list of SurveyRow
+        Successful sets ranked by median MMV volume (ties: higher Vora first), then failed ones.
+    """
+    from . import spectra
+    from .parallel import TaskFailure, executor
+
+    cams = cameras if isinstance(cameras, dict) else load_cameras(cameras)[0]
+    if not isinstance(size, int) or not 1 <= size <= len(cams):
+        raise SpectralDataError(f"size must be an integer in 1..{len(cams)} (the number of cameras); "
+                                f"got {size!r}.")
+    if not (np.isfinite(interval) and 1 <= interval <= 20):
+        raise SpectralDataError(f"interval must be 1–20 nm; got {interval!r}.")
+    names = sorted(cams)
+    sets = list(combinations(names, size))
+    if containing is not None:
+        want = set(containing)
+        unknown = want - set(names)
+        if unknown:
+            raise SpectralDataError(f"containing: {sorted(unknown)} not among the cameras {names}.")
+        sets = [s for s in sets if want & set(s)]
+    refl = spectra.reflectances(reflectances) if isinstance(reflectances, str) and not Path(
+        reflectances).is_file() else (spectra.read_reflectances(reflectances)
+                                      if isinstance(reflectances, str | Path) else reflectances)
+    train = (training if not isinstance(training, str | Path) or not Path(training).is_file()
+             else spectra.read_reflectances(training))
+    opts = dict(target=target, illuminant=illuminant, interval=float(interval), reflectances=refl,
+                training=train, eps=float(eps))
+    rows: list = [None] * len(sets)
+    with executor(scheduler, tasks=len(sets), min_tasks=8) as ex:
+        for i, out in ex.outcomes(_score, sets, shared=(cams, opts), progress=progress):
+            if isinstance(out, TaskFailure):
+                out = SurveyRow(sets[i], 0, "", math.nan, math.nan, math.nan, "", math.nan, 0.0, out.error)
+            rows[i] = out
+    ok = sorted((r for r in rows if not r.error), key=lambda r: (r.mmv_median, -r.vora, r.cameras))
+    return ok + [r for r in rows if r.error]
+
+
+def best_partners(rows: Sequence[SurveyRow], camera: str, n: int = 10) -> list[SurveyRow]:
+    """The ``n`` best-ranked sets of a survey that contain ``camera``."""
+    return [r for r in rows if camera in r.cameras and not r.error][:n]
+
+
+def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
+    """Write the ranked rows as CSV (or Parquet for ``.parquet``, if pyarrow is installed), atomically."""
+    import csv
+    import io
+    import os
+    import tempfile
+
+    path = Path(path)
+    cols = [f.name for f in fields(SurveyRow)]
+    if path.suffix.lower() == ".parquet":
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError as error:
+            raise ZonotopeError(f"{path}: Parquet needs pyarrow (not installed); write .csv instead."
+                                ) from error
+        table = pa.table({c: [r.as_dict()[c] for r in rows] for c in cols})
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".parquet")
+        os.close(fd)
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+        return path
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=["rank", *cols], lineterminator="\n")
+    w.writeheader()
+    for i, r in enumerate(rows, 1):
+        d = r.as_dict()
+        cells = {c: (f"{d[c]:.6g}" if isinstance(d[c], float) else d[c]) for c in cols}
+        w.writerow({"rank": i if not r.error else "", **cells})
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".csv")
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(buf.getvalue())
+    os.replace(tmp, path)
+    return path
