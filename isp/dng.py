@@ -58,6 +58,7 @@ DNG_TAGS: dict[str, int] = {
     "AsShotNeutral": 50728, "AsShotWhiteXY": 50729, "BaselineExposure": 50730,
     "CalibrationIlluminant1": 50778, "CalibrationIlluminant2": 50779, "ActiveArea": 50829,
     "ForwardMatrix1": 50964, "ForwardMatrix2": 50965,
+    "ExposureTime": 33434, "FNumber": 33437, "ISOSpeedRatings": 34855,
 }
 
 #: Correlated colour temperature (K) of the EXIF LightSource codes used by CalibrationIlluminant1/2,
@@ -394,25 +395,38 @@ def _rational(v) -> tuple[int, ...]:
     return tuple(out)
 
 
+def _exposure_rational(t: float) -> tuple[int, int]:
+    """Exposure time as a camera writes it: 1/n for short times, else micro-second precision."""
+    t = float(t)
+    if 0 < t < 1 and abs(1 / t - round(1 / t)) < 1e-9:
+        return (1, round(1 / t))
+    return (round(t * 1_000_000), 1_000_000)
+
+
 _CFA_CODES = {"R": 0, "G": 1, "B": 2}
 
 
 def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_level: int,
               color_matrix_1, as_shot_neutral, calibration_illuminant_1: int = 21,
               forward_matrix_1=None, make: str = "zonotope", model: str = "simulated",
-              overwrite: bool = False) -> Path:
-    """Write a Bayer mosaic as an uncompressed DNG 1.4 that rawpy/LibRaw reads (atomically).
+              overwrite: bool = False, color_matrix_2=None, calibration_illuminant_2: int | None = None,
+              exposure_time: float | None = None, iso: int | None = None,
+              f_number: float | None = None) -> Path:
+    """Write a Bayer mosaic (or a full-colour LinearRaw image) as an uncompressed DNG 1.4 that
+    rawpy/LibRaw reads (atomically).
 
     Parameters
     ----------
     path
         Output file; written to a temporary file in the same folder, then renamed.
-    mosaic : array_like of shape (H, W), integers in [0, white_level]
-        Raw values including the black level; stored as uint16.
+    mosaic : array_like of shape (H, W) or (H, W, 3), integers in [0, white_level]
+        Raw values including the black level; stored as uint16. An (H, W, 3) array (a full-colour,
+        e.g. Foveon-type, sensor) is written as LinearRaw (PhotometricInterpretation 34892, no CFA
+        tags; ``cfa`` is then ignored).
     cfa
         2 × 2 pattern, e.g. ``"RGGB"``.
     black_level : float or array_like of shape (2, 2)
-        Per CFA site.
+        Per CFA site (LinearRaw: a float or 3 values, one per channel).
     white_level
         Saturation value.
     color_matrix_1 : array_like of shape (3, 3)
@@ -425,6 +439,12 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
         Make, Model and UniqueCameraModel tags.
     overwrite
         Refuse to replace an existing file unless True.
+    color_matrix_2 : array_like of shape (3, 3), optional
+        XYZ → camera under ``calibration_illuminant_2`` (both or neither).
+    calibration_illuminant_2 : int, optional
+    exposure_time, iso, f_number : optional
+        EXIF ExposureTime (s, RATIONAL 33434), ISOSpeedRatings (SHORT 34855) and FNumber (RATIONAL
+        33437), written in IFD 0.
 
     Returns
     -------
@@ -445,21 +465,32 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     path = Path(path)
     if path.exists() and not overwrite:
         raise PipelineError(f"{path} exists; pass overwrite=True or choose another name.")
-    cfa = check_cfa(cfa)
     m = np.asarray(mosaic)
-    if m.ndim != 2 or m.shape[0] < 2 or m.shape[1] < 2 or m.shape[0] % 2 or m.shape[1] % 2:
-        raise RawFormatError(f"mosaic: expected an (H, W) array with even H, W ≥ 2, got shape {m.shape}.")
+    linear_raw = m.ndim == 3
+    if linear_raw:
+        if m.shape[2] != 3 or m.shape[0] < 2 or m.shape[1] < 2:
+            raise RawFormatError(f"mosaic: a full-colour image must have shape (H, W, 3); got {m.shape}.")
+        black = np.broadcast_to(np.asarray(black_level, dtype=np.float64).ravel(), (3,))
+    else:
+        cfa = check_cfa(cfa)
+        if m.ndim != 2 or m.shape[0] < 2 or m.shape[1] < 2 or m.shape[0] % 2 or m.shape[1] % 2:
+            raise RawFormatError(f"mosaic: expected an (H, W) array with even H, W ≥ 2, got shape {m.shape}.")
+        black = np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2))
     if not np.all(np.isfinite(m)) or m.min() < 0 or m.max() > white_level or white_level > 65535:
         raise RawFormatError(f"mosaic: values must lie in [0, white_level={white_level}] ≤ 65535; "
                              f"got {m.min()}…{m.max()}.")
-    black = np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2))
+    if (color_matrix_2 is None) != (calibration_illuminant_2 is None):
+        raise PipelineError("color_matrix_2 and calibration_illuminant_2 go together: pass both or neither.")
+    layout = ([(50713, "H", 2, (1, 1), True)] if linear_raw else
+              [(33421, "H", 2, (2, 2), True), (33422, "B", 4, tuple(_CFA_CODES[c] for c in cfa), True),
+               (50713, "H", 2, (2, 2), True)])
     tags = [
         (254, "I", 1, 0, True),
         (271, "s", 0, make, True), (272, "s", 0, model, True),
-        (33421, "H", 2, (2, 2), True), (33422, "B", 4, tuple(_CFA_CODES[c] for c in cfa), True),
+        *layout,
         (50706, "B", 4, (1, 4, 0, 0), True), (50707, "B", 4, (1, 1, 0, 0), True),
         (50708, "s", 0, f"{make} {model}", True),
-        (50713, "H", 2, (2, 2), True), (50714, "I", 4, tuple(round(float(b)) for b in black.ravel()), True),
+        (50714, "I", black.size, tuple(round(float(b)) for b in black.ravel()), True),
         (50717, "I", 1, int(white_level), True),
         (50721, 10, 9, _srational(color_matrix_1), True),
         (50727, 5, 3, _rational(np.ones(3)), True),
@@ -468,10 +499,20 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     ]
     if forward_matrix_1 is not None:
         tags.append((50964, 10, 9, _srational(forward_matrix_1), True))
+    if color_matrix_2 is not None:
+        tags += [(50722, 10, 9, _srational(color_matrix_2), True),
+                 (50779, "H", 1, int(calibration_illuminant_2), True)]
+    if exposure_time is not None:
+        tags.append((33434, 5, 1, _exposure_rational(exposure_time), True))
+    if f_number is not None:
+        tags.append((33437, 5, 1, _rational(f_number), True))
+    if iso is not None:
+        tags.append((34855, "H", 1, int(iso), True))
     fd, tmp = tempfile.mkstemp(suffix=".dng.tmp", dir=path.parent)
     os.close(fd)
     try:
-        tifffile.imwrite(tmp, np.ascontiguousarray(m, dtype=np.uint16), photometric=32803,
+        tifffile.imwrite(tmp, np.ascontiguousarray(m, dtype=np.uint16),
+                         photometric=34892 if linear_raw else 32803, planarconfig="contig",
                          extratags=tags, metadata=None, software="isp (zonotope)")
         os.replace(tmp, path)
     finally:

@@ -34,6 +34,8 @@ _EXPORTS = {
               "save_checkpoint", "stack_cameras", "train", "train_step"],
     "outputs": ["correct_image", "pca_false_colour", "psnr", "render_views", "split_cameras"],
     "poses": ["PoseConfig", "recover_poses"],
+    "simcapture": ["SimCamera", "SimCaptureConfig", "SimScene", "SimView", "build_scene",
+                   "write_synthetic_capture"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 
