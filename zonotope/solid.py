@@ -103,6 +103,12 @@ class Zonotope:
                 f"generators of magnitude {peak:.3g}: products of two (cross products, volumes) would "
                 "underflow or overflow in float64. Rescale them, e.g. generators(..., normalise=1).")
         k = G.shape[1]
+        # the solid lies in a cube of side Σ‖g‖, so its volume (a product of k lengths) stays below
+        # (Σ‖g‖)^k: refuse where that bound leaves float64, instead of an inf or NaN volume later
+        if peak > 0 and k * np.log10(np.linalg.norm(G / peak, axis=1).sum() * peak) > 300:
+            raise GeometryError(
+                f"generators of magnitude {peak:.3g} in {k} dimensions: the volume (up to "
+                f"(Σ‖g‖)^{k}) would overflow float64. Rescale them, e.g. generators(..., normalise=1).")
         off = np.zeros(k) if offset is None else np.array(offset, dtype=np.float64).reshape(-1)
         if off.shape != (k,) or not np.all(np.isfinite(off)):
             raise GeometryError(f"offset must be a finite vector of length {k}; got {offset!r}.")
