@@ -140,7 +140,7 @@ def _read_text(folder: Path) -> ColmapModel:
             _fail(path, n, "a camera", e)
     path = folder / "images.txt"
     lines = [(n, line) for n, line in _lines_keep_empty(path)]
-    for k in range(0, len(lines) - 1, 2):
+    for k in range(0, len(lines), 2):
         (n, head), (_, pts) = lines[k], lines[k + 1]
         try:
             t = head.split()
@@ -186,10 +186,17 @@ def _read_text(folder: Path) -> ColmapModel:
 
 
 def _lines_keep_empty(path: Path):
-    """images.txt: two lines per image, the second may be empty (no keypoints)."""
-    for n, line in enumerate(path.read_text().splitlines(), 1):
-        if not line.startswith("#"):
-            yield n, line.strip()
+    """images.txt: two lines per image, the second may be empty (no keypoints).
+
+    A file whose last image has no keypoints may end without that empty line (the last line is then
+    an image line): the empty points line is supplied, so the last image is not lost."""
+    lines = [(n, line.strip()) for n, line in enumerate(path.read_text().splitlines(), 1)
+             if not line.startswith("#")]
+    while lines and not lines[-1][1] and len(lines) % 2:
+        lines.pop()  # extra trailing blank lines
+    if len(lines) % 2:
+        lines.append((lines[-1][0] + 1, ""))
+    yield from lines
 
 
 def _f(x) -> str:
@@ -355,6 +362,31 @@ def _write_binary(m: ColmapModel, folder: Path) -> None:
         (folder / "frames.bin").write_bytes(b"".join(out))
 
 
+def _check_model(m: ColmapModel, folder: Path) -> None:
+    """Values a renderer cannot use raise here, not as NaN Gaussians later."""
+    for c in m.cameras.values():
+        n = CAMERA_MODELS[c.model][1]
+        if len(c.params) != n or not np.all(np.isfinite(c.params)):
+            raise DataFormatError(f"{folder}: camera {c.id} ({c.model}) needs {n} finite parameters, got "
+                                  f"{c.params}.")
+        if not (0 < c.width < 2**31 and 0 < c.height < 2**31):
+            raise DataFormatError(f"{folder}: camera {c.id} has size {c.width}×{c.height}; expected positive "
+                                  "integers below 2³¹.")
+        if c.params[0] <= 0 or (c.model in ("PINHOLE", "OPENCV", "FULL_OPENCV") and c.params[1] <= 0):
+            raise DataFormatError(f"{folder}: camera {c.id} has focal length {c.params[:2]}; it must be > 0.")
+    for im in m.images.values():
+        q, t = np.asarray(im.qvec, float), np.asarray(im.tvec, float)
+        if q.shape != (4,) or t.shape != (3,) or not (np.all(np.isfinite(q)) and np.all(np.isfinite(t))):
+            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) has a non-finite pose "
+                                  f"qvec={q} tvec={t}.")
+        if not 1e-6 < np.linalg.norm(q) < 1e6:
+            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) has qvec={q}, not a rotation "
+                                  "(norm 0 or huge).")
+        if im.camera_id not in m.cameras:
+            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) refers to camera {im.camera_id}, "
+                                  f"which the model does not hold (cameras {sorted(m.cameras)}).")
+
+
 def read_colmap(folder: str | Path) -> ColmapModel:
     """Read a COLMAP sparse model folder (``*.bin`` preferred when both formats are present).
 
@@ -373,10 +405,18 @@ def read_colmap(folder: str | Path) -> ColmapModel:
         Missing files or unreadable content (the message names the file and line or byte).
     """
     folder = Path(folder)
-    if (folder / "cameras.bin").exists() and (folder / "images.bin").exists():
-        return _read_binary(folder)
-    if (folder / "cameras.txt").exists() and (folder / "images.txt").exists():
-        return _read_text(folder)
+    binary = (folder / "cameras.bin").exists() and (folder / "images.bin").exists()
+    if binary or ((folder / "cameras.txt").exists() and (folder / "images.txt").exists()):
+        try:
+            model = (_read_binary if binary else _read_text)(folder)
+        except DataFormatError:
+            raise
+        except (ValueError, IndexError, OverflowError, TypeError, UnicodeDecodeError, struct.error,
+                MemoryError, OSError) as error:  # anything else a damaged file can make the parsers hit
+            raise DataFormatError(f"{folder}: cannot read the COLMAP model ({type(error).__name__}: "
+                                  f"{error}). The files are damaged or not a COLMAP model.") from None
+        _check_model(model, folder)
+        return model
     raise DataFormatError(f"{folder} holds no COLMAP model (need cameras.bin + images.bin or "
                           "cameras.txt + images.txt).")
 
