@@ -45,6 +45,26 @@ class View:
     camera_id: int
     exposure: float = 1.0
 
+    def __post_init__(self):
+        # a NaN or degenerate pose, focal ≤ 0 or a NaN exposure would train NaN Gaussians silently
+        c = self.camera
+        R, t = np.asarray(c.R, np.float64), np.asarray(c.t, np.float64)
+        f, pp = np.asarray(c.focal, np.float64), np.asarray(c.principal, np.float64)
+        what = f"view {self.name!r}"
+        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+            raise SplatError(f"{what}: the pose holds NaN or inf (R={R.tolist()}, t={t.tolist()}).")
+        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-3) or np.linalg.det(R) < 0:
+            raise SplatError(f"{what}: R={R.tolist()} is not a rotation (zero or degenerate pose); give "
+                             "an orthonormal world-to-camera rotation with determinant +1.")
+        if not (np.all(np.isfinite(f)) and np.all(f > 0)):
+            raise SplatError(f"{what}: focal length {f.tolist()} px must be finite and > 0.")
+        if not np.all(np.isfinite(pp)):
+            raise SplatError(f"{what}: principal point {pp.tolist()} must be finite.")
+        if not (int(c.width) > 0 and int(c.height) > 0):
+            raise SplatError(f"{what}: image size {c.width}×{c.height} must be positive.")
+        if not (np.isfinite(self.exposure) and self.exposure > 0):
+            raise SplatError(f"{what}: exposure={self.exposure} must be finite and > 0.")
+
 
 @dataclass(frozen=True)
 class Capture:
@@ -64,6 +84,10 @@ class Capture:
     labels: tuple[str, ...] = field(default=())
 
     def __post_init__(self):
+        for cid, idx in self.channels.items():
+            if not all(isinstance(i, int | np.integer) and not isinstance(i, bool) and 0 <= i < 4096
+                       for i in idx):
+                raise SplatError(f"channels[{cid}]={idx!r}: channel indices must be integers in 0..4095.")
         missing = sorted({v.camera_id for v in self.views} - set(self.channels))
         if missing:
             raise SplatError(f"views use camera id(s) {missing} that have no entry in channels "
@@ -161,9 +185,9 @@ def write_transforms(capture: Capture, path: str | Path) -> Path:
                        "exposure": v.exposure})
     doc = {"camera_model": "OPENCV", "channels": {str(k): list(v) for k, v in capture.channels.items()},
            "channel_labels": list(capture.labels), "frames": frames}
-    path = Path(path)
-    path.write_text(json.dumps(doc, indent=1))
-    return path
+    from zonotope._io import atomic_write_text
+
+    return atomic_write_text(path, json.dumps(doc, indent=1))
 
 
 def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | None = None) -> Capture:
@@ -187,24 +211,44 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
     """
     path = Path(path)
     try:
-        doc = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise DataFormatError(f"{path}: not valid JSON ({e}).") from e
+        doc = json.loads(path.read_bytes().decode("utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise DataFormatError(f"{path}: not valid JSON ({e}).") from None
+    except OSError as e:
+        raise DataFormatError(f"{path}: cannot read ({e.strerror or e}).") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("frames", []), list):
+        raise DataFormatError(f"{path}: expected a JSON object with a 'frames' list, got "
+                              f"{type(doc).__name__}.")
     views = []
     for k, fr in enumerate(doc.get("frames", [])):
+        if not isinstance(fr, dict):
+            raise DataFormatError(f"{path}: frame {k} is a {type(fr).__name__}, not an object.")
         get = lambda key, fr=fr: fr.get(key, doc.get(key))  # noqa: E731
         try:
-            c2w = np.asarray(fr["transform_matrix"], float) @ _GL_FROM_CV
+            c2w = np.asarray(fr["transform_matrix"], float)
+            if c2w.shape not in ((4, 4), (3, 4)) or not np.all(np.isfinite(c2w)):
+                raise ValueError(f"transform_matrix must be a finite 4×4 (or 3×4) matrix, got {c2w.tolist()}")
+            c2w = np.vstack([c2w[:3], [0.0, 0.0, 0.0, 1.0]]) @ _GL_FROM_CV
             w2c = np.linalg.inv(c2w)
             cam = _camera(w2c[:3, :3], w2c[:3, 3], float(get("fl_x")), float(get("fl_y") or get("fl_x")),
                           float(get("cx")), float(get("cy")), int(get("w")), int(get("h")))
-        except (KeyError, TypeError, ValueError) as e:
-            raise DataFormatError(f"{path}: frame {k} lacks a pose or intrinsics ({e!r}).") from e
-        views.append(View(str(fr.get("file_path", f"frame_{k}")), cam, int(fr.get("camera_id", 1)),
-                          float(fr.get("exposure", 1.0))))
-    if channels is None:
-        if "channels" in doc:
-            channels = {int(k): tuple(v) for k, v in doc["channels"].items()}
-        else:
-            channels = {cid: (0, 1, 2) for cid in {v.camera_id for v in views}}
-    return Capture(tuple(views), channels, tuple(doc.get("channel_labels", ())))
+            view = View(str(fr.get("file_path", f"frame_{k}")), cam, int(fr.get("camera_id", 1)),
+                        float(fr.get("exposure", 1.0)))
+        except SplatError as e:
+            raise DataFormatError(f"{path}: frame {k}: {e}") from None
+        except (KeyError, TypeError, ValueError, OverflowError, np.linalg.LinAlgError) as e:
+            raise DataFormatError(f"{path}: frame {k} lacks a usable pose or intrinsics ({e!r}).") from None
+        views.append(view)
+    try:
+        if channels is None:
+            if "channels" in doc:
+                channels = {int(k): tuple(int(i) for i in v) for k, v in doc["channels"].items()}
+            else:
+                channels = {cid: (0, 1, 2) for cid in {v.camera_id for v in views}}
+        labels = tuple(str(x) for x in doc.get("channel_labels", ()))
+        return Capture(tuple(views), channels, labels)
+    except SplatError as e:
+        raise DataFormatError(f"{path}: {e}") from None
+    except (AttributeError, TypeError, ValueError, OverflowError) as e:
+        raise DataFormatError(f"{path}: 'channels' must map camera ids to lists of channel indices and "
+                              f"'channel_labels' be a list of names ({e!r}).") from None
