@@ -462,10 +462,10 @@ def run_files(tasks: Iterable[FileTask], work: Callable[[str, str, Any], None], 
     outs = [Path(t.output).resolve() for t in tasks]
     ins = {Path(t.input).resolve() for t in tasks}
     if len(set(outs)) != len(outs):
-        raise ZonotopeError("two inputs map to one output name; rename one of them or use another layout.")
+        raise ParallelError("two inputs map to one output name; rename one of them or use another layout.")
     clash = [str(o) for o in outs if o in ins]
     if clash:
-        raise ZonotopeError(f"output {clash[0]} is one of the inputs; choose another output folder.")
+        raise ParallelError(f"output {clash[0]} is one of the inputs; choose another output folder.")
     manifest = Path(manifest)
     rows: list[dict] = []
     todo: list[int] = []
