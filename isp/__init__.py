@@ -2,9 +2,12 @@
 
 Read a RAW/DNG file (:func:`read_raw`), develop it with a :class:`Pipeline` of small pure stages
 (:func:`default_pipeline`: linearise → white balance → demosaic → camera → XYZ → linear sRGB →
-tone mapping → sRGB encoding), replace or reorder any stage, inspect every intermediate, and write
-16-bit TIFF/PNG atomically (:func:`write_image`). When the camera's spectral sensitivities are known,
-:func:`metamer_correction` replaces the DNG ColorMatrix by a ``zonotope.correct`` estimator.
+tone mapping → sRGB encoding → orientation), replace or reorder any stage, inspect every
+intermediate, and write 16-bit TIFF/PNG atomically (:func:`write_image`; TIFFs with the sRGB ICC
+profile and the camera's metadata of :mod:`isp.exif`). :mod:`isp.whitebalance` turns a white-balance
+choice (as shot, a temperature, an illuminant, a grey patch) into the camera neutral. When the
+camera's spectral sensitivities are known, :func:`metamer_correction` replaces the DNG ColorMatrix
+by a ``zonotope.correct`` estimator.
 :mod:`isp.simulate` renders spectral scenes through a camera's sensitivities into real DNG files.
 
 >>> import isp
@@ -13,7 +16,15 @@ tone mapping → sRGB encoding), replace or reorder any stage, inspect every int
 """
 
 from ._errors import PipelineError, RawFormatError
-from .dng import DNGProfile, camera_neutral_to_xy, matrix_interpolated, read_dng_tags, write_dng
+from .dng import (
+    DNGProfile,
+    camera_neutral_to_xy,
+    matrix_interpolated,
+    read_dng_tags,
+    write_dng,
+    xy_to_camera_neutral,
+)
+from .exif import output_tags, srgb_icc_profile
 from .io import write_image
 from .metamer import MetamerCorrection, metamer_correction
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
@@ -30,9 +41,11 @@ from .stages import (
     linearise,
     matrix_XYZ_from_balanced,
     mosaic,
+    orient,
     tonemap,
     white_balance,
 )
+from .whitebalance import white_balance_neutral
 
 __all__ = [
     "CFA_PATTERNS",
@@ -62,10 +75,15 @@ __all__ = [
     "matrix_interpolated",
     "metamer_correction",
     "mosaic",
+    "orient",
+    "output_tags",
     "read_dng_tags",
     "read_raw",
+    "srgb_icc_profile",
     "tonemap",
     "white_balance",
+    "white_balance_neutral",
     "write_dng",
     "write_image",
+    "xy_to_camera_neutral",
 ]

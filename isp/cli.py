@@ -1,6 +1,8 @@
 """``isp`` command line: develop RAW files.
 
-- ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF or PNG;
+- ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF (with an sRGB ICC profile and
+  the camera's metadata) or PNG; ``--wb as-shot|daylight|5000K|D65|spot:x0,y0,x1,y1`` picks the
+  white balance; the picture is rotated as the file's Orientation tag says;
   ``--correction metamer --camera NAME_OR_FILE [--method Prior] [--illuminant D65]`` replaces the
   file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's sensitivities;
 - ``isp info IN``: print the RAW metadata the pipeline uses.
@@ -16,6 +18,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 __all__ = ["main"]
+
+_ORIENTATION = {1: "as stored", 2: "mirrored", 3: "rotated 180°", 4: "mirrored top–bottom", 5: "transposed",
+                6: "rotate 90° clockwise", 7: "transverse", 8: "rotate 90° counter-clockwise"}
 
 #: Options of ``isp develop`` that only the metamer correction uses (argparse dest → flag).
 _METAMER_OPTIONS = {"camera": "--camera", "method": "--method", "illuminant": "--illuminant",
@@ -48,13 +53,74 @@ def _metamer(args: argparse.Namespace):
     return corr, None
 
 
-def _develop(args: argparse.Namespace) -> int:
-    from rich.console import Console
+class _PlainProgress:
+    """Progress as plain, periodic lines on stderr, for when it is not a terminal (rich draws no live
+    bars there): a line per step, and a line per sub-task at most every ``every`` seconds."""
+
+    def __init__(self, console, every: float = 5.0) -> None:
+        import time
+
+        self.console, self.every, self.clock = console, every, time.monotonic
+        self.t0 = self.last = self.clock()
+        self.tasks: dict[int, list] = {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def _line(self, text: str) -> None:
+        self.console.print(f"[{self.clock() - self.t0:6.1f} s] {text}", markup=False, highlight=False)
+        self.last = self.clock()
+
+    def add_task(self, description: str, total: float | None = None) -> int:
+        self.tasks[len(self.tasks)] = [description, total]
+        self._line(description)
+        return len(self.tasks) - 1
+
+    def update(self, task: int, *, completed: float | None = None, total: float | None = None,
+               description: str | None = None) -> None:
+        t = self.tasks[task]
+        t[1] = total if total is not None else t[1]
+        if description is not None and description != t[0]:
+            t[0] = description
+            self._line(description)
+        elif completed is not None and (self.clock() - self.last >= self.every or completed == t[1]):
+            self._line(f"{t[0]}: {completed:g}/{t[1]:g}" if t[1] else t[0])
+
+    def advance(self, task: int, n: float = 1) -> None:
+        return None
+
+
+def _progress(console, quiet: bool):
+    """rich's live bars on a terminal; plain periodic lines otherwise (e.g. piped into a log)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    if quiet or console.is_terminal:
+        return Progress(TextColumn("{task.description}"), BarColumn(),
+                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=console,
+                        disable=quiet)
+    return _PlainProgress(console)
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("zonotope")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
+        return "0+unknown"
+
+
+def _develop(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from .exif import output_tags, srgb_icc_profile
     from .io import write_image
     from .pipeline import default_pipeline
     from .raw import read_raw
+    from .whitebalance import describe_white_balance
 
     console = Console(stderr=True)
     src = Path(args.input)
@@ -78,18 +144,18 @@ def _develop(args: argparse.Namespace) -> int:
         return 2
     correction = metamer if metamer is not None else args.correction
     pipeline = default_pipeline(demosaic=args.demosaic, correction=correction, tonemap=tonemap,
-                                tonemap_options=options)
+                                tonemap_options=options, white_balance=args.wb)
     if args.save_stages:
         stage_dir = Path(args.save_stages)
         if stage_dir.exists() and any(stage_dir.iterdir()) and not args.overwrite:
             console.print(f"[red]error:[/] {stage_dir} is not empty; use --overwrite or another folder.")
             return 2
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=console, disable=args.quiet) as progress:
+    with _progress(console, args.quiet) as progress:
         task = progress.add_task(f"reading {src.name}", total=len(pipeline) + 2)
         raw = read_raw(src)
         if args.crop:
             raw = raw.crop(*args.crop)
+        wb = describe_white_balance(raw, args.wb)
         progress.advance(task)
         if metamer is not None:
             mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
@@ -114,7 +180,9 @@ def _develop(args: argparse.Namespace) -> int:
 
         dev = pipeline(raw, on_stage=on_stage, keep=bool(args.save_stages))
         progress.update(task, completed=len(pipeline) + 1, description=f"writing {out.name}")
-        write_image(out, dev.image, overwrite=args.overwrite, protect=[src])
+        encoded = "encode_sRGB" in pipeline.names
+        write_image(out, dev.image, overwrite=args.overwrite, protect=[src],
+                    icc_profile=srgb_icc_profile() if encoded else None, tiff_tags=output_tags(raw))
         if args.save_stages:
             stage_dir.mkdir(parents=True, exist_ok=True)
             for i, (name, arr) in enumerate(dev.intermediates.items()):
@@ -128,8 +196,9 @@ def _develop(args: argparse.Namespace) -> int:
     if not args.quiet:
         how = (f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
                if metamer is not None else "DNG ColorMatrix")
-        console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}, "
-                      f"{' → '.join(pipeline.names)}; {how})")
+        turned = "" if raw.orientation == 1 else f", Orientation {raw.orientation} applied"
+        console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}{turned}, "
+                      f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})")
     return 0
 
 
@@ -139,6 +208,7 @@ def _info(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from .raw import read_raw
+    from .whitebalance import describe_white_balance
 
     raw = read_raw(args.input, metadata_only=args.metadata_only)
     p = raw.profile
@@ -149,7 +219,11 @@ def _info(args: argparse.Namespace) -> int:
         "CFA": raw.cfa,
         "black level": str(raw.black_level.ravel().tolist()),
         "white level": f"{raw.white_level:g}",
-        "AsShotNeutral": np.array2string(raw.as_shot_neutral, precision=4),
+        "as-shot neutral": np.array2string(raw.as_shot_neutral, precision=4),
+        "white balance source": describe_white_balance(raw, "as-shot"),
+        "orientation": f"{raw.orientation} ({_ORIENTATION[raw.orientation]})",
+        "capture": ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                             for k, v in raw.capture.items()) or "(not recorded)",
         "AnalogBalance": np.array2string(p.analog_balance, precision=4),
         "CalibrationIlluminant1/2": f"{p.calibration_illuminant_1} / {p.calibration_illuminant_2}",
     }
@@ -169,6 +243,7 @@ def _parser() -> argparse.ArgumentParser:
     from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
 
     parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
     d.add_argument("input", help="RAW or DNG file, or a folder of them (then -o is a folder)")
@@ -199,6 +274,10 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("--quantum", type=float,
                    help="responses that round to the same multiple of this are corrected once "
                         "(default 0.002, white = 1; 0 = exact colours only)")
+    d.add_argument("--wb", default="as-shot", metavar="WHITE_BALANCE",
+                   help="white balance: as-shot (default, the file's), daylight (5500 K), a temperature "
+                        "such as 3200K, a CIE illuminant (D65, A, FL2, ...) or spot:x0,y0,x1,y1 (mean of a "
+                        "grey patch, pixel coordinates of the developed image, x1 and y1 excluded)")
     d.add_argument("--tonemap", default="Reinhard 2002",
                    help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)")
     d.add_argument("--exposure", type=float, default=None,

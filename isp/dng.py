@@ -45,11 +45,13 @@ __all__ = [
     "read_dng_tags",
     "write_dng",
     "xy_to_CCT_DNG",
+    "xy_to_camera_neutral",
 ]
 
 #: DNG / TIFF-EP tag codes used by :mod:`isp` (DNG spec 1.4, chapter 4).
 DNG_TAGS: dict[str, int] = {
-    "NewSubfileType": 254, "Make": 271, "Model": 272, "CFARepeatPatternDim": 33421,
+    "NewSubfileType": 254, "Make": 271, "Model": 272, "Orientation": 274, "DateTime": 306,
+    "DateTimeOriginal": 36867, "CFARepeatPatternDim": 33421,
     "CFAPattern": 33422, "DNGVersion": 50706, "DNGBackwardVersion": 50707,
     "UniqueCameraModel": 50708, "CFAPlaneColor": 50710, "CFALayout": 50711,
     "LinearizationTable": 50712, "BlackLevelRepeatDim": 50713, "BlackLevel": 50714,
@@ -339,6 +341,39 @@ def _neutral(neutral) -> np.ndarray:
     return n
 
 
+def xy_to_camera_neutral(xy, profile: DNGProfile) -> np.ndarray:
+    """Camera neutral (the camera's response to a white of chromaticity ``xy``), max 1.
+
+    The inverse of :func:`camera_neutral_to_xy`: ``neutral ∝ XYZ_to_camera(xy) · XYZ(xy)`` (DNG
+    spec 1.4, p. 81, as the SDK turns AsShotWhiteXY into a neutral).
+
+    Parameters
+    ----------
+    xy : array_like of shape (2,)
+        Chromaticity of the scene white (CIE 1931 2°).
+    profile
+        The camera's :class:`DNGProfile`.
+
+    Returns
+    -------
+    ndarray of shape (3,)
+
+    Raises
+    ------
+    RawFormatError
+        ``xy`` is not a chromaticity inside the unit triangle, or the camera's response to it has a
+        non-positive channel (a white this colour matrix cannot see as a white).
+    """
+    c = np.asarray(xy, dtype=np.float64).reshape(-1)
+    if c.shape != (2,) or not np.all(np.isfinite(c)) or np.any(c <= 0) or c.sum() >= 1:
+        raise RawFormatError(f"white chromaticity xy={c}: expected 2 positive values with x + y < 1.")
+    n = profile.XYZ_to_camera(c) @ colour.xy_to_XYZ(c)
+    if not np.all(n > 0):
+        raise RawFormatError(f"white chromaticity xy={c} gives the camera response {n} with a non-positive "
+                             "channel: it is too far from the colours this camera's matrix was made for.")
+    return n / n.max()
+
+
 def camera_neutral_to_xy(neutral, profile: DNGProfile, *, tol: float = 1e-10,
                          max_iter: int = 100) -> np.ndarray:
     """Chromaticity of the scene white from the camera neutral (DNG spec 1.4, p. 81).
@@ -411,7 +446,7 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
               forward_matrix_1=None, make: str = "zonotope", model: str = "simulated",
               overwrite: bool = False, color_matrix_2=None, calibration_illuminant_2: int | None = None,
               exposure_time: float | None = None, iso: int | None = None,
-              f_number: float | None = None) -> Path:
+              f_number: float | None = None, orientation: int = 1) -> Path:
     """Write a Bayer mosaic (or a full-colour LinearRaw image) as an uncompressed DNG 1.4 that
     rawpy/LibRaw reads (atomically).
 
@@ -445,6 +480,9 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     exposure_time, iso, f_number : optional
         EXIF ExposureTime (s, RATIONAL 33434), ISOSpeedRatings (SHORT 34855) and FNumber (RATIONAL
         33437), written in IFD 0.
+    orientation
+        TIFF/EXIF Orientation (274) of the picture: 1 = as stored, 3 = rotate 180°, 6 = rotate 90°
+        clockwise to view, 8 = 90° counter-clockwise; 2, 4, 5, 7 add a mirror.
 
     Returns
     -------
@@ -479,6 +517,9 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     if not np.all(np.isfinite(m)) or m.min() < 0 or m.max() > white_level or white_level > 65535:
         raise RawFormatError(f"mosaic: values must lie in [0, white_level={white_level}] ≤ 65535; "
                              f"got {m.min()}…{m.max()}.")
+    if isinstance(orientation, bool) or orientation not in range(1, 9):
+        raise PipelineError(f"orientation={orientation!r}: use a TIFF Orientation code 1–8 (1 = as stored, "
+                            "6 = rotate 90° clockwise, 3 = 180°, 8 = 90° counter-clockwise).")
     if (color_matrix_2 is None) != (calibration_illuminant_2 is None):
         raise PipelineError("color_matrix_2 and calibration_illuminant_2 go together: pass both or neither.")
     layout = ([(50713, "H", 2, (1, 1), True)] if linear_raw else
@@ -486,7 +527,7 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
                (50713, "H", 2, (2, 2), True)])
     tags = [
         (254, "I", 1, 0, True),
-        (271, "s", 0, make, True), (272, "s", 0, model, True),
+        (271, "s", 0, make, True), (272, "s", 0, model, True), (274, "H", 1, int(orientation), True),
         *layout,
         (50706, "B", 4, (1, 4, 0, 0), True), (50707, "B", 4, (1, 1, 0, 0), True),
         (50708, "s", 0, f"{make} {model}", True),

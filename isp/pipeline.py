@@ -7,14 +7,16 @@ pipelines. Running it returns a :class:`Development` with the output and every i
 
 >>> from isp import default_pipeline
 >>> p = default_pipeline(demosaic="bilinear")
->>> p.names
-('linearise', 'white_balance', 'demosaic', 'camera_to_XYZ', 'XYZ_to_linear_sRGB', 'tonemap', 'encode_sRGB')
+>>> p.names  # doctest: +NORMALIZE_WHITESPACE
+('linearise', 'white_balance', 'demosaic', 'camera_to_XYZ', 'XYZ_to_linear_sRGB', 'tonemap', 'encode_sRGB',
+ 'orient')
 >>> p.until("XYZ_to_linear_sRGB").names[-1]
 'XYZ_to_linear_sRGB'
 """
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -209,9 +211,32 @@ def _linearise(x, raw: RawImage):
     return st.linearise(x, black_level=raw.black_level, white_level=raw.white_level, table=table)
 
 
-def _white_balance(x, raw: RawImage):
-    cfa = raw.cfa if np.ndim(x) == 2 else None
-    return st.white_balance(x, neutral=raw.as_shot_neutral, cfa=cfa)
+class _Neutral:
+    """The camera neutral of a white-balance choice, computed once per RawImage (two stages use it)."""
+
+    def __init__(self, choice) -> None:
+        from .whitebalance import _key
+
+        self.choice = choice
+        self.as_shot = isinstance(choice, str) and _key(choice) in ("asshot", "camera", "")
+        self._cache: tuple[weakref.ref, np.ndarray] | None = None
+
+    def __call__(self, raw: RawImage) -> np.ndarray:
+        from .whitebalance import white_balance_neutral
+
+        if self.as_shot:
+            return raw.as_shot_neutral
+        if self._cache is None or self._cache[0]() is not raw:
+            self._cache = (weakref.ref(raw), white_balance_neutral(raw, self.choice))
+        return self._cache[1]
+
+
+def _white_balance_stage(neutral: _Neutral) -> Stage:
+    def fn(x, raw: RawImage):
+        cfa = raw.cfa if np.ndim(x) == 2 else None
+        return st.white_balance(x, neutral=neutral(raw), cfa=cfa)
+
+    return Stage("white_balance", fn)
 
 
 def _demosaic_stage(method: str) -> Stage:
@@ -219,8 +244,11 @@ def _demosaic_stage(method: str) -> Stage:
     return Stage("demosaic", lambda x, raw: st.demosaic(x, cfa=raw.cfa, method=method))
 
 
-def _camera_to_XYZ(x, raw: RawImage):
-    return st.camera_to_XYZ(x, matrix=st.matrix_XYZ_from_balanced(raw.profile, raw.as_shot_neutral))
+def _camera_to_XYZ_stage(neutral: _Neutral) -> Stage:
+    def fn(x, raw: RawImage):
+        return st.camera_to_XYZ(x, matrix=st.matrix_XYZ_from_balanced(raw.profile, neutral(raw)))
+
+    return Stage("camera_to_XYZ", fn)
 
 
 def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
@@ -250,11 +278,11 @@ def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
 
 def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callable = "dng",
                      tonemap: str | None = "Reinhard 2002", tonemap_options: dict | None = None,
-                     encode: bool = True) -> Pipeline:
+                     encode: bool = True, white_balance="as-shot", orient: bool = True) -> Pipeline:
     """The standard development of a RAW file.
 
     ``linearise → white_balance → demosaic → camera_to_XYZ → XYZ_to_linear_sRGB → tonemap →
-    encode_sRGB``.
+    encode_sRGB → orient``.
 
     Parameters
     ----------
@@ -270,23 +298,39 @@ def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callabl
         Keyword options of the operator.
     encode
         End with the sRGB transfer function.
+    white_balance
+        ``"as-shot"`` (the file's), ``"daylight"``, ``"<T>K"``, a CIE illuminant name or
+        ``"spot:x0,y0,x1,y1"`` (a grey patch of the developed image), or a camera neutral: see
+        :mod:`isp.whitebalance`. The camera → XYZ matrix of the ``"dng"`` correction is the one for
+        this white, as the DNG spec makes it.
+    orient
+        End with an ``orient`` stage that rotates/mirrors the image as the file's Orientation tag
+        says (as rawpy does).
 
     Returns
     -------
     Pipeline
     """
+    neutral = _Neutral(white_balance)
+    if not neutral.as_shot:  # fail early on an unknown name, a temperature out of range, a bad neutral
+        from .whitebalance import _spot, white_balance_neutral, white_balance_xy
+
+        if not isinstance(white_balance, str):
+            white_balance_neutral(None, white_balance)  # type: ignore[arg-type]
+        elif _spot(white_balance) is None:
+            white_balance_xy(white_balance)
     if isinstance(correction, str):
         if correction.lower() != "dng":
             raise ValueError(f"correction={correction!r}: use 'dng' or a callable responses → XYZ "
                              "(for a camera with known sensitivities: isp.metamer_correction(camera)).")
-        colour_stage = Stage("camera_to_XYZ", _camera_to_XYZ)
+        colour_stage = _camera_to_XYZ_stage(neutral)
     elif callable(correction):
         colour_stage = correction_stage(correction)
     else:
         raise ValueError(f"correction must be 'dng' or a callable; got {type(correction).__name__}.")
     stages = [
         Stage("linearise", _linearise),
-        Stage("white_balance", _white_balance),
+        _white_balance_stage(neutral),
         _demosaic_stage(demosaic),
         colour_stage,
         Stage("XYZ_to_linear_sRGB", lambda x, raw: st.XYZ_to_linear_sRGB(x)),
@@ -297,6 +341,8 @@ def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callabl
         stages.append(Stage("tonemap", lambda x, raw: st.tonemap(x, method=tonemap, **opts)))
     if encode:
         stages.append(Stage("encode_sRGB", lambda x, raw: st.encode_sRGB(x)))
+    if orient:
+        stages.append(Stage("orient", lambda x, raw: np.ascontiguousarray(st.orient(x, raw.orientation))))
     return Pipeline(stages)
 
 

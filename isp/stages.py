@@ -3,7 +3,7 @@
 Order of a standard development (see :func:`isp.default_pipeline`)::
 
     linearise → white_balance → demosaic → camera_to_XYZ (or apply_correction)
-              → XYZ_to_linear_sRGB → tonemap → encode_sRGB
+              → XYZ_to_linear_sRGB → tonemap → encode_sRGB → orient
 
 Conventions: mosaics are ``(H, W)`` float arrays with a 2 × 2 Bayer pattern named by ``cfa``
 (``"RGGB"`` ...); images are ``(..., 3)`` with channels last; linear values are relative to the
@@ -36,6 +36,7 @@ __all__ = [
     "linearise",
     "matrix_XYZ_from_balanced",
     "mosaic",
+    "orient",
     "tonemap",
     "tonemap_Reinhard2002",
     "tonemap_clip",
@@ -546,3 +547,50 @@ def tonemap(rgb, *, method: str = "Reinhard 2002", **options) -> np.ndarray:
     ndarray of shape (..., 3)
     """
     return TONEMAP_METHODS[_resolve(method, TONEMAP_METHODS, "method")](rgb, **options)
+
+
+# ---------------------------------------------------------------------------------------------
+# Geometry
+# ---------------------------------------------------------------------------------------------
+
+
+def orient(image, orientation: int) -> np.ndarray:
+    """Rotate / mirror an image for display as its TIFF/EXIF Orientation tag says.
+
+    Parameters
+    ----------
+    image : array_like of shape (H, W) or (H, W, c)
+        The picture as stored (row 0 is the sensor's first row).
+    orientation
+        1 as stored; 2 mirrored left–right; 3 rotated 180°; 4 mirrored top–bottom; 5 transposed;
+        6 rotated 90° clockwise; 7 transverse (mirrored, then 90° clockwise); 8 rotated 90°
+        counter-clockwise (TIFF 6.0 tag 274, the codes rawpy/LibRaw's ``sizes.flip`` stands for).
+
+    Returns
+    -------
+    ndarray
+        A view of ``image``; shape (W, H, ...) for codes 5–8.
+
+    Examples
+    --------
+    >>> a = np.arange(6).reshape(2, 3)
+    >>> orient(a, 6)
+    array([[3, 0],
+           [4, 1],
+           [5, 2]])
+    """
+    a = np.asarray(image)
+    if a.ndim not in (2, 3):
+        raise PipelineError(f"image: expected shape (H, W) or (H, W, c); got {a.shape}.")
+    if isinstance(orientation, bool) or orientation not in range(1, 9):
+        raise PipelineError(f"orientation={orientation!r}: expected a TIFF Orientation code 1–8.")
+    return {
+        1: lambda x: x,
+        2: np.fliplr,
+        3: lambda x: np.rot90(x, 2),
+        4: np.flipud,
+        5: lambda x: np.swapaxes(x, 0, 1),
+        6: lambda x: np.rot90(x, -1),
+        7: lambda x: np.rot90(np.fliplr(x), -1),
+        8: lambda x: np.rot90(x, 1),
+    }[int(orientation)](a)

@@ -30,7 +30,7 @@ def test_develop_png_and_stages(dng_550d, tmp_path):
     assert rc == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     names = sorted(p.name for p in stages.iterdir())
-    assert names[0] == "00_input.tif" and names[-1] == "07_encode_sRGB.tif"
+    assert names[0] == "00_input.tif" and names[-2:] == ["07_encode_sRGB.tif", "08_orient.tif"]
     demosaiced = tifffile.imread(stages / "03_demosaic.tif")
     assert demosaiced.shape == (64, 96, 3) and demosaiced.dtype == np.float32
     # refuses to overwrite without --overwrite

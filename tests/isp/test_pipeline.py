@@ -22,7 +22,7 @@ from isp import (
 )
 
 NAMES = ("linearise", "white_balance", "demosaic", "camera_to_XYZ", "XYZ_to_linear_sRGB", "tonemap",
-         "encode_sRGB")
+         "encode_sRGB", "orient")
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,8 @@ def crop(raw_550d):
 def test_default_names_and_editing():
     p = default_pipeline()
     assert p.names == NAMES
-    assert default_pipeline(tonemap=None, encode=False).names == NAMES[:5]
+    assert default_pipeline(tonemap=None, encode=False, orient=False).names == NAMES[:5]
+    assert default_pipeline(orient=False).names == NAMES[:7]
     assert p.until("demosaic").names == NAMES[:3]
     assert p.remove("tonemap").names == NAMES[:5] + NAMES[6:]
     swapped = p.reorder(["linearise", "demosaic", "white_balance", *NAMES[3:]])
