@@ -30,6 +30,7 @@ class Facets3:
     bases: np.ndarray  # (P, 3) lowest corner of the + facet
     keys: np.ndarray  # (P,) int64 hash of the lowest corner's generator set
     zonogons: list  # [(normal (3,), vertices (M, 3) CCW about normal, keys (M,))]
+    members: list  # [reduced generator indices (r,) of each zonogon]
     volume: float
 
 
@@ -105,18 +106,27 @@ def reduce_generators(G: np.ndarray, offset: np.ndarray, tol: Tolerances) -> tup
 
     Z(G) = offset' + Z(H) exactly, since {t·g} = g + {t·(−g)} for t ∈ [0, 1].
     """
+    H, off, _, _ = reduce_with_groups(G, offset, tol)
+    return H, off
+
+
+def reduce_with_groups(G: np.ndarray, offset: np.ndarray, tol: Tolerances):
+    """:func:`reduce_generators` plus, per input generator, its reduced index (−1: dropped as
+    zero) and whether it was flipped (x ↦ 1 − x) to orient it."""
+    group = np.full(G.shape[0], -1, dtype=np.intp)
+    flipped = np.zeros(G.shape[0], dtype=bool)
     norms = np.linalg.norm(G, axis=1)
     keep = norms > tol.zero * (norms.max() if norms.size else 0.0)
     H, off = G[keep].copy(), offset.copy()
     if H.shape[0] == 0:
-        return H, off
+        return H, off, group, flipped
     w = np.sin(1.2345 * np.arange(1, G.shape[1] + 1) + 0.5)  # fixed generic direction
     flip = H @ w < 0
     off += H[flip].sum(axis=0)
     H[flip] *= -1.0
     U = H / np.linalg.norm(H, axis=1, keepdims=True)
     # candidates by cosine (cheap), confirmed by |u_i − u_j|, which resolves tiny angles
-    ci, cj = np.nonzero(U @ U.T >= 1.0 - 1e-12)  # ≈ 1.4e-6 rad ≫ TOL.parallel
+    ci, cj = np.nonzero(U @ U.T >= 1.0 - max(1e-12, tol.parallel**2))  # 1 − cos θ ≈ θ²/2
     d2 = np.einsum("ij,ij->i", U[ci] - U[cj], U[ci] - U[cj])
     close = np.zeros((U.shape[0], U.shape[0]), dtype=bool)
     close[ci, cj] = d2 <= tol.parallel**2
@@ -124,7 +134,9 @@ def reduce_generators(G: np.ndarray, offset: np.ndarray, tol: Tolerances) -> tup
     uniq, inverse = np.unique(label, return_inverse=True)
     merged = np.zeros((uniq.size, G.shape[1]))
     np.add.at(merged, inverse, H)
-    return merged, off
+    group[keep] = inverse
+    flipped[keep] = flip
+    return merged, off, group, flipped
 
 
 
@@ -177,7 +189,7 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     nxt = np.where(hi < 2 * m, a_s[ii, hi % m] + two_pi * (hi >= m), np.inf)
     flag = (lo > tt + 1) | (th - prev <= tol) | (nxt <= th + np.pi + tol)
     th = th + big * ii
-    zonogons = []
+    zonogons, planes = [], []
     keep = np.ones(ii.size, dtype=bool)
     deg = np.nonzero(flag)[0]
     if deg.size:
@@ -200,7 +212,7 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     ii, jj, n, Bp, Kp = (a[keep] for a in (ii, jj, n, Bp, Kp))
     Bp += off
     return Facets3(pairs=np.stack([ii, jj], axis=1), normals=n, bases=Bp, keys=Kp,
-                    zonogons=zonogons, volume=volume)
+                    zonogons=zonogons, members=[np.array(S) for S in planes], volume=volume)
 
 
 def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, tol) -> list[list[int]]:
@@ -446,3 +458,75 @@ def vertices_sweep(f: Facets3, H: np.ndarray, off: np.ndarray, r: np.ndarray,
     if 2 * upper.shape[0] + 2 * p != 2 + n_edges - n_facets:
         return None
     return np.concatenate([upper, c2 - upper, equator])
+
+
+def circular_transitions(X: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Fewest 0↔1 transitions of circular sequences with two free entries.
+
+    ``X`` (m, n) holds 0/1; entries ``a`` < ``b`` (m,) are free values in (0, 1) (the facet's two
+    generators at ½). A free entry between equal neighbours costs two transitions, between
+    different ones one; two adjacent free entries between different neighbours cost one and
+    between equal ones two (zonohedra's ``transitioncount``, specialised to two free entries).
+    """
+    m, n = X.shape
+    keep = np.ones((m, n), dtype=bool)
+    rows = np.arange(m)
+    keep[rows, a] = False
+    keep[rows, b] = False
+    y = X[keep].reshape(m, n - 2).astype(bool)
+    d = y != np.roll(y, -1, axis=1)
+    count = 2 + d.sum(axis=1)
+    adjacent = (b == a + 1) | ((a == 0) & (b == n - 1))
+    ka, kb = (a - 1) % (n - 2), (b - 2) % (n - 2)
+    sep = ~adjacent
+    count[sep] += (1 - 2 * d[rows[sep], ka[sep]]) + (1 - 2 * d[rows[sep], kb[sep]])
+    return count
+
+
+def pgram_transitions(G: np.ndarray, H: np.ndarray, group: np.ndarray, f: Facets3,
+                      chunk: int = 4096) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Transition counts of the boundary parallelograms of the standard tiling.
+
+    One parallelogram per pair I < J of reduced generators (zonogon facets tiled), as in
+    zonohedra's ``transitionsdf``. Its centre is the image of the cube point with x = ½ on I and
+    J and x = [g·n > 0] on every other reduced generator g (n the facet normal); the other
+    members of a zonogon facet get 1 between I and J and 0 outside (zonohedra's
+    ``boundarypgramdata``). The count is circular, over the reduced generators in the order of
+    their first input generator (a merged run of parallel generators is one entry, zero
+    generators none). Returns ``pairs (P, 2)`` (reduced indices), ``reps (P, 2)`` (first input
+    index of each) and ``transitions (P,)`` (even, ≥ 2).
+    """
+    p, n = H.shape[0], G.shape[0]
+    I, J = np.triu_indices(p, 1)
+    reps = np.full(p, n, dtype=np.intp)
+    np.minimum.at(reps, group[group >= 0], np.nonzero(group >= 0)[0])
+    normals = np.cross(H[I], H[J])
+    plane = np.full(p * p, -1, dtype=np.intp)  # pair id → zonogon index
+    members = []
+    zid = np.zeros(I.size, dtype=np.intp) - 1
+    for z, S in enumerate(f.members):
+        members.append(S)
+        for s, t in combinations(S.tolist(), 2):
+            plane[s * p + t] = z
+    if f.zonogons:
+        zid = plane[I * p + J]
+        has = zid >= 0
+        # which side of a zonogon is "+" decides its tiles' counts (all 2 or all 4 for the
+        # 50-generator zonogon of CIE 1931, area 0.1 of 34669); zonohedra's choice is not
+        # documented, −n (n from the zonogon's widest pair) is ours
+        normals[has] = -np.stack([f.zonogons[z][0] for z in zid[has]])
+    # the sequence runs over the reduced generators in the order of their first wavelengths
+    seq = np.argsort(reps, kind="stable")
+    pos = np.empty(p, dtype=np.intp)
+    pos[seq] = np.arange(p)
+    Gs = G[reps[seq]]
+    a, b = np.minimum(pos[I], pos[J]), np.maximum(pos[I], pos[J])
+    out = np.empty(I.size, dtype=np.int64)
+    for s in range(0, I.size, chunk):
+        e = min(s + chunk, I.size)
+        X = normals[s:e] @ Gs.T > 0.0
+        for r in np.nonzero(zid[s:e] >= 0)[0]:
+            free = pos[members[zid[s + r]]]
+            X[r, free] = (free >= a[s + r]) & (free <= b[s + r])
+        out[s:e] = circular_transitions(X, a[s:e], b[s:e])
+    return np.stack([I, J], axis=1), np.stack([reps[I], reps[J]], axis=1), out

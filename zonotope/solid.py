@@ -38,7 +38,7 @@ from ._errors import GeometryError
 from ._lp import distance_to_zonotope
 from ._tol import TOL, Tolerances
 
-__all__ = ["Support", "Zonotope"]
+__all__ = ["Parallelograms", "Support", "Zonotope"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,36 @@ class Support:
     reflectance: np.ndarray
     transitions: np.ndarray
     value: np.ndarray
+
+
+@dataclass(frozen=True)
+class Parallelograms:
+    """Result of :meth:`Zonotope.parallelograms`: the boundary tiled by parallelograms.
+
+    Each row stands for a ± pair (the point reflection has the same count and area), one per
+    pair of reduced generators: ``p(p − 1)/2`` rows for ``p`` reduced generators.
+
+    Attributes
+    ----------
+    pairs : ndarray of shape (P, 2)
+        Reduced generator indices I < J.
+    generators : ndarray of shape (P, 2)
+        First input generator (row of ``Zonotope.generators``) of I and of J.
+    wavelengths : ndarray of shape (P, 2) or None
+        Their wavelengths, when the solid was made from spectral data.
+    transitions : ndarray of shape (P,)
+        Fewest 0↔1 transitions (circular) of the optimal stimuli on the parallelogram: 2 where
+        the boundary coincides with the 2-transition (Schrödinger) surface, more where it
+        does not (Burns 2021).
+    area : ndarray of shape (P,)
+        Area of one parallelogram, ``|h_I × h_J|``.
+    """
+
+    pairs: np.ndarray
+    generators: np.ndarray
+    wavelengths: np.ndarray | None
+    transitions: np.ndarray
+    area: np.ndarray
 
 
 class Zonotope:
@@ -160,7 +190,12 @@ class Zonotope:
 
         Z(G) = offset' + Z(H) exactly, since {t·g} = g + {t·(−g)} for t ∈ [0, 1].
         """
-        return _zh.reduce_generators(self.generators, self.offset, self.tol)
+        return self._reduction[:2]
+
+    @cached_property
+    def _reduction(self):
+        """(H, offset', group (n,), flipped (n,)): see :func:`._zonohedron.reduce_with_groups`."""
+        return _zh.reduce_with_groups(self.generators, self.offset, self.tol)
 
     # -- support / optimal stimuli ------------------------------------------------------------
 
@@ -255,6 +290,38 @@ class Zonotope:
         :func:`._zonohedron.vertices_sweep`)."""
         H, off = self._reduced
         return _zh.vertices_sweep(self._facets, H, off, self._keys_r, self.centroid)
+
+    def parallelograms(self) -> Parallelograms:
+        """Boundary parallelograms of the standard tiling and their transition counts (3-D).
+
+        Returns
+        -------
+        Parallelograms
+            One row per pair of reduced generators: indices, first input generators (and their
+            wavelengths), transition counts and areas.
+
+        Notes
+        -----
+        The boundary of a 3-zonotope with p generators (zero ones dropped, parallel ones merged)
+        is tiled by p(p − 1) parallelograms, ± pairs; zonogon facets are tiled too. The centre of
+        the tile {I, J} is reached by the cube point x = ½ on I and J and x = [n · g > 0]
+        elsewhere; its circular transition count is that of zonohedra's ``transitionsdf``
+        (Davis, vignette "The 2-Transition Subcomplex and the 2-Transition Surface"). For the CIE
+        1931 2° CMFs at 1 nm with ``Tolerances(parallel=1e-6)`` both give 340 generators, 1802
+        tiles with 8 transitions and 95.5 % of the area with 2 (tests/test_zonohedra.py).
+
+        References
+        ----------
+        .. [1] Burns, S. A. (2021). The location of optimal object colors with more than two
+           transitions. JOSA A 38(2), 202–215.
+        .. [2] Davis, G. zonohedra (R package), ``transitionsdf``, ``boundarypgramdata``.
+        """
+        self._require_3d("parallelograms")
+        H, _, group, _ = self._reduction
+        pairs, reps, tr = _zh.pgram_transitions(self.generators, H, group, self._facets)
+        area = np.linalg.norm(np.cross(H[pairs[:, 0]], H[pairs[:, 1]]), axis=1)
+        wl = None if self.wavelengths is None else self.wavelengths[reps]
+        return Parallelograms(pairs, reps, wl, tr, area)
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """Watertight triangulated surface: ``(vertices (V, 3), faces (F, 3))``, outward CCW."""
