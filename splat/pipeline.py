@@ -127,11 +127,18 @@ def _write_tiff(path: Path, a: np.ndarray) -> Path:
     )
 
 
-def _write_png8(path: Path, rgb: np.ndarray) -> Path:
+def _write_png8(path: Path, rgb: np.ndarray, *, upscale: int = 1) -> Path:
     from PIL import Image
 
-    img = (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8)
-    return _atomic(path, lambda p: Image.fromarray(img).save(p, format="PNG"))
+    img = Image.fromarray((np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8))
+    if upscale > 1:
+        img = img.resize((img.width * upscale, img.height * upscale), Image.Resampling.BICUBIC)
+    return _atomic(path, lambda p: img.save(p, format="PNG"))
+
+
+def preview_upscale(shape: tuple[int, int]) -> int:
+    """Integer factor that brings a small image's shorter side to ≥ 400 px for SIFT (1 to 4)."""
+    return int(min(4, max(1, np.ceil(400 / min(shape)))))
 
 
 def _check_out(spec: CaptureSpec, out: Path) -> Path:
@@ -248,7 +255,7 @@ def poses_step(
         for i, v in enumerate(views):
             path = out / "previews" / f"{_stem(v.name)}.png"
             if not path.is_file():
-                _write_png8(path, _preview(v, whites[v.camera]))
+                _write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
             if progress is not None:
                 progress("previews", i + 1, len(views))
         if progress is not None:
@@ -282,12 +289,13 @@ def poses_step(
             )
         src = model.cameras[by_name[reg[0].name].camera_id]
         H, W = mine[0].shape
-        if (src.width, src.height) != (W, H):
+        f = preview_upscale((H, W)) if source == "pycolmap" else 1
+        if (src.width, src.height) != (W * f, H * f):
             raise CaptureError(
                 f"poses give camera {c.folder!r} the size {src.width}×{src.height}; its RAW "
                 f"files are {W}×{H}."
             )
-        fx, fy, cx, cy = src.pinhole()
+        fx, fy, cx, cy = (x / f for x in src.pinhole())
         cams[k + 1] = ColmapCamera(k + 1, "PINHOLE", W, H, (fx, fy, cx, cy))
         for v in reg:
             im = by_name[v.name]
@@ -653,7 +661,7 @@ def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, sigma: flo
 
 def infeasible_share(problem, responses: np.ndarray, delta: float, *, n: int = 200, seed: int = 0) -> dict:
     """Share of (sampled) responses farther than ``delta`` (max-norm) from the object-colour solid."""
-    from zonotope._lp import distance_to_zonotope
+    from zonotope import distance_to_zonotope
 
     flat = responses.reshape(-1, responses.shape[-1])
     rng = np.random.default_rng(seed)

@@ -1,0 +1,215 @@
+"""splat.capture: capture.toml validation, RAW → linear mosaic (no white balance, no demosaicing), EXIF
+exposure, saturated/dead pixels, full-colour DNGs, the white → 1 scale."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from splat.capture import (
+    CameraSpec,
+    CaptureError,
+    camera_white,
+    exif_exposure,
+    load_views,
+    read_capture,
+    read_linear,
+    white_scale,
+)
+
+from .capture_helpers import write_dng_exif
+
+NEUTRAL = np.array([0.5, 1.0, 0.7])
+
+
+def _bayer(path, dn, *, cfa="RGGB", black=256, white=4095, t=1 / 100, iso=100, f=4.0):
+    write_dng_exif(
+        path, dn, cfa=cfa, black=black, white=white, neutral=NEUTRAL, exposure_time=t, iso=iso, fnumber=f
+    )
+
+
+def _toml(root, body):
+    (root / "capture.toml").write_text(body)
+    return root
+
+
+def _simple(tmp_path, n=2, size=(32, 40), extra=""):
+    (tmp_path / "a").mkdir()
+    rng = np.random.default_rng(0)
+    for k in range(n):
+        _bayer(tmp_path / "a" / f"IMG_{k}.dng", rng.integers(300, 4000, size), t=1 / 100 * (k + 1))
+    return _toml(tmp_path, f'illuminant = "D65"\n[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n{extra}')
+
+
+def test_linear_mosaic_exact_values_and_masks(tmp_path):
+    dn = np.full((32, 40), 1000, np.int64)
+    dn[0, 0] = 4095  # saturated R site
+    dn[1, 1] = 0  # dead B site (below the black level 256: a defective pixel)
+    dn[2, 3] = 2000
+    _bayer(tmp_path / "x.dng", dn, cfa="GRBG")
+    values, weight, info = read_linear(tmp_path / "x.dng")
+    assert info["cfa"] == "GRBG" and not info["full_colour"]
+    # channel of each site for GRBG: (0,0) G, (0,1) R, (1,0) B, (1,1) G
+    assert weight[0, 1, 0] == 1 and weight[0, 1].sum() == 1
+    assert weight[1, 0, 2] == 1 and weight[1, 0].sum() == 1
+    assert values[2, 3, 0] == pytest.approx((2000 - 256) / (4095 - 256), abs=1e-7)  # (2,3) is R in GRBG
+    assert values[0, 2, 1] == pytest.approx((1000 - 256) / (4095 - 256), abs=1e-7)
+    assert weight[0, 0].sum() == 0 and weight[1, 1].sum() == 0  # saturated and dead: weight 0
+    assert info["n_saturated"] == 1 and info["n_dead"] == 1
+    assert np.all(values[weight == 0][:0] == 0)
+    assert weight.sum() == dn.size - 2  # one measured channel per pixel, minus the two bad ones
+
+
+def test_overrides_black_white_cfa(tmp_path):
+    dn = np.full((32, 32), 1100, np.int64)
+    _bayer(tmp_path / "x.dng", dn)
+    values, weight, info = read_linear(
+        tmp_path / "x.dng", CameraSpec("", "", cfa="BGGR", black_level=100, white_level=2100)
+    )
+    assert info["cfa"] == "BGGR" and weight[0, 0, 2] == 1
+    assert values[0, 0, 2] == pytest.approx(0.5)
+
+
+def test_full_colour_linear_raw(tmp_path):
+    data = np.zeros((32, 36, 3), np.int64) + np.array([100, 2000, 4095])
+    data[0, 0] = 0
+    write_dng_exif(
+        tmp_path / "f.dng",
+        data,
+        cfa=None,
+        black=64,
+        white=4095,
+        neutral=NEUTRAL,
+        exposure_time=0.01,
+        iso=200,
+        fnumber=2.8,
+    )
+    values, weight, info = read_linear(tmp_path / "f.dng")
+    assert info["full_colour"] and values.shape == (32, 36, 3)
+    assert values[1, 1, 1] == pytest.approx((2000 - 64) / (4095 - 64), abs=1e-7)
+    assert weight[1, 1].sum() == 0  # the blue sample saturates: the whole pixel is dropped
+    assert weight[0, 0].sum() == 0 and info["n_dead"] == 1
+    assert exif_exposure(tmp_path / "f.dng") == pytest.approx(0.01 * 200 / 2.8**2)
+
+
+def test_exposure_relative_to_median(tmp_path):
+    spec = read_capture(_simple(tmp_path, n=3))
+    views = load_views(spec)
+    assert [v.exif for v in views] == pytest.approx([0.5, 1.0, 1.5])  # t = 1/100, 2/100, 3/100
+
+
+def test_exposure_override_and_missing(tmp_path):
+    spec = read_capture(_simple(tmp_path, n=2, extra='exposure = {"IMG_0.dng" = 0.08}\n'))
+    exif_1 = 2 / 100 * 100 / 4.0**2  # t × ISO / N² of IMG_1; IMG_0 is overridden with 0.08
+    med = (0.08 + exif_1) / 2
+    assert [v.exif for v in load_views(spec)] == pytest.approx([0.08 / med, exif_1 / med])
+
+
+def test_mixed_sizes_refused(tmp_path):
+    _simple(tmp_path, n=2)
+    _bayer(tmp_path / "a" / "odd.dng", np.full((40, 40), 500))
+    with pytest.raises(CaptureError, match="mixes image sizes"):
+        load_views(read_capture(tmp_path))
+
+
+def test_unreadable_raw_refused(tmp_path):
+    _simple(tmp_path, n=1)
+    (tmp_path / "a" / "broken.dng").write_bytes(b"II*\x00garbage")
+    with pytest.raises(CaptureError, match=r"broken\.dng"):
+        load_views(read_capture(tmp_path))
+
+
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        ("illuminant = \n", "not valid TOML"),
+        ('colour = 1\n[[camera]]\nfolder = "a"\nssf = "x"\n', "unknown key"),
+        ('[[camera]]\nssf = "Nikon 5100 (NPL)"\n', "lacks the key 'folder'"),
+        ('[[camera]]\nfolder = "nope"\nssf = "Nikon 5100 (NPL)"\n', "does not exist"),
+        ('[[camera]]\nfolder = "a"\nssf = "cams/missing.json"\n', "SSF file"),
+        ('[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n[white]\nmethod = "grey-world"\n', "white"),
+        (
+            '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n[white]\nmethod = "patch"\n'
+            'image = "a/IMG_0.dng"\n'
+            "box = [5, 5, 2, 2]\n",
+            "box",
+        ),
+        (
+            '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n[holdout]\nimages = ["a/none.dng"]\n',
+            "holdout",
+        ),
+        (
+            '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n'
+            '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n',
+            "twice",
+        ),
+        ("", "at least one"),
+    ],
+)
+def test_bad_capture_files(tmp_path, body, match):
+    _simple(tmp_path, n=1)
+    _toml(tmp_path, body)
+    with pytest.raises(CaptureError, match=match):
+        read_capture(tmp_path)
+
+
+def test_missing_capture_file_and_empty_folder(tmp_path):
+    with pytest.raises(CaptureError, match="no capture file"):
+        read_capture(tmp_path)
+    (tmp_path / "a").mkdir()
+    _toml(tmp_path, '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n')
+    with pytest.raises(CaptureError, match="no RAW files"):
+        read_capture(tmp_path)
+
+
+def test_unknown_ssf(tmp_path):
+    _simple(tmp_path, n=1)
+    _toml(tmp_path, '[[camera]]\nfolder = "a"\nssf = "Kodak Brownie"\n')
+    with pytest.raises(CaptureError, match="neither a built-in camera"):
+        read_capture(tmp_path).load_ssf(0)
+
+
+def _white_scene(tmp_path, level, *, n=2, box=None, reflectance=1.0):
+    """Views with a flat neutral patch at ``level`` × white (raw, exposure 1) and darker coloured noise."""
+    (tmp_path / "a").mkdir()
+    _toml(tmp_path, '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n')
+    import zonotope
+
+    cam, light = zonotope.camera("Nikon 5100 (NPL)"), zonotope.illuminant("D65")
+    g = zonotope.generators(cam, light, zonotope.common_shape(cam, light, interval=5), normalise=None).values
+    white = g.sum(0) / g.sum(0).max()
+    rng = np.random.default_rng(1)
+    for k in range(n):
+        e = [0.5, 1.0, 2.0][k]
+        rgb = rng.uniform(0.05, 0.4, (32, 40, 3)) * white * level * e
+        rgb[4:12, 4:14] = level * e * white
+        from isp.stages import mosaic
+
+        dn = np.round(256 + mosaic(rgb, cfa="RGGB") * (4095 - 256))
+        _bayer(tmp_path / "a" / f"IMG_{k}.dng", dn, t=e / 100)
+    if box is not None:
+        _toml(
+            tmp_path,
+            '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n[white]\nmethod = "patch"\n'
+            f'image = "a/IMG_1.dng"\nbox = {list(box)}\nreflectance = {reflectance}\n',
+        )
+    assert camera_white(read_capture(tmp_path), 0) == pytest.approx(white)
+    return white
+
+
+def test_brightest_neutral_finds_the_white_level(tmp_path):
+    white = _white_scene(tmp_path, 0.3)
+    spec = read_capture(tmp_path)
+    views = load_views(spec)  # exposures 0.5 / 1 around the median 0.75
+    s = white_scale(spec, views)
+    # relative exposure 1 ↔ absolute 0.75: the white's raw level there is 0.3 × 0.75 (DN rounding ≤ 1e-3)
+    assert s["scale"][0] == pytest.approx(0.3 * 0.75 * white, rel=3e-3)
+
+
+def test_patch_scale_with_reflectance(tmp_path):
+    white = _white_scene(tmp_path, 0.3, box=(4, 4, 14, 12), reflectance=0.5)
+    spec = read_capture(tmp_path)
+    s = white_scale(spec, load_views(spec))
+    # the marked patch has reflectance 0.5: a perfect white would be twice as bright
+    assert s["method"] == "patch"
+    assert s["scale"][0] == pytest.approx(2 * 0.3 * 0.75 * white, rel=3e-3)
