@@ -15,7 +15,7 @@ by a ``zonotope.correct`` estimator.
 'demosaic'
 """
 
-from ._errors import PipelineError, RawFormatError
+from ._errors import PipelineError, PipelineMethodError, RawFormatError
 from .dng import (
     DNGProfile,
     camera_neutral_to_xy,
@@ -56,6 +56,7 @@ __all__ = [
     "MetamerCorrection",
     "Pipeline",
     "PipelineError",
+    "PipelineMethodError",
     "RawFormatError",
     "RawImage",
     "Stage",

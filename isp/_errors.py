@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from zonotope import ZonotopeError
+from zonotope import UnknownMethodError, ZonotopeError
 
-__all__ = ["PipelineError", "RawFormatError"]
+__all__ = ["PipelineError", "PipelineMethodError", "RawFormatError"]
 
 
 class RawFormatError(ZonotopeError, ValueError):
@@ -15,3 +15,8 @@ class RawFormatError(ZonotopeError, ValueError):
 class PipelineError(ZonotopeError, ValueError):
     """A pipeline asked for something it cannot do: unknown stage name, wrong array shape for a stage,
     an output path that would overwrite the input, ..."""
+
+
+class PipelineMethodError(PipelineError, UnknownMethodError):
+    """An unknown ``method=`` name of an ``isp`` registry (demosaicing, tone mapping); the message
+    lists the valid names."""

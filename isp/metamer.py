@@ -13,10 +13,8 @@ so ``import isp`` stays light. (Split out of :mod:`isp.pipeline`, which knows no
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -30,26 +28,10 @@ __all__ = ["METAMER_RANGE", "MetamerCorrection", "metamer_correction"]
 #: Default wavelength range (nm) and step of the metamer correction fit: 31 samples keep fitting
 #: and the per-colour optimisations fast; the range is narrowed to the curves' common range.
 METAMER_RANGE = (400.0, 700.0, 10.0)
-_SPECTRAL_SUFFIXES = (".json", ".csv", ".txt", ".reflect", ".spd")
 
 #: Errors of one colour's metamer estimate that fall back to the regression (e.g. Qhull on the
 #: degenerate mismatch volume of a response on or outside the solid's boundary).
 _ESTIMATOR_ERRORS = (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError)
-
-
-def _spectral(source, builtin: Callable, read: Callable, what: str):
-    """A built-in curve set by name, or one read from a file (clear errors, no tracebacks)."""
-    if not isinstance(source, str | os.PathLike):
-        return source  # already a colour MSDS
-    path = Path(source)
-    if path.is_file():
-        try:
-            return read(path)
-        except (OSError, KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"cannot read {what} file {path}: {exc}") from exc
-    if path.suffix.lower() in _SPECTRAL_SUFFIXES or os.sep in str(source):
-        raise FileNotFoundError(f"{what} file {path} not found.")
-    return builtin(str(source))
 
 
 @dataclass(eq=False)
@@ -206,8 +188,8 @@ def metamer_correction(camera, *, method: str = "Prior", illuminant="D65", train
     import zonotope
     from zonotope.correct import fit_correction
 
-    cam = _spectral(camera, zonotope.camera, zonotope.read_camera, "camera")
-    train = _spectral(training, zonotope.reflectances, zonotope.read_reflectances, "training")
+    cam = zonotope.load_camera(camera)
+    train = zonotope.load_reflectances(training)
     if shape is None:
         lo, hi, step = METAMER_RANGE
         curves = [cam, zonotope.observer(target), zonotope.illuminant(illuminant)]

@@ -85,9 +85,7 @@ def spectral_setup(camera, *, illuminant: str = "D65", shape=None) -> SpectralSe
     """
     import zonotope
 
-    if isinstance(camera, str | os.PathLike) and str(camera).lower().endswith((".json", ".csv")):
-        camera = zonotope.read_camera(camera)
-    cam = zonotope.camera(camera)
+    cam = zonotope.load_camera(camera)
     obs = zonotope.observer("CIE 1931 2°")
     light = zonotope.illuminant(illuminant)
     if shape is None:

@@ -17,7 +17,9 @@ from collections.abc import Callable
 import colour
 import numpy as np
 
-from ._errors import PipelineError
+from zonotope import MethodRegistry
+
+from ._errors import PipelineError, PipelineMethodError
 from .dng import D50_xy, DNGProfile
 from .raw import check_cfa
 
@@ -284,20 +286,16 @@ def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
                    _PAD["Menon 2007"])
 
 
-#: Demosaicing algorithms by name (``demosaic(..., method=name)``).
-DEMOSAIC_METHODS: dict[str, Callable[..., np.ndarray]] = {
-    "bilinear": demosaic_bilinear,
-    "Malvar 2004": demosaic_Malvar2004,
-    "Menon 2007": demosaic_Menon2007,
-}
+#: Demosaicing algorithms by name (``demosaic(..., method=name)``; case and punctuation ignored).
+DEMOSAIC_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
+    "demosaicing", error=PipelineMethodError)
+DEMOSAIC_METHODS.register("bilinear", demosaic_bilinear)
+DEMOSAIC_METHODS.register("Malvar 2004", demosaic_Malvar2004)
+DEMOSAIC_METHODS.register("Menon 2007", demosaic_Menon2007)
 
 
-def _resolve(method: str, table: dict, what: str) -> str:
-    key = "".join(ch for ch in str(method).lower() if ch.isalnum())
-    for name in table:
-        if "".join(ch for ch in name.lower() if ch.isalnum()) == key:
-            return name
-    raise ValueError(f"{what}={method!r} is not known; choose one of {list(table)}.")
+def _resolve(method: str, table: MethodRegistry, what: str) -> str:
+    return table.resolve(method, argument=what)
 
 
 def demosaic(mosaic, *, cfa: str = "RGGB", method: str = "Malvar 2004") -> np.ndarray:
@@ -317,7 +315,7 @@ def demosaic(mosaic, *, cfa: str = "RGGB", method: str = "Malvar 2004") -> np.nd
 
     Raises
     ------
-    ValueError
+    PipelineMethodError
         Unknown method (the message lists the valid ones).
     """
     m = _mosaic_array(mosaic)
@@ -525,10 +523,10 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
 
 
 #: Global tone-mapping operators by name (``tonemap(..., method=name)``).
-TONEMAP_METHODS: dict[str, Callable[..., np.ndarray]] = {
-    "Reinhard 2002": tonemap_Reinhard2002,
-    "clip": tonemap_clip,
-}
+TONEMAP_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
+    "tone-mapping", error=PipelineMethodError)
+TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002)
+TONEMAP_METHODS.register("clip", tonemap_clip)
 
 
 def tonemap(rgb, *, method: str = "Reinhard 2002", **options) -> np.ndarray:

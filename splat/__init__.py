@@ -20,7 +20,7 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "_errors": ["DataFormatError", "SplatError"],
+    "_errors": ["DataFormatError", "SplatError", "SplatMethodError"],
     "gaussians": ["Gaussians", "init_gaussians", "inverse_softplus", "quat_to_rotmat"],
     "camera": ["Camera", "look_at", "qvec_to_rotmat", "rotmat_to_qvec"],
     "rendering": ["RENDER_METHODS", "Projected", "RenderConfig", "RenderOutput", "project", "render",

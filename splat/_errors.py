@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from zonotope._errors import ZonotopeError
+from zonotope import UnknownMethodError, ZonotopeError
 
-__all__ = ["DataFormatError", "SplatError"]
+__all__ = ["DataFormatError", "SplatError", "SplatMethodError"]
 
 
 class SplatError(ZonotopeError, ValueError):
@@ -13,3 +13,7 @@ class SplatError(ZonotopeError, ValueError):
 
 class DataFormatError(SplatError):
     """A COLMAP model or ``transforms.json`` file that cannot be read (names the file and the line)."""
+
+
+class SplatMethodError(SplatError, UnknownMethodError):
+    """An unknown ``method=`` name of a ``splat`` registry (rendering); the message lists the valid names."""

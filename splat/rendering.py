@@ -31,7 +31,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._errors import SplatError
+from zonotope import MethodRegistry
+
+from ._errors import SplatError, SplatMethodError
 from .camera import Camera
 from .gaussians import Gaussians, covariances_from
 
@@ -329,7 +331,11 @@ def render_tiled(gaussians: Gaussians, camera: Camera, *, config: RenderConfig =
     return RenderOutput(untile(C), untile(1 - T), n_dropped, jnp.max(counts).astype(jnp.int32))
 
 
-RENDER_METHODS = {"reference": render_reference, "tiled": render_tiled}
+#: Rendering back-ends by name (``render(..., method=name)``); ``"reference"`` is the dense
+#: reference twin of the tiled renderer.
+RENDER_METHODS: MethodRegistry = MethodRegistry("render", error=SplatMethodError)
+RENDER_METHODS.register("tiled", render_tiled, reference_twin="reference")
+RENDER_METHODS.register("reference", render_reference, reference_twin=None)
 
 
 def render(gaussians: Gaussians, camera: Camera, *, method: str = "tiled",
@@ -356,8 +362,8 @@ def render(gaussians: Gaussians, camera: Camera, *, method: str = "tiled",
 
     Raises
     ------
-    SplatError
-        Unknown ``method``.
+    SplatMethodError
+        Unknown ``method`` (a :class:`SplatError`; the message lists the valid ones).
 
     Examples
     --------
@@ -369,9 +375,5 @@ def render(gaussians: Gaussians, camera: Camera, *, method: str = "tiled",
     >>> out.image.shape, int(out.n_dropped)
     ((16, 16, 5), 0)
     """
-    try:
-        fn = RENDER_METHODS[method]
-    except KeyError:
-        raise SplatError(f"method={method!r} is not a render method; use one of {sorted(RENDER_METHODS)}.") \
-            from None
+    fn = RENDER_METHODS[method]
     return fn(gaussians, camera, config=config, mask=mask)

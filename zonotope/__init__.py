@@ -3,6 +3,32 @@
 Exact object-colour solids (zonotopes), metamer mismatch volumes, Vora values and
 metamer-based colour correction.
 
+Module map, in data-flow order (each layer imports only the layers above it; the test
+``tests/test_architecture.py`` enforces it):
+
+=========================  ==================================================================
+``spectra``, ``_loading``  spectral curves on one grid: built-in cameras, observers,
+                           illuminants, reflectance sets; file readers; :func:`generators`
+``solid``, ``polytope``    :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
+``vora``                   Vora values and camera-set ranking
+``mismatch``               metamer mismatch volumes (:func:`metamer_mismatch`,
+                           :class:`MetamerMismatch`), certified by facet refinement
+``prior``, ``atypical``    a reflectance prior and atypical test spectra
+``correct``                estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`
+``image``                  :func:`correct_image` (unique colours, batches, cache)
+``evaluate``, ``report``,  applications: ΔE00 evaluation, HTML/Markdown reports, pictures,
+``viz``, ``cli``           the ``zonotope`` command
+=========================  ==================================================================
+
+Shared infrastructure: ``_errors`` (one exception hierarchy), ``_tol`` (every tolerance, with
+its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``parallel``
+(executors), ``_io`` (atomic output files).
+
+``import zonotope`` loads the spectra and the solid; everything else loads on first use of a
+public name. Two module names are not shadowed by a function of the same name:
+``zonotope.correct`` and ``zonotope.evaluate`` are modules (their one-call functions are
+``zonotope.correct.correct`` and ``zonotope.evaluate.evaluate``).
+
 >>> import zonotope
 >>> G = zonotope.generators("Nikon 5100 (NPL)", "D65")
 >>> solid = zonotope.Zonotope(G)
@@ -10,7 +36,22 @@ metamer-based colour correction.
 True
 """
 
-from ._errors import GeometryError, InfeasibleResponseError, SpectralDataError, ZonotopeError
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import PackageNotFoundError, version
+
+from ._errors import (
+    GeometryError,
+    InfeasibleResponseError,
+    SpectralDataError,
+    UnknownMethodError,
+    ZonotopeError,
+)
+from ._loading import SpectralFileNotFoundError, load_camera, load_reflectances
+from ._registry import Method, MethodRegistry
+from ._tol import TOL, Tolerances
+from .solid import Support, Zonotope
 from .spectra import (
     CAMERAS,
     ILLUMINANTS,
@@ -30,22 +71,41 @@ from .spectra import (
     resample,
     spectral_matrix,
 )
+from .vora import CameraSetScore, projector, rank_camera_sets, vora_value
+
+try:
+    __version__ = version("zonotope")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
+    __version__ = "0+unknown"
 
 __all__ = [
     "CAMERAS",
     "ILLUMINANTS",
     "OBSERVERS",
     "REFLECTANCES",
+    "TOL",
+    "CameraSetScore",
     "GeometryError",
     "InfeasibleResponseError",
+    "Method",
+    "MethodRegistry",
     "SpectralDataError",
+    "SpectralFileNotFoundError",
+    "Support",
+    "Tolerances",
+    "UnknownMethodError",
+    "Zonotope",
     "ZonotopeError",
     "camera",
     "common_shape",
     "generators",
     "illuminant",
     "list_builtin",
+    "load_camera",
+    "load_reflectances",
     "observer",
+    "projector",
+    "rank_camera_sets",
     "read_camera",
     "read_reflectances",
     "read_sfu1995",
@@ -53,14 +113,40 @@ __all__ = [
     "reflectances",
     "resample",
     "spectral_matrix",
+    "vora_value",
 ]
-__version__ = "0.1.0"
 
-from ._tol import TOL, Tolerances
-from .solid import Support, Zonotope
+#: Public names loaded on first use, by module.
+_EXPORTS = {
+    "polytope": ["Polytope"],
+    "mismatch": ["ORACLES", "CertifiedMMV", "MMVBatch", "MetamerMismatch", "channelwise_intersection",
+                 "metamer_mismatch", "metamer_mismatch_batch"],
+    "prior": ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"],
+    "atypical": ["ATYPICAL_KINDS", "atypical_reflectances"],
+    "correct": ["CORRECTION_METHODS", "CorrectionProblem", "Corrector", "check_reflectances",
+                "correction_problem", "fit_Centroid", "fit_Cheung2004", "fit_Dyer2017",
+                "fit_Finlayson2015", "fit_MAP", "fit_Prior", "fit_Projection", "fit_correction",
+                "mmv_centroids", "root_polynomial_terms"],
+    "image": ["correct_image"],
+    "evaluate": ["DEFAULT_METHODS", "Evaluation", "EvaluationRow", "TestSet", "natural_test_sets"],
+    "report": ["ReportExistsError", "write_report"],
+    "viz": ["mmv_polytope", "plot_grey_mmvs", "plot_mmv", "plot_mmv_comparison", "plot_object_colour_solid",
+            "plot_sensitivities", "plot_spectral_locus", "plot_vora_chain"],
+    "parallel": ["ProgressCallback"],
+    "_lp": ["distance_to_zonotope"],
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 
-__all__ += ["TOL", "Support", "Tolerances", "Zonotope"]
+__all__ += sorted(_WHERE)
 
-from .vora import CameraSetScore, projector, rank_camera_sets, vora_value  # noqa: E402
 
-__all__ += ["CameraSetScore", "projector", "rank_camera_sets", "vora_value"]
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'zonotope' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

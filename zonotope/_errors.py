@@ -6,6 +6,7 @@ __all__ = [
     "GeometryError",
     "InfeasibleResponseError",
     "SpectralDataError",
+    "UnknownMethodError",
     "ZonotopeError",
 ]
 
@@ -35,3 +36,24 @@ class InfeasibleResponseError(ZonotopeError, ValueError):
     def __init__(self, message: str, *, distance: float | None = None) -> None:
         super().__init__(message)
         self.distance = distance
+
+
+class UnknownMethodError(ZonotopeError, ValueError):
+    """A ``method=`` (or similar) name that no registry knows.
+
+    Attributes
+    ----------
+    argument : str
+        The argument that named it (``"method"``, ``"demosaic"``).
+    value
+        The name given.
+    valid : tuple of str
+        The canonical names that would have been accepted.
+    """
+
+    def __init__(self, message: str, *, argument: str = "method", value: object = None,
+                 valid: tuple[str, ...] = ()) -> None:
+        super().__init__(message)
+        self.argument = argument
+        self.value = value
+        self.valid = valid

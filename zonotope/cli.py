@@ -66,11 +66,11 @@ def _shape(args: argparse.Namespace):
     import colour
 
     from . import spectra
-    from .correct import _load_camera
+    from ._loading import load_camera
 
     start, end = args.start, args.end
     if start is None or end is None:
-        common = spectra.common_shape(*(_load_camera(c) for c in args.camera))
+        common = spectra.common_shape(*(load_camera(c) for c in args.camera))
         start = max(400.0, common.start) if start is None else start
         end = min(700.0, common.end) if end is None else end
     return colour.SpectralShape(start, end, args.interval)

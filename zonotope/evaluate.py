@@ -29,8 +29,8 @@ from . import spectra
 from ._errors import SpectralDataError, ZonotopeError
 from .atypical import atypical_reflectances
 from .correct import (
+    CORRECTION_METHODS,
     CorrectionProblem,
-    _resolve_method,
     correction_problem,
     fit_correction,
 )
@@ -46,9 +46,7 @@ __all__ = [
 ]
 
 #: Estimators evaluated by default (every one of CORRECTION_METHODS).
-DEFAULT_METHODS: tuple[str, ...] = ("Cheung 2004", "Finlayson 2015", "Dyer 2017", "Centroid",
-                                    "Projection", "MAP", "Prior")
-_REGRESSIONS = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
+DEFAULT_METHODS: tuple[str, ...] = tuple(CORRECTION_METHODS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -289,9 +287,10 @@ def evaluate(
                                      training=training)
         label = " + ".join(problem.sources)
         fitted = {}
-        for m in dict.fromkeys(_resolve_method(m) for m in methods):
-            opts = {"noise": noise} if m != "Dyer 2017" and noise > 0 else {}
-            if m == "Centroid":
+        for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
+            props = CORRECTION_METHODS.properties(m)
+            opts = {"noise": noise} if props["noise"] and noise > 0 else {}
+            if props["centroid"]:
                 opts = {"delta": 3 * noise, "eps": centroid_eps}
             try:
                 fitted[m] = fit_correction(problem, method=m, **opts)
@@ -308,7 +307,8 @@ def evaluate(
                         f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
                         "camera's object-colour solid (no reflectance produces them); the MMV estimators "
                         "used the nearest feasible response (delta = 3σ), the others extrapolate.")
-            if "Centroid" in fitted:
+            centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
+            if centroid is not None:
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", len(C))
                 t0 = time.perf_counter()
@@ -319,11 +319,11 @@ def evaluate(
                 if progress:
                     progress(f"{label} · {ts.name}: {m}", len(C))
                 t0 = time.perf_counter()
-                E = cents if m == "Centroid" else est(C)
-                secs = time.perf_counter() - t0 + (mmv_time if m == "Centroid" else 0.0)
+                E = cents if m == centroid else est(C)
+                secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
                 dE = problem.delta_E(E, T)
                 inside = None
-                if m in _REGRESSIONS:
+                if CORRECTION_METHODS.properties(m)["closed_form"]:
                     inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
                 rows.append(EvaluationRow(label, ts.name, ts.kind, m, len(C), *_stats(dE),
                                           inside=inside, seconds=secs))

@@ -18,11 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import SpectralDataError
-from .correct import Corrector, fit_correction
+from .correct import CORRECTION_METHODS, Corrector, fit_correction
 
 __all__ = ["correct_image"]
-
-_CHEAP = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
 
 
 def _fingerprint(corrector: Corrector, quantum: float) -> str:
@@ -124,7 +122,7 @@ def correct_image(
             f"got shape {img.shape}.")
     if batch_size < 1:
         raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
-    if corrector.method in _CHEAP:
+    if CORRECTION_METHODS.properties(corrector.method)["closed_form"]:
         return corrector(img)
     if isinstance(base, str):
         if base != "auto":

@@ -129,7 +129,8 @@ def write_report(
     import colour
 
     from . import spectra
-    from .correct import _load_camera, correction_problem
+    from ._loading import load_camera
+    from .correct import correction_problem
     from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
     from .vora import rank_camera_sets, vora_value
 
@@ -147,7 +148,7 @@ def write_report(
     step = progress or (lambda description, n: None)
 
     step("loading cameras", len(cameras))
-    curves = [_load_camera(c) for c in cameras]
+    curves = [load_camera(c) for c in cameras]
     full = correction_problem(curves, illuminant=illuminant, shape=shape)  # also checks duplicates
     names = list(full.sources)
     singles = [correction_problem([c], illuminant=illuminant, shape=shape) for c in curves]
