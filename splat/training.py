@@ -264,14 +264,20 @@ def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainStat
 
 
 def save_checkpoint(state: TrainState, path: str | Path) -> Path:
-    """Save a :class:`TrainState` as ``.npz`` (leaves in pytree order)."""
+    """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
+    from zonotope._io import atomic_path
+
     leaves = jax.tree.leaves((state.params, state.opt_state, state.alive, state.grad_accum,
                               state.grad_count))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, step=state.step, key=np.asarray(jax.random.key_data(state.key)),
-             **{f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)})
-    return path
+    arrays = {f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)}
+    key = np.asarray(jax.random.key_data(state.key))
+    # written to a temporary sibling, synced, then renamed: a kill mid-save leaves the previous
+    # checkpoint intact (np.savez in place truncated it first)
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:  # a file object: np.savez appends no suffix
+            np.savez(fh, step=state.step, key=key, **arrays)
+
+    return atomic_path(Path(path), write)
 
 
 def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
@@ -332,7 +338,21 @@ def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfi
         raise SplatError(f"views are {cams.height}×{cams.width} pixels but images are {images.shape[1:3]}.")
     masks = jnp.asarray(np.stack([capture.channel_mask(v) for v in capture.views]), jnp.float32)
     exposures = jnp.asarray([v.exposure for v in capture.views], jnp.float32)
+    # validate everything before the first step: only values that enter the loss must be finite, and
+    # anything elsewhere (NaN in unmeasured channels or at zero weight) is zeroed, since 0 · NaN = NaN
+    # would poison the gradients of every Gaussian
+    if not bool(jnp.all(jnp.isfinite(weights))) or bool(jnp.any(weights < 0)):
+        raise SplatError("weights: must be finite and ≥ 0 (0 where a pixel or channel is not measured).")
+    used = (weights * masks[:, None, None, :]) > 0
+    if not bool(jnp.all(jnp.isfinite(images) | ~used)):
+        v_bad = int(jnp.argmax(jnp.any(~jnp.isfinite(images) & used, axis=(1, 2, 3))))
+        raise SplatError(f"images: view {v_bad} ({capture.views[v_bad].name!r}) has NaN or inf in channels "
+                         "it measures with a weight > 0; set their weight to 0 or fix the data.")
+    images = jnp.where(used, images, 0.0)
     bounds = np.asarray(bounds, float)
+    if bounds.shape != (2, 3) or not np.all(np.isfinite(bounds)) or not np.all(bounds[1] > bounds[0]):
+        raise SplatError(f"bounds: expected a finite (2, 3) box [min, max] with max > min, got "
+                         f"{bounds.tolist()}.")
     extent = float(np.linalg.norm(bounds[1] - bounds[0]))
     state = init_state(config, bounds=bounds, n_channels=N, points=points, colours=colours)
     if resume is not None:
