@@ -149,9 +149,9 @@ class SimCaptureConfig:
     supersample: int = 2
     illuminant: str = "D65"
     interval: float = 5.0
-    gain: float = 0.55
+    gain: float = 0.6
     noise: bool = True
-    max_stops: float = 0.8
+    max_stops: float = 1.0
     cell: float = 0.2
     seed: int = 0
 
@@ -541,10 +541,10 @@ def build_scene(config: SimCaptureConfig = SimCaptureConfig()) -> SimScene:
     cams = [zonotope.camera(c.ssf) for c in config.cameras]
     light = zonotope.illuminant(config.illuminant)
     obs = zonotope.observer("CIE 1931 2°")
-    shape = zonotope.common_shape(*cams, obs, light, interval=config.interval)
+    sets = {name: zonotope.reflectances(name) for name in zonotope.list_builtin()["reflectances"]}
+    shape = zonotope.common_shape(*cams, obs, light, *sets.values(), interval=config.interval)
     grid = np.asarray(shape.wavelengths, dtype=np.float64)
     setups = [spectral_setup(c, illuminant=config.illuminant, shape=shape) for c in cams]
-    sets = {name: zonotope.reflectances(name) for name in zonotope.list_builtin()["reflectances"]}
     rows, names = [np.full(grid.size, 0.9)], ["flat white 0.9"]
     cc = _resample(sets["ColorChecker N Ohta"], grid)
     rows.append(cc[18 + 5])   # the chart's black patch: the dark cell borders and the chart body
