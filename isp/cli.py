@@ -302,6 +302,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ZonotopeError, FileNotFoundError, ValueError) as exc:
-        print(f"isp: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print("isp: interrupted (no output was written or replaced)", file=sys.stderr)
+        return 130
+    except (ZonotopeError, OSError, ValueError) as exc:  # one line, no traceback
+        print("isp: error: " + " ".join(str(exc).split()), file=sys.stderr)
         return 2
