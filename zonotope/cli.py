@@ -1,6 +1,8 @@
 """``zonotope`` command line.
 
-- ``zonotope summary``: object-colour solids and Vora values of cameras;
+- ``zonotope summary``: object-colour solids and Vora values of cameras (built-in names or files);
+- ``zonotope list [cameras|observers|illuminants|reflectances]`` (or ``zonotope cameras``): the built-in
+  curves;
 - ``zonotope evaluate``: ΔE00 of every colour-correction estimator on natural and atypical sets;
 - ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set.
 """
@@ -21,11 +23,13 @@ def _summary(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from . import spectra
+    from ._loading import load_camera
     from .solid import Zonotope
     from .vora import rank_camera_sets, vora_value
 
     console = Console(width=max(Console().width, 120))
     cameras = args.camera or list(spectra.CAMERAS)
+    curves = {c: load_camera(c) for c in cameras}  # built-in names or camera files, as evaluate/report
     shape = colour.SpectralShape(args.start, args.end, args.interval) if args.start else None
     table = Table(title=f"Object-colour solids and Vora values (illuminant {args.illuminant}, "
                         f"target {args.target})")
@@ -35,7 +39,7 @@ def _summary(args: argparse.Namespace) -> int:
     rows = [*cameras, args.target]
     for name in rows:
         is_target = name == args.target
-        curve = spectra.observer(name) if is_target else spectra.camera(name)
+        curve = spectra.observer(name) if is_target else curves[name]
         tgt = spectra.observer(args.target)
         grid = shape or spectra.common_shape(curve, tgt, spectra.illuminant(args.illuminant))
         G = spectra.generators(curve, args.illuminant, grid)
@@ -53,12 +57,35 @@ def _summary(args: argparse.Namespace) -> int:
         for col in ("cameras", "channels", "Vora"):
             sets.add_column(col)
         for size in range(2, len(cameras) + 1):
-            for s in rank_camera_sets(cameras, args.target, args.illuminant, shape, size=size):
+            for s in rank_camera_sets(list(curves.values()), args.target, args.illuminant, shape, size=size):
                 sets.add_row(" + ".join(s.cameras), str(s.channels), f"{s.vora:.4f}")
         console.print(sets)
     console.print("Volumes are in normalised response units (white = 1 per channel); "
                   "the unit cube has volume 1.")
     return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    from . import spectra
+
+    kinds = spectra.list_builtin()
+    kind = args.kind or ("cameras" if args.command == "cameras" else None)
+    for k, names in kinds.items():
+        if kind is None or k == kind:
+            if kind is None:
+                print(f"{k}:")
+            for name in names:
+                print(f"  {name}" if kind is None else name)
+    return 0
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("zonotope")
+    except PackageNotFoundError:  # pragma: no cover - a source tree that was never installed
+        return "0+unknown"
 
 
 def _shape(args: argparse.Namespace):
@@ -77,9 +104,22 @@ def _shape(args: argparse.Namespace):
 
 
 def _rich_progress(console):
-    """A (progress, callback) pair: callback(description, n) starts a new task."""
+    """A (progress, callback) pair: callback(description, n) starts a new task.
+
+    On a terminal, rich's live bars; otherwise (output piped into a file or a pager, where rich
+    draws nothing) one plain line per step on stderr, with the time since the start.
+    """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    if not console.is_terminal:
+        import contextlib
+
+        t0 = time.monotonic()
+
+        def plain(description: str, n: int) -> None:
+            print(f"[{time.monotonic() - t0:7.1f} s] {description}", file=sys.stderr, flush=True)
+
+        return contextlib.nullcontext(), plain
     progress = Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(),
                         console=console, transient=True)
     state = {"task": None}
@@ -100,8 +140,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from .atypical import atypical_reflectances
-    from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
+    from .evaluate import DEFAULT_METHODS, TestSet, atypical_test_set, evaluate, natural_test_sets
 
     console = Console(width=max(Console().width, 130))
     if args.markdown:  # refuse a bad output path before the long run, never an input file
@@ -123,8 +162,7 @@ def _evaluate(args: argparse.Namespace) -> int:
                 "divide percent data by 100.")
         sets.append(TestSet(path, R.clip(0, 1)))
     if args.atypical:
-        X, _ = atypical_reflectances(w, args.atypical, seed=args.seed)
-        sets.append(TestSet(f"atypical ({args.atypical})", X, "atypical"))
+        sets.append(atypical_test_set(w, args.atypical, seed=args.seed))
     camera_sets = [args.camera] if not args.pairs else [[c] for c in args.camera] + [args.camera]
     progress, callback = _rich_progress(console)
     with progress:
@@ -182,9 +220,16 @@ def _grid_options(p: argparse.ArgumentParser) -> None:
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zonotope", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("list", aliases=["cameras"], help="names of the built-in cameras, observers, "
+                                                         "illuminants and reflectance sets")
+    p.add_argument("kind", nargs="?", choices=["cameras", "observers", "illuminants", "reflectances"],
+                   help="only this kind (default all; 'zonotope cameras' lists the cameras)")
+    p.set_defaults(func=_list)
     p = sub.add_parser("summary", help="solids and Vora values of the built-in (or given) cameras")
-    p.add_argument("--camera", action="append", help="built-in camera name (repeatable)")
+    p.add_argument("--camera", action="append",
+                   help="camera name or file (repeatable; default every built-in camera)")
     p.add_argument("--illuminant", default="D65")
     p.add_argument("--target", default="Stockman & Sharpe 2°")
     p.add_argument("--start", type=float, help="grid start in nm (default: common range)")
@@ -221,39 +266,12 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _check_numbers(args: argparse.Namespace) -> None:
-    """Refuse bad numeric options before any work (negative, inf, NaN or inverted grids, ...)."""
-    import math
-
-    from ._errors import SpectralDataError
-
-    def bad(option: str, value, rule: str) -> SpectralDataError:
-        return SpectralDataError(f"{option} {value!r}: {rule}.")
-
-    start, end, interval = (getattr(args, a, None) for a in ("start", "end", "interval"))
-    for option, value in (("--start", start), ("--end", end)):
-        if value is not None and not (math.isfinite(value) and 0 < value < 10_000):
-            raise bad(option, value, "a wavelength in nm must be finite and in (0, 10000)")
-    if interval is not None and not (math.isfinite(interval) and interval > 0):
-        raise bad("--interval", interval, "the grid step must be a finite number of nm > 0")
-    if start is not None and end is not None and not end > start:
-        raise bad("--end", end, f"must exceed --start {start!r}")
-    for option, value, low in (("--atypical", getattr(args, "atypical", None), 0),
-                               ("--size", getattr(args, "size", None), 1)):
-        if value is not None and value < low:
-            raise bad(option, value, f"must be ≥ {low}")
-    noise = getattr(args, "noise", None)
-    if noise is not None and not (math.isfinite(noise) and noise >= 0):
-        raise bad("--noise", noise, "the response noise σ must be finite and ≥ 0")
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``zonotope`` command."""
     from ._errors import ZonotopeError
 
     args = _parser().parse_args(argv)
     try:
-        _check_numbers(args)
         return args.func(args)
     except KeyboardInterrupt:
         print("zonotope: interrupted (no output was written or replaced)", file=sys.stderr)

@@ -37,13 +37,19 @@ from .correct import (
 from .prior import project_to_mmv
 
 __all__ = [
+    "ATYPICAL_SEED",
     "DEFAULT_METHODS",
     "Evaluation",
     "EvaluationRow",
     "TestSet",
+    "atypical_test_set",
     "evaluate",
     "natural_test_sets",
 ]
+
+#: Seed of the atypical test set of ``zonotope evaluate``, ``zonotope report`` and :func:`evaluate`
+#: (the one of the README's table): one label, "atypical (n)", always means the same spectra.
+ATYPICAL_SEED = 0
 
 #: Estimators evaluated by default (every one of CORRECTION_METHODS).
 DEFAULT_METHODS: tuple[str, ...] = tuple(CORRECTION_METHODS)
@@ -72,6 +78,30 @@ def _subset(R: np.ndarray, n: int | None, seed: int) -> np.ndarray:
     if n is None or n >= R.shape[0]:
         return R
     return R[np.sort(np.random.default_rng(seed).choice(R.shape[0], n, replace=False))]
+
+
+def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED) -> TestSet:
+    """The atypical test set: ``n`` spectra of :func:`zonotope.atypical.atypical_reflectances`.
+
+    Every caller (evaluate, report, the CLI) builds it here, so one label names one set: "atypical
+    (n)" with the default seed, "atypical (n, seed s)" otherwise.
+
+    Parameters
+    ----------
+    wavelengths : array_like
+        The grid (nm).
+    n
+        Number of spectra.
+    seed
+        Generator seed.
+
+    Returns
+    -------
+    TestSet
+    """
+    X, _ = atypical_reflectances(np.asarray(wavelengths, dtype=np.float64), n, seed=seed)
+    label = f"atypical ({n})" if seed == ATYPICAL_SEED else f"atypical ({n}, seed {seed})"
+    return TestSet(label, X, "atypical")
 
 
 def natural_test_sets(wavelengths, *, data_dir: str | Path | None = None, size: int | None = 150,
@@ -269,8 +299,7 @@ def evaluate(
     if test_sets is None:
         test_sets = natural_test_sets(w)
         if atypical:
-            X, _ = atypical_reflectances(w, atypical, seed=seed)
-            test_sets.append(TestSet(f"atypical ({atypical})", X, "atypical"))
+            test_sets.append(atypical_test_set(w, atypical, seed=seed))
     for ts in test_sets:
         if ts.reflectances.ndim != 2 or ts.reflectances.shape[0] == 0:
             raise SpectralDataError(f"test set {ts.name!r} is empty; give at least one reflectance.")

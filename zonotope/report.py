@@ -131,7 +131,7 @@ def write_report(
     from . import spectra
     from ._loading import load_camera
     from .correct import correction_problem
-    from .evaluate import DEFAULT_METHODS, TestSet, evaluate, natural_test_sets
+    from .evaluate import DEFAULT_METHODS, evaluate, natural_test_sets
     from .vora import rank_camera_sets, vora_value
 
     output = Path(output)
@@ -207,10 +207,10 @@ def write_report(
         # 3. evaluation
         step("evaluation", len(sets))
         tests = natural_test_sets(w, data_dir=data_dir, size=size)
-        if atypical:
-            from .atypical import atypical_reflectances
+        if atypical:  # the same set, seed and label as 'zonotope evaluate' (was another seed)
+            from .evaluate import atypical_test_set
 
-            tests.append(TestSet(f"atypical ({atypical})", atypical_reflectances(w, atypical)[0], "atypical"))
+            tests.append(atypical_test_set(w, atypical))
         camera_sets = [[c] for c in curves] + ([curves] if len(curves) > 1 else [])
         ev = evaluate(camera_sets, methods=methods or DEFAULT_METHODS, illuminant=illuminant,
                       shape=shape, test_sets=tests)

@@ -49,9 +49,17 @@ def _plotter(plotter, shape=(1, 1), window_size=(900, 700)):
     return _pv().Plotter(off_screen=True, shape=shape, window_size=window_size)
 
 
-def _finish(plotter, filename, *, axes: bool = True):
-    if axes:
-        plotter.show_axes()
+def _axis_names(problem) -> tuple[str, str, str]:
+    """Channel names of the target space: L, M, S for cone fundamentals, else X, Y, Z."""
+    target = str(getattr(problem, "target", "")).lower()
+    return ("L", "M", "S") if any(k in target for k in ("stockman", "lms", "cone")) else ("X", "Y", "Z")
+
+
+def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X", "Y", "Z")):
+    if axes:  # a labelled orientation widget and a grid with the channel names and their scale
+        x, y, z = names
+        plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
+        plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey")
     if filename is not None:
         Path(filename).parent.mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(filename))
@@ -74,7 +82,7 @@ def _mesh(problem, polytope_or_zonotope, *, colour_by_srgb: bool = True):
 
 
 def _camera(plotter, problem) -> None:
-    w = problem.white_XYZ
+    w = problem.Psi.sum(axis=0)  # the white in target coordinates (white_XYZ is XYZ even for an LMS target)
     plotter.camera_position = [tuple(w * np.array([2.6, -1.2, 1.9])), tuple(0.45 * w), (0, 0, 1)]
 
 
@@ -106,7 +114,7 @@ def plot_object_colour_solid(problem, *, plotter=None, filename=None, opacity: f
     if locus:
         plot_spectral_locus(problem, plotter=p)
     _camera(p, problem)
-    return _finish(p, filename)
+    return _finish(p, filename, names=_axis_names(problem))
 
 
 def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 0.6):
@@ -128,7 +136,7 @@ def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 
     rays.lines = np.hstack([[2, 0, i] for i in range(1, rays.n_points)])
     p.add_mesh(rays, color="grey", opacity=0.4, line_width=1)
     _camera(p, problem)
-    return _finish(p, filename)
+    return _finish(p, filename, names=_axis_names(problem))
 
 
 def mmv_polytope(problem, response, *, eps: float = 1e-3):
@@ -177,7 +185,7 @@ def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: f
     p.camera.focal_point = tuple(mmv.centroid)
     p.camera.position = tuple(np.asarray(mmv.centroid) + scale * np.array([0.9, -0.5, 0.6]))
     p.camera.up = (0, 0, 1)
-    return _finish(p, filename)
+    return _finish(p, filename, names=_axis_names(problem))
 
 
 def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9), *, plotter=None,
@@ -191,9 +199,9 @@ def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9),
     for level in levels:
         mmv = mmv_polytope(problem, np.full(problem.k, float(level)))
         p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
-    p.add_mesh(pv.Line((0, 0, 0), tuple(problem.white_XYZ)), color="black", line_width=2)
+    p.add_mesh(pv.Line((0, 0, 0), tuple(problem.Psi.sum(axis=0))), color="black", line_width=2)
     _camera(p, problem)
-    return _finish(p, filename)
+    return _finish(p, filename, names=_axis_names(problem))
 
 
 def plot_mmv_comparison(problems: Sequence, reflectance, *, titles: Sequence[str] | None = None,
@@ -216,7 +224,7 @@ def plot_mmv_comparison(problems: Sequence, reflectance, *, titles: Sequence[str
         p.add_text(titles[i] if titles else " + ".join(pb.sources), font_size=11)
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
-    return _finish(p, filename)
+    return _finish(p, filename, names=_axis_names(problems[0]))
 
 
 # -- matplotlib ------------------------------------------------------------------------------------

@@ -1,0 +1,93 @@
+"""What a user tripped over in the ``zonotope`` CLI and pictures: ``--version``, a command that lists the
+built-in cameras, ``summary`` with camera files, one atypical set behind one label in ``evaluate`` and
+``report``, progress lines when the output is piped, axis labels on 3-D figures."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+import pytest
+
+import zonotope
+from zonotope.cli import main
+
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"zonotope {zonotope.__version__}"
+
+
+def test_list_builtin(capsys):
+    assert main(["cameras"]) == 0
+    assert capsys.readouterr().out.splitlines() == zonotope.list_builtin()["cameras"]
+    assert main(["list", "illuminants"]) == 0
+    assert capsys.readouterr().out.splitlines() == zonotope.list_builtin()["illuminants"]
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert all(f"{kind}:" in out for kind in zonotope.list_builtin())
+    with pytest.raises(SystemExit):
+        main(["list", "lenses"])
+
+
+def test_summary_accepts_camera_files(tmp_path, capsys):
+    cam = zonotope.camera("Nikon 5100 (NPL)")
+    path = tmp_path / "nikon.csv"
+    rows = ["wavelength,r,g,b"] + [f"{w:g},{r!r},{g!r},{b!r}"
+                                   for w, (r, g, b) in zip(cam.wavelengths, cam.values, strict=True)]
+    path.write_text("\n".join(rows) + "\n")
+    grid = ["--start", "400", "--end", "700", "--interval", "10"]
+    assert main(["summary", "--camera", str(path), *grid]) == 0
+    from_file = capsys.readouterr().out
+    assert main(["summary", "--camera", "Nikon 5100 (NPL)", *grid]) == 0
+    builtin = capsys.readouterr().out
+
+    def vora_and_volume(text):  # the numbers of the camera's row (name and build time differ)
+        row = next(line for line in text.splitlines() if "400–700/10" in line and "target" not in line)
+        cells = [c.strip() for c in row.split("│")]
+        return cells[3:5], cells[7]
+
+    assert vora_and_volume(from_file) == vora_and_volume(builtin)
+
+
+def test_report_and_evaluate_draw_the_same_atypical_set(tmp_path, capsys):
+    from zonotope.evaluate import atypical_test_set
+    from zonotope.report import write_report
+
+    md = tmp_path / "eval.md"
+    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--method", "Finlayson 2015", "--atypical", "5",
+                 "--markdown", str(md)]) == 0
+    err = capsys.readouterr().err
+    assert "s] " in err  # plain progress lines: stderr is not a terminal under pytest
+    out = write_report(["Nikon 5100 (NPL)"], tmp_path / "report", atypical=5, pictures=False, volumes=False,
+                       methods=["Finlayson 2015"], shape=colour.SpectralShape(400, 700, 10))
+
+    def atypical_row(text):
+        rows = [line for line in text.splitlines() if "atypical (5)" in line]
+        assert len(rows) == 1, rows
+        return rows[0]
+
+    assert atypical_row(md.read_text()) == atypical_row((out / "report.md").read_text())
+    a, b = atypical_test_set(GRID, 5), atypical_test_set(GRID, 5, seed=3)
+    assert a.name == "atypical (5)" and b.name == "atypical (5, seed 3)"
+    assert not np.array_equal(a.reflectances, b.reflectances)
+
+
+def test_3d_figures_have_axis_labels(tmp_path):
+    from zonotope import viz
+    from zonotope.correct import correction_problem
+
+    xyz = correction_problem(["Nikon 5100 (NPL)"], target="CIE 1931 2°", shape=GRID)
+    lms = correction_problem(["Nikon 5100 (NPL)"], target="Stockman & Sharpe 2°", shape=GRID)
+    for problem, names in [(xyz, "XYZ"), (lms, "LMS")]:
+        p = viz.plot_grey_mmvs(problem, levels=(0.5,), filename=tmp_path / f"{names}.png")
+        axes = p.renderer.cube_axes_actor
+        assert (axes.GetXTitle(), axes.GetYTitle(), axes.GetZTitle()) == tuple(names)
+        # the grey axis ends at the white in the plotted (target) coordinates, also for LMS
+        inputs = [a.GetMapper().GetInput() for a in p.renderer.actors.values() if a.GetMapper() is not None]
+        line = next(d for d in inputs if d is not None and d.GetNumberOfPoints() == 2)
+        np.testing.assert_allclose(line.GetPoint(1), problem.Psi.sum(0), rtol=1e-6)
+        p.close()
+        assert (tmp_path / f"{names}.png").stat().st_size > 10_000
