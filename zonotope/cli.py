@@ -266,12 +266,39 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Refuse bad numeric options before any work (negative, inf, NaN or inverted grids, ...)."""
+    import math
+
+    from ._errors import SpectralDataError
+
+    def bad(option: str, value, rule: str) -> SpectralDataError:
+        return SpectralDataError(f"{option} {value!r}: {rule}.")
+
+    start, end, interval = (getattr(args, a, None) for a in ("start", "end", "interval"))
+    for option, value in (("--start", start), ("--end", end)):
+        if value is not None and not (math.isfinite(value) and 0 < value < 10_000):
+            raise bad(option, value, "a wavelength in nm must be finite and in (0, 10000)")
+    if interval is not None and not (math.isfinite(interval) and interval > 0):
+        raise bad("--interval", interval, "the grid step must be a finite number of nm > 0")
+    if start is not None and end is not None and not end > start:
+        raise bad("--end", end, f"must exceed --start {start!r}")
+    for option, value, low in (("--atypical", getattr(args, "atypical", None), 0),
+                               ("--size", getattr(args, "size", None), 1)):
+        if value is not None and value < low:
+            raise bad(option, value, f"must be ≥ {low}")
+    noise = getattr(args, "noise", None)
+    if noise is not None and not (math.isfinite(noise) and noise >= 0):
+        raise bad("--noise", noise, "the response noise σ must be finite and ≥ 0")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``zonotope`` command."""
     from ._errors import ZonotopeError
 
     args = _parser().parse_args(argv)
     try:
+        _check_numbers(args)
         return args.func(args)
     except KeyboardInterrupt:
         print("zonotope: interrupted (no output was written or replaced)", file=sys.stderr)
