@@ -71,12 +71,14 @@ class LocalDaskCluster:
                     raise RuntimeError(f"only {got} of {n} workers came up")
                 time.sleep(0.2)
 
-    def kill_worker(self, i: int = 0) -> None:
-        """SIGKILL worker ``i`` (no goodbye to the scheduler)."""
-        w = self.workers[i]
-        if w.poll() is None:
-            os.kill(w.pid, signal.SIGKILL)
-            w.wait(10)
+    def kill_worker(self) -> None:
+        """SIGKILL the oldest living worker (no goodbye to the scheduler) and start a replacement,
+        which joins while the batch goes on (later tests again find two workers)."""
+        w = next(w for w in self.workers if w.poll() is None)
+        os.kill(w.pid, signal.SIGKILL)
+        w.wait(10)
+        self.workers.remove(w)
+        self.add_worker()
 
     def close(self) -> None:
         for p in reversed(self.procs):

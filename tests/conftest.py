@@ -22,3 +22,14 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip(f"shared data folder {SHARED_DATA} not present")
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def dask_cluster():
+    """A real ``dask scheduler`` + 2 ``dask worker`` processes on localhost, shared by the batch tests
+    (tests/_dask_cluster.py; a test that kills a worker gets a replacement started)."""
+    from ._dask_cluster import LocalDaskCluster
+
+    cluster = LocalDaskCluster(2)
+    yield cluster
+    cluster.close()

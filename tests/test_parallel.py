@@ -28,14 +28,11 @@ from zonotope.parallel import (
     run_files,
 )
 
-from ._dask_cluster import LocalDaskCluster
 
-
-@pytest.fixture(scope="module")
-def cluster():
-    c = LocalDaskCluster(2)
-    yield c
-    c.close()
+@pytest.fixture
+def cluster(dask_cluster):
+    dask_cluster.wait_for(2)
+    return dask_cluster
 
 
 def _square_or_fail(x, offset=0):
@@ -162,7 +159,7 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
 
     def progress(done, total):
         if done == 2 and not killed:  # mid-run: 10 tasks still queued or running
-            cluster.kill_worker(0)
+            cluster.kill_worker()
             killed.append(done)
 
     rows = run_files(tasks, slow_digest, 0.3, manifest=manifest, scheduler=cluster.address, progress=progress)
@@ -176,4 +173,3 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
         ["manifest.csv"] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5])  # no temporaries
     with open(manifest, newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(tasks)  # one row per input, each written once
-    cluster.add_worker()

@@ -1,0 +1,100 @@
+"""``isp develop DIR -o OUTDIR``: folder batches (serial and on a real Dask cluster with a killed worker).
+
+The RAW files are simulated DNGs (isp.simulate), so these tests need no shared data; each output
+must equal, byte for byte, what the single-file command writes for that file.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from isp.cli import _parser, main
+
+
+@pytest.fixture(scope="module")
+def dng_folder(tmp_path_factory):
+    """Six small simulated DNGs (different ColorChecker arrangements and exposures) and a corrupt one."""
+    import zonotope
+    from isp.simulate import chart_image, simulate_capture, simulate_dng, spectral_setup
+
+    d = tmp_path_factory.mktemp("raws")
+    setup = spectral_setup("Nikon 5100 (NPL)")
+    R = zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), setup.wavelengths).T.clip(0, 1)
+    for i in range(6):
+        order = np.random.default_rng(i).permutation(24)
+        image, _ = chart_image(R[order], rows=4, cols=6, patch=6, gap=2)
+        cap = simulate_capture(image, setup, training=R, exposure=0.5 + 0.05 * i, seed=i)
+        simulate_dng(d / f"shot{i}.dng", cap, model="Nikon 5100 (NPL)")
+    (d / "broken.dng").write_bytes(b"II*\x00" + b"\x00" * 60)
+    (d / "notes.txt").write_text("not a RAW file: ignored")
+    return d
+
+
+def _digest(folder: Path) -> dict:
+    """SHA-256 of every file; of the decoded pixels for TIFFs (their ICC profile carries a creation time)."""
+    import tifffile
+
+    return {p.name: hashlib.sha256(tifffile.imread(p).tobytes() if p.suffix == ".tif" else p.read_bytes())
+            .hexdigest() for p in sorted(folder.iterdir())}
+
+
+@pytest.fixture(scope="module")
+def singles(dng_folder, tmp_path_factory):
+    """Each good file developed alone by the single-file command: the expected bytes."""
+    out = tmp_path_factory.mktemp("singles")
+    for f in sorted(dng_folder.glob("shot*.dng")):
+        assert main(["develop", str(f), "-o", str(out / f"{f.stem}.tif"), "-q"]) == 0
+    return _digest(out)
+
+
+def _manifest(folder: Path) -> list[dict]:
+    with open(folder / "manifest.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_folder_serial_resume_and_bad_file(dng_folder, singles, tmp_path):
+    before = _digest(dng_folder)
+    out = tmp_path / "dev"
+    assert main(["develop", str(dng_folder), "-o", str(out), "--scheduler", "serial", "-q"]) == 1  # one bad
+    rows = _manifest(out)
+    assert [Path(r["input"]).name for r in rows] == ["broken.dng"] + [f"shot{i}.dng" for i in range(6)]
+    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 6 and rows[0]["error"]
+    got = _digest(out)
+    assert {k: v for k, v in got.items() if k != "manifest.csv"} == singles  # identical to single files
+    assert main(["develop", str(dng_folder), "-o", str(out), "--scheduler", "serial", "-q"]) == 1  # rerun
+    assert [r["status"] for r in _manifest(out)] == ["failed"] + ["done"] * 6
+    assert _digest(dng_folder) == before  # inputs never touched
+    assert main(["develop", str(dng_folder), "-o", str(dng_folder), "-q"]) == 2
+    assert main(["develop", str(dng_folder), "-o", str(out), "--overwrite", "-q"]) == 2
+    assert main(["develop", str(tmp_path / "nothing_here"), "-o", str(out), "-q"]) == 2
+
+
+def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_path, dask_cluster):
+    from isp.batch import _develop_one, raw_files
+    from zonotope.parallel import FileTask, run_files
+
+    dask_cluster.wait_for(2)
+    out = tmp_path / "dev"
+    out.mkdir()
+    args = _parser().parse_args(["develop", str(dng_folder), "-o", str(out), "-q"])
+    values = {k: v for k, v in vars(args).items() if k != "func"}
+    tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in raw_files(dng_folder)]
+    killed = []
+
+    def progress(done, total):
+        if done == 1 and not killed:
+            dask_cluster.kill_worker()
+            killed.append(done)
+
+    rows = run_files(tasks, _develop_one, (values, None), manifest=out / "manifest.csv",
+                     scheduler=dask_cluster.address, progress=progress)
+    assert killed
+    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 6
+    got = _digest(out)
+    assert {k: v for k, v in got.items() if k != "manifest.csv"} == singles  # complete, correct, no temps
+    assert len(_manifest(out)) == 7
