@@ -141,6 +141,10 @@ class SimCaptureConfig:
     cell : float
         Voronoi cell size (m) of the floor texture; the other surfaces scale from it.
     seed : int
+    extra_reflectances : tuple of str
+        More reflectance sets (built-in names or files ``zonotope.load_reflectances`` reads, e.g. the
+        Munsell or SFU sets in ``../shared/data``) added to the palettes of the floor, the backdrop and
+        the natural-coloured objects. Default none, so the capture depends on the package alone.
     """
 
     cameras: tuple[SimCamera, ...] = field(default_factory=lambda: _default_cameras(1.0))
@@ -155,6 +159,7 @@ class SimCaptureConfig:
     max_stops: float = 1.0
     cell: float = 0.2
     seed: int = 0
+    extra_reflectances: tuple[str, ...] = ()
 
     @classmethod
     def ci(cls, **changes) -> SimCaptureConfig:
@@ -307,7 +312,13 @@ def build_scene(config: SimCaptureConfig = SimCaptureConfig()) -> SimScene:
     light = zonotope.illuminant(config.illuminant)
     obs = zonotope.observer("CIE 1931 2°")
     sets = {name: zonotope.reflectances(name) for name in zonotope.list_builtin()["reflectances"]}
-    shape = zonotope.common_shape(*cams, obs, light, *sets.values(), interval=config.interval)
+    extra = []
+    for source in config.extra_reflectances:
+        try:
+            extra.append(zonotope.load_reflectances(source))
+        except (zonotope.ZonotopeError, OSError) as exc:
+            raise SplatError(f"extra_reflectances: cannot load {source!r} ({exc}).") from exc
+    shape = zonotope.common_shape(*cams, obs, light, *sets.values(), *extra, interval=config.interval)
     grid = np.asarray(shape.wavelengths, dtype=np.float64)
     setups = [spectral_setup(c, illuminant=config.illuminant, shape=shape) for c in cams]
     rows, names = [np.full(grid.size, 0.9)], ["flat white 0.9"]
@@ -321,6 +332,11 @@ def build_scene(config: SimCaptureConfig = SimCaptureConfig()) -> SimScene:
         palettes[key] = list(range(len(rows), len(rows) + len(R)))
         rows += list(R)
         names += [f"{name}: {lab}" for lab in sets[name].labels]
+    for k, msds in enumerate(extra):
+        R = _resample(msds, grid)
+        palettes["natural"] += list(range(len(rows), len(rows) + len(R)))
+        rows += list(R)
+        names += [f"{config.extra_reflectances[k]}: {lab}" for lab in msds.labels]
     pal = {k: np.asarray(v) for k, v in palettes.items()}
     pal["chart"] = np.concatenate([pal["colorchecker"], pal["babel"]])
     pal["test"] = np.concatenate([pal["tcs"], pal["cqs"], pal["babel"]])

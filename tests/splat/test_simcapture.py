@@ -351,3 +351,19 @@ def test_sift_registers_every_view(capture, tmp_path):
     for folder in ("nikon", "sigma", "canon"):
         assert sum(n.startswith(folder + "/") for n in names) == 8, sorted(names)
     assert len(model.cameras) == 3
+
+
+def test_extra_reflectances(shared_data):
+    import zonotope
+
+    path = shared_data / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
+    base = build_scene(_tiny())
+    scene = build_scene(_tiny(extra_reflectances=(str(path),)))
+    K = len(base.library)
+    np.testing.assert_array_equal(scene.library[:K], base.library)
+    munsell = zonotope.load_reflectances(path)
+    np.testing.assert_allclose(scene.library[K:], np.clip(_data(munsell, scene.wavelengths).T, 0, 1))
+    idx, wts = scene.trace(scene.views[0])
+    assert np.any((idx >= K) & (wts > 0))    # the floor and backdrop now carry Munsell samples
+    with pytest.raises(splat.SplatError, match="extra_reflectances"):
+        build_scene(_tiny(extra_reflectances=(str(shared_data / "no such file.csv"),)))
