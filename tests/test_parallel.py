@@ -134,6 +134,7 @@ def test_run_files_serial_resume_and_manifest(tmp_path):
                   manifest=manifest, scheduler="serial")
 
 
+@pytest.mark.slow
 def test_mmv_batch_on_a_cluster_is_bit_identical(cluster):
     from zonotope.mismatch import MetamerMismatch
 

@@ -30,7 +30,7 @@ def gauss_camera(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cams(gauss_camera):
-    cams, _ = load_cameras([*BUILTIN, str(gauss_camera)])
+    cams, _ = load_cameras([BUILTIN[0], BUILTIN[2], str(gauss_camera)])  # 3 pairs keep the test short
     return cams
 
 
@@ -59,7 +59,7 @@ def test_scores_match_independent_computations(cams, serial_rows):
     from zonotope.mismatch import metamer_mismatch
     from zonotope.vora import vora_value
 
-    assert len(serial_rows) == math.comb(4, 2) and not any(r.error for r in serial_rows)
+    assert len(serial_rows) == math.comb(3, 2) and not any(r.error for r in serial_rows)
     medians = [r.mmv_median for r in serial_rows]
     assert medians == sorted(medians)  # ranked by median MMV volume
     row = next(r for r in serial_rows if set(r.cameras) == {"Nikon 5100 (NPL)", "Gauss_RGB"})
@@ -84,6 +84,7 @@ def test_scores_match_independent_computations(cams, serial_rows):
     assert partners == [r for r in serial_rows if "Gauss_RGB" in r.cameras][:2]
 
 
+@pytest.mark.slow
 def test_survey_on_a_cluster_survives_a_killed_worker(cams, serial_rows, dask_cluster):
     dask_cluster.wait_for(2)
     killed = []
@@ -110,10 +111,10 @@ def test_table_and_options(cams, serial_rows, tmp_path):
     except ImportError:
         with pytest.raises(Exception, match="pyarrow"):
             write_table(serial_rows, tmp_path / "survey.parquet")
-    only = survey({n: cams[n] for n in BUILTIN[:2]}, size=1, scheduler="serial")
-    assert {r.cameras for r in only} == {(BUILTIN[0],), (BUILTIN[1],)} and not any(r.error for r in only)
+    only = survey({BUILTIN[0]: cams[BUILTIN[0]]}, size=1, scheduler="serial")
+    assert [r.cameras for r in only] == [(BUILTIN[0],)] and only[0].channels == 3 and not only[0].error
     with pytest.raises(SpectralDataError, match="size"):
-        survey(cams, size=5, scheduler="serial")
+        survey(cams, size=4, scheduler="serial")
     with pytest.raises(SpectralDataError, match="containing"):
         survey(cams, size=2, containing=["nope"], scheduler="serial")
 
