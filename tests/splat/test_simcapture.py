@@ -367,3 +367,13 @@ def test_extra_reflectances(shared_data):
     assert np.any((idx >= K) & (wts > 0))    # the floor and backdrop now carry Munsell samples
     with pytest.raises(splat.SplatError, match="extra_reflectances"):
         build_scene(_tiny(extra_reflectances=(str(shared_data / "no such file.csv"),)))
+
+
+def test_main(tmp_path, capsys):
+    from splat.simcapture import main
+
+    assert main([str(tmp_path / "c"), "--size", "ci", "--seed", "2", "--no-noise"]) == 0
+    assert "24 DNG files" in capsys.readouterr().out
+    assert _toml(tmp_path / "c" / "truth" / "truth.toml")["noise"] is False
+    assert main([str(tmp_path / "c")]) == 2
+    assert "overwrite=True" in capsys.readouterr().out
