@@ -174,3 +174,41 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
         ["manifest.csv"] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5])  # no temporaries
     with open(manifest, newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(tasks)  # one row per input, each written once
+
+
+@pytest.mark.slow
+def test_zonotope_correct_folder_serial_equals_cluster(cluster, tmp_path):
+    """``zonotope correct DIR -o OUT``: one fitted estimator, N-band TIFFs → XYZ; same pixels anywhere."""
+    import tifffile
+
+    from zonotope import spectra
+    from zonotope.cli import main
+    from zonotope.correct import correction_problem, fit_correction
+
+    cams = ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]  # a 6-band image, as splat renders one
+    problem = correction_problem(cams)
+    R = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), problem.wavelengths).T, 0, 1)
+    src = tmp_path / "renders"
+    src.mkdir()
+    for i in range(3):
+        idx = np.random.default_rng(i).integers(0, 24, (12, 10))
+        tifffile.imwrite(src / f"view{i}.tif", problem.source_of(R)[idx].astype(np.float32),
+                         photometric="minisblack")
+    tifffile.imwrite(src / "wrong_bands.tif", np.zeros((4, 4, 3), np.float32), photometric="minisblack")
+    before = {p.name: p.read_bytes() for p in src.iterdir()}
+    opts = ["--camera", cams[0], "--camera", cams[1], "--method", "Cheung 2004", "-q"]
+    assert main(["correct", str(src), "-o", str(tmp_path / "a"), "--scheduler", "serial", *opts]) == 1
+    assert main(["correct", str(src), "-o", str(tmp_path / "b"), "--scheduler", cluster.address, *opts]) == 1
+    est = fit_correction(cams, method="Cheung 2004")
+    for i in range(3):
+        a = tifffile.imread(tmp_path / "a" / f"view{i}_XYZ.tif")
+        np.testing.assert_array_equal(a, tifffile.imread(tmp_path / "b" / f"view{i}_XYZ.tif"))
+        img = tifffile.imread(src / f"view{i}.tif").astype(np.float64)
+        np.testing.assert_allclose(a, est(img.reshape(-1, 6)).reshape(12, 10, 3), rtol=1e-6, atol=1e-7)
+    for d in ("a", "b"):
+        with open(tmp_path / d / "manifest.csv", newline="") as fh:
+            rows = {Path(r["input"]).name: r for r in csv.DictReader(fh)}
+        bad = rows["wrong_bands.tif"]
+        assert bad["status"] == "failed" and "(H, W, 6)" in bad["error"]
+        assert [rows[f"view{i}.tif"]["status"] for i in range(3)] == ["ok"] * 3
+    assert {p.name: p.read_bytes() for p in src.iterdir()} == before
