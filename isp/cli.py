@@ -145,6 +145,13 @@ def _develop(args: argparse.Namespace) -> int:
     correction = metamer if metamer is not None else args.correction
     pipeline = default_pipeline(demosaic=args.demosaic, correction=correction, tonemap=tonemap,
                                 tonemap_options=options, white_balance=args.wb)
+    if getattr(args, "profile", None):  # a DNG camera profile (isp/dcp.py) replaces camera_to_XYZ
+        from .dcp import profile_pipeline
+
+        pipeline, error = profile_pipeline(pipeline, args)
+        if error:
+            console.print(f"[red]error:[/] {error}")
+            return 2
     if args.save_stages:
         stage_dir = Path(args.save_stages)
         if stage_dir.exists() and any(stage_dir.iterdir()) and not args.overwrite:
@@ -196,6 +203,8 @@ def _develop(args: argparse.Namespace) -> int:
     if not args.quiet:
         how = (f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
                if metamer is not None else "DNG ColorMatrix")
+        if getattr(args, "profile", None):
+            how = f"camera profile {args.profile}"
         turned = "" if raw.orientation == 1 else f", Orientation {raw.orientation} applied"
         console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}{turned}, "
                       f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})")
@@ -256,6 +265,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated "
                         "(default); metamer = a zonotope.correct estimator fitted on the camera's "
                         "spectral sensitivities (needs --camera)")
+    d.add_argument("--profile", metavar="DCP|embedded",
+                   help="apply a DNG camera profile (.dcp: matrices, HueSatMap, LookTable, tone curve, in "
+                        "the DNG spec's order) instead of the ColorMatrix; 'embedded' = the DNG's own "
+                        "profile tags")
     m = d.add_argument_group("metamer correction (with --correction metamer)")
     m.add_argument("--camera", metavar="NAME_OR_FILE",
                    help="the camera's spectral sensitivities: a built-in name (zonotope.list_builtin()) or "

@@ -63,6 +63,7 @@ __all__ = [
     "apply_hue_sat_map",
     "apply_tone_curve",
     "dcp_stage",
+    "profile_pipeline",
     "read_dcp",
     "write_dcp",
 ]
@@ -650,7 +651,7 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
 
 
 def dcp_stage(profile: DCPProfile | str | os.PathLike | None = None, *, tone_curve: bool = True,
-              name: str = "camera_to_XYZ"):
+              neutral=None, name: str = "camera_to_XYZ"):
     """An :class:`isp.Stage` that applies a camera profile in place of the DNG ColorMatrix stage.
 
     Parameters
@@ -660,6 +661,9 @@ def dcp_stage(profile: DCPProfile | str | os.PathLike | None = None, *, tone_cur
         IFD 0 tags, read when the stage runs; files without tables give the matrix path exactly).
     tone_curve
         Apply the profile's ProfileToneCurve (default True; the pipeline's tone mapping comes after).
+    neutral : callable, optional
+        ``neutral(raw) -> (3,)``: the camera neutral the pipeline white-balanced with (default the
+        file's AsShotNeutral); it sets the CCT of the interpolation.
     name
         Stage name (default replaces ``"camera_to_XYZ"``).
 
@@ -678,7 +682,26 @@ def dcp_stage(profile: DCPProfile | str | os.PathLike | None = None, *, tone_cur
             if raw.path is None:
                 raise DCPError("the embedded profile needs the DNG file (RawImage.path is None).")
             p = read_dcp(raw.path)
-        return p.apply(x, raw.as_shot_neutral, analog_balance=raw.profile.analog_balance,
-                       tone_curve=tone_curve)
+        n = raw.as_shot_neutral if neutral is None else neutral(raw)
+        return p.apply(x, n, analog_balance=raw.profile.analog_balance, tone_curve=tone_curve)
 
     return Stage(name, fn)
+
+
+def profile_pipeline(pipeline, args):
+    """``isp develop --profile``: the pipeline with :func:`dcp_stage`, or an error message.
+
+    Returns ``(pipeline, None)`` or ``(None, message)`` (the CLI prints it and exits 2).
+    """
+    if getattr(args, "correction", "dng") != "dng":
+        return None, ("--profile replaces the DNG ColorMatrix; it cannot be combined with --correction "
+                      "metamer.")
+    wb = getattr(args, "wb", "as-shot")
+    neutral = None
+    if wb and str(wb).lower() not in ("as-shot", "asshot", "as_shot"):
+        from .whitebalance import white_balance_neutral
+
+        def neutral(raw):
+            return white_balance_neutral(raw, wb)
+    prof = None if str(args.profile).lower() == "embedded" else read_dcp(args.profile)
+    return pipeline.replace("camera_to_XYZ", dcp_stage(prof, neutral=neutral)), None
