@@ -161,6 +161,7 @@ class Zonotope:
 
     @property
     def n_generators(self) -> int:
+        """Number of generators n (before zero ones are dropped and parallel ones merged)."""
         return self.generators.shape[0]
 
     @property
@@ -376,7 +377,8 @@ class Zonotope:
         ----------
         points : array_like of shape (..., k)
         tol : float, optional
-            Absolute slack in response units; default ``TOL.contains × scale``.
+            Absolute slack in response units; default ``self.tol.contains × scale`` (the solid's
+            own :class:`Tolerances`).
 
         Returns
         -------
@@ -386,7 +388,9 @@ class Zonotope:
         -----
         3-D full-rank solids use the exact H-representation with a cube-map of candidate facets
         around the centre (only the facets whose radial shadow can meet a point's direction are
-        tested; points within ``tol`` of the boundary are re-tested against every facet). Other
+        tested; points within ``tol`` of the boundary are re-tested against every facet), built on
+        the first call with at least as many points as the map has cells (before that, every
+        facet is tested: same answer, cheaper for a few thousand points). Other
         solids solve one HiGHS LP per point for the ∞-norm distance.
         """
         P = np.asarray(points, dtype=np.float64)
@@ -394,10 +398,15 @@ class Zonotope:
             raise GeometryError(f"points must have shape (..., {self.dim}); got {P.shape}.")
         if not np.all(np.isfinite(P)):
             raise GeometryError("points contain NaN or inf.")
-        tol = TOL.contains * self.scale if tol is None else float(tol)
+        tol = self.tol.contains * self.scale if tol is None else float(tol)
         flat = P.reshape(-1, self.dim)
         if self.dim == 3 and self.rank == 3:
-            inside = self._cubemap.contains(flat, tol)
+            m = self.halfspaces[0].shape[0]
+            K = int(np.clip(np.sqrt(m / 12.0), 4, 48))
+            if "_cubemap" in self.__dict__ or flat.shape[0] >= 6 * K * K:
+                inside = self._cubemap.contains(flat, tol)
+            else:  # building the cube map costs ~6K² facet sweeps: test few points densely
+                inside = self.contains_reference(flat, tol)
         else:
             H, off = self._reduced
             inside = np.array([distance_to_zonotope(H, off, q)[0] <= tol for q in flat], dtype=bool)
@@ -406,12 +415,16 @@ class Zonotope:
     def contains_reference(self, points, tol: float | None = None) -> np.ndarray:
         """Slow twin of :meth:`contains` for 3-D: every facet for every point (tests use it)."""
         P = np.asarray(points, dtype=np.float64)
-        tol = TOL.contains * self.scale if tol is None else float(tol)
+        tol = self.tol.contains * self.scale if tol is None else float(tol)
         A, b = self.halfspaces
         flat = P.reshape(-1, 3)
         out = np.empty(flat.shape[0], dtype=bool)
-        for s in range(0, flat.shape[0], 4096):
-            out[s:s + 4096] = (flat[s:s + 4096] @ A.T - b).max(axis=1) <= tol
+        half = A.shape[0] // 2  # rows come in ± pairs (A = [N; −N]): one product serves both
+        N, bp, bm = A[:half], b[:half], b[half:]
+        step = max(1, 2_000_000 // max(half, 1))
+        for s in range(0, flat.shape[0], step):
+            v = flat[s:s + step] @ N.T
+            out[s:s + step] = np.maximum((v - bp).max(axis=1), (-v - bm).max(axis=1)) <= tol
         return out.reshape(P.shape[:-1])
 
     @cached_property
