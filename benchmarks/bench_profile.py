@@ -1,0 +1,204 @@
+"""Camera profiles benchmark: our DCP vs the DNG ColorMatrix, in our pipeline and in RawTherapee.
+
+Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick]``. Prints three tables (no timings).
+Needs ``rawtherapee-cli`` for the RawTherapee columns (skipped otherwise) and ../shared/data for
+table Q (skipped otherwise).
+
+Tables
+------
+P. Simulated ColorChecker (ColorChecker N Ohta reflectances × camera SSF × D65 → mosaic with shot and
+   read noise → DNG, 64-px patches), developed to XYZ D50 and compared with the true XYZ (Bradford
+   D65 → D50), ΔE00 mean / max over the 24 patches, exposure normalised on the white patch.
+   The DNG's ColorMatrix is what a camera maker would ship: least squares on the rawtoaces 190
+   training set, white exact (``isp.simulate.fit_color_matrix``). Columns: that matrix in
+   ``isp develop`` and in ``rawtherapee-cli`` ("(camera)" input profile); our DCP
+   (``zonotope profile``: Prior, A + D65, HueSatMap 90 × 30) in ``isp develop --profile`` and in
+   ``rawtherapee-cli``; ``isp develop --correction metamer`` (Prior, D65, scene white = exposure).
+Q. Real Canon EOS 550D DNG with RawTherapee's shipped ``Canon EOS 550D.dcp``: per ColorChecker
+   patch (40 × 40 boxes, centres of bench_isp.py) ΔE00 between ``rawtherapee-cli`` and
+   ``isp develop --profile`` (both XYZ D50, same white scale), and the same for the DNG's own
+   ColorMatrix: an independent check of our DCP reader.
+R. Encoding accuracy: ΔE00 between an estimator (root-polynomial, Nikon 5100, D65, CIE 1931) and its
+   DCP (per HueSatMap size) or 3-D LUT (per lattice size, log2 shaper, 16× headroom) encoding, on
+   natural sets (ColorChecker, CIE 1995 TCS, NIST CQS) and 200 atypical spectra
+   (``zonotope.atypical``), responses at the white's exposure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import colour
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import isp  # noqa: E402
+import zonotope  # noqa: E402
+from isp.dcp import DCPProfile, dcp_stage, read_dcp, write_dcp  # noqa: E402
+from isp.profile_fit import fit_dcp  # noqa: E402
+from isp.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
+from isp.simulate import chart_image, simulate_capture, simulate_dng, spectral_setup  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "data"
+D50_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
+D50 = colour.xy_to_XYZ(D50_xy)
+CHART_ROWS = (624, 724, 822, 930)  # patch centres in the 550D file (from bench_isp.py)
+CHART_COLS = (712, 820, 928, 1035, 1142, 1250)
+BOX = 20
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+def _table(title: str, header: list[str], rows: list[list]) -> None:
+    print(f"\n{title}")
+    widths = [max(len(str(h)), *(len(str(r[i])) for r in rows)) + 2 for i, h in enumerate(header)]
+    print("".join(str(h).rjust(w) for h, w in zip(header, widths)))
+    for r in rows:
+        print("".join(str(v).rjust(w) for v, w in zip(r, widths)))
+
+
+def simulated_chart(camera: str, folder: Path, *, exposure: float = 0.8, seed: int = 0):
+    """A simulated ColorChecker DNG and its truth: (path, labels, true XYZ D50 per patch)."""
+    setup = spectral_setup(camera, illuminant="D65")
+    cc = np.clip(zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), setup.wavelengths).T, 0, 1)
+    train = np.clip(zonotope.resample(zonotope.reflectances("rawtoaces 190"), setup.wavelengths).T, 0, 1)
+    img, labels = chart_image(cc, rows=4, cols=6, patch=64, gap=16)
+    cap = simulate_capture(img, setup, training=train, exposure=exposure, seed=seed)
+    path = simulate_dng(folder / f"{camera.split()[0]}_chart.dng", cap, model=camera, overwrite=True)
+    truth = cc @ setup.observer  # D65, Y_white = 1
+    w = setup.observer.sum(0)
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(w, D50, transform="Bradford")
+    return path, labels, truth @ cat.T
+
+
+def isp_XYZ(path, *, correction="dng", profile=None) -> np.ndarray:
+    p = isp.default_pipeline(tonemap=None, encode=False, correction=correction)
+    if profile is not None:
+        p = p.replace("camera_to_XYZ", dcp_stage(profile))
+    return isp.develop(path, pipeline=p, stop_after="camera_to_XYZ").image
+
+
+def table_P(cameras, quick: bool) -> None:
+    rows = []
+    have_rt = rawtherapee_cli() is not None
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for cam in cameras:
+            path, labels, truth = simulated_chart(cam, folder)
+            fit = fit_dcp(cam, method="Prior", n_random=300 if quick else 1500)
+            dcp = write_dcp(folder / "camera.dcp", fit.profile, overwrite=True)
+
+            def score(XYZ, offset=(0, 0), labels=labels, truth=truth):
+                lab = labels[offset[0]:offset[0] + XYZ.shape[0], offset[1]:offset[1] + XYZ.shape[1]]
+                return patch_delta_E(XYZ, lab, truth, white_XYZ=D50, normalise_to=18)
+
+            res = {"isp DNG": score(isp_XYZ(path)), "isp DCP": score(isp_XYZ(path, profile=dcp))}
+            mc = isp.metamer_correction(cam, method="Prior", illuminant="D65", white_level=0.8)
+            res["isp metamer"] = score(isp_XYZ(path, correction=mc))
+            if have_rt:
+                for key, prof in (("RT DNG", None), ("RT DCP", dcp)):
+                    out = develop_rawtherapee(path, profile=prof)
+                    res[key] = score(out.XYZ, out.offset)
+            m = {k: v.mean() for k, v in res.items()}
+            row = [cam] + [f"{res[k].mean():.3f} / {res[k].max():.2f}" if k in res else "—"
+                           for k in ("isp DNG", "RT DNG", "isp DCP", "RT DCP", "isp metamer")]
+            row += [f"{100 * (1 - m['isp DCP'] / m['isp DNG']):.0f} %",
+                    f"{100 * (1 - m['RT DCP'] / m['RT DNG']):.0f} %" if have_rt else "—",
+                    f"{m['isp DCP'] - m['isp metamer']:+.3f}"]
+            rows.append(row)
+    _table("P. Simulated ColorChecker under D65, ΔE00 mean / max vs truth (24 patches)",
+           ["camera", "isp DNG CM", "RT DNG CM", "isp DCP", "RT DCP", "isp metamer", "DCP gain isp",
+            "DCP gain RT", "DCP − metamer"], rows)
+
+
+def table_Q() -> None:
+    path = DATA / "raw_samples" / "tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng"
+    dcp = Path("/usr/share/rawtherapee/dcpprofiles/Canon EOS 550D.dcp")
+    if not path.is_file() or rawtherapee_cli() is None or not dcp.is_file():
+        print("\nQ. skipped: needs the 550D DNG in ../shared/data and RawTherapee with its DCPs")
+        return
+
+    def boxes(X, off):
+        return np.array([X[r - off[0] - BOX:r - off[0] + BOX, c - off[1] - BOX:c - off[1] + BOX]
+                         .reshape(-1, 3).mean(0) for r in CHART_ROWS for c in CHART_COLS])
+
+    def lab(X):
+        return colour.XYZ_to_Lab(X, D50_xy)
+
+    out = {}
+    for key, prof in (("DCP", dcp), ("DNG", None)):
+        rt = develop_rawtherapee(path, profile=prof)
+        ours = isp_XYZ(path, profile=prof if prof is None else read_dcp(prof))
+        a, b = boxes(rt.XYZ, rt.offset), boxes(ours, (0, 0))
+        k = 1.0 / a[18, 1]
+        out[key] = (colour.delta_E(lab(k * a), lab(k * b), method="CIE 2000"), a * k, b * k)
+    rows = [[i + 1, f"{out['DCP'][0][i]:.3f}", f"{out['DNG'][0][i]:.3f}",
+             " ".join(f"{v:.4f}" for v in out["DCP"][1][i]), " ".join(f"{v:.4f}" for v in out["DCP"][2][i])]
+            for i in range(24)]
+    rows.append(["mean", f"{out['DCP'][0].mean():.3f}", f"{out['DNG'][0].mean():.3f}", "", ""])
+    rows.append(["max", f"{out['DCP'][0].max():.3f}", f"{out['DNG'][0].max():.3f}", "", ""])
+    _table("Q. Real 550D DNG: ΔE00 between rawtherapee-cli and isp develop, per ColorChecker patch "
+           "(RawTherapee's 'Canon EOS 550D.dcp', and the DNG ColorMatrix)",
+           ["patch", "ΔE00 DCP", "ΔE00 DNG CM", "XYZ RT (DCP)", "XYZ isp (DCP)"], rows)
+
+
+def table_R(quick: bool) -> None:
+    from zonotope.atypical import atypical_reflectances
+    from zonotope.profile import correction_LUT
+
+    cam = "Nikon 5100 (NPL)"
+    mcs = [isp.metamer_correction(cam, method="Finlayson 2015", illuminant=i, quantum=0.0,
+                                  target="CIE 1931 2°") for i in ("A", "D65")]
+    mc = mcs[1]
+    prob = mc.corrector.problem
+    w = prob.wavelengths
+    sets = {name: np.clip(zonotope.resample(zonotope.reflectances(name), w).T, 0, 1)
+            for name in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0")}
+    sets["atypical (200)"] = atypical_reflectances(w, 200)[0]
+    white = mc(np.ones((1, 3)))[0]
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white / white[1], D50, transform="Bradford")
+
+    def lab(X):
+        return colour.XYZ_to_Lab(X, D50_xy)
+
+    rows = []
+    encoders = [("matrices only", dict(dims=None))] + [
+        (f"HueSatMap {h}×{s}", dict(dims=(h, s, 1))) for h, s in ((6, 6), (36, 12), (90, 30), (180, 60))]
+    for label, kw in encoders:
+        prof: DCPProfile = fit_dcp(cam, corrections=mcs, n_random=300 if quick else 1500, **kw).profile
+        row = [label]
+        for R in sets.values():
+            c = R @ prob.Phi
+            ref = (mc(c) / white[1]) @ cat.T
+            dE = colour.delta_E(lab(prof.apply(c, mc.neutral)), lab(ref), method="CIE 2000")
+            row.append(f"{dE.mean():.3f}")
+        rows.append(row)
+    for size in (17, 33, 65):
+        lut = correction_LUT(mc, size=size, space="XYZ")
+        row = [f"LUT {size}³ (log2)"]
+        for R in sets.values():
+            c = R @ prob.Phi
+            ref = mc(c) / white[1]
+            dE = colour.delta_E(lab(lut.apply(c) @ cat.T), lab(ref @ cat.T), method="CIE 2000")
+            row.append(f"{dE.mean():.3f}")
+        rows.append(row)
+    _table("R. Encoding error: mean ΔE00 between root-polynomial (Nikon 5100, D65) and its DCP / LUT",
+           ["encoding", *sets], rows)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one camera, fewer fitting colours")
+    args = ap.parse_args()
+    cameras = zonotope.list_builtin()["cameras"]
+    table_P(cameras[:1] if args.quick else cameras, args.quick)
+    table_Q()
+    table_R(args.quick)
+
+
+if __name__ == "__main__":
+    main()
