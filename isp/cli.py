@@ -5,7 +5,10 @@
   white balance; the picture is rotated as the file's Orientation tag says;
   ``--correction metamer --camera NAME_OR_FILE [--method Prior] [--illuminant D65]`` replaces the
   file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's sensitivities;
-- ``isp info IN``: print the RAW metadata the pipeline uses.
+- ``isp info IN``: print the RAW metadata the pipeline uses;
+- ``isp profile --camera NAME_OR_FILE -o camera.dcp [--lut camera.cube]``: a DNG camera profile
+  (and 3-D LUT, saved correction) fitted to a ``zonotope.correct`` estimator; ``isp develop
+  --profile camera.dcp`` applies any DCP.
 
 Runnable as ``isp ...`` (console script) or ``python -m isp ...``.
 """
@@ -94,7 +97,7 @@ class _PlainProgress:
 
 
 def _progress(console, quiet: bool):
-    """rich's live bars on a terminal; plain periodic lines otherwise (e.g. piped into a log)."""
+    """Rich's live bars on a terminal; plain periodic lines otherwise (e.g. piped into a log)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     if quiet or console.is_terminal:
@@ -301,6 +304,9 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--overwrite", action="store_true", help="replace existing output files")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     d.set_defaults(func=_develop)
+    from ._profile_cli import add_command as add_profile  # 'isp profile': DCP / 3-D LUT export
+
+    add_profile(sub)
     i = sub.add_parser("info", help="print the metadata of a RAW/DNG file")
     i.add_argument("input")
     i.add_argument("--metadata-only", action="store_true", help="accept files without pixel data")

@@ -161,9 +161,9 @@ def test_fitted_dcp_follows_the_spec_and_encodes_the_estimator(dcp_fit):
         assert dE.mean() < 0.1 and mat.mean() > 5 * dE.mean(), (dE.mean(), mat.mean())  # measured 0.01–0.05
 
 
-def test_zonotope_profile_cli(tmp_path):
+def test_isp_profile_cli(tmp_path):
+    from isp.cli import main
     from isp.dcp import read_dcp
-    from zonotope.cli import main
 
     out = tmp_path / "cam.dcp"
     args = ["profile", "--camera", CAM, "--method", "root-polynomial", "-o", str(out), "--hue-sat-size", "36",

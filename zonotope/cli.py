@@ -5,7 +5,6 @@
   curves;
 - ``zonotope evaluate``: ΔE00 of every colour-correction estimator on natural and atypical sets;
 - ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set.
-- ``zonotope profile``: DNG camera profile (.dcp), 3-D LUT and saved correction for one camera.
 """
 
 from __future__ import annotations
@@ -264,9 +263,6 @@ def _parser() -> argparse.ArgumentParser:
     from ._batch_cli import add_commands  # correct (image folders) and survey: zonotope.parallel batches
 
     add_commands(sub)
-    from ._profile_cli import add_command as add_profile  # DCP / 3-D LUT export (uses isp)
-
-    add_profile(sub)
     return parser
 
 

@@ -1,7 +1,8 @@
-"""``zonotope profile``: a DNG camera profile (and optionally a 3-D LUT and a saved correction) for a camera.
+"""``isp profile``: a DNG camera profile (and optionally a 3-D LUT and a saved correction) for a camera.
 
-Registered on the ``zonotope`` command by :func:`add_command`. The DCP is fitted by
-:func:`isp.profile_fit.fit_dcp` (isp is imported only when the command runs).
+Registered on the ``isp`` command by :func:`add_command`. The DCP is fitted by
+:func:`isp.profile_fit.fit_dcp`; the LUT and the saved correction come from :mod:`zonotope.profile`.
+(It is an ``isp`` command, not a ``zonotope`` one, because ``zonotope`` never imports ``isp``.)
 """
 
 from __future__ import annotations
@@ -15,11 +16,11 @@ __all__ = ["add_command"]
 def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from isp.dcp import write_dcp
-    from isp.profile_fit import fit_dcp
+    from zonotope import ZonotopeError
+    from zonotope.profile import correction_LUT, save_correction, write_correction_LUT
 
-    from ._errors import ZonotopeError
-    from .profile import correction_LUT, save_correction, write_correction_LUT
+    from .dcp import write_dcp
+    from .profile_fit import fit_dcp
 
     console = Console(stderr=True)
     out = Path(args.output)
@@ -53,8 +54,8 @@ def _profile(args: argparse.Namespace) -> int:
 
 
 def add_command(sub) -> None:
-    """Register ``profile`` on the ``zonotope`` sub-parser collection."""
-    from .profile import LUT_SPACES
+    """Register ``profile`` on the ``isp`` sub-parser collection."""
+    from zonotope.profile import LUT_SPACES
 
     p = sub.add_parser("profile", help="DNG camera profile (.dcp) and 3-D LUT from a camera's sensitivities")
     p.add_argument("--camera", required=True, metavar="NAME_OR_FILE",
