@@ -132,6 +132,11 @@ def _develop(args: argparse.Namespace) -> int:
         from .batch import develop_folder
 
         return develop_folder(args)
+    from ._errors import PipelineError
+
+    if out.exists() and (not args.overwrite or (src.exists() and out.resolve() == src.resolve())):
+        # checked before the long work (a metamer fit takes minutes), not only when writing
+        raise PipelineError(f"{out} exists; pass --overwrite or choose another name (never the input).")
     tonemap = None if args.tonemap.lower() == "none" else args.tonemap
     options = {}
     if args.exposure is not None:

@@ -205,3 +205,15 @@ def test_isp_cli_errors_are_one_line(tmp_path, capsys, sim_dng):
         errors = [line for line in err.splitlines() if not line.startswith("[")]  # progress lines
         assert len(errors) == 1 and errors[0].startswith("isp: error: ") and "Traceback" not in err, err
     assert not (tmp_path / "o.tif").exists()
+
+
+def test_isp_develop_checks_the_output_before_the_work(tmp_path, capsys, sim_dng):
+    from isp.cli import main
+
+    bad = _set_compression(sim_dng, tmp_path / "bad.dng", 7)
+    out = tmp_path / "out.tif"
+    out.write_bytes(b"my earlier edit")
+    assert main(["develop", str(bad), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "exists" in err and "JPEG" not in err  # refused before the RAW was even read
+    assert out.read_bytes() == b"my earlier edit"
