@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from splat import (
@@ -89,7 +90,7 @@ def training(args, console: Console) -> None:
     scene = synthetic_scene(SceneConfig(width=64, height=64, views_per_camera=12, test_views_per_camera=2))
     rc = RenderConfig(tile_capacity=512)
     cfg = TrainConfig(steps=args.steps, capacity=args.capacity, densify_until=int(0.65 * args.steps),
-                      render=rc, progress=not args.no_progress)
+                      render=rc)
     test_cams = [v.camera for v in scene.test.views]
     rows = []
     t0 = time.perf_counter()
@@ -100,8 +101,25 @@ def training(args, console: Console) -> None:
             pred = render_views(state.params, test_cams, mask=state.alive, config=rc)
             rows.append((step, elapsed, psnr(pred, scene.test_images), int(state.alive.sum())))
 
-    result = train(scene.capture, scene.images, scene.weights, config=cfg, bounds=scene.bounds,
-                   callback=check)
+    bar = None if args.no_progress else Progress(
+        TextColumn("splat"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+        TextColumn("loss {task.fields[loss]:.4g}"), TextColumn("{task.fields[n]} Gaussians"),
+        TimeRemainingColumn(), console=console)
+
+    def step_done(step, state, loss):  # the library prints nothing: the bar is drawn here
+        check(step, state, loss)
+        if bar is not None and (step % 25 == 0 or step == cfg.steps):
+            bar.update(task, completed=step, loss=float(loss), n=int(state.alive.sum()))
+
+    if bar is not None:
+        task = bar.add_task("train", total=cfg.steps, loss=float("nan"), n=0)
+        bar.start()
+    try:
+        result = train(scene.capture, scene.images, scene.weights, config=cfg, bounds=scene.bounds,
+                       callback=step_done)
+    finally:
+        if bar is not None:
+            bar.stop()
     table = Table(title=f"training: synthetic scene, 3 cameras × 12 views, 64×64, 9 channels, "
                         f"capacity {args.capacity} (one run)")
     for col in ("step", "time s (incl. compile, eval)", "held-out PSNR dB", "alive Gaussians"):

@@ -127,6 +127,7 @@ class MetamerCorrection:
         return out
 
     def __call__(self, responses) -> np.ndarray:
+        """White-balanced camera RGB ``(N, 3)`` → XYZ ``(N, 3)``."""
         from zonotope.image import correct_image
 
         c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0) / self.white_level

@@ -47,6 +47,7 @@ class Stage:
     fn: StageFn = field(repr=False)
 
     def __call__(self, x: np.ndarray, raw: RawImage) -> np.ndarray:
+        """Apply the stage to the array ``x`` of the image ``raw``."""
         return self.fn(x, raw)
 
 

@@ -159,6 +159,7 @@ class CaptureSpec:
 
     @property
     def file(self) -> Path:
+        """The capture's ``capture.toml``."""
         return self.root / "capture.toml"
 
     def camera_index(self, folder: str) -> int:
@@ -360,6 +361,7 @@ class RawView:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """Image size ``(H, W)``."""
         return self.values.shape[:2]
 
 

@@ -55,18 +55,22 @@ class Gaussians:
 
     @property
     def scales(self) -> jax.Array:  # [G, 3]
+        """Standard deviations along the principal axes, ``exp(log_scales)``."""
         return jnp.exp(self.log_scales)
 
     @property
     def opacities(self) -> jax.Array:  # [G]
+        """Opacities in (0, 1), ``sigmoid(opacity_logits)``."""
         return jax.nn.sigmoid(self.opacity_logits)
 
     @property
     def colours(self) -> jax.Array:  # [G, N]
+        """Non-negative N-channel colours, ``softplus(colour_params)``."""
         return jax.nn.softplus(self.colour_params)
 
     @property
     def rotations(self) -> jax.Array:  # [G, 3, 3]
+        """Rotation matrices of the Gaussians' principal axes."""
         return quat_to_rotmat(self.quats)
 
     def covariances(self) -> jax.Array:  # [G, 3, 3]

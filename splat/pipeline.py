@@ -434,7 +434,6 @@ def train_step_(
         capacity=config.capacity,
         checkpoint=out / "train" / "checkpoint.npz",
         checkpoint_every=max(50, config.steps // 10),
-        progress=False,
         seed=config.seed,
         densify_from=min(200, config.steps // 5),
         densify_until=until,

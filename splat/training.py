@@ -1,5 +1,6 @@
 """Training N-channel Gaussians on RAW views: RawNeRF loss, Adam with decaying rates, densify/prune
-inside a fixed-capacity buffer (static shapes), checkpoints, progress bar, resume.
+inside a fixed-capacity buffer (static shapes), checkpoints, resume. The library prints nothing:
+progress goes through ``train(..., callback=)``; the command lines and benchmarks draw the bars.
 
 References
 ----------
@@ -81,8 +82,6 @@ class TrainConfig:
     checkpoint : path or None
         Where to save a checkpoint (``.npz``) every ``checkpoint_every`` steps and at the end.
     checkpoint_every : int
-    progress : bool
-        Show a rich progress bar.
     seed : int
     """
 
@@ -104,7 +103,6 @@ class TrainConfig:
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
     checkpoint_every: int = 500
-    progress: bool = True
     seed: int = 0
 
 
@@ -362,38 +360,22 @@ def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfi
         return np.random.default_rng((config.seed, epoch)).permutation(V)
 
     hist = {"loss": [], "n_alive": [], "n_dropped": []}
-    progress = None
-    if config.progress:
-        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-        progress = Progress(TextColumn("splat"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                            TextColumn("loss {task.fields[loss]:.4g}"),
-                            TextColumn("{task.fields[n]} Gaussians"),
-                            TimeRemainingColumn())
-        task = progress.add_task("train", total=config.steps, completed=state.step, loss=float("nan"), n=0)
-        progress.start()
-    try:
-        while state.step < config.steps:
-            step = state.step
-            v = int(order(step // V)[step % V])
-            cam = jax.tree.map(lambda x, v=v: x[v], cams)
-            state, loss, dropped = train_step(state, cam, images[v], weights[v], masks[v], exposures[v],
-                                              config=config, extent=extent)
-            state = state._replace(step=step + 1)
-            if (config.densify_from <= step + 1 < config.densify_until
-                    and (step + 1) % config.densify_every == 0):
-                state = _densify(state, config, extent)
-            hist["loss"].append(loss)
-            hist["n_dropped"].append(dropped)
-            hist["n_alive"].append(jnp.sum(state.alive))
-            if callback is not None:
-                callback(step + 1, state, loss)
-            if progress is not None and (step % 25 == 0 or step + 1 == config.steps):
-                progress.update(task, completed=step + 1, loss=float(loss), n=int(jnp.sum(state.alive)))
-            if config.checkpoint and ((step + 1) % config.checkpoint_every == 0 or step + 1 == config.steps):
-                save_checkpoint(state, config.checkpoint)
-    finally:
-        if progress is not None:
-            progress.stop()
+    while state.step < config.steps:
+        step = state.step
+        v = int(order(step // V)[step % V])
+        cam = jax.tree.map(lambda x, v=v: x[v], cams)
+        state, loss, dropped = train_step(state, cam, images[v], weights[v], masks[v], exposures[v],
+                                          config=config, extent=extent)
+        state = state._replace(step=step + 1)
+        if (config.densify_from <= step + 1 < config.densify_until
+                and (step + 1) % config.densify_every == 0):
+            state = _densify(state, config, extent)
+        hist["loss"].append(loss)
+        hist["n_dropped"].append(dropped)
+        hist["n_alive"].append(jnp.sum(state.alive))
+        if callback is not None:
+            callback(step + 1, state, loss)
+        if config.checkpoint and ((step + 1) % config.checkpoint_every == 0 or step + 1 == config.steps):
+            save_checkpoint(state, config.checkpoint)
     history = {k: np.asarray(jnp.stack(v)) if v else np.zeros(0) for k, v in hist.items()}
     return TrainResult(state.params, np.asarray(state.alive), state, history)

@@ -20,12 +20,12 @@ ROOT = Path(__file__).resolve().parents[1]
 #: zonotope's modules by layer (0 = lowest). A new module must be placed here.
 LAYERS: dict[int, set[str]] = {
     0: {"_errors", "_tol", "_registry", "_io", "parallel", "_cubemap"},
-    1: {"spectra", "_loading"},
-    2: {"_zonohedron", "_lp", "solid", "polytope", "vora"},
+    1: {"spectra", "_loading", "_generators"},
+    2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam"},
     3: {"_oracle", "_mmv_refine", "mismatch"},
     4: {"prior", "atypical", "_correction_problem", "_regressions", "_mmv_estimators", "correct"},
-    5: {"image"},
-    6: {"evaluate", "report", "viz", "survey", "_batch_cli", "cli", "__main__", "__init__"},
+    5: {"image", "profile"},
+    6: {"evaluate", "report", "viz", "survey", "_batch_cli", "_profile_cli", "cli", "__main__", "__init__"},
 }
 RANK = {m: r for r, mods in LAYERS.items() for m in mods}
 

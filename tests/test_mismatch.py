@@ -17,6 +17,7 @@ from zonotope.mismatch import (
     channelwise_intersection,
     metamer_mismatch,
     metamer_mismatch_batch,
+    metamer_mismatch_bounds,
 )
 from zonotope.polytope import Polytope
 from zonotope.solid import Zonotope
@@ -115,7 +116,7 @@ def test_psi_equal_phi_gives_point(nikon10):
     mmv = metamer_mismatch(Phi, Phi, c)
     assert mmv.dim == 0 and mmv.volume == 0.0
     np.testing.assert_allclose(mmv.centroid, c, atol=1e-12)
-    cert = metamer_mismatch(Phi, Phi, c, eps=1e-3)
+    cert = metamer_mismatch_bounds(Phi, Phi, c, eps=1e-3)
     assert cert.dim == 0 and cert.volume_bounds == (0.0, 0.0)
 
 
@@ -158,7 +159,7 @@ def test_certified_bounds_and_shrinking_gap(nikon10):
     exact = metamer_mismatch(Phi, Psi, c)
     gaps, errs = [], []
     for eps in (3e-2, 3e-3, 3e-4):
-        res = metamer_mismatch(Phi, Psi, c, eps=eps)
+        res = metamer_mismatch_bounds(Phi, Psi, c, eps=eps)
         assert isinstance(res, CertifiedMMV)
         assert exact.contains(res.inner.vertices, tol=1e-9).all()
         assert res.outer.contains(exact.vertices, tol=1e-9).all()
@@ -213,7 +214,7 @@ def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
     for cam in cams:
         Phi = gens(cam, G10)
         for x in R:
-            res = metamer_mismatch(Phi, Psi, x @ Phi, eps=eps)
+            res = metamer_mismatch_bounds(Phi, Psi, x @ Phi, eps=eps)
             truth = x @ Psi
             assert res.outer.contains(truth, tol=1e-9)
             # every inner facet is within eps of the support, so each MMV point is within eps of it
@@ -237,7 +238,7 @@ def test_metamer_mismatch_class_and_batch():
     out = mm.batch(C, eps=1e-3)
     assert out.centroids.shape == (2, 3, 3) and out.volumes.shape == (2, 3)
     assert out.volume_bounds.shape == (2, 3, 2) and out.lp_calls > 0
-    single = mm(C[1, 2], eps=1e-3)
+    single = mm.bounds(C[1, 2], eps=1e-3)
     np.testing.assert_allclose(out.centroids[1, 2], single.centroid, atol=1e-12)
     seen = []
     exact = mm.batch(C[0], eps=0.0, chunk=2, progress=lambda done, total: seen.append((done, total)))
@@ -293,7 +294,7 @@ def test_batch_lockstep_equals_one_by_one(nikon10):
         metamer_mismatch_batch(Phi, Psi, C, eps=1e-3)
     out = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, on_infeasible="nearest", chunk=3)
     for i, c in enumerate(C):
-        one = metamer_mismatch(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
+        one = metamer_mismatch_bounds(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
         np.testing.assert_allclose(out.centroids[i], one.centroid, atol=1e-12)
         np.testing.assert_allclose(out.volume_bounds[i], one.volume_bounds, rtol=1e-9)
     exact = metamer_mismatch_batch(Phi, Psi, C[:4], eps=0.0, chunk=4)
@@ -353,7 +354,7 @@ def test_thin_certified_mmv_outside_response_nearest():
     Phi = gens("Nikon 5100 (NPL)", G10)
     Psi = gens("CIE 1931 2°", G10)
     c = np.array([0.560083, 0.582359, 0.058088])
-    mmv = metamer_mismatch(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
+    mmv = metamer_mismatch_bounds(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
     lo, hi = mmv.volume_bounds
     assert 0.0 <= lo <= hi
     assert mmv.outer.contains(mmv.inner.vertices, tol=1e-9).all()

@@ -12,6 +12,7 @@ from zonotope.report import ReportExistsError, write_report
 GRID = np.arange(400.0, 701.0, 10.0)
 
 
+@pytest.mark.slow
 def test_report_written_atomically(tmp_path):
     out = tmp_path / "rep"
     steps = []
@@ -66,6 +67,7 @@ def test_report_errors(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_report_with_pictures(tmp_path):
     out = tmp_path / "rep"
     write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["least squares"], volumes=False)
@@ -73,8 +75,8 @@ def test_report_with_pictures(tmp_path):
     assert "solid.png" in (out / "index.html").read_text()
 
 
+@pytest.mark.slow
 def test_report_mmv_tables(tmp_path):
-    pytest.importorskip("zonotope.mismatch")
     out = tmp_path / "rep"
     write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["Centroid"], pictures=False)
     md = (out / "report.md").read_text()

@@ -48,7 +48,6 @@ def test_matplotlib_charts(problem, tmp_path):
 
 
 def test_mmv_pictures(problem, tmp_path):
-    pytest.importorskip("zonotope.mismatch")
     from zonotope import spectra, viz
 
     viz.plot_grey_mmvs(problem, levels=(0.3, 0.7), filename=tmp_path / "grey.png").close()

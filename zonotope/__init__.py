@@ -7,15 +7,17 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``tests/test_architecture.py`` enforces it):
 
 =========================  ==================================================================
-``spectra``, ``_loading``  spectral curves on one grid: built-in cameras, observers,
-                           illuminants, reflectance sets; file readers; :func:`generators`
+``spectra``, ``_loading``, spectral curves on one grid: built-in cameras, observers,
+``_generators``            illuminants, reflectance sets; file readers; :func:`generators`;
+                           :class:`GeneratorPair` (source Φ and target Ψ on one grid)
 ``solid``, ``polytope``    :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
 ``vora``                   Vora values and camera-set ranking
 ``mismatch``               metamer mismatch volumes (:func:`metamer_mismatch`,
                            :class:`MetamerMismatch`), certified by facet refinement
 ``prior``, ``atypical``    a reflectance prior and atypical test spectra
 ``correct``                estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`
-``image``                  :func:`correct_image` (unique colours, batches, cache)
+``image``, ``profile``     :func:`correct_image` (unique colours, batches, cache); 3-D LUTs
+                           and saved corrections
 ``evaluate``, ``report``,  applications: ΔE00 evaluation, HTML/Markdown reports, pictures,
 ``viz``, ``cli``           the ``zonotope`` command
 =========================  ==================================================================
@@ -48,10 +50,11 @@ from ._errors import (
     UnknownMethodError,
     ZonotopeError,
 )
+from ._generators import GeneratorPair, generator_pair
 from ._loading import SpectralFileNotFoundError, load_camera, load_reflectances
 from ._registry import Method, MethodRegistry
 from ._tol import TOL, Tolerances
-from .solid import Support, Zonotope
+from .solid import Parallelograms, Support, Zonotope
 from .spectra import (
     CAMERAS,
     ILLUMINANTS,
@@ -85,10 +88,12 @@ __all__ = [
     "REFLECTANCES",
     "TOL",
     "CameraSetScore",
+    "GeneratorPair",
     "GeometryError",
     "InfeasibleResponseError",
     "Method",
     "MethodRegistry",
+    "Parallelograms",
     "SpectralDataError",
     "SpectralFileNotFoundError",
     "Support",
@@ -98,6 +103,7 @@ __all__ = [
     "ZonotopeError",
     "camera",
     "common_shape",
+    "generator_pair",
     "generators",
     "illuminant",
     "list_builtin",
@@ -120,7 +126,7 @@ __all__ = [
 _EXPORTS = {
     "polytope": ["Polytope"],
     "mismatch": ["ORACLES", "CertifiedMMV", "MMVBatch", "MetamerMismatch", "channelwise_intersection",
-                 "metamer_mismatch", "metamer_mismatch_batch"],
+                 "metamer_mismatch", "metamer_mismatch_batch", "metamer_mismatch_bounds"],
     "prior": ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"],
     "atypical": ["ATYPICAL_KINDS", "atypical_reflectances"],
     "correct": ["CORRECTION_METHODS", "CorrectionProblem", "Corrector", "check_reflectances",
@@ -128,7 +134,10 @@ _EXPORTS = {
                 "fit_Finlayson2015", "fit_MAP", "fit_Prior", "fit_Projection", "fit_correction",
                 "mmv_centroids", "root_polynomial_terms"],
     "image": ["correct_image"],
-    "evaluate": ["DEFAULT_METHODS", "Evaluation", "EvaluationRow", "TestSet", "natural_test_sets"],
+    "profile": ["LUT_SHAPERS", "LUT_SPACES", "apply_correction_LUT", "correction_LUT", "load_correction",
+                "save_correction", "write_correction_LUT"],
+    "evaluate": ["ATYPICAL_SEED", "DEFAULT_METHODS", "Evaluation", "EvaluationRow", "TestSet",
+                 "atypical_test_set", "natural_test_sets"],
     "report": ["ReportExistsError", "write_report"],
     "viz": ["mmv_polytope", "plot_grey_mmvs", "plot_mmv", "plot_mmv_comparison", "plot_object_colour_solid",
             "plot_sensitivities", "plot_spectral_locus", "plot_vora_chain"],

@@ -12,14 +12,16 @@ import numpy as np
 
 from . import spectra
 from ._errors import SpectralDataError
+from ._generators import GeneratorPair
 from ._loading import load_camera, load_reflectances
 
 __all__ = ["CorrectionProblem", "Corrector", "check_reflectances", "correction_problem"]
 
 
-@dataclass(frozen=True, eq=False)
-class CorrectionProblem:
-    """Source and target generators on one grid, plus the training reflectances.
+@dataclass(frozen=True, eq=False, kw_only=True)
+class CorrectionProblem(GeneratorPair):
+    """Source and target generators on one grid (a :class:`~zonotope.GeneratorPair`), plus the
+    training reflectances and the map from the target to XYZ.
 
     Attributes
     ----------
@@ -32,42 +34,18 @@ class CorrectionProblem:
         Training reflectances, one per row.
     XYZ_from_target : ndarray of shape (m, 3)
         ``XYZ = target @ XYZ_from_target`` (identity for an XYZ target).
-    sources, target, illuminant : str
+    sources, target, illuminant, training_name : str
         Names, for reports.
     """
 
-    Phi: np.ndarray
-    Psi: np.ndarray
-    wavelengths: np.ndarray
     training: np.ndarray
     XYZ_from_target: np.ndarray
-    sources: tuple[str, ...] = ()
-    target: str = ""
-    illuminant: str = ""
     training_name: str = ""
-
-    @property
-    def k(self) -> int:
-        """Number of source channels."""
-        return self.Phi.shape[1]
-
-    @property
-    def m(self) -> int:
-        """Number of target channels."""
-        return self.Psi.shape[1]
 
     @property
     def white_XYZ(self) -> np.ndarray:
         """XYZ of the perfect white reflector, shape (3,) (Y = 1 for the default target)."""
         return self.Psi.sum(axis=0) @ self.XYZ_from_target
-
-    def source_of(self, reflectances) -> np.ndarray:
-        """Source responses ``(..., k)`` of reflectances ``(..., n)``."""
-        return np.asarray(reflectances, dtype=np.float64) @ self.Phi
-
-    def target_of(self, reflectances) -> np.ndarray:
-        """Target values ``(..., m)`` of reflectances ``(..., n)``."""
-        return np.asarray(reflectances, dtype=np.float64) @ self.Psi
 
     def to_XYZ(self, target) -> np.ndarray:
         """Target values ``(..., m)`` → XYZ ``(..., 3)``."""
@@ -166,11 +144,13 @@ def correction_problem(
     if shape is None:
         extra = [train_curve] if train_curve is not None else []
         shape = spectra.common_shape(*curves, obs, light, *extra)
-    Phi = spectra.generators(curves, light, shape).values
+    G = spectra.generators(curves, light, shape)
+    Phi = G.values
     w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, float)
     tname = _label(target) if isinstance(target, str) else getattr(target, "name", "target")
     is_lms = any(s in str(getattr(obs, "name", tname)).lower() for s in ("cone", "lms", "stockman"))
-    Psi = spectra.generators(obs, light, shape, normalise=(2 if is_lms else 1)).values
+    T = spectra.generators(obs, light, shape, normalise=(2 if is_lms else 1))
+    Psi = T.values
     if is_lms:
         xyz = spectra.generators("CIE 2015 2°", light, shape, normalise=1).values
         M = np.linalg.lstsq(Psi, xyz, rcond=None)[0]
@@ -191,7 +171,8 @@ def correction_problem(
     return CorrectionProblem(Phi=Phi, Psi=Psi, wavelengths=w, training=R, XYZ_from_target=M,
                              sources=tuple(labels), target=tname, illuminant=_label(illuminant)
                              if isinstance(illuminant, str) else getattr(illuminant, "name", "?"),
-                             training_name=tr_name)
+                             training_name=tr_name, source_channels=tuple(G.labels),
+                             target_channels=tuple(T.labels))
 
 
 def check_reflectances(R: np.ndarray, what: str) -> None:

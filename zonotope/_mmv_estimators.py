@@ -17,7 +17,7 @@ __all__ = ["fit_Centroid", "fit_MAP", "fit_Prior", "fit_Projection", "mmv_centro
 
 
 def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -> float:
-    """log k-volume of the source object-colour solid (exact, or sampled for large C(n, k))."""
+    """Log k-volume of the source object-colour solid (exact, or sampled for large C(n, k))."""
     from .solid import Zonotope
 
     Z = Zonotope(Phi)

@@ -2,13 +2,32 @@
 
 All are *relative*: they are multiplied by the natural scale of the object they test
 (generator lengths, solid diameter), so results do not change with units.
+
+Vocabulary (one meaning each, across the three packages):
+
+``tol``
+    A :class:`Tolerances` object (relative tolerances of the solid's combinatorics).
+``atol``
+    An absolute slack in the units of the object (response units for solids and MMVs):
+    ``contains(points, atol=...)``, ``Polytope(..., atol=...)``.
+``eps``
+    The certification tolerance of a metamer mismatch volume, relative to the target's scale
+    (``eps = 0``: exact; ``eps > 0``: certified inner and outer bounds).
+``delta``
+    Per-channel tolerance on the source response (noise), in response units.
+
+Why each value: float64 rounding is ε = 2.2e-16 and sums of n ≤ 10³ generators or LP solutions
+carry errors of about n·ε·scale ≲ 1e-12·scale. Tolerances that decide *combinatorics* (is this
+generator zero, is this point off the plane) sit three or more orders above that, so rounding never
+flips a decision, and as far below the 1e-6 relative accuracy any measured spectral data carry,
+so that no measured feature is merged away. The per-value reasons are next to each value.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["TOL", "Tolerances"]
+__all__ = ["AFFINE", "ANGLE", "CERTIFY", "FEASIBLE_ABS", "FEASIBLE_REL", "TOL", "Tolerances"]
 
 
 @dataclass(frozen=True)
@@ -37,7 +56,26 @@ class Tolerances:
     rank
         Singular values below ``rank`` × the largest count as zero.
     contains
-        Default absolute slack of inside tests, relative to the solid's diameter.
+        Default absolute slack of inside tests, relative to the solid's scale (its largest
+        per-channel extent): ``atol = contains × scale``.
+
+    Notes
+    -----
+    Reasons for the defaults:
+
+    - ``zero = 1e-12``: dropping a generator that short moves any vertex by < 1e-12 of the
+      solid's scale, the size of float64 rounding on sums of ~10³ generators: nothing a test at
+      ``contains`` (1e-9) could see;
+    - ``parallel = 1e-7``: see above (measured on the CIE 1931 1 nm table); the facet normal
+      ``g_i × g_j`` of two generators at angle θ carries a relative error ≈ ε / θ, so keeping pairs
+      at θ ≥ 1e-7 keeps normals accurate to ≈ 2e-9;
+    - ``coplanar = 1e-11`` rad: only generators coplanar to rounding are grouped into one zonogon;
+      a larger value would merge genuine facets of near-coplanar measured data (see
+      ``_zonohedron``'s notes on the 1e-12…1e-11 rad band);
+    - ``rank = 1e-10``: singular values of exact rank-deficient stacks (duplicated or linearly
+      dependent channels) come out at ≈ 1e-15 relative; measured independent channels are ≥ 1e-4;
+    - ``contains = 1e-9``: three orders above the ≈ 1e-12 error of the exact half-spaces, so a
+      point computed *on* the boundary (a vertex, a support point) tests inside.
     """
 
     zero: float = 1e-12
@@ -48,3 +86,30 @@ class Tolerances:
 
 
 TOL = Tolerances()
+
+#: Affine-hull flatness of a :class:`~zonotope.Polytope`, relative to its diameter: points farther
+#: than ``AFFINE × diameter`` from a hyperplane span another dimension. MMV vertices come from the
+#: simplex oracle exact to ≈ 1e-12 of the scale; 1e-9 leaves a margin of 10³ against rounding
+#: while keeping every MMV thicker than a billionth of the target scale full-dimensional. It is
+#: also the default ``atol`` of a polytope's inside test and of its half-space conversion.
+AFFINE = 1e-9
+
+#: Coplanar hull triangles (Qhull triangulates every facet) are one facet when their unit normals
+#: satisfy ``1 − cos θ < ANGLE`` (θ < 4.5e-5 rad) and their offsets agree to ``AFFINE``. Triangles of
+#: one true facet agree to rounding; distinct facets of a certified MMV differ by far more.
+ANGLE = 1e-9
+
+#: Exact MMVs (``eps = 0``): a facet is certified when the support value in its direction exceeds its
+#: offset by at most ``CERTIFY × target scale``. Equal to :data:`AFFINE` so that the exact
+#: polytope and its affine hull use one threshold; the support values are LP optima exact to
+#: ≈ 1e-12 of the scale.
+CERTIFY = 1e-9
+
+#: ``on_infeasible="nearest"``: the tolerance δ that makes an infeasible response feasible is its LP
+#: distance to the solid times ``1 + FEASIBLE_REL`` plus ``FEASIBLE_ABS × scale``. HiGHS reports the
+#: distance to its primal feasibility tolerance (1e-7), so a smaller margin leaves the LP infeasible.
+FEASIBLE_REL = 1e-7
+
+#: See :data:`FEASIBLE_REL` (absolute part, relative to the source scale: a response exactly on
+#: the boundary, distance 0, still gets a strictly positive δ).
+FEASIBLE_ABS = 1e-10

@@ -18,10 +18,11 @@ hull of the support points found so far until every facet is certified. The LPs 
 batched, warm-started bounded-variable simplex (``oracle="fast"``, :mod:`zonotope._oracle`); the
 scipy-HiGHS twin (``oracle="highs"``) is the reference used by the tests and the benchmark.
 
-- ``eps = 0`` (exact): facets are certified to ``tol`` (1e-9 of the target scale): the result is
-  the MMV up to floating point, as a :class:`~zonotope.polytope.Polytope`.
-- ``eps > 0`` (certified): facets within ε·scale of the support are accepted, giving a
-  :class:`CertifiedMMV` with ``inner ⊆ MMV ⊆ outer``, volume bounds and a centroid error bound.
+- :func:`metamer_mismatch` (exact): facets are certified to :data:`zonotope._tol.CERTIFY`
+  (1e-9 of the target scale): the MMV up to floating point, as a :class:`~zonotope.Polytope`.
+- :func:`metamer_mismatch_bounds` (certified to ``eps``): facets within ε·scale of the support
+  are accepted, giving a :class:`CertifiedMMV` with ``inner ⊆ MMV ⊆ outer``, volume bounds and a
+  centroid error bound. (One function per return type: the type never depends on a value.)
 
 Lower-dimensional MMVs (Ψ = Φ, black, white, responses on the source solid's boundary) are found
 by certifying the affine hull first (``dim`` 0, 1 or 2), never by a Qhull failure.
@@ -59,6 +60,8 @@ import numpy as np
 from ._errors import GeometryError, InfeasibleResponseError
 from ._mmv_refine import Refinement, refine, refine_many
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
+from ._registry import MethodRegistry
+from ._tol import CERTIFY, FEASIBLE_ABS, FEASIBLE_REL
 from .polytope import Polytope
 
 if TYPE_CHECKING:
@@ -72,12 +75,14 @@ __all__ = [
     "channelwise_intersection",
     "metamer_mismatch",
     "metamer_mismatch_batch",
+    "metamer_mismatch_bounds",
 ]
 
-#: Support oracles selectable with ``oracle=``.
-ORACLES = {"fast": SimplexOracle, "highs": HighsOracle}
-
-_EXACT_TOL = 1e-9  # relative to the target scale
+#: Support oracles selectable with ``oracle=`` (case-insensitive); ``"highs"`` is the scipy-HiGHS
+#: reference twin of the warm-started simplex ``"fast"``.
+ORACLES: MethodRegistry = MethodRegistry("support oracle", argument="oracle")
+ORACLES.register("fast", SimplexOracle, reference_twin="highs")
+ORACLES.register("highs", HighsOracle, reference_twin=None)
 
 
 @dataclass(frozen=True)
@@ -180,8 +185,7 @@ def _check_arrays(Phi, Psi, response) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
     """Build the support oracle; handle infeasible responses as asked."""
-    if oracle not in ORACLES:
-        raise ValueError(f"oracle must be one of {sorted(ORACLES)}; got {oracle!r}.")
+    oracle = ORACLES.resolve(oracle)
     if on_infeasible not in ("raise", "nearest"):
         raise ValueError(f"on_infeasible must be 'raise' or 'nearest'; got {on_infeasible!r}.")
     cls = ORACLES[oracle]
@@ -200,14 +204,14 @@ def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
             "response units) outside the source object-colour solid. Pass delta ≥ that distance "
             "(noise tolerance) or on_infeasible='nearest'.", distance=dist)
     scale = float(np.abs(Phi).sum(axis=0).max())
-    d_eff = np.maximum(d_in, dist * (1 + 1e-7) + 1e-10 * scale)
+    d_eff = np.maximum(d_in, dist * (1 + FEASIBLE_REL) + FEASIBLE_ABS * scale)
     return cls(Phi, Psi, c, d_eff)
 
 
 def _tolerances(Psi, eps) -> tuple[float, float]:
     """(exact-mode tolerance, certification threshold), both relative to the target's scale."""
     scale = float(np.abs(Psi).sum(axis=0).max()) or 1.0
-    tol = _EXACT_TOL * scale
+    tol = CERTIFY * scale
     return tol, max(float(eps) * scale, tol)
 
 
@@ -221,9 +225,9 @@ def _refinement(Phi, Psi, response, *, delta=0.0, eps=0.0, oracle="fast", on_inf
     return refine(orc, Psi.shape[1], threshold=thr, tol=tol, max_rounds=max_rounds), thr, tol
 
 
-def metamer_mismatch(Phi, Psi, response, *, delta=0.0, eps: float = 0.0, oracle: str = "fast",
-                     on_infeasible: str = "raise"):
-    """Metamer mismatch volume of one source response (functional form on arrays).
+def metamer_mismatch(Phi, Psi, response, *, delta=0.0, oracle: str = "fast",
+                     on_infeasible: str = "raise") -> Polytope:
+    """Exact metamer mismatch volume of one source response (functional form on arrays).
 
     Parameters
     ----------
@@ -235,26 +239,24 @@ def metamer_mismatch(Phi, Psi, response, *, delta=0.0, eps: float = 0.0, oracle:
         Source response c = xᵀΦ.
     delta : float or array_like of shape (k,)
         Per-channel tolerance: |Φᵀx − c| ≤ δ (see the module notes on choosing it). Default 0.
-    eps : float
-        0 (default) for the exact polytope; > 0 for a certified result whose facets are within
-        ``eps ×`` the target scale (the largest white-point channel, 1 for normalised generators)
-        of the true support function.
     oracle : {"fast", "highs"}
-        Support-LP solver: the batched warm-started simplex, or the scipy-HiGHS reference.
+        Support-LP solver (key of :data:`ORACLES`): the batched warm-started simplex, or the
+        scipy-HiGHS reference twin.
     on_infeasible : {"raise", "nearest"}
         What to do when no reflectance gives ``response`` within δ. ``"raise"``:
         :class:`~zonotope.InfeasibleResponseError` with ``.distance``, the max-norm distance d from
         ``response`` to the source solid. ``"nearest"``: use the nearest feasible responses, i.e.
         every response of the solid at max-norm distance d from ``response`` (the set of nearest
-        points in that norm), which is the MMV with δ = max(δ, d) (d enlarged by 1e-7 relative for
-        round-off). Nothing is clipped silently: the result is the MMV of a stated set of responses.
+        points in that norm), which is the MMV with δ = max(δ, d) (d enlarged by
+        :data:`zonotope._tol.FEASIBLE_REL` for round-off). Nothing is clipped silently: the result
+        is the MMV of a stated set of responses.
 
     Returns
     -------
-    Polytope or CertifiedMMV
-        ``eps = 0``: the exact MMV as a :class:`~zonotope.polytope.Polytope` (``dim`` < m for flat
-        MMVs). ``eps > 0``: a :class:`CertifiedMMV` (``inner``, ``outer``, ``volume_bounds``,
-        ``centroid``, ``centroid_error``).
+    Polytope
+        The exact MMV (facets certified to :data:`zonotope._tol.CERTIFY` × the target scale);
+        ``dim`` < m for flat MMVs. For certified inner/outer bounds at a coarser tolerance, which
+        cost fewer support LPs, use :func:`metamer_mismatch_bounds`.
 
     Raises
     ------
@@ -262,8 +264,10 @@ def metamer_mismatch(Phi, Psi, response, *, delta=0.0, eps: float = 0.0, oracle:
         Infeasible response with ``on_infeasible="raise"``.
     GeometryError
         Shapes that do not match, NaN input.
+    UnknownMethodError
+        Unknown ``oracle``.
     ValueError
-        Unknown ``oracle`` / ``on_infeasible``, negative ``eps``.
+        Unknown ``on_infeasible``.
 
     Examples
     --------
@@ -275,12 +279,50 @@ def metamer_mismatch(Phi, Psi, response, *, delta=0.0, eps: float = 0.0, oracle:
     >>> mmv.dim, bool(mmv.contains(np.full(31, 0.5) @ Psi))
     (3, True)
     """
+    ref, _, _ = _refinement(Phi, Psi, response, delta=delta, eps=0.0, oracle=oracle,
+                            on_infeasible=on_infeasible)
+    if not ref.converged:  # pragma: no cover - safety net
+        raise GeometryError("facet refinement did not converge; use metamer_mismatch_bounds(eps > 0).")
+    return ref.inner
+
+
+def metamer_mismatch_bounds(Phi, Psi, response, *, eps: float = 1e-3, delta=0.0, oracle: str = "fast",
+                            on_infeasible: str = "raise") -> CertifiedMMV:
+    """Certified inner and outer bounds of the metamer mismatch volume of one source response.
+
+    Parameters
+    ----------
+    Phi, Psi, response, delta, oracle, on_infeasible
+        As in :func:`metamer_mismatch`.
+    eps : float
+        Certification tolerance (≥ 0): every facet of the bounds is within ``eps ×`` the target
+        scale (the largest white-point channel, 1 for normalised generators) of the true support
+        function. Default 1e-3; 0 gives the exact polytope as ``inner``.
+
+    Returns
+    -------
+    CertifiedMMV
+        ``inner ⊆ MMV ⊆ outer``, ``volume_bounds``, ``centroid`` (of ``inner``) and
+        ``centroid_error``.
+
+    Raises
+    ------
+    InfeasibleResponseError, GeometryError, UnknownMethodError, ValueError
+        As :func:`metamer_mismatch`; ``ValueError`` also for a negative ``eps``.
+
+    Examples
+    --------
+    >>> import numpy as np, zonotope
+    >>> grid = np.arange(400, 701, 10.0)
+    >>> Phi = zonotope.generators("Nikon 5100 (NPL)", shape=grid).values
+    >>> Psi = zonotope.generators("Stockman & Sharpe 2°", shape=grid).values
+    >>> cert = metamer_mismatch_bounds(Phi, Psi, np.full(31, 0.5) @ Phi, eps=1e-3)
+    >>> low, high = cert.volume_bounds
+    >>> bool(0 < low <= high)
+    True
+    """
     ref, thr, _ = _refinement(Phi, Psi, response, delta=delta, eps=eps, oracle=oracle,
-                                on_infeasible=on_infeasible)
-    if eps == 0:
-        if not ref.converged:  # pragma: no cover - safety net
-            raise GeometryError("facet refinement did not converge; use eps > 0.")
-        return ref.inner
+                              on_infeasible=on_infeasible)
     return _certified(ref, thr)
 
 
@@ -358,9 +400,11 @@ class MetamerMismatch:
 
     Parameters
     ----------
-    source : camera or list of cameras
-        Built-in name, colour MSDS, or ``(wavelengths, values)``; a list stacks the channels
-        (two cameras give k = 6).
+    source : camera, list of cameras or GeneratorPair
+        Built-in name, file, colour MSDS, or ``(wavelengths, values)``; a list stacks the channels
+        (two cameras give k = 6). A :class:`~zonotope.GeneratorPair` (e.g. a
+        :class:`~zonotope.correct.CorrectionProblem`) is used as it is (``target``,
+        ``illuminant`` and ``shape`` are then ignored).
     target : observer or camera
         Default ``"Stockman & Sharpe 2°"`` (LMS).
     illuminant : str or SpectralDistribution
@@ -382,30 +426,25 @@ class MetamerMismatch:
     >>> import numpy as np
     >>> mm = MetamerMismatch("Nikon 5100 (NPL)", shape=np.arange(400, 701, 10.0))
     >>> grey = mm.source_of(np.full(31, 0.5))
-    >>> mmv = mm(grey, eps=1e-3)
+    >>> mmv = mm.bounds(grey, eps=1e-3)
     >>> bool(mmv.outer.contains(mm.target_of(np.full(31, 0.5))))
     True
     """
 
     def __init__(self, source, target="Stockman & Sharpe 2°", illuminant="D65", shape=None, *,
                  oracle: str = "fast") -> None:
-        from . import spectra
+        from ._generators import GeneratorPair, generator_pair
 
-        sources = list(source) if isinstance(source, list | tuple) else [source]
-        if shape is None:
-            grid = spectra.generators([*sources, target], illuminant).wavelengths
+        if isinstance(source, GeneratorPair):  # e.g. a CorrectionProblem: its Φ and Ψ as they are
+            pair = source
         else:
-            grid = getattr(shape, "wavelengths", shape)
-        G = spectra.generators(sources, illuminant, np.asarray(grid, dtype=np.float64))
-        T = spectra.generators(target, illuminant, np.asarray(grid, dtype=np.float64))
-        if oracle not in ORACLES:
-            raise ValueError(f"oracle must be one of {sorted(ORACLES)}; got {oracle!r}.")
-        self.Phi = np.array(G.values, dtype=np.float64)
-        self.Psi = np.array(T.values, dtype=np.float64)
-        self.wavelengths = np.array(G.wavelengths, dtype=np.float64)
-        self.oracle = oracle
-        self.source_labels = tuple(G.labels)
-        self.target_labels = tuple(T.labels)
+            pair = generator_pair(list(source) if isinstance(source, list | tuple) else source,
+                                  target, illuminant, shape)
+        self.generators = pair
+        self.Phi, self.Psi, self.wavelengths = pair.Phi, pair.Psi, pair.wavelengths
+        self.oracle = ORACLES.resolve(oracle)
+        self.source_labels = pair.source_channels
+        self.target_labels = pair.target_channels
 
     def __repr__(self) -> str:
         return (f"MetamerMismatch(k={self.k}, m={self.m}, n_wavelengths={self.wavelengths.size}, "
@@ -450,10 +489,15 @@ class MetamerMismatch:
         """Target responses (..., m) of reflectances (..., n) on the grid."""
         return self._reflectances(reflectances) @ self.Psi
 
-    def __call__(self, response, *, delta=0.0, eps: float = 0.0, on_infeasible: str = "raise"):
-        """MMV of one response (k,); see :func:`metamer_mismatch` for the options and results."""
-        return metamer_mismatch(self.Phi, self.Psi, response, delta=delta, eps=eps,
-                                oracle=self.oracle, on_infeasible=on_infeasible)
+    def __call__(self, response, *, delta=0.0, on_infeasible: str = "raise") -> Polytope:
+        """Exact MMV of one response (k,); see :func:`metamer_mismatch`."""
+        return metamer_mismatch(self.Phi, self.Psi, response, delta=delta, oracle=self.oracle,
+                                on_infeasible=on_infeasible)
+
+    def bounds(self, response, *, eps: float = 1e-3, delta=0.0, on_infeasible: str = "raise") -> CertifiedMMV:
+        """Certified bounds of the MMV of one response (k,); see :func:`metamer_mismatch_bounds`."""
+        return metamer_mismatch_bounds(self.Phi, self.Psi, response, eps=eps, delta=delta,
+                                       oracle=self.oracle, on_infeasible=on_infeasible)
 
     def channelwise(self, response, *, groups="auto", delta=0.0) -> Polytope:
         """The per-channel/per-camera intersection (outer bound); see :func:`channelwise_intersection`."""
@@ -517,8 +561,7 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
         raise GeometryError(f"responses must have shape (..., {k}); got {C.shape}.")
     if not (np.isfinite(eps) and eps >= 0):
         raise ValueError(f"eps must be a finite number ≥ 0; got {eps!r}.")
-    if oracle not in ORACLES:
-        raise ValueError(f"oracle must be one of {sorted(ORACLES)}; got {oracle!r}.")
+    oracle = ORACLES.resolve(oracle)
     if on_infeasible not in ("raise", "nearest"):
         raise ValueError(f"on_infeasible must be 'raise' or 'nearest'; got {on_infeasible!r}.")
     if chunk < 1:

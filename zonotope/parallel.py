@@ -139,6 +139,7 @@ class SerialExecutor(Executor):
         return map(fn, *iterables)
 
     def outcomes(self, fn, items, *, shared=None, progress=None):
+        """See :meth:`Executor.outcomes` (here: one item after the other, in order)."""
         items = list(items)
         for i, item in enumerate(items):
             try:
@@ -187,6 +188,7 @@ class DaskExecutor(Executor):
             yield pending.popleft().result(timeout=timeout)
 
     def outcomes(self, fn, items, *, shared=None, progress=None):
+        """See :meth:`Executor.outcomes` (here: Dask futures, yielded as they complete)."""
         from distributed import as_completed
 
         items = list(items)

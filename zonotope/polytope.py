@@ -27,11 +27,10 @@ from functools import cached_property
 import numpy as np
 
 from ._errors import GeometryError
+from ._tol import AFFINE, ANGLE
 
 __all__ = ["Polytope"]
 
-_RANK_TOL = 1e-9  # relative to the diameter: flatness of the affine hull
-_ANGLE_TOL = 1e-9  # merging coplanar hull triangles (1 − cos of the angle)
 
 
 def _affine_hull(P: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -123,7 +122,7 @@ class Polytope:
             raise GeometryError("points contain NaN or inf.")
         self.ambient_dim = P.shape[1]
         span = float(np.ptp(P, axis=0).max()) if P.shape[0] else 0.0
-        self.tol = float(tol) if tol is not None else _RANK_TOL * max(span, 1e-300)
+        self.tol = float(tol) if tol is not None else AFFINE * max(span, 1e-300)
         if P.shape[0] == 0:
             self._o, self._B = np.zeros(self.ambient_dim), np.zeros((self.ambient_dim, 0))
             self.dim = -1
@@ -202,7 +201,7 @@ class Polytope:
         nb = self._hull_neighbors
         rows = np.repeat(np.arange(T), nb.shape[1])
         cols = nb.ravel()
-        same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - _ANGLE_TOL) & (
+        same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - ANGLE) & (
             np.abs(off[rows] - off[cols]) <= self.tol)
         if same.any():
             graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
@@ -598,7 +597,7 @@ def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
         A, b, norms = A[norms > 0], b[norms > 0], norms[norms > 0]
     A, b = A / norms[:, None], b / norms
     scale = max(float(np.abs(b).max()), 1.0)
-    t = tol if tol is not None else 1e-9 * scale
+    t = tol if tol is not None else AFFINE * scale
     if interior is not None and m >= 2 and float((b - A @ interior).min()) > 10 * t:
         return _halfspace_intersection(A, b, np.asarray(interior, dtype=np.float64))
     from scipy.optimize import linprog

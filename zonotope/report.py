@@ -57,16 +57,13 @@ def _table_html(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray | None:
-    try:
-        from .mismatch import metamer_mismatch
-    except ImportError:
-        return None
+def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray:
+    from .mismatch import metamer_mismatch_bounds
+
     vols = []
     for c in responses:
-        mmv = metamer_mismatch(problem.Phi, problem.Psi, c, eps=1e-3, on_infeasible="nearest")
-        vb = getattr(mmv, "volume_bounds", None)
-        vols.append(float(np.mean(vb)) if vb is not None else float(mmv.volume))
+        mmv = metamer_mismatch_bounds(problem.Phi, problem.Psi, c, eps=1e-3, on_infeasible="nearest")
+        vols.append(float(np.mean(mmv.volume_bounds)))
     return np.array(vols)
 
 
@@ -186,13 +183,7 @@ def write_report(
         step("MMV volumes along the grey axis", len(sets) * len(GREY_LEVELS))
         grey = {" + ".join(pb.sources): _mmv_volumes(pb, np.outer(GREY_LEVELS, np.ones(pb.k)))
                 for pb in sets} if volumes else {}
-        if not volumes:
-            pass
-        elif all(v is None for v in grey.values()):
-            note = "zonotope.mismatch is not available: MMV volumes skipped."
-            md.append(f"\n{note}\n")
-            parts.append(f"<p>{note}</p>")
-        else:
+        if volumes:
             section("MMV volume along the grey axis (XYZ units, × 10⁻⁶)",
                     ("cameras", *[f"grey {g:g}" for g in GREY_LEVELS]),
                     [(k, *[_num(1e6 * x) for x in v]) for k, v in grey.items()])
@@ -255,12 +246,6 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
     step("pictures: solid", 1)
     viz.plot_object_colour_solid(full, filename=folder / "solid.png", opacity=0.9).close()
     pics.append(("solid.png", "Object-colour solid (CIE 2015 XYZ) and spectral locus"))
-    try:
-        import importlib
-
-        importlib.import_module("zonotope.mismatch")
-    except ImportError:
-        return pics
     step("pictures: MMVs", 2)
     viz.plot_grey_mmvs(full, filename=folder / "grey_mmvs.png").close()
     pics.append(("grey_mmvs.png", f"MMVs along the grey axis, {' + '.join(full.sources)}"))

@@ -311,7 +311,7 @@ def camera(name: str | colour.MultiSpectralDistributions) -> colour.MultiSpectra
     """A built-in camera's RGB sensitivities by name (case and punctuation ignored).
 
     >>> camera("nikon 5100").labels
-    ('red', 'green', 'blue')
+    ['red', 'green', 'blue']
     """
     if isinstance(name, colour.MultiSpectralDistributions):
         return name

@@ -149,11 +149,10 @@ def mmv_polytope(problem, response, *, eps: float = 1e-3):
     eps
         Certification tolerance; the certified inner polytope is returned.
     """
-    from .mismatch import metamer_mismatch
+    from .mismatch import metamer_mismatch_bounds
 
-    mmv = metamer_mismatch(problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64),
-                           eps=eps, on_infeasible="nearest")
-    return getattr(mmv, "inner", mmv)
+    return metamer_mismatch_bounds(problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64),
+                                   eps=eps, on_infeasible="nearest").inner
 
 
 def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: float = 0.12,

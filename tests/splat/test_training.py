@@ -31,7 +31,7 @@ def tiny(steps, **kw) -> TrainConfig:
     kw.setdefault("lr_means", 2e-3)  # short runs like faster rates
     kw.setdefault("lr_colours", 2e-2)
     return TrainConfig(steps=steps, densify_from=40, densify_every=40, densify_until=int(0.7 * steps),
-                       render=RenderConfig(tile_size=8, tile_capacity=128), progress=False, **kw)
+                       render=RenderConfig(tile_size=8, tile_capacity=128), **kw)
 
 
 def test_rawnerf_loss_matches_multinerf():
