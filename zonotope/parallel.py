@@ -321,7 +321,7 @@ def executor(scheduler: str | None = None, *, tasks: int | None = None, min_task
     try:
         if where.startswith("local:"):
             cluster = LocalCluster(n_workers=int(where.split(":")[1]), threads_per_worker=1,
-                                   processes=True, dashboard_address=None,
+                                   processes=True, dashboard_address=":0",
                                    silence_logs=logging.CRITICAL)
             client = Client(cluster)
             kind = "local"
