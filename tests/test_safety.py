@@ -143,6 +143,49 @@ def test_sigkill_mid_write_keeps_a_complete_file(tmp_path):
     assert leftovers(tmp_path, {"out.bin"}) == [] and dest.read_bytes() == b"ok"
 
 
+_DIR_WRITER = """
+import sys, types
+pkg = types.ModuleType("zonotope")
+pkg.__path__ = ["zonotope"]
+sys.modules["zonotope"] = pkg
+from zonotope._io import atomic_dir
+dest = sys.argv[1]
+i = 0
+while True:
+    i += 1
+    with atomic_dir(dest, signature="zonotope report", overwrite=True) as d:
+        for name in ("index.html", "report.md", "solid.png", "grey_mmvs.png"):
+            (d / name).write_bytes(bytes([i % 251]) * 1_000_000)
+    print(i, flush=True)
+"""
+
+
+def test_sigkill_mid_report_folder_keeps_a_complete_report(tmp_path):
+    """6 SIGKILLs of a process replacing a report folder (4 MB) in a loop: the folder is always one
+    complete report with its marker, and the next write removes the dead writer's partial folders."""
+    dest = tmp_path / "rep"
+    mid_write = 0
+    for delay in KILL_DELAYS[:6]:
+        _kill_while_writing(_DIR_WRITER, [str(dest)], delay)
+        files = {p.name: p.read_bytes() for p in dest.iterdir()}
+        assert sorted(files) == sorted([MARKER, "index.html", "report.md", "solid.png", "grey_mmvs.png"])
+        data = {v for k, v in files.items() if k != MARKER}
+        assert len(data) == 1 and len(next(iter(data))) == 1_000_000
+        mid_write += bool(clean_stale_temporaries(dest))
+        assert leftovers(tmp_path, {"rep"}) == []  # no .partial-* folder survives
+    print(f"{mid_write} of 6 kills landed mid-write")
+
+
+def test_output_under_a_file_is_a_project_error(tmp_path):
+    blocker = tmp_path / "results"
+    blocker.write_text("a file, not a folder")
+    with pytest.raises(OutputExistsError, match="is a file"):
+        check_output(blocker / "sub" / "table.md")
+    with pytest.raises(OutputExistsError, match="in the way"):
+        atomic_write_text(blocker / "table.md", "x")
+    assert blocker.read_text() == "a file, not a folder"
+
+
 # ---- report and evaluate outputs --------------------------------------------------------------------
 
 

@@ -71,6 +71,16 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+def _make_parent(dest: Path) -> None:
+    """Create ``dest``'s folder; a file in the way is an :class:`OutputExistsError`, not a raw
+    ``FileExistsError`` / ``NotADirectoryError``."""
+    try:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise OutputExistsError(f"cannot create the folder of {str(dest)!r}: a file of that name (or of one "
+                                "of its parents) is in the way. Choose another output path.") from None
+
+
 def _temp_name(dest: Path, kind: str) -> str:
     return f".{dest.name}.{os.getpid()}.{kind}-"
 
@@ -158,6 +168,10 @@ def check_output(dest: str | os.PathLike, *, overwrite: bool = False, signature:
             raise OutputExistsError(f"{what}={str(dest)!r} is (or holds) the input {str(p)!r}; refusing to "
                                     "overwrite an input. Choose another output path.")
     if not (dest.exists() or dest.is_symlink()):
+        blocker = next((p for p in dest.parents if p.exists()), None)
+        if blocker is not None and not blocker.is_dir():
+            raise OutputExistsError(f"{what}={str(dest)!r}: {str(blocker)!r} is a file, not a folder. Choose "
+                                    "another output path.")
         return dest
     if not overwrite:
         raise OutputExistsError(f"{what}={str(dest)!r} already exists; choose another path, or pass "
@@ -185,7 +199,7 @@ def atomic_file(dest: str | os.PathLike, *, mode: str = "wb") -> Iterator:
     'hello'
     """
     dest = Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    _make_parent(dest)
     clean_stale_temporaries(dest)
     fd, tmp = tempfile.mkstemp(prefix=_temp_name(dest, "tmp"), dir=dest.parent)
     try:
@@ -208,7 +222,7 @@ def atomic_path(dest: str | os.PathLike, write: Callable[[Path], object]) -> Pat
 
     The temporary keeps ``dest``'s suffix (some writers append one otherwise)."""
     dest = Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    _make_parent(dest)
     clean_stale_temporaries(dest)
     fd, tmp = tempfile.mkstemp(prefix=_temp_name(dest, "tmp"), suffix=dest.suffix, dir=dest.parent)
     os.close(fd)
@@ -266,7 +280,7 @@ def atomic_dir(dest: str | os.PathLike, *, signature: str, overwrite: bool = Fal
     the two complete. On any exception the temporary folder is removed.
     """
     dest = Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    _make_parent(dest)
     clean_stale_temporaries(dest)
     tmp = Path(tempfile.mkdtemp(prefix=_temp_name(dest, "partial"), dir=dest.parent))
     try:
