@@ -27,10 +27,9 @@ at exposure 1, found by one of:
     the brightest neutral surface in each camera's views is taken for a perfect white: the 99.5th
     percentile of the level of pixels (2 × 2 super-pixels behind a Bayer mosaic) whose channel ratios
     are within 5 % of the white's. If that surface really has reflectance ρ < 1 every estimate is
-    too bright by 1/ρ: a lightness error of about ``116 (ρ^(-1/3) − 1)`` ΔL* at white (3.6 ΔE00
-    at L* = 96 for ρ = 0.9, less on darker colours) plus the small chromaticity change of the
-    non-exposure-invariant estimators. Mark a patch when accuracy matters; the benchmark reports
-    both.
+    too bright by 1/ρ: for ρ = 0.9 a lightness error of 2.3 ΔE00 on greys from Y = 0.2 to 0.9 (4.0 ΔL* at
+    Y = 0.9, 2.4 at 0.2; computed with colour-science), 1.1 ΔE00 at Y = 0.05, plus the small chromaticity
+    change of the estimators that are not exposure-invariant. Mark a patch when accuracy matters.
 """
 
 from __future__ import annotations

@@ -15,8 +15,18 @@ from collections.abc import Sequence
 __all__ = ["main"]
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("zonotope")
+    except PackageNotFoundError:  # pragma: no cover - a source tree that was never installed
+        return "0+unknown"
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="splat", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="step", required=True)
     for name, help_ in (
         ("run", "every step: poses, train, render, correct, report"),
@@ -46,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``splat`` command; returns the exit status (2 for bad input)."""
     args = _parser().parse_args(argv)
+    import os
+
+    os.environ.setdefault("GLOG_minloglevel", "2")  # COLMAP's own log lines would drown the progress bars
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -73,13 +86,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         TimeElapsedColumn(),
         console=console,
         transient=False,
+        disable=not console.is_terminal,
     )
     tasks: dict[str, int] = {}
+    import time
+
+    t0, printed = time.monotonic(), {"at": -1e9}
 
     def progress(what: str, done: int, total: int) -> None:
         if what not in tasks:
             tasks[what] = bar.add_task(what, total=total)
         bar.update(tasks[what], completed=done, total=total)
+        now = time.monotonic()
+        # stderr is not a terminal (piped, redirected): rich draws nothing there, so plain lines,
+        # one per step start and end and at most one every 10 s in between
+        if not console.is_terminal and (done in (0, total) or now - printed["at"] >= 10.0):
+            printed["at"] = now
+            print(f"[{now - t0:7.1f} s] {what}: {done}/{total}", file=sys.stderr, flush=True)
 
     try:
         with bar:

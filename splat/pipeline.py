@@ -99,12 +99,17 @@ class PipelineConfig:
 # ---------------------------------------------------------------------------------------------
 
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
 def _atomic(path: Path, write: Callable[[Path], None]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp" + path.suffix)
     os.close(fd)
     try:
         write(Path(tmp))
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600 files; outputs get the usual permissions
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -632,14 +637,78 @@ def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
 
 
 def noise_sigma(out: Path, scale: np.ndarray) -> float:
-    """Response noise σ on the white → 1 scale: the median over channels of the training residual."""
+    """RMS training residual on the white → 1 scale, median over channels (for the report)."""
     s = json.loads((out / "train" / "summary.json").read_text())["residual_sigma_raw"]
     return float(np.median(np.asarray(s) / scale))
 
 
-def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, sigma: float):
-    """A fitted estimator with the noise tolerance: Prior gets ``noise=σ`` (δ = 3σ in its MMV
-    branch), Centroid ``delta=3σ``; regressions are trained on noisy replicas (σ)."""
+def choose_delta(
+    problem,
+    responses: np.ndarray,
+    *,
+    n: int = 200,
+    percentile: float = 95.0,
+    floor: float = 1e-3,
+    seed: int = 0,
+) -> dict:
+    """The MMV noise tolerance δ: the ``percentile`` of the max-norm distances from a sample of the
+    responses to the object-colour solid (at least ``floor``).
+
+    Stacked cameras' rendered responses are rarely exactly consistent (sensor noise averaged over views,
+    model error, SSF calibration); δ is the smallest tolerance that makes ``percentile`` % of them
+    feasible. The rest (counted in ``beyond_delta``) go to zonotope's ``on_infeasible="nearest"``.
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+    responses : array_like of shape (..., k)
+        White → 1 responses.
+
+    Returns
+    -------
+    dict
+        ``delta``, ``sampled``, ``outside`` (share off the solid), ``beyond_delta``, ``max_distance``.
+    """
+    from zonotope._lp import distance_to_zonotope
+
+    flat = np.asarray(responses, float).reshape(-1, problem.k)
+    rng = np.random.default_rng(seed)
+    pick = flat[rng.choice(len(flat), min(n, len(flat)), replace=False)]
+    d = np.array([distance_to_zonotope(problem.Phi, np.zeros(problem.k), c)[0] for c in pick])
+    delta = max(float(np.percentile(d, percentile)), floor) if d.size else floor
+    return {
+        "delta": delta,
+        "sampled": len(pick),
+        "outside": float(np.mean(d > 1e-9)),
+        "beyond_delta": float(np.mean(d > delta)),
+        "max_distance": float(d.max()) if d.size else 0.0,
+        "rule": f"{percentile:g}th percentile of the distances of {len(pick)} sampled responses to the "
+        f"object-colour solid (max-norm, white = 1), at least {floor:g}",
+    }
+
+
+def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> dict:
+    """δ of :func:`choose_delta` on responses pooled from every rendered view, cached in
+    ``OUT/correct/delta.json`` (so resumed runs and scoring use the same δ)."""
+    path = out / "correct" / "delta.json"
+    if path.is_file():
+        return json.loads(path.read_text())
+    rng = np.random.default_rng(0)
+    pool = []
+    for info in index.values():
+        img = np.maximum(_read_tiff(out / "render" / info["dir"] / "render.tiff") / scale, 0).reshape(
+            -1, scale.size
+        )
+        pool.append(img[rng.choice(len(img), min(len(img), 2000), replace=False)])
+    tol = choose_delta(correction_problem_of(spec, list(range(len(spec.cameras)))), np.concatenate(pool))
+    _write_json(path, tol)
+    return tol
+
+
+def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
+    """A fitted estimator with the noise tolerance δ: Prior gets ``noise=δ/3`` (δ in its MMV branch),
+    Centroid ``delta=δ``; regressions are trained on noisy replicas (σ = δ/3)."""
+    sigma = delta / 3
     from zonotope.correct import CORRECTION_METHODS, fit_correction
 
     problem = correction_problem_of(spec, cameras)
@@ -649,29 +718,13 @@ def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, sigma: flo
     )
     opts = {
         "Prior": {"noise": sigma},
-        "Centroid": {"delta": 3 * sigma},
+        "Centroid": {"delta": delta},
         "Projection": {"noise": sigma},
         "MAP": {"noise": sigma},
         "Finlayson 2015": {"noise": sigma},
         "Cheung 2004": {"noise": sigma},
     }.get(name, {})
     return fit_correction(problem, method=name, **opts)
-
-
-def infeasible_share(problem, responses: np.ndarray, delta: float, *, n: int = 200, seed: int = 0) -> dict:
-    """Share of (sampled) responses farther than ``delta`` (max-norm) from the object-colour solid."""
-    from zonotope import distance_to_zonotope
-
-    flat = responses.reshape(-1, responses.shape[-1])
-    rng = np.random.default_rng(seed)
-    pick = flat[rng.choice(len(flat), min(n, len(flat)), replace=False)]
-    d = np.array([distance_to_zonotope(problem.Phi, np.zeros(problem.k), c)[0] for c in pick])
-    return {
-        "sampled": len(pick),
-        "outside": float(np.mean(d > 1e-9)),
-        "beyond_delta": float(np.mean(d > delta)),
-        "max_distance": float(d.max()) if d.size else 0.0,
-    }
 
 
 def dng_matrix_XYZ(balanced: np.ndarray, profile, neutral, white_XYZ) -> np.ndarray:
@@ -717,15 +770,14 @@ def correct_step(
     white = white_of(spec, out, list(raws.values()))
     scale = np.concatenate(white["scale"])
     n = len(spec.cameras)
-    sigma = noise_sigma(out, scale)
-    corrector = fit_corrector(spec, list(range(n)), config.method, sigma)
+    tol = delta_of(spec, out, index, scale)
+    corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"])
     problem = corrector.problem
     wXYZ = problem.white_XYZ
     mname = corrector.method.replace(" ", "")
     profiles = {}
     for v in raws.values():
         profiles.setdefault(v.camera, (v.profile, v.neutral))
-    shares = {}
     for i, (name, info) in enumerate(index.items()):
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
@@ -738,8 +790,6 @@ def correct_step(
 
             write_image(o / f"{mname}_sRGB.tiff", rgb, overwrite=True)
             _write_png8(o / f"{mname}_sRGB.png", rgb)
-        if i == 0:
-            shares = infeasible_share(problem, np.maximum(img, 0), 3 * sigma)
         for k in range(n):
             prof, neutral = profiles[k]
             f = o / f"dng_{spec.cameras[k].folder}_XYZ.tiff"
@@ -763,13 +813,9 @@ def correct_step(
             progress("correct", i + 1, len(index))
     summary = {
         "method": corrector.method,
-        "sigma": sigma,
-        "delta": 3 * sigma,
-        "delta_rule": "δ = 3σ, σ = median over channels of the RMS training residual (render × "
-        "exposure − RAW, valid pixels, white → 1 units); infeasible responses within "
-        "δ are handled by the MMV's tolerance, farther ones by zonotope's "
-        "on_infeasible='nearest' (counted below)",
-        "infeasible": shares,
+        "delta": tol["delta"],
+        "noise": tol,
+        "training_residual": noise_sigma(out, scale),
         "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
         "white_XYZ": np.asarray(wXYZ).tolist(),
         "views": list(index),

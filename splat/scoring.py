@@ -79,7 +79,7 @@ def score(
     from .capture import load_views, read_capture
     from .colmap import read_colmap
     from .data import capture_from_colmap
-    from .pipeline import _stem, fit_corrector, noise_sigma, white_of
+    from .pipeline import _stem, delta_of, fit_corrector, white_of
 
     spec = read_capture(capture)
     out = Path(out)
@@ -89,8 +89,8 @@ def score(
     raws = {v.name: v for v in load_views(spec)}
     white = white_of(spec, out, list(raws.values()))
     scale = np.concatenate(white["scale"])
-    sigma = noise_sigma(out, scale)
     index = json.loads((out / "render" / "index.json").read_text())
+    delta = delta_of(spec, out, index, scale)["delta"]
     held = [
         k
         for k, v in index.items()
@@ -98,7 +98,7 @@ def score(
     ]
     rows: dict[str, list] = {}
     psnr: dict[str, list] = {}
-    corr = {(m, s): fit_corrector(spec, list(s), m, sigma) for m in methods for s in subsets}
+    corr = {(m, s): fit_corrector(spec, list(s), m, delta) for m in methods for s in subsets}
     problem = corr[(methods[0], subsets[-1])].problem
     for name in held:
         ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_stem(name)}.tiff"), float)
@@ -136,7 +136,7 @@ def score(
         "held_out_views": held,
         "delta_E00": summary,
         "psnr_db": {k: float(np.mean(v)) for k, v in psnr.items()},
-        "sigma": sigma,
+        "delta": delta,
         "white": white["method"],
     }
     # pose error after a similarity alignment of the camera centres
