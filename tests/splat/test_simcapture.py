@@ -182,7 +182,7 @@ def test_noise_free_mosaic_is_the_spectral_forward_model(clean):
     truth = _toml(clean / "truth" / "truth.toml")
     model = splat.read_colmap(clean / "truth")
     rel = _relative_exposures(clean)
-    cc = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    patches = [_data(sd)[:, 0] for sd in colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"].values()]
     import tifffile
 
     checked = 0
@@ -194,8 +194,7 @@ def test_noise_free_mosaic_is_the_spectral_forward_model(clean):
             for j in range(4):
                 for i in range(6):
                     patch = (3 - j) * 6 + i
-                    R = _data(list(cc.values())[patch])[:, 0]
-                    resp = _hand_response(cam["ssf"], R)
+                    resp = _hand_response(cam["ssf"], patches[patch])
                     expect = cam["black_level"] + truth["gain"] * rel[name] * resp * span
                     for r, c in _pixels_inside(model, name, _patch_corners(truth, i, j)):
                         if "cfa" in cam:
