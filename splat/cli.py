@@ -107,6 +107,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with bar:
             results = run(args.capture, args.out, config=config, steps=steps, progress=progress)
+    except KeyboardInterrupt:  # one line, no traceback; outputs are written atomically
+        print("splat: interrupted", file=sys.stderr)
+        return 130
     except (ZonotopeError, FileNotFoundError, ValueError, OSError) as exc:
         msg = " ".join(str(exc).split())
         print(f"splat: error: {msg}", file=sys.stderr)
