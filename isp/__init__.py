@@ -10,6 +10,20 @@ camera's spectral sensitivities are known, :func:`metamer_correction` replaces t
 by a ``zonotope.correct`` estimator.
 :mod:`isp.simulate` renders spectral scenes through a camera's sensitivities into real DNG files.
 
+Module map, in data-flow order (``isp`` uses only public ``zonotope`` names and never ``splat``):
+
+- ``raw``, ``dng``, ``exif``: RAW/DNG reading (:class:`RawImage`), DNG tags and colour matrices,
+  output metadata;
+- ``stages``, ``whitebalance``: the pure operations (:data:`DEMOSAIC_METHODS`,
+  :data:`TONEMAP_METHODS` registries), white-balance choices;
+- ``pipeline``: :class:`Pipeline` / :func:`default_pipeline` / :func:`develop`;
+- ``metamer``: the bridge to ``zonotope.correct`` (:func:`metamer_correction`);
+- ``dcp``, ``profile_fit``: DNG camera profiles (read, write, fit);
+- ``io``, ``batch``, ``cli``: atomic image files, folders of RAW files, the ``isp`` command;
+- ``simulate``: the spectral forward model (reflectances → RAW mosaic → DNG).
+
+The names of ``simulate``, ``dcp``, ``profile_fit`` and ``batch`` load on first use.
+
 >>> import isp
 >>> isp.default_pipeline(demosaic="Menon 2007").names[2]
 'demosaic'
@@ -88,3 +102,36 @@ __all__ = [
     "write_image",
     "xy_to_camera_neutral",
 ]
+
+#: Public names loaded on first use, by module (heavier, or needed only by some users).
+_LAZY = {
+    "simulate": ["ILLUMINANT_LIGHT_SOURCE", "Capture", "SpectralSetup", "chart_image", "fit_color_matrix",
+                 "simulate_capture", "simulate_dng", "spectral_setup", "true_XYZ"],
+    "dcp": ["DCP_TAGS", "DCPError", "DCPProfile", "apply_hue_sat_map", "apply_tone_curve", "dcp_stage",
+            "profile_pipeline", "read_dcp", "write_dcp"],
+    "profile_fit": ["DCP_DEFAULT_DIMS", "ProfileFit", "fit_dcp", "fit_hue_sat_map", "profile_reflectances"],
+    "batch": ["RAW_SUFFIXES", "develop_folder", "raw_files"],
+    "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
+    "dng": ["DNG_TAGS", "LIGHT_SOURCE_CCT", "xy_to_CCT_DNG"],
+    "io": ["IMAGE_FORMATS", "to_uint16"],
+    "raw": ["check_cfa"],
+    "metamer": ["METAMER_RANGE"],
+    "stages": ["demosaic_Malvar2004", "demosaic_Menon2007", "demosaic_bilinear", "tonemap_Reinhard2002",
+               "tonemap_clip"],
+}
+_WHERE = {name: module for module, names in _LAZY.items() for name in names}
+__all__ += sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        import importlib
+
+        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'isp' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

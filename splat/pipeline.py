@@ -669,7 +669,7 @@ def choose_delta(
     dict
         ``delta``, ``sampled``, ``outside`` (share off the solid), ``beyond_delta``, ``max_distance``.
     """
-    from zonotope._lp import distance_to_zonotope
+    from zonotope import distance_to_zonotope
 
     flat = np.asarray(responses, float).reshape(-1, problem.k)
     rng = np.random.default_rng(seed)

@@ -151,3 +151,18 @@ def test_import_zonotope_stays_light():
             "'zonotope.correct', 'zonotope.viz', 'isp', 'splat') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+#: isp's public modules (data-flow order) whose names ``isp`` re-exports; ``cli`` is the command.
+ISP_MODULES = ["raw", "dng", "exif", "stages", "whitebalance", "pipeline", "metamer", "dcp", "profile_fit",
+               "io", "batch", "simulate"]
+
+
+@pytest.mark.parametrize("module", ISP_MODULES)
+def test_isp_reexports_every_public_name(module):
+    import isp
+
+    mod = importlib.import_module(f"isp.{module}")
+    missing = [n for n in mod.__all__ if n not in isp.__all__]
+    assert not missing, f"isp.{module} names missing from isp.__all__: {missing}"
+    assert all(getattr(isp, n) is getattr(mod, n) for n in mod.__all__)
