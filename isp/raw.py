@@ -195,8 +195,13 @@ def _check_dng_data(path: Path, size: int) -> None:
     tile lies inside the file and starts with its codec's signature, and uncompressed data are large
     enough for the image. Files tifffile cannot parse are left to LibRaw.
     """
+    import logging
+
     import tifffile
 
+    log = logging.getLogger("tifffile")  # a damaged file is our error to report, not tifffile's log
+    level = log.level
+    log.setLevel(logging.CRITICAL)
     try:
         with tifffile.TiffFile(path) as tif:
             ifd0 = tif.pages[0]
@@ -227,6 +232,8 @@ def _check_dng_data(path: Path, size: int) -> None:
                     heads.append(fh.read(2))
     except (tifffile.TiffFileError, OSError, ValueError, TypeError, KeyError, IndexError, struct.error):
         return
+    finally:
+        log.setLevel(level)
     def bad(detail: str) -> RawFormatError:
         return RawFormatError(f"{path}: not a readable RAW file (no pixel data LibRaw can decode: {detail}). "
                               "The file is truncated or corrupt; read_raw(..., metadata_only=True) reads its "
