@@ -24,6 +24,7 @@ def problem():
     return correction_problem(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], shape=GRID)
 
 
+@pytest.mark.slow
 def test_solid_and_locus_png(problem, tmp_path):
     from zonotope import viz
 
@@ -47,6 +48,7 @@ def test_matplotlib_charts(problem, tmp_path):
     assert _non_blank(tmp_path / "ssf.png") and _non_blank(tmp_path / "vora.png")
 
 
+@pytest.mark.slow
 def test_mmv_pictures(problem, tmp_path):
     from zonotope import spectra, viz
 

@@ -47,6 +47,7 @@ def test_rawnerf_loss_matches_multinerf():
     np.testing.assert_allclose(g, expected_g, rtol=1e-4, atol=1e-7)
 
 
+@pytest.mark.slow
 def test_end_to_end_three_cameras_held_out_views(scene):
     assert len(scene.capture.views) == 36 and scene.images.shape[-1] == 9
     result = train(scene.capture, scene.images, scene.weights, config=tiny(400), bounds=scene.bounds)
@@ -65,6 +66,7 @@ def test_end_to_end_three_cameras_held_out_views(scene):
     assert result.alive.sum() > 96 and result.alive.size == 192  # densified inside the fixed buffer
 
 
+@pytest.mark.slow
 def test_unmeasured_channels_do_not_matter_and_resume_is_exact(scene, tmp_path):
     cfg = tiny(30, checkpoint=tmp_path / "ckpt.npz", checkpoint_every=10, capacity=96)
     images = scene.images.copy()
@@ -89,6 +91,7 @@ def test_unmeasured_channels_do_not_matter_and_resume_is_exact(scene, tmp_path):
     np.testing.assert_array_equal(resumed.alive, straight.alive)
 
 
+@pytest.mark.slow
 def test_errors(scene, tmp_path):
     with pytest.raises(SplatError, match="shape"):
         train(scene.capture, scene.images[:3], scene.weights[:3], config=tiny(2), bounds=scene.bounds)
