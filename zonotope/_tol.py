@@ -6,10 +6,10 @@ All are *relative*: they are multiplied by the natural scale of the object they 
 Vocabulary (one meaning each, across the three packages):
 
 ``tol``
-    A :class:`Tolerances` object (relative tolerances of the solid's combinatorics).
-``atol``
-    An absolute slack in the units of the object (response units for solids and MMVs):
-    ``contains(points, atol=...)``, ``Polytope(..., atol=...)``.
+    On :class:`~zonotope.Zonotope`: a :class:`Tolerances` object (relative tolerances of the
+    solid's combinatorics). On :class:`~zonotope.Polytope` (constructor and ``.tol``) and in every
+    ``contains(points, tol=...)``: an absolute slack in the object's units (response units).
+    (Still two meanings: the rename of the absolute one to ``atol`` is pending, see CHANGELOG.)
 ``eps``
     The certification tolerance of a metamer mismatch volume, relative to the target's scale
     (``eps = 0``: exact; ``eps > 0``: certified inner and outer bounds).
