@@ -433,3 +433,26 @@ def test_mmv_batch_streams_in_bounded_memory():
 def test_every_error_is_a_zonotope_error():
     for exc in (SpectralDataError, GeometryError, OutputExistsError):
         assert issubclass(exc, ZonotopeError)
+
+
+def test_correct_image_cache_path_problems(tmp_path):
+    """A cache_dir that is a file is a project error (was FileExistsError); a damaged cache file is
+    rebuilt, not trusted; saving leaves no temporary."""
+    from zonotope.correct import correction_problem, fit_correction
+    from zonotope.image import correct_image
+
+    grid = np.arange(400.0, 701.0, 20.0)
+    problem = correction_problem("Nikon 5100 (NPL)", shape=grid)
+    est = fit_correction(problem, method="least squares")
+    img = np.random.default_rng(0).uniform(0.05, 0.3, (3, 4, 3))
+    blocker = tmp_path / "cache"
+    blocker.write_text("a file")
+    with pytest.raises(OutputExistsError, match="is a file"):
+        correct_image(img, est, cache_dir=blocker)
+    est = fit_correction(problem, method="MAP")  # not closed-form: results go through the cache
+    folder = tmp_path / "c"
+    first = correct_image(img, est, cache_dir=folder)
+    (npz,) = folder.iterdir()
+    npz.write_bytes(npz.read_bytes()[:50])  # a damaged cache
+    np.testing.assert_array_equal(correct_image(img, est, cache_dir=folder), first)
+    assert [p.name for p in folder.iterdir()] == [npz.name]

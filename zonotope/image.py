@@ -10,8 +10,7 @@ calls (keyed by the estimator and the quantised colour).
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -36,8 +35,11 @@ def _fingerprint(corrector: Corrector, quantum: float) -> str:
 def _load_cache(path: Path, k: int, m: int) -> dict[bytes, np.ndarray]:
     if not path.is_file():
         return {}
-    with np.load(path) as data:
-        keys, values = data["keys"], data["values"]
+    try:
+        with open(path, "rb") as fh, np.load(fh) as data:  # our handle: closed even when np.load fails
+            keys, values = data["keys"], data["values"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return {}  # a damaged cache (e.g. from an older, non-atomic writer) is rebuilt, not trusted
     if keys.ndim != 2 or keys.shape[1] != k or values.shape != (keys.shape[0], m):
         return {}
     return {row.tobytes(): v for row, v in zip(keys, values)}
@@ -46,11 +48,13 @@ def _load_cache(path: Path, k: int, m: int) -> dict[bytes, np.ndarray]:
 def _save_cache(path: Path, cache: dict[bytes, np.ndarray], k: int, m: int) -> None:
     keys = np.frombuffer(b"".join(cache), dtype=np.int64).reshape(-1, k)
     values = np.array(list(cache.values()), dtype=np.float64).reshape(-1, m)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
-    os.close(fd)
-    np.savez(tmp, keys=keys, values=values)
-    os.replace(tmp, path)  # atomic: a crash never leaves a half-written cache
+    from ._io import atomic_path
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, keys=keys, values=values)
+
+    atomic_path(path, write)  # a crash never leaves a half-written cache, Ctrl-C no temporary
 
 
 def correct_image(
@@ -122,6 +126,10 @@ def correct_image(
             f"got shape {img.shape}.")
     if batch_size < 1:
         raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
+    if cache_dir and Path(cache_dir).exists() and not Path(cache_dir).is_dir():
+        from ._io import OutputExistsError
+
+        raise OutputExistsError(f"cache_dir={str(cache_dir)!r} is a file, not a folder; give a folder path.")
     if CORRECTION_METHODS.properties(corrector.method)["closed_form"]:
         return corrector(img)
     if isinstance(base, str):
