@@ -61,6 +61,10 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--chunk", type=int, default=64)
+    ap.add_argument("--mmvs", type=int, help="responses (default 1024, 256 with --quick)")
+    ap.add_argument("--images", type=int, help="DNG files (default 12, 6 with --quick)")
+    ap.add_argument("--cameras", type=int,
+                    help="measured cameras added to the 3 built-in ones (default 3, 1 with --quick)")
     args = ap.parse_args()
 
     from isp.batch import _develop_one
@@ -69,8 +73,8 @@ def main() -> None:
     from zonotope.parallel import FileTask, executor, run_files
     from zonotope.survey import load_cameras, survey
 
-    n_mmv = 256 if args.quick else 1024
-    n_img = 6 if args.quick else 12
+    n_mmv = args.mmvs or (256 if args.quick else 1024)
+    n_img = args.images or (6 if args.quick else 12)
     n_noop = 200 if args.quick else 1000
     print(f"machine: {os.cpu_count()} cores, shared with other users while this ran (timings are noisy); "
           f"local cluster: {args.workers} worker processes × 1 thread; median of {args.repeat}", flush=True)
@@ -140,7 +144,8 @@ def main() -> None:
         shared = Path(__file__).resolve().parents[2] / "shared" / "data" / "ssf_jiang2013_camspec"
         if shared.is_dir():
             more, _ = load_cameras(shared)
-            for name in sorted(more)[: (1 if args.quick else 3)]:
+            extra = args.cameras if args.cameras is not None else 1 if args.quick else 3
+            for name in sorted(more)[:extra]:
                 cams[name] = more[name]
         n_sets = len(cams) * (len(cams) - 1) // 2
         t_s, s1 = _median_time(lambda: survey(cams, size=2, scheduler="serial"), args.repeat)
