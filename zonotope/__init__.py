@@ -11,7 +11,7 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``_generators``            illuminants, reflectance sets; file readers; :func:`generators`;
                            :class:`GeneratorPair` (source Φ and target Ψ on one grid)
 ``solid``, ``polytope``    :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
-``vora``                   Vora values and camera-set ranking
+``vora``, ``macadam``       Vora values and camera-set ranking; MacAdam limits (object colours)
 ``mismatch``               metamer mismatch volumes (:func:`metamer_mismatch`,
                            :class:`MetamerMismatch`), certified by facet refinement
 ``prior``, ``atypical``    a reflectance prior and atypical test spectra
@@ -125,6 +125,8 @@ __all__ = [
 #: Public names loaded on first use, by module.
 _EXPORTS = {
     "polytope": ["Polytope"],
+    "macadam": ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid",
+                "section"],
     "mismatch": ["ORACLES", "CertifiedMMV", "MMVBatch", "MetamerMismatch", "channelwise_intersection",
                  "metamer_mismatch", "metamer_mismatch_batch", "metamer_mismatch_bounds"],
     "prior": ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"],
