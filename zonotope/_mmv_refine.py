@@ -86,6 +86,13 @@ class Refinement:
             Z = c + Zw @ L.T
         else:
             Z = _vertices_from_halfspaces(A, b, self.inner.tol)
+        # Degenerate vertices (more than d planes through one point) come back once per
+        # d-subset, ~1e-11 apart: in 4-D Qhull then fails on a "wide merge" (QH6271, found with a
+        # tetrachromat target). One representative per 1e-9-of-span cell.
+        span = float(np.ptp(Z, axis=0).max()) if Z.shape[0] else 0.0
+        if span > 0 and d >= 3:
+            _, first = np.unique(np.round(Z / (1e-9 * span)), axis=0, return_index=True)
+            Z = Z[np.sort(first)]
         return Polytope(o + Z @ B.T, tol=self.inner.tol)
 
 
