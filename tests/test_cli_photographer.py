@@ -15,9 +15,12 @@ GRID = np.arange(400.0, 701.0, 10.0)
 
 
 def test_version(capsys):
-    with pytest.raises(SystemExit) as exc:
-        main(["--version"])
-    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"zonotope {zonotope.__version__}"
+    from splat.cli import main as splat_main
+
+    for prog, entry in (("zonotope", main), ("splat", splat_main)):
+        with pytest.raises(SystemExit) as exc:
+            entry(["--version"])
+        assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"{prog} {zonotope.__version__}"
 
 
 def test_list_builtin(capsys):
