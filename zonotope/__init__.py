@@ -125,6 +125,7 @@ __all__ = [
 #: Public names loaded on first use, by module.
 _EXPORTS = {
     "polytope": ["Polytope"],
+    "membership": ["joint_halfspaces", "mmv_contains"],
     "macadam": ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid",
                 "section"],
     "mismatch": ["ORACLES", "CertifiedMMV", "MMVBatch", "MetamerMismatch", "channelwise_intersection",
