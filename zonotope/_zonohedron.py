@@ -265,7 +265,7 @@ def _zonogon_of(H, r, off, S):
     w = np.linalg.norm(np.cross(U[:, None], U[None]), axis=-1)
     a, b = np.unravel_index(np.argmax(w), w.shape)
     a, b = min(a, b), max(a, b)
-    normal = np.cross(H[S[a]], H[S[b]])
+    normal = np.cross(U[a], U[b])  # of unit vectors: no underflow for tiny generators
     side = H @ normal > 0.0
     side[S] = False
     return zonogon(H, r, normal, off + side @ H, side.astype(np.int64) @ r, S)
