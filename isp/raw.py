@@ -28,8 +28,9 @@ def check_cfa(cfa: str) -> str:
     """Return ``cfa`` upper-cased, or raise :class:`RawFormatError` naming the valid patterns."""
     p = str(cfa).upper()
     if p not in CFA_PATTERNS:
-        raise RawFormatError(f"cfa={cfa!r} is not a supported Bayer pattern; "
-                             f"use one of {list(CFA_PATTERNS)}.")
+        raise RawFormatError(
+            f"cfa={cfa!r} is not a supported Bayer pattern; use one of {list(CFA_PATTERNS)}."
+        )
     return p
 
 
@@ -123,10 +124,11 @@ class RawImage:
         """
         if top % 2 or left % 2 or top < 0 or left < 0:
             raise RawFormatError(f"crop origin ({top}, {left}) must be even and ≥ 0 to keep the CFA phase.")
-        sub = self.mosaic[top:top + height, left:left + width]
+        sub = self.mosaic[top : top + height, left : left + width]
         if sub.shape[0] < 2 or sub.shape[1] < 2:
-            raise RawFormatError(f"crop ({top}, {left}, {height}, {width}) leaves {sub.shape}; "
-                                 f"the mosaic is {self.shape}.")
+            raise RawFormatError(
+                f"crop ({top}, {left}, {height}, {width}) leaves {sub.shape}; the mosaic is {self.shape}."
+            )
         from dataclasses import replace
 
         return replace(self, mosaic=np.ascontiguousarray(sub))
@@ -138,8 +140,10 @@ _COLOUR_LETTER = {0: "R", 1: "G", 2: "B", 3: "G"}
 def _cfa_from_rawpy(raw) -> str:
     desc = raw.color_desc.decode()
     if desc not in ("RGBG", "RGB"):
-        raise RawFormatError(f"colour filter array {desc!r} is not a Bayer RGB array; only RGGB-type "
-                             "Bayer sensors are supported (no X-Trans, CYGM or Foveon).")
+        raise RawFormatError(
+            f"colour filter array {desc!r} is not a Bayer RGB array; only RGGB-type "
+            "Bayer sensors are supported (no X-Trans, CYGM or Foveon)."
+        )
     colors = raw.raw_colors_visible[:2, :2]
     return "".join(_COLOUR_LETTER[int(c)] for c in colors.ravel())
 
@@ -182,8 +186,13 @@ def _capture_from_tags(tags: dict) -> dict:
 
 
 #: DNG Compression values LibRaw decodes: none, lossless JPEG, Deflate, lossy JPEG, JPEG XL.
-_DNG_COMPRESSIONS = {1: "uncompressed", 7: "lossless JPEG", 8: "Deflate", 34892: "lossy JPEG",
-                     52546: "JPEG XL"}
+_DNG_COMPRESSIONS = {
+    1: "uncompressed",
+    7: "lossless JPEG",
+    8: "Deflate",
+    34892: "lossy JPEG",
+    52546: "JPEG XL",
+}
 
 
 def _check_dng_data(path: Path, size: int) -> None:
@@ -234,10 +243,13 @@ def _check_dng_data(path: Path, size: int) -> None:
         return
     finally:
         log.setLevel(level)
+
     def bad(detail: str) -> RawFormatError:
-        return RawFormatError(f"{path}: not a readable RAW file (no pixel data LibRaw can decode: {detail}). "
-                              "The file is truncated or corrupt; read_raw(..., metadata_only=True) reads its "
-                              "metadata only.")
+        return RawFormatError(
+            f"{path}: not a readable RAW file (no pixel data LibRaw can decode: {detail}). "
+            "The file is truncated or corrupt; read_raw(..., metadata_only=True) reads its "
+            "metadata only."
+        )
 
     if compression not in _DNG_COMPRESSIONS:
         raise bad(f"Compression={compression} is not a DNG compression, known: {_DNG_COMPRESSIONS}")
@@ -246,13 +258,17 @@ def _check_dng_data(path: Path, size: int) -> None:
     if any(o < 8 or c <= 0 or o + c > size for o, c in zip(offsets, counts)):
         raise bad(f"a strip or tile lies outside the file of {size} bytes")
     if compression == 1 and sum(counts) * 8 < width * height * spp * bits:
-        raise bad(f"{sum(counts)} bytes of uncompressed data for a {width}×{height} image of {bits}-bit "
-                  "samples")
+        raise bad(
+            f"{sum(counts)} bytes of uncompressed data for a {width}×{height} image of {bits}-bit samples"
+        )
     if compression in (7, 34892) and any(h != b"\xff\xd8" for h in heads):
-        raise bad(f"Compression={compression} ({_DNG_COMPRESSIONS[compression]}) but the data do not start "
-                  "with a JPEG marker")
-    if compression == 8 and any(len(h) < 2 or h[0] & 0x0F != 8 or int.from_bytes(h, "big") % 31
-                                for h in heads):
+        raise bad(
+            f"Compression={compression} ({_DNG_COMPRESSIONS[compression]}) but the data do not start "
+            "with a JPEG marker"
+        )
+    if compression == 8 and any(
+        len(h) < 2 or h[0] & 0x0F != 8 or int.from_bytes(h, "big") % 31 for h in heads
+    ):
         raise bad("Compression=8 (Deflate) but the data are not a zlib stream")
 
 
@@ -303,16 +319,27 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             libraw_cm = np.asarray(raw.rgb_xyz_matrix[:3], dtype=np.float64)
             orientation = _FLIP_TO_ORIENTATION.get(int(raw.sizes.flip), 1)
             capture = _capture_info(raw.other)
+    except RuntimeError as exc:
+        if "not flat" not in str(exc):
+            raise
+        raise RawFormatError(
+            f"{path}: a full-colour RAW (e.g. a LinearRaw DNG) has no CFA mosaic; read_raw reads mosaiced "
+            "sensors only. Read its pixels with tifffile, or splat.capture for multispectral captures."
+        ) from exc
     except rawpy.LibRawError as exc:
         msg = exc.args[0].decode() if exc.args and isinstance(exc.args[0], bytes) else str(exc)
-        raise RawFormatError(f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
-                             "may be truncated, corrupt or of a format LibRaw does not know.") from exc
+        raise RawFormatError(
+            f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
+            "may be truncated, corrupt or of a format LibRaw does not know."
+        ) from exc
     # Stripped pixel data decode to zeros or to whatever LibRaw's buffers held, so judge by size:
     # no RAW codec stores less than 0.5 bit per pixel.
     stripped = path.stat().st_size < mosaic.size / 16 or np.count_nonzero(mosaic) < 1e-3 * mosaic.size
     if not metadata_only and stripped:
-        raise RawFormatError(f"{path}: the image has no pixel data (file too small or all zeros). Use "
-                             "read_raw(..., metadata_only=True) to read its metadata only.")
+        raise RawFormatError(
+            f"{path}: the image has no pixel data (file too small or all zeros). Use "
+            "read_raw(..., metadata_only=True) to read its metadata only."
+        )
     if stripped:
         mosaic[:] = 0  # never hand out LibRaw's stale buffer contents
     tags: dict = {}
@@ -344,15 +371,31 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
         baseline = float(np.ravel(tags.get("BaselineExposure", [0.0]))[0])
     else:
         if not np.any(libraw_cm):
-            raise RawFormatError(f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
-                                 "or use a correction callable.")
+            raise RawFormatError(
+                f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
+                "or use a correction callable."
+            )
         profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
         # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW)
         source = "camera" if np.all(cam_wb > 0) else "daylight" if np.all(day_wb > 0) else "none"
         wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
         neutral = 1.0 / wb
         table, make, model, baseline = None, "", "", 0.0
-    return RawImage(mosaic=mosaic, cfa=cfa, black_level=black, white_level=white, profile=profile,
-                    as_shot_neutral=neutral, linearisation_table=table, table_applied=True,
-                    make=make, model=model, path=path, baseline_exposure=baseline, tags=tags,
-                    white_balance_source=source, orientation=orientation, capture=capture)
+    return RawImage(
+        mosaic=mosaic,
+        cfa=cfa,
+        black_level=black,
+        white_level=white,
+        profile=profile,
+        as_shot_neutral=neutral,
+        linearisation_table=table,
+        table_applied=True,
+        make=make,
+        model=model,
+        path=path,
+        baseline_exposure=baseline,
+        tags=tags,
+        white_balance_source=source,
+        orientation=orientation,
+        capture=capture,
+    )

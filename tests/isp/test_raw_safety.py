@@ -31,8 +31,15 @@ CM = np.array([[0.8, -0.2, -0.05], [-0.3, 1.1, 0.2], [-0.05, 0.15, 0.6]])
 def sim_dng(tmp_path_factory) -> Path:
     """A small uncompressed DNG written by isp (runs without the shared data)."""
     m = np.random.default_rng(0).integers(200, 3900, (48, 64)).astype(np.uint16)
-    return write_dng(tmp_path_factory.mktemp("sim") / "sim.dng", m, cfa="RGGB", black_level=128,
-                     white_level=4000, color_matrix_1=CM, as_shot_neutral=[0.5, 1.0, 0.7])
+    return write_dng(
+        tmp_path_factory.mktemp("sim") / "sim.dng",
+        m,
+        cfa="RGGB",
+        black_level=128,
+        white_level=4000,
+        color_matrix_1=CM,
+        as_shot_neutral=[0.5, 1.0, 0.7],
+    )
 
 
 def _set_compression(src: Path, dst: Path, value: int) -> Path:
@@ -81,7 +88,7 @@ def _fuzz(src: Path, data, tmp: Path) -> None:
     b = bytearray(blob)
     truncated = data.draw(st.booleans())
     if truncated:
-        del b[data.draw(st.integers(0, len(b) - 1)):]
+        del b[data.draw(st.integers(0, len(b) - 1)) :]
     else:
         header = data.draw(st.booleans())  # mostly the IFDs and tags, sometimes the pixels
         for _ in range(data.draw(st.integers(1, 8))):
@@ -173,8 +180,12 @@ def test_sigkill_mid_image_write(tmp_path):
     dest = tmp_path / "out.png"
     hits = 0
     for delay in IMAGE_KILL_DELAYS:
-        proc = subprocess.Popen([sys.executable, "-c", _WRITER, str(dest)], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, cwd=ROOT)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _WRITER, str(dest)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            cwd=ROOT,
+        )
         assert proc.stdout.readline()
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
@@ -183,7 +194,7 @@ def test_sigkill_mid_image_write(tmp_path):
 
         data = dest.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(b"IEND\xaeB`\x82")
-        idat = data[data.index(b"IDAT") + 4:data.rindex(b"IEND") - 8]
+        idat = data[data.index(b"IDAT") + 4 : data.rindex(b"IEND") - 8]
         assert len(zlib.decompress(idat)) == 600 * (1 + 800 * 6)
         from zonotope._io import clean_stale_temporaries
 
@@ -196,9 +207,11 @@ def test_isp_cli_errors_are_one_line(tmp_path, capsys, sim_dng):
     from isp.cli import main
 
     bad = _set_compression(sim_dng, tmp_path / "bad.dng", 7)
-    cases = [["develop", str(bad), "-o", str(tmp_path / "o.tif")],
-             ["develop", str(tmp_path / "missing.dng"), "-o", str(tmp_path / "o.tif")],
-             ["develop", str(sim_dng), "-o", str(sim_dng), "--overwrite"]]
+    cases = [
+        ["develop", str(bad), "-o", str(tmp_path / "o.tif")],
+        ["develop", str(tmp_path / "missing.dng"), "-o", str(tmp_path / "o.tif")],
+        ["develop", str(sim_dng), "-o", str(sim_dng), "--overwrite"],
+    ]
     for argv in cases:
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
@@ -217,3 +230,18 @@ def test_isp_develop_checks_the_output_before_the_work(tmp_path, capsys, sim_dng
     err = capsys.readouterr().err
     assert "exists" in err and "JPEG" not in err  # refused before the RAW was even read
     assert out.read_bytes() == b"my earlier edit"
+
+
+def test_full_colour_linear_raw_is_a_project_error(tmp_path):
+    rgb = np.full((24, 32, 3), 1000, dtype=np.uint16)
+    path = write_dng(
+        tmp_path / "foveon.dng",
+        rgb,
+        cfa="RGGB",
+        black_level=0,
+        white_level=4095,
+        color_matrix_1=CM,
+        as_shot_neutral=[0.5, 1.0, 0.7],
+    )
+    with pytest.raises(RawFormatError, match="no CFA mosaic"):
+        read_raw(path)
