@@ -32,8 +32,10 @@ def reflectance_pool(w: np.ndarray) -> tuple[np.ndarray, str]:
     munsell = DATA / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
     if munsell.is_file():
         return np.clip(spectra.resample(spectra.read_reflectances(munsell), w).T, 0, 1), "Munsell matte 1269"
-    sets = [spectra.resample(spectra.reflectances(n), w).T for n in ("ColorChecker N Ohta", "CIE 1995 TCS",
-                                                                     "NIST CQS 9.0", "BabelColor Average")]
+    sets = [
+        spectra.resample(spectra.reflectances(n), w).T
+        for n in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0", "BabelColor Average")
+    ]
     return np.clip(np.vstack(sets), 0, 1), "built-in sets (no shared data)"
 
 
@@ -60,16 +62,18 @@ def main() -> None:
     n_t = args.size // args.tile
     chips = rng.integers(0, pool.shape[0], (n_t, n_t))
     exposure = rng.uniform(0.4, 1.0, (n_t, n_t))
-    R = np.repeat(np.repeat(pool[chips], args.tile, 0), args.tile, 1)           # (H, W, n)
+    R = np.repeat(np.repeat(pool[chips], args.tile, 0), args.tile, 1)  # (H, W, n)
     gain = np.repeat(np.repeat(exposure, args.tile, 0), args.tile, 1)[..., None]
     if args.vignette:
-        yy, xx = np.mgrid[0:R.shape[0], 0:R.shape[1]] / R.shape[0] - 0.5
+        yy, xx = np.mgrid[0 : R.shape[0], 0 : R.shape[1]] / R.shape[0] - 0.5
         gain = gain * (1.0 - 0.4 * (xx**2 + yy**2))[..., None]
-    image = (R @ problem.Phi) * gain                                              # (H, W, 6)
+    image = (R @ problem.Phi) * gain  # (H, W, 6)
     truth = (R @ problem.Psi) * gain
     H, W, k = image.shape
-    print(f"image {H}×{W}×{k} ({H * W / 1e6:.2f} MP) "
-          f"from {pool_name}; cameras {' + '.join(problem.sources)}; {os.cpu_count()} CPU cores")
+    print(
+        f"image {H}×{W}×{k} ({H * W / 1e6:.2f} MP) "
+        f"from {pool_name}; cameras {' + '.join(problem.sources)}; {os.cpu_count()} CPU cores"
+    )
 
     t0 = time.perf_counter()
     est = fit_correction(problem, method=args.method)
@@ -107,16 +111,21 @@ def main() -> None:
     d_rp = problem.delta_E(base, truth)
     print(f"{'':34s} {'seconds':>8s} {'colours':>8s} {'ΔE00 vs truth mean/max':>24s}")
     label = f"{args.method} correct_image (q={args.quantum:g})"
-    print(f"{label:34s} {t_fast + t_fit:8.2f} {n_q:8d} "
-          f"{d_fast.mean():12.3f} / {d_fast.max():.2f}")
+    print(f"{label:34s} {t_fast + t_fit:8.2f} {n_q:8d} {d_fast.mean():12.3f} / {d_fast.max():.2f}")
     print(f"{'  same, warm disk cache':34s} {t_cached:8.2f}")
     what = "exact per pixel" + ("" if sample.all() else " (3000-px sample; time extrapolated)")
-    print(f"{args.method + ' ' + what:34s} {t_exact + t_fit:8.2f} {n_exact:8d} "
-          f"{d_exact.mean():12.3f} / {d_exact.max():.2f}")
-    print(f"{'Finlayson 2015 per pixel (baseline)':34s} {t_rp:8.2f} {image.shape[0] * image.shape[1]:8d} "
-          f"{d_rp.mean():12.3f} / {d_rp.max():.2f}")
-    print(f"correct_image vs exact per-pixel ({int(sample.sum())} px): ΔE00 mean {d_fast_exact.mean():.4f}, "
-          f"p99 {np.percentile(d_fast_exact, 99):.4f}, max {d_fast_exact.max():.4f}")
+    print(
+        f"{args.method + ' ' + what:34s} {t_exact + t_fit:8.2f} {n_exact:8d} "
+        f"{d_exact.mean():12.3f} / {d_exact.max():.2f}"
+    )
+    print(
+        f"{'Finlayson 2015 per pixel (baseline)':34s} {t_rp:8.2f} {image.shape[0] * image.shape[1]:8d} "
+        f"{d_rp.mean():12.3f} / {d_rp.max():.2f}"
+    )
+    print(
+        f"correct_image vs exact per-pixel ({int(sample.sum())} px): ΔE00 mean {d_fast_exact.mean():.4f}, "
+        f"p99 {np.percentile(d_fast_exact, 99):.4f}, max {d_fast_exact.max():.4f}"
+    )
     ok = (t_fast + t_fit) <= 30 and d_fast_exact.max() <= 0.5
     print(f"goal (≤ 30 s, ≤ 0.5 ΔE00 from exact): {'met' if ok else 'MISSED'}")
 

@@ -47,8 +47,11 @@ from isp.simulate import (  # noqa: E402
 DATA = ROOT.parent / "shared" / "data"
 D50_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
 D65_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-CAMERAS = ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II",
-           str(DATA / "ssf_rawtoaces/data/camera/Sony_ILCE-7M3_380_780_5.json")]
+CAMERAS = [
+    "Nikon 5100 (NPL)",
+    "Canon EOS 5D Mark II",
+    str(DATA / "ssf_rawtoaces/data/camera/Sony_ILCE-7M3_380_780_5.json"),
+]
 
 # Hand-measured patch centres (row, column in the visible 1156 × 1734 mosaic) of the classic 24-patch
 # chart in tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng; patches are ≈ 90 px wide, we
@@ -67,8 +70,13 @@ def _table(title: str, header: list[str], rows: list[list], fmt: str = "{:>10}")
 
 
 def _box_means(image: np.ndarray) -> np.ndarray:
-    return np.array([image[r - BOX:r + BOX, c - BOX:c + BOX].reshape(-1, image.shape[-1]).mean(0)
-                     for r in CHART_ROWS for c in CHART_COLS])
+    return np.array(
+        [
+            image[r - BOX : r + BOX, c - BOX : c + BOX].reshape(-1, image.shape[-1]).mean(0)
+            for r in CHART_ROWS
+            for c in CHART_COLS
+        ]
+    )
 
 
 def bench_rawpy() -> None:
@@ -85,18 +93,28 @@ def bench_rawpy() -> None:
     refs = {}
     for thr in (0.75, 0.0):  # 0.75 is LibRaw's default: it rescales to the data maximum if > 0.75 white
         with rawpy.imread(str(path)) as r:
-            refs[thr] = r.postprocess(demosaic_algorithm=rawpy.DemosaicAlgorithm.LINEAR, use_camera_wb=True,
-                                      no_auto_bright=True, output_bps=16, gamma=(1, 1),
-                                      adjust_maximum_thr=thr).astype(np.float64) / 65535
+            refs[thr] = (
+                r.postprocess(
+                    demosaic_algorithm=rawpy.DemosaicAlgorithm.LINEAR,
+                    use_camera_wb=True,
+                    no_auto_bright=True,
+                    output_bps=16,
+                    gamma=(1, 1),
+                    adjust_maximum_thr=thr,
+                ).astype(np.float64)
+                / 65535
+            )
     ref = refs[0.0]
     assert ref.shape == ours.shape, (ref.shape, ours.shape)
     p_ours, p_ref, p_default = _box_means(ours), _box_means(ref), _box_means(refs[0.75])
     # white balance from the chart's neutral patches instead of the file's AsShotNeutral
-    cam = isp.develop(raw, pipeline=isp.default_pipeline(demosaic="bilinear").remove("white_balance"),
-                      stop_after="demosaic").image
+    cam = isp.develop(
+        raw, pipeline=isp.default_pipeline(demosaic="bilinear").remove("white_balance"), stop_after="demosaic"
+    ).image
     grey = _box_means(cam)[19:23].mean(0)
-    ours_grey = isp.develop(dataclasses.replace(raw, as_shot_neutral=grey), demosaic="bilinear",
-                            stop_after="XYZ_to_linear_sRGB").image
+    ours_grey = isp.develop(
+        dataclasses.replace(raw, as_shot_neutral=grey), demosaic="bilinear", stop_after="XYZ_to_linear_sRGB"
+    ).image
     p_grey = _box_means(ours_grey)
     cc = colour.CCS_COLOURCHECKERS["ColorChecker24 - After November 2014"]
     names = list(cc.data)
@@ -118,42 +136,79 @@ def bench_rawpy() -> None:
     k = 1.0 / X_ref[18, 1]  # same scale for both: rawpy's white patch at Y = 1
     dE_between = colour.delta_E(lab(k * X_ours), lab(k * X_ref), method="CIE 2000")
     rel = np.abs(p_ours - p_ref).max(axis=1) / np.maximum(p_ref.max(axis=1), 1e-9)
-    rows = [[i + 1, names[i][:14], *(f"{v:.4f}" for v in p_ours[i]), *(f"{v:.4f}" for v in p_ref[i]),
-             f"{100 * rel[i]:.2f}", f"{dE_between[i]:.2f}", f"{dE_ours[i]:.2f}", f"{dE_ref[i]:.2f}",
-             f"{dE_grey[i]:.2f}"] for i in range(24)]
-    _table("A. Real 550D DNG, bilinear: ours vs rawpy LINEAR (adjust_maximum_thr=0) linear-sRGB patch "
-           "means; ΔE00 vs X-Rite reference (exposure fitted on the neutrals)",
-           ["#", "patch", "R ours", "G ours", "B ours", "R rawpy", "G rawpy", "B rawpy", "max|Δ| %",
-            "ΔE ours-rawpy", "ΔE ours", "ΔE rawpy", "ΔE ours grey-WB"], rows)
+    rows = [
+        [
+            i + 1,
+            names[i][:14],
+            *(f"{v:.4f}" for v in p_ours[i]),
+            *(f"{v:.4f}" for v in p_ref[i]),
+            f"{100 * rel[i]:.2f}",
+            f"{dE_between[i]:.2f}",
+            f"{dE_ours[i]:.2f}",
+            f"{dE_ref[i]:.2f}",
+            f"{dE_grey[i]:.2f}",
+        ]
+        for i in range(24)
+    ]
+    _table(
+        "A. Real 550D DNG, bilinear: ours vs rawpy LINEAR (adjust_maximum_thr=0) linear-sRGB patch "
+        "means; ΔE00 vs X-Rite reference (exposure fitted on the neutrals)",
+        [
+            "#",
+            "patch",
+            "R ours",
+            "G ours",
+            "B ours",
+            "R rawpy",
+            "G rawpy",
+            "B rawpy",
+            "max|Δ| %",
+            "ΔE ours-rawpy",
+            "ΔE ours",
+            "ΔE rawpy",
+            "ΔE ours grey-WB",
+        ],
+        rows,
+    )
 
     def stats(x):
         return f"{x.mean():.2f}/{np.median(x):.2f}/{x.max():.2f}"
 
-    print(f"   mean/median/max ΔE00: ours–rawpy {stats(dE_between)}; vs reference: ours {stats(dE_ours)}, "
-          f"rawpy (default call) {stats(dE_ref)}, ours with grey-patch WB {stats(dE_grey)}")
+    print(
+        f"   mean/median/max ΔE00: ours–rawpy {stats(dE_between)}; vs reference: ours {stats(dE_ours)}, "
+        f"rawpy (default call) {stats(dE_ref)}, ours with grey-patch WB {stats(dE_grey)}"
+    )
     ratio = np.median(p_default / p_ours)
-    print(f"   rawpy's prescribed call (adjust_maximum_thr=0.75 default) is brighter by ≈ "
-          f"{ratio:.3f} (exactly (15000 − 2056) / (data max 12128 − 2056) = 1.285): LibRaw rescales "
-          "to the data maximum.")
+    print(
+        f"   rawpy's prescribed call (adjust_maximum_thr=0.75 default) is brighter by ≈ "
+        f"{ratio:.3f} (exactly (15000 − 2056) / (data max 12128 − 2056) = 1.285): LibRaw rescales "
+        "to the data maximum."
+    )
     full = np.abs(ours - ref)[8:-8, 8:-8]
-    print(f"   whole image (8 px border excluded): mean |Δ| {full.mean():.5f}, "
-          f"99th pct {np.percentile(full, 99):.5f} (values relative to saturation 1)")
+    print(
+        f"   whole image (8 px border excluded): mean |Δ| {full.mean():.5f}, "
+        f"99th pct {np.percentile(full, 99):.5f} (values relative to saturation 1)"
+    )
 
 
 def _patch_means(image, labels, n, margin=3):
     out = []
     for k in range(n):
         ys, xs = np.nonzero(labels == k)
-        out.append(image[ys.min() + margin:ys.max() + 1 - margin, xs.min() + margin:xs.max() + 1 - margin]
-                   .reshape(-1, image.shape[-1]).mean(0))
+        out.append(
+            image[ys.min() + margin : ys.max() + 1 - margin, xs.min() + margin : xs.max() + 1 - margin]
+            .reshape(-1, image.shape[-1])
+            .mean(0)
+        )
     return np.array(out)
 
 
 def _dE(XYZ_est_D65, XYZ_true, white_true):
     D65 = colour.xy_to_XYZ(D65_xy)
     truth = colour.chromatic_adaptation(XYZ_true, white_true, D65, method="Von Kries", transform="Bradford")
-    return colour.delta_E(colour.XYZ_to_Lab(XYZ_est_D65, D65_xy), colour.XYZ_to_Lab(truth, D65_xy),
-                          method="CIE 2000")
+    return colour.delta_E(
+        colour.XYZ_to_Lab(XYZ_est_D65, D65_xy), colour.XYZ_to_Lab(truth, D65_xy), method="CIE 2000"
+    )
 
 
 def _label(cam: str) -> str:
@@ -178,18 +233,31 @@ def bench_simulated_chart(tmp: Path, quantum: float = 2e-3) -> None:
         runs.append(("Malvar 2004", label, isp.metamer_correction(cam, method="Prior", quantum=quantum)))
         for method, label, correction in runs:
             t0 = time.perf_counter()
-            rgb = isp.develop(raw, demosaic=method, correction=correction,
-                              stop_after="XYZ_to_linear_sRGB").image
+            rgb = isp.develop(
+                raw, demosaic=method, correction=correction, stop_after="XYZ_to_linear_sRGB"
+            ).image
             seconds = time.perf_counter() - t0
             XYZ = colour.RGB_to_XYZ(rgb, "sRGB", illuminant=D65_xy) / cap.exposure
             dE = _dE(_patch_means(XYZ, labels, 24), true_XYZ(R, setup), setup.observer.sum(0))
-            rows.append([_label(cam), method, label, f"{dE.mean():.2f}", f"{np.median(dE):.2f}",
-                         f"{dE.max():.2f}", f"{seconds:.2f}"])
-    _table("B. Simulated ColorChecker (D65, exposure 0.8, shot + read noise, DNG written and read back via "
-           "rawpy; ColorMatrix fitted on rawtoaces 190; metamer = isp.metamer_correction as "
-           "`isp develop --correction metamer` fits it, default --scene-white 1): ΔE00 vs true colours, "
-           "time of the whole development",
-           ["camera", "demosaic", "correction", "mean", "median", "max", "s"], rows)
+            rows.append(
+                [
+                    _label(cam),
+                    method,
+                    label,
+                    f"{dE.mean():.2f}",
+                    f"{np.median(dE):.2f}",
+                    f"{dE.max():.2f}",
+                    f"{seconds:.2f}",
+                ]
+            )
+    _table(
+        "B. Simulated ColorChecker (D65, exposure 0.8, shot + read noise, DNG written and read back via "
+        "rawpy; ColorMatrix fitted on rawtoaces 190; metamer = isp.metamer_correction as "
+        "`isp develop --correction metamer` fits it, default --scene-white 1): ΔE00 vs true colours, "
+        "time of the whole development",
+        ["camera", "demosaic", "correction", "mean", "median", "max", "s"],
+        rows,
+    )
 
 
 def bench_correction(munsell_subset: int | None = None) -> None:
@@ -201,8 +269,9 @@ def bench_correction(munsell_subset: int | None = None) -> None:
         msds = zonotope.read_reflectances(munsell)
         if munsell_subset and munsell_subset < len(msds.labels):
             keep = np.sort(np.random.default_rng(0).choice(len(msds.labels), munsell_subset, replace=False))
-            msds = colour.MultiSpectralDistributions(msds.values[:, keep], msds.wavelengths,
-                                                     labels=[msds.labels[i] for i in keep], name=msds.name)
+            msds = colour.MultiSpectralDistributions(
+                msds.values[:, keep], msds.wavelengths, labels=[msds.labels[i] for i in keep], name=msds.name
+            )
             subset_note = f"; --quick: {munsell_subset} of the 1269 Munsell chips, drawn with seed 0"
         sets[f"Munsell matte {len(msds.labels)}"] = msds
     try:
@@ -223,9 +292,13 @@ def bench_correction(munsell_subset: int | None = None) -> None:
         M_ls = np.linalg.lstsq(bal, train @ setup.observer, rcond=None)[0]
         estimators = {"DNG ColorMatrix": None, "LS 3×3 callable": lambda c, M=M_ls: c @ M}
         if fit_correction is not None:
-            prob = correction_problem(cam if not cam.endswith(".json") else zonotope.read_camera(cam),
-                                      target="CIE 1931 2°", illuminant="D65", shape=setup.wavelengths,
-                                      training=train)
+            prob = correction_problem(
+                cam if not cam.endswith(".json") else zonotope.read_camera(cam),
+                target="CIE 1931 2°",
+                illuminant="D65",
+                shape=setup.wavelengths,
+                training=train,
+            )
             estimators["zonotope root-poly"] = fit_correction(prob, method="Finlayson 2015")
             # metamer-based estimators through isp's wrapper (exact colours: quantum 0; a colour
             # whose estimate fails falls back to the regression and is counted)
@@ -253,14 +326,19 @@ def bench_correction(munsell_subset: int | None = None) -> None:
                 dE = _dE(est, truth, setup.observer.sum(0))
                 row.append(f"{dE.mean():.2f} / {dE.max():.2f}")
             rows.append(row)
-    _table("C. Colour correction of white-balanced responses (D65), mean / max ΔE00 vs truth "
-           "(all fitted on rawtoaces 190; Prior, Centroid on the simulation's 5 nm grid, "
-           f"Prior (CLI fit) on 400–700 nm / 10 nm as `isp develop --correction metamer`){subset_note}",
-           ["camera", "set", *estimators], rows)
-    print("   time (s, all cameras and sets): "
-          + ", ".join(f"{name} {t:.2f}" for name, t in seconds.items())
-          + "; colours that fell back to the regression: "
-          + (", ".join(f"{name} {n}" for name, n in fallbacks.items() if n) or "none"))
+    _table(
+        "C. Colour correction of white-balanced responses (D65), mean / max ΔE00 vs truth "
+        "(all fitted on rawtoaces 190; Prior, Centroid on the simulation's 5 nm grid, "
+        f"Prior (CLI fit) on 400–700 nm / 10 nm as `isp develop --correction metamer`){subset_note}",
+        ["camera", "set", *estimators],
+        rows,
+    )
+    print(
+        "   time (s, all cameras and sets): "
+        + ", ".join(f"{name} {t:.2f}" for name, t in seconds.items())
+        + "; colours that fell back to the regression: "
+        + (", ".join(f"{name} {n}" for name, n in fallbacks.items() if n) or "none")
+    )
 
 
 def _scene(setup, size: int, seed: int, reflectances: np.ndarray, ss: int = 4) -> np.ndarray:
@@ -304,17 +382,23 @@ def bench_demosaic(repeats: int, size: int) -> None:
         ms_per_mp = 1e3 * statistics.median(times) / (mosaic.size / 1e6)
         p = np.array(psnr[method])
         rows.append([method, f"{p.mean():.2f}", f"{p.min():.2f}", f"{p.max():.2f}", f"{ms_per_mp:.0f}"])
-    _table(f"D. Demosaicing: PSNR (dB) on 10 simulated {size}² scenes of rawtoaces-190 reflectances "
-           f"(Nikon 5100, D65, noise-free), time = median of {repeats} on 512²",
-           ["method", "PSNR mean", "min", "max", "ms / MP"], rows)
+    _table(
+        f"D. Demosaicing: PSNR (dB) on 10 simulated {size}² scenes of rawtoaces-190 reflectances "
+        f"(Nikon 5100, D65, noise-free), time = median of {repeats} on 512²",
+        ["method", "PSNR mean", "min", "max", "ms / MP"],
+        rows,
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--quick", action="store_true",
-                        help="smaller demosaic scenes, coarser colour deduplication of the metamer "
-                             "correction in table B, 200 of the Munsell chips in table C")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smaller demosaic scenes, coarser colour deduplication of the metamer "
+        "correction in table B, 200 of the Munsell chips in table C",
+    )
     args = parser.parse_args()
     import tempfile
 

@@ -70,8 +70,12 @@ def main() -> None:
     print(f"{'exact solid: invert (witness reflectances)':48s} {'':8s} {t_inv:10.4f}")
     print(f"ratio exact / colour-science (classification only): {t_exact / t_colour:.1f}")
     print(f"witness re-integration error (max |ΔXYZ|, Y_white = 1): {err:.2e}")
-    print("outside the exact solid:", ", ".join(f"{h} {v:g}/{c:g}" for (h, v, c), _ in
-                                               (MUNSELL_COLOURS_REAL[i] for i in np.nonzero(~inside)[0])))
+    print(
+        "outside the exact solid:",
+        ", ".join(
+            f"{h} {v:g}/{c:g}" for (h, v, c), _ in (MUNSELL_COLOURS_REAL[i] for i in np.nonzero(~inside)[0])
+        ),
+    )
 
 
 if __name__ == "__main__":

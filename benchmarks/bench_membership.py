@@ -47,19 +47,28 @@ def main() -> None:
     got = mmv_contains(Phi, Psi, C, Y, halfspaces=hs)
 
     def lps():
-        return [linprog(np.zeros(Phi.shape[0]), A_eq=J.T, b_eq=np.concatenate([c, y]), bounds=(0, 1),
-                        method="highs").status == 0 for c, y in zip(C[:50], Y[:50])]
+        return [
+            linprog(
+                np.zeros(Phi.shape[0]), A_eq=J.T, b_eq=np.concatenate([c, y]), bounds=(0, 1), method="highs"
+            ).status
+            == 0
+            for c, y in zip(C[:50], Y[:50])
+        ]
 
     t_lp = median_time(lps, args.repeats) / 50
     agree = np.mean(np.array(lps()) == got[:50])
-    print(f"Nikon 5100 → LMS, 10 nm, {args.pairs} pairs (medians of {args.repeats}); "
-          f"{hs[0].shape[0]} half-spaces")
+    print(
+        f"Nikon 5100 → LMS, 10 nm, {args.pairs} pairs (medians of {args.repeats}); "
+        f"{hs[0].shape[0]} half-spaces"
+    )
     print(f"{'method':40s} {'per pair (µs)':>14s} {'total (s)':>10s}")
     print(f"{'HiGHS feasibility LP (baseline)':40s} {1e6 * t_lp:14.1f} {t_lp * args.pairs:10.2f}")
     print(f"{'mmv_contains (batched, exact)':40s} {1e6 * t_batch / args.pairs:14.1f} {t_batch:10.2f}")
     print(f"{'joint_halfspaces (once)':40s} {'':14s} {t_build:10.2f}")
-    print(f"speed-up per pair: {t_lp * args.pairs / t_batch:.1f}×; agreement on 50 LP pairs: {agree:.0%}; "
-          f"inside: {got.mean():.1%}")
+    print(
+        f"speed-up per pair: {t_lp * args.pairs / t_batch:.1f}×; agreement on 50 LP pairs: {agree:.0%}; "
+        f"inside: {got.mean():.1%}"
+    )
 
 
 if __name__ == "__main__":

@@ -55,16 +55,25 @@ def row(step, patches, mode, repeats, base_repeats):
         ours_t += t
         verts.append(len(ref.inner.vertices))
         calls_o.append(ref.lp_calls)
-        (refb, _, _), tb = timed(lambda c=c, eps=eps: _refinement(Phi, Psi, c, eps=eps, oracle="highs"),
-                                 base_repeats)
+        (refb, _, _), tb = timed(
+            lambda c=c, eps=eps: _refinement(Phi, Psi, c, eps=eps, oracle="highs"), base_repeats
+        )
         base_t += tb
         calls_b.append(refb.lp_calls)
         rel = abs(refb.inner.volume - ref.inner.volume) / max(refb.inner.volume, 1e-300)
         if mode == "exact" and rel > 1e-6:
             print(f"  warning: patch {i} volumes differ by {rel:.2e} (relative)")
     b, o = statistics.median(base_t), statistics.median(ours_t)
-    return (f"{step:g} nm", "Nikon 5100", mode, f"{b * 1e3:.1f} ms", f"{o * 1e3:.2f} ms", f"{b / o:.0f}×",
-            f"{int(np.median(verts))}", f"{int(np.median(calls_o))} / {int(np.median(calls_b))}")
+    return (
+        f"{step:g} nm",
+        "Nikon 5100",
+        mode,
+        f"{b * 1e3:.1f} ms",
+        f"{o * 1e3:.2f} ms",
+        f"{b / o:.0f}×",
+        f"{int(np.median(verts))}",
+        f"{int(np.median(calls_o))} / {int(np.median(calls_b))}",
+    )
 
 
 def main() -> None:
@@ -81,8 +90,16 @@ def main() -> None:
         row(5, p5, "exact", r, r),
         row(10, p10, "ε=1e-3·diam", r, r),
     ]
-    header = ("grid", "cameras", "mode", "baseline median", "ours median", "ratio", "vertices",
-              "LP calls ours / baseline")
+    header = (
+        "grid",
+        "cameras",
+        "mode",
+        "baseline median",
+        "ours median",
+        "ratio",
+        "vertices",
+        "LP calls ours / baseline",
+    )
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for x in rows:
@@ -105,19 +122,25 @@ def main() -> None:
     n1 = min(N, 1000)
     from zonotope.parallel import executor
 
-    for label, n, kw in (("one by one (chunk=1), 1 core", n1, dict(chunk=1)),
-                         ("lockstep chunks of 256, 1 core", n1, dict(chunk=256)),
-                         ("lockstep chunks of 256, local Dask cluster of 2", N,
-                          dict(chunk=256, where="local:2")),
-                         ("centroids only (outer=False), local Dask cluster of 2", N,
-                          dict(chunk=256, where="local:2", outer=False))):
+    for label, n, kw in (
+        ("one by one (chunk=1), 1 core", n1, dict(chunk=1)),
+        ("lockstep chunks of 256, 1 core", n1, dict(chunk=256)),
+        ("lockstep chunks of 256, local Dask cluster of 2", N, dict(chunk=256, where="local:2")),
+        (
+            "centroids only (outer=False), local Dask cluster of 2",
+            N,
+            dict(chunk=256, where="local:2", outer=False),
+        ),
+    ):
         where = kw.pop("where", "serial")
         t = time.perf_counter()
         with executor(where) as ex:  # the cluster's start-up is part of the measured time
             out = mm.batch(C[:n], eps=1e-3, executor=ex, **kw)
         dt = time.perf_counter() - t
-        print(f"batch, {label}: {n} responses (10 nm, ε=1e-3) in {dt:.1f} s → {dt / n * 1e4:.0f} s "
-              f"per 10⁴, {out.lp_calls / n:.0f} LPs per response")
+        print(
+            f"batch, {label}: {n} responses (10 nm, ε=1e-3) in {dt:.1f} s → {dt / n * 1e4:.0f} s "
+            f"per 10⁴, {out.lp_calls / n:.0f} LPs per response"
+        )
     # channelwise / joint volume ratio
     grid = np.arange(400.0, 681.0, 10.0)
     Phi2 = zonotope.generators([NIKON, SIGMA], "D65", grid).values
@@ -131,8 +154,10 @@ def main() -> None:
         if joint.volume > 0:
             ratios.append(outer.volume / joint.volume)
     q = np.percentile(ratios, [0, 50, 100])
-    print(f"channelwise (per camera) / joint MMV volume, Nikon 5100 + Sigma SD Merrill, 10 nm "
-          f"400–680 nm, 24 patches: min {q[0]:.2f}, median {q[1]:.2f}, max {q[2]:.2f}")
+    print(
+        f"channelwise (per camera) / joint MMV volume, Nikon 5100 + Sigma SD Merrill, 10 nm "
+        f"400–680 nm, 24 patches: min {q[0]:.2f}, median {q[1]:.2f}, max {q[2]:.2f}"
+    )
 
 
 if __name__ == "__main__":

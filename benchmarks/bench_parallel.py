@@ -63,8 +63,11 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=64)
     ap.add_argument("--mmvs", type=int, help="responses (default 1024, 256 with --quick)")
     ap.add_argument("--images", type=int, help="DNG files (default 12, 6 with --quick)")
-    ap.add_argument("--cameras", type=int,
-                    help="measured cameras added to the 3 built-in ones (default 3, 1 with --quick)")
+    ap.add_argument(
+        "--cameras",
+        type=int,
+        help="measured cameras added to the 3 built-in ones (default 3, 1 with --quick)",
+    )
     args = ap.parse_args()
 
     from isp.batch import _develop_one
@@ -76,8 +79,11 @@ def main() -> None:
     n_mmv = args.mmvs or (256 if args.quick else 1024)
     n_img = args.images or (6 if args.quick else 12)
     n_noop = 200 if args.quick else 1000
-    print(f"machine: {os.cpu_count()} cores, shared with other users while this ran (timings are noisy); "
-          f"local cluster: {args.workers} worker processes × 1 thread; median of {args.repeat}", flush=True)
+    print(
+        f"machine: {os.cpu_count()} cores, shared with other users while this ran (timings are noisy); "
+        f"local cluster: {args.workers} worker processes × 1 thread; median of {args.repeat}",
+        flush=True,
+    )
     print("| path | unit | serial (this process) | local cluster | speed-up, check |")
     print("|---|---|---:|---:|---|", flush=True)
 
@@ -95,8 +101,15 @@ def main() -> None:
         # per-task overhead: a task that does nothing
         ts, _ = _median_time(lambda: list(ex.map(_noop, range(n_noop))), args.repeat)
         ts_s, _ = _median_time(lambda: list(map(_noop, range(n_noop))), args.repeat)
-        rows.append(("per-task overhead (no-op task)", "", f"{ts_s / n_noop * 1e6:.2f} µs",
-                     f"{ts / n_noop * 1e3:.2f} ms", ""))
+        rows.append(
+            (
+                "per-task overhead (no-op task)",
+                "",
+                f"{ts_s / n_noop * 1e6:.2f} µs",
+                f"{ts / n_noop * 1e3:.2f} ms",
+                "",
+            )
+        )
 
         # MMVs: certified (ε = 1e-3), 10 nm, one camera → LMS
         mm = MetamerMismatch("Nikon 5100 (NPL)", shape=np.arange(400.0, 701.0, 10.0))
@@ -110,34 +123,50 @@ def main() -> None:
         t_s, a = _median_time(mmvs, args.repeat)
         t_d, b = _median_time(lambda: mmvs(ex), args.repeat)
         same = np.array_equal(a.centroids, b.centroids) and np.array_equal(a.volume_bounds, b.volume_bounds)
-        rows.append((f"MMVs/s ({n_mmv} responses, chunks of {args.chunk})", "MMVs/s",
-                     f"{n_mmv / t_s:.0f}", f"{n_mmv / t_d:.0f}",
-                     f"{t_s / t_d:.2f}× {'identical' if same else 'DIFFER'}"))
+        rows.append(
+            (
+                f"MMVs/s ({n_mmv} responses, chunks of {args.chunk})",
+                "MMVs/s",
+                f"{n_mmv / t_s:.0f}",
+                f"{n_mmv / t_d:.0f}",
+                f"{t_s / t_d:.2f}× {'identical' if same else 'DIFFER'}",
+            )
+        )
 
         # images: isp develop of simulated DNGs, one task per file
         with tempfile.TemporaryDirectory() as tmp:
             tmp = Path(tmp)
             (tmp / "in").mkdir()
             files = _dngs(tmp / "in", n_img, 40)
-            values = {k: v for k, v in vars(_parser().parse_args(["develop", str(tmp / "in"), "-o", "x",
-                                                                   "-q"])).items() if k != "func"}
+            values = {
+                k: v
+                for k, v in vars(_parser().parse_args(["develop", str(tmp / "in"), "-o", "x", "-q"])).items()
+                if k != "func"
+            }
             counter = iter(range(10**6))
 
             def develop(scheduler):
                 out = tmp / f"out{next(counter)}"
                 out.mkdir()
                 tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in files]
-                return run_files(tasks, _develop_one, (values, None), manifest=out / "manifest.csv",
-                                 scheduler=scheduler)
+                return run_files(
+                    tasks, _develop_one, (values, None), manifest=out / "manifest.csv", scheduler=scheduler
+                )
 
             t_s, r1 = _median_time(lambda: develop("serial"), args.repeat)
             addr = ex.client.scheduler.address
             t_d, r2 = _median_time(lambda: develop(addr), args.repeat)
             ok = all(r["status"] == "ok" for r in r1 + r2)
             h, w = 4 * 40 + 5 * 2, 6 * 40 + 7 * 2
-            rows.append((f"images/min (isp develop, {n_img} DNGs of {w}×{h})", "images/min",
-                         f"{n_img / t_s * 60:.0f}", f"{n_img / t_d * 60:.0f}",
-                         f"{t_s / t_d:.2f}× {'all ok' if ok else 'FAILED'}"))
+            rows.append(
+                (
+                    f"images/min (isp develop, {n_img} DNGs of {w}×{h})",
+                    "images/min",
+                    f"{n_img / t_s * 60:.0f}",
+                    f"{n_img / t_d * 60:.0f}",
+                    f"{t_s / t_d:.2f}× {'all ok' if ok else 'FAILED'}",
+                )
+            )
 
         # camera sets: survey of pairs
         cams, _ = load_cameras(["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"])
@@ -149,13 +178,21 @@ def main() -> None:
                 cams[name] = more[name]
         n_sets = len(cams) * (len(cams) - 1) // 2
         t_s, s1 = _median_time(lambda: survey(cams, size=2, scheduler="serial"), args.repeat)
-        t_d, s2 = _median_time(lambda: survey(cams, size=2, scheduler=ex.client.scheduler.address),
-                               args.repeat)
+        t_d, s2 = _median_time(
+            lambda: survey(cams, size=2, scheduler=ex.client.scheduler.address), args.repeat
+        )
         same = [(r.cameras, r.vora, r.mmv_median, r.dE00) for r in s1] == [
-            (r.cameras, r.vora, r.mmv_median, r.dE00) for r in s2]
-        rows.append((f"camera sets/min (survey, {len(cams)} cameras, {n_sets} pairs)", "sets/min",
-                     f"{n_sets / t_s * 60:.1f}", f"{n_sets / t_d * 60:.1f}",
-                     f"{t_s / t_d:.2f}× {'identical' if same else 'DIFFER'}"))
+            (r.cameras, r.vora, r.mmv_median, r.dE00) for r in s2
+        ]
+        rows.append(
+            (
+                f"camera sets/min (survey, {len(cams)} cameras, {n_sets} pairs)",
+                "sets/min",
+                f"{n_sets / t_s * 60:.1f}",
+                f"{n_sets / t_d * 60:.1f}",
+                f"{t_s / t_d:.2f}× {'identical' if same else 'DIFFER'}",
+            )
+        )
 
 
 if __name__ == "__main__":

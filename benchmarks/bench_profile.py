@@ -94,7 +94,7 @@ def table_P(cameras, quick: bool) -> None:
             dcp = write_dcp(folder / "camera.dcp", fit.profile, overwrite=True)
 
             def score(XYZ, offset=(0, 0), labels=labels, truth=truth):
-                lab = labels[offset[0]:offset[0] + XYZ.shape[0], offset[1]:offset[1] + XYZ.shape[1]]
+                lab = labels[offset[0] : offset[0] + XYZ.shape[0], offset[1] : offset[1] + XYZ.shape[1]]
                 return patch_delta_E(XYZ, lab, truth, white_XYZ=D50, normalise_to=18)
 
             res = {"isp DNG": score(isp_XYZ(path)), "isp DCP": score(isp_XYZ(path, profile=dcp))}
@@ -105,15 +105,31 @@ def table_P(cameras, quick: bool) -> None:
                     out = develop_rawtherapee(path, profile=prof)
                     res[key] = score(out.XYZ, out.offset)
             m = {k: v.mean() for k, v in res.items()}
-            row = [cam] + [f"{res[k].mean():.3f} / {res[k].max():.2f}" if k in res else "—"
-                           for k in ("isp DNG", "RT DNG", "isp DCP", "RT DCP", "isp metamer")]
-            row += [f"{100 * (1 - m['isp DCP'] / m['isp DNG']):.0f} %",
-                    f"{100 * (1 - m['RT DCP'] / m['RT DNG']):.0f} %" if have_rt else "—",
-                    f"{m['isp DCP'] - m['isp metamer']:+.3f}"]
+            row = [cam] + [
+                f"{res[k].mean():.3f} / {res[k].max():.2f}" if k in res else "—"
+                for k in ("isp DNG", "RT DNG", "isp DCP", "RT DCP", "isp metamer")
+            ]
+            row += [
+                f"{100 * (1 - m['isp DCP'] / m['isp DNG']):.0f} %",
+                f"{100 * (1 - m['RT DCP'] / m['RT DNG']):.0f} %" if have_rt else "—",
+                f"{m['isp DCP'] - m['isp metamer']:+.3f}",
+            ]
             rows.append(row)
-    _table("P. Simulated ColorChecker under D65, ΔE00 mean / max vs truth (24 patches)",
-           ["camera", "isp DNG CM", "RT DNG CM", "isp DCP", "RT DCP", "isp metamer", "DCP gain isp",
-            "DCP gain RT", "DCP − metamer"], rows)
+    _table(
+        "P. Simulated ColorChecker under D65, ΔE00 mean / max vs truth (24 patches)",
+        [
+            "camera",
+            "isp DNG CM",
+            "RT DNG CM",
+            "isp DCP",
+            "RT DCP",
+            "isp metamer",
+            "DCP gain isp",
+            "DCP gain RT",
+            "DCP − metamer",
+        ],
+        rows,
+    )
 
 
 def table_Q() -> None:
@@ -124,8 +140,15 @@ def table_Q() -> None:
         return
 
     def boxes(X, off):
-        return np.array([X[r - off[0] - BOX:r - off[0] + BOX, c - off[1] - BOX:c - off[1] + BOX]
-                         .reshape(-1, 3).mean(0) for r in CHART_ROWS for c in CHART_COLS])
+        return np.array(
+            [
+                X[r - off[0] - BOX : r - off[0] + BOX, c - off[1] - BOX : c - off[1] + BOX]
+                .reshape(-1, 3)
+                .mean(0)
+                for r in CHART_ROWS
+                for c in CHART_COLS
+            ]
+        )
 
     def lab(X):
         return colour.XYZ_to_Lab(X, D50_xy)
@@ -137,14 +160,24 @@ def table_Q() -> None:
         a, b = boxes(rt.XYZ, rt.offset), boxes(ours, (0, 0))
         k = 1.0 / a[18, 1]
         out[key] = (colour.delta_E(lab(k * a), lab(k * b), method="CIE 2000"), a * k, b * k)
-    rows = [[i + 1, f"{out['DCP'][0][i]:.3f}", f"{out['DNG'][0][i]:.3f}",
-             " ".join(f"{v:.4f}" for v in out["DCP"][1][i]), " ".join(f"{v:.4f}" for v in out["DCP"][2][i])]
-            for i in range(24)]
+    rows = [
+        [
+            i + 1,
+            f"{out['DCP'][0][i]:.3f}",
+            f"{out['DNG'][0][i]:.3f}",
+            " ".join(f"{v:.4f}" for v in out["DCP"][1][i]),
+            " ".join(f"{v:.4f}" for v in out["DCP"][2][i]),
+        ]
+        for i in range(24)
+    ]
     rows.append(["mean", f"{out['DCP'][0].mean():.3f}", f"{out['DNG'][0].mean():.3f}", "", ""])
     rows.append(["max", f"{out['DCP'][0].max():.3f}", f"{out['DNG'][0].max():.3f}", "", ""])
-    _table("Q. Real 550D DNG: ΔE00 between rawtherapee-cli and isp develop, per ColorChecker patch "
-           "(RawTherapee's 'Canon EOS 550D.dcp', and the DNG ColorMatrix)",
-           ["patch", "ΔE00 DCP", "ΔE00 DNG CM", "XYZ RT (DCP)", "XYZ isp (DCP)"], rows)
+    _table(
+        "Q. Real 550D DNG: ΔE00 between rawtherapee-cli and isp develop, per ColorChecker patch "
+        "(RawTherapee's 'Canon EOS 550D.dcp', and the DNG ColorMatrix)",
+        ["patch", "ΔE00 DCP", "ΔE00 DNG CM", "XYZ RT (DCP)", "XYZ isp (DCP)"],
+        rows,
+    )
 
 
 def table_R(quick: bool) -> None:
@@ -152,13 +185,17 @@ def table_R(quick: bool) -> None:
     from zonotope.profile import correction_LUT
 
     cam = "Nikon 5100 (NPL)"
-    mcs = [isp.metamer_correction(cam, method="Finlayson 2015", illuminant=i, quantum=0.0,
-                                  target="CIE 1931 2°") for i in ("A", "D65")]
+    mcs = [
+        isp.metamer_correction(cam, method="Finlayson 2015", illuminant=i, quantum=0.0, target="CIE 1931 2°")
+        for i in ("A", "D65")
+    ]
     mc = mcs[1]
     prob = mc.corrector.problem
     w = prob.wavelengths
-    sets = {name: np.clip(zonotope.resample(zonotope.reflectances(name), w).T, 0, 1)
-            for name in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0")}
+    sets = {
+        name: np.clip(zonotope.resample(zonotope.reflectances(name), w).T, 0, 1)
+        for name in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0")
+    }
     sets["atypical (200)"] = atypical_reflectances(w, 200)[0]
     white = mc(np.ones((1, 3)))[0]
     cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white / white[1], D50, transform="Bradford")
@@ -168,7 +205,8 @@ def table_R(quick: bool) -> None:
 
     rows = []
     encoders = [("matrices only", dict(dims=None))] + [
-        (f"HueSatMap {h}×{s}", dict(dims=(h, s, 1))) for h, s in ((6, 6), (36, 12), (90, 30), (180, 60))]
+        (f"HueSatMap {h}×{s}", dict(dims=(h, s, 1))) for h, s in ((6, 6), (36, 12), (90, 30), (180, 60))
+    ]
     for label, kw in encoders:
         prof: DCPProfile = fit_dcp(cam, corrections=mcs, n_random=300 if quick else 1500, **kw).profile
         row = [label]
@@ -187,8 +225,11 @@ def table_R(quick: bool) -> None:
             dE = colour.delta_E(lab(lut.apply(c) @ cat.T), lab(ref @ cat.T), method="CIE 2000")
             row.append(f"{dE.mean():.3f}")
         rows.append(row)
-    _table("R. Encoding error: mean ΔE00 between root-polynomial (Nikon 5100, D65) and its DCP / LUT",
-           ["encoding", *sets], rows)
+    _table(
+        "R. Encoding error: mean ΔE00 between root-polynomial (Nikon 5100, D65) and its DCP / LUT",
+        ["encoding", *sets],
+        rows,
+    )
 
 
 def main() -> None:

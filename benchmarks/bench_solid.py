@@ -58,8 +58,15 @@ def main() -> None:
     t_ours = median_time(ours_solid, args.repeats)
     t_base = median_time(colour_solid, args.baseline_repeats)
     Z = Zonotope(G1)
-    rows.append(("solid, CIE 1931 1 nm (401 gen.)", "XYZ_outer_surface", t_base, t_ours,
-                 f"{Z.vertices.shape[0]} vertices, {Z.n_facets} facets"))
+    rows.append(
+        (
+            "solid, CIE 1931 1 nm (401 gen.)",
+            "XYZ_outer_surface",
+            t_base,
+            t_ours,
+            f"{Z.vertices.shape[0]} vertices, {Z.n_facets} facets",
+        )
+    )
 
     shape5 = colour.SpectralShape(360, 780, 5)  # colour's SPECTRAL_SHAPE_OUTER_SURFACE_XYZ
     cmfs5 = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape5)
@@ -88,8 +95,10 @@ def main() -> None:
             per_point_base = tb / 1e4
         if np.isnan(tb) and per_point_base is not None:
             ratio = per_point_base * 1e6 / to
-            print(f"{case:36s} {base:28s} {'(' + format(per_point_base * 1e6, '.1f') + ')':>11s} "
-                  f"{to:9.4f} {ratio:7.0f}×  {note}")
+            print(
+                f"{case:36s} {base:28s} {'(' + format(per_point_base * 1e6, '.1f') + ')':>11s} "
+                f"{to:9.4f} {ratio:7.0f}×  {note}"
+            )
         else:
             print(f"{case:36s} {base:28s} {tb:11.4f} {to:9.4f} {tb / to:7.0f}×  {note}")
 

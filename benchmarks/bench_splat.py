@@ -54,15 +54,28 @@ def median_time(fn, repeats: int) -> float:
 
 def random_gaussians(G: int, N: int, seed: int = 0):
     r = np.random.default_rng(seed)
-    return init_gaussians(r.uniform(-1, 1, (G, 3)), r.uniform(0.1, 0.9, (G, N)),
-                          scales=np.exp(r.uniform(np.log(0.02), np.log(0.08), G)), opacity=0.5,
-                          key=jax.random.key(seed))
+    return init_gaussians(
+        r.uniform(-1, 1, (G, 3)),
+        r.uniform(0.1, 0.9, (G, N)),
+        scales=np.exp(r.uniform(np.log(0.02), np.log(0.08), G)),
+        opacity=0.5,
+        key=jax.random.key(seed),
+    )
 
 
 def step_times(args, console: Console) -> None:
     table = Table(title=f"forward + backward per step (ms, median of {args.repeats})")
-    for col in ("size", "Gaussians", "N", "tiled ms", "reference ms", "speed-up", "max |tiled − ref|",
-                "dropped", "max per tile"):
+    for col in (
+        "size",
+        "Gaussians",
+        "N",
+        "tiled ms",
+        "reference ms",
+        "speed-up",
+        "max |tiled − ref|",
+        "dropped",
+        "max per tile",
+    ):
         table.add_column(col, justify="right")
     for W, H, G, cap in ((64, 64, 1000, 512), (160, 128, 4000, 512)):
         g = random_gaussians(G, 9)
@@ -71,6 +84,7 @@ def step_times(args, console: Console) -> None:
         target = 0.9 * render(g, cam, method="reference", config=cfg).image
         ms = {}
         for method in ("tiled", "reference"):
+
             def loss(p, method=method, cam=cam, cfg=cfg, target=target):
                 return jnp.mean((render(p, cam, method=method, config=cfg).image - target) ** 2)
 
@@ -80,17 +94,26 @@ def step_times(args, console: Console) -> None:
         tiled = render(g, cam, config=cfg)
         ref = render(g, cam, method="reference", config=cfg)
         err = float(jnp.max(jnp.abs(tiled.image - ref.image)))
-        table.add_row(f"{W}×{H}", f"{G}", "9", f"{ms['tiled']:.0f}", f"{ms['reference']:.0f}",
-                      f"{ms['reference'] / ms['tiled']:.1f}×", f"{err:.1e}", f"{int(tiled.n_dropped)}",
-                      f"{int(tiled.max_per_tile)}")
+        table.add_row(
+            f"{W}×{H}",
+            f"{G}",
+            "9",
+            f"{ms['tiled']:.0f}",
+            f"{ms['reference']:.0f}",
+            f"{ms['reference'] / ms['tiled']:.1f}×",
+            f"{err:.1e}",
+            f"{int(tiled.n_dropped)}",
+            f"{int(tiled.max_per_tile)}",
+        )
     console.print(table)
 
 
 def training(args, console: Console) -> None:
     scene = synthetic_scene(SceneConfig(width=64, height=64, views_per_camera=12, test_views_per_camera=2))
     rc = RenderConfig(tile_capacity=512)
-    cfg = TrainConfig(steps=args.steps, capacity=args.capacity, densify_until=int(0.65 * args.steps),
-                      render=rc)
+    cfg = TrainConfig(
+        steps=args.steps, capacity=args.capacity, densify_until=int(0.65 * args.steps), render=rc
+    )
     test_cams = [v.camera for v in scene.test.views]
     rows = []
     t0 = time.perf_counter()
@@ -101,10 +124,19 @@ def training(args, console: Console) -> None:
             pred = render_views(state.params, test_cams, mask=state.alive, config=rc)
             rows.append((step, elapsed, psnr(pred, scene.test_images), int(state.alive.sum())))
 
-    bar = None if args.no_progress else Progress(
-        TextColumn("splat"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-        TextColumn("loss {task.fields[loss]:.4g}"), TextColumn("{task.fields[n]} Gaussians"),
-        TimeRemainingColumn(), console=console)
+    bar = (
+        None
+        if args.no_progress
+        else Progress(
+            TextColumn("splat"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total}"),
+            TextColumn("loss {task.fields[loss]:.4g}"),
+            TextColumn("{task.fields[n]} Gaussians"),
+            TimeRemainingColumn(),
+            console=console,
+        )
+    )
 
     def step_done(step, state, loss):  # the library prints nothing: the bar is drawn here
         check(step, state, loss)
@@ -115,13 +147,16 @@ def training(args, console: Console) -> None:
         task = bar.add_task("train", total=cfg.steps, loss=float("nan"), n=0)
         bar.start()
     try:
-        result = train(scene.capture, scene.images, scene.weights, config=cfg, bounds=scene.bounds,
-                       callback=step_done)
+        result = train(
+            scene.capture, scene.images, scene.weights, config=cfg, bounds=scene.bounds, callback=step_done
+        )
     finally:
         if bar is not None:
             bar.stop()
-    table = Table(title=f"training: synthetic scene, 3 cameras × 12 views, 64×64, 9 channels, "
-                        f"capacity {args.capacity} (one run)")
+    table = Table(
+        title=f"training: synthetic scene, 3 cameras × 12 views, 64×64, 9 channels, "
+        f"capacity {args.capacity} (one run)"
+    )
     for col in ("step", "time s (incl. compile, eval)", "held-out PSNR dB", "alive Gaussians"):
         table.add_column(col, justify="right")
     for step, elapsed, p, n in rows:
@@ -134,8 +169,9 @@ def training(args, console: Console) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--capacity", type=int, default=1024)

@@ -105,10 +105,28 @@ __all__ = [
 
 #: Public names loaded on first use, by module (heavier, or needed only by some users).
 _LAZY = {
-    "simulate": ["ILLUMINANT_LIGHT_SOURCE", "Capture", "SpectralSetup", "chart_image", "fit_color_matrix",
-                 "simulate_capture", "simulate_dng", "spectral_setup", "true_XYZ"],
-    "dcp": ["DCP_TAGS", "DCPError", "DCPProfile", "apply_hue_sat_map", "apply_tone_curve", "dcp_stage",
-            "profile_pipeline", "read_dcp", "write_dcp"],
+    "simulate": [
+        "ILLUMINANT_LIGHT_SOURCE",
+        "Capture",
+        "SpectralSetup",
+        "chart_image",
+        "fit_color_matrix",
+        "simulate_capture",
+        "simulate_dng",
+        "spectral_setup",
+        "true_XYZ",
+    ],
+    "dcp": [
+        "DCP_TAGS",
+        "DCPError",
+        "DCPProfile",
+        "apply_hue_sat_map",
+        "apply_tone_curve",
+        "dcp_stage",
+        "profile_pipeline",
+        "read_dcp",
+        "write_dcp",
+    ],
     "profile_fit": ["DCP_DEFAULT_DIMS", "ProfileFit", "fit_dcp", "fit_hue_sat_map", "profile_reflectances"],
     "batch": ["RAW_SUFFIXES", "develop_folder", "raw_files"],
     "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
@@ -116,8 +134,13 @@ _LAZY = {
     "io": ["IMAGE_FORMATS", "to_uint16"],
     "raw": ["check_cfa"],
     "metamer": ["METAMER_RANGE"],
-    "stages": ["demosaic_Malvar2004", "demosaic_Menon2007", "demosaic_bilinear", "tonemap_Reinhard2002",
-               "tonemap_clip"],
+    "stages": [
+        "demosaic_Malvar2004",
+        "demosaic_Menon2007",
+        "demosaic_bilinear",
+        "tonemap_Reinhard2002",
+        "tonemap_clip",
+    ],
 }
 _WHERE = {name: module for module, names in _LAZY.items() for name in names}
 __all__ += sorted(_WHERE)

@@ -34,19 +34,31 @@ def _profile(args: argparse.Namespace) -> int:
         raise ZonotopeError(f"--lut {args.lut}: use a .cube (Resolve) or .csp (Cinespace) file.")
     dims = None if args.matrix_only else (args.hue_sat_size[0], args.hue_sat_size[1], 1)
     with console.status(f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
-        fit = fit_dcp(args.camera, method=args.method, illuminants=args.illuminants, training=args.training,
-                      dims=dims, unique_camera_model=args.unique_camera_model, profile_name=args.profile_name,
-                      copyright=args.copyright or "", embed_policy=args.embed_policy)
+        fit = fit_dcp(
+            args.camera,
+            method=args.method,
+            illuminants=args.illuminants,
+            training=args.training,
+            dims=dims,
+            unique_camera_model=args.unique_camera_model,
+            profile_name=args.profile_name,
+            copyright=args.copyright or "",
+            embed_policy=args.embed_policy,
+        )
     write_dcp(out, fit.profile, overwrite=args.overwrite)
-    console.print(f"camera profile written to {out} (UniqueCameraModel {fit.profile.unique_camera_model!r}, "
-                  f"{'matrices only' if dims is None else f'HueSatMap {dims[0]}×{dims[1]}'})")
+    console.print(
+        f"camera profile written to {out} (UniqueCameraModel {fit.profile.unique_camera_model!r}, "
+        f"{'matrices only' if dims is None else f'HueSatMap {dims[0]}×{dims[1]}'})"
+    )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
         with console.status(f"sampling a {args.lut_size}³ LUT…"):
             lut = correction_LUT(mc, size=args.lut_size, space=args.lut_space, headroom=args.headroom)
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
-        console.print(f"3-D LUT written to {args.lut} (white-balanced camera RGB under "
-                      f"{fit.illuminants[-1]} → linear {args.lut_space}, input 0…{args.headroom:g})")
+        console.print(
+            f"3-D LUT written to {args.lut} (white-balanced camera RGB under "
+            f"{fit.illuminants[-1]} → linear {args.lut_space}, input 0…{args.headroom:g})"
+        )
     if args.save_correction:
         save_correction(args.save_correction, mc.corrector, overwrite=args.overwrite)
         console.print(f"correction saved to {args.save_correction}")
@@ -58,29 +70,59 @@ def add_command(sub) -> None:
     from zonotope.profile import LUT_SPACES
 
     p = sub.add_parser("profile", help="DNG camera profile (.dcp) and 3-D LUT from a camera's sensitivities")
-    p.add_argument("--camera", required=True, metavar="NAME_OR_FILE",
-                   help="built-in camera name or a rawtoaces JSON / CSV sensitivity file")
+    p.add_argument(
+        "--camera",
+        required=True,
+        metavar="NAME_OR_FILE",
+        help="built-in camera name or a rawtoaces JSON / CSV sensitivity file",
+    )
     p.add_argument("-o", "--output", required=True, help="output .dcp file")
     p.add_argument("--method", default="Prior", help="zonotope.correct estimator (default Prior)")
-    p.add_argument("--illuminants", nargs=2, default=["A", "D65"], metavar=("ILLUM1", "ILLUM2"),
-                   help="the two calibration illuminants (default A D65)")
+    p.add_argument(
+        "--illuminants",
+        nargs=2,
+        default=["A", "D65"],
+        metavar=("ILLUM1", "ILLUM2"),
+        help="the two calibration illuminants (default A D65)",
+    )
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
-    p.add_argument("--unique-camera-model",
-                   help="UniqueCameraModel, the string a raw developer matches to "
-                        "the file's camera (e.g. 'Canon EOS 550D'); default the name")
+    p.add_argument(
+        "--unique-camera-model",
+        help="UniqueCameraModel, the string a raw developer matches to "
+        "the file's camera (e.g. 'Canon EOS 550D'); default the name",
+    )
     p.add_argument("--profile-name", help="ProfileName (default '<camera> <method> (zonotope)')")
     p.add_argument("--copyright", help="ProfileCopyright")
-    p.add_argument("--embed-policy", type=int, default=3, choices=[0, 1, 2, 3],
-                   help="ProfileEmbedPolicy: 0 allow copying, 1 embed if used, 2 never, 3 no restrictions")
-    p.add_argument("--hue-sat-size", type=int, nargs=2, default=[90, 30], metavar=("HUES", "SATS"),
-                   help="ProfileHueSatMap divisions (default 90 30)")
+    p.add_argument(
+        "--embed-policy",
+        type=int,
+        default=3,
+        choices=[0, 1, 2, 3],
+        help="ProfileEmbedPolicy: 0 allow copying, 1 embed if used, 2 never, 3 no restrictions",
+    )
+    p.add_argument(
+        "--hue-sat-size",
+        type=int,
+        nargs=2,
+        default=[90, 30],
+        metavar=("HUES", "SATS"),
+        help="ProfileHueSatMap divisions (default 90 30)",
+    )
     p.add_argument("--matrix-only", action="store_true", help="no HueSatMap: ColorMatrix/ForwardMatrix only")
     p.add_argument("--lut", help="also write a 3-D LUT (.cube or .csp) of the estimator")
-    p.add_argument("--lut-space", default="sRGB", choices=list(LUT_SPACES),
-                   help="LUT output space (linear; default sRGB)")
+    p.add_argument(
+        "--lut-space",
+        default="sRGB",
+        choices=list(LUT_SPACES),
+        help="LUT output space (linear; default sRGB)",
+    )
     p.add_argument("--lut-size", type=int, default=33, help="LUT lattice size (default 33)")
-    p.add_argument("--headroom", type=float, default=16.0,
-                   help="largest LUT input in units of the white (default 16 = 4 stops)")
+    p.add_argument(
+        "--headroom",
+        type=float,
+        default=16.0,
+        help="largest LUT input in units of the white (default 16 = 4 stops)",
+    )
     p.add_argument("--save-correction", metavar="FILE.npz", help="also save the fitted estimator")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.set_defaults(func=_profile)

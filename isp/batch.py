@@ -22,9 +22,34 @@ from ._errors import PipelineError
 __all__ = ["RAW_SUFFIXES", "develop_folder", "raw_files"]
 
 #: File suffixes (lower case) taken as RAW files in a folder.
-RAW_SUFFIXES = frozenset({".dng", ".nef", ".nrw", ".cr2", ".cr3", ".crw", ".arw", ".srf", ".sr2", ".raf",
-                          ".orf", ".rw2", ".rwl", ".pef", ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc",
-                          ".mrw", ".mef", ".mos", ".raw"})
+RAW_SUFFIXES = frozenset(
+    {
+        ".dng",
+        ".nef",
+        ".nrw",
+        ".cr2",
+        ".cr3",
+        ".crw",
+        ".arw",
+        ".srf",
+        ".sr2",
+        ".raf",
+        ".orf",
+        ".rw2",
+        ".rwl",
+        ".pef",
+        ".srw",
+        ".x3f",
+        ".3fr",
+        ".iiq",
+        ".erf",
+        ".kdc",
+        ".mrw",
+        ".mef",
+        ".mos",
+        ".raw",
+    }
+)
 
 
 def raw_files(folder: str | Path) -> list[Path]:
@@ -75,12 +100,15 @@ def develop_folder(args: argparse.Namespace) -> int:
         console.print(f"[red]error:[/] no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {args.input}.")
         return 2
     if out_dir.resolve() == Path(args.input).resolve():
-        console.print("[red]error:[/] -o must be another folder than the input folder (inputs are never "
-                      "touched).")
+        console.print(
+            "[red]error:[/] -o must be another folder than the input folder (inputs are never touched)."
+        )
         return 2
     if getattr(args, "overwrite", False):
-        console.print("[red]error:[/] --overwrite does not apply to folders: a rerun keeps finished "
-                      "outputs (delete them to develop again).")
+        console.print(
+            "[red]error:[/] --overwrite does not apply to folders: a rerun keeps finished "
+            "outputs (delete them to develop again)."
+        )
         return 2
     fitted, error = _metamer(args)  # fitted once, sent to every worker once
     if error:
@@ -90,16 +118,30 @@ def develop_folder(args: argparse.Namespace) -> int:
     values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
     where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, disable=args.quiet) as bar:
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        disable=args.quiet,
+    ) as bar:
         task = bar.add_task(f"developing ({where})", total=len(tasks))
-        rows = run_files(tasks, _develop_one, (values, fitted), manifest=out_dir / "manifest.csv",
-                         scheduler=where, progress=lambda done, total: bar.update(task, completed=done))
+        rows = run_files(
+            tasks,
+            _develop_one,
+            (values, fitted),
+            manifest=out_dir / "manifest.csv",
+            scheduler=where,
+            progress=lambda done, total: bar.update(task, completed=done),
+        )
     failed = [r for r in rows if r["status"] == "failed"]
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
     for r in failed:
         console.print(f"[red]failed:[/] {r['input']}: {r['error']}")
     if not args.quiet or failed:
-        console.print(f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
-                      f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})")
+        console.print(
+            f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
+            f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})"
+        )
     return 1 if failed else 0

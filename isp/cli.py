@@ -22,12 +22,26 @@ from pathlib import Path
 
 __all__ = ["main"]
 
-_ORIENTATION = {1: "as stored", 2: "mirrored", 3: "rotated 180°", 4: "mirrored top–bottom", 5: "transposed",
-                6: "rotate 90° clockwise", 7: "transverse", 8: "rotate 90° counter-clockwise"}
+_ORIENTATION = {
+    1: "as stored",
+    2: "mirrored",
+    3: "rotated 180°",
+    4: "mirrored top–bottom",
+    5: "transposed",
+    6: "rotate 90° clockwise",
+    7: "transverse",
+    8: "rotate 90° counter-clockwise",
+}
 
 #: Options of ``isp develop`` that only the metamer correction uses (argparse dest → flag).
-_METAMER_OPTIONS = {"camera": "--camera", "method": "--method", "illuminant": "--illuminant",
-                    "training": "--training", "scene_white": "--scene-white", "quantum": "--quantum"}
+_METAMER_OPTIONS = {
+    "camera": "--camera",
+    "method": "--method",
+    "illuminant": "--illuminant",
+    "training": "--training",
+    "scene_white": "--scene-white",
+    "quantum": "--quantum",
+}
 
 
 def _metamer(args: argparse.Namespace):
@@ -36,23 +50,34 @@ def _metamer(args: argparse.Namespace):
 
     if args.correction != "metamer":
         given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]
-        return None, (f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to --correction metamer "
-                      "only." if given else None)
+        return None, (
+            f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to --correction metamer only."
+            if given
+            else None
+        )
     if args.camera is None:
         import zonotope
 
-        return None, ("--correction metamer needs --camera NAME_OR_FILE (the camera's spectral "
-                      "sensitivities: a built-in name — " + ", ".join(zonotope.list_builtin()["cameras"])
-                      + " — or a file zonotope.read_camera reads).")
+        return None, (
+            "--correction metamer needs --camera NAME_OR_FILE (the camera's spectral "
+            "sensitivities: a built-in name — "
+            + ", ".join(zonotope.list_builtin()["cameras"])
+            + " — or a file zonotope.read_camera reads)."
+        )
     if args.quantum is not None and not args.quantum >= 0:
         return None, f"--quantum {args.quantum}: must be ≥ 0."
     if args.scene_white is not None and not 0 < args.scene_white < float("inf"):
-        return None, (f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just "
-                      "saturates).")
-    corr = metamer_correction(args.camera, method=args.method or "Prior", illuminant=args.illuminant or "D65",
-                              training=args.training or "rawtoaces 190",
-                              white_level=1.0 if args.scene_white is None else args.scene_white,
-                              quantum=2e-3 if args.quantum is None else args.quantum)
+        return None, (
+            f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just saturates)."
+        )
+    corr = metamer_correction(
+        args.camera,
+        method=args.method or "Prior",
+        illuminant=args.illuminant or "D65",
+        training=args.training or "rawtoaces 190",
+        white_level=1.0 if args.scene_white is None else args.scene_white,
+        quantum=2e-3 if args.quantum is None else args.quantum,
+    )
     return corr, None
 
 
@@ -82,8 +107,14 @@ class _PlainProgress:
         self._line(description)
         return len(self.tasks) - 1
 
-    def update(self, task: int, *, completed: float | None = None, total: float | None = None,
-               description: str | None = None) -> None:
+    def update(
+        self,
+        task: int,
+        *,
+        completed: float | None = None,
+        total: float | None = None,
+        description: str | None = None,
+    ) -> None:
         t = self.tasks[task]
         t[1] = total if total is not None else t[1]
         if description is not None and description != t[0]:
@@ -101,9 +132,14 @@ def _progress(console, quiet: bool):
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     if quiet or console.is_terminal:
-        return Progress(TextColumn("{task.description}"), BarColumn(),
-                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(), console=console,
-                        disable=quiet)
+        return Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total}"),
+            TimeElapsedColumn(),
+            console=console,
+            disable=quiet,
+        )
     return _PlainProgress(console)
 
 
@@ -141,8 +177,10 @@ def _develop(args: argparse.Namespace) -> int:
     options = {}
     if args.exposure is not None:
         if tonemap is None or tonemap.lower() != "clip":
-            console.print("[red]error:[/] --exposure applies to --tonemap clip only "
-                          "(Reinhard 2002 sets the exposure from the image's log-average luminance).")
+            console.print(
+                "[red]error:[/] --exposure applies to --tonemap clip only "
+                "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
+            )
             return 2
         options = {"exposure": args.exposure}
     fitted = getattr(args, "fitted_metamer", None)  # a folder batch fits once for every file
@@ -151,8 +189,13 @@ def _develop(args: argparse.Namespace) -> int:
         console.print(f"[red]error:[/] {error}")
         return 2
     correction = metamer if metamer is not None else args.correction
-    pipeline = default_pipeline(demosaic=args.demosaic, correction=correction, tonemap=tonemap,
-                                tonemap_options=options, white_balance=args.wb)
+    pipeline = default_pipeline(
+        demosaic=args.demosaic,
+        correction=correction,
+        tonemap=tonemap,
+        tonemap_options=options,
+        white_balance=args.wb,
+    )
     if getattr(args, "profile", None):  # a DNG camera profile (isp/dcp.py) replaces camera_to_XYZ
         from .dcp import profile_pipeline
 
@@ -175,17 +218,20 @@ def _develop(args: argparse.Namespace) -> int:
         if metamer is not None:
             mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
             if mismatch > 0.1:
-                console.print(f"[yellow]warning:[/] the file's AsShotNeutral differs by "
-                              f"{100 * mismatch:.0f} % from the white of {args.camera!r} under "
-                              f"{args.illuminant or 'D65'}: the light was not that illuminant (set "
-                              "--illuminant) or the sensitivities are not this camera's.")
+                console.print(
+                    f"[yellow]warning:[/] the file's AsShotNeutral differs by "
+                    f"{100 * mismatch:.0f} % from the white of {args.camera!r} under "
+                    f"{args.illuminant or 'D65'}: the light was not that illuminant (set "
+                    "--illuminant) or the sensitivities are not this camera's."
+                )
 
             colour_task = []
 
             def on_colours(done: int, total: int) -> None:  # a second bar: distinct colours corrected
                 if not colour_task:
-                    colour_task.append(progress.add_task(f"  {metamer.method}: distinct colours",
-                                                         total=total))
+                    colour_task.append(
+                        progress.add_task(f"  {metamer.method}: distinct colours", total=total)
+                    )
                 progress.update(colour_task[0], completed=done, total=total)
 
             metamer.progress = on_colours
@@ -196,26 +242,44 @@ def _develop(args: argparse.Namespace) -> int:
         dev = pipeline(raw, on_stage=on_stage, keep=bool(args.save_stages))
         progress.update(task, completed=len(pipeline) + 1, description=f"writing {out.name}")
         encoded = "encode_sRGB" in pipeline.names
-        write_image(out, dev.image, overwrite=args.overwrite, protect=[src],
-                    icc_profile=srgb_icc_profile() if encoded else None, tiff_tags=output_tags(raw))
+        write_image(
+            out,
+            dev.image,
+            overwrite=args.overwrite,
+            protect=[src],
+            icc_profile=srgb_icc_profile() if encoded else None,
+            tiff_tags=output_tags(raw),
+        )
         if args.save_stages:
             stage_dir.mkdir(parents=True, exist_ok=True)
             for i, (name, arr) in enumerate(dev.intermediates.items()):
-                write_image(stage_dir / f"{i:02d}_{name}.tif", arr, dtype="float32", overwrite=args.overwrite,
-                            protect=[src])
+                write_image(
+                    stage_dir / f"{i:02d}_{name}.tif",
+                    arr,
+                    dtype="float32",
+                    overwrite=args.overwrite,
+                    protect=[src],
+                )
         progress.update(task, completed=len(pipeline) + 2, description="done")
     if metamer is not None and metamer.fallbacks:
-        console.print(f"[yellow]note:[/] {metamer.fallbacks} colour(s) had no {metamer.method} estimate "
-                      "(response on or outside the camera's object-colour solid); root-polynomial "
-                      "regression used for them.")
+        console.print(
+            f"[yellow]note:[/] {metamer.fallbacks} colour(s) had no {metamer.method} estimate "
+            "(response on or outside the camera's object-colour solid); root-polynomial "
+            "regression used for them."
+        )
     if not args.quiet:
-        how = (f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
-               if metamer is not None else "DNG ColorMatrix")
+        how = (
+            f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
+            if metamer is not None
+            else "DNG ColorMatrix"
+        )
         if getattr(args, "profile", None):
             how = f"camera profile {args.profile}"
         turned = "" if raw.orientation == 1 else f", Orientation {raw.orientation} applied"
-        console.print(f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}{turned}, "
-                      f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})")
+        console.print(
+            f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}{turned}, "
+            f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})"
+        )
     return 0
 
 
@@ -239,13 +303,21 @@ def _info(args: argparse.Namespace) -> int:
         "as-shot neutral": np.array2string(raw.as_shot_neutral, precision=4),
         "white balance source": describe_white_balance(raw, "as-shot"),
         "orientation": f"{raw.orientation} ({_ORIENTATION[raw.orientation]})",
-        "capture": ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
-                             for k, v in raw.capture.items()) or "(not recorded)",
+        "capture": ", ".join(
+            f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}" for k, v in raw.capture.items()
+        )
+        or "(not recorded)",
         "AnalogBalance": np.array2string(p.analog_balance, precision=4),
         "CalibrationIlluminant1/2": f"{p.calibration_illuminant_1} / {p.calibration_illuminant_2}",
     }
-    for name in ("color_matrix_1", "color_matrix_2", "camera_calibration_1", "camera_calibration_2",
-                 "forward_matrix_1", "forward_matrix_2"):
+    for name in (
+        "color_matrix_1",
+        "color_matrix_2",
+        "camera_calibration_1",
+        "camera_calibration_2",
+        "forward_matrix_1",
+        "forward_matrix_2",
+    ):
         m = getattr(p, name)
         rows[name] = "—" if m is None else np.array2string(m, precision=4)
     for k, v in rows.items():
@@ -265,46 +337,93 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
     d.add_argument("input", help="RAW or DNG file, or a folder of them (then -o is a folder)")
     d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
-    d.add_argument("--scheduler", help="folders only: 'serial', 'local[:N]' or a Dask scheduler address "
-                                       "(default $ZONOTOPE_SCHEDULER, else a local cluster)")
-    d.add_argument("--demosaic", default="Malvar 2004",
-                   help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)")
-    d.add_argument("--correction", default="dng", choices=["dng", "metamer"],
-                   help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated "
-                        "(default); metamer = a zonotope.correct estimator fitted on the camera's "
-                        "spectral sensitivities (needs --camera)")
-    d.add_argument("--profile", metavar="DCP|embedded",
-                   help="apply a DNG camera profile (.dcp: matrices, HueSatMap, LookTable, tone curve, in "
-                        "the DNG spec's order) instead of the ColorMatrix; 'embedded' = the DNG's own "
-                        "profile tags")
+    d.add_argument(
+        "--scheduler",
+        help="folders only: 'serial', 'local[:N]' or a Dask scheduler address "
+        "(default $ZONOTOPE_SCHEDULER, else a local cluster)",
+    )
+    d.add_argument(
+        "--demosaic",
+        default="Malvar 2004",
+        help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)",
+    )
+    d.add_argument(
+        "--correction",
+        default="dng",
+        choices=["dng", "metamer"],
+        help="colour correction: dng = the file's ColorMatrix/ForwardMatrix, CCT-interpolated "
+        "(default); metamer = a zonotope.correct estimator fitted on the camera's "
+        "spectral sensitivities (needs --camera)",
+    )
+    d.add_argument(
+        "--profile",
+        metavar="DCP|embedded",
+        help="apply a DNG camera profile (.dcp: matrices, HueSatMap, LookTable, tone curve, in "
+        "the DNG spec's order) instead of the ColorMatrix; 'embedded' = the DNG's own "
+        "profile tags",
+    )
     m = d.add_argument_group("metamer correction (with --correction metamer)")
-    m.add_argument("--camera", metavar="NAME_OR_FILE",
-                   help="the camera's spectral sensitivities: a built-in name (zonotope.list_builtin()) or "
-                        "a rawtoaces/camspec JSON or CSV file")
-    m.add_argument("--method", help=f"zonotope.correct estimator: {', '.join(CORRECTION_METHODS)} or an "
-                                    "alias such as root-polynomial (case and punctuation ignored; default "
-                                    "Prior)")
-    m.add_argument("--illuminant", help="scene illuminant of the fit (default D65); the file's white "
-                                        "balance should be for this light")
-    m.add_argument("--training", metavar="NAME_OR_FILE",
-                   help="training reflectances: built-in set or file (default rawtoaces 190)")
-    m.add_argument("--scene-white", type=float, metavar="FRACTION",
-                   help="response of a perfect white reflector after white balance, as a fraction of "
-                        "saturation (default 1); the metamer-based estimators (not the regressions) "
-                        "depend on the exposure")
-    m.add_argument("--quantum", type=float,
-                   help="responses that round to the same multiple of this are corrected once "
-                        "(default 0.002, white = 1; 0 = exact colours only)")
-    d.add_argument("--wb", default="as-shot", metavar="WHITE_BALANCE",
-                   help="white balance: as-shot (default, the file's), daylight (5500 K), a temperature "
-                        "such as 3200K, a CIE illuminant (D65, A, FL2, ...) or spot:x0,y0,x1,y1 (mean of a "
-                        "grey patch, pixel coordinates of the developed image, x1 and y1 excluded)")
-    d.add_argument("--tonemap", default="Reinhard 2002",
-                   help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)")
-    d.add_argument("--exposure", type=float, default=None,
-                   help="gain in stops before clipping (with --tonemap clip only)")
-    d.add_argument("--crop", type=int, nargs=4, metavar=("TOP", "LEFT", "HEIGHT", "WIDTH"),
-                   help="develop only this part of the mosaic (TOP and LEFT even)")
+    m.add_argument(
+        "--camera",
+        metavar="NAME_OR_FILE",
+        help="the camera's spectral sensitivities: a built-in name (zonotope.list_builtin()) or "
+        "a rawtoaces/camspec JSON or CSV file",
+    )
+    m.add_argument(
+        "--method",
+        help=f"zonotope.correct estimator: {', '.join(CORRECTION_METHODS)} or an "
+        "alias such as root-polynomial (case and punctuation ignored; default "
+        "Prior)",
+    )
+    m.add_argument(
+        "--illuminant",
+        help="scene illuminant of the fit (default D65); the file's white balance should be for this light",
+    )
+    m.add_argument(
+        "--training",
+        metavar="NAME_OR_FILE",
+        help="training reflectances: built-in set or file (default rawtoaces 190)",
+    )
+    m.add_argument(
+        "--scene-white",
+        type=float,
+        metavar="FRACTION",
+        help="response of a perfect white reflector after white balance, as a fraction of "
+        "saturation (default 1); the metamer-based estimators (not the regressions) "
+        "depend on the exposure",
+    )
+    m.add_argument(
+        "--quantum",
+        type=float,
+        help="responses that round to the same multiple of this are corrected once "
+        "(default 0.002, white = 1; 0 = exact colours only)",
+    )
+    d.add_argument(
+        "--wb",
+        default="as-shot",
+        metavar="WHITE_BALANCE",
+        help="white balance: as-shot (default, the file's), daylight (5500 K), a temperature "
+        "such as 3200K, a CIE illuminant (D65, A, FL2, ...) or spot:x0,y0,x1,y1 (mean of a "
+        "grey patch, pixel coordinates of the developed image, x1 and y1 excluded)",
+    )
+    d.add_argument(
+        "--tonemap",
+        default="Reinhard 2002",
+        help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)",
+    )
+    d.add_argument(
+        "--exposure",
+        type=float,
+        default=None,
+        help="gain in stops before clipping (with --tonemap clip only)",
+    )
+    d.add_argument(
+        "--crop",
+        type=int,
+        nargs=4,
+        metavar=("TOP", "LEFT", "HEIGHT", "WIDTH"),
+        help="develop only this part of the mosaic (TOP and LEFT even)",
+    )
     d.add_argument("--save-stages", metavar="DIR", help="also write every intermediate as float32 TIFF")
     d.add_argument("--overwrite", action="store_true", help="replace existing output files")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress display")

@@ -70,14 +70,27 @@ __all__ = [
 
 #: Camera-profile tag codes (DNG 1.6, chapter 4).
 DCP_TAGS: dict[str, int] = {
-    "UniqueCameraModel": 50708, "ColorMatrix1": 50721, "ColorMatrix2": 50722,
-    "CalibrationIlluminant1": 50778, "CalibrationIlluminant2": 50779,
-    "ProfileCalibrationSignature": 50932, "ProfileName": 50936, "ProfileHueSatMapDims": 50937,
-    "ProfileHueSatMapData1": 50938, "ProfileHueSatMapData2": 50939, "ProfileToneCurve": 50940,
-    "ProfileEmbedPolicy": 50941, "ProfileCopyright": 50942, "ForwardMatrix1": 50964,
-    "ForwardMatrix2": 50965, "ProfileLookTableDims": 50981, "ProfileLookTableData": 50982,
-    "ProfileHueSatMapEncoding": 51107, "ProfileLookTableEncoding": 51108,
-    "BaselineExposureOffset": 51109, "DefaultBlackRender": 51110,
+    "UniqueCameraModel": 50708,
+    "ColorMatrix1": 50721,
+    "ColorMatrix2": 50722,
+    "CalibrationIlluminant1": 50778,
+    "CalibrationIlluminant2": 50779,
+    "ProfileCalibrationSignature": 50932,
+    "ProfileName": 50936,
+    "ProfileHueSatMapDims": 50937,
+    "ProfileHueSatMapData1": 50938,
+    "ProfileHueSatMapData2": 50939,
+    "ProfileToneCurve": 50940,
+    "ProfileEmbedPolicy": 50941,
+    "ProfileCopyright": 50942,
+    "ForwardMatrix1": 50964,
+    "ForwardMatrix2": 50965,
+    "ProfileLookTableDims": 50981,
+    "ProfileLookTableData": 50982,
+    "ProfileHueSatMapEncoding": 51107,
+    "ProfileLookTableEncoding": 51108,
+    "BaselineExposureOffset": 51109,
+    "DefaultBlackRender": 51110,
 }
 _NAMES = {code: name for name, code in DCP_TAGS.items()}
 
@@ -106,8 +119,10 @@ def _table(data, dims, name: str) -> np.ndarray | None:
     elif a.size == H * S * V * 3:
         a = a.reshape(V, H, S, 3)
     else:
-        raise DCPError(f"{name}: {a.size} values do not fit the dimensions (hue {H}, saturation {S}, "
-                       f"value {V}) × 3 = {H * S * V * 3}; the profile is truncated or its Dims tag wrong.")
+        raise DCPError(
+            f"{name}: {a.size} values do not fit the dimensions (hue {H}, saturation {S}, "
+            f"value {V}) × 3 = {H * S * V * 3}; the profile is truncated or its Dims tag wrong."
+        )
     if not np.all(np.isfinite(a)):
         raise DCPError(f"{name}: contains NaN or inf.")
     return a
@@ -174,8 +189,12 @@ class DCPProfile:
     def __post_init__(self) -> None:
         try:
             # the matrix checks of DNGProfile (9 finite values each, ColorMatrix present)
-            DNGProfile(self.color_matrix_1, self.color_matrix_2, forward_matrix_1=self.forward_matrix_1,
-                       forward_matrix_2=self.forward_matrix_2)
+            DNGProfile(
+                self.color_matrix_1,
+                self.color_matrix_2,
+                forward_matrix_1=self.forward_matrix_1,
+                forward_matrix_2=self.forward_matrix_2,
+            )
         except RawFormatError as exc:
             raise DCPError(f"camera profile: {exc}") from exc
         if self.color_matrix_1 is None:
@@ -199,8 +218,13 @@ class DCPProfile:
                 raise DCPError(f"{name}={getattr(self, name)}: must be 0 (linear) or 1 (sRGB).")
         if self.tone_curve is not None:
             tc = np.asarray(self.tone_curve, dtype=np.float64).reshape(-1, 2)
-            if (tc.shape[0] < 2 or not np.all(np.isfinite(tc)) or np.any(np.diff(tc[:, 0]) <= 0)
-                    or tc.min() < 0 or tc.max() > 1):
+            if (
+                tc.shape[0] < 2
+                or not np.all(np.isfinite(tc))
+                or np.any(np.diff(tc[:, 0]) <= 0)
+                or tc.min() < 0
+                or tc.max() > 1
+            ):
                 raise DCPError("ProfileToneCurve: expected ≥ 2 points (x, y) in [0, 1] with increasing x.")
             object.__setattr__(self, "tone_curve", tc)
 
@@ -211,15 +235,19 @@ class DCPProfile:
         g = tags.get
         hsm_dims = _dims(g("ProfileHueSatMapDims"), "ProfileHueSatMapDims")
         lut_dims = _dims(g("ProfileLookTableDims"), "ProfileLookTableDims")
-        for data, dims, dname in (("ProfileHueSatMapData1", hsm_dims, "ProfileHueSatMapDims"),
-                                  ("ProfileHueSatMapData2", hsm_dims, "ProfileHueSatMapDims"),
-                                  ("ProfileLookTableData", lut_dims, "ProfileLookTableDims")):
+        for data, dims, dname in (
+            ("ProfileHueSatMapData1", hsm_dims, "ProfileHueSatMapDims"),
+            ("ProfileHueSatMapData2", hsm_dims, "ProfileHueSatMapDims"),
+            ("ProfileLookTableData", lut_dims, "ProfileLookTableDims"),
+        ):
             if g(data) is not None and dims is None:
                 raise DCPError(f"{data} is present but {dname} is missing.")
         tc = g("ProfileToneCurve")
         return cls(
-            color_matrix_1=g("ColorMatrix1"), color_matrix_2=g("ColorMatrix2"),
-            forward_matrix_1=g("ForwardMatrix1"), forward_matrix_2=g("ForwardMatrix2"),
+            color_matrix_1=g("ColorMatrix1"),
+            color_matrix_2=g("ColorMatrix2"),
+            forward_matrix_1=g("ForwardMatrix1"),
+            forward_matrix_2=g("ForwardMatrix2"),
             calibration_illuminant_1=int(g("CalibrationIlluminant1", 0) or 0),
             calibration_illuminant_2=int(g("CalibrationIlluminant2", 0) or 0),
             hue_sat_map_1=_table(g("ProfileHueSatMapData1"), hsm_dims or (1, 2, 1), "ProfileHueSatMapData1"),
@@ -244,11 +272,15 @@ class DCPProfile:
     # -- colour maths --------------------------------------------------------------------------
     def dng_profile(self, analog_balance=None) -> DNGProfile:
         """The matrix part as an :class:`isp.dng.DNGProfile` (camera calibration = identity)."""
-        return DNGProfile(self.color_matrix_1, self.color_matrix_2,
-                          calibration_illuminant_1=self.calibration_illuminant_1,
-                          calibration_illuminant_2=self.calibration_illuminant_2,
-                          forward_matrix_1=self.forward_matrix_1, forward_matrix_2=self.forward_matrix_2,
-                          analog_balance=analog_balance)
+        return DNGProfile(
+            self.color_matrix_1,
+            self.color_matrix_2,
+            calibration_illuminant_1=self.calibration_illuminant_1,
+            calibration_illuminant_2=self.calibration_illuminant_2,
+            forward_matrix_1=self.forward_matrix_1,
+            forward_matrix_2=self.forward_matrix_2,
+            analog_balance=analog_balance,
+        )
 
     def _weight_pair(self, a, b, CCT: float):
         if a is None or b is None:
@@ -276,16 +308,21 @@ class DCPProfile:
         FM = dp._pair(dp.forward_matrix_1, dp.forward_matrix_2, CCT, None)
         if FM is None:
             M = np.linalg.inv(dp.XYZ_to_camera(xy))
-            M = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-                colour.xy_to_XYZ(xy), colour.xy_to_XYZ(D50_xy), transform="Bradford") @ M
+            M = (
+                colour.adaptation.matrix_chromatic_adaptation_VonKries(
+                    colour.xy_to_XYZ(xy), colour.xy_to_XYZ(D50_xy), transform="Bradford"
+                )
+                @ M
+            )
         else:
             AB_inv = np.diag(1.0 / dp.analog_balance)
             M = FM @ np.diag(1.0 / (AB_inv @ n)) @ AB_inv
         M = M @ np.diag(n)
         return M / (M @ np.ones(3))[1]
 
-    def apply(self, balanced, neutral, *, analog_balance=None, tables: bool = True,
-              tone_curve: bool = True) -> np.ndarray:
+    def apply(
+        self, balanced, neutral, *, analog_balance=None, tables: bool = True, tone_curve: bool = True
+    ) -> np.ndarray:
         """White-balanced camera RGB → XYZ D50 through the whole profile (steps 1–6 above).
 
         Parameters
@@ -457,8 +494,11 @@ def apply_tone_curve(rgb, curve) -> np.ndarray:
 
     pts = np.asarray(curve, dtype=np.float64)
     x = np.clip(np.asarray(rgb, dtype=np.float64), 0.0, 1.0)
-    f = CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural") if len(pts) > 2 else (
-        lambda t: np.interp(t, pts[:, 0], pts[:, 1]))
+    f = (
+        CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural")
+        if len(pts) > 2
+        else (lambda t: np.interp(t, pts[:, 0], pts[:, 1]))
+    )
     order = np.argsort(-x, axis=-1, kind="stable")
     srt = np.take_along_axis(x, order, axis=-1)
     hi, mid, lo = srt[..., 0], srt[..., 1], srt[..., 2]
@@ -530,8 +570,10 @@ def read_dcp(path: str | os.PathLike) -> DCPProfile:
     finally:
         log.setLevel(level)
     if "ColorMatrix1" not in tags:
-        raise DCPError(f"{path}: no ColorMatrix1 tag, so this is not a camera profile (a DCP or a DNG "
-                       "with an embedded profile needs at least ColorMatrix1).")
+        raise DCPError(
+            f"{path}: no ColorMatrix1 tag, so this is not a camera profile (a DCP or a DNG "
+            "with an embedded profile needs at least ColorMatrix1)."
+        )
     try:
         return DCPProfile.from_tags(tags)
     except DCPError as exc:
@@ -590,8 +632,9 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     if path.exists() and not overwrite:
         raise DCPError(f"{path} exists; pass overwrite=True (--overwrite) or choose another name.")
     p = profile
-    tags: list[tuple] = [(50708, "s", 0, _ascii(p.unique_camera_model or "unknown", "unique_camera_model"),
-                          True)]
+    tags: list[tuple] = [
+        (50708, "s", 0, _ascii(p.unique_camera_model or "unknown", "unique_camera_model"), True)
+    ]
     tags.append((50721, 10, 9, _srational(p.color_matrix_1), True))
     if p.color_matrix_2 is not None:
         tags.append((50722, 10, 9, _srational(p.color_matrix_2), True))
@@ -609,8 +652,9 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
             if t is not None:
                 tags.append((code, "f", t.size, tuple(np.asarray(t, np.float32).ravel().tolist()), True))
     if p.tone_curve is not None:
-        tags.append((50940, "f", p.tone_curve.size, tuple(p.tone_curve.astype(np.float32).ravel().tolist()),
-                     True))
+        tags.append(
+            (50940, "f", p.tone_curve.size, tuple(p.tone_curve.astype(np.float32).ravel().tolist()), True)
+        )
     tags.append((50941, "I", 1, int(p.embed_policy), True))
     tags.append((50942, "s", 0, _ascii(p.copyright or "", "copyright") or " ", True))
     for code, m in ((50964, p.forward_matrix_1), (50965, p.forward_matrix_2)):
@@ -619,8 +663,15 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     if p.look_table is not None:
         V, H, S, _ = p.look_table.shape
         tags.append((50981, "I", 3, (H, S, V), True))
-        tags.append((50982, "f", p.look_table.size,
-                     tuple(np.asarray(p.look_table, np.float32).ravel().tolist()), True))
+        tags.append(
+            (
+                50982,
+                "f",
+                p.look_table.size,
+                tuple(np.asarray(p.look_table, np.float32).ravel().tolist()),
+                True,
+            )
+        )
     if hsm:
         tags.append((51107, "I", 1, int(p.hue_sat_map_encoding), True))
     if p.look_table is not None:
@@ -633,8 +684,9 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "writing zero-size array": a DCP has no image
-            tifffile.imwrite(tmp, shape=(0, 0), dtype=np.uint8, extratags=tags, metadata=None,
-                             software="zonotope profile")
+            tifffile.imwrite(
+                tmp, shape=(0, 0), dtype=np.uint8, extratags=tags, metadata=None, software="zonotope profile"
+            )
         with open(tmp, "r+b") as fh:
             fh.seek(2)
             fh.write(b"RC")
@@ -650,8 +702,13 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
 # ---------------------------------------------------------------------------------------------
 
 
-def dcp_stage(profile: DCPProfile | str | os.PathLike | None = None, *, tone_curve: bool = True,
-              neutral=None, name: str = "camera_to_XYZ"):
+def dcp_stage(
+    profile: DCPProfile | str | os.PathLike | None = None,
+    *,
+    tone_curve: bool = True,
+    neutral=None,
+    name: str = "camera_to_XYZ",
+):
     """An :class:`isp.Stage` that applies a camera profile in place of the DNG ColorMatrix stage.
 
     Parameters
@@ -694,8 +751,9 @@ def profile_pipeline(pipeline, args):
     Returns ``(pipeline, None)`` or ``(None, message)`` (the CLI prints it and exits 2).
     """
     if getattr(args, "correction", "dng") != "dng":
-        return None, ("--profile replaces the DNG ColorMatrix; it cannot be combined with --correction "
-                      "metamer.")
+        return None, (
+            "--profile replaces the DNG ColorMatrix; it cannot be combined with --correction metamer."
+        )
     wb = getattr(args, "wb", "as-shot")
     neutral = None
     if wb and str(wb).lower() not in ("as-shot", "asshot", "as_shot"):
@@ -703,5 +761,6 @@ def profile_pipeline(pipeline, args):
 
         def neutral(raw):
             return white_balance_neutral(raw, wb)
+
     prof = None if str(args.profile).lower() == "embedded" else read_dcp(args.profile)
     return pipeline.replace("camera_to_XYZ", dcp_stage(prof, neutral=neutral)), None

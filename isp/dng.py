@@ -50,25 +50,65 @@ __all__ = [
 
 #: DNG / TIFF-EP tag codes used by :mod:`isp` (DNG spec 1.4, chapter 4).
 DNG_TAGS: dict[str, int] = {
-    "NewSubfileType": 254, "Make": 271, "Model": 272, "Orientation": 274, "DateTime": 306,
-    "DateTimeOriginal": 36867, "CFARepeatPatternDim": 33421,
-    "CFAPattern": 33422, "DNGVersion": 50706, "DNGBackwardVersion": 50707,
-    "UniqueCameraModel": 50708, "CFAPlaneColor": 50710, "CFALayout": 50711,
-    "LinearizationTable": 50712, "BlackLevelRepeatDim": 50713, "BlackLevel": 50714,
-    "WhiteLevel": 50717, "ColorMatrix1": 50721, "ColorMatrix2": 50722,
-    "CameraCalibration1": 50723, "CameraCalibration2": 50724, "AnalogBalance": 50727,
-    "AsShotNeutral": 50728, "AsShotWhiteXY": 50729, "BaselineExposure": 50730,
-    "CalibrationIlluminant1": 50778, "CalibrationIlluminant2": 50779, "ActiveArea": 50829,
-    "ForwardMatrix1": 50964, "ForwardMatrix2": 50965,
-    "ExposureTime": 33434, "FNumber": 33437, "ISOSpeedRatings": 34855,
+    "NewSubfileType": 254,
+    "Make": 271,
+    "Model": 272,
+    "Orientation": 274,
+    "DateTime": 306,
+    "DateTimeOriginal": 36867,
+    "CFARepeatPatternDim": 33421,
+    "CFAPattern": 33422,
+    "DNGVersion": 50706,
+    "DNGBackwardVersion": 50707,
+    "UniqueCameraModel": 50708,
+    "CFAPlaneColor": 50710,
+    "CFALayout": 50711,
+    "LinearizationTable": 50712,
+    "BlackLevelRepeatDim": 50713,
+    "BlackLevel": 50714,
+    "WhiteLevel": 50717,
+    "ColorMatrix1": 50721,
+    "ColorMatrix2": 50722,
+    "CameraCalibration1": 50723,
+    "CameraCalibration2": 50724,
+    "AnalogBalance": 50727,
+    "AsShotNeutral": 50728,
+    "AsShotWhiteXY": 50729,
+    "BaselineExposure": 50730,
+    "CalibrationIlluminant1": 50778,
+    "CalibrationIlluminant2": 50779,
+    "ActiveArea": 50829,
+    "ForwardMatrix1": 50964,
+    "ForwardMatrix2": 50965,
+    "ExposureTime": 33434,
+    "FNumber": 33437,
+    "ISOSpeedRatings": 34855,
 }
 
 #: Correlated colour temperature (K) of the EXIF LightSource codes used by CalibrationIlluminant1/2,
 #: as the Adobe DNG SDK 1.4 assigns them (``dng_camera_profile::IlluminantToTemperature``; the same
 #: table as colour-hdri's ``CCT_ILLUMINANTS_ADOBEDNG``).
 LIGHT_SOURCE_CCT: dict[int, float] = {
-    1: 5500, 2: 4200, 3: 2850, 4: 5500, 9: 5500, 10: 6500, 11: 7500, 12: 6400, 13: 5000, 14: 4200,
-    15: 3450, 16: 2925, 17: 2850, 18: 5500, 19: 6500, 20: 5500, 21: 6500, 22: 7500, 23: 5000, 24: 3200,
+    1: 5500,
+    2: 4200,
+    3: 2850,
+    4: 5500,
+    9: 5500,
+    10: 6500,
+    11: 7500,
+    12: 6400,
+    13: 5000,
+    14: 4200,
+    15: 3450,
+    16: 2925,
+    17: 2850,
+    18: 5500,
+    19: 6500,
+    20: 5500,
+    21: 6500,
+    22: 7500,
+    23: 5000,
+    24: 3200,
 }
 
 _RATIONAL = {5, 10}  # TIFF RATIONAL, SRATIONAL
@@ -89,8 +129,12 @@ def _tag_value(tag):
         v = np.asarray(value, dtype=np.float64).reshape(-1, 2)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(v[:, 1] != 0, v[:, 0] / np.where(v[:, 1] != 0, v[:, 1], 1), 0.0)
-    if isinstance(value, bytes) and tag.code in (DNG_TAGS["CFAPattern"], DNG_TAGS["DNGVersion"],
-                                                 DNG_TAGS["DNGBackwardVersion"], DNG_TAGS["CFAPlaneColor"]):
+    if isinstance(value, bytes) and tag.code in (
+        DNG_TAGS["CFAPattern"],
+        DNG_TAGS["DNGVersion"],
+        DNG_TAGS["DNGBackwardVersion"],
+        DNG_TAGS["CFAPlaneColor"],
+    ):
         return np.frombuffer(value, dtype=np.uint8).astype(np.int64)
     if isinstance(value, tuple | list) and value and all(isinstance(x, int | float) for x in value):
         return np.asarray(value, dtype=np.float64)
@@ -139,7 +183,7 @@ def read_dng_tags(path: str | os.PathLike) -> dict[str, object]:
                     break
             out: dict[str, object] = {}
             names = {code: name for name, code in DNG_TAGS.items()}
-            for page in ([ifd0] if raw_ifd is None else [ifd0, raw_ifd]):
+            for page in [ifd0] if raw_ifd is None else [ifd0, raw_ifd]:
                 for tag in page.tags.values():
                     if tag.code in names:
                         out[names[tag.code]] = _tag_value(tag)
@@ -251,33 +295,45 @@ class DNGProfile:
     analog_balance: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        for name in ("color_matrix_1", "color_matrix_2", "camera_calibration_1", "camera_calibration_2",
-                     "forward_matrix_1", "forward_matrix_2"):
+        for name in (
+            "color_matrix_1",
+            "color_matrix_2",
+            "camera_calibration_1",
+            "camera_calibration_2",
+            "forward_matrix_1",
+            "forward_matrix_2",
+        ):
             object.__setattr__(self, name, _matrix3(getattr(self, name), name))
         ab = np.ones(3) if self.analog_balance is None else np.asarray(self.analog_balance, np.float64)
         if ab.shape != (3,) or not np.all(np.isfinite(ab)) or np.any(ab <= 0):
             raise RawFormatError(f"analog_balance: expected 3 positive gains, got {ab}.")
         object.__setattr__(self, "analog_balance", ab)
         if self.color_matrix_1 is None and self.color_matrix_2 is None:
-            raise RawFormatError("the profile has no ColorMatrix1/2: camera → XYZ is unknown. "
-                                 "Give a colour matrix or use a correction callable instead.")
+            raise RawFormatError(
+                "the profile has no ColorMatrix1/2: camera → XYZ is unknown. "
+                "Give a colour matrix or use a correction callable instead."
+            )
 
     @classmethod
     def from_tags(cls, tags: dict) -> DNGProfile:
         """Build a profile from :func:`read_dng_tags` output."""
         get = tags.get
         return cls(
-            color_matrix_1=get("ColorMatrix1"), color_matrix_2=get("ColorMatrix2"),
+            color_matrix_1=get("ColorMatrix1"),
+            color_matrix_2=get("ColorMatrix2"),
             calibration_illuminant_1=int(get("CalibrationIlluminant1", 0) or 0),
             calibration_illuminant_2=int(get("CalibrationIlluminant2", 0) or 0),
-            camera_calibration_1=get("CameraCalibration1"), camera_calibration_2=get("CameraCalibration2"),
-            forward_matrix_1=get("ForwardMatrix1"), forward_matrix_2=get("ForwardMatrix2"),
+            camera_calibration_1=get("CameraCalibration1"),
+            camera_calibration_2=get("CameraCalibration2"),
+            forward_matrix_1=get("ForwardMatrix1"),
+            forward_matrix_2=get("ForwardMatrix2"),
             analog_balance=get("AnalogBalance"),
         )
 
     # -- interpolation -------------------------------------------------------------------------
-    def _pair(self, a: np.ndarray | None, b: np.ndarray | None, CCT: float | None,
-              default: np.ndarray | None) -> np.ndarray | None:
+    def _pair(
+        self, a: np.ndarray | None, b: np.ndarray | None, CCT: float | None, default: np.ndarray | None
+    ) -> np.ndarray | None:
         if a is None and b is None:
             return default
         if a is None or b is None:
@@ -322,7 +378,8 @@ class DNGProfile:
         if FM is None:
             M = np.linalg.inv(self.XYZ_to_camera(xy))
             CAT = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-                colour.xy_to_XYZ(xy), colour.xy_to_XYZ(D50_xy), transform=cat)
+                colour.xy_to_XYZ(xy), colour.xy_to_XYZ(D50_xy), transform=cat
+            )
             M = CAT @ M
         else:
             CC = self._pair(self.camera_calibration_1, self.camera_calibration_2, CCT, np.eye(3))
@@ -336,8 +393,10 @@ class DNGProfile:
 def _neutral(neutral) -> np.ndarray:
     n = np.asarray(neutral, dtype=np.float64).reshape(-1)
     if n.shape != (3,) or not np.all(np.isfinite(n)) or np.any(n <= 0):
-        raise RawFormatError(f"camera neutral: expected 3 positive finite values, got {n}. "
-                             "Pass the AsShotNeutral of the image, or a white patch's raw response.")
+        raise RawFormatError(
+            f"camera neutral: expected 3 positive finite values, got {n}. "
+            "Pass the AsShotNeutral of the image, or a white patch's raw response."
+        )
     return n
 
 
@@ -369,13 +428,16 @@ def xy_to_camera_neutral(xy, profile: DNGProfile) -> np.ndarray:
         raise RawFormatError(f"white chromaticity xy={c}: expected 2 positive values with x + y < 1.")
     n = profile.XYZ_to_camera(c) @ colour.xy_to_XYZ(c)
     if not np.all(n > 0):
-        raise RawFormatError(f"white chromaticity xy={c} gives the camera response {n} with a non-positive "
-                             "channel: it is too far from the colours this camera's matrix was made for.")
+        raise RawFormatError(
+            f"white chromaticity xy={c} gives the camera response {n} with a non-positive "
+            "channel: it is too far from the colours this camera's matrix was made for."
+        )
     return n / n.max()
 
 
-def camera_neutral_to_xy(neutral, profile: DNGProfile, *, tol: float = 1e-10,
-                         max_iter: int = 100) -> np.ndarray:
+def camera_neutral_to_xy(
+    neutral, profile: DNGProfile, *, tol: float = 1e-10, max_iter: int = 100
+) -> np.ndarray:
     """Chromaticity of the scene white from the camera neutral (DNG spec 1.4, p. 81).
 
     Parameters
@@ -401,14 +463,18 @@ def camera_neutral_to_xy(neutral, profile: DNGProfile, *, tol: float = 1e-10,
     for _ in range(max_iter):
         XYZ = np.linalg.solve(profile.XYZ_to_camera(xy), n)
         if XYZ.sum() <= 0:
-            raise RawFormatError(f"camera neutral {n} maps to XYZ {XYZ} with a non-positive sum: the "
-                                 "neutral is not a plausible white for this colour matrix.")
+            raise RawFormatError(
+                f"camera neutral {n} maps to XYZ {XYZ} with a non-positive sum: the "
+                "neutral is not a plausible white for this colour matrix."
+            )
         new = colour.XYZ_to_xy(XYZ)
         if np.abs(new - xy).max() <= tol:
             return new
         xy = new
-    raise RawFormatError(f"camera neutral {n}: white chromaticity did not converge in {max_iter} "
-                         "iterations (last xy {xy}). Check AsShotNeutral and the colour matrices.")
+    raise RawFormatError(
+        f"camera neutral {n}: white chromaticity did not converge in {max_iter} "
+        "iterations (last xy {xy}). Check AsShotNeutral and the colour matrices."
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -441,12 +507,27 @@ def _exposure_rational(t: float) -> tuple[int, int]:
 _CFA_CODES = {"R": 0, "G": 1, "B": 2}
 
 
-def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_level: int,
-              color_matrix_1, as_shot_neutral, calibration_illuminant_1: int = 21,
-              forward_matrix_1=None, make: str = "zonotope", model: str = "simulated",
-              overwrite: bool = False, color_matrix_2=None, calibration_illuminant_2: int | None = None,
-              exposure_time: float | None = None, iso: int | None = None,
-              f_number: float | None = None, orientation: int = 1) -> Path:
+def write_dng(
+    path: str | os.PathLike,
+    mosaic,
+    *,
+    cfa: str,
+    black_level,
+    white_level: int,
+    color_matrix_1,
+    as_shot_neutral,
+    calibration_illuminant_1: int = 21,
+    forward_matrix_1=None,
+    make: str = "zonotope",
+    model: str = "simulated",
+    overwrite: bool = False,
+    color_matrix_2=None,
+    calibration_illuminant_2: int | None = None,
+    exposure_time: float | None = None,
+    iso: int | None = None,
+    f_number: float | None = None,
+    orientation: int = 1,
+) -> Path:
     """Write a Bayer mosaic (or a full-colour LinearRaw image) as an uncompressed DNG 1.4 that
     rawpy/LibRaw reads (atomically).
 
@@ -515,21 +596,33 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
             raise RawFormatError(f"mosaic: expected an (H, W) array with even H, W ≥ 2, got shape {m.shape}.")
         black = np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2))
     if not np.all(np.isfinite(m)) or m.min() < 0 or m.max() > white_level or white_level > 65535:
-        raise RawFormatError(f"mosaic: values must lie in [0, white_level={white_level}] ≤ 65535; "
-                             f"got {m.min()}…{m.max()}.")
+        raise RawFormatError(
+            f"mosaic: values must lie in [0, white_level={white_level}] ≤ 65535; got {m.min()}…{m.max()}."
+        )
     if isinstance(orientation, bool) or orientation not in range(1, 9):
-        raise PipelineError(f"orientation={orientation!r}: use a TIFF Orientation code 1–8 (1 = as stored, "
-                            "6 = rotate 90° clockwise, 3 = 180°, 8 = 90° counter-clockwise).")
+        raise PipelineError(
+            f"orientation={orientation!r}: use a TIFF Orientation code 1–8 (1 = as stored, "
+            "6 = rotate 90° clockwise, 3 = 180°, 8 = 90° counter-clockwise)."
+        )
     if (color_matrix_2 is None) != (calibration_illuminant_2 is None):
         raise PipelineError("color_matrix_2 and calibration_illuminant_2 go together: pass both or neither.")
-    layout = ([(50713, "H", 2, (1, 1), True)] if linear_raw else
-              [(33421, "H", 2, (2, 2), True), (33422, "B", 4, tuple(_CFA_CODES[c] for c in cfa), True),
-               (50713, "H", 2, (2, 2), True)])
+    layout = (
+        [(50713, "H", 2, (1, 1), True)]
+        if linear_raw
+        else [
+            (33421, "H", 2, (2, 2), True),
+            (33422, "B", 4, tuple(_CFA_CODES[c] for c in cfa), True),
+            (50713, "H", 2, (2, 2), True),
+        ]
+    )
     tags = [
         (254, "I", 1, 0, True),
-        (271, "s", 0, make, True), (272, "s", 0, model, True), (274, "H", 1, int(orientation), True),
+        (271, "s", 0, make, True),
+        (272, "s", 0, model, True),
+        (274, "H", 1, int(orientation), True),
         *layout,
-        (50706, "B", 4, (1, 4, 0, 0), True), (50707, "B", 4, (1, 1, 0, 0), True),
+        (50706, "B", 4, (1, 4, 0, 0), True),
+        (50707, "B", 4, (1, 1, 0, 0), True),
         (50708, "s", 0, f"{make} {model}", True),
         (50714, "I", black.size, tuple(round(float(b)) for b in black.ravel()), True),
         (50717, "I", 1, int(white_level), True),
@@ -541,8 +634,10 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     if forward_matrix_1 is not None:
         tags.append((50964, 10, 9, _srational(forward_matrix_1), True))
     if color_matrix_2 is not None:
-        tags += [(50722, 10, 9, _srational(color_matrix_2), True),
-                 (50779, "H", 1, int(calibration_illuminant_2), True)]
+        tags += [
+            (50722, 10, 9, _srational(color_matrix_2), True),
+            (50779, "H", 1, int(calibration_illuminant_2), True),
+        ]
     if exposure_time is not None:
         tags.append((33434, 5, 1, _exposure_rational(exposure_time), True))
     if f_number is not None:
@@ -552,9 +647,15 @@ def write_dng(path: str | os.PathLike, mosaic, *, cfa: str, black_level, white_l
     fd, tmp = tempfile.mkstemp(suffix=".dng.tmp", dir=path.parent)
     os.close(fd)
     try:
-        tifffile.imwrite(tmp, np.ascontiguousarray(m, dtype=np.uint16),
-                         photometric=34892 if linear_raw else 32803, planarconfig="contig",
-                         extratags=tags, metadata=None, software="isp (zonotope)")
+        tifffile.imwrite(
+            tmp,
+            np.ascontiguousarray(m, dtype=np.uint16),
+            photometric=34892 if linear_raw else 32803,
+            planarconfig="contig",
+            extratags=tags,
+            metadata=None,
+            software="isp (zonotope)",
+        )
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -73,8 +73,10 @@ def output_tags(raw: RawImage, *, orientation: int = 1) -> list[tuple]:
         tags.append((272, "s", 0, _ascii(raw.model), True))
     cap = raw.capture
     if "datetime" in cap:
-        tags += [(306, "s", 0, _ascii(cap["datetime"])[:19], True),
-                 (36867, "s", 0, _ascii(cap["datetime"])[:19], True)]
+        tags += [
+            (306, "s", 0, _ascii(cap["datetime"])[:19], True),
+            (36867, "s", 0, _ascii(cap["datetime"])[:19], True),
+        ]
     if cap.get("exposure_time", 0) > 0:
         tags.append((33434, "2I", 1, _rational(cap["exposure_time"], exposure=True), True))
     if cap.get("f_number", 0) > 0:

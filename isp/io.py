@@ -54,13 +54,24 @@ def _png_bytes(img: np.ndarray) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
     header = struct.pack(">IIBBBBB", W, H, 16, colour_type, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6))
-            + chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(raw, 6))
+        + chunk(b"IEND", b"")
+    )
 
 
-def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
-                protect: Iterable[str | os.PathLike] = (), dtype: str = "uint16",
-                icc_profile: bytes | None = None, tiff_tags: Iterable[tuple] = ()) -> Path:
+def write_image(
+    path: str | os.PathLike,
+    image,
+    *,
+    overwrite: bool = False,
+    protect: Iterable[str | os.PathLike] = (),
+    dtype: str = "uint16",
+    icc_profile: bytes | None = None,
+    tiff_tags: Iterable[tuple] = (),
+) -> Path:
     """Write an image in [0, 1] as a 16-bit TIFF or PNG (or a float32 TIFF), atomically.
 
     Parameters
@@ -120,9 +131,15 @@ def write_image(path: str | os.PathLike, image, *, overwrite: bool = False,
             import tifffile
 
             rgb = img.ndim == 3 and img.shape[-1] == 3
-            tifffile.imwrite(tmp, img, photometric="rgb" if rgb else "minisblack",
-                             metadata=None, software="isp (zonotope)", iccprofile=icc_profile,
-                             extratags=list(tiff_tags))
+            tifffile.imwrite(
+                tmp,
+                img,
+                photometric="rgb" if rgb else "minisblack",
+                metadata=None,
+                software="isp (zonotope)",
+                iccprofile=icc_profile,
+                extratags=list(tiff_tags),
+            )
 
     atomic_path(path, write)  # temporary sibling, fsync, rename; no temporary survives an interruption
     return path

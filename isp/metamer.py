@@ -86,8 +86,10 @@ class MetamerCorrection:
         from zonotope.correct import fit_correction
 
         if not (np.isfinite(self.white_level) and self.white_level > 0):
-            raise ValueError(f"white_level={self.white_level}: must be a positive number (the response of "
-                             "a perfect white reflector after white balance, 1 when it just saturates).")
+            raise ValueError(
+                f"white_level={self.white_level}: must be a positive number (the response of "
+                "a perfect white reflector after white balance, 1 when it just saturates)."
+            )
         c = self.corrector
         self._regression = c.params.get("regression") or fit_correction(c.problem, method="Finlayson 2015")
         self._safe = dataclasses.replace(c, predict=self._predict)
@@ -120,9 +122,9 @@ class MetamerCorrection:
         out = np.empty((c.shape[0], self.corrector.problem.m))
         for i in range(c.shape[0]):
             try:
-                out[i] = predict(c[i:i + 1])[0]
+                out[i] = predict(c[i : i + 1])[0]
             except _ESTIMATOR_ERRORS:
-                out[i] = self._regression(c[i:i + 1])[0]
+                out[i] = self._regression(c[i : i + 1])[0]
                 self.fallbacks += 1
         return out
 
@@ -133,15 +135,26 @@ class MetamerCorrection:
         c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0) / self.white_level
         over = np.maximum(np.max(c, axis=-1, keepdims=True), 1.0)  # brighter than the white: scale down
         progress = self.progress if c.ndim > 1 and c.size > c.shape[-1] else None
-        XYZ = correct_image(c / over, self._safe, quantum=self.quantum, batch_size=self.batch_size,
-                            progress=progress)
+        XYZ = correct_image(
+            c / over, self._safe, quantum=self.quantum, batch_size=self.batch_size, progress=progress
+        )
         return XYZ * (over * self.white_level)
 
 
-def metamer_correction(camera, *, method: str = "Prior", illuminant="D65", training="rawtoaces 190",
-                       target="CIE 1931 2°", shape=None, white_level: float = 1.0, quantum: float = 2e-3,
-                       batch_size: int = 64, progress: Callable[[int, int], None] | None = None,
-                       **options) -> MetamerCorrection:
+def metamer_correction(
+    camera,
+    *,
+    method: str = "Prior",
+    illuminant="D65",
+    training="rawtoaces 190",
+    target="CIE 1931 2°",
+    shape=None,
+    white_level: float = 1.0,
+    quantum: float = 2e-3,
+    batch_size: int = 64,
+    progress: Callable[[int, int], None] | None = None,
+    **options,
+) -> MetamerCorrection:
     """Fit a metamer-based colour correction (``zonotope.correct``) for a camera with known SSF.
 
     Replaces the DNG ColorMatrix by an estimator that knows the camera's spectral sensitivities
@@ -198,11 +211,19 @@ def metamer_correction(camera, *, method: str = "Prior", illuminant="D65", train
             curves.append(train)
         common = zonotope.common_shape(*curves, interval=step)
         shape = np.arange(max(common.start, lo), min(common.end, hi) + step / 2, step)
-    corrector = fit_correction(cam, method=method, target=target, illuminant=illuminant, shape=shape,
-                               training=train, **options)
+    corrector = fit_correction(
+        cam, method=method, target=target, illuminant=illuminant, shape=shape, training=train, **options
+    )
     if corrector.problem.k != 3:
-        raise ValueError(f"camera {getattr(cam, 'name', camera)!r} has {corrector.problem.k} channels; "
-                         "a Bayer RAW has 3.")
+        raise ValueError(
+            f"camera {getattr(cam, 'name', camera)!r} has {corrector.problem.k} channels; a Bayer RAW has 3."
+        )
     white = zonotope.generators(cam, illuminant, corrector.problem.wavelengths, normalise=None).values.sum(0)
-    return MetamerCorrection(corrector, quantum=quantum, batch_size=batch_size, progress=progress,
-                             white_level=white_level, neutral=white / white.max())
+    return MetamerCorrection(
+        corrector,
+        quantum=quantum,
+        batch_size=batch_size,
+        progress=progress,
+        white_level=white_level,
+        neutral=white / white.max(),
+    )

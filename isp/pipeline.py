@@ -127,19 +127,24 @@ class Pipeline:
         """Replace stage ``name`` by ``stage`` (a Stage, or a function that keeps the name)."""
         i = self._index(name)
         new = stage if isinstance(stage, Stage) else Stage(name, stage)
-        return Pipeline((*self._stages[:i], new, *self._stages[i + 1:]))
+        return Pipeline((*self._stages[:i], new, *self._stages[i + 1 :]))
 
     def remove(self, name: str) -> Pipeline:
         """Drop stage ``name``."""
         i = self._index(name)
-        return Pipeline(self._stages[:i] + self._stages[i + 1:])
+        return Pipeline(self._stages[:i] + self._stages[i + 1 :])
 
     def insert(self, stage: Stage, *, before: str | None = None, after: str | None = None) -> Pipeline:
         """Insert ``stage`` before or after a named stage (at the end when neither is given)."""
         if before is not None and after is not None:
             raise PipelineError("give before= or after=, not both.")
-        i = (self._index(before) if before is not None else
-             self._index(after) + 1 if after is not None else len(self._stages))
+        i = (
+            self._index(before)
+            if before is not None
+            else self._index(after) + 1
+            if after is not None
+            else len(self._stages)
+        )
         return Pipeline((*self._stages[:i], stage, *self._stages[i:]))
 
     def reorder(self, names: Iterable[str]) -> Pipeline:
@@ -151,11 +156,17 @@ class Pipeline:
 
     def until(self, name: str) -> Pipeline:
         """The stages up to and including ``name`` (stop after it)."""
-        return Pipeline(self._stages[:self._index(name) + 1])
+        return Pipeline(self._stages[: self._index(name) + 1])
 
     # -- running -------------------------------------------------------------------------------
-    def __call__(self, raw: RawImage, *, stop_after: str | None = None, keep: bool = True,
-                 on_stage: Callable[[int, str], None] | None = None) -> Development:
+    def __call__(
+        self,
+        raw: RawImage,
+        *,
+        stop_after: str | None = None,
+        keep: bool = True,
+        on_stage: Callable[[int, str], None] | None = None,
+    ) -> Development:
         """Develop ``raw``.
 
         Parameters
@@ -252,8 +263,12 @@ def _camera_to_XYZ_stage(neutral: _Neutral) -> Stage:
     return Stage("camera_to_XYZ", fn)
 
 
-def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
-                     balanced: bool = True, name: str = "camera_to_XYZ") -> Stage:
+def correction_stage(
+    XYZ_from_responses: Callable[[np.ndarray], np.ndarray],
+    *,
+    balanced: bool = True,
+    name: str = "camera_to_XYZ",
+) -> Stage:
     """A stage that replaces the DNG ColorMatrix by any ``(N, k) → (N, 3)`` estimator.
 
     Parameters
@@ -270,6 +285,7 @@ def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
     -------
     Stage
     """
+
     def fn(x, raw: RawImage):
         white = None if balanced else raw.as_shot_neutral
         return st.apply_correction(x, XYZ_from_responses=XYZ_from_responses, white_response=white)
@@ -277,9 +293,16 @@ def correction_stage(XYZ_from_responses: Callable[[np.ndarray], np.ndarray], *,
     return Stage(name, fn)
 
 
-def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callable = "dng",
-                     tonemap: str | None = "Reinhard 2002", tonemap_options: dict | None = None,
-                     encode: bool = True, white_balance="as-shot", orient: bool = True) -> Pipeline:
+def default_pipeline(
+    *,
+    demosaic: str = "Malvar 2004",
+    correction: str | Callable = "dng",
+    tonemap: str | None = "Reinhard 2002",
+    tonemap_options: dict | None = None,
+    encode: bool = True,
+    white_balance="as-shot",
+    orient: bool = True,
+) -> Pipeline:
     """The standard development of a RAW file.
 
     ``linearise → white_balance → demosaic → camera_to_XYZ → XYZ_to_linear_sRGB → tonemap →
@@ -322,8 +345,10 @@ def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callabl
             white_balance_xy(white_balance)
     if isinstance(correction, str):
         if correction.lower() != "dng":
-            raise ValueError(f"correction={correction!r}: use 'dng' or a callable responses → XYZ "
-                             "(for a camera with known sensitivities: isp.metamer_correction(camera)).")
+            raise ValueError(
+                f"correction={correction!r}: use 'dng' or a callable responses → XYZ "
+                "(for a camera with known sensitivities: isp.metamer_correction(camera))."
+            )
         colour_stage = _camera_to_XYZ_stage(neutral)
     elif callable(correction):
         colour_stage = correction_stage(correction)
@@ -347,9 +372,15 @@ def default_pipeline(*, demosaic: str = "Malvar 2004", correction: str | Callabl
     return Pipeline(stages)
 
 
-def develop(source, *, pipeline: Pipeline | None = None, stop_after: str | None = None,
-            keep: bool = True, on_stage: Callable[[int, str], None] | None = None,
-            **options) -> Development:
+def develop(
+    source,
+    *,
+    pipeline: Pipeline | None = None,
+    stop_after: str | None = None,
+    keep: bool = True,
+    on_stage: Callable[[int, str], None] | None = None,
+    **options,
+) -> Development:
     """Read (if needed) and develop a RAW image.
 
     Parameters
@@ -375,8 +406,10 @@ def develop(source, *, pipeline: Pipeline | None = None, stop_after: str | None 
     from .raw import read_raw
 
     if pipeline is not None and options:
-        raise PipelineError(f"options {sorted(options)} apply to the default pipeline only; build your "
-                            "pipeline with them instead.")
+        raise PipelineError(
+            f"options {sorted(options)} apply to the default pipeline only; build your "
+            "pipeline with them instead."
+        )
     raw = source if isinstance(source, RawImage) else read_raw(source)
     p = pipeline if pipeline is not None else default_pipeline(**options)
     return p(raw, stop_after=stop_after, keep=keep, on_stage=on_stage)

@@ -44,8 +44,9 @@ DCP_DEFAULT_DIMS = (90, 30, 1)
 _NATURAL_SETS = ("ColorChecker N Ohta", "BabelColor Average", "CIE 1995 TCS", "NIST CQS 9.0")
 
 
-def profile_reflectances(wavelengths, training: np.ndarray | None = None, *, n_random: int = 1500,
-                         seed: int = 0) -> np.ndarray:
+def profile_reflectances(
+    wavelengths, training: np.ndarray | None = None, *, n_random: int = 1500, seed: int = 0
+) -> np.ndarray:
     """Reflectances the profile is fitted on: training + built-in natural sets + random smooth ones.
 
     Parameters
@@ -99,12 +100,18 @@ def _second_differences(H: int, S: int):
     c = np.concatenate([r[2] for r in rows])
     m = a.size
     r = np.arange(m)
-    return sp.csr_matrix((np.concatenate([np.ones(m), -2 * np.ones(m), np.ones(m)]),
-                          (np.concatenate([r, r, r]), np.concatenate([a, b, c]))), shape=(m, n))
+    return sp.csr_matrix(
+        (
+            np.concatenate([np.ones(m), -2 * np.ones(m), np.ones(m)]),
+            (np.concatenate([r, r, r]), np.concatenate([a, b, c])),
+        ),
+        shape=(m, n),
+    )
 
 
-def fit_hue_sat_map(source, target, *, dims: Sequence[int] = DCP_DEFAULT_DIMS,
-                    smoothness: float = 1e-3) -> np.ndarray:
+def fit_hue_sat_map(
+    source, target, *, dims: Sequence[int] = DCP_DEFAULT_DIMS, smoothness: float = 1e-3
+) -> np.ndarray:
     """Fit a 2.5-D ProfileHueSatMap taking linear ProPhoto ``source`` colours to ``target``.
 
     Parameters
@@ -133,8 +140,9 @@ def fit_hue_sat_map(source, target, *, dims: Sequence[int] = DCP_DEFAULT_DIMS,
 
     H, S, V = (int(d) for d in dims)
     if V != 1 or H < 1 or S < 2:
-        raise PipelineError(f"dims={tuple(dims)}: a fitted HueSatMap is 2.5-D (hue ≥ 1, saturation ≥ 2, "
-                            "value = 1).")
+        raise PipelineError(
+            f"dims={tuple(dims)}: a fitted HueSatMap is 2.5-D (hue ≥ 1, saturation ≥ 2, value = 1)."
+        )
     p = np.asarray(source, dtype=np.float64)
     q = np.asarray(target, dtype=np.float64)
     h, s, v = _rgb_to_hsv(p)
@@ -167,7 +175,7 @@ def fit_hue_sat_map(source, target, *, dims: Sequence[int] = DCP_DEFAULT_DIMS,
         A = sp.diags(rw) @ W
         lam = smoothness * float(np.mean(rw**2)) * max(N / n, 1.0)
         ridge = 1e-6 * float(np.mean(rw**2))
-        AtA = (A.T @ A + lam * (D2.T @ D2) + ridge * sp.eye(n) + 1e3 * float(np.mean(rw**2)) * (G.T @ G))
+        AtA = A.T @ A + lam * (D2.T @ D2) + ridge * sp.eye(n) + 1e3 * float(np.mean(rw**2)) * (G.T @ G)
         b = A.T @ rhs + ridge * ident * np.ones(n) + 1e3 * float(np.mean(rw**2)) * ident * (G.T @ np.ones(H))
         out[:, k] = spla.spsolve(AtA.tocsc(), b)
     return out.reshape(1, H, S, 3)
@@ -198,16 +206,30 @@ class ProfileFit:
 def _light_source(name: str) -> int:
     code = ILLUMINANT_LIGHT_SOURCE.get(str(name).upper().replace(" ", ""))
     if code is None:
-        raise PipelineError(f"illuminant {name!r}: a DCP calibration illuminant must be one of "
-                            f"{sorted(ILLUMINANT_LIGHT_SOURCE)} (EXIF LightSource codes).")
+        raise PipelineError(
+            f"illuminant {name!r}: a DCP calibration illuminant must be one of "
+            f"{sorted(ILLUMINANT_LIGHT_SOURCE)} (EXIF LightSource codes)."
+        )
     return code
 
 
-def fit_dcp(camera, *, method: str = "Prior", illuminants: Sequence[str] = ("A", "D65"),
-            training="rawtoaces 190", dims: Sequence[int] | None = DCP_DEFAULT_DIMS,
-            unique_camera_model: str | None = None, profile_name: str | None = None,
-            copyright: str = "", embed_policy: int = 3, n_random: int = 1500, seed: int = 0,
-            smoothness: float = 1e-3, corrections: Sequence | None = None, **options) -> ProfileFit:
+def fit_dcp(
+    camera,
+    *,
+    method: str = "Prior",
+    illuminants: Sequence[str] = ("A", "D65"),
+    training="rawtoaces 190",
+    dims: Sequence[int] | None = DCP_DEFAULT_DIMS,
+    unique_camera_model: str | None = None,
+    profile_name: str | None = None,
+    copyright: str = "",
+    embed_policy: int = 3,
+    n_random: int = 1500,
+    seed: int = 0,
+    smoothness: float = 1e-3,
+    corrections: Sequence | None = None,
+    **options,
+) -> ProfileFit:
     """Fit a DNG camera profile (matrices + HueSatMap per illuminant) to a correction estimator.
 
     Parameters
@@ -247,8 +269,18 @@ def fit_dcp(camera, *, method: str = "Prior", illuminants: Sequence[str] = ("A",
         raise PipelineError(f"illuminants={tuple(illuminants)}: give exactly two calibration illuminants.")
     codes = [_light_source(i) for i in illuminants]
     if corrections is None:
-        corrections = [metamer_correction(camera, method=method, illuminant=i, training=training, quantum=0.0,
-                                          target="CIE 1931 2°", **options) for i in illuminants]
+        corrections = [
+            metamer_correction(
+                camera,
+                method=method,
+                illuminant=i,
+                training=training,
+                quantum=0.0,
+                target="CIE 1931 2°",
+                **options,
+            )
+            for i in illuminants
+        ]
     elif len(corrections) != 2:
         raise PipelineError("corrections: give one fitted MetamerCorrection per illuminant.")
     D50 = colour.xy_to_XYZ(D50_xy)
@@ -272,8 +304,9 @@ def fit_dcp(camera, *, method: str = "Prior", illuminants: Sequence[str] = ("A",
         c = R_all @ Phi
         T = np.asarray(mc(c), dtype=np.float64)
         white = np.asarray(mc(np.ones((1, 3))), dtype=np.float64)[0]
-        cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white / white[1], D50,
-                                                                     transform="Bradford")
+        cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+            white / white[1], D50, transform="Bradford"
+        )
         T50 = (T / white[1]) @ cat.T
         F = _fit_white_preserving(c, T50, np.ones(3), D50)
         FM.append(F)
@@ -283,12 +316,23 @@ def fit_dcp(camera, *, method: str = "Prior", illuminants: Sequence[str] = ("A",
             HSM.append(fit_hue_sat_map(src, dst, dims=dims, smoothness=smoothness))
     name = getattr(camera, "name", None) or os.path.splitext(os.path.basename(str(camera)))[0]
     profile = DCPProfile(
-        color_matrix_1=CM[0], color_matrix_2=CM[1], forward_matrix_1=FM[0], forward_matrix_2=FM[1],
-        calibration_illuminant_1=codes[0], calibration_illuminant_2=codes[1],
-        hue_sat_map_1=HSM[0] if HSM else None, hue_sat_map_2=HSM[1] if HSM else None,
+        color_matrix_1=CM[0],
+        color_matrix_2=CM[1],
+        forward_matrix_1=FM[0],
+        forward_matrix_2=FM[1],
+        calibration_illuminant_1=codes[0],
+        calibration_illuminant_2=codes[1],
+        hue_sat_map_1=HSM[0] if HSM else None,
+        hue_sat_map_2=HSM[1] if HSM else None,
         profile_name=profile_name or f"{name} {corrections[0].method} (zonotope)",
-        unique_camera_model=unique_camera_model or str(name), copyright=copyright,
-        embed_policy=embed_policy)
-    return ProfileFit(profile=profile, corrections=tuple(corrections), illuminants=tuple(illuminants),
-                      reflectances=R_all,
-                      wavelengths=np.asarray(corrections[0].corrector.problem.wavelengths))
+        unique_camera_model=unique_camera_model or str(name),
+        copyright=copyright,
+        embed_policy=embed_policy,
+    )
+    return ProfileFit(
+        profile=profile,
+        corrections=tuple(corrections),
+        illuminants=tuple(illuminants),
+        reflectances=R_all,
+        wavelengths=np.asarray(corrections[0].corrector.problem.wavelengths),
+    )

@@ -100,8 +100,13 @@ class RawTherapeeImage:
     offset: tuple[int, int]
 
 
-def develop_rawtherapee(dng: str | os.PathLike, *, profile: str | os.PathLike | None = None,
-                        demosaic: str = "amaze", timeout: float = 120.0) -> RawTherapeeImage:
+def develop_rawtherapee(
+    dng: str | os.PathLike,
+    *,
+    profile: str | os.PathLike | None = None,
+    demosaic: str = "amaze",
+    timeout: float = 120.0,
+) -> RawTherapeeImage:
     """Develop a DNG with ``rawtherapee-cli`` and a colorimetric processing profile.
 
     Parameters
@@ -129,8 +134,9 @@ def develop_rawtherapee(dng: str | os.PathLike, *, profile: str | os.PathLike | 
 
     cli = rawtherapee_cli()
     if cli is None:
-        raise PipelineError("rawtherapee-cli not found; install RawTherapee (Debian: apt-get install "
-                            "rawtherapee).")
+        raise PipelineError(
+            "rawtherapee-cli not found; install RawTherapee (Debian: apt-get install rawtherapee)."
+        )
     src = Path(dng).resolve()
     inp = "(camera)" if profile is None else f"file:{Path(profile).resolve()}"
     with tempfile.TemporaryDirectory() as tmp:
@@ -138,11 +144,18 @@ def develop_rawtherapee(dng: str | os.PathLike, *, profile: str | os.PathLike | 
         pp3.write_text(_PP3.format(input=inp, demosaic=demosaic))
         out = Path(tmp) / "out.tif"
         env = dict(os.environ, HOME=tmp)  # RawTherapee writes its cache and options under $HOME
-        run = subprocess.run([cli, "-q", "-Y", "-t", "-b32", "-p", str(pp3), "-o", str(out), "-c", str(src)],
-                             capture_output=True, text=True, timeout=timeout, env=env)
+        run = subprocess.run(
+            [cli, "-q", "-Y", "-t", "-b32", "-p", str(pp3), "-o", str(out), "-c", str(src)],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=env,
+        )
         if run.returncode != 0 or not out.exists():
-            raise PipelineError(f"rawtherapee-cli failed on {src} (exit {run.returncode}): "
-                                f"{(run.stderr or run.stdout).strip()[-400:]}")
+            raise PipelineError(
+                f"rawtherapee-cli failed on {src} (exit {run.returncode}): "
+                f"{(run.stderr or run.stdout).strip()[-400:]}"
+            )
         a = tifffile.imread(out).astype(np.float64)
     import rawpy
 
@@ -153,8 +166,9 @@ def develop_rawtherapee(dng: str | os.PathLike, *, profile: str | os.PathLike | 
     return RawTherapeeImage(XYZ=XYZ, offset=((H - a.shape[0]) // 2, (W - a.shape[1]) // 2))
 
 
-def patch_delta_E(XYZ, labels, truth_XYZ, *, white_XYZ, patches=None, normalise_to: int | None = None,
-                  margin: int = 4) -> np.ndarray:
+def patch_delta_E(
+    XYZ, labels, truth_XYZ, *, white_XYZ, patches=None, normalise_to: int | None = None, margin: int = 4
+) -> np.ndarray:
     """Per-patch CIEDE2000 of a developed chart against the truth (mean XYZ of each patch).
 
     Parameters

@@ -40,8 +40,15 @@ __all__ = [
 ]
 
 #: EXIF LightSource codes (DNG CalibrationIlluminant) of the illuminants the simulator names.
-ILLUMINANT_LIGHT_SOURCE: dict[str, int] = {"A": 17, "B": 18, "C": 19, "D50": 23, "D55": 20, "D65": 21,
-                                           "D75": 22}
+ILLUMINANT_LIGHT_SOURCE: dict[str, int] = {
+    "A": 17,
+    "B": 18,
+    "C": 19,
+    "D50": 23,
+    "D55": 20,
+    "D65": 21,
+    "D75": 22,
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,8 +101,13 @@ def spectral_setup(camera, *, illuminant: str = "D65", shape=None) -> SpectralSe
     white = G.sum(axis=0)
     Psi = zonotope.generators(obs, light, shape, normalise=1).values
     w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, dtype=np.float64)
-    return SpectralSetup(wavelengths=w, camera=G / white.max(), observer=Psi, neutral=white / white.max(),
-                         illuminant=str(illuminant))
+    return SpectralSetup(
+        wavelengths=w,
+        camera=G / white.max(),
+        observer=Psi,
+        neutral=white / white.max(),
+        illuminant=str(illuminant),
+    )
 
 
 def _reflectance_array(R, n: int, what: str = "reflectances") -> np.ndarray:
@@ -103,8 +115,10 @@ def _reflectance_array(R, n: int, what: str = "reflectances") -> np.ndarray:
     if a.shape[-1:] != (n,):
         raise PipelineError(f"{what}: last axis must have the {n} wavelengths of the grid; got {a.shape}.")
     if not np.all(np.isfinite(a)) or a.min() < -1e-6 or a.max() > 1.5:
-        raise PipelineError(f"{what}: reflectances must be finite and within [0, 1] (got "
-                            f"{np.nanmin(a):.3g}…{np.nanmax(a):.3g}); divide percent data by 100.")
+        raise PipelineError(
+            f"{what}: reflectances must be finite and within [0, 1] (got "
+            f"{np.nanmin(a):.3g}…{np.nanmax(a):.3g}); divide percent data by 100."
+        )
     return a
 
 
@@ -144,13 +158,13 @@ def fit_color_matrix(setup: SpectralSetup, training) -> np.ndarray:
     solve per row), so the camera neutral maps back to exactly the illuminant's chromaticity.
     """
     R = _reflectance_array(training, setup.wavelengths.size, "training")
-    X = R @ setup.observer          # (N, 3)
-    C = R @ setup.camera            # (N, 3)
+    X = R @ setup.observer  # (N, 3)
+    C = R @ setup.camera  # (N, 3)
     xw = setup.observer.sum(0)
     cw = setup.camera.sum(0)
     A = X.T @ X
     K = np.block([[A, xw[:, None]], [xw[None, :], np.zeros((1, 1))]])
-    rhs = np.vstack([X.T @ C, cw[None, :]])   # (4, 3)
+    rhs = np.vstack([X.T @ C, cw[None, :]])  # (4, 3)
     sol = np.linalg.solve(K, rhs)
     return sol[:3].T
 
@@ -175,14 +189,15 @@ def chart_image(reflectances, *, rows: int, cols: int, patch: int = 16, gap: int
     """
     R = np.asarray(reflectances, dtype=np.float64)
     if R.ndim != 2 or R.shape[0] != rows * cols:
-        raise PipelineError(f"reflectances: expected shape ({rows * cols}, n) for {rows} × {cols} patches; "
-                            f"got {R.shape}.")
+        raise PipelineError(
+            f"reflectances: expected shape ({rows * cols}, n) for {rows} × {cols} patches; got {R.shape}."
+        )
     H, W = rows * (patch + gap) + gap, cols * (patch + gap) + gap
     labels = np.full((H, W), -1, dtype=np.int64)
     for k in range(rows * cols):
         i, j = divmod(k, cols)
         y, x = gap + i * (patch + gap), gap + j * (patch + gap)
-        labels[y:y + patch, x:x + patch] = k
+        labels[y : y + patch, x : x + patch] = k
     image = np.where(labels[..., None] >= 0, R[np.maximum(labels, 0)], 0.2)
     return image, labels
 
@@ -218,9 +233,19 @@ class Capture:
     exposure: float = 1.0
 
 
-def simulate_capture(reflectance_image, setup: SpectralSetup, *, training=None, exposure: float = 0.8,
-                     cfa: str = "RGGB", black_level: int = 512, white_level: int = 16383,
-                     full_well: float = 30000.0, read_noise: float = 2.0, seed: int | None = 0) -> Capture:
+def simulate_capture(
+    reflectance_image,
+    setup: SpectralSetup,
+    *,
+    training=None,
+    exposure: float = 0.8,
+    cfa: str = "RGGB",
+    black_level: int = 512,
+    white_level: int = 16383,
+    full_well: float = 30000.0,
+    read_noise: float = 2.0,
+    seed: int | None = 0,
+) -> Capture:
     """Render a reflectance image through a camera into a noisy Bayer mosaic.
 
     Parameters
@@ -266,12 +291,23 @@ def simulate_capture(reflectance_image, setup: SpectralSetup, *, training=None, 
     mosaic = np.clip(np.round(dn), 0, white_level).astype(np.uint16)
     train = np.unique(R.reshape(-1, R.shape[-1]), axis=0) if training is None else training
     M = fit_color_matrix(setup, train)
-    return Capture(mosaic=mosaic, cfa=cfa, black_level=black_level, white_level=white_level, responses=rgb,
-                   XYZ=XYZ, color_matrix=M, neutral=setup.neutral, setup=setup, exposure=exposure)
+    return Capture(
+        mosaic=mosaic,
+        cfa=cfa,
+        black_level=black_level,
+        white_level=white_level,
+        responses=rgb,
+        XYZ=XYZ,
+        color_matrix=M,
+        neutral=setup.neutral,
+        setup=setup,
+        exposure=exposure,
+    )
 
 
-def simulate_dng(path: str | os.PathLike, capture: Capture, *, model: str = "simulated",
-                 overwrite: bool = False) -> Path:
+def simulate_dng(
+    path: str | os.PathLike, capture: Capture, *, model: str = "simulated", overwrite: bool = False
+) -> Path:
     """Write a :class:`Capture` as a DNG (ColorMatrix1, CalibrationIlluminant1, AsShotNeutral, ...).
 
     Parameters
@@ -290,7 +326,16 @@ def simulate_dng(path: str | os.PathLike, capture: Capture, *, model: str = "sim
     Path
     """
     code = ILLUMINANT_LIGHT_SOURCE.get(capture.setup.illuminant.upper().replace(" ", ""), 255)
-    return write_dng(path, capture.mosaic, cfa=capture.cfa, black_level=capture.black_level,
-                     white_level=capture.white_level, color_matrix_1=capture.color_matrix,
-                     as_shot_neutral=capture.neutral, calibration_illuminant_1=code, make="zonotope",
-                     model=model, overwrite=overwrite)
+    return write_dng(
+        path,
+        capture.mosaic,
+        cfa=capture.cfa,
+        black_level=capture.black_level,
+        white_level=capture.white_level,
+        color_matrix_1=capture.color_matrix,
+        as_shot_neutral=capture.neutral,
+        calibration_illuminant_1=code,
+        make="zonotope",
+        model=model,
+        overwrite=overwrite,
+    )

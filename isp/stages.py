@@ -58,8 +58,10 @@ def _mosaic_array(x, what: str = "mosaic") -> np.ndarray:
 def _image_array(x, what: str = "image") -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)
     if a.ndim < 1 or a.shape[-1] != 3:
-        raise PipelineError(f"{what}: expected channels last, shape (..., 3); got {a.shape}. "
-                            "Demosaic a mosaic before this stage.")
+        raise PipelineError(
+            f"{what}: expected channels last, shape (..., 3); got {a.shape}. "
+            "Demosaic a mosaic before this stage."
+        )
     return a
 
 
@@ -213,7 +215,7 @@ def _padded(fn, m: np.ndarray, cfa: str, pad: int) -> np.ndarray:
     # CFA colour of every padded site, is preserved, also for pads larger than the image.
     H, W = m.shape
     out = fn(np.pad(m, pad, mode="reflect"), cfa)
-    return np.asarray(out[pad:pad + H, pad:pad + W], dtype=np.float64)
+    return np.asarray(out[pad : pad + H, pad : pad + W], dtype=np.float64)
 
 
 def demosaic_bilinear(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
@@ -258,8 +260,9 @@ def demosaic_Malvar2004(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     """
     demosaicing_CFA_Bayer_Malvar2004 = _colour_demosaicing().demosaicing_CFA_Bayer_Malvar2004
 
-    return _padded(demosaicing_CFA_Bayer_Malvar2004, _mosaic_array(mosaic), check_cfa(cfa),
-                   _PAD["Malvar 2004"])
+    return _padded(
+        demosaicing_CFA_Bayer_Malvar2004, _mosaic_array(mosaic), check_cfa(cfa), _PAD["Malvar 2004"]
+    )
 
 
 def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
@@ -282,13 +285,13 @@ def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     """
     demosaicing_CFA_Bayer_Menon2007 = _colour_demosaicing().demosaicing_CFA_Bayer_Menon2007
 
-    return _padded(demosaicing_CFA_Bayer_Menon2007, _mosaic_array(mosaic), check_cfa(cfa),
-                   _PAD["Menon 2007"])
+    return _padded(demosaicing_CFA_Bayer_Menon2007, _mosaic_array(mosaic), check_cfa(cfa), _PAD["Menon 2007"])
 
 
 #: Demosaicing algorithms by name (``demosaic(..., method=name)``; case and punctuation ignored).
 DEMOSAIC_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
-    "demosaicing", error=PipelineMethodError)
+    "demosaicing", error=PipelineMethodError
+)
 DEMOSAIC_METHODS.register("bilinear", demosaic_bilinear)
 DEMOSAIC_METHODS.register("Malvar 2004", demosaic_Malvar2004)
 DEMOSAIC_METHODS.register("Menon 2007", demosaic_Menon2007)
@@ -321,7 +324,6 @@ def demosaic(mosaic, *, cfa: str = "RGGB", method: str = "Malvar 2004") -> np.nd
     m = _mosaic_array(mosaic)
     _finite(m, "mosaic")
     return DEMOSAIC_METHODS[_resolve(method, DEMOSAIC_METHODS, "method")](m, cfa=cfa)
-
 
 
 # ---------------------------------------------------------------------------------------------
@@ -368,8 +370,13 @@ def camera_to_XYZ(rgb, *, matrix) -> np.ndarray:
     return _image_array(rgb, "rgb") @ M.T
 
 
-def apply_correction(responses, *, XYZ_from_responses: Callable[[np.ndarray], np.ndarray],
-                     white_response=None, cat: str = "Bradford") -> np.ndarray:
+def apply_correction(
+    responses,
+    *,
+    XYZ_from_responses: Callable[[np.ndarray], np.ndarray],
+    white_response=None,
+    cat: str = "Bradford",
+) -> np.ndarray:
     """Camera responses → XYZ D50 with any colour-correction callable (replaces the ColorMatrix).
 
     The callable's white is taken as ``XYZ_from_responses(white_response)``; the result is adapted
@@ -405,11 +412,14 @@ def apply_correction(responses, *, XYZ_from_responses: Callable[[np.ndarray], np
     XYZ = np.asarray(XYZ_from_responses(flat), dtype=np.float64)
     white = np.asarray(XYZ_from_responses(w[None, :]), dtype=np.float64).reshape(-1)
     if XYZ.shape != (flat.shape[0], 3) or white.shape != (3,):
-        raise PipelineError(f"XYZ_from_responses must map (N, {k}) → (N, 3); got {XYZ.shape} "
-                            f"(white {white.shape}).")
+        raise PipelineError(
+            f"XYZ_from_responses must map (N, {k}) → (N, 3); got {XYZ.shape} (white {white.shape})."
+        )
     if not np.all(np.isfinite(XYZ)) or not np.all(np.isfinite(white)):
-        raise PipelineError("XYZ_from_responses returned NaN or inf; check the responses are inside "
-                            "its domain (e.g. finite, non-negative).")
+        raise PipelineError(
+            "XYZ_from_responses returned NaN or inf; check the responses are inside "
+            "its domain (e.g. finite, non-negative)."
+        )
     if white[1] <= 0:
         raise PipelineError(f"XYZ_from_responses maps the white {w} to XYZ {white} with Y ≤ 0.")
     D50 = colour.xy_to_XYZ(D50_xy)
@@ -435,8 +445,12 @@ def XYZ_to_linear_sRGB(XYZ, *, white_xy=D50_xy, cat: str = "Bradford") -> np.nda
     X = _image_array(XYZ, "XYZ")
     srgb = colour.RGB_COLOURSPACES["sRGB"]
     same = np.allclose(np.asarray(white_xy, dtype=np.float64), srgb.whitepoint, atol=1e-6)
-    return colour.XYZ_to_RGB(X, srgb, illuminant=np.asarray(white_xy, dtype=np.float64),
-                             chromatic_adaptation_transform=None if same else cat)
+    return colour.XYZ_to_RGB(
+        X,
+        srgb,
+        illuminant=np.asarray(white_xy, dtype=np.float64),
+        chromatic_adaptation_transform=None if same else cat,
+    )
 
 
 def encode_sRGB(rgb, *, clip: bool = True) -> np.ndarray:
@@ -465,8 +479,9 @@ def encode_sRGB(rgb, *, clip: bool = True) -> np.ndarray:
 _Y_sRGB = np.array(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
 
 
-def tonemap_Reinhard2002(rgb, *, key: float | None = 0.18, white: float | None = None,
-                         eps: float = 1e-6) -> np.ndarray:
+def tonemap_Reinhard2002(
+    rgb, *, key: float | None = 0.18, white: float | None = None, eps: float = 1e-6
+) -> np.ndarray:
     """Reinhard et al. (2002) global photographic operator on luminance; chromaticity kept.
 
     ``L = key / L̄ · Y`` with ``L̄`` the log-average luminance (eq. 1–2), then
@@ -524,7 +539,8 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
 
 #: Global tone-mapping operators by name (``tonemap(..., method=name)``).
 TONEMAP_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
-    "tone-mapping", error=PipelineMethodError)
+    "tone-mapping", error=PipelineMethodError
+)
 TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002)
 TONEMAP_METHODS.register("clip", tonemap_clip)
 

@@ -42,8 +42,13 @@ CCT_RANGE = (1667.0, 25000.0)
 
 _ILLUMINANTS = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]
 _KELVIN = re.compile(r"^\s*([0-9]+(?:\.[0-9]*)?)\s*k\s*$", re.IGNORECASE)
-_CHOICES = ("as-shot", "daylight", "spot:x0,y0,x1,y1", "<Kelvin>K (e.g. 5000K)",
-            "a CIE illuminant name (D65, A, FL2, ...)")
+_CHOICES = (
+    "as-shot",
+    "daylight",
+    "spot:x0,y0,x1,y1",
+    "<Kelvin>K (e.g. 5000K)",
+    "a CIE illuminant name (D65, A, FL2, ...)",
+)
 
 
 def _key(s: str) -> str:
@@ -74,15 +79,18 @@ def white_balance_xy(choice: str) -> np.ndarray:
     if m:
         T = float(m.group(1))
         if not CCT_RANGE[0] <= T <= CCT_RANGE[1]:
-            raise PipelineError(f"white balance {choice!r}: the temperature must lie in {CCT_RANGE[0]:g}–"
-                                f"{CCT_RANGE[1]:g} K.")
+            raise PipelineError(
+                f"white balance {choice!r}: the temperature must lie in {CCT_RANGE[0]:g}–{CCT_RANGE[1]:g} K."
+            )
         uv = colour.temperature.CCT_to_uv_Robertson1968(np.array([T, 0.0]))
         return np.asarray(colour.UCS_uv_to_xy(uv), dtype=np.float64)
     for name, xy in _ILLUMINANTS.items():
         if _key(name) == _key(text) and _key(text):
             return np.asarray(xy, dtype=np.float64)
-    raise PipelineError(f"white balance {choice!r} is not known; use one of: {', '.join(_CHOICES)}. "
-                        f"Illuminant names: {', '.join(list(_ILLUMINANTS)[:20])}, ...")
+    raise PipelineError(
+        f"white balance {choice!r} is not known; use one of: {', '.join(_CHOICES)}. "
+        f"Illuminant names: {', '.join(list(_ILLUMINANTS)[:20])}, ..."
+    )
 
 
 def _spot(choice: str) -> tuple[int, int, int, int] | None:
@@ -93,8 +101,10 @@ def _spot(choice: str) -> tuple[int, int, int, int] | None:
     try:
         x0, y0, x1, y1 = (int(v) for v in body.split(","))
     except ValueError:
-        raise PipelineError(f"white balance {choice!r}: write spot:x0,y0,x1,y1 (integer pixel "
-                            "coordinates of a grey patch in the developed image, x1, y1 excluded).") from None
+        raise PipelineError(
+            f"white balance {choice!r}: write spot:x0,y0,x1,y1 (integer pixel "
+            "coordinates of a grey patch in the developed image, x1, y1 excluded)."
+        ) from None
     if x1 <= x0 or y1 <= y0 or x0 < 0 or y0 < 0:
         raise PipelineError(f"white balance {choice!r}: need 0 ≤ x0 < x1 and 0 ≤ y0 < y1.")
     return x0, y0, x1, y1
@@ -107,32 +117,44 @@ def _spot_neutral(raw: RawImage, rect: tuple[int, int, int, int], choice: str) -
     H, W = raw.shape
     Ho, Wo = (H, W) if raw.orientation <= 4 else (W, H)
     if x1 > Wo or y1 > Ho:
-        raise PipelineError(f"white balance {choice!r}: the patch reaches outside the developed image "
-                            f"({Wo} × {Ho} pixels, width × height).")
+        raise PipelineError(
+            f"white balance {choice!r}: the patch reaches outside the developed image "
+            f"({Wo} × {Ho} pixels, width × height)."
+        )
     # the mosaic sites under the patch: orient the sites' (row, column) indices like the image
-    rows, cols = st.orient(np.indices((H, W), dtype=np.int32).transpose(1, 2, 0), raw.orientation)[
-        y0:y1, x0:x1].reshape(-1, 2).T
+    rows, cols = (
+        st.orient(np.indices((H, W), dtype=np.int32).transpose(1, 2, 0), raw.orientation)[y0:y1, x0:x1]
+        .reshape(-1, 2)
+        .T
+    )
     table = None if raw.table_applied else raw.linearisation_table
     r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
     # linearise a CFA-aligned window around the patch (even origin keeps the black-level layout)
     wr, wc = r0 - r0 % 2, c0 - c0 % 2
-    window = raw.mosaic[wr:r1 + (r1 - wr) % 2, wc:c1 + (c1 - wc) % 2]
-    lin = st.linearise(window, black_level=raw.black_level, white_level=raw.white_level, table=table,
-                       clip=False)
+    window = raw.mosaic[wr : r1 + (r1 - wr) % 2, wc : c1 + (c1 - wc) % 2]
+    lin = st.linearise(
+        window, black_level=raw.black_level, white_level=raw.white_level, table=table, clip=False
+    )
     masks = st.cfa_masks(lin.shape, raw.cfa)
     sel = (slice(r0 - wr, r1 - wr), slice(c0 - wc, c1 - wc))
     patch, pm = lin[sel], masks[sel]
     if np.any(patch >= 1.0):
-        raise PipelineError(f"white balance {choice!r}: {int(np.sum(patch >= 1))} pixel(s) of the patch are "
-                            "saturated; pick a darker grey patch.")
+        raise PipelineError(
+            f"white balance {choice!r}: {int(np.sum(patch >= 1))} pixel(s) of the patch are "
+            "saturated; pick a darker grey patch."
+        )
     counts = pm.sum(axis=(0, 1))
     if np.any(counts == 0):
-        raise PipelineError(f"white balance {choice!r}: the patch holds no {'RGB'[int(np.argmin(counts))]} "
-                            "site; make it at least 2 × 2 pixels.")
+        raise PipelineError(
+            f"white balance {choice!r}: the patch holds no {'RGB'[int(np.argmin(counts))]} "
+            "site; make it at least 2 × 2 pixels."
+        )
     mean = np.array([patch[pm[..., k]].mean() for k in range(3)])
     if not np.all(mean > 0):
-        raise PipelineError(f"white balance {choice!r}: the patch's mean response {mean} has a channel at "
-                            "or below black; pick a lit grey patch.")
+        raise PipelineError(
+            f"white balance {choice!r}: the patch's mean response {mean} has a channel at "
+            "or below black; pick a lit grey patch."
+        )
     return mean / mean.max()
 
 
@@ -174,12 +196,13 @@ def white_balance_neutral(raw: RawImage, choice="as-shot") -> np.ndarray:
 def describe_white_balance(raw: RawImage, choice="as-shot") -> str:
     """A one-line account of the white balance used (for CLIs and logs)."""
     if isinstance(choice, str) and _key(choice) in ("asshot", "camera", ""):
-        return {"AsShotNeutral": "as shot (DNG AsShotNeutral)",
-                "AsShotWhiteXY": "as shot (DNG AsShotWhiteXY)",
-                "camera": "as shot (the camera's multipliers)",
-                "daylight": "daylight multipliers of LibRaw (the file records no as-shot white balance)",
-                "none": "unit gains (the file records no white balance)"}.get(
-                    raw.white_balance_source, raw.white_balance_source)
+        return {
+            "AsShotNeutral": "as shot (DNG AsShotNeutral)",
+            "AsShotWhiteXY": "as shot (DNG AsShotWhiteXY)",
+            "camera": "as shot (the camera's multipliers)",
+            "daylight": "daylight multipliers of LibRaw (the file records no as-shot white balance)",
+            "none": "unit gains (the file records no white balance)",
+        }.get(raw.white_balance_source, raw.white_balance_source)
     if isinstance(choice, str) and _spot(choice) is not None:
         return f"grey patch {choice.strip()[4:].lstrip(':= ')} (x0,y0,x1,y1)"
     if isinstance(choice, str):

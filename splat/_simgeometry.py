@@ -20,12 +20,14 @@ __all__ = ["CARD", "CHART", "shade"]
 
 _LIGHT = np.array([0.4, 0.3, 1.0]) / np.linalg.norm([0.4, 0.3, 1.0])
 _WALL_R, _WALL_H = 6.0, 5.0
-CHART = (-1.1, -1.5, 0.15, 0.025)   # x0, y0, patch side, gap (m); 6 × 4 patches on the floor
-CARD = (0.3, -1.5, 0.3)             # x0, y0, side (m): the flat white reference card
+CHART = (-1.1, -1.5, 0.15, 0.025)  # x0, y0, patch side, gap (m); 6 × 4 patches on the floor
+CARD = (0.3, -1.5, 0.3)  # x0, y0, side (m): the flat white reference card
 # boxes: centre x, y, half sizes (hx, hy, hz), yaw (deg), palette, cell factor
-_BOXES = [(0.75, 0.45, 0.32, 0.26, 0.30, 20.0, "chart", 0.8),
-          (-0.85, 0.35, 0.22, 0.38, 0.45, -15.0, "natural", 0.7),
-          (0.05, 1.05, 0.45, 0.18, 0.22, 5.0, "test", 0.9)]
+_BOXES = [
+    (0.75, 0.45, 0.32, 0.26, 0.30, 20.0, "chart", 0.8),
+    (-0.85, 0.35, 0.22, 0.38, 0.45, -15.0, "natural", 0.7),
+    (0.05, 1.05, 0.45, 0.18, 0.22, 5.0, "test", 0.9),
+]
 # spheres: centre, radius, palette, cell factor
 _SPHERES = [((-0.15, 0.05, 0.32), 0.32, "natural", 0.6), ((0.75, 0.45, 0.78), 0.18, "chart", 0.5)]
 # capped vertical cylinders: x, y, radius, height, palette, cell factor
@@ -33,9 +35,11 @@ _CYLINDERS = [(0.95, -0.55, 0.2, 0.75, "test", 0.6), (-1.2, -0.45, 0.14, 0.5, "c
 
 
 def _hash(a, b, salt: int) -> np.ndarray:
-    h = (np.asarray(a).astype(np.int64).astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-         ^ np.asarray(b).astype(np.int64).astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F)
-         ^ np.uint64((salt * 0x165667B1 + 0x27D4EB2F) % 2**63))
+    h = (
+        np.asarray(a).astype(np.int64).astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        ^ np.asarray(b).astype(np.int64).astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F)
+        ^ np.uint64((salt * 0x165667B1 + 0x27D4EB2F) % 2**63)
+    )
     h = (h ^ (h >> np.uint64(33))) * np.uint64(0xFF51AFD7ED558CCD)
     h = (h ^ (h >> np.uint64(33))) * np.uint64(0xC4CEB9FE1A85EC53)
     return h ^ (h >> np.uint64(33))
@@ -84,12 +88,12 @@ def _texture(scene: SimScene, uv: np.ndarray, palette: str, size: float, salt: i
     """Library indices (N, 3) and weights (N, 3) of the procedural texture at surface coordinates uv."""
     pal = scene.palettes[palette]
     n = np.uint64(len(pal))
-    h, edge = _voronoi(uv, size, salt)                  # cells of one reflectance each …
-    h2, _ = _voronoi(uv, size / 3, salt + 5)            # … mixed with a second one in smaller cells
+    h, edge = _voronoi(uv, size, salt)  # cells of one reflectance each …
+    h2, _ = _voronoi(uv, size / 3, salt + 5)  # … mixed with a second one in smaller cells
     i0 = pal[(h % n).astype(np.int64)]
     i1 = pal[((h >> np.uint64(24)) % n).astype(np.int64)]
     m = 0.75 * _unit_float(h2 >> np.uint64(7)) * (0.3 + 0.7 * _value_noise(uv, 0.7 * size, salt + 3))
-    e = np.where(edge < 0.06 * size, 0.9, 0.0)          # dark cell borders
+    e = np.where(edge < 0.06 * size, 0.9, 0.0)  # dark cell borders
     idx = np.stack([i0, i1, np.full_like(i0, 1)], axis=1)
     wts = np.stack([(1 - m) * (1 - e), m * (1 - e), e], axis=1)
     return idx, wts
@@ -97,14 +101,17 @@ def _texture(scene: SimScene, uv: np.ndarray, palette: str, size: float, salt: i
 
 def _primitives():
     """(surface id, kind, parameters): 0 floor, 1 wall, 10+ boxes, 20+ spheres, 30+ cylinders."""
-    return ([(0, "floor", None), (1, "wall", None)] + [(10 + k, "box", q) for k, q in enumerate(_BOXES)]
-            + [(20 + k, "sphere", q) for k, q in enumerate(_SPHERES)]
-            + [(30 + k, "cylinder", q) for k, q in enumerate(_CYLINDERS)])
+    return (
+        [(0, "floor", None), (1, "wall", None)]
+        + [(10 + k, "box", q) for k, q in enumerate(_BOXES)]
+        + [(20 + k, "sphere", q) for k, q in enumerate(_SPHERES)]
+        + [(30 + k, "cylinder", q) for k, q in enumerate(_CYLINDERS)]
+    )
 
 
 def _yaw(deg: float) -> np.ndarray:
     cs, sn = np.cos(np.radians(deg)), np.sin(np.radians(deg))
-    return np.array([[cs, sn, 0.0], [-sn, cs, 0.0], [0.0, 0.0, 1.0]])   # world → local
+    return np.array([[cs, sn, 0.0], [-sn, cs, 0.0], [0.0, 0.0, 1.0]])  # world → local
 
 
 def _bounds(kind: str, q):
@@ -126,7 +133,7 @@ def _ray_t(kind: str, q, o: np.ndarray, d: np.ndarray) -> np.ndarray:
         if kind == "wall":
             a = d[:, 0] ** 2 + d[:, 1] ** 2
             b = o[0] * d[:, 0] + o[1] * d[:, 1]
-            c = o[0] ** 2 + o[1] ** 2 - _WALL_R ** 2
+            c = o[0] ** 2 + o[1] ** 2 - _WALL_R**2
             t = (-b + np.sqrt(b * b - a * c)) / a
             z = o[2] + t * d[:, 2]
             return np.where((z >= 0) & (z <= _WALL_H), t, np.inf)
@@ -172,8 +179,9 @@ def _surface(kind: str, q, p: np.ndarray):
         sign = np.sign(pl[np.arange(M), axis])
         nl = np.zeros((M, 3))
         nl[np.arange(M), axis] = sign
-        coords = np.where(axis[:, None] == 2, pl[:, :2],
-                          np.where(axis[:, None] == 0, pl[:, [1, 2]], pl[:, [0, 2]]))
+        coords = np.where(
+            axis[:, None] == 2, pl[:, :2], np.where(axis[:, None] == 0, pl[:, [1, 2]], pl[:, [0, 2]])
+        )
         return nl @ Rz, coords + 3.7 * axis[:, None] + 1.3 * (sign[:, None] > 0)
     if kind == "sphere":
         n = (p - np.asarray(q[0], float)) / q[1]
@@ -182,8 +190,9 @@ def _surface(kind: str, q, p: np.ndarray):
     cx, cy, r, hgt = q[:4]
     rad = np.hypot(p[:, 0] - cx, p[:, 1] - cy)
     cap = (p[:, 2] > hgt - 1e-7) & (rad < r * (1 - 1e-7))
-    n = np.where(cap[:, None], [0.0, 0.0, 1.0],
-                 np.stack([(p[:, 0] - cx) / r, (p[:, 1] - cy) / r, np.zeros(M)], 1))
+    n = np.where(
+        cap[:, None], [0.0, 0.0, 1.0], np.stack([(p[:, 0] - cx) / r, (p[:, 1] - cy) / r, np.zeros(M)], 1)
+    )
     side_uv = np.stack([np.arctan2(p[:, 1] - cy, p[:, 0] - cx) * r, p[:, 2]], 1)
     uv = np.where(cap[:, None], p[:, :2] + 5.1, side_uv)
     return n, uv
@@ -236,16 +245,26 @@ def shade(scene: SimScene, o: np.ndarray, d: np.ndarray):
     px, py = hit_p[:, 0] - x0, hit_p[:, 1] - y0
     on_chart = fl & (px >= 0) & (px < 6 * (side + gap) + gap) & (py >= 0) & (py < 4 * (side + gap) + gap)
     ci, cj = np.floor((px - gap) / (side + gap)).astype(int), np.floor((py - gap) / (side + gap)).astype(int)
-    inside = (on_chart & ((px - gap) - ci * (side + gap) < side) & ((py - gap) - cj * (side + gap) < side)
-              & (px >= gap) & (py >= gap))
+    inside = (
+        on_chart
+        & ((px - gap) - ci * (side + gap) < side)
+        & ((py - gap) - cj * (side + gap) < side)
+        & (px >= gap)
+        & (py >= gap)
+    )
     chart = scene.palettes["colorchecker"]
     idx[on_chart] = 1
     wts[on_chart] = (1.0, 0.0, 0.0)
-    patch = np.clip((3 - cj) * 6 + ci, 0, 23)    # row 0 (dark skin …) farthest from the camera side
+    patch = np.clip((3 - cj) * 6 + ci, 0, 23)  # row 0 (dark skin …) farthest from the camera side
     idx[inside, 0] = chart[patch[inside]]
     cx0, cy0, cs = CARD
-    card = (fl & (hit_p[:, 0] >= cx0) & (hit_p[:, 0] <= cx0 + cs)
-            & (hit_p[:, 1] >= cy0) & (hit_p[:, 1] <= cy0 + cs))
+    card = (
+        fl
+        & (hit_p[:, 0] >= cx0)
+        & (hit_p[:, 0] <= cx0 + cs)
+        & (hit_p[:, 1] >= cy0)
+        & (hit_p[:, 1] <= cy0 + cs)
+    )
     idx[card] = 0
     wts[card] = (1.0, 0.0, 0.0)
     shading = np.clip(0.4 + 0.6 * np.maximum(normal @ _LIGHT, 0.0) / _LIGHT[2], 0.0, 1.0)

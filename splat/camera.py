@@ -54,8 +54,14 @@ class Camera:
 
     def scaled(self, factor: float) -> Camera:
         """The same view at ``factor`` times the resolution (intrinsics scaled, size rounded)."""
-        return Camera(self.R, self.t, self.focal * factor, self.principal * factor,
-                      round(self.width * factor), round(self.height * factor))
+        return Camera(
+            self.R,
+            self.t,
+            self.focal * factor,
+            self.principal * factor,
+            round(self.width * factor),
+            round(self.height * factor),
+        )
 
 
 def _unit(v):
@@ -65,8 +71,9 @@ def _unit(v):
     return v / n
 
 
-def look_at(eye, target, *, up=(0.0, 0.0, 1.0), width: int, height: int, fov_deg: float = 50.0,
-            dtype=jnp.float32) -> Camera:
+def look_at(
+    eye, target, *, up=(0.0, 0.0, 1.0), width: int, height: int, fov_deg: float = 50.0, dtype=jnp.float32
+) -> Camera:
     """A camera at ``eye`` looking at ``target`` (horizontal field of view ``fov_deg``).
 
     Parameters
@@ -88,29 +95,42 @@ def look_at(eye, target, *, up=(0.0, 0.0, 1.0), width: int, height: int, fov_deg
     y = np.cross(z, x)  # down
     R = np.stack([x, y, z])
     f = 0.5 * width / np.tan(np.radians(fov_deg) / 2)
-    return Camera(jnp.asarray(R, dtype), jnp.asarray(-R @ eye, dtype), jnp.asarray([f, f], dtype),
-                  jnp.asarray([width / 2, height / 2], dtype), int(width), int(height))
+    return Camera(
+        jnp.asarray(R, dtype),
+        jnp.asarray(-R @ eye, dtype),
+        jnp.asarray([f, f], dtype),
+        jnp.asarray([width / 2, height / 2], dtype),
+        int(width),
+        int(height),
+    )
 
 
 def qvec_to_rotmat(qvec) -> np.ndarray:
     """Rotation matrix of a unit quaternion ``(w, x, y, z)`` (COLMAP convention), shape (3, 3)."""
     w, x, y, z = np.asarray(qvec, dtype=float) / np.linalg.norm(qvec)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def rotmat_to_qvec(R) -> np.ndarray:
     """Unit quaternion ``(w, x, y, z)`` with ``w ≥ 0`` of a rotation matrix (3, 3), shape (4,)."""
     R = np.asarray(R, dtype=float)
-    K = np.array([
-        [R[0, 0] - R[1, 1] - R[2, 2], 0, 0, 0],
-        [R[1, 0] + R[0, 1], R[1, 1] - R[0, 0] - R[2, 2], 0, 0],
-        [R[2, 0] + R[0, 2], R[2, 1] + R[1, 2], R[2, 2] - R[0, 0] - R[1, 1], 0],
-        [R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1], R[0, 0] + R[1, 1] + R[2, 2]],
-    ]) / 3.0
+    K = (
+        np.array(
+            [
+                [R[0, 0] - R[1, 1] - R[2, 2], 0, 0, 0],
+                [R[1, 0] + R[0, 1], R[1, 1] - R[0, 0] - R[2, 2], 0, 0],
+                [R[2, 0] + R[0, 2], R[2, 1] + R[1, 2], R[2, 2] - R[0, 0] - R[1, 1], 0],
+                [R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1], R[0, 0] + R[1, 1] + R[2, 2]],
+            ]
+        )
+        / 3.0
+    )
     vals, vecs = np.linalg.eigh(K)
     q = vecs[[3, 0, 1, 2], np.argmax(vals)]
     return -q if q[0] < 0 else q

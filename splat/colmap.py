@@ -15,14 +15,31 @@ import numpy as np
 
 from ._errors import DataFormatError, SplatError
 
-__all__ = ["CAMERA_MODELS", "ColmapCamera", "ColmapFrame", "ColmapImage", "ColmapModel", "ColmapPoint3D",
-           "ColmapRig", "read_colmap", "write_colmap"]
+__all__ = [
+    "CAMERA_MODELS",
+    "ColmapCamera",
+    "ColmapFrame",
+    "ColmapImage",
+    "ColmapModel",
+    "ColmapPoint3D",
+    "ColmapRig",
+    "read_colmap",
+    "write_colmap",
+]
 
 #: COLMAP camera models: name -> (model id, number of parameters).
 CAMERA_MODELS = {
-    "SIMPLE_PINHOLE": (0, 3), "PINHOLE": (1, 4), "SIMPLE_RADIAL": (2, 4), "RADIAL": (3, 5),
-    "OPENCV": (4, 8), "OPENCV_FISHEYE": (5, 8), "FULL_OPENCV": (6, 12), "FOV": (7, 5),
-    "SIMPLE_RADIAL_FISHEYE": (8, 4), "RADIAL_FISHEYE": (9, 5), "THIN_PRISM_FISHEYE": (10, 12),
+    "SIMPLE_PINHOLE": (0, 3),
+    "PINHOLE": (1, 4),
+    "SIMPLE_RADIAL": (2, 4),
+    "RADIAL": (3, 5),
+    "OPENCV": (4, 8),
+    "OPENCV_FISHEYE": (5, 8),
+    "FULL_OPENCV": (6, 12),
+    "FOV": (7, 5),
+    "SIMPLE_RADIAL_FISHEYE": (8, 4),
+    "RADIAL_FISHEYE": (9, 5),
+    "THIN_PRISM_FISHEYE": (10, 12),
     "RAD_TAN_THIN_PRISM_FISHEYE": (11, 16),
 }
 _MODEL_BY_ID = {i: (name, n) for name, (i, n) in CAMERA_MODELS.items()}
@@ -48,8 +65,10 @@ class ColmapCamera:
             return p[0], p[0], p[1], p[2]
         if self.model == "PINHOLE" or (self.model in ("OPENCV", "FULL_OPENCV") and not any(p[4:])):
             return p[0], p[1], p[2], p[3]
-        raise SplatError(f"camera {self.id} uses the {self.model} model with distortion {p}; the renderer "
-                         "is a pinhole: undistort the images first (colmap image_undistorter).")
+        raise SplatError(
+            f"camera {self.id} uses the {self.model} model with distortion {p}; the renderer "
+            "is a pinhole: undistort the images first (colmap image_undistorter)."
+        )
 
 
 @dataclass(frozen=True)
@@ -112,8 +131,10 @@ class ColmapModel:
     def points(self) -> tuple[np.ndarray, np.ndarray]:
         """All 3-D points as arrays: ``xyz`` (P, 3) float and ``rgb`` (P, 3) uint8."""
         pts = list(self.points3D.values())
-        return (np.array([p.xyz for p in pts]).reshape(-1, 3),
-                np.array([p.rgb for p in pts], dtype=np.uint8).reshape(-1, 3))
+        return (
+            np.array([p.xyz for p in pts]).reshape(-1, 3),
+            np.array([p.rgb for p in pts], dtype=np.uint8).reshape(-1, 3),
+        )
 
 
 # ----------------------------------------------------------------------------------------- text
@@ -145,8 +166,15 @@ def _read_text(folder: Path) -> ColmapModel:
         try:
             t = head.split()
             p = np.array(pts.split(), dtype=float).reshape(-1, 3)
-            images[int(t[0])] = ColmapImage(int(t[0]), np.array(t[1:5], float), np.array(t[5:8], float),
-                                            int(t[8]), " ".join(t[9:]), p[:, :2], p[:, 2].astype(np.int64))
+            images[int(t[0])] = ColmapImage(
+                int(t[0]),
+                np.array(t[1:5], float),
+                np.array(t[5:8], float),
+                int(t[8]),
+                " ".join(t[9:]),
+                p[:, :2],
+                p[:, 2].astype(np.int64),
+            )
         except (ValueError, IndexError) as e:
             _fail(path, n, "an image", e)
     path = folder / "points3D.txt"
@@ -154,9 +182,14 @@ def _read_text(folder: Path) -> ColmapModel:
         for n, t in _lines(path):
             try:
                 track = np.array(t[8:], dtype=np.int64).reshape(-1, 2)
-                points[int(t[0])] = ColmapPoint3D(int(t[0]), np.array(t[1:4], float),
-                                                  np.array(t[4:7], np.uint8), float(t[7]),
-                                                  track[:, 0], track[:, 1])
+                points[int(t[0])] = ColmapPoint3D(
+                    int(t[0]),
+                    np.array(t[1:4], float),
+                    np.array(t[4:7], np.uint8),
+                    float(t[7]),
+                    track[:, 0],
+                    track[:, 1],
+                )
             except (ValueError, IndexError) as e:
                 _fail(path, n, "a 3-D point", e)
     path = folder / "rigs.txt"
@@ -168,7 +201,9 @@ def _read_text(folder: Path) -> ColmapModel:
                     sensors.append((t[2], int(t[3]), None))
                 for _ in range(ns - 1):
                     has = int(t[i + 2])
-                    sensors.append((t[i], int(t[i + 1]), tuple(map(float, t[i + 3:i + 10])) if has else None))
+                    sensors.append(
+                        (t[i], int(t[i + 1]), tuple(map(float, t[i + 3 : i + 10])) if has else None)
+                    )
                     i += 10 if has else 3
                 rigs[int(t[0])] = ColmapRig(int(t[0]), tuple(sensors))
             except (ValueError, IndexError) as e:
@@ -190,8 +225,11 @@ def _lines_keep_empty(path: Path):
 
     A file whose last image has no keypoints may end without that empty line (the last line is then
     an image line): the empty points line is supplied, so the last image is not lost."""
-    lines = [(n, line.strip()) for n, line in enumerate(path.read_text().splitlines(), 1)
-             if not line.startswith("#")]
+    lines = [
+        (n, line.strip())
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if not line.startswith("#")
+    ]
     while lines and not lines[-1][1] and len(lines) % 2:
         lines.pop()  # extra trailing blank lines
     if len(lines) % 2:
@@ -205,27 +243,35 @@ def _f(x) -> str:
 
 def _write_text(m: ColmapModel, folder: Path) -> None:
     out = ["# Camera list with one line of data per camera:", "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]"]
-    out += [" ".join([str(c.id), c.model, str(c.width), str(c.height), *map(_f, c.params)])
-            for c in m.cameras.values()]
+    out += [
+        " ".join([str(c.id), c.model, str(c.width), str(c.height), *map(_f, c.params)])
+        for c in m.cameras.values()
+    ]
     (folder / "cameras.txt").write_text("\n".join(out) + "\n")
-    out = ["# Image list with two lines of data per image:",
-           "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME",
-           "#   POINTS2D[] as (X, Y, POINT3D_ID)"]
+    out = [
+        "# Image list with two lines of data per image:",
+        "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME",
+        "#   POINTS2D[] as (X, Y, POINT3D_ID)",
+    ]
     for im in m.images.values():
         out.append(" ".join([str(im.id), *map(_f, im.qvec), *map(_f, im.tvec), str(im.camera_id), im.name]))
         out.append(" ".join(f"{_f(x)} {_f(y)} {int(i)}" for (x, y), i in zip(im.xys, im.point3D_ids)))
     (folder / "images.txt").write_text("\n".join(out) + "\n")
-    out = ["# 3D point list with one line of data per point:",
-           "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)"]
+    out = [
+        "# 3D point list with one line of data per point:",
+        "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)",
+    ]
     for p in m.points3D.values():
         track = " ".join(f"{int(a)} {int(b)}" for a, b in zip(p.image_ids, p.point2D_idxs))
         words = [str(p.id), *map(_f, p.xyz), *map(str, map(int, p.rgb)), _f(p.error), track]
         out.append(" ".join(words).strip())
     (folder / "points3D.txt").write_text("\n".join(out) + "\n")
     if m.rigs or m.frames:
-        out = ["# Rig calib list with one line of data per calib:",
-               "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as "
-               "(SENSOR_TYPE, SENSOR_ID, HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])"]
+        out = [
+            "# Rig calib list with one line of data per calib:",
+            "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as "
+            "(SENSOR_TYPE, SENSOR_ID, HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])",
+        ]
         for r in m.rigs.values():
             words = [str(r.id), str(len(r.sensors))]
             for k, (typ, sid, pose) in enumerate(r.sensors):
@@ -234,9 +280,11 @@ def _write_text(m: ColmapModel, folder: Path) -> None:
                     words += ["0"] if pose is None else ["1", *map(_f, pose)]
             out.append(" ".join(words))
         (folder / "rigs.txt").write_text("\n".join(out) + "\n")
-        out = ["# Frame list with one line of data per frame:",
-               "#   FRAME_ID, RIG_ID, RIG_FROM_WORLD[QW, QX, QY, QZ, TX, TY, TZ], NUM_DATA_IDS, "
-               "DATA_IDS[] as (SENSOR_TYPE, SENSOR_ID, DATA_ID)"]
+        out = [
+            "# Frame list with one line of data per frame:",
+            "#   FRAME_ID, RIG_ID, RIG_FROM_WORLD[QW, QX, QY, QZ, TX, TY, TZ], NUM_DATA_IDS, "
+            "DATA_IDS[] as (SENSOR_TYPE, SENSOR_ID, DATA_ID)",
+        ]
         for f in m.frames.values():
             words = [str(f.id), str(f.rig_id), *map(_f, f.rig_from_world), str(len(f.data_ids))]
             for typ, sid, did in f.data_ids:
@@ -271,7 +319,7 @@ class _Reader:
         end = self.buf.find(b"\0", self.pos)
         if end < 0:
             raise DataFormatError(f"{self.path}: unterminated string at byte {self.pos}.")
-        s = self.buf[self.pos:end].decode()
+        s = self.buf[self.pos : end].decode()
         self.pos = end + 1
         return s
 
@@ -291,16 +339,29 @@ def _read_binary(folder: Path) -> ColmapModel:
         name = r.string()
         n = r("Q")[0]
         raw = np.frombuffer(r.array(np.uint8, 24 * n).tobytes(), dtype=_POINT2D)
-        images[iid] = ColmapImage(iid, np.array(pose[:4]), np.array(pose[4:]), cid, name,
-                                  np.stack([raw["x"], raw["y"]], -1), raw["id"].astype(np.int64))
+        images[iid] = ColmapImage(
+            iid,
+            np.array(pose[:4]),
+            np.array(pose[4:]),
+            cid,
+            name,
+            np.stack([raw["x"], raw["y"]], -1),
+            raw["id"].astype(np.int64),
+        )
     path = folder / "points3D.bin"
     if path.exists():
         r = _Reader(path)
         for _ in range(r("Q")[0]):
             pid, x, y, z, cr, cg, cb, err = r("Q3d3Bd")
             track = r.array(np.uint32, 2 * r("Q")[0]).reshape(-1, 2)
-            points[pid] = ColmapPoint3D(pid, np.array([x, y, z]), np.array([cr, cg, cb], np.uint8), err,
-                                        track[:, 0].astype(np.int64), track[:, 1].astype(np.int64))
+            points[pid] = ColmapPoint3D(
+                pid,
+                np.array([x, y, z]),
+                np.array([cr, cg, cb], np.uint8),
+                err,
+                track[:, 0].astype(np.int64),
+                track[:, 1].astype(np.int64),
+            )
     path = folder / "rigs.bin"
     if path.exists():
         r = _Reader(path)
@@ -367,24 +428,31 @@ def _check_model(m: ColmapModel, folder: Path) -> None:
     for c in m.cameras.values():
         n = CAMERA_MODELS[c.model][1]
         if len(c.params) != n or not np.all(np.isfinite(c.params)):
-            raise DataFormatError(f"{folder}: camera {c.id} ({c.model}) needs {n} finite parameters, got "
-                                  f"{c.params}.")
+            raise DataFormatError(
+                f"{folder}: camera {c.id} ({c.model}) needs {n} finite parameters, got {c.params}."
+            )
         if not (0 < c.width < 2**31 and 0 < c.height < 2**31):
-            raise DataFormatError(f"{folder}: camera {c.id} has size {c.width}×{c.height}; expected positive "
-                                  "integers below 2³¹.")
+            raise DataFormatError(
+                f"{folder}: camera {c.id} has size {c.width}×{c.height}; expected positive "
+                "integers below 2³¹."
+            )
         if c.params[0] <= 0 or (c.model in ("PINHOLE", "OPENCV", "FULL_OPENCV") and c.params[1] <= 0):
             raise DataFormatError(f"{folder}: camera {c.id} has focal length {c.params[:2]}; it must be > 0.")
     for im in m.images.values():
         q, t = np.asarray(im.qvec, float), np.asarray(im.tvec, float)
         if q.shape != (4,) or t.shape != (3,) or not (np.all(np.isfinite(q)) and np.all(np.isfinite(t))):
-            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) has a non-finite pose "
-                                  f"qvec={q} tvec={t}.")
+            raise DataFormatError(
+                f"{folder}: image {im.id} ({im.name!r}) has a non-finite pose qvec={q} tvec={t}."
+            )
         if not 1e-6 < np.linalg.norm(q) < 1e6:
-            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) has qvec={q}, not a rotation "
-                                  "(norm 0 or huge).")
+            raise DataFormatError(
+                f"{folder}: image {im.id} ({im.name!r}) has qvec={q}, not a rotation (norm 0 or huge)."
+            )
         if im.camera_id not in m.cameras:
-            raise DataFormatError(f"{folder}: image {im.id} ({im.name!r}) refers to camera {im.camera_id}, "
-                                  f"which the model does not hold (cameras {sorted(m.cameras)}).")
+            raise DataFormatError(
+                f"{folder}: image {im.id} ({im.name!r}) refers to camera {im.camera_id}, "
+                f"which the model does not hold (cameras {sorted(m.cameras)})."
+            )
 
 
 def read_colmap(folder: str | Path) -> ColmapModel:
@@ -411,14 +479,25 @@ def read_colmap(folder: str | Path) -> ColmapModel:
             model = (_read_binary if binary else _read_text)(folder)
         except DataFormatError:
             raise
-        except (ValueError, IndexError, OverflowError, TypeError, UnicodeDecodeError, struct.error,
-                MemoryError, OSError) as error:  # anything else a damaged file can make the parsers hit
-            raise DataFormatError(f"{folder}: cannot read the COLMAP model ({type(error).__name__}: "
-                                  f"{error}). The files are damaged or not a COLMAP model.") from None
+        except (
+            ValueError,
+            IndexError,
+            OverflowError,
+            TypeError,
+            UnicodeDecodeError,
+            struct.error,
+            MemoryError,
+            OSError,
+        ) as error:  # anything else a damaged file can make the parsers hit
+            raise DataFormatError(
+                f"{folder}: cannot read the COLMAP model ({type(error).__name__}: "
+                f"{error}). The files are damaged or not a COLMAP model."
+            ) from None
         _check_model(model, folder)
         return model
-    raise DataFormatError(f"{folder} holds no COLMAP model (need cameras.bin + images.bin or "
-                          "cameras.txt + images.txt).")
+    raise DataFormatError(
+        f"{folder} holds no COLMAP model (need cameras.bin + images.bin or cameras.txt + images.txt)."
+    )
 
 
 def write_colmap(model: ColmapModel, folder: str | Path, *, binary: bool = True) -> Path:

@@ -18,8 +18,14 @@ from ._errors import DataFormatError, SplatError
 from .camera import Camera, qvec_to_rotmat, rotmat_to_qvec
 from .colmap import ColmapCamera, ColmapImage, ColmapModel
 
-__all__ = ["Capture", "View", "capture_from_colmap", "colmap_from_capture", "read_transforms",
-           "write_transforms"]
+__all__ = [
+    "Capture",
+    "View",
+    "capture_from_colmap",
+    "colmap_from_capture",
+    "read_transforms",
+    "write_transforms",
+]
 
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 
@@ -54,8 +60,10 @@ class View:
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
             raise SplatError(f"{what}: the pose holds NaN or inf (R={R.tolist()}, t={t.tolist()}).")
         if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-3) or np.linalg.det(R) < 0:
-            raise SplatError(f"{what}: R={R.tolist()} is not a rotation (zero or degenerate pose); give "
-                             "an orthonormal world-to-camera rotation with determinant +1.")
+            raise SplatError(
+                f"{what}: R={R.tolist()} is not a rotation (zero or degenerate pose); give "
+                "an orthonormal world-to-camera rotation with determinant +1."
+            )
         if not (np.all(np.isfinite(f)) and np.all(f > 0)):
             raise SplatError(f"{what}: focal length {f.tolist()} px must be finite and > 0.")
         if not np.all(np.isfinite(pp)):
@@ -85,13 +93,16 @@ class Capture:
 
     def __post_init__(self):
         for cid, idx in self.channels.items():
-            if not all(isinstance(i, int | np.integer) and not isinstance(i, bool) and 0 <= i < 4096
-                       for i in idx):
+            if not all(
+                isinstance(i, int | np.integer) and not isinstance(i, bool) and 0 <= i < 4096 for i in idx
+            ):
                 raise SplatError(f"channels[{cid}]={idx!r}: channel indices must be integers in 0..4095.")
         missing = sorted({v.camera_id for v in self.views} - set(self.channels))
         if missing:
-            raise SplatError(f"views use camera id(s) {missing} that have no entry in channels "
-                             f"{self.channels}; give each camera id its channel indices.")
+            raise SplatError(
+                f"views use camera id(s) {missing} that have no entry in channels "
+                f"{self.channels}; give each camera id its channel indices."
+            )
         if self.labels and len(self.labels) != self.n_channels:
             raise SplatError(f"{len(self.labels)} labels for {self.n_channels} channels.")
 
@@ -109,12 +120,23 @@ class Capture:
 
 def _camera(R, t, fx, fy, cx, cy, w, h) -> Camera:
     f32 = jnp.float32
-    return Camera(jnp.asarray(R, f32), jnp.asarray(t, f32), jnp.asarray([fx, fy], f32),
-                  jnp.asarray([cx, cy], f32), int(w), int(h))
+    return Camera(
+        jnp.asarray(R, f32),
+        jnp.asarray(t, f32),
+        jnp.asarray([fx, fy], f32),
+        jnp.asarray([cx, cy], f32),
+        int(w),
+        int(h),
+    )
 
 
-def capture_from_colmap(model: ColmapModel, *, channels: dict[int, tuple[int, ...]] | None = None,
-                        exposures: dict[str, float] | None = None, labels=()) -> Capture:
+def capture_from_colmap(
+    model: ColmapModel,
+    *,
+    channels: dict[int, tuple[int, ...]] | None = None,
+    exposures: dict[str, float] | None = None,
+    labels=(),
+) -> Capture:
     """A :class:`Capture` from a COLMAP model.
 
     Parameters
@@ -138,11 +160,18 @@ def capture_from_colmap(model: ColmapModel, *, channels: dict[int, tuple[int, ..
     for iid in sorted(model.images):
         im = model.images[iid]
         if im.camera_id not in model.cameras:
-            raise DataFormatError(f"image {im.name!r} refers to camera {im.camera_id}, which the model "
-                                  "does not have.")
+            raise DataFormatError(
+                f"image {im.name!r} refers to camera {im.camera_id}, which the model does not have."
+            )
         c = model.cameras[im.camera_id]
-        views.append(View(im.name, _camera(qvec_to_rotmat(im.qvec), im.tvec, *c.pinhole(), c.width, c.height),
-                          im.camera_id, float(exposures.get(im.name, 1.0))))
+        views.append(
+            View(
+                im.name,
+                _camera(qvec_to_rotmat(im.qvec), im.tvec, *c.pinhole(), c.width, c.height),
+                im.camera_id,
+                float(exposures.get(im.name, 1.0)),
+            )
+        )
     return Capture(tuple(views), {int(k): tuple(v) for k, v in channels.items()}, tuple(labels))
 
 
@@ -160,10 +189,13 @@ def colmap_from_capture(capture: Capture) -> ColmapModel:
         params = (*map(float, np.asarray(c.focal)), *map(float, np.asarray(c.principal)))
         cam = ColmapCamera(v.camera_id, "PINHOLE", c.width, c.height, params)
         if cameras.setdefault(v.camera_id, cam) != cam:
-            raise SplatError(f"views of camera {v.camera_id} have different intrinsics "
-                             f"({cameras[v.camera_id].params} vs {params}); give them separate camera ids.")
-        images[k] = ColmapImage(k, rotmat_to_qvec(np.asarray(c.R, float)), np.asarray(c.t, float),
-                                v.camera_id, v.name)
+            raise SplatError(
+                f"views of camera {v.camera_id} have different intrinsics "
+                f"({cameras[v.camera_id].params} vs {params}); give them separate camera ids."
+            )
+        images[k] = ColmapImage(
+            k, rotmat_to_qvec(np.asarray(c.R, float)), np.asarray(c.t, float), v.camera_id, v.name
+        )
     return ColmapModel(cameras, images)
 
 
@@ -180,11 +212,26 @@ def write_transforms(capture: Capture, path: str | Path) -> Path:
         w2c[:3, :3], w2c[:3, 3] = np.asarray(c.R, float), np.asarray(c.t, float)
         c2w = np.linalg.inv(w2c) @ _GL_FROM_CV
         (fx, fy), (cx, cy) = np.asarray(c.focal, float), np.asarray(c.principal, float)
-        frames.append({"file_path": v.name, "transform_matrix": c2w.tolist(), "fl_x": fx, "fl_y": fy,
-                       "cx": cx, "cy": cy, "w": c.width, "h": c.height, "camera_id": v.camera_id,
-                       "exposure": v.exposure})
-    doc = {"camera_model": "OPENCV", "channels": {str(k): list(v) for k, v in capture.channels.items()},
-           "channel_labels": list(capture.labels), "frames": frames}
+        frames.append(
+            {
+                "file_path": v.name,
+                "transform_matrix": c2w.tolist(),
+                "fl_x": fx,
+                "fl_y": fy,
+                "cx": cx,
+                "cy": cy,
+                "w": c.width,
+                "h": c.height,
+                "camera_id": v.camera_id,
+                "exposure": v.exposure,
+            }
+        )
+    doc = {
+        "camera_model": "OPENCV",
+        "channels": {str(k): list(v) for k, v in capture.channels.items()},
+        "channel_labels": list(capture.labels),
+        "frames": frames,
+    }
     from zonotope._io import atomic_write_text
 
     return atomic_write_text(path, json.dumps(doc, indent=1))
@@ -217,8 +264,9 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
     except OSError as e:
         raise DataFormatError(f"{path}: cannot read ({e.strerror or e}).") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("frames", []), list):
-        raise DataFormatError(f"{path}: expected a JSON object with a 'frames' list, got "
-                              f"{type(doc).__name__}.")
+        raise DataFormatError(
+            f"{path}: expected a JSON object with a 'frames' list, got {type(doc).__name__}."
+        )
     views = []
     for k, fr in enumerate(doc.get("frames", [])):
         if not isinstance(fr, dict):
@@ -230,10 +278,22 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
                 raise ValueError(f"transform_matrix must be a finite 4×4 (or 3×4) matrix, got {c2w.tolist()}")
             c2w = np.vstack([c2w[:3], [0.0, 0.0, 0.0, 1.0]]) @ _GL_FROM_CV
             w2c = np.linalg.inv(c2w)
-            cam = _camera(w2c[:3, :3], w2c[:3, 3], float(get("fl_x")), float(get("fl_y") or get("fl_x")),
-                          float(get("cx")), float(get("cy")), int(get("w")), int(get("h")))
-            view = View(str(fr.get("file_path", f"frame_{k}")), cam, int(fr.get("camera_id", 1)),
-                        float(fr.get("exposure", 1.0)))
+            cam = _camera(
+                w2c[:3, :3],
+                w2c[:3, 3],
+                float(get("fl_x")),
+                float(get("fl_y") or get("fl_x")),
+                float(get("cx")),
+                float(get("cy")),
+                int(get("w")),
+                int(get("h")),
+            )
+            view = View(
+                str(fr.get("file_path", f"frame_{k}")),
+                cam,
+                int(fr.get("camera_id", 1)),
+                float(fr.get("exposure", 1.0)),
+            )
         except SplatError as e:
             raise DataFormatError(f"{path}: frame {k}: {e}") from None
         except (KeyError, TypeError, ValueError, OverflowError, np.linalg.LinAlgError) as e:
@@ -250,5 +310,7 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
     except SplatError as e:
         raise DataFormatError(f"{path}: {e}") from None
     except (AttributeError, TypeError, ValueError, OverflowError) as e:
-        raise DataFormatError(f"{path}: 'channels' must map camera ids to lists of channel indices and "
-                              f"'channel_labels' be a list of names ({e!r}).") from None
+        raise DataFormatError(
+            f"{path}: 'channels' must map camera ids to lists of channel indices and "
+            f"'channel_labels' be a list of names ({e!r})."
+        ) from None

@@ -137,8 +137,9 @@ def inverse_softplus(y: np.ndarray | jax.Array, *, floor: float = 1e-6) -> jax.A
     return y + jnp.log(-jnp.expm1(-y))
 
 
-def init_gaussians(means, colours, *, scales=0.05, opacity: float = 0.1, key: jax.Array | None = None,
-                   dtype=jnp.float32) -> Gaussians:
+def init_gaussians(
+    means, colours, *, scales=0.05, opacity: float = 0.1, key: jax.Array | None = None, dtype=jnp.float32
+) -> Gaussians:
     """Isotropic Gaussians at given points with given colours.
 
     Parameters
@@ -164,8 +165,9 @@ def init_gaussians(means, colours, *, scales=0.05, opacity: float = 0.1, key: ja
     if means.ndim != 2 or means.shape[1] != 3:
         raise SplatError(f"means must have shape (G, 3); got {means.shape}.")
     if colours.ndim != 2 or colours.shape[0] != means.shape[0] or colours.shape[1] < 1:
-        raise SplatError(f"colours must have shape (G, N) with G = {means.shape[0]} and N ≥ 1; "
-                         f"got {colours.shape}.")
+        raise SplatError(
+            f"colours must have shape (G, N) with G = {means.shape[0]} and N ≥ 1; got {colours.shape}."
+        )
     if not 0 < opacity < 1:
         raise SplatError(f"opacity must lie in (0, 1); got {opacity}.")
     G = means.shape[0]

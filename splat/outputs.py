@@ -14,8 +14,9 @@ from .rendering import RenderConfig, render
 __all__ = ["correct_image", "pca_false_colour", "psnr", "render_views", "split_cameras"]
 
 
-def render_views(gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled",
-                 config: RenderConfig | None = None) -> np.ndarray:
+def render_views(
+    gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled", config: RenderConfig | None = None
+) -> np.ndarray:
     """Multispectral renders of several views, shape (V, H, W, N) (one image size).
 
     Parameters
@@ -29,8 +30,14 @@ def render_views(gaussians: Gaussians, cameras, *, mask=None, method: str = "til
     """
     cams: list[Camera] = list(cameras)
     config = config or RenderConfig()
-    out = [np.asarray(render(gaussians, c, method=method, config=config,
-                             mask=None if mask is None else jnp.asarray(mask)).image) for c in cams]
+    out = [
+        np.asarray(
+            render(
+                gaussians, c, method=method, config=config, mask=None if mask is None else jnp.asarray(mask)
+            ).image
+        )
+        for c in cams
+    ]
     return np.stack(out)
 
 
@@ -97,8 +104,9 @@ def psnr(a, b, *, peak: float = 1.0) -> float:
     return float("inf") if mse == 0 else float(10 * np.log10(peak**2 / mse))
 
 
-def correct_image(image, capture: Capture, cameras, *, camera_ids=None, method: str = "Prior",
-                  **options) -> np.ndarray:
+def correct_image(
+    image, capture: Capture, cameras, *, camera_ids=None, method: str = "Prior", **options
+) -> np.ndarray:
     """Colour-correct a pixel-aligned multi-camera image with :func:`zonotope.correct.correct`.
 
     Parameters

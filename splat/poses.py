@@ -43,8 +43,9 @@ class PoseConfig:
     seed: int = 0
 
 
-def recover_poses(image_dir: str | Path, workdir: str | Path, *,
-                  config: PoseConfig = PoseConfig()) -> ColmapModel:
+def recover_poses(
+    image_dir: str | Path, workdir: str | Path, *, config: PoseConfig = PoseConfig()
+) -> ColmapModel:
     """Recover camera poses and a sparse point cloud: SIFT features, exhaustive matching, incremental
     mapping (pycolmap on the CPU).
 
@@ -82,8 +83,14 @@ def recover_poses(image_dir: str | Path, workdir: str | Path, *,
     extraction.num_threads = config.num_threads
     extraction.sift.max_num_features = config.max_num_features
     device = pycolmap.Device.cpu
-    pycolmap.extract_features(db, image_dir, camera_mode=pycolmap.CameraMode.PER_FOLDER,
-                              reader_options=reader, extraction_options=extraction, device=device)
+    pycolmap.extract_features(
+        db,
+        image_dir,
+        camera_mode=pycolmap.CameraMode.PER_FOLDER,
+        reader_options=reader,
+        extraction_options=extraction,
+        device=device,
+    )
     pycolmap.match_exhaustive(db, device=device)
     options = pycolmap.IncrementalPipelineOptions()
     options.min_num_matches = config.min_num_matches
@@ -93,8 +100,10 @@ def recover_poses(image_dir: str | Path, workdir: str | Path, *,
     out = workdir / "sparse"
     models = pycolmap.incremental_mapping(db, image_dir, out, options=options)
     if not models:
-        raise SplatError(f"COLMAP registered no model from {image_dir}: the previews need more texture "
-                         "or overlap (or lower PoseConfig.min_num_matches).")
+        raise SplatError(
+            f"COLMAP registered no model from {image_dir}: the previews need more texture "
+            "or overlap (or lower PoseConfig.min_num_matches)."
+        )
     best = max(models.values(), key=lambda r: r.num_reg_images())
     folder = out / "best"
     folder.mkdir(parents=True, exist_ok=True)

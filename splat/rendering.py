@@ -37,8 +37,16 @@ from ._errors import SplatError, SplatMethodError
 from .camera import Camera
 from .gaussians import Gaussians, covariances_from
 
-__all__ = ["RENDER_METHODS", "Projected", "RenderConfig", "RenderOutput", "project", "render",
-           "render_reference", "render_tiled"]
+__all__ = [
+    "RENDER_METHODS",
+    "Projected",
+    "RenderConfig",
+    "RenderOutput",
+    "project",
+    "render",
+    "render_reference",
+    "render_tiled",
+]
 
 
 @dataclass(frozen=True)
@@ -90,8 +98,10 @@ class RenderConfig:
         if not 0 <= self.transmittance_min < 1:
             raise SplatError(f"transmittance_min must lie in [0, 1); got {self.transmittance_min}.")
         if self.sigma_cutoff <= 0 or self.near <= 0 or self.eps2d < 0:
-            raise SplatError("RenderConfig needs sigma_cutoff > 0, near > 0 and eps2d ≥ 0; got "
-                             f"{self.sigma_cutoff}, {self.near}, {self.eps2d}.")
+            raise SplatError(
+                "RenderConfig needs sigma_cutoff > 0, near > 0 and eps2d ≥ 0; got "
+                f"{self.sigma_cutoff}, {self.near}, {self.eps2d}."
+            )
 
 
 class Projected(NamedTuple):
@@ -141,8 +151,13 @@ class RenderOutput(NamedTuple):
     max_per_tile: jax.Array
 
 
-def project(gaussians: Gaussians, camera: Camera, *, config: RenderConfig = RenderConfig(),
-            mask: jax.Array | None = None) -> Projected:
+def project(
+    gaussians: Gaussians,
+    camera: Camera,
+    *,
+    config: RenderConfig = RenderConfig(),
+    mask: jax.Array | None = None,
+) -> Projected:
     """EWA projection of 3-D Gaussians into a pinhole view (Kerbl et al. 2023, eq. 5).
 
     ``Σ' = J W Σ Wᵀ Jᵀ + eps2d·I`` with ``W`` the world-to-camera rotation and ``J`` the Jacobian of
@@ -172,13 +187,21 @@ def project(gaussians: Gaussians, camera: Camera, *, config: RenderConfig = Rend
     zs = jnp.where(valid, z, 1.0)
     # clamp x/z, y/z to 1.3× the frustum (gsplat's off-centre form of 3DGS' limit)
     lim = 0.3
-    tx = zs * jnp.clip(p[:, 0] / zs, -(cx / fx) - lim * camera.width / fx / 2,
-                       (camera.width - cx) / fx + lim * camera.width / fx / 2)
-    ty = zs * jnp.clip(p[:, 1] / zs, -(cy / fy) - lim * camera.height / fy / 2,
-                       (camera.height - cy) / fy + lim * camera.height / fy / 2)
+    tx = zs * jnp.clip(
+        p[:, 0] / zs,
+        -(cx / fx) - lim * camera.width / fx / 2,
+        (camera.width - cx) / fx + lim * camera.width / fx / 2,
+    )
+    ty = zs * jnp.clip(
+        p[:, 1] / zs,
+        -(cy / fy) - lim * camera.height / fy / 2,
+        (camera.height - cy) / fy + lim * camera.height / fy / 2,
+    )
     zero = jnp.zeros_like(zs)
-    J = jnp.stack([jnp.stack([fx / zs, zero, -fx * tx / zs**2], -1),
-                   jnp.stack([zero, fy / zs, -fy * ty / zs**2], -1)], -2)  # [G, 2, 3]
+    J = jnp.stack(
+        [jnp.stack([fx / zs, zero, -fx * tx / zs**2], -1), jnp.stack([zero, fy / zs, -fy * ty / zs**2], -1)],
+        -2,
+    )  # [G, 2, 3]
     T = J @ R  # [G, 2, 3]
     cov = T @ covariances_from(gaussians.quats, gaussians.log_scales) @ jnp.swapaxes(T, -1, -2)
     a = cov[:, 0, 0] + config.eps2d
@@ -196,8 +219,9 @@ def project(gaussians: Gaussians, camera: Camera, *, config: RenderConfig = Rend
     means2d = jnp.stack([fx * p[:, 0] / zs + cx, fy * p[:, 1] / zs + cy], axis=-1)
     means2d = jnp.where(valid[:, None], means2d, -1e6)
     opac = jnp.where(valid, gaussians.opacities, 0.0)
-    return Projected(means2d, conics, extents, jnp.where(valid, radii, 0.0), z, opac,
-                     gaussians.colours, valid)
+    return Projected(
+        means2d, conics, extents, jnp.where(valid, radii, 0.0), z, opac, gaussians.colours, valid
+    )
 
 
 def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig) -> jax.Array:
@@ -220,8 +244,12 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
     """
     K, N = colours.shape
     ch = config.chunk
-    xs = (means2d.reshape(K // ch, ch, 2), conics.reshape(K // ch, ch, 3),
-          opacities.reshape(K // ch, ch), colours.reshape(K // ch, ch, N))
+    xs = (
+        means2d.reshape(K // ch, ch, 2),
+        conics.reshape(K // ch, ch, 3),
+        opacities.reshape(K // ch, ch),
+        colours.reshape(K // ch, ch, N),
+    )
 
     log_tmin = float(np.log(config.transmittance_min)) if config.transmittance_min > 0 else -np.inf
 
@@ -263,8 +291,13 @@ def _sorted(pj: Projected) -> Projected:
 
 
 @partial(jax.jit, static_argnames=("config",))
-def render_reference(gaussians: Gaussians, camera: Camera, *, config: RenderConfig = RenderConfig(),
-                     mask: jax.Array | None = None) -> RenderOutput:
+def render_reference(
+    gaussians: Gaussians,
+    camera: Camera,
+    *,
+    config: RenderConfig = RenderConfig(),
+    mask: jax.Array | None = None,
+) -> RenderOutput:
     """Exact reference back-end: all Gaussians at every pixel (slow twin of :func:`render_tiled`).
 
     Same parameters and result as :func:`render`.
@@ -275,16 +308,22 @@ def render_reference(gaussians: Gaussians, camera: Camera, *, config: RenderConf
     K = -(-G // config.chunk) * config.chunk
     yy, xx = jnp.meshgrid(jnp.arange(H), jnp.arange(W), indexing="ij")
     px = jnp.stack([xx, yy], -1).reshape(-1, 2).astype(pj.means2d.dtype) + 0.5
-    C, T = _composite(px, _pad(pj.means2d, K, -1e6), _pad(pj.conics, K), _pad(pj.opacities, K),
-                      _pad(pj.colours, K), config)
+    C, T = _composite(
+        px, _pad(pj.means2d, K, -1e6), _pad(pj.conics, K), _pad(pj.opacities, K), _pad(pj.colours, K), config
+    )
     image = (C + config.background * T[:, None]).reshape(H, W, -1)
     n_valid = jnp.sum(pj.valid)
     return RenderOutput(image, (1 - T).reshape(H, W), jnp.zeros((), jnp.int32), n_valid.astype(jnp.int32))
 
 
 @partial(jax.jit, static_argnames=("config",))
-def render_tiled(gaussians: Gaussians, camera: Camera, *, config: RenderConfig = RenderConfig(),
-                 mask: jax.Array | None = None) -> RenderOutput:
+def render_tiled(
+    gaussians: Gaussians,
+    camera: Camera,
+    *,
+    config: RenderConfig = RenderConfig(),
+    mask: jax.Array | None = None,
+) -> RenderOutput:
     """Tiled back-end with a static per-tile capacity that counts what it drops.
 
     Same parameters and result as :func:`render`.
@@ -301,8 +340,13 @@ def render_tiled(gaussians: Gaussians, camera: Camera, *, config: RenderConfig =
     y0 = (ty.reshape(-1) * s + 0.5)[:, None]
     mx, my = pj.means2d[None, :, 0], pj.means2d[None, :, 1]
     ex, ey = pj.extents[None, :, 0], pj.extents[None, :, 1]
-    hits = (pj.valid[None, :] & (mx + ex >= x0) & (mx - ex <= x0 + s - 1)
-            & (my + ey >= y0) & (my - ey <= y0 + s - 1))  # [n_tiles, G]
+    hits = (
+        pj.valid[None, :]
+        & (mx + ex >= x0)
+        & (mx - ex <= x0 + s - 1)
+        & (my + ey >= y0)
+        & (my - ey <= y0 + s - 1)
+    )  # [n_tiles, G]
     counts = jnp.sum(hits, axis=1)
     # the first K hits of each tile, in depth order
     rank = jnp.arange(G, 0, -1)
@@ -318,8 +362,9 @@ def render_tiled(gaussians: Gaussians, camera: Camera, *, config: RenderConfig =
     off = jnp.stack([ox, oy], -1).reshape(-1, 2).astype(means2d.dtype)
     px = off[None] + jnp.stack([x0[:, 0], y0[:, 0]], -1)[:, None, :]  # [n_tiles, s*s, 2]
     used = jnp.minimum(counts, K)
-    C, T = jax.lax.map(lambda a: _composite(*a[:-1], config, n_used=a[-1]),
-                       (px, means2d, conics, opac, colours, used))  # [n_tiles, s*s, N], [n_tiles, s*s]
+    C, T = jax.lax.map(
+        lambda a: _composite(*a[:-1], config, n_used=a[-1]), (px, means2d, conics, opac, colours, used)
+    )  # [n_tiles, s*s, N], [n_tiles, s*s]
     C = C + config.background * T[..., None]
 
     def untile(x):
@@ -338,8 +383,14 @@ RENDER_METHODS.register("tiled", render_tiled, reference_twin="reference")
 RENDER_METHODS.register("reference", render_reference, reference_twin=None)
 
 
-def render(gaussians: Gaussians, camera: Camera, *, method: str = "tiled",
-           config: RenderConfig = RenderConfig(), mask: jax.Array | None = None) -> RenderOutput:
+def render(
+    gaussians: Gaussians,
+    camera: Camera,
+    *,
+    method: str = "tiled",
+    config: RenderConfig = RenderConfig(),
+    mask: jax.Array | None = None,
+) -> RenderOutput:
     """Render an (H, W, N) image of N-channel Gaussians from one camera (differentiable).
 
     Parameters

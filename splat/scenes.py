@@ -23,6 +23,7 @@ from .rendering import RenderConfig, render_reference
 
 __all__ = ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"]
 
+
 @dataclass(frozen=True)
 class SceneConfig:
     """Options of :func:`synthetic_scene`.
@@ -59,6 +60,7 @@ class SceneConfig:
     noise: tuple[float, float] = (2e-4, 1e-6)
     seed: int = 0
 
+
 @dataclass(frozen=True)
 class SyntheticScene:
     """Result of :func:`synthetic_scene` (V training views, T held-out views, N channels).
@@ -93,6 +95,7 @@ class SyntheticScene:
     wavelengths: np.ndarray
     bounds: np.ndarray
 
+
 def bayer_mask(height: int, width: int, pattern: str = "RGGB") -> np.ndarray:
     """Which of 3 channels each pixel of a Bayer mosaic measures, boolean of shape (H, W, 3).
 
@@ -105,8 +108,9 @@ def bayer_mask(height: int, width: int, pattern: str = "RGGB") -> np.ndarray:
         raise SplatError(f"pattern must be one of RGGB, BGGR, GRBG, GBRG; got {pattern!r}.")
     m = np.zeros((height, width, 3), bool)
     for k, ch in enumerate(pattern):
-        m[k // 2::2, k % 2::2, "RGB".index(ch)] = True
+        m[k // 2 :: 2, k % 2 :: 2, "RGB".index(ch)] = True
     return m
+
 
 def _scene_gaussians(refl_floor: np.ndarray, refl_blobs: np.ndarray, rng) -> tuple[np.ndarray, ...]:
     """Means, log-scales, quats, opacities and reflectance rows of the ground-truth Gaussians."""
@@ -131,6 +135,7 @@ def _scene_gaussians(refl_floor: np.ndarray, refl_blobs: np.ndarray, rng) -> tup
         refl.append(np.tile(refl_blobs[p], (120, 1)))
     means, scales, refl = (np.concatenate(a) for a in (means, scales, refl))
     return means, np.log(scales), refl
+
 
 def synthetic_scene(config: SceneConfig = SceneConfig()) -> SyntheticScene:
     """Render a synthetic multi-camera RAW capture of a procedural scene with real reflectances.
@@ -165,8 +170,13 @@ def synthetic_scene(config: SceneConfig = SceneConfig()) -> SyntheticScene:
     means, log_scales, rows = _scene_gaussians(refl[0], refl[-1], rng)
     colours = rows @ G.values  # (n_gauss, N)
     truth = init_gaussians(means, colours, opacity=0.95)
-    truth = Gaussians(truth.means, truth.quats, jnp.asarray(log_scales, jnp.float32),
-                      truth.opacity_logits, truth.colour_params)
+    truth = Gaussians(
+        truth.means,
+        truth.quats,
+        jnp.asarray(log_scales, jnp.float32),
+        truth.opacity_logits,
+        truth.colour_params,
+    )
     N = colours.shape[1]
     H, W = config.height, config.width
     ref_cfg = RenderConfig(chunk=64)
@@ -195,13 +205,24 @@ def synthetic_scene(config: SceneConfig = SceneConfig()) -> SyntheticScene:
     a, b = config.noise
     for v, (view, img) in enumerate(zip(train_views, clean)):
         idx = list(channels[view.camera_id])
-        m = (np.ones((H, W, 3), bool) if config.cameras[view.camera_id - 1] in config.full_colour
-             else bayer_mask(H, W))
+        m = (
+            np.ones((H, W, 3), bool)
+            if config.cameras[view.camera_id - 1] in config.full_colour
+            else bayer_mask(H, W)
+        )
         y = view.exposure * img[..., idx]
         y = y + np.sqrt(a * y + b) * rng.standard_normal(y.shape)
         images[v][..., idx] = np.where(m, np.clip(y, 0, 1), 0)
         weights[v][..., idx] = m
     lo, hi = means.min(0) - 0.1, means.max(0) + 0.1
-    return SyntheticScene(truth, Capture(tuple(train_views), channels, labels), images, weights,
-                          Capture(tuple(test_views), channels, labels), test_images.astype(np.float32),
-                          np.asarray(G.values), np.asarray(G.wavelengths), np.stack([lo, hi]))
+    return SyntheticScene(
+        truth,
+        Capture(tuple(train_views), channels, labels),
+        images,
+        weights,
+        Capture(tuple(test_views), channels, labels),
+        test_images.astype(np.float32),
+        np.asarray(G.values),
+        np.asarray(G.wavelengths),
+        np.stack([lo, hi]),
+    )

@@ -104,12 +104,60 @@ def _default_cameras(scale: float) -> tuple[SimCamera, ...]:
     sw, sh = size(112, 84)
     cw, ch = size(136, 90)
     return (
-        SimCamera("nikon", "Nikon 5100 (NPL)", "NIKON CORPORATION", "NIKON D5100", "DSC_", nw, nh, 62.0,
-                  "RGGB", 0, 16383, 25000.0, 3.0, 3.0, 2.0, 0.0),
-        SimCamera("sigma", "Sigma SDMerill (NPL)", "SIGMA", "SIGMA SD1 Merrill", "SDIM", sw, sh, 54.0,
-                  None, 64, 4095, 12000.0, 1.5, 3.3, 2.2, 4.0),
-        SimCamera("canon", "Canon EOS 5D Mark II", "Canon", "Canon EOS 5D Mark II", "IMG_", cw, ch, 48.0,
-                  "GBRG", 1024, 15520, 60000.0, 4.0, 3.6, 1.9, -4.0),
+        SimCamera(
+            "nikon",
+            "Nikon 5100 (NPL)",
+            "NIKON CORPORATION",
+            "NIKON D5100",
+            "DSC_",
+            nw,
+            nh,
+            62.0,
+            "RGGB",
+            0,
+            16383,
+            25000.0,
+            3.0,
+            3.0,
+            2.0,
+            0.0,
+        ),
+        SimCamera(
+            "sigma",
+            "Sigma SDMerill (NPL)",
+            "SIGMA",
+            "SIGMA SD1 Merrill",
+            "SDIM",
+            sw,
+            sh,
+            54.0,
+            None,
+            64,
+            4095,
+            12000.0,
+            1.5,
+            3.3,
+            2.2,
+            4.0,
+        ),
+        SimCamera(
+            "canon",
+            "Canon EOS 5D Mark II",
+            "Canon",
+            "Canon EOS 5D Mark II",
+            "IMG_",
+            cw,
+            ch,
+            48.0,
+            "GBRG",
+            1024,
+            15520,
+            60000.0,
+            4.0,
+            3.6,
+            1.9,
+            -4.0,
+        ),
     )
 
 
@@ -233,11 +281,11 @@ class SimScene:
         s = self.config.supersample
         H, W = cam.height, cam.width
         off = (np.arange(s) + 0.5) / s
-        u = (np.arange(W)[None, :, None, None] + off[None, None, None, :])
-        v = (np.arange(H)[:, None, None, None] + off[None, None, :, None])
+        u = np.arange(W)[None, :, None, None] + off[None, None, None, :]
+        v = np.arange(H)[:, None, None, None] + off[None, None, :, None]
         u, v = np.broadcast_arrays(u, v)
         d_cam = np.stack([(u - W / 2) / view.f, (v - H / 2) / view.f, np.ones_like(u)], axis=-1)
-        d = d_cam.reshape(-1, 3) @ view.R   # world directions (R^T d)
+        d = d_cam.reshape(-1, 3) @ view.R  # world directions (R^T d)
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         o = -view.R.T @ view.t
         idx, wts, _ = shade(self, o, d)
@@ -275,8 +323,10 @@ def _resample(msds, grid: np.ndarray) -> np.ndarray:
     w = np.asarray(msds.wavelengths, dtype=np.float64)
     v = np.asarray(msds.values, dtype=np.float64).reshape(len(w), -1)
     if grid[0] < w[0] - 1e-9 or grid[-1] > w[-1] + 1e-9:
-        raise SplatError(f"reflectance set {msds.name!r} covers {w[0]:g}–{w[-1]:g} nm, not the grid "
-                         f"{grid[0]:g}–{grid[-1]:g} nm; choose another set.")
+        raise SplatError(
+            f"reflectance set {msds.name!r} covers {w[0]:g}–{w[-1]:g} nm, not the grid "
+            f"{grid[0]:g}–{grid[-1]:g} nm; choose another set."
+        )
     return np.clip(np.stack([np.interp(grid, w, v[:, j]) for j in range(v.shape[1])], 0), 0.0, 1.0)
 
 
@@ -323,11 +373,16 @@ def build_scene(config: SimCaptureConfig = SimCaptureConfig()) -> SimScene:
     setups = [spectral_setup(c, illuminant=config.illuminant, shape=shape) for c in cams]
     rows, names = [np.full(grid.size, 0.9)], ["flat white 0.9"]
     cc = _resample(sets["ColorChecker N Ohta"], grid)
-    rows.append(cc[18 + 5])   # the chart's black patch: the dark cell borders and the chart body
+    rows.append(cc[18 + 5])  # the chart's black patch: the dark cell borders and the chart body
     names.append("ColorChecker N Ohta: black")
     palettes: dict[str, list[int]] = {}
-    for key, name in [("colorchecker", "ColorChecker N Ohta"), ("babel", "BabelColor Average"),
-                      ("natural", "rawtoaces 190"), ("tcs", "CIE 1995 TCS"), ("cqs", "NIST CQS 9.0")]:
+    for key, name in [
+        ("colorchecker", "ColorChecker N Ohta"),
+        ("babel", "BabelColor Average"),
+        ("natural", "rawtoaces 190"),
+        ("tcs", "CIE 1995 TCS"),
+        ("cqs", "NIST CQS 9.0"),
+    ]:
         R = _resample(sets[name], grid)
         palettes[key] = list(range(len(rows), len(rows) + len(R)))
         rows += list(R)
@@ -343,9 +398,17 @@ def build_scene(config: SimCaptureConfig = SimCaptureConfig()) -> SimScene:
     pal["wall"] = np.concatenate([pal["natural"], pal["cqs"], pal["colorchecker"][18:]])
     library = np.asarray(rows)
     views = _views(config)
-    return SimScene(config=config, wavelengths=grid, library=library, library_names=names,
-                    camera_generators=[s.camera for s in setups], neutrals=[s.neutral for s in setups],
-                    observer=setups[0].observer, views=views, palettes=pal)
+    return SimScene(
+        config=config,
+        wavelengths=grid,
+        library=library,
+        library_names=names,
+        camera_generators=[s.camera for s in setups],
+        neutrals=[s.neutral for s in setups],
+        observer=setups[0].observer,
+        views=views,
+        palettes=pal,
+    )
 
 
 def _check_config(config: SimCaptureConfig) -> None:
@@ -354,25 +417,34 @@ def _check_config(config: SimCaptureConfig) -> None:
     if not config.cameras:
         raise SplatError("SimCaptureConfig.cameras is empty; give at least one SimCamera.")
     if len({c.folder for c in config.cameras}) != len(config.cameras):
-        raise SplatError("SimCaptureConfig.cameras: folders must differ; got "
-                         f"{[c.folder for c in config.cameras]}.")
+        raise SplatError(
+            f"SimCaptureConfig.cameras: folders must differ; got {[c.folder for c in config.cameras]}."
+        )
     if config.n_train < 2 or config.n_holdout < 0 or config.n_holdout > config.n_train - 1:
-        raise SplatError(f"n_train={config.n_train}, n_holdout={config.n_holdout}: need n_train ≥ 2 and "
-                         "0 ≤ n_holdout ≤ n_train − 1 (held-out views lie between training views).")
+        raise SplatError(
+            f"n_train={config.n_train}, n_holdout={config.n_holdout}: need n_train ≥ 2 and "
+            "0 ≤ n_holdout ≤ n_train − 1 (held-out views lie between training views)."
+        )
     if config.supersample < 1:
         raise SplatError(f"supersample={config.supersample}: must be ≥ 1 (2 or more anti-aliases).")
     if not 0 < config.gain <= 1:
         raise SplatError(f"gain={config.gain}: must lie in (0, 1] (fraction of the raw range).")
     for c in config.cameras:
         if c.width % 2 or c.height % 2 or min(c.width, c.height) < 22:
-            raise SplatError(f"camera {c.folder!r}: size {c.width} × {c.height} must be even and ≥ 22 px "
-                             "a side (LibRaw refuses smaller DNGs).")
+            raise SplatError(
+                f"camera {c.folder!r}: size {c.width} × {c.height} must be even and ≥ 22 px "
+                "a side (LibRaw refuses smaller DNGs)."
+            )
         if c.ssf not in zonotope.CAMERAS:
-            raise SplatError(f"camera {c.folder!r}: ssf={c.ssf!r} is not a built-in camera; choose one of "
-                             f"{sorted(zonotope.CAMERAS)}.")
+            raise SplatError(
+                f"camera {c.folder!r}: ssf={c.ssf!r} is not a built-in camera; choose one of "
+                f"{sorted(zonotope.CAMERAS)}."
+            )
         if not 0 <= c.black_level < c.white_level <= 65535:
-            raise SplatError(f"camera {c.folder!r}: need 0 ≤ black_level ({c.black_level}) < white_level "
-                             f"({c.white_level}) ≤ 65535.")
+            raise SplatError(
+                f"camera {c.folder!r}: need 0 ≤ black_level ({c.black_level}) < white_level "
+                f"({c.white_level}) ≤ 65535."
+            )
 
 
 def _views(config: SimCaptureConfig) -> list[SimView]:
@@ -386,28 +458,40 @@ def _views(config: SimCaptureConfig) -> list[SimView]:
         positions.sort()
         for num, (pos, hold) in enumerate(positions, start=1):
             az = np.radians(cam.azimuth_offset - 90 + config.arc_deg * (pos / (nt - 1) - 0.5))
-            eye = (cam.radius * np.cos(az), cam.radius * np.sin(az),
-                   cam.eye_height + 0.15 * np.sin(2.3 * pos + ci))
+            eye = (
+                cam.radius * np.cos(az),
+                cam.radius * np.sin(az),
+                cam.eye_height + 0.15 * np.sin(2.3 * pos + ci),
+            )
             target = (0.05 * np.sin(1.7 * pos), -0.2 + 0.05 * np.cos(1.3 * pos + ci), 0.25)
             R, t = _look_at(eye, target)
             f = 0.5 * cam.width / np.tan(np.radians(cam.fov_deg) / 2)
-            views.append(SimView(ci, f"{cam.prefix}{num:04d}", R, t, float(f),
-                                 float(rng.choice(_TIMES)), int(rng.choice(_ISOS)),
-                                 float(rng.choice(_FNUMBERS)),
-                                 hold))
+            views.append(
+                SimView(
+                    ci,
+                    f"{cam.prefix}{num:04d}",
+                    R,
+                    t,
+                    float(f),
+                    float(rng.choice(_TIMES)),
+                    int(rng.choice(_ISOS)),
+                    float(rng.choice(_FNUMBERS)),
+                    hold,
+                )
+            )
     # keep every exposure within ±max_stops of the median by re-drawing the time
-    P = np.array([v.exposure_time * v.iso / v.f_number ** 2 for v in views])
+    P = np.array([v.exposure_time * v.iso / v.f_number**2 for v in views])
     med = np.median(P)
     out = []
     for v in views:
-        p = v.exposure_time * v.iso / v.f_number ** 2
+        p = v.exposure_time * v.iso / v.f_number**2
         if abs(np.log2(p / med)) > config.max_stops:
             target = med * 2.0 ** rng.uniform(-config.max_stops, config.max_stops)
             ts = np.array(_TIMES)
-            t = float(ts[np.argmin(np.abs(np.log2(ts * v.iso / v.f_number ** 2 / target)))])
+            t = float(ts[np.argmin(np.abs(np.log2(ts * v.iso / v.f_number**2 / target)))])
             v = replace(v, exposure_time=t)
         out.append(v)
-    P = np.array([v.exposure_time * v.iso / v.f_number ** 2 for v in out])
+    P = np.array([v.exposure_time * v.iso / v.f_number**2 for v in out])
     med = np.median(P)
     return [replace(v, relative_exposure=float(p / med)) for v, p in zip(out, P)]
 
@@ -506,8 +590,9 @@ def _is_simulator_output(path: Path) -> bool:
         return False
 
 
-def write_synthetic_capture(out_dir: str | os.PathLike, config: SimCaptureConfig | None = None, *,
-                            overwrite: bool = False) -> Path:
+def write_synthetic_capture(
+    out_dir: str | os.PathLike, config: SimCaptureConfig | None = None, *, overwrite: bool = False
+) -> Path:
     """Simulate a three-camera capture and write it as RAW files, ``capture.toml`` and ``truth/``.
 
     Parameters
@@ -544,9 +629,15 @@ def write_synthetic_capture(out_dir: str | os.PathLike, config: SimCaptureConfig
     out = Path(out_dir)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         if not (overwrite and out.is_dir() and _is_simulator_output(out)):
-            raise SplatError(f"out_dir {out} exists and is not empty" + (
-                " and is not an output of splat.simcapture; choose an empty or new folder." if overwrite else
-                "; choose a new folder, or pass overwrite=True to replace a previous simulator output."))
+            raise SplatError(
+                f"out_dir {out} exists and is not empty"
+                + (
+                    " and is not an output of splat.simcapture; choose an empty or new folder."
+                    if overwrite
+                    else "; choose a new folder, or pass overwrite=True to replace a previous"
+                    " simulator output."
+                )
+            )
     scene = build_scene(config)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
@@ -560,8 +651,10 @@ def write_synthetic_capture(out_dir: str | os.PathLike, config: SimCaptureConfig
             cm1, cm2 = _color_matrices(scene, ci)
             for v in (v for v in scene.views if v.camera == ci):
                 idx, wts = scene.trace(v)
-                resp = np.einsum("hwsk,hwskc->hwc", wts,
-                                 (scene.library @ scene.camera_generators[ci])[idx]) / idx.shape[2]
+                resp = (
+                    np.einsum("hwsk,hwskc->hwc", wts, (scene.library @ scene.camera_generators[ci])[idx])
+                    / idx.shape[2]
+                )
                 dn = _raw_values(scene, v, resp, rng)
                 box = None if v.holdout else _white_box(idx, wts)
                 if box is not None:
@@ -570,57 +663,103 @@ def write_synthetic_capture(out_dir: str | os.PathLike, config: SimCaptureConfig
                     area = (x1 - x0) * (y1 - y0)
                     if peak < 0.9 and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
-                write_dng(tmp / cam.folder / f"{v.stem}.dng", dn, cfa=cam.cfa or "RGGB",
-                          black_level=cam.black_level, white_level=cam.white_level, color_matrix_1=cm1,
-                          calibration_illuminant_1=17, color_matrix_2=cm2, calibration_illuminant_2=21,
-                          as_shot_neutral=scene.neutrals[ci], make=cam.make, model=cam.model,
-                          exposure_time=v.exposure_time, iso=v.iso, f_number=v.f_number)
+                write_dng(
+                    tmp / cam.folder / f"{v.stem}.dng",
+                    dn,
+                    cfa=cam.cfa or "RGGB",
+                    black_level=cam.black_level,
+                    white_level=cam.white_level,
+                    color_matrix_1=cm1,
+                    calibration_illuminant_1=17,
+                    color_matrix_2=cm2,
+                    calibration_illuminant_2=21,
+                    as_shot_neutral=scene.neutrals[ci],
+                    make=cam.make,
+                    model=cam.model,
+                    exposure_time=v.exposure_time,
+                    iso=v.iso,
+                    f_number=v.f_number,
+                )
                 if v.holdout:
-                    XYZ = np.einsum("hwsk,hwskc->hwc", wts,
-                                    (scene.library @ scene.observer)[idx]) / idx.shape[2]
+                    XYZ = (
+                        np.einsum("hwsk,hwskc->hwc", wts, (scene.library @ scene.observer)[idx])
+                        / idx.shape[2]
+                    )
                     (tmp / "truth" / "xyz" / cam.folder).mkdir(exist_ok=True)
-                    tifffile.imwrite(tmp / "truth" / "xyz" / cam.folder / f"{v.stem}.tiff",
-                                     XYZ.astype(np.float32), photometric="rgb")
+                    tifffile.imwrite(
+                        tmp / "truth" / "xyz" / cam.folder / f"{v.stem}.tiff",
+                        XYZ.astype(np.float32),
+                        photometric="rgb",
+                    )
                 iid = len(images) + 1
-                images[iid] = cm.ColmapImage(iid, _qvec(v.R), np.asarray(v.t, float), ci + 1,
-                                             f"{cam.folder}/{v.stem}.dng")
-                view_rows.append({"image": f"{cam.folder}/{v.stem}.dng", "holdout": v.holdout,
-                                  "exposure_time": v.exposure_time, "iso": v.iso, "f_number": v.f_number,
-                                  "relative_exposure": v.relative_exposure})
+                images[iid] = cm.ColmapImage(
+                    iid, _qvec(v.R), np.asarray(v.t, float), ci + 1, f"{cam.folder}/{v.stem}.dng"
+                )
+                view_rows.append(
+                    {
+                        "image": f"{cam.folder}/{v.stem}.dng",
+                        "holdout": v.holdout,
+                        "exposure_time": v.exposure_time,
+                        "iso": v.iso,
+                        "f_number": v.f_number,
+                        "relative_exposure": v.relative_exposure,
+                    }
+                )
         # intrinsics (one COLMAP camera per physical camera: all its views share the focal length)
         for ci, cam in enumerate(config.cameras):
             f = next(v.f for v in scene.views if v.camera == ci)
-            cameras[ci + 1] = cm.ColmapCamera(ci + 1, "PINHOLE", cam.width, cam.height,
-                                              (f, f, cam.width / 2, cam.height / 2))
+            cameras[ci + 1] = cm.ColmapCamera(
+                ci + 1, "PINHOLE", cam.width, cam.height, (f, f, cam.width / 2, cam.height / 2)
+            )
         cm.write_colmap(cm.ColmapModel(cameras, images, _surface_points(scene)), tmp / "truth", binary=False)
         if white is None:
-            raise SplatError("the white card is seen whole and unsaturated in no training view; change the "
-                             "cameras' orbits or lower SimCaptureConfig.gain.")
+            raise SplatError(
+                "the white card is seen whole and unsaturated in no training view; change the "
+                "cameras' orbits or lower SimCaptureConfig.gain."
+            )
         holdout = [f"{config.cameras[v.camera].folder}/{v.stem}.dng" for v in scene.views if v.holdout]
-        text = [f"# Simulated capture written by {_GENERATOR} (seed {config.seed}); ground truth in truth/.",
-                f"illuminant = {_toml_value(config.illuminant)}", f"observer = {_toml_value(_OBSERVER)}", ""]
+        text = [
+            f"# Simulated capture written by {_GENERATOR} (seed {config.seed}); ground truth in truth/.",
+            f"illuminant = {_toml_value(config.illuminant)}",
+            f"observer = {_toml_value(_OBSERVER)}",
+            "",
+        ]
         for cam in config.cameras:
             text.append(_toml_table("camera", {"folder": cam.folder, "ssf": cam.ssf}, array=True))
-        text.append(_toml_table("white", {"method": "patch", "image": white[1], "box": white[2],
-                                          "reflectance": 0.9}))
+        text.append(
+            _toml_table("white", {"method": "patch", "image": white[1], "box": white[2], "reflectance": 0.9})
+        )
         if holdout:
             text.append(_toml_table("holdout", {"images": holdout}))
         (tmp / "capture.toml").write_text("\n".join(text))
-        truth = [f"generator = {_toml_value(_GENERATOR)}", f"seed = {config.seed}",
-                 f"illuminant = {_toml_value(config.illuminant)}", f"observer = {_toml_value(_OBSERVER)}",
-                 "wavelengths = " + _toml_value([float(scene.wavelengths[0]), float(scene.wavelengths[-1]),
-                                                 config.interval]),
-                 f"gain = {config.gain}", f"supersample = {config.supersample}",
-                 f"noise = {_toml_value(config.noise)}",
-                 "xyz_scale = \"perfect white reflector under the illuminant has Y = 1 (exposure 1)\"",
-                 "exposure_model = \"raw fraction of (white - black) = gain * relative_exposure * response; "
-                 "relative_exposure = t*ISO/N^2 / median over all views; "
-                 "response: white's largest channel = 1\"",
-                 "white_card = " + _toml_value({"reflectance": 0.9, "x0": CARD[0], "y0": CARD[1],
-                                                "side": CARD[2]}),
-                 "chart = " + _toml_value({"set": "ColorChecker N Ohta", "x0": CHART[0], "y0": CHART[1],
-                                           "side": CHART[2], "gap": CHART[3]}),
-                 ""]
+        truth = [
+            f"generator = {_toml_value(_GENERATOR)}",
+            f"seed = {config.seed}",
+            f"illuminant = {_toml_value(config.illuminant)}",
+            f"observer = {_toml_value(_OBSERVER)}",
+            "wavelengths = "
+            + _toml_value([float(scene.wavelengths[0]), float(scene.wavelengths[-1]), config.interval]),
+            f"gain = {config.gain}",
+            f"supersample = {config.supersample}",
+            f"noise = {_toml_value(config.noise)}",
+            'xyz_scale = "perfect white reflector under the illuminant has Y = 1 (exposure 1)"',
+            'exposure_model = "raw fraction of (white - black) = gain * relative_exposure * response; '
+            "relative_exposure = t*ISO/N^2 / median over all views; "
+            "response: white's largest channel = 1\"",
+            "white_card = "
+            + _toml_value({"reflectance": 0.9, "x0": CARD[0], "y0": CARD[1], "side": CARD[2]}),
+            "chart = "
+            + _toml_value(
+                {
+                    "set": "ColorChecker N Ohta",
+                    "x0": CHART[0],
+                    "y0": CHART[1],
+                    "side": CHART[2],
+                    "gap": CHART[3],
+                }
+            ),
+            "",
+        ]
         for ci, cam in enumerate(config.cameras):
             d = {k: v for k, v in asdict(cam).items() if v is not None}
             d["kind"] = "bayer" if cam.cfa else "full-colour (LinearRaw)"
@@ -669,8 +808,9 @@ def _surface_points(scene: SimScene, per_view: int = 400):
         ok = np.isfinite(t)
         for p, c in zip(o + t[ok, None] * d[ok], rgb[ok]):
             pid = len(points) + 1
-            points[pid] = ColmapPoint3D(pid, p, np.round(c * 255).astype(np.uint8), 0.0,
-                                        np.zeros(0, np.int64), np.zeros(0, np.int64))
+            points[pid] = ColmapPoint3D(
+                pid, p, np.round(c * 255).astype(np.uint8), 0.0, np.zeros(0, np.int64), np.zeros(0, np.int64)
+            )
     return points
 
 
@@ -679,15 +819,21 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
     import time
 
-    parser = argparse.ArgumentParser(prog="python -m splat.simcapture",
-                                     description="Write a simulated three-camera RAW capture (DNG files, "
-                                                 "capture.toml, truth/).")
+    parser = argparse.ArgumentParser(
+        prog="python -m splat.simcapture",
+        description="Write a simulated three-camera RAW capture (DNG files, capture.toml, truth/).",
+    )
     parser.add_argument("out", help="capture folder to create")
     parser.add_argument("--size", choices=("ci", "benchmark"), default="ci")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-noise", action="store_true", help="noise-free forward model")
-    parser.add_argument("--extra-reflectances", nargs="*", default=[], metavar="SET",
-                        help="more reflectance sets (built-in names or files)")
+    parser.add_argument(
+        "--extra-reflectances",
+        nargs="*",
+        default=[],
+        metavar="SET",
+        help="more reflectance sets (built-in names or files)",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace a previous simulator output")
     args = parser.parse_args(argv)
     make = SimCaptureConfig.ci if args.size == "ci" else SimCaptureConfig.benchmark

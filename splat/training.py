@@ -27,8 +27,18 @@ from .data import Capture
 from .gaussians import Gaussians, init_gaussians
 from .rendering import RenderConfig, render
 
-__all__ = ["TrainConfig", "TrainResult", "TrainState", "init_state", "load_checkpoint", "rawnerf_loss",
-           "save_checkpoint", "stack_cameras", "train", "train_step"]
+__all__ = [
+    "TrainConfig",
+    "TrainResult",
+    "TrainState",
+    "init_state",
+    "load_checkpoint",
+    "rawnerf_loss",
+    "save_checkpoint",
+    "stack_cameras",
+    "train",
+    "train_step",
+]
 
 _FIELDS = ("means", "quats", "log_scales", "opacity_logits", "colour_params")
 
@@ -132,8 +142,10 @@ def stack_cameras(cameras) -> Camera:
     """Stack cameras of one image size into one Camera with a leading view axis (for jit/vmap)."""
     cameras = list(cameras)
     if len({(c.width, c.height) for c in cameras}) != 1:
-        raise SplatError("all views must share one image size to be trained together; got "
-                         f"{sorted({(c.width, c.height) for c in cameras})}.")
+        raise SplatError(
+            "all views must share one image size to be trained together; got "
+            f"{sorted({(c.width, c.height) for c in cameras})}."
+        )
     return jax.tree.map(lambda *x: jnp.stack(x), *cameras)
 
 
@@ -141,14 +153,20 @@ def _optimiser(config: TrainConfig, extent: float) -> optax.GradientTransformati
     def adam(lr):
         return optax.adam(optax.exponential_decay(lr, config.steps, config.lr_final), eps=1e-15)
 
-    rates = (config.lr_means * extent, config.lr_quats, config.lr_log_scales, config.lr_opacity,
-             config.lr_colours)
+    rates = (
+        config.lr_means * extent,
+        config.lr_quats,
+        config.lr_log_scales,
+        config.lr_opacity,
+        config.lr_colours,
+    )
     labels = Gaussians(*_FIELDS)
     return optax.multi_transform({k: adam(r) for k, r in zip(_FIELDS, rates)}, labels)
 
 
-def init_state(config: TrainConfig, *, bounds, n_channels: int, points=None, colours=None,
-               n_init: int | None = None) -> TrainState:
+def init_state(
+    config: TrainConfig, *, bounds, n_channels: int, points=None, colours=None, n_init: int | None = None
+) -> TrainState:
     """A fresh training state: ``n_init`` Gaussians alive in a buffer of ``config.capacity``.
 
     Parameters
@@ -182,13 +200,23 @@ def init_state(config: TrainConfig, *, bounds, n_channels: int, points=None, col
     params = init_gaussians(full, col, scales=scale, opacity=0.1, key=jax.random.key(config.seed))
     alive = jnp.arange(G) < n_init
     opt = _optimiser(config, extent)
-    return TrainState(params, opt.init(params), alive, jnp.zeros(G), jnp.zeros(G), 0,
-                      jax.random.key(config.seed + 1))
+    return TrainState(
+        params, opt.init(params), alive, jnp.zeros(G), jnp.zeros(G), 0, jax.random.key(config.seed + 1)
+    )
 
 
 @partial(jax.jit, static_argnames=("config", "extent"))
-def train_step(state: TrainState, camera: Camera, image, weight, channel_mask, exposure, *,
-               config: TrainConfig, extent: float):
+def train_step(
+    state: TrainState,
+    camera: Camera,
+    image,
+    weight,
+    channel_mask,
+    exposure,
+    *,
+    config: TrainConfig,
+    extent: float,
+):
     """One Adam step on one view; returns the new state (step not incremented), loss and drops.
 
     Parameters
@@ -212,14 +240,23 @@ def train_step(state: TrainState, camera: Camera, image, weight, channel_mask, e
     params = optax.apply_updates(state.params, updates)
     gnorm = jnp.linalg.norm(grads.means, axis=-1)
     seen = gnorm > 0
-    return state._replace(params=params, opt_state=opt_state, grad_accum=state.grad_accum + gnorm,
-                          grad_count=state.grad_count + seen), loss, dropped
+    return (
+        state._replace(
+            params=params,
+            opt_state=opt_state,
+            grad_accum=state.grad_accum + gnorm,
+            grad_count=state.grad_count + seen,
+        ),
+        loss,
+        dropped,
+    )
 
 
 def _reset_rows(tree, rows: np.ndarray, G: int):
     rows = jnp.asarray(rows)
-    return jax.tree.map(lambda x: x.at[rows].set(0) if getattr(x, "ndim", 0) >= 1 and x.shape[0] == G else x,
-                        tree)
+    return jax.tree.map(
+        lambda x: x.at[rows].set(0) if getattr(x, "ndim", 0) >= 1 and x.shape[0] == G else x, tree
+    )
 
 
 def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainState:
@@ -257,18 +294,23 @@ def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainStat
         changed = [dst, src[big]]
     rows = np.concatenate(changed).astype(np.int64)
     params = Gaussians(**{k: jnp.asarray(v) for k, v in p.items()})
-    return state._replace(params=params, opt_state=_reset_rows(state.opt_state, rows, G),
-                          alive=jnp.asarray(alive), grad_accum=jnp.zeros(G), grad_count=jnp.zeros(G))
+    return state._replace(
+        params=params,
+        opt_state=_reset_rows(state.opt_state, rows, G),
+        alive=jnp.asarray(alive),
+        grad_accum=jnp.zeros(G),
+        grad_count=jnp.zeros(G),
+    )
 
 
 def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
     from zonotope._io import atomic_path
 
-    leaves = jax.tree.leaves((state.params, state.opt_state, state.alive, state.grad_accum,
-                              state.grad_count))
+    leaves = jax.tree.leaves((state.params, state.opt_state, state.alive, state.grad_accum, state.grad_count))
     arrays = {f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)}
     key = np.asarray(jax.random.key_data(state.key))
+
     # written to a temporary sibling, synced, then renamed: a kill mid-save leaves the previous
     # checkpoint intact (np.savez in place truncated it first)
     def write(tmp: Path) -> None:
@@ -285,21 +327,34 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
     with np.load(path) as f:
         stored = sorted(k for k in f.files if k.startswith("leaf_"))
         if len(stored) != len(leaves):
-            raise SplatError(f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
-                             f"{len(leaves)} (capacity or channels changed?).")
+            raise SplatError(
+                f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
+                f"{len(leaves)} (capacity or channels changed?)."
+            )
         new = [jnp.asarray(f[k]) for k in stored]
         for a, b in zip(new, leaves):
             if a.shape != np.shape(b):
-                raise SplatError(f"checkpoint {path} holds an array of shape {a.shape} where {np.shape(b)} "
-                                 "is expected (capacity or channels changed?).")
+                raise SplatError(
+                    f"checkpoint {path} holds an array of shape {a.shape} where {np.shape(b)} "
+                    "is expected (capacity or channels changed?)."
+                )
         step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
     params, opt_state, alive, ga, gc = jax.tree.unflatten(treedef, new)
     return TrainState(params, opt_state, alive, ga, gc, step, key)
 
 
-def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfig(), bounds,
-          points=None, colours=None, resume: str | Path | None = None,
-          callback=None) -> TrainResult:
+def train(
+    capture: Capture,
+    images,
+    weights,
+    *,
+    config: TrainConfig = TrainConfig(),
+    bounds,
+    points=None,
+    colours=None,
+    resume: str | Path | None = None,
+    callback=None,
+) -> TrainResult:
     """Fit N-channel Gaussians to the RAW views of a multi-camera capture.
 
     Parameters
@@ -329,8 +384,10 @@ def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfi
     weights = jnp.asarray(weights, jnp.float32)
     V, N = len(capture.views), capture.n_channels
     if images.shape != weights.shape or images.ndim != 4 or images.shape[0] != V or images.shape[-1] != N:
-        raise SplatError(f"images and weights must both have shape (V={V}, H, W, N={N}); got "
-                         f"{images.shape} and {weights.shape}.")
+        raise SplatError(
+            f"images and weights must both have shape (V={V}, H, W, N={N}); got "
+            f"{images.shape} and {weights.shape}."
+        )
     cams = stack_cameras(v.camera for v in capture.views)
     if (cams.height, cams.width) != images.shape[1:3]:
         raise SplatError(f"views are {cams.height}×{cams.width} pixels but images are {images.shape[1:3]}.")
@@ -344,13 +401,16 @@ def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfi
     used = (weights * masks[:, None, None, :]) > 0
     if not bool(jnp.all(jnp.isfinite(images) | ~used)):
         v_bad = int(jnp.argmax(jnp.any(~jnp.isfinite(images) & used, axis=(1, 2, 3))))
-        raise SplatError(f"images: view {v_bad} ({capture.views[v_bad].name!r}) has NaN or inf in channels "
-                         "it measures with a weight > 0; set their weight to 0 or fix the data.")
+        raise SplatError(
+            f"images: view {v_bad} ({capture.views[v_bad].name!r}) has NaN or inf in channels "
+            "it measures with a weight > 0; set their weight to 0 or fix the data."
+        )
     images = jnp.where(used, images, 0.0)
     bounds = np.asarray(bounds, float)
     if bounds.shape != (2, 3) or not np.all(np.isfinite(bounds)) or not np.all(bounds[1] > bounds[0]):
-        raise SplatError(f"bounds: expected a finite (2, 3) box [min, max] with max > min, got "
-                         f"{bounds.tolist()}.")
+        raise SplatError(
+            f"bounds: expected a finite (2, 3) box [min, max] with max > min, got {bounds.tolist()}."
+        )
     extent = float(np.linalg.norm(bounds[1] - bounds[0]))
     state = init_state(config, bounds=bounds, n_channels=N, points=points, colours=colours)
     if resume is not None:
@@ -364,11 +424,11 @@ def train(capture: Capture, images, weights, *, config: TrainConfig = TrainConfi
         step = state.step
         v = int(order(step // V)[step % V])
         cam = jax.tree.map(lambda x, v=v: x[v], cams)
-        state, loss, dropped = train_step(state, cam, images[v], weights[v], masks[v], exposures[v],
-                                          config=config, extent=extent)
+        state, loss, dropped = train_step(
+            state, cam, images[v], weights[v], masks[v], exposures[v], config=config, extent=extent
+        )
         state = state._replace(step=step + 1)
-        if (config.densify_from <= step + 1 < config.densify_until
-                and (step + 1) % config.densify_every == 0):
+        if config.densify_from <= step + 1 < config.densify_until and (step + 1) % config.densify_every == 0:
             state = _densify(state, config, extent)
         hist["loss"].append(loss)
         hist["n_dropped"].append(dropped)

@@ -39,23 +39,43 @@ class LocalDaskCluster:
         self.env = {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1", "JAX_PLATFORMS": "cpu"}
         self.env.pop("ZONOTOPE_SCHEDULER", None)
         self.procs: list[subprocess.Popen] = []
-        self.scheduler = self._spawn([self.dask, "scheduler", "--host", "127.0.0.1", "--port", str(self.port),
-                                      "--no-dashboard"])
+        self.scheduler = self._spawn(
+            [self.dask, "scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--no-dashboard"]
+        )
         self.workers: list[subprocess.Popen] = []
         for _ in range(n_workers):
             self.add_worker()
         self.wait_for(n_workers, timeout)
 
     def _spawn(self, cmd) -> subprocess.Popen:
-        p = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL, start_new_session=True)
+        p = subprocess.Popen(
+            cmd,
+            cwd=ROOT,
+            env=self.env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
         self.procs.append(p)
         return p
 
     def add_worker(self) -> subprocess.Popen:
         """Start one more worker (one thread, no nanny: SIGKILL ends it at once)."""
-        w = self._spawn([self.dask, "worker", self.address, "--nthreads", "1", "--no-nanny",
-                         "--no-dashboard", "--host", "127.0.0.1", "--death-timeout", "60"])
+        w = self._spawn(
+            [
+                self.dask,
+                "worker",
+                self.address,
+                "--nthreads",
+                "1",
+                "--no-nanny",
+                "--no-dashboard",
+                "--host",
+                "127.0.0.1",
+                "--death-timeout",
+                "60",
+            ]
+        )
         self.workers.append(w)
         return w
 

@@ -50,8 +50,11 @@ def _imports(path: Path, package: str) -> list[tuple[int, str]]:
                     out += [(node.lineno, f"{base}.{a.name}") for a in node.names]
             elif node.module:
                 out.append((node.lineno, node.module))
-                out += [(node.lineno, f"{node.module}.{a.name}") for a in node.names
-                        if (ROOT / node.module.replace(".", "/") / f"{a.name}.py").exists()]
+                out += [
+                    (node.lineno, f"{node.module}.{a.name}")
+                    for a in node.names
+                    if (ROOT / node.module.replace(".", "/") / f"{a.name}.py").exists()
+                ]
     return out
 
 
@@ -79,8 +82,9 @@ def test_zonotope_layers(path):
     assert not bad, f"zonotope/{path.name} imports a higher layer:\n" + "\n".join(bad)
 
 
-@pytest.mark.parametrize("path", [*_modules("isp"), *_modules("splat")],
-                         ids=lambda p: f"{p.parent.name}.{p.stem}")
+@pytest.mark.parametrize(
+    "path", [*_modules("isp"), *_modules("splat")], ids=lambda p: f"{p.parent.name}.{p.stem}"
+)
 def test_isp_and_splat_use_public_names(path):
     package = path.parent.name
     bad = []
@@ -121,8 +125,9 @@ MODULE_NAMESPACES = {
 }
 
 
-@pytest.mark.parametrize("module", sorted(m for m in RANK
-                                          if not m.startswith("_") and m not in MODULE_NAMESPACES))
+@pytest.mark.parametrize(
+    "module", sorted(m for m in RANK if not m.startswith("_") and m not in MODULE_NAMESPACES)
+)
 def test_zonotope_reexports_every_public_name(module):
     import zonotope
 
@@ -147,15 +152,29 @@ def test_import_zonotope_stays_light():
     import subprocess
     import sys
 
-    code = ("import sys, zonotope; print(sorted(m for m in ('pyvista', 'jax', 'zonotope.mismatch', "
-            "'zonotope.correct', 'zonotope.viz', 'isp', 'splat') if m in sys.modules))")
+    code = (
+        "import sys, zonotope; print(sorted(m for m in ('pyvista', 'jax', 'zonotope.mismatch', "
+        "'zonotope.correct', 'zonotope.viz', 'isp', 'splat') if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
 
 #: isp's public modules (data-flow order) whose names ``isp`` re-exports; ``cli`` is the command.
-ISP_MODULES = ["raw", "dng", "exif", "stages", "whitebalance", "pipeline", "metamer", "dcp", "profile_fit",
-               "io", "batch", "simulate"]
+ISP_MODULES = [
+    "raw",
+    "dng",
+    "exif",
+    "stages",
+    "whitebalance",
+    "pipeline",
+    "metamer",
+    "dcp",
+    "profile_fit",
+    "io",
+    "batch",
+    "simulate",
+]
 
 
 @pytest.mark.parametrize("module", ISP_MODULES)

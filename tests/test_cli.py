@@ -8,15 +8,35 @@ from zonotope.cli import main
 
 
 def test_summary_still_works(capsys):
-    assert main(["summary", "--camera", "Nikon 5100 (NPL)", "--start", "400", "--end", "700",
-                 "--interval", "10"]) == 0
+    assert (
+        main(
+            ["summary", "--camera", "Nikon 5100 (NPL)", "--start", "400", "--end", "700", "--interval", "10"]
+        )
+        == 0
+    )
     assert "Nikon 5100" in capsys.readouterr().out
 
 
 def test_evaluate_command(tmp_path, capsys):
     md = tmp_path / "table.md"
-    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--method", "root-polynomial",
-                 "--method", "prior", "--atypical", "4", "--markdown", str(md)]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "--camera",
+                "Nikon 5100 (NPL)",
+                "--method",
+                "root-polynomial",
+                "--method",
+                "prior",
+                "--atypical",
+                "4",
+                "--markdown",
+                str(md),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "CIEDE2000" in out and "Prior" in out
     assert "| Nikon 5100 (NPL) |" in md.read_text()
@@ -29,8 +49,9 @@ def test_evaluate_unknown_camera_is_a_clear_error(capsys):
 
 
 def test_evaluate_duplicated_camera(capsys):
-    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--camera", "nikon 5100",
-                 "--atypical", "2"]) == 2
+    assert (
+        main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--camera", "nikon 5100", "--atypical", "2"]) == 2
+    )
     assert "more than once" in capsys.readouterr().err
 
 
@@ -40,8 +61,22 @@ def test_evaluate_mismatched_grid_hint(capsys):
     err = capsys.readouterr().err
     assert "680" in err and "--end" in err
     # ... while the default grid narrows itself to the range the cameras share
-    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--camera", "Sigma SDMerill (NPL)",
-                 "--method", "Finlayson 2015", "--atypical", "2"]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "--camera",
+                "Nikon 5100 (NPL)",
+                "--camera",
+                "Sigma SDMerill (NPL)",
+                "--method",
+                "Finlayson 2015",
+                "--atypical",
+                "2",
+            ]
+        )
+        == 0
+    )
     assert "400–680 nm" in capsys.readouterr().out
 
 

@@ -38,8 +38,9 @@ def test_list_builtin(capsys):
 def test_summary_accepts_camera_files(tmp_path, capsys):
     cam = zonotope.camera("Nikon 5100 (NPL)")
     path = tmp_path / "nikon.csv"
-    rows = ["wavelength,r,g,b"] + [f"{w:g},{r!r},{g!r},{b!r}"
-                                   for w, (r, g, b) in zip(cam.wavelengths, cam.values, strict=True)]
+    rows = ["wavelength,r,g,b"] + [
+        f"{w:g},{r!r},{g!r},{b!r}" for w, (r, g, b) in zip(cam.wavelengths, cam.values, strict=True)
+    ]
     path.write_text("\n".join(rows) + "\n")
     grid = ["--start", "400", "--end", "700", "--interval", "10"]
     assert main(["summary", "--camera", str(path), *grid]) == 0
@@ -60,12 +61,33 @@ def test_report_and_evaluate_draw_the_same_atypical_set(tmp_path, capsys):
     from zonotope.report import write_report
 
     md = tmp_path / "eval.md"
-    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--method", "Finlayson 2015", "--atypical", "5",
-                 "--markdown", str(md)]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "--camera",
+                "Nikon 5100 (NPL)",
+                "--method",
+                "Finlayson 2015",
+                "--atypical",
+                "5",
+                "--markdown",
+                str(md),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "s] " in err  # plain progress lines: stderr is not a terminal under pytest
-    out = write_report(["Nikon 5100 (NPL)"], tmp_path / "report", atypical=5, pictures=False, volumes=False,
-                       methods=["Finlayson 2015"], shape=colour.SpectralShape(400, 700, 10))
+    out = write_report(
+        ["Nikon 5100 (NPL)"],
+        tmp_path / "report",
+        atypical=5,
+        pictures=False,
+        volumes=False,
+        methods=["Finlayson 2015"],
+        shape=colour.SpectralShape(400, 700, 10),
+    )
 
     def atypical_row(text):
         rows = [line for line in text.splitlines() if "atypical (5)" in line]

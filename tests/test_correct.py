@@ -144,10 +144,15 @@ def test_map_reflectance_matches_slsqp(problem, checker):
     assert np.all((x >= 0) & (x <= 1))
     assert np.allclose(x @ problem.Phi, C, atol=1e-6)
     for i in range(len(C)):
-        ref = minimize(lambda v: prior.energy(v), np.full(GRID.size, 0.5), method="SLSQP",
-                       jac=lambda v: prior.precision @ (v - prior.mean),
-                       bounds=[(0, 1)] * GRID.size, options={"ftol": 1e-12, "maxiter": 500},
-                       constraints=[{"type": "eq", "fun": lambda v, c=C[i]: v @ problem.Phi - c}])
+        ref = minimize(
+            lambda v: prior.energy(v),
+            np.full(GRID.size, 0.5),
+            method="SLSQP",
+            jac=lambda v: prior.precision @ (v - prior.mean),
+            bounds=[(0, 1)] * GRID.size,
+            options={"ftol": 1e-12, "maxiter": 500},
+            constraints=[{"type": "eq", "fun": lambda v, c=C[i]: v @ problem.Phi - c}],
+        )
         assert prior.energy(x[i]) <= ref.fun * (1 + 1e-4) + 1e-9
 
 
@@ -252,6 +257,7 @@ def test_correct_image_transfer_on_shaded_image(problem, checker):
 def test_projection_matches_polytope_project(problem, checker):
     """Twin: Lab-metric projection in reflectance space vs Polytope.project on the exact MMV."""
     from zonotope import mismatch
+
     C = problem.source_of(checker[[3, 14]])
     far = problem.target_of(checker[[3, 14]]) + np.array([0.04, -0.02, 0.03])
     ours, inside = project_to_mmv(problem, C, far)

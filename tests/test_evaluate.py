@@ -27,8 +27,9 @@ def test_atypical_seeded_and_valid():
 def test_evaluate_table():
     A, _ = atypical_reflectances(GRID, 6, seed=1)
     sets = [natural_test_sets(GRID)[0], TestSet("atypical", A, "atypical")]
-    ev = evaluate([["Nikon 5100 (NPL)"]], methods=["Finlayson 2015", "idt", "MAP", "Prior"], shape=GRID,
-                  test_sets=sets)
+    ev = evaluate(
+        [["Nikon 5100 (NPL)"]], methods=["Finlayson 2015", "idt", "MAP", "Prior"], shape=GRID, test_sets=sets
+    )
     methods = {r.method for r in ev.rows}
     assert {"Finlayson 2015", "Dyer 2017", "MAP", "Prior"} <= methods
     rp = next(r for r in ev.rows if r.method == "Finlayson 2015" and r.kind == "natural")
@@ -40,8 +41,12 @@ def test_evaluate_table():
 
 def test_evaluate_skips_idt_for_two_cameras_and_rejects_empty_sets():
     sets = [TestSet("one", natural_test_sets(GRID)[0].reflectances[:3])]
-    ev = evaluate([["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]], methods=["idt", "least squares"],
-                  shape=GRID, test_sets=sets)
+    ev = evaluate(
+        [["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]],
+        methods=["idt", "least squares"],
+        shape=GRID,
+        test_sets=sets,
+    )
     assert [r.method for r in ev.rows] == ["Cheung 2004"]
     assert any("Dyer 2017 skipped" in n for n in ev.notes)
     with pytest.raises(SpectralDataError, match="empty"):

@@ -36,8 +36,9 @@ def test_invert_reintegrates_inside_on_and_at_the_centre():
     rng = np.random.default_rng(1)
     X = rng.random((400, G.shape[0]))
     X[:100] = np.round(X[:100])  # vertices and edge points
-    P = np.concatenate([X @ G + Z.offset, Z.support(rng.normal(size=(300, 3))).point,
-                        Z.centroid[None], Z.vertices])
+    P = np.concatenate(
+        [X @ G + Z.offset, Z.support(rng.normal(size=(300, 3))).point, Z.centroid[None], Z.vertices]
+    )
     R = invert(P, solid=Z)
     assert R.shape == (P.shape[0], G.shape[0])
     assert R.min() >= 0.0 and R.max() <= 1.0

@@ -198,8 +198,9 @@ def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
     cams = [zonotope.read_camera(p) for p in paths]
     sets = [
         zonotope.reflectances("ColorChecker N Ohta"),
-        zonotope.read_reflectances(shared_data / "reflectance_munsell_matte_joensuu_5nm"
-                                   / "munsell_matte_1269_380_780_5nm.csv"),
+        zonotope.read_reflectances(
+            shared_data / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
+        ),
         zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
     ]
     rng = np.random.default_rng(0)
@@ -281,8 +282,9 @@ def test_multi_response_oracle_matches_one_at_a_time():
         ref, _, _ = HighsOracle(Phi, Psi, C[r]).support(U[sel])
         np.testing.assert_allclose(v[sel], ref, atol=1e-9)
     v2, _, _ = multi.support(U + 0.05, warm=ids, rows=rows)
-    np.testing.assert_allclose(v2, [HighsOracle(Phi, Psi, C[r]).support(u[None] + 0.05)[0][0]
-                                    for u, r in zip(U, rows)], atol=1e-9)
+    np.testing.assert_allclose(
+        v2, [HighsOracle(Phi, Psi, C[r]).support(u[None] + 0.05)[0][0] for u, r in zip(U, rows)], atol=1e-9
+    )
     with pytest.raises(GeometryError, match="another response"):
         multi.support(U[:2], warm=ids[:2], rows=(rows[:2] + 1) % 4)
 

@@ -83,8 +83,9 @@ def test_serial_executor_outcomes_and_map():
         assert isinstance(ex, SerialExecutor) and ex.describe().startswith("serial")
         assert list(ex.map(_square_or_fail, [1, 2])) == [1, 4]
         seen = []
-        out = dict(ex.outcomes(_square_or_fail, range(5), shared=10,
-                               progress=lambda d, t: seen.append((d, t))))
+        out = dict(
+            ex.outcomes(_square_or_fail, range(5), shared=10, progress=lambda d, t: seen.append((d, t)))
+        )
         assert seen[-1] == (5, 5)
         assert isinstance(out[3], TaskFailure) and "three is bad" in out[3].error
         assert [out[i] for i in (0, 1, 2, 4)] == [10, 11, 14, 26]
@@ -94,8 +95,10 @@ def test_unreachable_scheduler_is_a_project_error():
     from ._dask_cluster import _free_port
 
     pytest.importorskip("distributed")
-    with pytest.raises(ParallelError, match="could not reach"), executor(f"tcp://127.0.0.1:{_free_port()}",
-                                                                         timeout=1):
+    with (
+        pytest.raises(ParallelError, match="could not reach"),
+        executor(f"tcp://127.0.0.1:{_free_port()}", timeout=1),
+    ):
         pass
 
 
@@ -127,11 +130,21 @@ def test_run_files_serial_resume_and_manifest(tmp_path):
     assert mtimes == {o: os.stat(o).st_mtime_ns for o in mtimes}  # nothing rewritten
     assert {t.input: Path(t.input).read_bytes() for t in tasks} == before  # inputs untouched
     with pytest.raises(ParallelError, match="one of the inputs"):
-        run_files([FileTask(tasks[0].input, tasks[0].input)], slow_digest, 0.0, manifest=manifest,
-                  scheduler="serial")
+        run_files(
+            [FileTask(tasks[0].input, tasks[0].input)],
+            slow_digest,
+            0.0,
+            manifest=manifest,
+            scheduler="serial",
+        )
     with pytest.raises(ParallelError, match="one output"):
-        run_files([FileTask(tasks[0].input, "x.txt"), FileTask(tasks[1].input, "x.txt")], slow_digest, 0.0,
-                  manifest=manifest, scheduler="serial")
+        run_files(
+            [FileTask(tasks[0].input, "x.txt"), FileTask(tasks[1].input, "x.txt")],
+            slow_digest,
+            0.0,
+            manifest=manifest,
+            scheduler="serial",
+        )
 
 
 @pytest.mark.slow
@@ -171,7 +184,8 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
             assert Path(t.output).read_text() == hashlib.sha256(Path(t.input).read_bytes()).hexdigest()
     out_dir = tmp_path / "out"
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
-        ["manifest.csv"] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5])  # no temporaries
+        ["manifest.csv"] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5]
+    )  # no temporaries
     with open(manifest, newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(tasks)  # one row per input, each written once
 
@@ -192,8 +206,9 @@ def test_zonotope_correct_folder_serial_equals_cluster(cluster, tmp_path):
     src.mkdir()
     for i in range(3):
         idx = np.random.default_rng(i).integers(0, 24, (12, 10))
-        tifffile.imwrite(src / f"view{i}.tif", problem.source_of(R)[idx].astype(np.float32),
-                         photometric="minisblack")
+        tifffile.imwrite(
+            src / f"view{i}.tif", problem.source_of(R)[idx].astype(np.float32), photometric="minisblack"
+        )
     tifffile.imwrite(src / "wrong_bands.tif", np.zeros((4, 4, 3), np.float32), photometric="minisblack")
     before = {p.name: p.read_bytes() for p in src.iterdir()}
     opts = ["--camera", cams[0], "--camera", cams[1], "--method", "Cheung 2004", "-q"]

@@ -17,12 +17,27 @@ CUBE = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dty
 #: Shared catalogue of degenerate inputs: (name, points, dim, measure, centroid)
 DEGENERATE = [
     ("point", np.tile([0.2, 0.3, 0.4], (5, 1)), 0, 1.0, [0.2, 0.3, 0.4]),
-    ("segment", np.array([[0, 0, 0], [1, 2, 2], [0.5, 1, 1], [0.25, 0.5, 0.5]], float), 1, 3.0,
-     [0.5, 1.0, 1.0]),
-    ("triangle+inner", np.array([[0, 0, 1], [3, 0, 1], [0, 3, 1], [1, 1, 1], [1.5, 0, 1]], float), 2,
-     4.5, [1.0, 1.0, 1.0]),
-    ("tilted square", np.array([[0, 0, 0], [1, 0, 1], [0, 1, 0], [1, 1, 1]], float), 2,
-     np.sqrt(2.0), [0.5, 0.5, 0.5]),
+    (
+        "segment",
+        np.array([[0, 0, 0], [1, 2, 2], [0.5, 1, 1], [0.25, 0.5, 0.5]], float),
+        1,
+        3.0,
+        [0.5, 1.0, 1.0],
+    ),
+    (
+        "triangle+inner",
+        np.array([[0, 0, 1], [3, 0, 1], [0, 3, 1], [1, 1, 1], [1.5, 0, 1]], float),
+        2,
+        4.5,
+        [1.0, 1.0, 1.0],
+    ),
+    (
+        "tilted square",
+        np.array([[0, 0, 0], [1, 0, 1], [0, 1, 0], [1, 1, 1]], float),
+        2,
+        np.sqrt(2.0),
+        [0.5, 0.5, 0.5],
+    ),
 ]
 
 
@@ -111,9 +126,14 @@ def test_contains_matches_delaunay(seed):
 
 def _project_slsqp(P: Polytope, p: np.ndarray, W: np.ndarray) -> np.ndarray:
     A, b = P.halfspaces
-    res = minimize(lambda y: (y - p) @ W @ (y - p), P.centroid, jac=lambda y: 2 * W @ (y - p),
-                   constraints=[{"type": "ineq", "fun": lambda y: b - A @ y, "jac": lambda y: -A}],
-                   method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})
+    res = minimize(
+        lambda y: (y - p) @ W @ (y - p),
+        P.centroid,
+        jac=lambda y: 2 * W @ (y - p),
+        constraints=[{"type": "ineq", "fun": lambda y: b - A @ y, "jac": lambda y: -A}],
+        method="SLSQP",
+        options={"ftol": 1e-14, "maxiter": 500},
+    )
     return res.x
 
 

@@ -37,8 +37,12 @@ def rootpoly():
 
 @pytest.fixture(scope="module")
 def natural_responses(rootpoly):
-    R = np.concatenate([np.clip(zonotope.resample(zonotope.reflectances(n), GRID).T, 0, 1)
-                        for n in ("CIE 1995 TCS", "ColorChecker N Ohta", "NIST CQS 9.0")])
+    R = np.concatenate(
+        [
+            np.clip(zonotope.resample(zonotope.reflectances(n), GRID).T, 0, 1)
+            for n in ("CIE 1995 TCS", "ColorChecker N Ohta", "NIST CQS 9.0")
+        ]
+    )
     return R @ rootpoly.problem.Phi
 
 
@@ -76,8 +80,9 @@ def test_cube_applied_by_opencolorio_matches_estimator(tmp_path, rootpoly, natur
     # against the estimator itself, in linear sRGB → XYZ D65: the interpolation error of 33³ + log2 shaper
     ref = rootpoly(natural_responses)
     w = rootpoly(np.ones(3))
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(w / w[1], colour.xy_to_XYZ(
-        colour.RGB_COLOURSPACES["sRGB"].whitepoint), transform="Bradford")
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        w / w[1], colour.xy_to_XYZ(colour.RGB_COLOURSPACES["sRGB"].whitepoint), transform="Bradford"
+    )
     ref_rgb = (ref / w[1]) @ cat.T @ colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB.T
     XYZ = colour.RGB_to_XYZ
     dE = _dE(XYZ(got, "sRGB"), XYZ(ref_rgb, "sRGB"), XYZ(np.ones(3), "sRGB"))
@@ -99,8 +104,7 @@ def test_lut_errors(rootpoly, tmp_path):
     with pytest.raises(ZonotopeError, match="format"):
         write_correction_LUT(tmp_path / "x.spi3d", correction_LUT(rootpoly, size=3))
     with pytest.raises(ZonotopeError, match="NaN"):
-        correction_LUT(lambda c: np.where(c > 0.5, np.nan, c), size=3, space="XYZ",
-                       white_XYZ=[0.95, 1, 1.09])
+        correction_LUT(lambda c: np.where(c > 0.5, np.nan, c), size=3, space="XYZ", white_XYZ=[0.95, 1, 1.09])
     assert not list(tmp_path.iterdir())
 
 
@@ -166,9 +170,28 @@ def test_isp_profile_cli(tmp_path):
     from isp.dcp import read_dcp
 
     out = tmp_path / "cam.dcp"
-    args = ["profile", "--camera", CAM, "--method", "root-polynomial", "-o", str(out), "--hue-sat-size", "36",
-            "12", "--lut", str(tmp_path / "cam.cube"), "--lut-size", "9", "--save-correction",
-            str(tmp_path / "cam.npz"), "--unique-camera-model", "NIKON D5100", "--copyright", "CC0"]
+    args = [
+        "profile",
+        "--camera",
+        CAM,
+        "--method",
+        "root-polynomial",
+        "-o",
+        str(out),
+        "--hue-sat-size",
+        "36",
+        "12",
+        "--lut",
+        str(tmp_path / "cam.cube"),
+        "--lut-size",
+        "9",
+        "--save-correction",
+        str(tmp_path / "cam.npz"),
+        "--unique-camera-model",
+        "NIKON D5100",
+        "--copyright",
+        "CC0",
+    ]
     assert main(args) == 0
     p = read_dcp(out)
     assert p.hue_sat_map_1.shape == (1, 36, 12, 3) and p.unique_camera_model == "NIKON D5100"
@@ -201,13 +224,17 @@ def test_dcp_beats_dng_matrix_in_rawtherapee_and_isp(tmp_path, rawtherapee, dcp_
     dcp = write_dcp(tmp_path / "cam.dcp", dcp_fit.profile)
 
     def score(XYZ, off=(0, 0)):
-        lab = labels[off[0]:off[0] + XYZ.shape[0], off[1]:off[1] + XYZ.shape[1]]
+        lab = labels[off[0] : off[0] + XYZ.shape[0], off[1] : off[1] + XYZ.shape[1]]
         return patch_delta_E(XYZ, lab, truth, white_XYZ=D50, normalise_to=18)
 
     rt_dng = develop_rawtherapee(path)
     rt_dcp = develop_rawtherapee(path, profile=dcp)
-    res = {"RT DNG": score(rt_dng.XYZ, rt_dng.offset), "RT DCP": score(rt_dcp.XYZ, rt_dcp.offset),
-           "isp DNG": score(isp_XYZ(path)), "isp DCP": score(isp_XYZ(path, profile=dcp))}
+    res = {
+        "RT DNG": score(rt_dng.XYZ, rt_dng.offset),
+        "RT DCP": score(rt_dcp.XYZ, rt_dcp.offset),
+        "isp DNG": score(isp_XYZ(path)),
+        "isp DCP": score(isp_XYZ(path, profile=dcp)),
+    }
     m = {k: v.mean() for k, v in res.items()}
     assert m["RT DCP"] <= 0.8 * m["RT DNG"], m  # measured 0.63 vs 0.91 (30 % better)
     assert m["isp DCP"] <= 0.8 * m["isp DNG"], m
@@ -237,8 +264,15 @@ def test_rawtherapee_and_isp_apply_a_shipped_dcp_alike(rawtherapee, dng_550d):
     ours = isp_XYZ(read_raw(dng_550d).crop(top, left, 440, 680), profile=dcp)
 
     def boxes(X, off):
-        return np.array([X[r - off[0] - BOX:r - off[0] + BOX, c - off[1] - BOX:c - off[1] + BOX]
-                         .reshape(-1, 3).mean(0) for r in CHART_ROWS for c in CHART_COLS])
+        return np.array(
+            [
+                X[r - off[0] - BOX : r - off[0] + BOX, c - off[1] - BOX : c - off[1] + BOX]
+                .reshape(-1, 3)
+                .mean(0)
+                for r in CHART_ROWS
+                for c in CHART_COLS
+            ]
+        )
 
     a, b = boxes(rt.XYZ, rt.offset), boxes(ours, (top, left))
     k = 1.0 / a[18, 1]

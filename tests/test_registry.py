@@ -25,8 +25,10 @@ def test_lookup_ignores_case_and_punctuation_and_accepts_aliases(name):
 
 def test_unknown_name_is_a_project_error_listing_the_valid_ones():
     r = _registry()
-    message = (r"kind='hexagon' is not a shape method; choose one of "
-               r"\['Unit Square', 'Circle'\] \(aliases: \['box', 'square'\]\)")
+    message = (
+        r"kind='hexagon' is not a shape method; choose one of "
+        r"\['Unit Square', 'Circle'\] \(aliases: \['box', 'square'\]\)"
+    )
     with pytest.raises(UnknownMethodError, match=message) as info:
         r["hexagon"]
     assert isinstance(info.value, zonotope.ZonotopeError) and isinstance(info.value, ValueError)
@@ -55,16 +57,24 @@ def test_properties_are_read_only_and_names_cannot_collide():
 def test_correction_registry_properties_match_the_estimators():
     from zonotope.correct import CORRECTION_METHODS, correction_problem, fit_correction
 
-    assert list(CORRECTION_METHODS) == ["Cheung 2004", "Finlayson 2015", "Dyer 2017", "Centroid",
-                                        "Projection", "MAP", "Prior"]
+    assert list(CORRECTION_METHODS) == [
+        "Cheung 2004",
+        "Finlayson 2015",
+        "Dyer 2017",
+        "Centroid",
+        "Projection",
+        "MAP",
+        "Prior",
+    ]
     assert CORRECTION_METHODS.names(centroid=True) == ("Centroid",)
     problem = correction_problem("Nikon 5100 (NPL)", shape=np.arange(400.0, 701.0, 20.0))
     c = problem.source_of(problem.training[:5])
     for name in CORRECTION_METHODS.names(closed_form=True):
         # a closed-form estimator is linear in its fitted terms: the matrix M reproduces it exactly
         est = fit_correction(problem, method=name.upper())
-        terms = (c if name != "Finlayson 2015"
-                 else zonotope.root_polynomial_terms(c, degree=est.params["degree"]))
+        terms = (
+            c if name != "Finlayson 2015" else zonotope.root_polynomial_terms(c, degree=est.params["degree"])
+        )
         np.testing.assert_allclose(est(c), terms @ est.params["M"], rtol=1e-12)
     assert fit_correction(problem, method="mmv-centroid").method == "Centroid"
     with pytest.raises(UnknownMethodError, match=r"method='bogus' is not a correction method"):

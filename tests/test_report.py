@@ -16,9 +16,15 @@ GRID = np.arange(400.0, 701.0, 10.0)
 def test_report_written_atomically(tmp_path):
     out = tmp_path / "rep"
     steps = []
-    write_report(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"], out, atypical=4, pictures=False,
-                 methods=["root-polynomial", "Prior"], volumes=False,
-                 progress=lambda d, n: steps.append(d))
+    write_report(
+        ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"],
+        out,
+        atypical=4,
+        pictures=False,
+        methods=["root-polynomial", "Prior"],
+        volumes=False,
+        progress=lambda d, n: steps.append(d),
+    )
     html = (out / "index.html").read_text()
     md = (out / "report.md").read_text()
     assert "Vora" in html and "Greedy order" in md and "Colour-correction evaluation" in md
@@ -42,8 +48,15 @@ def test_failed_report_never_replaces_a_good_one(tmp_path, monkeypatch):
 
     monkeypatch.setattr(zonotope.evaluate, "evaluate", boom)
     with pytest.raises(RuntimeError, match="interrupted"):
-        write_report(["Nikon 5100 (NPL)"], out, force=True, atypical=0, pictures=False,
-                 methods=["least squares"], volumes=False)
+        write_report(
+            ["Nikon 5100 (NPL)"],
+            out,
+            force=True,
+            atypical=0,
+            pictures=False,
+            methods=["least squares"],
+            volumes=False,
+        )
     assert (out / "report.md").read_text() == "good"
     assert [p.name for p in tmp_path.iterdir()] == ["rep"]
 
@@ -53,8 +66,15 @@ def test_force_replaces(tmp_path):
     out.mkdir()
     (out / "stale.txt").write_text("old")
     (out / MARKER).write_text("zonotope report\n")
-    write_report(["Nikon 5100 (NPL)"], out, force=True, atypical=0, pictures=False,
-                 methods=["least squares"], volumes=False)
+    write_report(
+        ["Nikon 5100 (NPL)"],
+        out,
+        force=True,
+        atypical=0,
+        pictures=False,
+        methods=["least squares"],
+        volumes=False,
+    )
     assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 

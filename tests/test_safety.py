@@ -114,8 +114,9 @@ while True:
 
 
 def _kill_while_writing(code: str, args: list[str], delay: float) -> None:
-    proc = subprocess.Popen([sys.executable, "-c", code, *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.DEVNULL, cwd=ROOT)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, *args], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=ROOT
+    )
     proc.stdout.readline()  # one complete write done
     time.sleep(delay)
     proc.send_signal(signal.SIGKILL)
@@ -209,8 +210,9 @@ def test_report_force_never_deletes_a_user_folder(tmp_path, capsys):
 def test_evaluate_markdown_never_overwrites_an_input(tmp_path, capsys):
     cam = tmp_path / "cam.csv"
     npl = zonotope.camera("Nikon 5100 (NPL)")
-    rows = ["wavelength,R,G,B"] + [f"{w:g},{r:.6g},{g:.6g},{b:.6g}"
-                                   for w, (r, g, b) in zip(npl.wavelengths, npl.values)]
+    rows = ["wavelength,R,G,B"] + [
+        f"{w:g},{r:.6g},{g:.6g},{b:.6g}" for w, (r, g, b) in zip(npl.wavelengths, npl.values)
+    ]
     cam.write_text("\n".join(rows) + "\n")
     before = cam.read_bytes()
     for extra in ([], ["--force"]):
@@ -230,8 +232,21 @@ def test_evaluate_test_set_percent_data_refused(tmp_path, capsys):
     pct = tmp_path / "percent.csv"
     rows = "".join(f"s{i}," + ",".join(f"{40 + i + 0.05 * x:.2f}" for x in w) + "\n" for i in range(3))
     pct.write_text("name," + ",".join(map(str, w)) + "\n" + rows)
-    rc = zonotope_main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--test-set", str(pct),
-                        "--atypical", "0", "--size", "5", "--data", str(tmp_path)])
+    rc = zonotope_main(
+        [
+            "evaluate",
+            "--camera",
+            "Nikon 5100 (NPL)",
+            "--test-set",
+            str(pct),
+            "--atypical",
+            "0",
+            "--size",
+            "5",
+            "--data",
+            str(tmp_path),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "percent" in err and "100" in err
 
@@ -296,22 +311,40 @@ def test_malformed_csv_row_raises_instead_of_changing_the_grid(tmp_path):
 
 def test_dcamprof_labels_follow_the_keys(tmp_path):
     p = tmp_path / "cam.json"
-    p.write_text(json.dumps({"camera_name": "x", "ssf_bands": [400, 410, 420],
-                             "red_ssf": [1, 0.5, 0.1], "blue_ssf": [0.1, 0.5, 1]}))
+    p.write_text(
+        json.dumps(
+            {
+                "camera_name": "x",
+                "ssf_bands": [400, 410, 420],
+                "red_ssf": [1, 0.5, 0.1],
+                "blue_ssf": [0.1, 0.5, 1],
+            }
+        )
+    )
     cam = zonotope.read_camera(p)
     assert list(cam.labels) == ["red", "blue"]  # blue was labelled "green"
     np.testing.assert_array_equal(cam.values[:, 1], [0.1, 0.5, 1])
 
 
-@pytest.mark.parametrize("doc", [
-    [1, 2], "text", 3, None, {"spectral_data": {}}, {"spectral_data": {"data": {"main": {"400": [1]}}}},
-    {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": {"400": [1, 2]}}}},
-    {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": {"x": [1]}}}},
-    {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": [1, 2]}}},
-    {"spectral_data": {"index": {"main": ["a", "b"]}, "data": {"main": {"400": [1, 2], "410": [1]}}}},
-    {"ssf_bands": [400, 410], "red_ssf": [1]}, {"ssf_bands": "abc", "red_ssf": [1, 2, 3]},
-    {"ssf_bands": [400, 410]}, {"ssf_bands": [400, 410], "red_ssf": {"a": 1}},
-])
+@pytest.mark.parametrize(
+    "doc",
+    [
+        [1, 2],
+        "text",
+        3,
+        None,
+        {"spectral_data": {}},
+        {"spectral_data": {"data": {"main": {"400": [1]}}}},
+        {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": {"400": [1, 2]}}}},
+        {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": {"x": [1]}}}},
+        {"spectral_data": {"index": {"main": ["a"]}, "data": {"main": [1, 2]}}},
+        {"spectral_data": {"index": {"main": ["a", "b"]}, "data": {"main": {"400": [1, 2], "410": [1]}}}},
+        {"ssf_bands": [400, 410], "red_ssf": [1]},
+        {"ssf_bands": "abc", "red_ssf": [1, 2, 3]},
+        {"ssf_bands": [400, 410]},
+        {"ssf_bands": [400, 410], "red_ssf": {"a": 1}},
+    ],
+)
 def test_json_of_the_wrong_shape(tmp_path, doc):
     p = tmp_path / "x.json"
     p.write_text(json.dumps(doc))
@@ -344,11 +377,21 @@ def test_fuzz_spectra_loaders(tmp_path_factory, data):
     if kind == "csv":
         base = _BASE
     elif kind == "json":
-        base = json.dumps({"ssf_bands": list(range(400, 460, 10)), "red_ssf": [0.1] * 6,
-                           "green_ssf": [0.2] * 6, "blue_ssf": [0.3] * 6}).encode()
+        base = json.dumps(
+            {
+                "ssf_bands": list(range(400, 460, 10)),
+                "red_ssf": [0.1] * 6,
+                "green_ssf": [0.2] * 6,
+                "blue_ssf": [0.3] * 6,
+            }
+        ).encode()
     else:
-        base = b"\n".join(b"%.3f" % (0.1 + i / 100) for i in range(101)) + b"\n\n" + \
-            b"\n".join(b"%.3f" % (0.5 - i / 1000) for i in range(101)) + b"\n"
+        base = (
+            b"\n".join(b"%.3f" % (0.1 + i / 100) for i in range(101))
+            + b"\n\n"
+            + b"\n".join(b"%.3f" % (0.5 - i / 1000) for i in range(101))
+            + b"\n"
+        )
     b = bytearray(base)
     for _ in range(data.draw(st.integers(1, 4))):
         op = data.draw(st.sampled_from(["flip", "cut", "insert", "delete"]))
@@ -358,8 +401,9 @@ def test_fuzz_spectra_loaders(tmp_path_factory, data):
         elif op == "cut":
             del b[i:]
         elif op == "insert":
-            b[i:i] = data.draw(st.sampled_from([b",", b"\n", b"nan", b"inf", b"-1", b"1e400", b"\xff\xfe",
-                                                b'"', b"{", b"]"]))
+            b[i:i] = data.draw(
+                st.sampled_from([b",", b"\n", b"nan", b"inf", b"-1", b"1e400", b"\xff\xfe", b'"', b"{", b"]"])
+            )
         elif b:
             del b[i]
     p = tmp_path_factory.mktemp("fz") / f"f.{kind}"

@@ -25,8 +25,11 @@ def rows(a, decimals=9):
     return {tuple(r) for r in np.round(a, decimals)}
 
 
-gens = arrays(np.float64, st.tuples(st.integers(3, 9), st.just(3)),
-              elements=st.floats(-1.0, 1.0, allow_nan=False, width=64))
+gens = arrays(
+    np.float64,
+    st.tuples(st.integers(3, 9), st.just(3)),
+    elements=st.floats(-1.0, 1.0, allow_nan=False, width=64),
+)
 
 
 def well_separated(G) -> bool:
@@ -68,8 +71,11 @@ def test_matches_brute_force_hull(G):
     np.testing.assert_array_equal(Z.contains_reference(Q)[clear], truth[clear])
 
 
-lattice = arrays(np.float64, st.tuples(st.integers(3, 12), st.just(3)),
-                 elements=st.sampled_from([-2.0, -1.0, 0.0, 1.0, 2.0]))
+lattice = arrays(
+    np.float64,
+    st.tuples(st.integers(3, 12), st.just(3)),
+    elements=st.sampled_from([-2.0, -1.0, 0.0, 1.0, 2.0]),
+)
 
 
 @settings(max_examples=60, deadline=None)
@@ -163,7 +169,7 @@ def test_cie1931_solid_volume_matches_zonohedra_figure():
     assert Z.volume == pytest.approx(4070.3, rel=1e-4)
     brute = 0.0
     for i, j in itertools.combinations(range(81), 2):
-        brute += np.abs(np.cross(G[i], G[j]) @ G[j + 1:].T).sum()
+        brute += np.abs(np.cross(G[i], G[j]) @ G[j + 1 :].T).sum()
     assert Z.volume == pytest.approx(brute, rel=1e-12)
     mesh = Z.to_trimesh()
     assert mesh.is_watertight and mesh.volume == pytest.approx(Z.volume, rel=1e-10)
@@ -234,8 +240,13 @@ def test_flat_solids_are_honest():
 
 @pytest.mark.parametrize(
     ("G", "match"),
-    [(np.zeros((0, 3)), "shape"), (np.full((4, 3), np.nan), "NaN"), (np.ones((2, 2, 2)), "shape"),
-     (np.full((5, 3), 5e-324), "underflow"), (np.eye(3) * 1e200, "overflow")],  # found by hypothesis
+    [
+        (np.zeros((0, 3)), "shape"),
+        (np.full((4, 3), np.nan), "NaN"),
+        (np.ones((2, 2, 2)), "shape"),
+        (np.full((5, 3), 5e-324), "underflow"),
+        (np.eye(3) * 1e200, "overflow"),
+    ],  # found by hypothesis
 )
 def test_bad_generators_raise(G, match):
     with pytest.raises(GeometryError, match=match):
@@ -255,8 +266,9 @@ def test_bad_points_raise():
 
 def test_real_reflectances_are_inside_their_solids(shared_data):
     sets = [
-        zonotope.read_reflectances(shared_data / "reflectance_munsell_matte_joensuu_5nm"
-                                   / "munsell_matte_1269_380_780_5nm.csv"),
+        zonotope.read_reflectances(
+            shared_data / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
+        ),
         zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
         zonotope.read_reflectances(shared_data / "reflectance_colorchecker" / "ColorChecker_N_Ohta.csv"),
     ]
@@ -295,8 +307,11 @@ def _near_coplanar(phi, order):
     """Three unit generators, the third tilted ``phi`` rad out of the plane of the first two
     (their row angles differ ~10×: 10·phi in two sweeps, ~phi in the third), plus four generic."""
     alpha = 0.1
-    trip = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
-            [np.cos(alpha) * np.cos(phi), np.sin(alpha) * np.cos(phi), np.sin(phi)]]
+    trip = [
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [np.cos(alpha) * np.cos(phi), np.sin(alpha) * np.cos(phi), np.sin(phi)],
+    ]
     generic = [[0.3, 0.5, 0.8], [-0.4, 0.7, 0.6], [0.5, -0.3, 0.9], [0.2, 0.9, -0.35]]
     return np.array([trip[o] for o in order] + generic)
 

@@ -27,8 +27,10 @@ def test_list_builtin_names_resolve():
 def test_names_are_case_and_punctuation_insensitive():
     assert zonotope.camera("nikon 5100").name == "Nikon 5100 (NPL)"
     assert zonotope.camera("Sigma SD Merrill").name == "Sigma SDMerill (NPL)"
-    np.testing.assert_array_equal(zonotope.observer("lms").values,
-                                  colour.MSDS_CMFS["Stockman & Sharpe 2 Degree Cone Fundamentals"].values)
+    np.testing.assert_array_equal(
+        zonotope.observer("lms").values,
+        colour.MSDS_CMFS["Stockman & Sharpe 2 Degree Cone Fundamentals"].values,
+    )
 
 
 def test_unknown_name_lists_the_valid_ones():
@@ -70,8 +72,9 @@ def test_generators_common_factor_keeps_white_point():
     white = G.values.sum(axis=0)
     assert white[1] == pytest.approx(1.0)
     xy = colour.XYZ_to_xy(white)
-    np.testing.assert_allclose(xy, colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"],
-                               atol=2e-4)
+    np.testing.assert_allclose(
+        xy, colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"], atol=2e-4
+    )
 
 
 def test_generators_match_colour_sd_to_xyz_integration():
@@ -82,8 +85,12 @@ def test_generators_match_colour_sd_to_xyz_integration():
     x = zonotope.resample(cc, shape)
     ours = x.T @ G
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
-    ref = colour.msds_to_XYZ(cc, cmfs, colour.SDS_ILLUMINANTS["D65"].copy().align(shape),
-                             method="Integration", shape=shape) / 100
+    ref = (
+        colour.msds_to_XYZ(
+            cc, cmfs, colour.SDS_ILLUMINANTS["D65"].copy().align(shape), method="Integration", shape=shape
+        )
+        / 100
+    )
     np.testing.assert_allclose(ours, ref, rtol=1e-10, atol=1e-12)
 
 
@@ -99,8 +106,11 @@ def test_generators_match_colour_sd_to_xyz_integration():
 )
 def test_bad_curves_raise(wavelengths, values, match):
     with pytest.raises(SpectralDataError, match=match):
-        zonotope.generators((np.array(wavelengths, float), np.array(values, float)), None,
-                            np.array(wavelengths[:1] + sorted(wavelengths[1:]), float))
+        zonotope.generators(
+            (np.array(wavelengths, float), np.array(values, float)),
+            None,
+            np.array(wavelengths[:1] + sorted(wavelengths[1:]), float),
+        )
 
 
 def test_negative_sensitivities_opt_in():
@@ -157,8 +167,10 @@ def test_all_shared_cameras_load(shared_data):
 def test_shared_reflectance_sets_load(shared_data):
     sets = {
         "reflectance_munsell_matte_joensuu_5nm/munsell_matte_1269_380_780_5nm.csv": (1269, 81),
-        "reflectance_munsell_glossy_centore2012/SpectralReflectancesOf2007MunsellBookOfColorGlossy.txt":
-            (1485, 36),
+        "reflectance_munsell_glossy_centore2012/SpectralReflectancesOf2007MunsellBookOfColorGlossy.txt": (
+            1485,
+            36,
+        ),
         "reflectance_colorchecker/BabelColor_Average.csv": (24, 36),
         "reflectance_colorchecker/ColorChecker_N_Ohta.csv": (24, 81),
         "reflectance_cie_test_colour_samples/CIE_224_2017_CES99_5nm.csv": (99, 81),
@@ -172,5 +184,4 @@ def test_shared_reflectance_sets_load(shared_data):
     munsell = zonotope.read_reflectances(sets_path := shared_data / next(iter(sets)))
     assert munsell.labels[0] == "2.5R9/2", sets_path
     ohta = zonotope.read_reflectances(shared_data / "reflectance_colorchecker/ColorChecker_N_Ohta.csv")
-    np.testing.assert_allclose(ohta.values, zonotope.reflectances("ColorChecker N Ohta").values,
-                               rtol=1e-9)
+    np.testing.assert_allclose(ohta.values, zonotope.reflectances("ColorChecker N Ohta").values, rtol=1e-9)

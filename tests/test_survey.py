@@ -22,8 +22,11 @@ def gauss_camera(tmp_path_factory):
     w = np.arange(380.0, 781.0, 5.0)
     S = np.stack([np.exp(-0.5 * ((w - c) / s) ** 2) for c, s in ((610, 30), (540, 35), (455, 25))], axis=1)
     path = d / "Gauss_RGB.csv"
-    path.write_text("wavelength,R,G,B\n" + "\n".join(f"{x:g},{r:.6f},{g:.6f},{b:.6f}" for x, (r, g, b)
-                                                     in zip(w, S)) + "\n")
+    path.write_text(
+        "wavelength,R,G,B\n"
+        + "\n".join(f"{x:g},{r:.6f},{g:.6f},{b:.6f}" for x, (r, g, b) in zip(w, S))
+        + "\n"
+    )
     (d / "notes.json").write_text('{"not": "a camera"}')
     return path
 
@@ -65,13 +68,24 @@ def test_scores_match_independent_computations(cams, serial_rows):
     row = next(r for r in serial_rows if set(r.cameras) == {"Nikon 5100 (NPL)", "Gauss_RGB"})
     w = np.arange(400.0, 701.0, 10.0)
     assert row.grid == "400–700/10" and row.channels == 6
-    problem = correction_problem([cams[n] for n in row.cameras], shape=w,
-                                 training=spectra.resample(spectra.reflectances("rawtoaces 190"), w).T)
+    problem = correction_problem(
+        [cams[n] for n in row.cameras],
+        shape=w,
+        training=spectra.resample(spectra.reflectances("rawtoaces 190"), w).T,
+    )
     assert row.vora == pytest.approx(vora_value(problem.Phi, problem.Psi), abs=1e-12)
     R = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
     C, T = problem.source_of(R), problem.target_of(R)
-    vols = [float(np.mean(metamer_mismatch_bounds(problem.Phi, problem.Psi, c, eps=1e-3,
-                                                  on_infeasible="nearest").volume_bounds)) for c in C]
+    vols = [
+        float(
+            np.mean(
+                metamer_mismatch_bounds(
+                    problem.Phi, problem.Psi, c, eps=1e-3, on_infeasible="nearest"
+                ).volume_bounds
+            )
+        )
+        for c in C
+    ]
     assert row.mmv_median == pytest.approx(np.median(vols), rel=1e-9)
     assert row.mmv_p90 == pytest.approx(np.percentile(vols, 90), rel=1e-9)
     dE = {}
@@ -123,8 +137,24 @@ def test_cli_survey(gauss_camera, tmp_path, capsys):
     from zonotope.cli import main
 
     out = tmp_path / "t.csv"
-    rc = main(["survey", "--cameras", f"{BUILTIN[0]},{gauss_camera}", "--cameras", BUILTIN[2],
-               "--with", "Gauss_RGB", "--scheduler", "serial", "-o", str(out), "-q", "--partners", "2"])
+    rc = main(
+        [
+            "survey",
+            "--cameras",
+            f"{BUILTIN[0]},{gauss_camera}",
+            "--cameras",
+            BUILTIN[2],
+            "--with",
+            "Gauss_RGB",
+            "--scheduler",
+            "serial",
+            "-o",
+            str(out),
+            "-q",
+            "--partners",
+            "2",
+        ]
+    )
     assert rc == 0
     text = capsys.readouterr().out
     assert "best partners of Nikon 5100 (NPL)" in text

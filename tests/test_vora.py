@@ -13,8 +13,11 @@ from hypothesis.extra.numpy import arrays
 import zonotope
 from zonotope import rank_camera_sets, vora_value
 
-mats = arrays(np.float64, st.tuples(st.just(31), st.integers(1, 6)),
-              elements=st.floats(0.0, 1.0, allow_nan=False, width=64))
+mats = arrays(
+    np.float64,
+    st.tuples(st.just(31), st.integers(1, 6)),
+    elements=st.floats(0.0, 1.0, allow_nan=False, width=64),
+)
 X_LMS = zonotope.generators("lms", "D65", np.arange(400.0, 701.0, 10.0)).values
 
 

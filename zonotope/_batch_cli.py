@@ -19,9 +19,12 @@ _IMAGE_SUFFIXES = (".tif", ".tiff")
 
 
 def _scheduler_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scheduler", help="where to run: serial, local, local:N, a Dask scheduler address "
-                                       "(tcp://host:8786) or scheduler file (default $ZONOTOPE_SCHEDULER, "
-                                       "else serial for small jobs and a local cluster for large ones)")
+    p.add_argument(
+        "--scheduler",
+        help="where to run: serial, local, local:N, a Dask scheduler address "
+        "(tcp://host:8786) or scheduler file (default $ZONOTOPE_SCHEDULER, "
+        "else serial for small jobs and a local cluster for large ones)",
+    )
 
 
 def add_commands(sub) -> None:
@@ -29,36 +32,62 @@ def add_commands(sub) -> None:
     p = sub.add_parser("correct", help="colour-correct multi-channel float TIFFs (e.g. splat renders) to XYZ")
     p.add_argument("inputs", nargs="+", help="N-band float TIFF files (H, W, channels) or folders of them")
     p.add_argument("-o", "--output", required=True, help="output folder (XYZ float32 TIFFs + manifest.csv)")
-    p.add_argument("--camera", action="append", required=True,
-                   help="camera name or file, in the images' channel order (repeat to stack cameras)")
+    p.add_argument(
+        "--camera",
+        action="append",
+        required=True,
+        help="camera name or file, in the images' channel order (repeat to stack cameras)",
+    )
     p.add_argument("--method", default="Prior", help="zonotope.correct estimator (default Prior)")
     p.add_argument("--illuminant", default="D65")
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
     p.add_argument("--target", default="CIE 2015 2°", help="observer of the XYZ output")
-    p.add_argument("--quantum", type=float, default=2e-3,
-                   help="responses equal after rounding to this are corrected once (0: exact)")
+    p.add_argument(
+        "--quantum",
+        type=float,
+        default=2e-3,
+        help="responses equal after rounding to this are corrected once (0: exact)",
+    )
     _scheduler_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=_correct)
 
     p = sub.add_parser("survey", help="rank camera sets by metamer mismatch, Vora value and regression ΔE00")
-    p.add_argument("--cameras", action="append", required=True, metavar="DIR_OR_NAMES",
-                   help="a folder of camera files, or comma-separated names/files (repeatable)")
+    p.add_argument(
+        "--cameras",
+        action="append",
+        required=True,
+        metavar="DIR_OR_NAMES",
+        help="a folder of camera files, or comma-separated names/files (repeatable)",
+    )
     p.add_argument("--size", type=int, default=2, help="cameras per set (default 2)")
-    p.add_argument("--with", dest="containing", action="append", metavar="CAMERA",
-                   help="only sets containing this camera (repeatable)")
-    p.add_argument("--reflectances", default="ColorChecker N Ohta",
-                   help="reflectance set for the MMV volumes and the ΔE00 test (name or file)")
+    p.add_argument(
+        "--with",
+        dest="containing",
+        action="append",
+        metavar="CAMERA",
+        help="only sets containing this camera (repeatable)",
+    )
+    p.add_argument(
+        "--reflectances",
+        default="ColorChecker N Ohta",
+        help="reflectance set for the MMV volumes and the ΔE00 test (name or file)",
+    )
     p.add_argument("--training", default="rawtoaces 190", help="training set of the regressions")
     p.add_argument("--target", default="CIE 2015 2°")
     p.add_argument("--illuminant", default="D65")
     p.add_argument("--interval", type=float, default=10.0, help="grid step in nm (default 10)")
     p.add_argument("--eps", type=float, default=1e-3, help="MMV certification tolerance (default 1e-3)")
-    p.add_argument("-o", "--output",
-                   help="write the ranked table here (.csv; .parquet if pyarrow is installed)")
+    p.add_argument(
+        "-o", "--output", help="write the ranked table here (.csv; .parquet if pyarrow is installed)"
+    )
     p.add_argument("--top", type=int, default=20, help="rows to print (default 20)")
-    p.add_argument("--partners", type=int, default=10,
-                   help="also print the N best partners of each built-in camera in the survey (default 10)")
+    p.add_argument(
+        "--partners",
+        type=int,
+        default=10,
+        help="also print the N best partners of each built-in camera in the survey (default 10)",
+    )
     _scheduler_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=_survey)
@@ -67,8 +96,14 @@ def add_commands(sub) -> None:
 def _bar(console, quiet: bool, description: str):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                   console=console, disable=quiet)
+    bar = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        disable=quiet,
+    )
     task = bar.add_task(description, total=None)
     return bar, lambda done, total: bar.update(task, completed=done, total=total)
 
@@ -104,8 +139,10 @@ def correct_file(src: str, tmp_out: str, options) -> None:
         raise ZonotopeError(f"{src}: not a readable TIFF ({error}).") from error
     k = corrector.problem.Phi.shape[1]
     if img.ndim != 3 or img.shape[-1] != k:
-        raise ZonotopeError(f"{src}: image of shape {img.shape}; the cameras have {k} channels, so it must "
-                            f"be (H, W, {k}) with channels last.")
+        raise ZonotopeError(
+            f"{src}: image of shape {img.shape}; the cameras have {k} channels, so it must "
+            f"be (H, W, {k}) with channels last."
+        )
     if not np.all(np.isfinite(img)):
         raise ZonotopeError(f"{src}: the image holds NaN or inf values.")
     xyz = correct_image(img, corrector, quantum=quantum)
@@ -126,21 +163,34 @@ def _correct(args: argparse.Namespace) -> int:
     out_dir = Path(args.output)
     if out_dir.exists() and not out_dir.is_dir():
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
-    corrector = fit_correction(args.camera, method=args.method, target=args.target,
-                               illuminant=args.illuminant, training=args.training)
+    corrector = fit_correction(
+        args.camera,
+        method=args.method,
+        target=args.target,
+        illuminant=args.illuminant,
+        training=args.training,
+    )
     out_dir.mkdir(parents=True, exist_ok=True)
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     where = resolve_scheduler(args.scheduler, tasks=len(tasks))
     bar, callback = _bar(console, args.quiet, f"correcting ({where})")
     with bar:
-        rows = run_files(tasks, correct_file, (corrector, args.quantum), manifest=out_dir / "manifest.csv",
-                         scheduler=where, progress=callback)
+        rows = run_files(
+            tasks,
+            correct_file,
+            (corrector, args.quantum),
+            manifest=out_dir / "manifest.csv",
+            scheduler=where,
+            progress=callback,
+        )
     failed = [r for r in rows if r["status"] == "failed"]
     for r in failed:
         console.print(f"[red]failed:[/] {r['input']}: {r['error']}")
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
-    console.print(f"{counts['ok']} corrected, {counts['done']} already done, {counts['failed']} failed → "
-                  f"{out_dir} (manifest: {out_dir / 'manifest.csv'})")
+    console.print(
+        f"{counts['ok']} corrected, {counts['done']} already done, {counts['failed']} failed → "
+        f"{out_dir} (manifest: {out_dir / 'manifest.csv'})"
+    )
     return 1 if failed else 0
 
 
@@ -154,21 +204,35 @@ def _survey(args: argparse.Namespace) -> int:
 
     console = Console(stderr=True)
     out = Console(width=max(Console().width, 130))
-    cams, skipped = load_cameras([c for spec in args.cameras for c in
-                                  ([spec] if Path(spec).is_dir() else spec.split(","))])
+    cams, skipped = load_cameras(
+        [c for spec in args.cameras for c in ([spec] if Path(spec).is_dir() else spec.split(","))]
+    )
     for s in skipped:
         console.print(f"[yellow]skipped:[/] {s}")
     from itertools import combinations
 
     want = set(args.containing or ())
-    n_sets = (sum(1 for s in combinations(cams, args.size) if not want or want & set(s))
-              if 1 <= args.size <= len(cams) else 0)
+    n_sets = (
+        sum(1 for s in combinations(cams, args.size) if not want or want & set(s))
+        if 1 <= args.size <= len(cams)
+        else 0
+    )
     where = resolve_scheduler(args.scheduler, tasks=n_sets, min_tasks=8)
     bar, callback = _bar(console, args.quiet, f"{len(cams)} cameras, sets of {args.size} ({where})")
     with bar:
-        rows = survey(cams, size=args.size, target=args.target, illuminant=args.illuminant,
-                      interval=args.interval, reflectances=args.reflectances, training=args.training,
-                      eps=args.eps, containing=args.containing, scheduler=where, progress=callback)
+        rows = survey(
+            cams,
+            size=args.size,
+            target=args.target,
+            illuminant=args.illuminant,
+            interval=args.interval,
+            reflectances=args.reflectances,
+            training=args.training,
+            eps=args.eps,
+            containing=args.containing,
+            scheduler=where,
+            progress=callback,
+        )
     cols = ("rank", "cameras", "grid (nm)", "Vora", "MMV median", "MMV p90", "best regression", "ΔE00")
 
     def table(title, rs):
@@ -176,17 +240,33 @@ def _survey(args: argparse.Namespace) -> int:
         for c in cols:
             t.add_column(c, justify="left" if c in ("cameras", "best regression") else "right")
         for r in rs:
-            t.add_row(str(rows.index(r) + 1), " + ".join(r.cameras), r.grid, f"{r.vora:.4f}",
-                      f"{r.mmv_median:.3e}", f"{r.mmv_p90:.3e}", r.best_regression, f"{r.dE00:.3f}")
+            t.add_row(
+                str(rows.index(r) + 1),
+                " + ".join(r.cameras),
+                r.grid,
+                f"{r.vora:.4f}",
+                f"{r.mmv_median:.3e}",
+                f"{r.mmv_p90:.3e}",
+                r.best_regression,
+                f"{r.dE00:.3f}",
+            )
         return t
 
-    out.print(table(f"Camera sets ranked by median MMV volume ({args.reflectances}, target {args.target}, "
-                    f"{args.illuminant})", [r for r in rows if not r.error][:args.top]))
+    out.print(
+        table(
+            f"Camera sets ranked by median MMV volume ({args.reflectances}, target {args.target}, "
+            f"{args.illuminant})",
+            [r for r in rows if not r.error][: args.top],
+        )
+    )
     if args.size >= 2 and args.partners > 0:
         for name in spectra.list_builtin()["cameras"]:
             if name in cams:
-                out.print(table(f"{args.partners} best partners of {name}",
-                                best_partners(rows, name, args.partners)))
+                out.print(
+                    table(
+                        f"{args.partners} best partners of {name}", best_partners(rows, name, args.partners)
+                    )
+                )
     for r in rows:
         if r.error:
             console.print(f"[red]failed:[/] {' + '.join(r.cameras)}: {r.error}")

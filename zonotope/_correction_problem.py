@@ -166,13 +166,22 @@ def correction_problem(
         tr_name = "array"
         if R.ndim != 2 or R.shape[1] != w.size:
             raise SpectralDataError(
-                f"training: an array must have shape (N, {w.size}) on the grid; got {R.shape}.")
+                f"training: an array must have shape (N, {w.size}) on the grid; got {R.shape}."
+            )
     check_reflectances(R, "training")
-    return CorrectionProblem(Phi=Phi, Psi=Psi, wavelengths=w, training=R, XYZ_from_target=M,
-                             sources=tuple(labels), target=tname, illuminant=_label(illuminant)
-                             if isinstance(illuminant, str) else getattr(illuminant, "name", "?"),
-                             training_name=tr_name, source_channels=tuple(G.labels),
-                             target_channels=tuple(T.labels))
+    return CorrectionProblem(
+        Phi=Phi,
+        Psi=Psi,
+        wavelengths=w,
+        training=R,
+        XYZ_from_target=M,
+        sources=tuple(labels),
+        target=tname,
+        illuminant=_label(illuminant) if isinstance(illuminant, str) else getattr(illuminant, "name", "?"),
+        training_name=tr_name,
+        source_channels=tuple(G.labels),
+        target_channels=tuple(T.labels),
+    )
 
 
 def check_reflectances(R: np.ndarray, what: str) -> None:
@@ -188,9 +197,8 @@ def check_reflectances(R: np.ndarray, what: str) -> None:
     if R.min() < -1e-6 or R.max() > 1.5:
         raise SpectralDataError(
             f"{what}: reflectances must lie in [0, 1] (got {R.min():.3g}…{R.max():.3g}); "
-            "percent data must be divided by 100.")
-
-
+            "percent data must be divided by 100."
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,7 +235,8 @@ class Corrector:
         if c.shape[-1:] != (k,):
             raise SpectralDataError(
                 f"responses: last axis must have the {k} source channels "
-                f"({', '.join(self.problem.sources)}); got shape {c.shape}.")
+                f"({', '.join(self.problem.sources)}); got shape {c.shape}."
+            )
         flat = c.reshape(-1, k)
         out = np.full((flat.shape[0], self.problem.m), np.nan)
         ok = np.all(np.isfinite(flat), axis=1)

@@ -108,8 +108,8 @@ class CubeMap:
         cells, facets = [], []
         step = max(1, 4_000_000 // max(m, 1))
         for s in range(0, cdir.shape[0], step):
-            ang = np.arccos(np.clip(cdir[s:s + step] @ fdir.T, -1.0, 1.0))
-            ci, fi = np.nonzero(ang <= reach + crad[s:s + step, None])
+            ang = np.arccos(np.clip(cdir[s : s + step] @ fdir.T, -1.0, 1.0))
+            ci, fi = np.nonzero(ang <= reach + crad[s : s + step, None])
             cells.append(ci + s)
             facets.append(fi)
         cells = np.concatenate(cells)
@@ -139,7 +139,7 @@ class CubeMap:
         vs = v[nz][order]
         for s, e in zip(starts.tolist(), ends.tolist()):
             c = cs[s]
-            F = self.cand[self.start[c]:self.start[c + 1]]
+            F = self.cand[self.start[c] : self.start[c + 1]]
             if F.size == 0:  # pragma: no cover - every cell meets some facet's shadow
                 F = np.arange(self.A.shape[0])
             worst[s:e] = (vs[s:e] @ self.A[F].T - self.h[F]).max(axis=1)

@@ -51,8 +51,9 @@ class UnknownMethodError(ZonotopeError, ValueError):
         The canonical names that would have been accepted.
     """
 
-    def __init__(self, message: str, *, argument: str = "method", value: object = None,
-                 valid: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self, message: str, *, argument: str = "method", value: object = None, valid: tuple[str, ...] = ()
+    ) -> None:
         super().__init__(message)
         self.argument = argument
         self.value = value

@@ -52,11 +52,16 @@ class GeneratorPair:
 
     def __post_init__(self) -> None:
         n = np.shape(self.wavelengths)[0]
-        if np.ndim(self.Phi) != 2 or np.ndim(self.Psi) != 2 or np.shape(self.Phi)[0] != n \
-                or np.shape(self.Psi)[0] != n:
+        if (
+            np.ndim(self.Phi) != 2
+            or np.ndim(self.Psi) != 2
+            or np.shape(self.Phi)[0] != n
+            or np.shape(self.Psi)[0] != n
+        ):
             raise SpectralDataError(
                 f"Phi {np.shape(self.Phi)} and Psi {np.shape(self.Psi)} must both have one row per "
-                f"wavelength ({n}).")
+                f"wavelength ({n})."
+            )
 
     @property
     def k(self) -> int:
@@ -81,7 +86,8 @@ class GeneratorPair:
         if R.shape[-1:] != (self.wavelengths.size,):
             raise SpectralDataError(
                 f"reflectances must have shape (..., {self.wavelengths.size}) on this grid; got "
-                f"{R.shape}. Resample them with zonotope.resample.")
+                f"{R.shape}. Resample them with zonotope.resample."
+            )
         return R
 
 
@@ -89,8 +95,14 @@ def _name(obj, default: str) -> str:
     return obj if isinstance(obj, str) else str(getattr(obj, "name", default))
 
 
-def generator_pair(sources, target="Stockman & Sharpe 2°", illuminant="D65", shape=None, *,
-                   target_normalise: str | int | None = "channel") -> GeneratorPair:
+def generator_pair(
+    sources,
+    target="Stockman & Sharpe 2°",
+    illuminant="D65",
+    shape=None,
+    *,
+    target_normalise: str | int | None = "channel",
+) -> GeneratorPair:
     """Build the source and target generators of cameras and an observer on one grid.
 
     Parameters
@@ -132,8 +144,13 @@ def generator_pair(sources, target="Stockman & Sharpe 2°", illuminant="D65", sh
     grid = np.asarray(grid, dtype=np.float64)
     G = spectra.generators(curves, illuminant, grid)
     T = spectra.generators(target, illuminant, grid, normalise=target_normalise)
-    return GeneratorPair(Phi=np.array(G.values, dtype=np.float64), Psi=np.array(T.values, dtype=np.float64),
-                         wavelengths=np.array(G.wavelengths, dtype=np.float64),
-                         sources=tuple(_name(c, "camera") for c in curves), target=_name(target, "target"),
-                         illuminant=_name(illuminant, "illuminant"), source_channels=tuple(G.labels),
-                         target_channels=tuple(T.labels))
+    return GeneratorPair(
+        Phi=np.array(G.values, dtype=np.float64),
+        Psi=np.array(T.values, dtype=np.float64),
+        wavelengths=np.array(G.wavelengths, dtype=np.float64),
+        sources=tuple(_name(c, "camera") for c in curves),
+        target=_name(target, "target"),
+        illuminant=_name(illuminant, "illuminant"),
+        source_channels=tuple(G.labels),
+        target_channels=tuple(T.labels),
+    )

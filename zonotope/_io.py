@@ -77,8 +77,10 @@ def _make_parent(dest: Path) -> None:
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
-        raise OutputExistsError(f"cannot create the folder of {str(dest)!r}: a file of that name (or of one "
-                                "of its parents) is in the way. Choose another output path.") from None
+        raise OutputExistsError(
+            f"cannot create the folder of {str(dest)!r}: a file of that name (or of one "
+            "of its parents) is in the way. Choose another output path."
+        ) from None
 
 
 def _temp_name(dest: Path, kind: str) -> str:
@@ -126,8 +128,14 @@ def _signature_ok(dest: Path, signature: str | None) -> bool:
     return signature.encode("utf-8") in head.split(b"\n", 1)[0]
 
 
-def check_output(dest: str | os.PathLike, *, overwrite: bool = False, signature: str | None = None,
-                 inputs: Iterable[str | os.PathLike | None] = (), what: str = "output") -> Path:
+def check_output(
+    dest: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    signature: str | None = None,
+    inputs: Iterable[str | os.PathLike | None] = (),
+    what: str = "output",
+) -> Path:
     """Refuse an output path before any long work starts.
 
     Parameters
@@ -165,23 +173,29 @@ def check_output(dest: str | os.PathLike, *, overwrite: bool = False, signature:
         except OSError:
             same = False
         if same or p.resolve() == dest.resolve() or dest.resolve() in p.resolve().parents:
-            raise OutputExistsError(f"{what}={str(dest)!r} is (or holds) the input {str(p)!r}; refusing to "
-                                    "overwrite an input. Choose another output path.")
+            raise OutputExistsError(
+                f"{what}={str(dest)!r} is (or holds) the input {str(p)!r}; refusing to "
+                "overwrite an input. Choose another output path."
+            )
     if not (dest.exists() or dest.is_symlink()):
         blocker = next((p for p in dest.parents if p.exists()), None)
         if blocker is not None and not blocker.is_dir():
-            raise OutputExistsError(f"{what}={str(dest)!r}: {str(blocker)!r} is a file, not a folder. Choose "
-                                    "another output path.")
+            raise OutputExistsError(
+                f"{what}={str(dest)!r}: {str(blocker)!r} is a file, not a folder. Choose another output path."
+            )
         return dest
     if not overwrite:
-        raise OutputExistsError(f"{what}={str(dest)!r} already exists; choose another path, or pass "
-                                "overwrite/--force to replace a previous output of this command.")
+        raise OutputExistsError(
+            f"{what}={str(dest)!r} already exists; choose another path, or pass "
+            "overwrite/--force to replace a previous output of this command."
+        )
     if dest.is_symlink() or not _signature_ok(dest, signature):
         kind = "folder" if dest.is_dir() else "file"
         raise OutputExistsError(
             f"{what}={str(dest)!r} exists but is not an output of this command (no "
             f"{MARKER if dest.is_dir() else 'signature line'} in the {kind}); it is never replaced. "
-            "Choose another path, or move it away yourself.")
+            "Choose another path, or move it away yourself."
+        )
     return dest
 
 

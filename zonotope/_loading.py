@@ -38,7 +38,8 @@ def _load(source, builtin: Callable, read: Callable, what: str):
     if not isinstance(source, str | os.PathLike):
         raise SpectralDataError(
             f"{what}: expected a built-in name, a file path or a colour MultiSpectralDistributions; "
-            f"got {type(source).__name__}.")
+            f"got {type(source).__name__}."
+        )
     path = Path(source)
     if path.is_file():
         try:
@@ -46,8 +47,10 @@ def _load(source, builtin: Callable, read: Callable, what: str):
         except (OSError, KeyError, TypeError, ValueError, UnicodeDecodeError) as exc:
             raise SpectralDataError(f"cannot read {what} file {path}: {exc}") from exc
     if path.suffix.lower() in SPECTRAL_SUFFIXES or os.sep in str(source) or isinstance(source, os.PathLike):
-        raise SpectralFileNotFoundError(f"{what} file {path} not found; give an existing file or a "
-                                        f"built-in name (zonotope.list_builtin()).")
+        raise SpectralFileNotFoundError(
+            f"{what} file {path} not found; give an existing file or a "
+            f"built-in name (zonotope.list_builtin())."
+        )
     return builtin(str(source))
 
 

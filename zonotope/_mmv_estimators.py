@@ -14,8 +14,6 @@ from .prior import ReflectancePrior, map_reflectance, project_to_mmv
 __all__ = ["fit_Centroid", "fit_MAP", "fit_Prior", "fit_Projection", "mmv_centroids"]
 
 
-
-
 def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -> float:
     """Log k-volume of the source object-colour solid (exact, or sampled for large C(n, k))."""
     from .solid import Zonotope
@@ -30,8 +28,9 @@ def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -
     return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), 1e-300)))
 
 
-def mmv_centroids(problem: CorrectionProblem, responses, *, eps: float = 1e-3,
-                  delta: float = 0.0) -> np.ndarray:
+def mmv_centroids(
+    problem: CorrectionProblem, responses, *, eps: float = 1e-3, delta: float = 0.0
+) -> np.ndarray:
     """Volume centroids of the metamer mismatch volumes of ``responses (N, k)`` → ``(N, m)``.
 
     Uses :func:`zonotope.mismatch.metamer_mismatch_batch` on the problem's Φ and Ψ (responses
@@ -41,8 +40,9 @@ def mmv_centroids(problem: CorrectionProblem, responses, *, eps: float = 1e-3,
     from .mismatch import metamer_mismatch_batch
 
     C = np.asarray(responses, dtype=np.float64)
-    return metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta,
-                                  on_infeasible="nearest", outer=False).centroids
+    return metamer_mismatch_batch(
+        problem.Phi, problem.Psi, C, eps=eps, delta=delta, on_infeasible="nearest", outer=False
+    ).centroids
 
 
 def fit_Centroid(problem: CorrectionProblem, *, eps: float = 1e-3, delta: float = 0.0) -> Corrector:
@@ -57,8 +57,12 @@ def fit_Centroid(problem: CorrectionProblem, *, eps: float = 1e-3, delta: float 
     delta
         Per-channel response tolerance of the MMV (use ≈ 3σ with noisy responses).
     """
-    return Corrector("Centroid", problem, lambda c: mmv_centroids(problem, c, eps=eps, delta=delta),
-                     {"eps": eps, "delta": delta})
+    return Corrector(
+        "Centroid",
+        problem,
+        lambda c: mmv_centroids(problem, c, eps=eps, delta=delta),
+        {"eps": eps, "delta": delta},
+    )
 
 
 def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float = 0.0) -> Corrector:
@@ -91,8 +95,15 @@ def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float
     return Corrector("MAP", problem, predict, {"prior": prior})
 
 
-def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float = 0.01,
-              odds: float = 100.0, noise: float = 0.0, eps: float = 1e-3) -> Corrector:
+def fit_Prior(
+    problem: CorrectionProblem,
+    *,
+    degree: int = 2,
+    shrinkage: float = 0.01,
+    odds: float = 100.0,
+    noise: float = 0.0,
+    eps: float = 1e-3,
+) -> Corrector:
     """Prior-aware estimator: Bayes-gated mixture of regression and the MMV centroid.
 
     Model: a reflectance is either *natural* (Gaussian ``N(μ, Σ)`` learnt from the training set)
@@ -173,5 +184,9 @@ def fit_Prior(problem: CorrectionProblem, *, degree: int = 2, shrinkage: float =
             out[arb] = wa * out[arb] + (1.0 - wa) * t_arb
         return out
 
-    return Corrector("Prior", problem, predict,
-                     {"prior": prior, "regression": reg, "log_volume": log_vol, "weights": weights})
+    return Corrector(
+        "Prior",
+        problem,
+        predict,
+        {"prior": prior, "regression": reg, "log_volume": log_vol, "weights": weights},
+    )

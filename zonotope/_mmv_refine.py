@@ -81,8 +81,7 @@ class Refinement:
             L = Vt.T * s  # z ↦ c + L z
             AL = A @ L
             n = np.linalg.norm(AL, axis=1)
-            Zw = _vertices_from_halfspaces(AL / n[:, None], (b - A @ c) / n, None,
-                                           interior=np.zeros(d))
+            Zw = _vertices_from_halfspaces(AL / n[:, None], (b - A @ c) / n, None, interior=np.zeros(d))
             Z = c + Zw @ L.T
         else:
             Z = _vertices_from_halfspaces(A, b, self.inner.tol)
@@ -105,8 +104,9 @@ def _initial_directions(m: int) -> np.ndarray:
     return np.concatenate(dirs)
 
 
-def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 200,
-           max_points: int = 200_000) -> Refinement:
+def refine(
+    oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000
+) -> Refinement:
     """Facet refinement with an oracle ``support(U (q, m), warm) -> (values, points, ids)``.
 
     Parameters
@@ -129,24 +129,28 @@ def refine(oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 20
             return done.value
 
 
-def refine_many(oracle, rows, m: int, *, threshold: float, tol: float, max_rounds: int = 200,
-                max_points: int = 200_000) -> list[Refinement]:
+def refine_many(
+    oracle, rows, m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000
+) -> list[Refinement]:
     """:func:`refine` for several responses of one multi-response oracle, in lockstep.
 
     Every round gathers the support queries of all unfinished responses into one oracle call
     (``oracle.support(U, warm, rows)``), so the simplex's numpy overhead is shared.
     """
     rows = [int(r) for r in rows]
-    steps = {r: refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds,
-                             max_points=max_points) for r in rows}
+    steps = {
+        r: refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds, max_points=max_points)
+        for r in rows
+    }
     pending = {r: next(s) for r, s in steps.items()}
     done: dict[int, Refinement] = {}
     while pending:
         order = list(pending)
         sizes = [len(pending[r][0]) for r in order]
         U = np.concatenate([pending[r][0] for r in order])
-        warm = np.concatenate([pending[r][1] if pending[r][1] is not None else np.full(n, r)
-                               for r, n in zip(order, sizes)])
+        warm = np.concatenate(
+            [pending[r][1] if pending[r][1] is not None else np.full(n, r) for r, n in zip(order, sizes)]
+        )
         who = np.repeat(order, sizes)
         vals, pts, ids = oracle.support(U, warm, who)
         cuts = np.cumsum(sizes)[:-1]
@@ -159,8 +163,7 @@ def refine_many(oracle, rows, m: int, *, threshold: float, tol: float, max_round
     return [done[r] for r in rows]
 
 
-def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
-                 max_points: int = 200_000):
+def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000):
     """The refinement as a generator: yields ``(U, warm)`` support queries, is sent the oracle's
     ``(values, points, ids)`` and returns the :class:`Refinement` (see :func:`refine`)."""
     calls = 0
@@ -190,8 +193,7 @@ def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
     max_gap = 0.0
     if d == 0:
         inner = Polytope(P, tol=tol)
-        return Refinement(inner, np.concatenate(dirs), np.concatenate(hs), o, B, calls,
-                          rounds, max_gap, True)
+        return Refinement(inner, np.concatenate(dirs), np.concatenate(hs), o, B, calls, rounds, max_gap, True)
     # 2. refinement inside the affine hull
     is_new = np.ones(len(P), dtype=bool)
     converged = False
@@ -230,6 +232,5 @@ def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
         P = np.concatenate([P, pn[first]])
         ids = np.concatenate([ids, sn[first]])
         is_new = np.zeros(len(P), dtype=bool)
-        is_new[-first.size:] = True
-    return Refinement(poly, np.concatenate(dirs), np.concatenate(hs), o, B, calls,
-                      rounds, max_gap, converged)
+        is_new[-first.size :] = True
+    return Refinement(poly, np.concatenate(dirs), np.concatenate(hs), o, B, calls, rounds, max_gap, converged)

@@ -61,8 +61,10 @@ class HighsOracle:
         from scipy.sparse import csr_matrix
 
         if np.any(self.delta > 0):
-            self._kw = dict(A_ub=csr_matrix(np.vstack([Phi.T, -Phi.T])),
-                            b_ub=np.concatenate([self.c + self.delta, -(self.c - self.delta)]))
+            self._kw = dict(
+                A_ub=csr_matrix(np.vstack([Phi.T, -Phi.T])),
+                b_ub=np.concatenate([self.c + self.delta, -(self.c - self.delta)]),
+            )
         else:
             self._kw = dict(A_eq=csr_matrix(Phi.T), b_eq=self.c)
         self.support(np.eye(Psi.shape[1])[:1])  # feasibility check
@@ -75,9 +77,13 @@ class HighsOracle:
         n = self.Phi.shape[0]
         vals, pts = np.empty(len(U)), np.empty((len(U), self.Psi.shape[1]))
         for i, u in enumerate(U):
-            res = linprog(-(self.Psi @ u), bounds=(0, 1), method="highs", **self._kw,
-                          options=dict(primal_feasibility_tolerance=1e-10,
-                                       dual_feasibility_tolerance=1e-10))
+            res = linprog(
+                -(self.Psi @ u),
+                bounds=(0, 1),
+                method="highs",
+                **self._kw,
+                options=dict(primal_feasibility_tolerance=1e-10, dual_feasibility_tolerance=1e-10),
+            )
             self.n_calls += 1
             if res.status == 2:
                 raise Infeasible

@@ -83,16 +83,16 @@ class MethodRegistry(Mapping[str, F]):
     case.
     """
 
-    def __init__(self, what: str, *, argument: str = "method",
-                 error: type[UnknownMethodError] = UnknownMethodError) -> None:
+    def __init__(
+        self, what: str, *, argument: str = "method", error: type[UnknownMethodError] = UnknownMethodError
+    ) -> None:
         self.what = what
         self.argument = argument
         self.error = error
         self._methods: dict[str, Method[F]] = {}
         self._keys: dict[str, str] = {}
 
-    def register(self, name: str, function: F, *, aliases: tuple[str, ...] = (),
-                 **properties: Any) -> None:
+    def register(self, name: str, function: F, *, aliases: tuple[str, ...] = (), **properties: Any) -> None:
         """Add a method.
 
         Parameters
@@ -141,7 +141,10 @@ class MethodRegistry(Mapping[str, F]):
             raise self.error(
                 f"{argument or self.argument}={name!r} is not a {self.what} method; choose one of "
                 f"{list(self._methods)}{extra}.",
-                argument=argument or self.argument, value=name, valid=tuple(self._methods))
+                argument=argument or self.argument,
+                value=name,
+                valid=tuple(self._methods),
+            )
         return canonical
 
     def method(self, name: str) -> Method[F]:
@@ -161,8 +164,9 @@ class MethodRegistry(Mapping[str, F]):
         >>> CORRECTION_METHODS.names(needs_mmv=False)
         ('Cheung 2004', 'Finlayson 2015', 'Dyer 2017', 'MAP')
         """
-        return tuple(n for n, m in self._methods.items()
-                     if all(m.properties.get(k) == v for k, v in where.items()))
+        return tuple(
+            n for n, m in self._methods.items() if all(m.properties.get(k) == v for k, v in where.items())
+        )
 
     def __getitem__(self, name: str) -> F:
         return self._methods[self.resolve(name)].function
@@ -178,4 +182,3 @@ class MethodRegistry(Mapping[str, F]):
 
     def __repr__(self) -> str:
         return f"MethodRegistry({self.what!r}, {list(self._methods)})"
-

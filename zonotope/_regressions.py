@@ -15,8 +15,6 @@ from ._errors import SpectralDataError
 __all__ = ["fit_Cheung2004", "fit_Dyer2017", "fit_Finlayson2015", "root_polynomial_terms"]
 
 
-
-
 def root_polynomial_terms(responses, *, degree: int = 2) -> np.ndarray:
     """Root-polynomial expansion of any number of channels (Finlayson et al. 2015, eq. 6).
 
@@ -53,7 +51,8 @@ def _lstsq(A: np.ndarray, B: np.ndarray, ridge: float) -> np.ndarray:
     if A.shape[0] < A.shape[1]:
         raise SpectralDataError(
             f"training set has {A.shape[0]} samples but the regression has {A.shape[1]} terms; use "
-            "a larger training set (e.g. 'rawtoaces 190') or a lower degree.")
+            "a larger training set (e.g. 'rawtoaces 190') or a lower degree."
+        )
     AtA = A.T @ A
     lam = ridge * np.trace(AtA) / AtA.shape[0]
     return np.linalg.solve(AtA + lam * np.eye(AtA.shape[0]), A.T @ B)
@@ -69,8 +68,9 @@ def _training(problem: CorrectionProblem, noise: float, copies: int, seed: int):
     return Cn, np.tile(T, (copies, 1))
 
 
-def fit_Cheung2004(problem: CorrectionProblem, *, ridge: float = 1e-9, noise: float = 0.0,
-                   copies: int = 10, seed: int = 0) -> Corrector:
+def fit_Cheung2004(
+    problem: CorrectionProblem, *, ridge: float = 1e-9, noise: float = 0.0, copies: int = 10, seed: int = 0
+) -> Corrector:
     """Least-squares ``k × m`` matrix from source to target responses (no offset).
 
     Parameters
@@ -93,8 +93,15 @@ def fit_Cheung2004(problem: CorrectionProblem, *, ridge: float = 1e-9, noise: fl
     return Corrector("Cheung 2004", problem, lambda c: c @ M, {"M": M, "noise": noise})
 
 
-def fit_Finlayson2015(problem: CorrectionProblem, *, degree: int = 2, ridge: float = 1e-9,
-                      noise: float = 0.0, copies: int = 10, seed: int = 0) -> Corrector:
+def fit_Finlayson2015(
+    problem: CorrectionProblem,
+    *,
+    degree: int = 2,
+    ridge: float = 1e-9,
+    noise: float = 0.0,
+    copies: int = 10,
+    seed: int = 0,
+) -> Corrector:
     """Root-polynomial regression of any number of channels (Finlayson et al. 2015).
 
     Parameters
@@ -114,8 +121,12 @@ def fit_Finlayson2015(problem: CorrectionProblem, *, degree: int = 2, ridge: flo
     """
     C, T = _training(problem, noise, copies, seed)
     M = _lstsq(root_polynomial_terms(C, degree=degree), T, ridge)
-    return Corrector("Finlayson 2015", problem, lambda c: root_polynomial_terms(c, degree=degree) @ M,
-                     {"M": M, "degree": degree, "noise": noise})
+    return Corrector(
+        "Finlayson 2015",
+        problem,
+        lambda c: root_polynomial_terms(c, degree=degree) @ M,
+        {"M": M, "degree": degree, "noise": noise},
+    )
 
 
 def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
@@ -134,18 +145,21 @@ def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
     if problem.k != 3:
         raise SpectralDataError(
             f"the ACES IDT (Dyer 2017) needs exactly one RGB camera; this problem has {problem.k} "
-            "channels. Use 'Cheung 2004' or 'Finlayson 2015' for stacked cameras.")
+            "channels. Use 'Cheung 2004' or 'Finlayson 2015' for stacked cameras."
+        )
     w = problem.wavelengths
     white = problem.white_XYZ
-    cmfs = colour.MultiSpectralDistributions(problem.Psi @ problem.XYZ_from_target, w,
-                                             labels=["x", "y", "z"], name="target")
+    cmfs = colour.MultiSpectralDistributions(
+        problem.Psi @ problem.XYZ_from_target, w, labels=["x", "y", "z"], name="target"
+    )
     # matrix_idt multiplies by the illuminant itself: give it the plain sensitivities (Φ is S·E·Δλ
     # per channel, the constant factors are removed by its white balance) and a flat light.
     sens = colour.characterisation.RGB_CameraSensitivities(problem.Phi, w, labels=["r", "g", "b"])
     flat = colour.SpectralDistribution(np.ones(w.size), w, name="flat")
     cmfs_flat = colour.MultiSpectralDistributions(cmfs.values, w, labels=["x", "y", "z"])
-    train = colour.MultiSpectralDistributions(problem.training.T, w,
-                                              labels=[str(i) for i in range(problem.training.shape[0])])
+    train = colour.MultiSpectralDistributions(
+        problem.training.T, w, labels=[str(i) for i in range(problem.training.shape[0])]
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         M, _, _, RGB = colour.matrix_idt(sens, flat, train, cmfs_flat, additional_data=True)
@@ -153,10 +167,10 @@ def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
     scale = np.median(RGB / np.maximum(C, 1e-12), axis=0)  # our white-balanced → theirs (diagonal)
     aces = colour.RGB_COLOURSPACES["ACES2065-1"]
     A = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-        colour.xy_to_XYZ(aces.whitepoint), white / white[1], transform="CAT02")
+        colour.xy_to_XYZ(aces.whitepoint), white / white[1], transform="CAT02"
+    )
     X2T = np.linalg.pinv(problem.XYZ_from_target)
     full = np.diag(scale) @ M.T @ aces.matrix_RGB_to_XYZ.T @ A.T
-    s = float(np.sum((C @ full @ X2T) * problem.target_of(problem.training))
-              / np.sum((C @ full @ X2T) ** 2))
+    s = float(np.sum((C @ full @ X2T) * problem.target_of(problem.training)) / np.sum((C @ full @ X2T) ** 2))
     full = s * full @ X2T
     return Corrector("Dyer 2017", problem, lambda c: c @ full, {"M": full, "M_IDT": M})

@@ -99,8 +99,6 @@ def _fix_winding(F: np.ndarray, normal: np.ndarray) -> np.ndarray:
     return F
 
 
-
-
 def reduce_generators(G: np.ndarray, offset: np.ndarray, tol: Tolerances) -> tuple[np.ndarray, np.ndarray]:
     """(H, offset'): zero generators dropped, all oriented to one half-space, parallels merged.
 
@@ -137,7 +135,6 @@ def reduce_with_groups(G: np.ndarray, offset: np.ndarray, tol: Tolerances):
     group[keep] = inverse
     flipped[keep] = flip
     return merged, off, group, flipped
-
 
 
 def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3:
@@ -211,8 +208,15 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
             Kp[redo] = side.astype(np.int64) @ r
     ii, jj, n, Bp, Kp = (a[keep] for a in (ii, jj, n, Bp, Kp))
     Bp += off
-    return Facets3(pairs=np.stack([ii, jj], axis=1), normals=n, bases=Bp, keys=Kp,
-                    zonogons=zonogons, members=[np.array(S) for S in planes], volume=volume)
+    return Facets3(
+        pairs=np.stack([ii, jj], axis=1),
+        normals=n,
+        bases=Bp,
+        keys=Kp,
+        zonogons=zonogons,
+        members=[np.array(S) for S in planes],
+        volume=volume,
+    )
 
 
 def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, tol) -> list[list[int]]:
@@ -359,8 +363,9 @@ def vertices_by_keys(f: Facets3, H: np.ndarray, r: np.ndarray, c: np.ndarray) ->
     return pts[first]
 
 
-def vertices_sweep(f: Facets3, H: np.ndarray, off: np.ndarray, r: np.ndarray,
-                   c: np.ndarray) -> np.ndarray | None:
+def vertices_sweep(
+    f: Facets3, H: np.ndarray, off: np.ndarray, r: np.ndarray, c: np.ndarray
+) -> np.ndarray | None:
     """Each vertex exactly once, from the arrangement of great circles ``h⊥`` on the sphere.
 
     Vertices of the zonotope are the cells of that arrangement (the directions for which the
@@ -483,8 +488,9 @@ def circular_transitions(X: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndar
     return count
 
 
-def pgram_transitions(G: np.ndarray, H: np.ndarray, group: np.ndarray, f: Facets3,
-                      chunk: int = 4096) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pgram_transitions(
+    G: np.ndarray, H: np.ndarray, group: np.ndarray, f: Facets3, chunk: int = 4096
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Transition counts of the boundary parallelograms of the standard tiling.
 
     One parallelogram per pair I < J of reduced generators (zonogon facets tiled), as in

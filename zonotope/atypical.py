@@ -70,8 +70,12 @@ def _spiky(rng: np.random.Generator, w: np.ndarray) -> np.ndarray:
     return base
 
 
-_MAKERS = {"band-pass": _band, "band-stop": lambda rng, w: 1.0 - _band(rng, w),
-           "narrow-band": _narrow, "spiky": _spiky}
+_MAKERS = {
+    "band-pass": _band,
+    "band-stop": lambda rng, w: 1.0 - _band(rng, w),
+    "narrow-band": _narrow,
+    "spiky": _spiky,
+}
 
 
 def atypical_reflectances(

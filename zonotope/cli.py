@@ -31,10 +31,10 @@ def _summary(args: argparse.Namespace) -> int:
     cameras = args.camera or list(spectra.CAMERAS)
     curves = {c: load_camera(c) for c in cameras}  # built-in names or camera files, as evaluate/report
     shape = colour.SpectralShape(args.start, args.end, args.interval) if args.start else None
-    table = Table(title=f"Object-colour solids and Vora values (illuminant {args.illuminant}, "
-                        f"target {args.target})")
-    for col in ("camera", "grid (nm)", "generators", "volume", "vertices", "facets",
-                "Vora", "build (ms)"):
+    table = Table(
+        title=f"Object-colour solids and Vora values (illuminant {args.illuminant}, target {args.target})"
+    )
+    for col in ("camera", "grid (nm)", "generators", "volume", "vertices", "facets", "Vora", "build (ms)"):
         table.add_column(col, justify="left" if col == "camera" else "right")
     rows = [*cameras, args.target]
     for name in rows:
@@ -49,8 +49,16 @@ def _summary(args: argparse.Namespace) -> int:
         ms = 1e3 * (time.perf_counter() - t0)
         v = vora_value(G.values, spectra.generators(tgt, args.illuminant, grid).values)
         label = f"{name} (target)" if is_target else curve.name
-        table.add_row(label, f"{grid.start:g}–{grid.end:g}/{grid.interval:g}", str(Z.n_generators),
-                      f"{volume:.5f}", str(n_vertices), str(n_facets), f"{v:.4f}", f"{ms:.1f}")
+        table.add_row(
+            label,
+            f"{grid.start:g}–{grid.end:g}/{grid.interval:g}",
+            str(Z.n_generators),
+            f"{volume:.5f}",
+            str(n_vertices),
+            str(n_facets),
+            f"{v:.4f}",
+            f"{ms:.1f}",
+        )
     console.print(table)
     if len(cameras) > 1:
         sets = Table(title="Camera sets ranked by Vora value (channels stacked)")
@@ -60,8 +68,9 @@ def _summary(args: argparse.Namespace) -> int:
             for s in rank_camera_sets(list(curves.values()), args.target, args.illuminant, shape, size=size):
                 sets.add_row(" + ".join(s.cameras), str(s.channels), f"{s.vora:.4f}")
         console.print(sets)
-    console.print("Volumes are in normalised response units (white = 1 per channel); "
-                  "the unit cube has volume 1.")
+    console.print(
+        "Volumes are in normalised response units (white = 1 per channel); the unit cube has volume 1."
+    )
     return 0
 
 
@@ -120,8 +129,9 @@ def _rich_progress(console):
             print(f"[{time.monotonic() - t0:7.1f} s] {description}", file=sys.stderr, flush=True)
 
         return contextlib.nullcontext(), plain
-    progress = Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(),
-                        console=console, transient=True)
+    progress = Progress(
+        TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=console, transient=True
+    )
     state = {"task": None}
 
     def callback(description: str, n: int) -> None:
@@ -146,8 +156,13 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.markdown:  # refuse a bad output path before the long run, never an input file
         from ._io import check_output
 
-        check_output(args.markdown, overwrite=args.force, signature=_MD_SIGNATURE, what="--markdown",
-                     inputs=[*args.camera, args.training, *(args.test_set or [])])
+        check_output(
+            args.markdown,
+            overwrite=args.force,
+            signature=_MD_SIGNATURE,
+            what="--markdown",
+            inputs=[*args.camera, args.training, *(args.test_set or [])],
+        )
     shape = _shape(args)
     w = shape.wavelengths
     sets = natural_test_sets(w, data_dir=args.data, size=args.size, seed=args.seed)
@@ -159,29 +174,49 @@ def _evaluate(args: argparse.Namespace) -> int:
         if R.max() > 1.5 or R.min() < -1e-6:  # percent data are refused, not clipped to 1
             raise SpectralDataError(
                 f"--test-set {path}: reflectances must lie in [0, 1] (got {R.min():.3g}…{R.max():.3g}); "
-                "divide percent data by 100.")
+                "divide percent data by 100."
+            )
         sets.append(TestSet(path, R.clip(0, 1)))
     if args.atypical:
         sets.append(atypical_test_set(w, args.atypical, seed=args.seed))
     camera_sets = [args.camera] if not args.pairs else [[c] for c in args.camera] + [args.camera]
     progress, callback = _rich_progress(console)
     with progress:
-        ev = evaluate(camera_sets, methods=args.method or DEFAULT_METHODS, illuminant=args.illuminant,
-                      shape=shape, training=args.training, test_sets=sets, noise=args.noise,
-                      seed=args.seed, progress=callback)
+        ev = evaluate(
+            camera_sets,
+            methods=args.method or DEFAULT_METHODS,
+            illuminant=args.illuminant,
+            shape=shape,
+            training=args.training,
+            test_sets=sets,
+            noise=args.noise,
+            seed=args.seed,
+            progress=callback,
+        )
     table = Table(title="CIEDE2000 per estimator")
     for col in ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"):
         table.add_column(col, justify="left" if col in ("cameras", "test set", "estimator") else "right")
     for r in ev.rows:
-        table.add_row(r.cameras, r.test_set, r.method, str(r.n), f"{r.mean:.3f}", f"{r.median:.3f}",
-                      f"{r.p95:.3f}", f"{r.max:.2f}", "" if r.inside is None else f"{100 * r.inside:.0f} %")
+        table.add_row(
+            r.cameras,
+            r.test_set,
+            r.method,
+            str(r.n),
+            f"{r.mean:.3f}",
+            f"{r.median:.3f}",
+            f"{r.p95:.3f}",
+            f"{r.max:.2f}",
+            "" if r.inside is None else f"{100 * r.inside:.0f} %",
+        )
     console.print(table)
     for cams in dict.fromkeys(r.cameras for r in ev.rows):
         for kind in ("natural", "atypical"):
             pooled = ev.pooled(kind, cams)
             if pooled:
-                console.print(f"{cams} · {kind} (pooled mean / max): " + ", ".join(
-                    f"{m} {v[0]:.3f}/{v[1]:.1f}" for m, v in pooled.items()))
+                console.print(
+                    f"{cams} · {kind} (pooled mean / max): "
+                    + ", ".join(f"{m} {v[0]:.3f}/{v[1]:.1f}" for m, v in pooled.items())
+                )
     for note in ev.notes:
         console.print(f"note: {note}")
     if args.markdown:
@@ -201,9 +236,17 @@ def _report(args: argparse.Namespace) -> int:
     console = Console()
     progress, callback = _rich_progress(console)
     with progress:
-        path = write_report(args.camera, args.output, illuminant=args.illuminant, shape=_shape(args),
-                            force=args.force, data_dir=args.data, atypical=args.atypical,
-                            size=args.size, progress=callback)
+        path = write_report(
+            args.camera,
+            args.output,
+            illuminant=args.illuminant,
+            shape=_shape(args),
+            force=args.force,
+            data_dir=args.data,
+            atypical=args.atypical,
+            size=args.size,
+            progress=callback,
+        )
     console.print(f"report written to {path / 'index.html'} (and report.md)")
     return 0
 
@@ -222,14 +265,22 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zonotope", description=__doc__)
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("list", aliases=["cameras"], help="names of the built-in cameras, observers, "
-                                                         "illuminants and reflectance sets")
-    p.add_argument("kind", nargs="?", choices=["cameras", "observers", "illuminants", "reflectances"],
-                   help="only this kind (default all; 'zonotope cameras' lists the cameras)")
+    p = sub.add_parser(
+        "list",
+        aliases=["cameras"],
+        help="names of the built-in cameras, observers, illuminants and reflectance sets",
+    )
+    p.add_argument(
+        "kind",
+        nargs="?",
+        choices=["cameras", "observers", "illuminants", "reflectances"],
+        help="only this kind (default all; 'zonotope cameras' lists the cameras)",
+    )
     p.set_defaults(func=_list)
     p = sub.add_parser("summary", help="solids and Vora values of the built-in (or given) cameras")
-    p.add_argument("--camera", action="append",
-                   help="camera name or file (repeatable; default every built-in camera)")
+    p.add_argument(
+        "--camera", action="append", help="camera name or file (repeatable; default every built-in camera)"
+    )
     p.add_argument("--illuminant", default="D65")
     p.add_argument("--target", default="Stockman & Sharpe 2°")
     p.add_argument("--start", type=float, help="grid start in nm (default: common range)")
@@ -238,18 +289,26 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_summary)
 
     p = sub.add_parser("evaluate", help="ΔE00 of every colour-correction estimator")
-    p.add_argument("--camera", action="append", required=True,
-                   help="camera name or file (repeat for 2–3 cameras; channels are stacked)")
-    p.add_argument("--pairs", action="store_true",
-                   help="also evaluate each camera alone before the stacked set")
+    p.add_argument(
+        "--camera",
+        action="append",
+        required=True,
+        help="camera name or file (repeat for 2–3 cameras; channels are stacked)",
+    )
+    p.add_argument(
+        "--pairs", action="store_true", help="also evaluate each camera alone before the stacked set"
+    )
     p.add_argument("--method", action="append", help="estimator (repeatable; default all)")
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
     p.add_argument("--test-set", action="append", help="extra test reflectance file (repeatable)")
     p.add_argument("--noise", type=float, default=0.0, help="response noise σ (white = 1)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--markdown", help="also write the table to this Markdown file (must not exist)")
-    p.add_argument("--force", action="store_true",
-                   help="replace a --markdown file written by an earlier 'zonotope evaluate'")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a --markdown file written by an earlier 'zonotope evaluate'",
+    )
     _grid_options(p)
     p.set_defaults(func=_evaluate)
 
@@ -283,8 +342,10 @@ def _check_numbers(args: argparse.Namespace) -> None:
         raise bad("--interval", interval, "the grid step must be a finite number of nm > 0")
     if start is not None and end is not None and not end > start:
         raise bad("--end", end, f"must exceed --start {start!r}")
-    for option, value, low in (("--atypical", getattr(args, "atypical", None), 0),
-                               ("--size", getattr(args, "size", None), 1)):
+    for option, value, low in (
+        ("--atypical", getattr(args, "atypical", None), 0),
+        ("--size", getattr(args, "size", None), 1),
+    ):
         if value is not None and value < low:
             raise bad(option, value, f"must be ≥ {low}")
     noise = getattr(args, "noise", None)
@@ -307,14 +368,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         if isinstance(error, ZonotopeError):
             print(f"zonotope: error: {error}", file=sys.stderr)
         else:
-            print(f"zonotope: error: {error.strerror or error}"
-                  + (f": {error.filename}" if error.filename else ""), file=sys.stderr)
+            print(
+                f"zonotope: error: {error.strerror or error}"
+                + (f": {error.filename}" if error.filename else ""),
+                file=sys.stderr,
+            )
         return 2
     except ZonotopeError as error:
         hint = ""
         if "the grid asks for" in str(error) and args.command in ("evaluate", "report"):
-            hint = (" (on the command line: --start/--end/--interval set the grid, default 400–700/10 nm "
-                    "within the cameras' range)")
+            hint = (
+                " (on the command line: --start/--end/--interval set the grid, default 400–700/10 nm "
+                "within the cameras' range)"
+            )
         print(f"zonotope: error: {error}{hint}", file=sys.stderr)
         return 2
 

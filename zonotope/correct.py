@@ -100,24 +100,67 @@ __all__ = [
 #: ``noise``
 #:     It accepts the ``noise=σ`` option (training on noisy replicas / noisy evidence).
 CORRECTION_METHODS: MethodRegistry[Callable[..., Corrector]] = MethodRegistry("correction")
-CORRECTION_METHODS.register("Cheung 2004", fit_Cheung2004, aliases=("least squares", "matrix", "lstsq"),
-                            closed_form=True, needs_mmv=False, centroid=False, noise=True)
-CORRECTION_METHODS.register("Finlayson 2015", fit_Finlayson2015, aliases=("root-polynomial", "rootpoly"),
-                            closed_form=True, needs_mmv=False, centroid=False, noise=True)
-CORRECTION_METHODS.register("Dyer 2017", fit_Dyer2017, aliases=("idt", "aces idt", "aces"),
-                            closed_form=True, needs_mmv=False, centroid=False, noise=False)
-CORRECTION_METHODS.register("Centroid", fit_Centroid, aliases=("mmv centroid",),
-                            closed_form=False, needs_mmv=True, centroid=True, noise=False)
-CORRECTION_METHODS.register("Projection", fit_Projection,
-                            closed_form=False, needs_mmv=True, centroid=False, noise=True)
-CORRECTION_METHODS.register("MAP", fit_MAP,
-                            closed_form=False, needs_mmv=False, centroid=False, noise=True)
-CORRECTION_METHODS.register("Prior", fit_Prior, aliases=("prior posterior",),
-                            closed_form=False, needs_mmv=True, centroid=False, noise=True)
+CORRECTION_METHODS.register(
+    "Cheung 2004",
+    fit_Cheung2004,
+    aliases=("least squares", "matrix", "lstsq"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise=True,
+)
+CORRECTION_METHODS.register(
+    "Finlayson 2015",
+    fit_Finlayson2015,
+    aliases=("root-polynomial", "rootpoly"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise=True,
+)
+CORRECTION_METHODS.register(
+    "Dyer 2017",
+    fit_Dyer2017,
+    aliases=("idt", "aces idt", "aces"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise=False,
+)
+CORRECTION_METHODS.register(
+    "Centroid",
+    fit_Centroid,
+    aliases=("mmv centroid",),
+    closed_form=False,
+    needs_mmv=True,
+    centroid=True,
+    noise=False,
+)
+CORRECTION_METHODS.register(
+    "Projection", fit_Projection, closed_form=False, needs_mmv=True, centroid=False, noise=True
+)
+CORRECTION_METHODS.register("MAP", fit_MAP, closed_form=False, needs_mmv=False, centroid=False, noise=True)
+CORRECTION_METHODS.register(
+    "Prior",
+    fit_Prior,
+    aliases=("prior posterior",),
+    closed_form=False,
+    needs_mmv=True,
+    centroid=False,
+    noise=True,
+)
 
 
-def fit_correction(cameras_or_problem, *, method: str = "Prior", target="CIE 2015 2°",
-                   illuminant="D65", shape=None, training="rawtoaces 190", **options) -> Corrector:
+def fit_correction(
+    cameras_or_problem,
+    *,
+    method: str = "Prior",
+    target="CIE 2015 2°",
+    illuminant="D65",
+    shape=None,
+    training="rawtoaces 190",
+    **options,
+) -> Corrector:
     """Fit an estimator (see :data:`CORRECTION_METHODS` and the module notes on which to use).
 
     Parameters
@@ -137,9 +180,13 @@ def fit_correction(cameras_or_problem, *, method: str = "Prior", target="CIE 201
         Unknown method (the message lists the valid ones).
     """
     name = CORRECTION_METHODS.resolve(method)
-    problem = (cameras_or_problem if isinstance(cameras_or_problem, CorrectionProblem)
-               else correction_problem(cameras_or_problem, target=target, illuminant=illuminant,
-                                       shape=shape, training=training))
+    problem = (
+        cameras_or_problem
+        if isinstance(cameras_or_problem, CorrectionProblem)
+        else correction_problem(
+            cameras_or_problem, target=target, illuminant=illuminant, shape=shape, training=training
+        )
+    )
     return CORRECTION_METHODS[name](problem, **options)
 
 

@@ -104,8 +104,9 @@ def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED) -> Test
     return TestSet(label, X, "atypical")
 
 
-def natural_test_sets(wavelengths, *, data_dir: str | Path | None = None, size: int | None = 150,
-                      seed: int = 0) -> list[TestSet]:
+def natural_test_sets(
+    wavelengths, *, data_dir: str | Path | None = None, size: int | None = 150, seed: int = 0
+) -> list[TestSet]:
     """Natural reflectance sets on a grid: built-ins, plus real data from ``data_dir`` if given.
 
     Parameters
@@ -132,15 +133,20 @@ def natural_test_sets(wavelengths, *, data_dir: str | Path | None = None, size: 
     munsell = root / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
     if munsell.is_file():
         R = spectra.resample(spectra.read_reflectances(munsell), w).T
-        out.append(TestSet(f"Munsell matte ({min(size or R.shape[0], R.shape[0])})",
-                           np.clip(_subset(R, size, seed), 0, 1)))
+        out.append(
+            TestSet(
+                f"Munsell matte ({min(size or R.shape[0], R.shape[0])})",
+                np.clip(_subset(R, size, seed), 0, 1),
+            )
+        )
     sfu = root / "reflectance_sfu1995" / "reflect_db.reflect"
     if sfu.is_file():
         R = spectra.resample(spectra.read_sfu1995(sfu), w).T
         for name, first, count in (("SFU Krinov", 201, 355), ("SFU Vrhel", 1825, 170)):
-            block = R[first:first + count]
-            out.append(TestSet(f"{name} ({min(size or count, count)})",
-                               np.clip(_subset(block, size, seed), 0, 1)))
+            block = R[first : first + count]
+            out.append(
+                TestSet(f"{name} ({min(size or count, count)})", np.clip(_subset(block, size, seed), 0, 1))
+            )
     ces = root / "reflectance_cie_test_colour_samples" / "CIE_224_2017_CES99_5nm.csv"
     if ces.is_file():
         R = spectra.resample(spectra.read_reflectances(ces), w).T
@@ -203,17 +209,24 @@ class Evaluation:
 
     def to_markdown(self) -> str:
         """The table as GitHub Markdown."""
-        head = ("| cameras | test set | estimator | n | mean | median | p95 | max | in MMV |\n"
-                "|---|---|---|---:|---:|---:|---:|---:|---:|\n")
+        head = (
+            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV |\n"
+            "|---|---|---|---:|---:|---:|---:|---:|---:|\n"
+        )
         body = "".join(
             f"| {r.cameras} | {r.test_set} | {r.method} | {r.n} | {r.mean:.3f} | {r.median:.3f} | "
             f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} |\n"
-            for r in self.rows)
+            for r in self.rows
+        )
         vol = ""
         if self.volumes:
-            vol = ("\n| cameras | test set | MMV volume mean | median | max |\n|---|---|---:|---:|---:|\n"
-                   + "".join(f"| {c} | {t} | {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
-                             for (c, t), v in self.volumes.items()))
+            vol = (
+                "\n| cameras | test set | MMV volume mean | median | max |\n|---|---|---:|---:|---:|\n"
+                + "".join(
+                    f"| {c} | {t} | {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
+                    for (c, t), v in self.volumes.items()
+                )
+            )
         notes = "".join(f"\n- {n}" for n in self.notes)
         return head + body + vol + (f"\nNotes:{notes}\n" if notes else "")
 
@@ -226,8 +239,7 @@ def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: 
     """Centroids (N, m) and volumes (N,) of the MMVs of responses C (N, k)."""
     from .mismatch import metamer_mismatch_batch
 
-    out = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta,
-                                 on_infeasible="nearest")
+    out = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta, on_infeasible="nearest")
     return out.centroids, out.volumes
 
 
@@ -305,15 +317,17 @@ def evaluate(
             raise SpectralDataError(f"test set {ts.name!r} is empty; give at least one reflectance.")
         if ts.reflectances.shape[1] != w.size:
             raise SpectralDataError(
-                f"test set {ts.name!r} has {ts.reflectances.shape[1]} wavelengths; the grid has {w.size}.")
+                f"test set {ts.name!r} has {ts.reflectances.shape[1]} wavelengths; the grid has {w.size}."
+            )
     rows: list[EvaluationRow] = []
     volumes: dict = {}
     notes: list[str] = []
     rng = np.random.default_rng(seed)
     for cams in camera_sets:
         cams = [cams] if isinstance(cams, str) or not isinstance(cams, Sequence) else list(cams)
-        problem = correction_problem(cams, target=target, illuminant=illuminant, shape=shape,
-                                     training=training)
+        problem = correction_problem(
+            cams, target=target, illuminant=illuminant, shape=shape, training=training
+        )
         label = " + ".join(problem.sources)
         fitted = {}
         for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
@@ -335,7 +349,8 @@ def evaluate(
                     notes.append(
                         f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
                         "camera's object-colour solid (no reflectance produces them); the MMV estimators "
-                        "used the nearest feasible response (delta = 3σ), the others extrapolate.")
+                        "used the nearest feasible response (delta = 3σ), the others extrapolate."
+                    )
             centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
             if centroid is not None:
                 if progress:
@@ -354,8 +369,13 @@ def evaluate(
                 inside = None
                 if CORRECTION_METHODS.properties(m)["closed_form"]:
                     inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
-                rows.append(EvaluationRow(label, ts.name, ts.kind, m, len(C), *_stats(dE),
-                                          inside=inside, seconds=secs))
-    notes.append(f"grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, illuminant {illuminant}, target "
-                 f"{target} (XYZ, Y_white = 1), training {training}, noise σ = {noise:g}.")
+                rows.append(
+                    EvaluationRow(
+                        label, ts.name, ts.kind, m, len(C), *_stats(dE), inside=inside, seconds=secs
+                    )
+                )
+    notes.append(
+        f"grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, illuminant {illuminant}, target "
+        f"{target} (XYZ, Y_white = 1), training {training}, noise σ = {noise:g}."
+    )
     return Evaluation(rows, volumes, notes)

@@ -27,8 +27,15 @@ def _fingerprint(corrector: Corrector, quantum: float) -> str:
     p = corrector.problem
     for a in (p.Phi, p.Psi, p.training):
         h.update(np.ascontiguousarray(a).tobytes())
-    h.update(repr((corrector.method, sorted((k, repr(v)) for k, v in corrector.params.items()
-                                            if isinstance(v, int | float | str)), quantum)).encode())
+    h.update(
+        repr(
+            (
+                corrector.method,
+                sorted((k, repr(v)) for k, v in corrector.params.items() if isinstance(v, int | float | str)),
+                quantum,
+            )
+        ).encode()
+    )
     return h.hexdigest()[:24]
 
 
@@ -116,14 +123,18 @@ def correct_image(
     ...               shape=np.arange(400, 701, 10)).shape
     (4, 5, 3)
     """
-    corrector = (cameras_or_corrector if isinstance(cameras_or_corrector, Corrector)
-                 else fit_correction(cameras_or_corrector, method=method, **options))
+    corrector = (
+        cameras_or_corrector
+        if isinstance(cameras_or_corrector, Corrector)
+        else fit_correction(cameras_or_corrector, method=method, **options)
+    )
     k, m = corrector.problem.k, corrector.problem.m
     img = np.asarray(image, dtype=np.float64)
     if img.shape[-1:] != (k,):
         raise SpectralDataError(
             f"image: last axis must hold the {k} stacked channels of {list(corrector.problem.sources)}; "
-            f"got shape {img.shape}.")
+            f"got shape {img.shape}."
+        )
     if batch_size < 1:
         raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
     if cache_dir and Path(cache_dir).exists() and not Path(cache_dir).is_dir():
@@ -135,16 +146,20 @@ def correct_image(
     if isinstance(base, str):
         if base != "auto":
             raise ValueError(f"base must be a Corrector, 'auto' or None; got {base!r}.")
-        base = corrector.params.get("regression") or fit_correction(corrector.problem,
-                                                                    method="Finlayson 2015")
+        base = corrector.params.get("regression") or fit_correction(
+            corrector.problem, method="Finlayson 2015"
+        )
     flat = img.reshape(-1, k)
     ok = np.all(np.isfinite(flat), axis=1)
     out = np.full((flat.shape[0], m), np.nan)
     if not ok.any():
         return out.reshape(*img.shape[:-1], m)
     pixels = flat[ok]
-    keys = (np.round(pixels / quantum).astype(np.int64) if quantum > 0
-            else np.ascontiguousarray(pixels).view(np.int64))
+    keys = (
+        np.round(pixels / quantum).astype(np.int64)
+        if quantum > 0
+        else np.ascontiguousarray(pixels).view(np.int64)
+    )
     rows = np.ascontiguousarray(keys).view(np.dtype((np.void, 8 * k))).reshape(-1)
     _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
     uniq = keys[first]
@@ -164,7 +179,7 @@ def correct_image(
             result[i] = hit
     todo = np.asarray(todo, dtype=np.intp)
     for start in range(0, todo.size, batch_size):
-        idx = todo[start:start + batch_size]
+        idx = todo[start : start + batch_size]
         result[idx] = corrector(colours[idx])
         if cache_path is not None:
             cache.update({uniq[i].tobytes(): result[i] for i in idx})

@@ -39,8 +39,7 @@ import numpy as np
 from ._errors import GeometryError
 from .solid import Zonotope
 
-__all__ = ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid",
-           "section"]
+__all__ = ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid", "section"]
 
 
 @lru_cache(maxsize=8)
@@ -53,8 +52,14 @@ def _solid_cached(observer: str, illuminant: str, start: float, end: float, inte
     return Zonotope(G)
 
 
-def object_colour_solid(observer: str = "CIE 1931 2°", illuminant: str = "D65", *,
-                        start: float = 360.0, end: float = 780.0, interval: float = 1.0) -> Zonotope:
+def object_colour_solid(
+    observer: str = "CIE 1931 2°",
+    illuminant: str = "D65",
+    *,
+    start: float = 360.0,
+    end: float = 780.0,
+    interval: float = 1.0,
+) -> Zonotope:
     """The exact object-colour solid in XYZ, scaled so that the perfect white has Y = 1.
 
     Parameters
@@ -80,8 +85,14 @@ def _solid(solid, observer, illuminant) -> Zonotope:
     return object_colour_solid(observer, illuminant)
 
 
-def is_object_colour(XYZ, *, observer: str = "CIE 1931 2°", illuminant: str = "D65",
-                     solid: Zonotope | None = None, tol: float | None = None) -> np.ndarray:
+def is_object_colour(
+    XYZ,
+    *,
+    observer: str = "CIE 1931 2°",
+    illuminant: str = "D65",
+    solid: Zonotope | None = None,
+    tol: float | None = None,
+) -> np.ndarray:
     """Whether each XYZ (Y_white = 1) is the colour of some reflectance in [0, 1], exactly.
 
     Parameters
@@ -179,8 +190,9 @@ class MacAdamLimits:
     xy: np.ndarray
 
 
-def macadam_limits(Y: float, *, observer: str = "CIE 1931 2°", illuminant: str = "D65",
-                   solid: Zonotope | None = None) -> MacAdamLimits:
+def macadam_limits(
+    Y: float, *, observer: str = "CIE 1931 2°", illuminant: str = "D65", solid: Zonotope | None = None
+) -> MacAdamLimits:
     """The exact MacAdam limit: chromaticities of the optimal colours of luminance Y.
 
     Parameters
@@ -218,8 +230,15 @@ def macadam_limits(Y: float, *, observer: str = "CIE 1931 2°", illuminant: str 
     return MacAdamLimits(float(Y), P, xy)
 
 
-def invert(points, *, solid: Zonotope | None = None, observer: str = "CIE 1931 2°",
-           illuminant: str = "D65", tol: float | None = None, chunk: int | None = None) -> np.ndarray:
+def invert(
+    points,
+    *,
+    solid: Zonotope | None = None,
+    observer: str = "CIE 1931 2°",
+    illuminant: str = "D65",
+    tol: float | None = None,
+    chunk: int | None = None,
+) -> np.ndarray:
     """A reflectance in [0, 1] for each point of a 3-D solid (a metamer generator), exactly.
 
     Parameters
@@ -276,7 +295,7 @@ def invert(points, *, solid: Zonotope | None = None, observer: str = "CIE 1931 2
     out = np.empty((flat.shape[0], Z.n_generators))
     chunk = chunk or max(1, 4_000_000 // A.shape[0])
     for s in range(0, flat.shape[0], chunk):
-        d = flat[s:s + chunk] - c
+        d = flat[s : s + chunk] - c
         sn = d @ A[:half].T  # rows come in ± pairs: one product serves both facets
         gp, gm = sn / h[:half], -sn / h[half:]
         kp, km = np.argmax(gp, axis=1), np.argmax(gm, axis=1)
@@ -289,7 +308,8 @@ def invert(points, *, solid: Zonotope | None = None, observer: str = "CIE 1931 2
             i = int(np.nonzero(bad)[0][0]) + s
             raise GeometryError(
                 f"points[{i}] = {flat[i].tolist()} lies outside the solid (gauge {t[bad].max():.6g} > 1): "
-                "no reflectance in [0, 1] produces it. Test with is_object_colour / Zonotope.contains.")
+                "no reflectance in [0, 1] produces it. Test with is_object_colour / Zonotope.contains."
+            )
         t = np.minimum(t, 1.0)
         safe = np.where(t > 0, t, 1.0)
         minus = k >= half
@@ -323,7 +343,7 @@ def invert(points, *, solid: Zonotope | None = None, observer: str = "CIE 1931 2
         kept = group >= 0
         x[:, kept] = xr[:, group[kept]]
         x[:, flipped] = 1.0 - x[:, flipped]
-        out[s:s + chunk] = x
+        out[s : s + chunk] = x
     return out.reshape((*P.shape[:-1], Z.n_generators))
 
 

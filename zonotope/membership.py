@@ -53,9 +53,11 @@ def joint_halfspaces(generators, *, max_terms: int = 2_000_000) -> tuple[np.ndar
         raise GeometryError(f"need at least 2 channels; got {d}.")
     terms = math.comb(n, d - 1)
     if terms > max_terms:
-        raise GeometryError(f"C({n}, {d - 1}) = {terms:.3g} facet directions exceed "
-                            f"max_terms={max_terms:.3g}; "
-                            "use a coarser wavelength grid or raise max_terms.")
+        raise GeometryError(
+            f"C({n}, {d - 1}) = {terms:.3g} facet directions exceed "
+            f"max_terms={max_terms:.3g}; "
+            "use a coarser wavelength grid or raise max_terms."
+        )
     idx = np.fromiter(combinations(range(n), d - 1), dtype=(np.intp, d - 1), count=terms)
     _, s, Vt = np.linalg.svd(G[idx], full_matrices=True)
     scale = np.abs(G).max()
@@ -66,8 +68,15 @@ def joint_halfspaces(generators, *, max_terms: int = 2_000_000) -> tuple[np.ndar
     return U, h
 
 
-def mmv_contains(Phi, Psi, responses, targets, *, tol: float | None = None,
-                 halfspaces: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+def mmv_contains(
+    Phi,
+    Psi,
+    responses,
+    targets,
+    *,
+    tol: float | None = None,
+    halfspaces: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Whether each target response lies in the MMV of its source response, exactly.
 
     Parameters
@@ -99,8 +108,10 @@ def mmv_contains(Phi, Psi, responses, targets, *, tol: float | None = None,
     c = np.asarray(responses, dtype=np.float64)
     y = np.asarray(targets, dtype=np.float64)
     if c.shape[-1:] != (Phi.shape[1],) or y.shape[-1:] != (Psi.shape[1],) or c.shape[:-1] != y.shape[:-1]:
-        raise GeometryError(f"responses (..., {Phi.shape[1]}) and targets (..., {Psi.shape[1]}) must share "
-                            f"their leading shape; got {c.shape} and {y.shape}.")
+        raise GeometryError(
+            f"responses (..., {Phi.shape[1]}) and targets (..., {Psi.shape[1]}) must share "
+            f"their leading shape; got {c.shape} and {y.shape}."
+        )
     if not (np.all(np.isfinite(c)) and np.all(np.isfinite(y))):
         raise GeometryError("responses or targets contain NaN or inf.")
     J = np.concatenate([Phi, Psi], axis=1)
@@ -110,5 +121,5 @@ def mmv_contains(Phi, Psi, responses, targets, *, tol: float | None = None,
     out = np.empty(z.shape[0], dtype=bool)
     step = max(1, 4_000_000 // max(A.shape[0], 1))
     for s in range(0, z.shape[0], step):
-        out[s:s + step] = (z[s:s + step] @ A.T - b).max(axis=1) <= slack
+        out[s : s + step] = (z[s : s + step] @ A.T - b).max(axis=1) <= slack
     return out.reshape(c.shape[:-1])

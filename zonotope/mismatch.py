@@ -166,7 +166,8 @@ def _check_generators(Phi, Psi) -> tuple[np.ndarray, np.ndarray]:
     if Phi.ndim != 2 or Psi.ndim != 2 or Phi.shape[0] != Psi.shape[0]:
         raise GeometryError(
             f"Phi and Psi must be (n, k) and (n, m) on one wavelength grid; got {Phi.shape} and "
-            f"{Psi.shape}. Build both with zonotope.generators(..., shape=grid).")
+            f"{Psi.shape}. Build both with zonotope.generators(..., shape=grid)."
+        )
     if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(Psi))):
         raise GeometryError("Phi or Psi contains NaN or inf; check the spectral data.")
     return Phi, Psi
@@ -176,8 +177,9 @@ def _check_arrays(Phi, Psi, response) -> tuple[np.ndarray, np.ndarray, np.ndarra
     Phi, Psi = _check_generators(Phi, Psi)
     c = np.asarray(response, dtype=np.float64)
     if c.shape != (Phi.shape[1],):
-        raise GeometryError(f"response must have shape ({Phi.shape[1]},) (one per source channel); "
-                            f"got {c.shape}.")
+        raise GeometryError(
+            f"response must have shape ({Phi.shape[1]},) (one per source channel); got {c.shape}."
+        )
     if not np.all(np.isfinite(c)):
         raise GeometryError(f"response contains NaN or inf: {c}.")
     return Phi, Psi, c
@@ -202,7 +204,9 @@ def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
             f"no reflectance in [0, 1] gives the response {np.array2string(c, precision=5)} "
             f"within delta={np.array2string(d_in, precision=3)}: it lies {dist:.3g} (max-norm, "
             "response units) outside the source object-colour solid. Pass delta ≥ that distance "
-            "(noise tolerance) or on_infeasible='nearest'.", distance=dist)
+            "(noise tolerance) or on_infeasible='nearest'.",
+            distance=dist,
+        )
     scale = float(np.abs(Phi).sum(axis=0).max())
     d_eff = np.maximum(d_in, dist * (1 + FEASIBLE_REL) + FEASIBLE_ABS * scale)
     return cls(Phi, Psi, c, d_eff)
@@ -215,8 +219,9 @@ def _tolerances(Psi, eps) -> tuple[float, float]:
     return tol, max(float(eps) * scale, tol)
 
 
-def _refinement(Phi, Psi, response, *, delta=0.0, eps=0.0, oracle="fast", on_infeasible="raise",
-                max_rounds: int = 500) -> tuple[Refinement, float, float]:
+def _refinement(
+    Phi, Psi, response, *, delta=0.0, eps=0.0, oracle="fast", on_infeasible="raise", max_rounds: int = 500
+) -> tuple[Refinement, float, float]:
     Phi, Psi, c = _check_arrays(Phi, Psi, response)
     if not (np.isfinite(eps) and eps >= 0):
         raise ValueError(f"eps must be a finite number ≥ 0; got {eps!r}.")
@@ -225,8 +230,9 @@ def _refinement(Phi, Psi, response, *, delta=0.0, eps=0.0, oracle="fast", on_inf
     return refine(orc, Psi.shape[1], threshold=thr, tol=tol, max_rounds=max_rounds), thr, tol
 
 
-def metamer_mismatch(Phi, Psi, response, *, delta=0.0, oracle: str = "fast",
-                     on_infeasible: str = "raise") -> Polytope:
+def metamer_mismatch(
+    Phi, Psi, response, *, delta=0.0, oracle: str = "fast", on_infeasible: str = "raise"
+) -> Polytope:
     """Exact metamer mismatch volume of one source response (functional form on arrays).
 
     Parameters
@@ -279,15 +285,17 @@ def metamer_mismatch(Phi, Psi, response, *, delta=0.0, oracle: str = "fast",
     >>> mmv.dim, bool(mmv.contains(np.full(31, 0.5) @ Psi))
     (3, True)
     """
-    ref, _, _ = _refinement(Phi, Psi, response, delta=delta, eps=0.0, oracle=oracle,
-                            on_infeasible=on_infeasible)
+    ref, _, _ = _refinement(
+        Phi, Psi, response, delta=delta, eps=0.0, oracle=oracle, on_infeasible=on_infeasible
+    )
     if not ref.converged:  # pragma: no cover - safety net
         raise GeometryError("facet refinement did not converge; use metamer_mismatch_bounds(eps > 0).")
     return ref.inner
 
 
-def metamer_mismatch_bounds(Phi, Psi, response, *, eps: float = 1e-3, delta=0.0, oracle: str = "fast",
-                            on_infeasible: str = "raise") -> CertifiedMMV:
+def metamer_mismatch_bounds(
+    Phi, Psi, response, *, eps: float = 1e-3, delta=0.0, oracle: str = "fast", on_infeasible: str = "raise"
+) -> CertifiedMMV:
     """Certified inner and outer bounds of the metamer mismatch volume of one source response.
 
     Parameters
@@ -321,8 +329,9 @@ def metamer_mismatch_bounds(Phi, Psi, response, *, eps: float = 1e-3, delta=0.0,
     >>> bool(0 < low <= high)
     True
     """
-    ref, thr, _ = _refinement(Phi, Psi, response, delta=delta, eps=eps, oracle=oracle,
-                              on_infeasible=on_infeasible)
+    ref, thr, _ = _refinement(
+        Phi, Psi, response, delta=delta, eps=eps, oracle=oracle, on_infeasible=on_infeasible
+    )
     return _certified(ref, thr)
 
 
@@ -339,8 +348,9 @@ def _certified(ref: Refinement, thr: float) -> CertifiedMMV:
     return CertifiedMMV(inner, outer, thr, err, ref.lp_calls)
 
 
-def channelwise_intersection(Phi, Psi, response, *, groups="auto", delta=0.0,
-                             oracle: str = "fast") -> Polytope:
+def channelwise_intersection(
+    Phi, Psi, response, *, groups="auto", delta=0.0, oracle: str = "fast"
+) -> Polytope:
     """The thesis' construction: intersect one MMV per source channel or per camera (manifold3d).
 
     Each group g of source channels gives the exact MMV_g(c_g) = {Ψᵀx : Φ_gᵀx = c_g, 0 ≤ x ≤ 1};
@@ -431,15 +441,17 @@ class MetamerMismatch:
     True
     """
 
-    def __init__(self, source, target="Stockman & Sharpe 2°", illuminant="D65", shape=None, *,
-                 oracle: str = "fast") -> None:
+    def __init__(
+        self, source, target="Stockman & Sharpe 2°", illuminant="D65", shape=None, *, oracle: str = "fast"
+    ) -> None:
         from ._generators import GeneratorPair, generator_pair
 
         if isinstance(source, GeneratorPair):  # e.g. a CorrectionProblem: its Φ and Ψ as they are
             pair = source
         else:
-            pair = generator_pair(list(source) if isinstance(source, list | tuple) else source,
-                                  target, illuminant, shape)
+            pair = generator_pair(
+                list(source) if isinstance(source, list | tuple) else source, target, illuminant, shape
+            )
         self.generators = pair
         self.Phi, self.Psi, self.wavelengths = pair.Phi, pair.Psi, pair.wavelengths
         self.oracle = ORACLES.resolve(oracle)
@@ -447,8 +459,10 @@ class MetamerMismatch:
         self.target_labels = pair.target_channels
 
     def __repr__(self) -> str:
-        return (f"MetamerMismatch(k={self.k}, m={self.m}, n_wavelengths={self.wavelengths.size}, "
-                f"{self.wavelengths[0]:g}–{self.wavelengths[-1]:g} nm)")
+        return (
+            f"MetamerMismatch(k={self.k}, m={self.m}, n_wavelengths={self.wavelengths.size}, "
+            f"{self.wavelengths[0]:g}–{self.wavelengths[-1]:g} nm)"
+        )
 
     @property
     def k(self) -> int:
@@ -477,8 +491,10 @@ class MetamerMismatch:
     def _reflectances(self, reflectances) -> np.ndarray:
         R = np.asarray(getattr(reflectances, "values", reflectances), dtype=np.float64)
         if R.shape[-1] != self.wavelengths.size:
-            raise GeometryError(f"reflectances must have shape (..., {self.wavelengths.size}) on this "
-                                f"grid; got {R.shape}. Resample with zonotope.resample.")
+            raise GeometryError(
+                f"reflectances must have shape (..., {self.wavelengths.size}) on this "
+                f"grid; got {R.shape}. Resample with zonotope.resample."
+            )
         return R
 
     def source_of(self, reflectances) -> np.ndarray:
@@ -491,32 +507,70 @@ class MetamerMismatch:
 
     def __call__(self, response, *, delta=0.0, on_infeasible: str = "raise") -> Polytope:
         """Exact MMV of one response (k,); see :func:`metamer_mismatch`."""
-        return metamer_mismatch(self.Phi, self.Psi, response, delta=delta, oracle=self.oracle,
-                                on_infeasible=on_infeasible)
+        return metamer_mismatch(
+            self.Phi, self.Psi, response, delta=delta, oracle=self.oracle, on_infeasible=on_infeasible
+        )
 
     def bounds(self, response, *, eps: float = 1e-3, delta=0.0, on_infeasible: str = "raise") -> CertifiedMMV:
         """Certified bounds of the MMV of one response (k,); see :func:`metamer_mismatch_bounds`."""
-        return metamer_mismatch_bounds(self.Phi, self.Psi, response, eps=eps, delta=delta,
-                                       oracle=self.oracle, on_infeasible=on_infeasible)
+        return metamer_mismatch_bounds(
+            self.Phi,
+            self.Psi,
+            response,
+            eps=eps,
+            delta=delta,
+            oracle=self.oracle,
+            on_infeasible=on_infeasible,
+        )
 
     def channelwise(self, response, *, groups="auto", delta=0.0) -> Polytope:
         """The per-channel/per-camera intersection (outer bound); see :func:`channelwise_intersection`."""
-        return channelwise_intersection(self.Phi, self.Psi, response, groups=groups, delta=delta,
-                                        oracle=self.oracle)
+        return channelwise_intersection(
+            self.Phi, self.Psi, response, groups=groups, delta=delta, oracle=self.oracle
+        )
 
-    def batch(self, responses, *, eps: float = 1e-3, delta=0.0, on_infeasible: str = "raise",
-              progress: Callable[[int, int], None] | None = None, chunk: int = 256,
-              executor: Executor | None = None, outer: bool = True) -> MMVBatch:
+    def batch(
+        self,
+        responses,
+        *,
+        eps: float = 1e-3,
+        delta=0.0,
+        on_infeasible: str = "raise",
+        progress: Callable[[int, int], None] | None = None,
+        chunk: int = 256,
+        executor: Executor | None = None,
+        outer: bool = True,
+    ) -> MMVBatch:
         """Volumes and centroids of the MMVs of many responses; see :func:`metamer_mismatch_batch`."""
-        return metamer_mismatch_batch(self.Phi, self.Psi, responses, eps=eps, delta=delta,
-                                      oracle=self.oracle, on_infeasible=on_infeasible,
-                                      progress=progress, chunk=chunk, executor=executor, outer=outer)
+        return metamer_mismatch_batch(
+            self.Phi,
+            self.Psi,
+            responses,
+            eps=eps,
+            delta=delta,
+            oracle=self.oracle,
+            on_infeasible=on_infeasible,
+            progress=progress,
+            chunk=chunk,
+            executor=executor,
+            outer=outer,
+        )
 
 
-def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0, oracle: str = "fast",
-                           on_infeasible: str = "raise", progress: Callable[[int, int], None] | None = None,
-                           chunk: int = 256, executor: Executor | None = None,
-                           outer: bool = True) -> MMVBatch:
+def metamer_mismatch_batch(
+    Phi,
+    Psi,
+    responses,
+    *,
+    eps: float = 1e-3,
+    delta=0.0,
+    oracle: str = "fast",
+    on_infeasible: str = "raise",
+    progress: Callable[[int, int], None] | None = None,
+    chunk: int = 256,
+    executor: Executor | None = None,
+    outer: bool = True,
+) -> MMVBatch:
     """Volumes and centroids of the MMVs of many responses (functional form of
     :meth:`MetamerMismatch.batch`).
 
@@ -567,18 +621,21 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
     if chunk < 1:
         raise ValueError(f"chunk must be ≥ 1; got chunk={chunk!r}.")
     if executor is not None and not callable(getattr(executor, "map", None)):
-        raise ValueError(f"executor must have a map(fn, iterable) method (a concurrent.futures.Executor); "
-                         f"got {executor!r}.")
+        raise ValueError(
+            f"executor must have a map(fn, iterable) method (a concurrent.futures.Executor); "
+            f"got {executor!r}."
+        )
     flat = C.reshape(-1, k)
     if not np.all(np.isfinite(flat)):
         raise GeometryError("responses contain NaN or inf.")
     N = flat.shape[0]
-    parts = (flat[s:s + chunk] for s in range(0, N, chunk))  # views, made as the executor asks
-    work = partial(_batch_chunk, Phi, Psi, eps=eps, delta=delta, oracle=oracle,
-                   on_infeasible=on_infeasible, outer=outer)
+    parts = (flat[s : s + chunk] for s in range(0, N, chunk))  # views, made as the executor asks
+    work = partial(
+        _batch_chunk, Phi, Psi, eps=eps, delta=delta, oracle=oracle, on_infeasible=on_infeasible, outer=outer
+    )
     results: list = []
     done = 0
-    for r in (map(work, parts) if executor is None else executor.map(work, parts)):
+    for r in map(work, parts) if executor is None else executor.map(work, parts):
         results.append(r)
         done += r[0].shape[0]
         if progress is not None:
@@ -590,8 +647,14 @@ def metamer_mismatch_batch(Phi, Psi, responses, *, eps: float = 1e-3, delta=0.0,
         cents, bounds, errs, dims = np.zeros((0, m)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, np.int64)
     calls = sum(r[4] for r in results)
     vols = np.where(np.isnan(bounds[:, 1]), bounds[:, 0], bounds.mean(axis=1))
-    return MMVBatch(cents.reshape(*lead, m), vols.reshape(lead),
-                    bounds.reshape(*lead, 2), errs.reshape(lead), dims.reshape(lead), calls)
+    return MMVBatch(
+        cents.reshape(*lead, m),
+        vols.reshape(lead),
+        bounds.reshape(*lead, 2),
+        errs.reshape(lead),
+        dims.reshape(lead),
+        calls,
+    )
 
 
 def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=True):
@@ -607,8 +670,9 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
             refs[r] = (ref, thr)
     for r, c in enumerate(part):
         if refs[r] is None:  # the reference oracle, or an infeasible response
-            ref, thr, _ = _refinement(Phi, Psi, c, delta=delta, eps=eps, oracle=oracle,
-                                      on_infeasible=on_infeasible)
+            ref, thr, _ = _refinement(
+                Phi, Psi, c, delta=delta, eps=eps, oracle=oracle, on_infeasible=on_infeasible
+            )
             refs[r] = (ref, thr)
     cents, bounds = np.empty((q, m)), np.empty((q, 2))
     errs, dims = np.zeros(q), np.empty(q, dtype=np.int64)

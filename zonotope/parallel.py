@@ -107,8 +107,9 @@ class Executor(_Executor):
     kind: str = "serial"
     workers: int = 1
 
-    def outcomes(self, fn: Callable, items: Iterable, *, shared: Any = None,
-                 progress: ProgressCallback | None = None) -> Iterator[tuple[int, Any]]:
+    def outcomes(
+        self, fn: Callable, items: Iterable, *, shared: Any = None, progress: ProgressCallback | None = None
+    ) -> Iterator[tuple[int, Any]]:
         """Run ``fn(item, shared)`` (or ``fn(item)`` when ``shared`` is None) for every item.
 
         Yields ``(index, result)`` as the tasks finish (any order); a task that raised yields a
@@ -218,8 +219,9 @@ class DaskExecutor(Executor):
                 out = fut.result()
             else:
                 error = fut.exception()
-                out = TaskFailure(f"{type(error).__name__}: {error}",
-                                  "".join(traceback.format_exception(error)))
+                out = TaskFailure(
+                    f"{type(error).__name__}: {error}", "".join(traceback.format_exception(error))
+                )
             fut.release()
             done += 1
             if progress is not None:
@@ -236,8 +238,7 @@ def _call(fn, item, *shared):
     return fn(item, *shared)
 
 
-def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None,
-                      min_tasks: int = 2) -> str:
+def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None, min_tasks: int = 2) -> str:
     """Where a batch would run: ``"serial"``, ``"local:N"`` or an address / scheduler file.
 
     Parameters
@@ -257,8 +258,10 @@ def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None,
             return "serial"
         return f"local:{min(cores, tasks)}"
     if not isinstance(scheduler, str) or not scheduler.strip():
-        raise ParallelError(f"scheduler must be 'serial', 'local', 'local:N', an address such as "
-                            f"'tcp://host:8786' or a scheduler file; got {scheduler!r}.")
+        raise ParallelError(
+            f"scheduler must be 'serial', 'local', 'local:N', an address such as "
+            f"'tcp://host:8786' or a scheduler file; got {scheduler!r}."
+        )
     s = scheduler.strip()
     if s.lower() in ("serial", "none", "sync"):
         return "serial"
@@ -271,13 +274,16 @@ def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None,
         return f"local:{int(n)}"
     if _ADDRESS.match(s) or Path(s).is_file():
         return s
-    raise ParallelError(f"scheduler {scheduler!r} is neither 'serial', 'local[:N]', an address "
-                        f"(tcp://host:8786 or host:8786) nor an existing scheduler file.")
+    raise ParallelError(
+        f"scheduler {scheduler!r} is neither 'serial', 'local[:N]', an address "
+        f"(tcp://host:8786 or host:8786) nor an existing scheduler file."
+    )
 
 
 @contextmanager
-def executor(scheduler: str | None = None, *, tasks: int | None = None, min_tasks: int = 2,
-             timeout: float = 30.0) -> Iterator[Executor]:
+def executor(
+    scheduler: str | None = None, *, tasks: int | None = None, min_tasks: int = 2, timeout: float = 30.0
+) -> Iterator[Executor]:
     """An executor for one batch, closed (with any cluster it started) when the block ends.
 
     Parameters
@@ -313,16 +319,21 @@ def executor(scheduler: str | None = None, *, tasks: int | None = None, min_task
         yield SerialExecutor()
         return
     if not dask_available():
-        raise ParallelError(f"scheduler {where!r} needs Dask: pip install 'zonotope[dask]' "
-                            f"(or use scheduler='serial').")
+        raise ParallelError(
+            f"scheduler {where!r} needs Dask: pip install 'zonotope[dask]' (or use scheduler='serial')."
+        )
     from distributed import Client, LocalCluster
 
     cluster = None
     try:
         if where.startswith("local:"):
-            cluster = LocalCluster(n_workers=int(where.split(":")[1]), threads_per_worker=1,
-                                   processes=True, dashboard_address=":0",
-                                   silence_logs=logging.CRITICAL)
+            cluster = LocalCluster(
+                n_workers=int(where.split(":")[1]),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=logging.CRITICAL,
+            )
             client = Client(cluster)
             kind = "local"
         elif Path(where).is_file():
@@ -334,9 +345,10 @@ def executor(scheduler: str | None = None, *, tasks: int | None = None, min_task
     except (OSError, TimeoutError) as error:
         if cluster is not None:
             cluster.close()
-        raise ParallelError(f"could not reach the Dask scheduler {where!r} within {timeout:g} s "
-                            f"({error}); start one with `dask scheduler` or use scheduler='serial'."
-                            ) from error
+        raise ParallelError(
+            f"could not reach the Dask scheduler {where!r} within {timeout:g} s "
+            f"({error}); start one with `dask scheduler` or use scheduler='serial'."
+        ) from error
     try:
         yield DaskExecutor(client, kind=kind)
     finally:
@@ -392,8 +404,13 @@ def _file_task(task: FileTask, shared) -> dict:
 
     work, options = shared
     dest = Path(task.output)
-    row = {"input": task.input, "output": task.output, "seconds": 0.0,
-           "worker": f"{socket.gethostname()}:{os.getpid()}", "error": ""}
+    row = {
+        "input": task.input,
+        "output": task.output,
+        "seconds": 0.0,
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "error": "",
+    }
     if dest.exists():  # a re-run of a task whose first attempt finished (its worker then died)
         return {**row, "status": "done"}
     tmp = _temp_for(dest)
@@ -405,8 +422,12 @@ def _file_task(task: FileTask, shared) -> dict:
         _publish(tmp, dest)
     except Exception as error:  # one bad file is reported, the batch goes on
         tmp.unlink(missing_ok=True)
-        return {**row, "status": "failed", "seconds": time.perf_counter() - t0,
-                "error": f"{type(error).__name__}: {error}".replace("\n", " ")}
+        return {
+            **row,
+            "status": "failed",
+            "seconds": time.perf_counter() - t0,
+            "error": f"{type(error).__name__}: {error}".replace("\n", " "),
+        }
     return {**row, "status": "ok", "seconds": time.perf_counter() - t0}
 
 
@@ -424,9 +445,16 @@ def _write_manifest(path: Path, rows: list[dict]) -> None:
     os.replace(tmp, path)
 
 
-def run_files(tasks: Iterable[FileTask], work: Callable[[str, str, Any], None], options: Any = None, *,
-              manifest: str | os.PathLike, scheduler: str | None = None, min_tasks: int = 2,
-              progress: ProgressCallback | None = None) -> list[dict]:
+def run_files(
+    tasks: Iterable[FileTask],
+    work: Callable[[str, str, Any], None],
+    options: Any = None,
+    *,
+    manifest: str | os.PathLike,
+    scheduler: str | None = None,
+    min_tasks: int = 2,
+    progress: ProgressCallback | None = None,
+) -> list[dict]:
     """Make one output file per input file, on the chosen executor; resumable, with a manifest.
 
     Parameters
@@ -473,18 +501,35 @@ def run_files(tasks: Iterable[FileTask], work: Callable[[str, str, Any], None], 
     todo: list[int] = []
     for i, t in enumerate(tasks):
         if Path(t.output).exists():
-            rows.append({"input": t.input, "output": t.output, "status": "done", "seconds": 0.0,
-                         "worker": "", "error": ""})
+            rows.append(
+                {
+                    "input": t.input,
+                    "output": t.output,
+                    "status": "done",
+                    "seconds": 0.0,
+                    "worker": "",
+                    "error": "",
+                }
+            )
         else:
-            rows.append({"input": t.input, "output": t.output, "status": "pending", "seconds": 0.0,
-                         "worker": "", "error": ""})
+            rows.append(
+                {
+                    "input": t.input,
+                    "output": t.output,
+                    "status": "pending",
+                    "seconds": 0.0,
+                    "worker": "",
+                    "error": "",
+                }
+            )
             todo.append(i)
     _write_manifest(manifest, rows)
     last = time.monotonic()
     try:
         with executor(scheduler, tasks=len(todo), min_tasks=min_tasks) as ex:
-            for j, out in ex.outcomes(_file_task, [tasks[i] for i in todo], shared=(work, options),
-                                      progress=progress):
+            for j, out in ex.outcomes(
+                _file_task, [tasks[i] for i in todo], shared=(work, options), progress=progress
+            ):
                 i = todo[j]
                 if isinstance(out, TaskFailure):  # the task itself was lost (e.g. killed too often)
                     out = {**rows[i], "status": "failed", "error": out.error.replace("\n", " ")}

@@ -32,7 +32,6 @@ from ._tol import AFFINE, ANGLE
 __all__ = ["Polytope"]
 
 
-
 def _affine_hull(P: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Origin (m,) and orthonormal basis (m, d) of the affine hull of points P (N, m)."""
     o = P.mean(axis=0)
@@ -202,7 +201,8 @@ class Polytope:
         rows = np.repeat(np.arange(T), nb.shape[1])
         cols = nb.ravel()
         same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - ANGLE) & (
-            np.abs(off[rows] - off[cols]) <= self.tol)
+            np.abs(off[rows] - off[cols]) <= self.tol
+        )
         if same.any():
             graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
             ncomp, label = connected_components(graph, directed=False)
@@ -306,7 +306,7 @@ class Polytope:
             return 0.0
         best = 0.0
         for s in range(0, V.shape[0], 512):
-            D = np.linalg.norm(V[s:s + 512, None, :] - V[None], axis=-1)
+            D = np.linalg.norm(V[s : s + 512, None, :] - V[None], axis=-1)
             best = max(best, float(D.max()))
         return best
 
@@ -335,8 +335,13 @@ class Polytope:
             d = self.dim
             cost = np.zeros(d + 1)
             cost[-1] = -1.0
-            res = linprog(cost, A_ub=np.hstack([ns, np.ones((ns.shape[0], 1))]), b_ub=offs,
-                          bounds=[(None, None)] * d + [(0, None)], method="highs")
+            res = linprog(
+                cost,
+                A_ub=np.hstack([ns, np.ones((ns.shape[0], 1))]),
+                b_ub=offs,
+                bounds=[(None, None)] * d + [(0, None)],
+                method="highs",
+            )
             if res.status != 0:  # pragma: no cover - bounded nonempty polytope
                 raise GeometryError(f"Chebyshev-centre LP failed: {res.message}")
             out = self._o + self._B @ res.x[:d], float(res.x[-1])
@@ -363,7 +368,7 @@ class Polytope:
         flat = P.reshape(-1, self.ambient_dim)
         out = np.empty(flat.shape[0], dtype=bool)
         for s in range(0, flat.shape[0], 4096):
-            out[s:s + 4096] = (flat[s:s + 4096] @ A.T - b).max(axis=1, initial=-np.inf) <= tol
+            out[s : s + 4096] = (flat[s : s + 4096] @ A.T - b).max(axis=1, initial=-np.inf) <= tol
         return out.reshape(P.shape[:-1])
 
     def _check_points(self, points) -> np.ndarray:
@@ -422,8 +427,9 @@ class Polytope:
         else:
             out = S.copy()
             if self.dim == 2:
-                simp = np.stack([np.zeros(len(V) - 2, int), np.arange(1, len(V) - 1),
-                                 np.arange(2, len(V))], axis=1)
+                simp = np.stack(
+                    [np.zeros(len(V) - 2, int), np.arange(1, len(V) - 1), np.arange(2, len(V))], axis=1
+                )
                 out = _closest_on_triangles(S, V[simp])
             elif self.dim == 3:
                 inside = self.contains(flat) if self.dim == m else np.zeros(len(flat), bool)
@@ -494,12 +500,15 @@ class Polytope:
         if self.dim != 3 or self.ambient_dim != 3:
             raise GeometryError(
                 f"to_manifold needs a solid in 3-D space (dim={self.dim}); flat polytopes have no "
-                "volume for booleans. Use Polytope.intersect instead.")
+                "volume for booleans. Use Polytope.intersect instead."
+            )
         import manifold3d as m3d
 
         V, F = self.triangles()
-        mesh = m3d.Mesh64(vert_properties=np.array(V, dtype=np.float64, order="C"),
-                          tri_verts=np.array(F, dtype=np.uint64, order="C"))
+        mesh = m3d.Mesh64(
+            vert_properties=np.array(V, dtype=np.float64, order="C"),
+            tri_verts=np.array(F, dtype=np.uint64, order="C"),
+        )
         return m3d.Manifold(mesh)
 
     @classmethod
@@ -532,7 +541,7 @@ def _closest_on_triangles(S: np.ndarray, T: np.ndarray) -> np.ndarray:
     det = g11 * g22 - g12 * g12
     step = max(1, 1_000_000 // max(T.shape[0], 1))
     for s in range(0, S.shape[0], step):
-        p = S[s:s + step][:, None, :]  # (n, 1, d)
+        p = S[s : s + step][:, None, :]  # (n, 1, d)
         ap = p - a
         r1, r2 = (ap * ab).sum(-1), (ap * ac).sum(-1)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -553,7 +562,7 @@ def _closest_on_triangles(S: np.ndarray, T: np.ndarray) -> np.ndarray:
         best = np.argmin(D.reshape(D.shape[0], -1), axis=1)
         kind, tri = np.divmod(best, D.shape[2])
         C = np.stack(cands, axis=0)  # (4, n, F, d)
-        out[s:s + p.shape[0]] = C[kind, np.arange(p.shape[0]), tri]
+        out[s : s + p.shape[0]] = C[kind, np.arange(p.shape[0]), tri]
     return out
 
 
@@ -578,8 +587,9 @@ def _halfspace_intersection(A: np.ndarray, b: np.ndarray, centre: np.ndarray) ->
     return centre + s * V
 
 
-def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
-                              interior: np.ndarray | None = None) -> np.ndarray:
+def _vertices_from_halfspaces(
+    A: np.ndarray, b: np.ndarray, tol: float | None, interior: np.ndarray | None = None
+) -> np.ndarray:
     """Vertices of the bounded polytope {y : A y ≤ b} (possibly empty or lower-dimensional).
 
     ``interior`` (m,), optional: a point known to be well inside (e.g. the centroid of an inner
@@ -604,8 +614,13 @@ def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
 
     cost = np.zeros(m + 1)
     cost[-1] = -1.0
-    res = linprog(cost, A_ub=np.hstack([A, np.ones((A.shape[0], 1))]), b_ub=b,
-                  bounds=[(None, None)] * m + [(0, None)], method="highs")
+    res = linprog(
+        cost,
+        A_ub=np.hstack([A, np.ones((A.shape[0], 1))]),
+        b_ub=b,
+        bounds=[(None, None)] * m + [(0, None)],
+        method="highs",
+    )
     if res.status == 2:
         return np.zeros((0, m))
     if res.status == 3:
@@ -623,7 +638,7 @@ def _vertices_from_halfspaces(A: np.ndarray, b: np.ndarray, tol: float | None,
     combos = np.array(list(combinations(range(A.shape[0]), m)), dtype=int)
     pts = []
     for s in range(0, len(combos), 200_000):
-        cb = combos[s:s + 200_000]
+        cb = combos[s : s + 200_000]
         M = A[cb]
         ok = np.abs(np.linalg.det(M)) > 1e-12
         y = np.linalg.solve(M[ok], b[cb[ok]][..., None])[..., 0]

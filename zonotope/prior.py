@@ -21,8 +21,6 @@ from ._errors import SpectralDataError
 __all__ = ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"]
 
 
-
-
 def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) -> np.ndarray:
     """Minimise ``‖A x − b‖²`` over reflectances ``0 ≤ x ≤ 1`` that produce ``responses``.
 
@@ -92,7 +90,8 @@ class ReflectancePrior:
         R = np.asarray(reflectances, dtype=np.float64)
         if R.shape[0] < 2:
             raise SpectralDataError(
-                f"a reflectance prior needs at least 2 training samples, got {R.shape[0]}.")
+                f"a reflectance prior needs at least 2 training samples, got {R.shape[0]}."
+            )
         S = np.cov(R.T)
         S = (1 - shrinkage) * S + shrinkage * np.trace(S) / S.shape[0] * np.eye(S.shape[0])
         return cls(R.mean(axis=0), S)
@@ -113,8 +112,7 @@ class ReflectancePrior:
         return 0.5 * np.einsum("...i,ij,...j->...", d, self.precision, d)
 
 
-def map_reflectance(problem, responses, prior: ReflectancePrior, *,
-                    noise: float = 0.0) -> np.ndarray:
+def map_reflectance(problem, responses, prior: ReflectancePrior, *, noise: float = 0.0) -> np.ndarray:
     """Most probable natural reflectance that the source could have seen.
 
     ``argmin_x ½ (x − μ)ᵀΣ⁻¹(x − μ)  s.t.  Φᵀx = c,  0 ≤ x ≤ 1`` (see :func:`fiber_lsq`).
@@ -132,9 +130,15 @@ def map_reflectance(problem, responses, prior: ReflectancePrior, *,
     return fiber_lsq(problem.Phi, responses, prior.root, prior.root @ prior.mean, noise=noise)
 
 
-def project_to_mmv(problem, responses, estimates, *,
-                   prior: ReflectancePrior | None = None, noise: float = 0.0,
-                   tol_dE: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+def project_to_mmv(
+    problem,
+    responses,
+    estimates,
+    *,
+    prior: ReflectancePrior | None = None,
+    noise: float = 0.0,
+    tol_dE: float = 0.01,
+) -> tuple[np.ndarray, np.ndarray]:
     """Closest point of the metamer mismatch volume to each estimate, in linearised CIELAB.
 
     Minimises ``(Ψᵀx − t)ᵀ W (Ψᵀx − t)`` over the fiber of ``c`` (reflectances in [0, 1] with
@@ -167,15 +171,19 @@ def project_to_mmv(problem, responses, estimates, *,
     W = problem.lab_metric(t)  # (N, m, m)
     L = np.swapaxes(np.linalg.cholesky(W + 1e-12 * np.eye(problem.m)), -1, -2)  # LᵀL = W
     U = prior.root
-    tie = 1e-4 * np.linalg.norm(L, 2, axis=(-2, -1)).mean() * np.linalg.norm(problem.Psi, 2) \
+    tie = (
+        1e-4
+        * np.linalg.norm(L, 2, axis=(-2, -1)).mean()
+        * np.linalg.norm(problem.Psi, 2)
         / np.linalg.norm(U, 2)
+    )
     A = np.concatenate([L @ problem.Psi.T, np.broadcast_to(tie * U, (t.shape[0], *U.shape))], axis=1)
-    b = np.concatenate([np.einsum("nij,nj->ni", L, t),
-                        np.broadcast_to(tie * U @ prior.mean, (t.shape[0], U.shape[0]))], axis=1)
+    b = np.concatenate(
+        [np.einsum("nij,nj->ni", L, t), np.broadcast_to(tie * U @ prior.mean, (t.shape[0], U.shape[0]))],
+        axis=1,
+    )
     y = fiber_lsq(problem.Phi, responses, A, b, noise=noise) @ problem.Psi
     d = y - t
     moved = np.sqrt(np.einsum("ni,nij,nj->n", d, W, d))
     inside = moved < tol_dE
     return np.where(inside[:, None], t, y), inside
-
-

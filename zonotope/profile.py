@@ -96,13 +96,22 @@ def _exposure_safe(fn: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarr
         c = np.maximum(np.asarray(c, dtype=np.float64), 0.0)
         over = np.maximum(c.max(axis=-1, keepdims=True), 1.0)
         return np.asarray(fn(c / over), dtype=np.float64) * over
+
     return g
 
 
-def correction_LUT(XYZ_from_balanced: Callable[[np.ndarray], np.ndarray], *, size: int = 33,
-                   space: str = "sRGB", headroom: float = 16.0, shaper: str = "log2",
-                   shaper_size: int = 4096, white_XYZ=None, batch: int = 4096,
-                   name: str = "zonotope correction") -> colour.LUTSequence:
+def correction_LUT(
+    XYZ_from_balanced: Callable[[np.ndarray], np.ndarray],
+    *,
+    size: int = 33,
+    space: str = "sRGB",
+    headroom: float = 16.0,
+    shaper: str = "log2",
+    shaper_size: int = 4096,
+    white_XYZ=None,
+    batch: int = 4096,
+    name: str = "zonotope correction",
+) -> colour.LUTSequence:
     """Sample an estimator into a shaper + 3-D LUT (see the module notes for domain and shaper).
 
     Parameters
@@ -147,31 +156,34 @@ def correction_LUT(XYZ_from_balanced: Callable[[np.ndarray], np.ndarray], *, siz
     f = _exposure_safe(XYZ_from_balanced)
     w = np.asarray(f(np.ones((1, 3)))[0] if white_XYZ is None else white_XYZ, dtype=np.float64)
     if not (np.all(np.isfinite(w)) and w[1] > 0):
-        raise ZonotopeError(f"the estimator maps the white (1, 1, 1) to XYZ {w}: need a finite white "
-                            "with Y > 0.")
+        raise ZonotopeError(
+            f"the estimator maps the white (1, 1, 1) to XYZ {w}: need a finite white with Y > 0."
+        )
     if LUT_SPACES[sp] is None:
         M = np.eye(3) / w[1]
     else:
         cs = colour.RGB_COLOURSPACES[LUT_SPACES[sp]]
         cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
-            w / w[1], colour.xy_to_XYZ(cs.whitepoint), transform="Bradford")
+            w / w[1], colour.xy_to_XYZ(cs.whitepoint), transform="Bradford"
+        )
         M = cs.matrix_XYZ_to_RGB @ cat / w[1]
     nodes = shaper_decode(np.linspace(0.0, 1.0, size), headroom=headroom, shaper=shaper)
     grid = np.stack(np.meshgrid(nodes, nodes, nodes, indexing="ij"), axis=-1).reshape(-1, 3)
     out = np.empty_like(grid)
     for i in range(0, grid.shape[0], batch):
-        out[i:i + batch] = f(grid[i:i + batch])
+        out[i : i + batch] = f(grid[i : i + batch])
     if not np.all(np.isfinite(out)):
         raise ZonotopeError("the estimator returned NaN or inf on some lattice nodes; it cannot be sampled.")
     table = (out @ M.T).reshape(size, size, size, 3)
     x = np.linspace(0.0, headroom, shaper_size)
     shaper_table = np.repeat(shaper_encode(x, headroom=headroom, shaper=shaper)[:, None], 3, axis=1)
-    comments = [f"zonotope: white-balanced camera RGB (white = 1) -> linear {sp}",
-                f"input domain [0, {headroom:g}] per channel; below 0 and above {headroom:g} clamp",
-                f"shaper {shaper}" + (" (eps 2^-8)" if shaper == "log2" else "")]
+    comments = [
+        f"zonotope: white-balanced camera RGB (white = 1) -> linear {sp}",
+        f"input domain [0, {headroom:g}] per channel; below 0 and above {headroom:g} clamp",
+        f"shaper {shaper}" + (" (eps 2^-8)" if shaper == "log2" else ""),
+    ]
     return colour.LUTSequence(
-        colour.LUT3x1D(shaper_table, name=f"{name} shaper",
-                       domain=np.array([[0.0] * 3, [headroom] * 3])),
+        colour.LUT3x1D(shaper_table, name=f"{name} shaper", domain=np.array([[0.0] * 3, [headroom] * 3])),
         colour.LUT3D(table, name=name, comments=comments),
     )
 
@@ -181,8 +193,9 @@ def apply_correction_LUT(lut: colour.LUTSequence, rgb) -> np.ndarray:
     return lut.apply(np.asarray(rgb, dtype=np.float64))
 
 
-def write_correction_LUT(path: str | os.PathLike, lut: colour.LUTSequence, *, overwrite: bool = False,
-                         decimals: int = 7) -> Path:
+def write_correction_LUT(
+    path: str | os.PathLike, lut: colour.LUTSequence, *, overwrite: bool = False, decimals: int = 7
+) -> Path:
     """Write a :func:`correction_LUT` atomically with colour-science's writer for the extension.
 
     ``.cube`` → Resolve Cube (1-D shaper + 3-D LUT in one file, read by OpenColorIO, Resolve,
@@ -198,8 +211,9 @@ def write_correction_LUT(path: str | os.PathLike, lut: colour.LUTSequence, *, ov
     methods = {".cube": "Resolve Cube", ".csp": "Cinespace"}
     method = methods.get(path.suffix.lower())
     if method is None:
-        raise ZonotopeError(f"{path}: LUT format {path.suffix!r} cannot hold a shaper + 3-D LUT; use "
-                            f"{' or '.join(methods)}.")
+        raise ZonotopeError(
+            f"{path}: LUT format {path.suffix!r} cannot hold a shaper + 3-D LUT; use {' or '.join(methods)}."
+        )
     if path.exists() and not overwrite:
         raise ZonotopeError(f"{path} exists; pass overwrite=True (--overwrite) or choose another name.")
     fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
@@ -224,8 +238,9 @@ _PROBLEM_ARRAYS = ("Phi", "Psi", "wavelengths", "training", "XYZ_from_target")
 _OPTION_KEYS = ("degree", "noise", "eps", "delta")
 
 
-def save_correction(path: str | os.PathLike, corrector, *, options: dict | None = None,
-                    overwrite: bool = False) -> Path:
+def save_correction(
+    path: str | os.PathLike, corrector, *, options: dict | None = None, overwrite: bool = False
+) -> Path:
     """Save a fitted estimator to a ``.npz`` file (format in the module notes), atomically.
 
     Parameters
@@ -251,9 +266,15 @@ def save_correction(path: str | os.PathLike, corrector, *, options: dict | None 
     prob = corrector.problem
     opts = {k: v for k, v in corrector.params.items() if k in _OPTION_KEYS and np.isscalar(v)}
     opts.update(options or {})
-    meta = {"format": _FORMAT, "method": corrector.method, "sources": list(prob.sources),
-            "target": prob.target, "illuminant": prob.illuminant, "training": prob.training_name,
-            "options": {k: (v.item() if isinstance(v, np.generic) else v) for k, v in opts.items()}}
+    meta = {
+        "format": _FORMAT,
+        "method": corrector.method,
+        "sources": list(prob.sources),
+        "target": prob.target,
+        "illuminant": prob.illuminant,
+        "training": prob.training_name,
+        "options": {k: (v.item() if isinstance(v, np.generic) else v) for k, v in opts.items()},
+    }
     arrays = {name: np.asarray(getattr(prob, name), dtype=np.float64) for name in _PROBLEM_ARRAYS}
     M = corrector.params.get("M")
     if M is not None:
@@ -306,8 +327,13 @@ def load_correction(path: str | os.PathLike):
     if method not in CORRECTION_METHODS:
         raise ZonotopeError(f"{path}: method {method!r} is not one of {list(CORRECTION_METHODS)}.")
     try:
-        prob = CorrectionProblem(**arrays, sources=tuple(meta["sources"]), target=meta["target"],
-                                 illuminant=meta["illuminant"], training_name=meta["training"])
+        prob = CorrectionProblem(
+            **arrays,
+            sources=tuple(meta["sources"]),
+            target=meta["target"],
+            illuminant=meta["illuminant"],
+            training_name=meta["training"],
+        )
     except (TypeError, KeyError) as exc:
         raise SpectralDataError(f"{path}: incomplete problem ({exc}).") from exc
     opts = dict(meta.get("options", {}))
@@ -315,6 +341,7 @@ def load_correction(path: str | os.PathLike):
         return Corrector(method, prob, lambda c: c @ M, {"M": M, **opts})
     if method == "Finlayson 2015" and M is not None:
         degree = int(opts.get("degree", 2))
-        return Corrector(method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M,
-                         {"M": M, **opts})
+        return Corrector(
+            method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, **opts}
+        )
     return CORRECTION_METHODS[method](prob, **opts)

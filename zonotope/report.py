@@ -134,8 +134,13 @@ def write_report(
     output = Path(output)
     cameras = list(cameras)
     try:
-        check_output(output, overwrite=force, signature=SIGNATURE, what="output",
-                     inputs=[c for c in cameras if isinstance(c, str | Path) and Path(c).is_file()])
+        check_output(
+            output,
+            overwrite=force,
+            signature=SIGNATURE,
+            what="output",
+            inputs=[c for c in cameras if isinstance(c, str | Path) and Path(c).is_file()],
+        )
     except OutputExistsError as error:
         raise ReportExistsError(str(error)) from None
     if not cameras:
@@ -152,17 +157,24 @@ def write_report(
     sets = [*singles, full] if len(curves) > 1 else [full]
 
     with atomic_dir(output, signature=SIGNATURE, overwrite=force) as tmp:
-        md: list[str] = [f"# Camera set report: {' + '.join(names)}\n",
-                         f"Illuminant {illuminant}, grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, "
-                         "target CIE 2015 2° XYZ (Y_white = 1); Vora values against Stockman & Sharpe "
-                         "2° LMS (the same space).\n"]
-        parts: list[str] = [f"<h1>Camera set report: {html.escape(' + '.join(names))}</h1>",
-                            f"<p>{html.escape(md[1])}</p>"]
+        md: list[str] = [
+            f"# Camera set report: {' + '.join(names)}\n",
+            f"Illuminant {illuminant}, grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, "
+            "target CIE 2015 2° XYZ (Y_white = 1); Vora values against Stockman & Sharpe "
+            "2° LMS (the same space).\n",
+        ]
+        parts: list[str] = [
+            f"<h1>Camera set report: {html.escape(' + '.join(names))}</h1>",
+            f"<p>{html.escape(md[1])}</p>",
+        ]
 
         def section(title: str, header, rows, note: str = "") -> None:
             md.append(f"\n## {title}\n\n" + (note + "\n\n" if note else "") + _table_md(header, rows))
-            parts.append(f"<h2>{html.escape(title)}</h2>" + (f"<p>{html.escape(note)}</p>" if note else "")
-                         + _table_html(header, rows))
+            parts.append(
+                f"<h2>{html.escape(title)}</h2>"
+                + (f"<p>{html.escape(note)}</p>" if note else "")
+                + _table_html(header, rows)
+            )
 
         # 1. Vora values
         step("Vora values", 1)
@@ -175,25 +187,37 @@ def write_report(
         rows.sort(key=lambda t: -t[2])
         section("Vora values", ("cameras", "channels", "Vora"), [(a, b, f"{v:.4f}") for a, b, v in rows])
         chain = rank_camera_sets(curves, "Stockman & Sharpe 2°", illuminant, shape, method="greedy")
-        section("Greedy order", ("step", "cameras", "channels", "Vora"),
-                [(str(i + 1), " + ".join(s.cameras), str(s.channels), f"{s.vora:.4f}")
-                 for i, s in enumerate(chain)])
+        section(
+            "Greedy order",
+            ("step", "cameras", "channels", "Vora"),
+            [
+                (str(i + 1), " + ".join(s.cameras), str(s.channels), f"{s.vora:.4f}")
+                for i, s in enumerate(chain)
+            ],
+        )
 
         # 2. MMV volumes
         step("MMV volumes along the grey axis", len(sets) * len(GREY_LEVELS))
-        grey = {" + ".join(pb.sources): _mmv_volumes(pb, np.outer(GREY_LEVELS, np.ones(pb.k)))
-                for pb in sets} if volumes else {}
+        grey = (
+            {" + ".join(pb.sources): _mmv_volumes(pb, np.outer(GREY_LEVELS, np.ones(pb.k))) for pb in sets}
+            if volumes
+            else {}
+        )
         if volumes:
-            section("MMV volume along the grey axis (XYZ units, × 10⁻⁶)",
-                    ("cameras", *[f"grey {g:g}" for g in GREY_LEVELS]),
-                    [(k, *[_num(1e6 * x) for x in v]) for k, v in grey.items()])
+            section(
+                "MMV volume along the grey axis (XYZ units, × 10⁻⁶)",
+                ("cameras", *[f"grey {g:g}" for g in GREY_LEVELS]),
+                [(k, *[_num(1e6 * x) for x in v]) for k, v in grey.items()],
+            )
             step("MMV volumes of the ColorChecker", len(sets) * 24)
             cc = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
             labels = list(spectra.reflectances("ColorChecker N Ohta").labels)
             vols = {" + ".join(pb.sources): _mmv_volumes(pb, pb.source_of(cc)) for pb in sets}
-            section("MMV volume of the ColorChecker patches (XYZ units, × 10⁻⁶)",
-                    ("patch", *vols), [(labels[i], *[_num(1e6 * v[i]) for v in vols.values()])
-                                       for i in range(len(labels))])
+            section(
+                "MMV volume of the ColorChecker patches (XYZ units, × 10⁻⁶)",
+                ("patch", *vols),
+                [(labels[i], *[_num(1e6 * v[i]) for v in vols.values()]) for i in range(len(labels))],
+            )
 
         # 3. evaluation
         step("evaluation", len(sets))
@@ -203,31 +227,60 @@ def write_report(
 
             tests.append(atypical_test_set(w, atypical))
         camera_sets = [[c] for c in curves] + ([curves] if len(curves) > 1 else [])
-        ev = evaluate(camera_sets, methods=methods or DEFAULT_METHODS, illuminant=illuminant,
-                      shape=shape, test_sets=tests)
+        ev = evaluate(
+            camera_sets,
+            methods=methods or DEFAULT_METHODS,
+            illuminant=illuminant,
+            shape=shape,
+            test_sets=tests,
+        )
         md.append("\n## Colour-correction evaluation (CIEDE2000)\n\n" + ev.to_markdown())
-        rows = [(r.cameras, r.test_set, r.method, str(r.n), f"{r.mean:.3f}", f"{r.median:.3f}",
-                 f"{r.p95:.3f}", f"{r.max:.2f}", "" if r.inside is None else f"{100 * r.inside:.0f} %")
-                for r in ev.rows]
-        parts.append("<h2>Colour-correction evaluation (CIEDE2000)</h2>" + _table_html(
-            ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"), rows)
-            + "".join(f"<p>{html.escape(n)}</p>" for n in ev.notes))
+        rows = [
+            (
+                r.cameras,
+                r.test_set,
+                r.method,
+                str(r.n),
+                f"{r.mean:.3f}",
+                f"{r.median:.3f}",
+                f"{r.p95:.3f}",
+                f"{r.max:.2f}",
+                "" if r.inside is None else f"{100 * r.inside:.0f} %",
+            )
+            for r in ev.rows
+        ]
+        parts.append(
+            "<h2>Colour-correction evaluation (CIEDE2000)</h2>"
+            + _table_html(
+                ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"), rows
+            )
+            + "".join(f"<p>{html.escape(n)}</p>" for n in ev.notes)
+        )
 
         # 4. pictures
         if pictures:
             pics = _pictures(tmp, full, singles, chain, step)
             md.append("\n## Pictures\n\n" + "".join(f"![{t}]({f})\n\n" for f, t in pics))
-            parts.append("<h2>Pictures</h2>" + "".join(
-                f"<figure><img src='{html.escape(f)}' alt='{html.escape(t)}'>"
-                f"<figcaption>{html.escape(t)}</figcaption></figure>" for f, t in pics))
+            parts.append(
+                "<h2>Pictures</h2>"
+                + "".join(
+                    f"<figure><img src='{html.escape(f)}' alt='{html.escape(t)}'>"
+                    f"<figcaption>{html.escape(t)}</figcaption></figure>"
+                    for f, t in pics
+                )
+            )
 
         (tmp / "report.md").write_text("".join(md), encoding="utf-8")
-        style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
-                 "margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}"
-                 "img{max-width:100%}")
+        style = (
+            "body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse;"
+            "margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}"
+            "img{max-width:100%}"
+        )
         (tmp / "index.html").write_text(
             f"<!doctype html><html><head><meta charset='utf-8'><title>zonotope report</title>"
-            f"<style>{style}</style></head><body>{''.join(parts)}</body></html>", encoding="utf-8")
+            f"<style>{style}</style></head><body>{''.join(parts)}</body></html>",
+            encoding="utf-8",
+        )
     return output
 
 

@@ -131,14 +131,16 @@ class Zonotope:
         if peak > 0 and not 1e-150 <= peak <= 1e150:
             raise GeometryError(
                 f"generators of magnitude {peak:.3g}: products of two (cross products, volumes) would "
-                "underflow or overflow in float64. Rescale them, e.g. generators(..., normalise=1).")
+                "underflow or overflow in float64. Rescale them, e.g. generators(..., normalise=1)."
+            )
         k = G.shape[1]
         # the solid lies in a cube of side Σ‖g‖, so its volume (a product of k lengths) stays below
         # (Σ‖g‖)^k: refuse where that bound leaves float64, instead of an inf or NaN volume later
         if peak > 0 and k * np.log10(np.linalg.norm(G / peak, axis=1).sum() * peak) > 300:
             raise GeometryError(
                 f"generators of magnitude {peak:.3g} in {k} dimensions: the volume (up to "
-                f"(Σ‖g‖)^{k}) would overflow float64. Rescale them, e.g. generators(..., normalise=1).")
+                f"(Σ‖g‖)^{k}) would overflow float64. Rescale them, e.g. generators(..., normalise=1)."
+            )
         off = np.zeros(k) if offset is None else np.array(offset, dtype=np.float64).reshape(-1)
         if off.shape != (k,) or not np.all(np.isfinite(off)):
             raise GeometryError(f"offset must be a finite vector of length {k}; got {offset!r}.")
@@ -258,7 +260,6 @@ class Zonotope:
         V, F, self.mesh_method = _zh.mesh(self._facets, self._reduced[0], self._keys_r, self.centroid)
         return V, F
 
-
     @cached_property
     def _keys_r(self) -> np.ndarray:
         p = self._reduced[0].shape[0]
@@ -348,8 +349,9 @@ class Zonotope:
         total = 0.0
         it = combinations(range(H.shape[0]), k)
         while True:
-            chunk = np.fromiter((c for c in (next(it, None) for _ in range(200_000)) if c is not None),
-                                dtype=(int, k))
+            chunk = np.fromiter(
+                (c for c in (next(it, None) for _ in range(200_000)) if c is not None), dtype=(int, k)
+            )
             if chunk.size == 0:
                 break
             total += float(np.abs(np.linalg.det(H[chunk])).sum())
@@ -423,8 +425,8 @@ class Zonotope:
         N, bp, bm = A[:half], b[:half], b[half:]
         step = max(1, 2_000_000 // max(half, 1))
         for s in range(0, flat.shape[0], step):
-            v = flat[s:s + step] @ N.T
-            out[s:s + step] = np.maximum((v - bp).max(axis=1), (-v - bm).max(axis=1)) <= tol
+            v = flat[s : s + step] @ N.T
+            out[s : s + step] = np.maximum((v - bp).max(axis=1), (-v - bm).max(axis=1)) <= tol
         return out.reshape(P.shape[:-1])
 
     @cached_property
@@ -461,6 +463,7 @@ class Zonotope:
         import manifold3d as m3d
 
         V, F = self.triangles()
-        mesh = m3d.Mesh64(vert_properties=np.ascontiguousarray(V),
-                          tri_verts=np.ascontiguousarray(F, dtype=np.uint64))
+        mesh = m3d.Mesh64(
+            vert_properties=np.ascontiguousarray(V), tri_verts=np.ascontiguousarray(F, dtype=np.uint64)
+        )
         return m3d.Manifold(mesh)

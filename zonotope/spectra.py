@@ -268,9 +268,14 @@ OBSERVERS: dict[str, str] = {
     "CIE 2015 2°": "CIE 2015 2 Degree Standard Observer",
     "CIE 2015 10°": "CIE 2015 10 Degree Standard Observer",
 }
-_OBSERVER_ALIASES = {"lms": "Stockman & Sharpe 2°", "lms2": "Stockman & Sharpe 2°",
-                     "lms10": "Stockman & Sharpe 10°", "xyz": "CIE 1931 2°",
-                     "cie1931": "CIE 1931 2°", "cie1964": "CIE 1964 10°"}
+_OBSERVER_ALIASES = {
+    "lms": "Stockman & Sharpe 2°",
+    "lms2": "Stockman & Sharpe 2°",
+    "lms10": "Stockman & Sharpe 10°",
+    "xyz": "CIE 1931 2°",
+    "cie1931": "CIE 1931 2°",
+    "cie1964": "CIE 1964 10°",
+}
 
 #: Every illuminant colour-science ships (``colour.SDS_ILLUMINANTS``), by its colour name.
 ILLUMINANTS: tuple[str, ...] = tuple(colour.SDS_ILLUMINANTS)
@@ -278,18 +283,23 @@ ILLUMINANTS: tuple[str, ...] = tuple(colour.SDS_ILLUMINANTS)
 #: Built-in reflectance sets: name → loader returning one column per sample.
 REFLECTANCES: dict[str, Callable[[], colour.MultiSpectralDistributions]] = {
     "ColorChecker N Ohta": lambda: _sds_to_msds(
-        colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"], "ColorChecker N Ohta"),
+        colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"], "ColorChecker N Ohta"
+    ),
     "BabelColor Average": lambda: _sds_to_msds(
-        colour.SDS_COLOURCHECKERS["BabelColor Average"], "BabelColor Average"),
+        colour.SDS_COLOURCHECKERS["BabelColor Average"], "BabelColor Average"
+    ),
     "rawtoaces 190": lambda: colour.characterisation.read_training_data_rawtoaces_v1(),
-    "CIE 1995 TCS": lambda: _sds_to_msds(colour.quality.datasets.SDS_TCS["CIE 1995"],
-                                         "CIE 1995 TCS"),
-    "NIST CQS 9.0": lambda: _sds_to_msds(colour.quality.datasets.SDS_VS["NIST CQS 9.0"],
-                                         "NIST CQS 9.0"),
+    "CIE 1995 TCS": lambda: _sds_to_msds(colour.quality.datasets.SDS_TCS["CIE 1995"], "CIE 1995 TCS"),
+    "NIST CQS 9.0": lambda: _sds_to_msds(colour.quality.datasets.SDS_VS["NIST CQS 9.0"], "NIST CQS 9.0"),
 }
-_REFLECTANCE_ALIASES = {"colorchecker": "ColorChecker N Ohta", "cc24": "ColorChecker N Ohta",
-                        "babelcolor": "BabelColor Average", "rawtoaces": "rawtoaces 190",
-                        "training190": "rawtoaces 190", "tcs": "CIE 1995 TCS"}
+_REFLECTANCE_ALIASES = {
+    "colorchecker": "ColorChecker N Ohta",
+    "cc24": "ColorChecker N Ohta",
+    "babelcolor": "BabelColor Average",
+    "rawtoaces": "rawtoaces 190",
+    "training190": "rawtoaces 190",
+    "tcs": "CIE 1995 TCS",
+}
 
 
 def _resolve(name: str, table: Iterable[str], aliases: dict[str, str], kind: str) -> str:
@@ -353,8 +363,9 @@ def reflectances(name: str | colour.MultiSpectralDistributions) -> colour.MultiS
     if np.any(values < -1e-12):  # pragma: no cover - colour's datasets are non-negative
         raise SpectralDataError(f"built-in set {resolved} has negative reflectances.")
     # a few entries of colour's tables are -2e-16 (float noise, e.g. rawtoaces 190): clear them
-    return colour.MultiSpectralDistributions(np.maximum(values, 0.0), msds.wavelengths,
-                                             labels=list(msds.labels), name=resolved)
+    return colour.MultiSpectralDistributions(
+        np.maximum(values, 0.0), msds.wavelengths, labels=list(msds.labels), name=resolved
+    )
 
 
 def list_builtin() -> dict[str, list[str]]:
@@ -389,7 +400,8 @@ def _read_text(path: Path, what: str) -> str:
     if b"\x00" in data[:65536]:  # text tables never hold NUL bytes; images and binaries do
         raise SpectralDataError(
             f"{path} is not a text file (binary data, e.g. an image); {what} must be a CSV/TXT table "
-            "or a JSON file.")
+            "or a JSON file."
+        )
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -400,12 +412,15 @@ def _float(cell, path: Path, where: str) -> float:
     try:
         return float(cell)
     except (TypeError, ValueError):
-        raise SpectralDataError(f"{path}: {where}: {cell!r} is not a number. Fix or remove the row; "
-                                "rows are never skipped silently.") from None
+        raise SpectralDataError(
+            f"{path}: {where}: {cell!r} is not a number. Fix or remove the row; "
+            "rows are never skipped silently."
+        ) from None
 
 
-def read_spectral_csv(path: str | Path, *, name: str | None = None,
-                      allow_negative: bool = False) -> colour.MultiSpectralDistributions:
+def read_spectral_csv(
+    path: str | Path, *, name: str | None = None, allow_negative: bool = False
+) -> colour.MultiSpectralDistributions:
     """Read a spectral table in either orientation.
 
     Accepted layouts (``#`` comment lines and free-text preambles are skipped):
@@ -425,16 +440,26 @@ def read_spectral_csv(path: str | Path, *, name: str | None = None,
     path = Path(path)
     name = name or path.stem
     text = _read_text(path, "a spectral table")
-    numbered = [(n + 1, line) for n, line in enumerate(text.splitlines())
-                if line.strip() and not line.lstrip().startswith("#")]
+    numbered = [
+        (n + 1, line)
+        for n, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     rows, lines = [], []
     for n, line in numbered:
         r = next(csv.reader([line]))
         rows.append([c.strip() for c in r if c.strip() != ""])
         lines.append(n)
-    start = next((i for i in range(len(rows) - 1)
-                  if len(rows[i]) >= 2 and len(rows[i + 1]) == len(rows[i])
-                  and all(_is_number(c) for c in rows[i + 1][1:])), None)
+    start = next(
+        (
+            i
+            for i in range(len(rows) - 1)
+            if len(rows[i]) >= 2
+            and len(rows[i + 1]) == len(rows[i])
+            and all(_is_number(c) for c in rows[i + 1][1:])
+        ),
+        None,
+    )
     if start is None:
         raise SpectralDataError(
             f"{path}: no table of numbers found. Expected comma-separated rows such as "
@@ -447,14 +472,14 @@ def read_spectral_csv(path: str | Path, *, name: str | None = None,
         if len(r) != width:
             raise SpectralDataError(
                 f"{path}: line {n} has {len(r)} values where the table has {width} ({','.join(r)[:60]!r}). "
-                "Fix or remove the row; rows are never skipped silently.")
+                "Fix or remove the row; rows are never skipped silently."
+            )
     body = rows[first:]
     body_lines = lines[first:]
     if header is not None and all(_is_number(c) for c in header[1:]):
         wavelengths = np.array([_float(c, path, f"line {lines[start]}") for c in header[1:]])
         labels = [r[0] for r in body]
-        values = np.array([[_float(c, path, f"line {n}") for c in r[1:]]
-                           for r, n in zip(body, body_lines)]).T
+        values = np.array([[_float(c, path, f"line {n}") for c in r[1:]] for r, n in zip(body, body_lines)]).T
     else:
         data = np.array([[_float(c, path, f"line {n}") for c in r] for r, n in zip(body, body_lines)])
         wavelengths, values = data[:, 0], data[:, 1:]
@@ -472,11 +497,14 @@ def _json(path: Path, what: str):
 
 def _wrong_shape(path: Path, expected: str, error: Exception) -> SpectralDataError:
     return SpectralDataError(
-        f"{path}: JSON of an unexpected shape ({type(error).__name__}: {error}); expected {expected}.")
+        f"{path}: JSON of an unexpected shape ({type(error).__name__}: {error}); expected {expected}."
+    )
 
 
-_RAWTOACES = ("rawtoaces/AMPAS JSON: {'header': {...}, 'spectral_data': {'index': {'main': [labels]}, "
-              "'data': {'main': {'<nm>': [values]}}}}")
+_RAWTOACES = (
+    "rawtoaces/AMPAS JSON: {'header': {...}, 'spectral_data': {'index': {'main': [labels]}, "
+    "'data': {'main': {'<nm>': [values]}}}}"
+)
 
 
 def _rawtoaces(doc, path: Path, allow_negative: bool):
@@ -495,8 +523,10 @@ def _rawtoaces(doc, path: Path, allow_negative: bool):
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
         raise _wrong_shape(path, _RAWTOACES, error) from None
     if v.ndim != 2 or v.shape[0] == 0 or len(labels) != v.shape[1]:
-        raise SpectralDataError(f"{path}: {len(labels)} labels in 'index' for values of shape {v.shape}; "
-                                "expected one label per column.")
+        raise SpectralDataError(
+            f"{path}: {len(labels)} labels in 'index' for values of shape {v.shape}; "
+            "expected one label per column."
+        )
     order = np.argsort(w)
     w, v = _check(w[order], v[order], f"{path}", allow_negative=allow_negative)
     return w, v, labels, header
@@ -528,12 +558,19 @@ def read_camera(path: str | Path, *, allow_negative: bool = False) -> colour.Mul
             v = np.stack([np.ravel(np.asarray(doc[k], dtype=np.float64)) for k in keys], axis=1)
             bands = np.ravel(np.asarray(doc["ssf_bands"], dtype=np.float64))
         except (TypeError, ValueError) as error:
-            raise _wrong_shape(path, "dcamprof JSON: 'ssf_bands' and 'red_ssf'/'green_ssf'/'blue_ssf' lists "
-                               "of numbers of one length", error) from None
+            raise _wrong_shape(
+                path,
+                "dcamprof JSON: 'ssf_bands' and 'red_ssf'/'green_ssf'/'blue_ssf' lists "
+                "of numbers of one length",
+                error,
+            ) from None
         w, v = _check(bands, v, f"{path}", allow_negative=allow_negative)
         return colour.MultiSpectralDistributions(
-            v, w, labels=[k.removesuffix("_ssf") for k in keys],  # a missing channel shifts no label
-            name=str(doc.get("camera_name", path.stem)))
+            v,
+            w,
+            labels=[k.removesuffix("_ssf") for k in keys],  # a missing channel shifts no label
+            name=str(doc.get("camera_name", path.stem)),
+        )
     raise SpectralDataError(
         f"{path}: unknown JSON layout; expected rawtoaces ('spectral_data') or dcamprof "
         "('ssf_bands', 'red_ssf', ...)."
@@ -574,7 +611,8 @@ def read_sfu1995(path: str | Path) -> colour.MultiSpectralDistributions:
     w = origin + step * np.arange(values.shape[0])
     w, values = _check(w, values, str(path), allow_negative=False)
     return colour.MultiSpectralDistributions(
-        values, w, labels=[f"sfu{i:04d}" for i in range(values.shape[1])], name="SFU 1995")
+        values, w, labels=[f"sfu{i:04d}" for i in range(values.shape[1])], name="SFU 1995"
+    )
 
 
 def read_reflectances(path: str | Path) -> colour.MultiSpectralDistributions:
@@ -604,9 +642,13 @@ def read_reflectances(path: str | Path) -> colour.MultiSpectralDistributions:
 
 
 def _flatten_sensitivities(sensitivities) -> list[Curve]:
-    items = [sensitivities] if isinstance(
-        sensitivities, str | colour.MultiSpectralDistributions | colour.SpectralDistribution | tuple
-    ) else list(sensitivities)
+    items = (
+        [sensitivities]
+        if isinstance(
+            sensitivities, str | colour.MultiSpectralDistributions | colour.SpectralDistribution | tuple
+        )
+        else list(sensitivities)
+    )
     if not items:
         raise SpectralDataError("no sensitivities given; pass a camera, an observer or a list.")
     out = []
@@ -621,8 +663,9 @@ def _flatten_sensitivities(sensitivities) -> list[Curve]:
     return out
 
 
-def spectral_matrix(curves, shape: colour.SpectralShape | np.ndarray | None = None, *,
-                    allow_negative: bool = False):
+def spectral_matrix(
+    curves, shape: colour.SpectralShape | np.ndarray | None = None, *, allow_negative: bool = False
+):
     """Stack curves (cameras, observers, ...) channel-wise on one grid.
 
     Returns
@@ -644,10 +687,14 @@ def spectral_matrix(curves, shape: colour.SpectralShape | np.ndarray | None = No
     return grid, np.concatenate(blocks, axis=1), labels
 
 
-def generators(sensitivities, illuminant: CurveLike | None = "D65",
-               shape: colour.SpectralShape | np.ndarray | None = None, *,
-               normalise: str | int | None = "channel",
-               allow_negative: bool = False) -> colour.MultiSpectralDistributions:
+def generators(
+    sensitivities,
+    illuminant: CurveLike | None = "D65",
+    shape: colour.SpectralShape | np.ndarray | None = None,
+    *,
+    normalise: str | int | None = "channel",
+    allow_negative: bool = False,
+) -> colour.MultiSpectralDistributions:
     """Generator matrix G = S(λ)·E(λ)·Δλ of one or more cameras/observers under an illuminant.
 
     Parameters

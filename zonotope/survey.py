@@ -139,14 +139,16 @@ def _score(names: tuple[str, ...], shared) -> SurveyRow:
         w = _grid([*curves, spectra.observer(opts["target"])], opts["interval"])
         train = opts["training"]
         training = spectra.resample(spectra.reflectances(train) if isinstance(train, str) else train, w).T
-        problem = correction_problem(curves, target=opts["target"], illuminant=opts["illuminant"], shape=w,
-                                     training=training)
+        problem = correction_problem(
+            curves, target=opts["target"], illuminant=opts["illuminant"], shape=w, training=training
+        )
         k = problem.Phi.shape[1]
         R = np.clip(spectra.resample(opts["reflectances"], w).T, 0.0, 1.0)
         C, T = problem.source_of(R), problem.target_of(R)
         v = vora_value(problem.Phi, problem.Psi)
-        vols = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=opts["eps"],
-                                      on_infeasible="nearest").volumes
+        vols = metamer_mismatch_batch(
+            problem.Phi, problem.Psi, C, eps=opts["eps"], on_infeasible="nearest"
+        ).volumes
         best, best_dE = "", math.inf
         for m in REGRESSIONS:
             try:
@@ -156,17 +158,46 @@ def _score(names: tuple[str, ...], shared) -> SurveyRow:
             dE = float(np.mean(problem.delta_E(fitted(C), T)))
             if dE < best_dE:
                 best, best_dE = m, dE
-        return SurveyRow(names, k, f"{w[0]:g}–{w[-1]:g}/{w[1] - w[0]:g}", v, float(np.median(vols)),
-                         float(np.percentile(vols, 90)), best, best_dE, time.perf_counter() - t0)
+        return SurveyRow(
+            names,
+            k,
+            f"{w[0]:g}–{w[-1]:g}/{w[1] - w[0]:g}",
+            v,
+            float(np.median(vols)),
+            float(np.percentile(vols, 90)),
+            best,
+            best_dE,
+            time.perf_counter() - t0,
+        )
     except (ZonotopeError, ValueError, np.linalg.LinAlgError) as error:
-        return SurveyRow(names, k, "", math.nan, math.nan, math.nan, "", math.nan,
-                         time.perf_counter() - t0, f"{type(error).__name__}: {error}")
+        return SurveyRow(
+            names,
+            k,
+            "",
+            math.nan,
+            math.nan,
+            math.nan,
+            "",
+            math.nan,
+            time.perf_counter() - t0,
+            f"{type(error).__name__}: {error}",
+        )
 
 
-def survey(cameras, *, size: int = 2, target="CIE 2015 2°", illuminant="D65", interval: float = 10.0,
-           reflectances="ColorChecker N Ohta", training="rawtoaces 190", eps: float = 1e-3,
-           containing: Iterable[str] | None = None, scheduler: str | None = None,
-           progress: Callable[[int, int], None] | None = None) -> list[SurveyRow]:
+def survey(
+    cameras,
+    *,
+    size: int = 2,
+    target="CIE 2015 2°",
+    illuminant="D65",
+    interval: float = 10.0,
+    reflectances="ColorChecker N Ohta",
+    training="rawtoaces 190",
+    eps: float = 1e-3,
+    containing: Iterable[str] | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[SurveyRow]:
     """Score every set of ``size`` cameras; ranked best first.
 
     Parameters
@@ -202,8 +233,9 @@ def survey(cameras, *, size: int = 2, target="CIE 2015 2°", illuminant="D65", i
 
     cams = cameras if isinstance(cameras, dict) else load_cameras(cameras)[0]
     if not isinstance(size, int) or not 1 <= size <= len(cams):
-        raise SpectralDataError(f"size must be an integer in 1..{len(cams)} (the number of cameras); "
-                                f"got {size!r}.")
+        raise SpectralDataError(
+            f"size must be an integer in 1..{len(cams)} (the number of cameras); got {size!r}."
+        )
     if not (np.isfinite(interval) and 1 <= interval <= 20):
         raise SpectralDataError(f"interval must be 1–20 nm; got {interval!r}.")
     names = sorted(cams)
@@ -214,13 +246,26 @@ def survey(cameras, *, size: int = 2, target="CIE 2015 2°", illuminant="D65", i
         if unknown:
             raise SpectralDataError(f"containing: {sorted(unknown)} not among the cameras {names}.")
         sets = [s for s in sets if want & set(s)]
-    refl = spectra.reflectances(reflectances) if isinstance(reflectances, str) and not Path(
-        reflectances).is_file() else (spectra.read_reflectances(reflectances)
-                                      if isinstance(reflectances, str | Path) else reflectances)
-    train = (training if not isinstance(training, str | Path) or not Path(training).is_file()
-             else spectra.read_reflectances(training))
-    opts = dict(target=target, illuminant=illuminant, interval=float(interval), reflectances=refl,
-                training=train, eps=float(eps))
+    refl = (
+        spectra.reflectances(reflectances)
+        if isinstance(reflectances, str) and not Path(reflectances).is_file()
+        else (
+            spectra.read_reflectances(reflectances) if isinstance(reflectances, str | Path) else reflectances
+        )
+    )
+    train = (
+        training
+        if not isinstance(training, str | Path) or not Path(training).is_file()
+        else spectra.read_reflectances(training)
+    )
+    opts = dict(
+        target=target,
+        illuminant=illuminant,
+        interval=float(interval),
+        reflectances=refl,
+        training=train,
+        eps=float(eps),
+    )
     rows: list = [None] * len(sets)
     with executor(scheduler, tasks=len(sets), min_tasks=8) as ex:
         for i, out in ex.outcomes(_score, sets, shared=(cams, opts), progress=progress):
@@ -250,8 +295,9 @@ def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
             import pyarrow as pa
             import pyarrow.parquet as pq
         except ImportError as error:
-            raise ZonotopeError(f"{path}: Parquet needs pyarrow (not installed); write .csv instead."
-                                ) from error
+            raise ZonotopeError(
+                f"{path}: Parquet needs pyarrow (not installed); write .csv instead."
+            ) from error
         table = pa.table({c: [r.as_dict()[c] for r in rows] for c in cols})
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".parquet")
         os.close(fd)

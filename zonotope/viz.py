@@ -31,8 +31,12 @@ __all__ = [
 
 
 #: MMVs are small: light them mostly ambiently so their sRGB colour reads, outline the silhouette.
-_MMV_STYLE = {"ambient": 0.55, "diffuse": 0.5, "specular": 0.0,
-              "silhouette": {"color": "black", "line_width": 1.5}}
+_MMV_STYLE = {
+    "ambient": 0.55,
+    "diffuse": 0.5,
+    "specular": 0.0,
+    "silhouette": {"color": "black", "line_width": 1.5},
+}
 
 
 def _pv():
@@ -86,8 +90,15 @@ def _camera(plotter, problem) -> None:
     plotter.camera_position = [tuple(w * np.array([2.6, -1.2, 1.9])), tuple(0.45 * w), (0, 0, 1)]
 
 
-def plot_object_colour_solid(problem, *, plotter=None, filename=None, opacity: float = 1.0,
-                             locus: bool = True, show_edges: bool = False):
+def plot_object_colour_solid(
+    problem,
+    *,
+    plotter=None,
+    filename=None,
+    opacity: float = 1.0,
+    locus: bool = True,
+    show_edges: bool = False,
+):
     """The object-colour solid of the target (all colours of reflectances in [0, 1]).
 
     Parameters
@@ -109,8 +120,14 @@ def plot_object_colour_solid(problem, *, plotter=None, filename=None, opacity: f
     from .solid import Zonotope
 
     p = _plotter(plotter)
-    p.add_mesh(_mesh(problem, Zonotope(problem.Psi)), scalars="sRGB", rgb=True, opacity=opacity,
-               show_edges=show_edges, smooth_shading=False)
+    p.add_mesh(
+        _mesh(problem, Zonotope(problem.Psi)),
+        scalars="sRGB",
+        rgb=True,
+        opacity=opacity,
+        show_edges=show_edges,
+        smooth_shading=False,
+    )
     if locus:
         plot_spectral_locus(problem, plotter=p)
     _camera(p, problem)
@@ -151,12 +168,21 @@ def mmv_polytope(problem, response, *, eps: float = 1e-3):
     """
     from .mismatch import metamer_mismatch_bounds
 
-    return metamer_mismatch_bounds(problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64),
-                                   eps=eps, on_infeasible="nearest").inner
+    return metamer_mismatch_bounds(
+        problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64), eps=eps, on_infeasible="nearest"
+    ).inner
 
 
-def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: float = 0.12,
-             truth=None, estimates: dict | None = None):
+def plot_mmv(
+    problem,
+    response,
+    *,
+    plotter=None,
+    filename=None,
+    solid_opacity: float = 0.12,
+    truth=None,
+    estimates: dict | None = None,
+):
     """An MMV (opaque, sRGB-coloured) inside the translucent object-colour solid.
 
     Parameters
@@ -179,16 +205,23 @@ def plot_mmv(problem, response, *, plotter=None, filename=None, solid_opacity: f
     if truth is not None:
         p.add_mesh(pv.Sphere(radius=0.008 * scale, center=np.asarray(truth, float)), color="white")
     for name, point in (estimates or {}).items():
-        p.add_point_labels(np.asarray(point, float)[None], [name], point_size=10, font_size=12,
-                           render_points_as_spheres=True)
+        p.add_point_labels(
+            np.asarray(point, float)[None], [name], point_size=10, font_size=12, render_points_as_spheres=True
+        )
     p.camera.focal_point = tuple(mmv.centroid)
     p.camera.position = tuple(np.asarray(mmv.centroid) + scale * np.array([0.9, -0.5, 0.6]))
     p.camera.up = (0, 0, 1)
     return _finish(p, filename, names=_axis_names(problem))
 
 
-def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9), *, plotter=None,
-                   filename=None, solid_opacity: float = 0.1):
+def plot_grey_mmvs(
+    problem,
+    levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9),
+    *,
+    plotter=None,
+    filename=None,
+    solid_opacity: float = 0.1,
+):
     """MMVs of the greys ``c = level × (1, …, 1)`` along the achromatic axis (thesis fig. 4.2)."""
     from .solid import Zonotope
 
@@ -203,8 +236,14 @@ def plot_grey_mmvs(problem, levels: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9),
     return _finish(p, filename, names=_axis_names(problem))
 
 
-def plot_mmv_comparison(problems: Sequence, reflectance, *, titles: Sequence[str] | None = None,
-                        filename=None, window_size=(1400, 650)):
+def plot_mmv_comparison(
+    problems: Sequence,
+    reflectance,
+    *,
+    titles: Sequence[str] | None = None,
+    filename=None,
+    window_size=(1400, 650),
+):
     """The MMV of one reflectance seen by different camera sets, side by side (e.g. 1 vs 2 cameras).
 
     Parameters
@@ -264,11 +303,23 @@ def plot_sensitivities(problem, *, ax=None, filename=None):
     for j in range(problem.k):
         cam = j // per
         name = problem.sources[cam] if cam < len(problem.sources) else f"channel {j}"
-        ax.plot(w, Phi[:, j], styles[cam % 4], color=colours[j % 3] if per == 3 else None, lw=1.4,
-                label=name if j % per == 0 else None)
+        ax.plot(
+            w,
+            Phi[:, j],
+            styles[cam % 4],
+            color=colours[j % 3] if per == 3 else None,
+            lw=1.4,
+            label=name if j % per == 0 else None,
+        )
     for j in range(problem.m):
-        ax.plot(w, Psi[:, j], color="black", lw=2.2, alpha=0.5,
-                label=f"target ({problem.target})" if j == 0 else None)
+        ax.plot(
+            w,
+            Psi[:, j],
+            color="black",
+            lw=2.2,
+            alpha=0.5,
+            label=f"target ({problem.target})" if j == 0 else None,
+        )
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel(f"sensitivity × {problem.illuminant} (peak = 1)")
     ax.legend(fontsize=8)
@@ -290,8 +341,9 @@ def plot_vora_chain(chain, *, ax=None, filename=None):
     v = [s.vora for s in chain]
     ax.plot(ch, v, "o-", color="tab:blue")
     for s in chain:
-        ax.annotate(s.cameras[-1], (s.channels, s.vora), textcoords="offset points", xytext=(4, -12),
-                    fontsize=8)
+        ax.annotate(
+            s.cameras[-1], (s.channels, s.vora), textcoords="offset points", xytext=(4, -12), fontsize=8
+        )
     ax.set_xlabel("number of channels (cameras stacked, greedy order)")
     ax.set_ylabel("Vora value")
     ax.set_ylim(min(v) - 0.02, 1.0)

@@ -46,8 +46,10 @@ def projector(A, *, rtol: float = TOL.rank) -> tuple[np.ndarray, int]:
         raise SpectralDataError(f"expected a (n_wavelengths, channels) matrix, got shape {A.shape}.")
     if not np.all(np.isfinite(A)):  # a NaN column would otherwise be dropped as if it were zero
         bad = sorted({int(c) for c in np.nonzero(~np.isfinite(A))[1]})
-        raise SpectralDataError(f"channels {bad} of a ({A.shape[0]}, {A.shape[1]}) sensitivity matrix hold "
-                                "NaN or inf; fill or trim the data (nothing is dropped silently).")
+        raise SpectralDataError(
+            f"channels {bad} of a ({A.shape[0]}, {A.shape[1]}) sensitivity matrix hold "
+            "NaN or inf; fill or trim the data (nothing is dropped silently)."
+        )
     # unit columns first: the column space is the same, and a channel many orders of magnitude
     # weaker than another (e.g. 1e-226 beside 1) still counts instead of falling under rtol
     peak = np.abs(A).max(axis=0) if A.size else np.zeros(A.shape[1])
@@ -153,8 +155,7 @@ def rank_camera_sets(
         chosen: list[int] = []
         chain = []
         while len(chosen) < len(Qs):
-            best = max((i for i in range(len(Qs)) if i not in chosen),
-                       key=lambda i: score([*chosen, i]).vora)
+            best = max((i for i in range(len(Qs)) if i not in chosen), key=lambda i: score([*chosen, i]).vora)
             chosen.append(best)
             chain.append(score(chosen))
         return chain

@@ -39,8 +39,12 @@ def _digest(folder: Path) -> dict:
     """SHA-256 of every file; of the decoded pixels for TIFFs (their ICC profile carries a creation time)."""
     import tifffile
 
-    return {p.name: hashlib.sha256(tifffile.imread(p).tobytes() if p.suffix == ".tif" else p.read_bytes())
-            .hexdigest() for p in sorted(folder.iterdir())}
+    return {
+        p.name: hashlib.sha256(
+            tifffile.imread(p).tobytes() if p.suffix == ".tif" else p.read_bytes()
+        ).hexdigest()
+        for p in sorted(folder.iterdir())
+    }
 
 
 @pytest.fixture(scope="module")
@@ -92,8 +96,14 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
             dask_cluster.kill_worker()
             killed.append(done)
 
-    rows = run_files(tasks, _develop_one, (values, None), manifest=out / "manifest.csv",
-                     scheduler=dask_cluster.address, progress=progress)
+    rows = run_files(
+        tasks,
+        _develop_one,
+        (values, None),
+        manifest=out / "manifest.csv",
+        scheduler=dask_cluster.address,
+        progress=progress,
+    )
     assert killed
     assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 4
     got = _digest(out)

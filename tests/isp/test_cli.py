@@ -25,8 +25,20 @@ D65_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
 def test_develop_png_and_stages(dng_550d, tmp_path):
     out = tmp_path / "out.png"
     stages = tmp_path / "stages"
-    rc = main(["develop", str(dng_550d), "-o", str(out), "--demosaic", "bilinear", *CROP,
-               "--save-stages", str(stages), "-q"])
+    rc = main(
+        [
+            "develop",
+            str(dng_550d),
+            "-o",
+            str(out),
+            "--demosaic",
+            "bilinear",
+            *CROP,
+            "--save-stages",
+            str(stages),
+            "-q",
+        ]
+    )
     assert rc == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     names = sorted(p.name for p in stages.iterdir())
@@ -39,8 +51,10 @@ def test_develop_png_and_stages(dng_550d, tmp_path):
 
 def test_develop_tiff_clip(dng_550d, tmp_path):
     out = tmp_path / "out.tif"
-    assert main(["develop", str(dng_550d), "-o", str(out), *CROP, "--tonemap", "clip", "--exposure", "1",
-                 "-q"]) == 0
+    assert (
+        main(["develop", str(dng_550d), "-o", str(out), *CROP, "--tonemap", "clip", "--exposure", "1", "-q"])
+        == 0
+    )
     img = tifffile.imread(out)
     assert img.dtype == np.uint16 and img.shape == (64, 96, 3)
     assert main(["develop", str(dng_550d), "-o", str(tmp_path / "b.tif"), "--exposure", "1", "-q"]) == 2
@@ -59,8 +73,12 @@ def test_errors_exit_2(tmp_path, capsys):
 
 
 def test_python_m_isp_info(dng_350d):
-    res = subprocess.run([sys.executable, "-m", "isp", "info", str(dng_350d), "--metadata-only"],
-                         capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-m", "isp", "info", str(dng_350d), "--metadata-only"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert res.returncode == 0, res.stderr
     assert "350D" in res.stdout and "0.6018" in res.stdout
 
@@ -91,7 +109,7 @@ def _patch_Lab(tif, simulated):
     means = []
     for k in range(len(PATCHES)):
         ys, xs = np.nonzero(labels == k)
-        means.append(XYZ[ys.min() + 2:ys.max() - 1, xs.min() + 2:xs.max() - 1].reshape(-1, 3).mean(0))
+        means.append(XYZ[ys.min() + 2 : ys.max() - 1, xs.min() + 2 : xs.max() - 1].reshape(-1, 3).mean(0))
     D65 = colour.xy_to_XYZ(D65_xy)
     ref = colour.chromatic_adaptation(truth, white, D65, method="Von Kries", transform="Bradford")
     return colour.XYZ_to_Lab(np.array(means), D65_xy), colour.XYZ_to_Lab(ref, D65_xy)
@@ -103,8 +121,24 @@ def test_develop_metamer_close_to_truth_and_dng(simulated, tmp_path, capsys):
     stages = tmp_path / "stages"
     common = ["--demosaic", "bilinear", "--tonemap", "none"]
     assert main(["develop", str(src), "-o", str(dng), *common, "-q"]) == 0
-    assert main(["develop", str(src), "-o", str(metamer), *common, "--correction", "metamer",
-                 "--camera", CAMERA, "--save-stages", str(stages)]) == 0
+    assert (
+        main(
+            [
+                "develop",
+                str(src),
+                "-o",
+                str(metamer),
+                *common,
+                "--correction",
+                "metamer",
+                "--camera",
+                CAMERA,
+                "--save-stages",
+                str(stages),
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "metamer correction Prior" in err and "warning" not in err  # AsShotNeutral matches D65
     img = tifffile.imread(metamer)
@@ -123,36 +157,91 @@ def test_develop_metamer_other_estimator_and_camera_file(simulated, tmp_path):
     src = simulated[0]
     csv = tmp_path / "nikon.csv"
     cam = zonotope.camera(CAMERA)
-    np.savetxt(csv, np.column_stack([cam.wavelengths, cam.values]), delimiter=",",
-               header="wavelength,red,green,blue", comments="")
+    np.savetxt(
+        csv,
+        np.column_stack([cam.wavelengths, cam.values]),
+        delimiter=",",
+        header="wavelength,red,green,blue",
+        comments="",
+    )
     out = tmp_path / "root_poly.png"
-    assert main(["develop", str(src), "-o", str(out), "--correction", "metamer", "--camera", str(csv),
-                 "--method", "root-polynomial", "--illuminant", "D65", "--training", "ColorChecker N Ohta",
-                 "--scene-white", "0.8", "--quantum", "0", "-q"]) == 0
+    assert (
+        main(
+            [
+                "develop",
+                str(src),
+                "-o",
+                str(out),
+                "--correction",
+                "metamer",
+                "--camera",
+                str(csv),
+                "--method",
+                "root-polynomial",
+                "--illuminant",
+                "D65",
+                "--training",
+                "ColorChecker N Ohta",
+                "--scene-white",
+                "0.8",
+                "--quantum",
+                "0",
+                "-q",
+            ]
+        )
+        == 0
+    )
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_develop_metamer_warns_on_another_illuminant(simulated, tmp_path, capsys):
     """The file was white-balanced for D65: fitting for illuminant A is flagged (and still runs)."""
-    assert main(["develop", str(simulated[0]), "-o", str(tmp_path / "a.tif"), "--correction", "metamer",
-                 "--camera", CAMERA, "--method", "root-polynomial", "--illuminant", "A", "-q"]) == 0
+    assert (
+        main(
+            [
+                "develop",
+                str(simulated[0]),
+                "-o",
+                str(tmp_path / "a.tif"),
+                "--correction",
+                "metamer",
+                "--camera",
+                CAMERA,
+                "--method",
+                "root-polynomial",
+                "--illuminant",
+                "A",
+                "-q",
+            ]
+        )
+        == 0
+    )
     err = " ".join(capsys.readouterr().err.split())
     assert "warning: the file's AsShotNeutral differs by" in err and "under A" in err
 
 
-@pytest.mark.parametrize(("options", "message"), [
-    (["--correction", "metamer"], "--correction metamer needs --camera"),
-    (["--camera", CAMERA], "--camera applies to --correction metamer only"),
-    (["--method", "Prior", "--illuminant", "A"], "--method, --illuminant apply to --correction metamer"),
-    (["--correction", "metamer", "--camera", "Nikon 9999"], "unknown camera 'Nikon 9999'"),
-    (["--correction", "metamer", "--camera", "missing/ssf.json"], "camera file missing/ssf.json not found"),
-    (["--correction", "metamer", "--camera", CAMERA, "--method", "best"], "not a correction method"),
-    (["--correction", "metamer", "--camera", CAMERA, "--illuminant", "D66"], "unknown illuminant 'D66'"),
-    (["--correction", "metamer", "--camera", CAMERA, "--training", "nope"], "unknown reflectance set"),
-    (["--correction", "metamer", "--camera", CAMERA, "--quantum", "-1"], "--quantum -1.0: must be ≥ 0"),
-    (["--correction", "metamer", "--camera", CAMERA, "--scene-white", "0"], "--scene-white 0.0: must be > 0"),
-    (["--scene-white", "0.5"], "--scene-white applies to --correction metamer only"),
-])
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--correction", "metamer"], "--correction metamer needs --camera"),
+        (["--camera", CAMERA], "--camera applies to --correction metamer only"),
+        (["--method", "Prior", "--illuminant", "A"], "--method, --illuminant apply to --correction metamer"),
+        (["--correction", "metamer", "--camera", "Nikon 9999"], "unknown camera 'Nikon 9999'"),
+        (
+            ["--correction", "metamer", "--camera", "missing/ssf.json"],
+            "camera file missing/ssf.json not found",
+        ),
+        (["--correction", "metamer", "--camera", CAMERA, "--method", "best"], "not a correction method"),
+        (["--correction", "metamer", "--camera", CAMERA, "--illuminant", "D66"], "unknown illuminant 'D66'"),
+        (["--correction", "metamer", "--camera", CAMERA, "--training", "nope"], "unknown reflectance set"),
+        (["--correction", "metamer", "--camera", CAMERA, "--quantum", "-1"], "--quantum -1.0: must be ≥ 0"),
+        (
+            ["--correction", "metamer", "--camera", CAMERA, "--scene-white", "0"],
+            "--scene-white 0.0: must be > 0",
+        ),
+        (["--scene-white", "0.5"], "--scene-white applies to --correction metamer only"),
+    ],
+)
 def test_metamer_errors_exit_2(simulated, tmp_path, capsys, options, message):
     out = tmp_path / "x.tif"
     assert main(["develop", str(simulated[0]), "-o", str(out), "-q", *options]) == 2
@@ -164,6 +253,20 @@ def test_metamer_errors_exit_2(simulated, tmp_path, capsys, options, message):
 def test_metamer_unreadable_camera_file(simulated, tmp_path, capsys):
     bad = tmp_path / "ssf.json"
     bad.write_text("{ not json")
-    assert main(["develop", str(simulated[0]), "-o", str(tmp_path / "x.tif"), "-q", "--correction", "metamer",
-                 "--camera", str(bad)]) == 2
+    assert (
+        main(
+            [
+                "develop",
+                str(simulated[0]),
+                "-o",
+                str(tmp_path / "x.tif"),
+                "-q",
+                "--correction",
+                "metamer",
+                "--camera",
+                str(bad),
+            ]
+        )
+        == 2
+    )
     assert "cannot read camera" in capsys.readouterr().err

@@ -32,18 +32,39 @@ FM = np.array([[0.7, 0.15, 0.1142], [0.28, 0.7, 0.02], [0.0, 0.05, 0.7749]])
 
 def _profile(rng, *, dims=(12, 5, 1), lut_dims=(8, 4, 3)) -> DCPProfile:
     H, S, V = dims
-    hsm = np.stack([rng.normal(0, 4, (V, H, S)), rng.uniform(0.9, 1.1, (V, H, S)),
-                    rng.uniform(0.95, 1.05, (V, H, S))], axis=-1)
+    hsm = np.stack(
+        [rng.normal(0, 4, (V, H, S)), rng.uniform(0.9, 1.1, (V, H, S)), rng.uniform(0.95, 1.05, (V, H, S))],
+        axis=-1,
+    )
     H2, S2, V2 = lut_dims
-    lut = np.stack([rng.normal(0, 2, (V2, H2, S2)), rng.uniform(0.95, 1.05, (V2, H2, S2)),
-                    rng.uniform(0.97, 1.03, (V2, H2, S2))], axis=-1)
-    return DCPProfile(CM1, CM2, forward_matrix_1=FM, forward_matrix_2=FM, calibration_illuminant_1=17,
-                      calibration_illuminant_2=21, hue_sat_map_1=hsm, hue_sat_map_2=hsm[:, ::-1] * 1.0,
-                      hue_sat_map_encoding=0, look_table=lut, look_table_encoding=1,
-                      tone_curve=np.array([[0, 0], [0.25, 0.3], [0.75, 0.8], [1, 1]]),
-                      profile_name="test profile", unique_camera_model="Canon EOS 550D",
-                      copyright="CC0 test", embed_policy=3, baseline_exposure_offset=-0.5,
-                      default_black_render=1)
+    lut = np.stack(
+        [
+            rng.normal(0, 2, (V2, H2, S2)),
+            rng.uniform(0.95, 1.05, (V2, H2, S2)),
+            rng.uniform(0.97, 1.03, (V2, H2, S2)),
+        ],
+        axis=-1,
+    )
+    return DCPProfile(
+        CM1,
+        CM2,
+        forward_matrix_1=FM,
+        forward_matrix_2=FM,
+        calibration_illuminant_1=17,
+        calibration_illuminant_2=21,
+        hue_sat_map_1=hsm,
+        hue_sat_map_2=hsm[:, ::-1] * 1.0,
+        hue_sat_map_encoding=0,
+        look_table=lut,
+        look_table_encoding=1,
+        tone_curve=np.array([[0, 0], [0.25, 0.3], [0.75, 0.8], [1, 1]]),
+        profile_name="test profile",
+        unique_camera_model="Canon EOS 550D",
+        copyright="CC0 test",
+        embed_policy=3,
+        baseline_exposure_offset=-0.5,
+        default_black_render=1,
+    )
 
 
 def test_round_trip_our_reader(tmp_path):
@@ -55,9 +76,18 @@ def test_round_trip_our_reader(tmp_path):
         np.testing.assert_allclose(getattr(q, name), getattr(p, name), atol=5e-5)  # SRATIONAL / 10000
     for name in ("hue_sat_map_1", "hue_sat_map_2", "look_table", "tone_curve"):
         np.testing.assert_allclose(getattr(q, name), getattr(p, name), rtol=1e-6, atol=1e-6)  # float32
-    for name in ("calibration_illuminant_1", "calibration_illuminant_2", "hue_sat_map_encoding",
-                 "look_table_encoding", "profile_name", "unique_camera_model", "copyright", "embed_policy",
-                 "baseline_exposure_offset", "default_black_render"):
+    for name in (
+        "calibration_illuminant_1",
+        "calibration_illuminant_2",
+        "hue_sat_map_encoding",
+        "look_table_encoding",
+        "profile_name",
+        "unique_camera_model",
+        "copyright",
+        "embed_policy",
+        "baseline_exposure_offset",
+        "default_black_render",
+    ):
         assert getattr(q, name) == getattr(p, name), name
     with pytest.raises(DCPError, match="exists"):
         write_dcp(path, p)
@@ -67,8 +97,11 @@ def test_round_trip_our_reader(tmp_path):
 def test_exiftool_reads_the_same_values(tmp_path):
     p = _profile(np.random.default_rng(1))
     path = write_dcp(tmp_path / "p.dcp", p)
-    out = json.loads(subprocess.run(["exiftool", "-j", "-n", "-m", str(path)], capture_output=True,
-                                    text=True, check=True).stdout)[0]
+    out = json.loads(
+        subprocess.run(
+            ["exiftool", "-j", "-n", "-m", str(path)], capture_output=True, text=True, check=True
+        ).stdout
+    )[0]
 
     def values(key):
         return np.array(str(out[key]).split(), float)
@@ -83,8 +116,9 @@ def test_exiftool_reads_the_same_values(tmp_path):
     assert [int(v) for v in str(out["ProfileHueSatMapDims"]).split()] == [12, 5, 1]
     assert [int(v) for v in str(out["ProfileLookTableDims"]).split()] == [8, 4, 3]
     for tag, table in (("ProfileHueSatMapData1", p.hue_sat_map_1), ("ProfileLookTableData", p.look_table)):
-        text = subprocess.run(["exiftool", "-m", "-b", f"-{tag}", str(path)], capture_output=True, text=True,
-                              check=True).stdout
+        text = subprocess.run(
+            ["exiftool", "-m", "-b", f"-{tag}", str(path)], capture_output=True, text=True, check=True
+        ).stdout
         np.testing.assert_allclose(np.array(text.split(), float), table.ravel(), rtol=1e-5, atol=1e-5)
     assert out["ProfileLookTableEncoding"] == 1 and out["DefaultBlackRender"] == 1
     assert float(out["BaselineExposureOffset"]) == pytest.approx(-0.5)
@@ -156,8 +190,10 @@ def _hue_sat_map_scalar(rgb, T):
         vw = [(0, 1.0)]
     mod = np.zeros(3)
     for vi, a in vw:
-        mod += a * ((1 - fh) * ((1 - fs) * T[vi, h0, s0] + fs * T[vi, h0, s0 + 1])
-                    + fh * ((1 - fs) * T[vi, h1, s0] + fs * T[vi, h1, s0 + 1]))
+        mod += a * (
+            (1 - fh) * ((1 - fs) * T[vi, h0, s0] + fs * T[vi, h0, s0 + 1])
+            + fh * ((1 - fs) * T[vi, h1, s0] + fs * T[vi, h1, s0 + 1])
+        )
     return _rgb_sdk(h + mod[0] * 6 / 360, s * mod[1], v * mod[2])
 
 
@@ -165,8 +201,10 @@ def _hue_sat_map_scalar(rgb, T):
 def test_hue_sat_map_matches_scalar_sdk_port(dims):
     rng = np.random.default_rng(3)
     H, S, V = dims
-    T = np.stack([rng.normal(0, 10, (V, H, S)), rng.uniform(0.8, 1.2, (V, H, S)),
-                  rng.uniform(0.9, 1.1, (V, H, S))], axis=-1)
+    T = np.stack(
+        [rng.normal(0, 10, (V, H, S)), rng.uniform(0.8, 1.2, (V, H, S)), rng.uniform(0.9, 1.1, (V, H, S))],
+        axis=-1,
+    )
     rgb = rng.uniform(0, 1, (200, 3))
     rgb[:5] = [[0.5, 0.5, 0.5], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 0.9], [0.9, 0.9, 0.1]]
     got = apply_hue_sat_map(rgb, T)
@@ -228,8 +266,11 @@ def test_malformed_profiles_give_clear_errors(tmp_path):
 
     cm = (50721, 10, 9, tuple(v for x in CM1.ravel() for v in (round(x * 10000), 10000)), True)
     with pytest.raises(DCPError, match="do not fit the dimensions"):
-        read_dcp(raw_dcp("dims.dcp", [cm, (50937, "I", 3, (4, 3, 1), True),
-                                      (50938, "f", 30, tuple([0.0] * 30), True)]))
+        read_dcp(
+            raw_dcp(
+                "dims.dcp", [cm, (50937, "I", 3, (4, 3, 1), True), (50938, "f", 30, tuple([0.0] * 30), True)]
+            )
+        )
     with pytest.raises(DCPError, match="ProfileHueSatMapDims is missing"):
         read_dcp(raw_dcp("nodims.dcp", [cm, (50938, "f", 36, tuple([0.0] * 36), True)]))
     with pytest.raises(DCPError, match="ColorMatrix1"):
@@ -252,8 +293,9 @@ def test_profile_stage_in_pipeline(tmp_path):
     path = simulate_dng(tmp_path / "c.dng", simulate_capture(img, setup))
     base = default_pipeline(tonemap=None, encode=False)
     ref = develop(path, pipeline=base, stop_after="camera_to_XYZ").image
-    emb = develop(path, pipeline=base.replace("camera_to_XYZ", dcp_stage(None)),
-                  stop_after="camera_to_XYZ").image
+    emb = develop(
+        path, pipeline=base.replace("camera_to_XYZ", dcp_stage(None)), stop_after="camera_to_XYZ"
+    ).image
     np.testing.assert_allclose(emb, ref, atol=1e-12)  # embedded matrix-only profile = ColorMatrix path
     prof = _profile(np.random.default_rng(6)).with_options(tone_curve=None)
     dcp = write_dcp(tmp_path / "p.dcp", prof)
@@ -273,6 +315,18 @@ def test_isp_develop_profile_cli(tmp_path):
     dcp = write_dcp(tmp_path / "p.dcp", _profile(np.random.default_rng(7)))
     assert main(["develop", str(path), "-o", str(tmp_path / "o.tif"), "--profile", str(dcp), "-q"]) == 0
     assert main(["develop", str(path), "-o", str(tmp_path / "e.tif"), "--profile", "embedded", "-q"]) == 0
-    assert main(["develop", str(path), "-o", str(tmp_path / "x.tif"), "--profile",
-                 str(path.with_suffix(".x")), "-q"]) == 2
+    assert (
+        main(
+            [
+                "develop",
+                str(path),
+                "-o",
+                str(tmp_path / "x.tif"),
+                "--profile",
+                str(path.with_suffix(".x")),
+                "-q",
+            ]
+        )
+        == 2
+    )
     assert not (tmp_path / "x.tif").exists()

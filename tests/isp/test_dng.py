@@ -39,8 +39,9 @@ def test_matrix_interpolated_documented_value():
 
 @pytest.mark.parametrize("neutral", [[0.413070, 1.0, 0.646465], [0.6, 1.0, 0.45], [0.35, 1.0, 0.8]])
 def test_camera_to_XYZ_matches_colour_hdri(neutral):
-    p = DNGProfile(color_matrix_1=CM_A, color_matrix_2=CM_D65, calibration_illuminant_1=17,
-                   calibration_illuminant_2=21)
+    p = DNGProfile(
+        color_matrix_1=CM_A, color_matrix_2=CM_D65, calibration_illuminant_1=17, calibration_illuminant_2=21
+    )
     hdri_args = (2850, 6500, CM_A, CM_D65, I3, I3, np.ones(3))
     xy_ref = colour_hdri.camera_neutral_to_xy(np.array(neutral), *hdri_args, epsilon=1e-12)
     xy = camera_neutral_to_xy(neutral, p)
@@ -56,8 +57,14 @@ def test_camera_to_XYZ_matches_colour_hdri(neutral):
 
 def test_forward_matrix_path_matches_colour_hdri():
     neutral = np.array([0.413070, 1.0, 0.646465])
-    p = DNGProfile(color_matrix_1=CM_A, color_matrix_2=CM_D65, calibration_illuminant_1=17,
-                   calibration_illuminant_2=21, forward_matrix_1=FM, forward_matrix_2=FM)
+    p = DNGProfile(
+        color_matrix_1=CM_A,
+        color_matrix_2=CM_D65,
+        calibration_illuminant_1=17,
+        calibration_illuminant_2=21,
+        forward_matrix_1=FM,
+        forward_matrix_2=FM,
+    )
     xy = camera_neutral_to_xy(neutral, p)
     ref = colour_hdri.matrix_camera_space_to_XYZ(xy, 2850, 6500, CM_A, CM_D65, I3, I3, np.ones(3), FM, FM)
     M = p.camera_to_XYZ_D50(neutral)
@@ -68,8 +75,17 @@ def test_350d_profile_interpolates_with_calibration(dng_350d):
     raw = read_raw(dng_350d, metadata_only=True)
     p = raw.profile
     ref = colour_hdri.matrix_camera_space_to_XYZ(
-        camera_neutral_to_xy(raw.as_shot_neutral, p), 2850, 6500, p.color_matrix_1, p.color_matrix_2,
-        p.camera_calibration_1, p.camera_calibration_2, np.ones(3), I3, I3)
+        camera_neutral_to_xy(raw.as_shot_neutral, p),
+        2850,
+        6500,
+        p.color_matrix_1,
+        p.color_matrix_2,
+        p.camera_calibration_1,
+        p.camera_calibration_2,
+        np.ones(3),
+        I3,
+        I3,
+    )
     M = p.camera_to_XYZ_D50(raw.as_shot_neutral)
     np.testing.assert_allclose(M / M[1].sum(), ref / ref[1].sum(), atol=1e-9)
 
@@ -88,8 +104,17 @@ def test_write_dng_read_back_by_rawpy(tmp_path):
     rng = np.random.default_rng(1)
     m = rng.integers(300, 3900, size=(32, 48)).astype(np.uint16)
     black = np.array([[256, 257], [258, 259]])
-    path = write_dng(tmp_path / "sim.dng", m, cfa="GRBG", black_level=black, white_level=4000,
-                     color_matrix_1=CM_D65, as_shot_neutral=[0.5, 1.0, 0.7], make="Sim", model="Cam")
+    path = write_dng(
+        tmp_path / "sim.dng",
+        m,
+        cfa="GRBG",
+        black_level=black,
+        white_level=4000,
+        color_matrix_1=CM_D65,
+        as_shot_neutral=[0.5, 1.0, 0.7],
+        make="Sim",
+        model="Cam",
+    )
     with rawpy.imread(str(path)) as r:
         np.testing.assert_array_equal(r.raw_image_visible, m)
         assert r.white_level == 4000
@@ -103,18 +128,39 @@ def test_write_dng_read_back_by_rawpy(tmp_path):
     tags = read_dng_tags(path)
     np.testing.assert_array_equal(tags["CFAPattern"], [1, 0, 2, 1])
     with pytest.raises(PipelineError, match="exists"):
-        write_dng(path, m, cfa="GRBG", black_level=0, white_level=4000, color_matrix_1=CM_D65,
-                  as_shot_neutral=[1, 1, 1])
+        write_dng(
+            path,
+            m,
+            cfa="GRBG",
+            black_level=0,
+            white_level=4000,
+            color_matrix_1=CM_D65,
+            as_shot_neutral=[1, 1, 1],
+        )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sim.dng"]  # no temp files left
 
 
 def test_write_dng_rejects_bad_mosaic(tmp_path):
     with pytest.raises(RawFormatError, match="white_level"):
-        write_dng(tmp_path / "a.dng", np.full((4, 4), 5000), cfa="RGGB", black_level=0, white_level=4095,
-                  color_matrix_1=CM_D65, as_shot_neutral=[1, 1, 1])
+        write_dng(
+            tmp_path / "a.dng",
+            np.full((4, 4), 5000),
+            cfa="RGGB",
+            black_level=0,
+            white_level=4095,
+            color_matrix_1=CM_D65,
+            as_shot_neutral=[1, 1, 1],
+        )
     with pytest.raises(RawFormatError, match="even"):
-        write_dng(tmp_path / "a.dng", np.zeros((3, 4)), cfa="RGGB", black_level=0, white_level=4095,
-                  color_matrix_1=CM_D65, as_shot_neutral=[1, 1, 1])
+        write_dng(
+            tmp_path / "a.dng",
+            np.zeros((3, 4)),
+            cfa="RGGB",
+            black_level=0,
+            white_level=4095,
+            color_matrix_1=CM_D65,
+            as_shot_neutral=[1, 1, 1],
+        )
 
 
 def test_read_dng_tags_rejects_plain_tiff(tmp_path):

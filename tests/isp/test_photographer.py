@@ -36,10 +36,18 @@ def chart():
 
 
 def _write(path, capture, *, orientation=1, neutral=None, **kw):
-    return isp.write_dng(path, capture.mosaic, cfa=capture.cfa, black_level=capture.black_level,
-                         white_level=capture.white_level, color_matrix_1=capture.color_matrix,
-                         as_shot_neutral=capture.neutral if neutral is None else neutral,
-                         calibration_illuminant_1=17, orientation=orientation, **kw)
+    return isp.write_dng(
+        path,
+        capture.mosaic,
+        cfa=capture.cfa,
+        black_level=capture.black_level,
+        white_level=capture.white_level,
+        color_matrix_1=capture.color_matrix,
+        as_shot_neutral=capture.neutral if neutral is None else neutral,
+        calibration_illuminant_1=17,
+        orientation=orientation,
+        **kw,
+    )
 
 
 def _patch_box(labels, k, margin=2):
@@ -65,8 +73,13 @@ def test_named_whites_and_errors():
     np.testing.assert_array_equal(white_balance_xy("d65"), CIE1931["D65"])
     np.testing.assert_array_equal(white_balance_xy("FL2"), CIE1931["FL2"])
     np.testing.assert_array_equal(white_balance_xy("daylight"), white_balance_xy("5500 K"))
-    for bad, what in [("900K", "1667"), ("60000K", "25000"), ("candle", "not known"), ("spot:1,2,3", "spot:"),
-                      ("spot:5,5,2,9", "x0 < x1")]:
+    for bad, what in [
+        ("900K", "1667"),
+        ("60000K", "25000"),
+        ("candle", "not known"),
+        ("spot:1,2,3", "spot:"),
+        ("spot:5,5,2,9", "x0 < x1"),
+    ]:
         with pytest.raises(isp.PipelineError, match=what):
             isp.default_pipeline(white_balance=bad) if bad.startswith("spot") else white_balance_xy(bad)
     with pytest.raises(isp.PipelineError, match="positive"):
@@ -142,22 +155,43 @@ def test_orient_matches_rawpy(tmp_path):
     m[4:16, 6:30] = 3800  # an asymmetric bright block near the top-left corner
     m[30:36, 60:64] = 3000
     for o in range(1, 9):
-        p = isp.write_dng(tmp_path / f"o{o}.dng", m, cfa="RGGB", black_level=512, white_level=4095,
-                          color_matrix_1=np.eye(3), as_shot_neutral=[1, 1, 1], orientation=o)
+        p = isp.write_dng(
+            tmp_path / f"o{o}.dng",
+            m,
+            cfa="RGGB",
+            black_level=512,
+            white_level=4095,
+            color_matrix_1=np.eye(3),
+            as_shot_neutral=[1, 1, 1],
+            orientation=o,
+        )
         raw = isp.read_raw(p)
         assert raw.orientation == o
         ours = isp.develop(raw, demosaic="bilinear", tonemap=None, encode=False).image.mean(-1)
         with rawpy.imread(str(p)) as r:
-            ref = r.postprocess(no_auto_bright=True, gamma=(1, 1), output_bps=16, user_wb=[1, 1, 1, 1],
-                                output_color=rawpy.ColorSpace.raw,
-                                demosaic_algorithm=rawpy.DemosaicAlgorithm.LINEAR)
+            ref = r.postprocess(
+                no_auto_bright=True,
+                gamma=(1, 1),
+                output_bps=16,
+                user_wb=[1, 1, 1, 1],
+                output_color=rawpy.ColorSpace.raw,
+                demosaic_algorithm=rawpy.DemosaicAlgorithm.LINEAR,
+            )
         ref = ref.mean(-1)
         assert ours.shape == ref.shape
         a, b = ours > 0.5 * ours.max(), ref > 0.5 * ref.max()
         assert (a & b).sum() / (a | b).sum() > 0.9, o
     with pytest.raises(isp.PipelineError, match="orientation"):
-        isp.write_dng(tmp_path / "bad.dng", m, cfa="RGGB", black_level=512, white_level=4095,
-                      color_matrix_1=np.eye(3), as_shot_neutral=[1, 1, 1], orientation=9)
+        isp.write_dng(
+            tmp_path / "bad.dng",
+            m,
+            cfa="RGGB",
+            black_level=512,
+            white_level=4095,
+            color_matrix_1=np.eye(3),
+            as_shot_neutral=[1, 1, 1],
+            orientation=9,
+        )
 
 
 def test_spot_coordinates_follow_the_orientation(chart, tmp_path):
@@ -168,8 +202,11 @@ def test_spot_coordinates_follow_the_orientation(chart, tmp_path):
     turned = isp.read_raw(_write(tmp_path / "o6.dng", cap, orientation=6))  # shown rotated 90° clockwise
     # a stored pixel (r, c) is shown at (row c, column H - 1 - r)
     box6 = f"spot:{H - y1},{x0},{H - y0},{x1}"
-    np.testing.assert_allclose(white_balance_neutral(turned, box6),
-                               white_balance_neutral(upright, f"spot:{x0},{y0},{x1},{y1}"), rtol=1e-12)
+    np.testing.assert_allclose(
+        white_balance_neutral(turned, box6),
+        white_balance_neutral(upright, f"spot:{x0},{y0},{x1},{y1}"),
+        rtol=1e-12,
+    )
     dev = isp.develop(turned, demosaic="bilinear")
     assert dev.image.shape == (W, H, 3)
 
@@ -181,8 +218,16 @@ def test_develop_writes_icc_and_camera_metadata(chart, tmp_path, capsys):
     from PIL import ImageCms
 
     cap, _ = chart
-    src = _write(tmp_path / "in.dng", cap, orientation=8, exposure_time=1 / 250, iso=400, f_number=5.6,
-                 make="Canon", model="EOS test")
+    src = _write(
+        tmp_path / "in.dng",
+        cap,
+        orientation=8,
+        exposure_time=1 / 250,
+        iso=400,
+        f_number=5.6,
+        make="Canon",
+        model="EOS test",
+    )
     out = tmp_path / "out.tif"
     assert main(["develop", str(src), "-o", str(out), "--wb", "3200K", "--demosaic", "bilinear"]) == 0
     err = capsys.readouterr().err
@@ -200,13 +245,32 @@ def test_develop_writes_icc_and_camera_metadata(chart, tmp_path, capsys):
     assert "sRGB" in ImageCms.getProfileDescription(profile)
     exiftool = shutil.which("exiftool")
     if exiftool:
-        text = subprocess.run([exiftool, "-s", "-Make", "-Model", "-ExposureTime", "-ISO", "-FNumber",
-                               "-ProfileDescription", str(out)],
-                              capture_output=True, text=True, check=True).stdout
+        text = subprocess.run(
+            [
+                exiftool,
+                "-s",
+                "-Make",
+                "-Model",
+                "-ExposureTime",
+                "-ISO",
+                "-FNumber",
+                "-ProfileDescription",
+                str(out),
+            ],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
         fields = dict(line.split(":", 1) for line in text.strip().splitlines())
         fields = {k.strip(): v.strip() for k, v in fields.items()}
-        assert fields == {"Make": "Canon", "Model": "EOS test", "ExposureTime": "1/250", "ISO": "400",
-                          "FNumber": "5.6", "ProfileDescription": "sRGB built-in"}
+        assert fields == {
+            "Make": "Canon",
+            "Model": "EOS test",
+            "ExposureTime": "1/250",
+            "ISO": "400",
+            "FNumber": "5.6",
+            "ProfileDescription": "sRGB built-in",
+        }
 
 
 def test_output_tags_of_the_crw(crw_d30):

@@ -21,8 +21,16 @@ from isp import (
     metamer_correction,
 )
 
-NAMES = ("linearise", "white_balance", "demosaic", "camera_to_XYZ", "XYZ_to_linear_sRGB", "tonemap",
-         "encode_sRGB", "orient")
+NAMES = (
+    "linearise",
+    "white_balance",
+    "demosaic",
+    "camera_to_XYZ",
+    "XYZ_to_linear_sRGB",
+    "tonemap",
+    "encode_sRGB",
+    "orient",
+)
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +87,9 @@ def test_stage_errors(crop):
     with pytest.raises(PipelineError, match="default pipeline only"):
         develop(crop, pipeline=default_pipeline(), demosaic="bilinear")
     with pytest.raises(PipelineError, match=r"\(\.\.\., 3\)"):
-        default_pipeline().reorder(["linearise", "camera_to_XYZ", "white_balance", "demosaic",
-                                    *NAMES[4:]])(crop)
+        default_pipeline().reorder(["linearise", "camera_to_XYZ", "white_balance", "demosaic", *NAMES[4:]])(
+            crop
+        )
 
 
 def test_correction_callable_equals_dng_matrix(crop):
@@ -93,8 +102,11 @@ def test_correction_callable_equals_dng_matrix(crop):
     # per-channel linear, so balancing before or after it is the same; Malvar's is not)
     dng = develop(crop, stop_after="XYZ_to_linear_sRGB", demosaic="bilinear")
     Mraw = M @ np.diag(crop.as_shot_neutral.max() / crop.as_shot_neutral)
-    p2 = default_pipeline(demosaic="bilinear").remove("white_balance").replace(
-        "camera_to_XYZ", correction_stage(lambda c: c @ Mraw.T, balanced=False))
+    p2 = (
+        default_pipeline(demosaic="bilinear")
+        .remove("white_balance")
+        .replace("camera_to_XYZ", correction_stage(lambda c: c @ Mraw.T, balanced=False))
+    )
     out = p2(crop, stop_after="XYZ_to_linear_sRGB").image
     unclipped = dng.intermediates["white_balance"].max() < 1  # white balance clips; here nothing clipped
     assert unclipped
@@ -146,8 +158,9 @@ def test_metamer_correction_errors(tmp_path):
         metamer_correction(str(tmp_path / "ssf.json"))
     with pytest.raises(ValueError, match="not a correction method"):
         metamer_correction("Nikon 5100 (NPL)", method="best")
-    cam = colour.MultiSpectralDistributions(np.abs(np.random.default_rng(0).normal(size=(31, 4))),
-                                            np.arange(400, 701, 10), name="four-channel")
+    cam = colour.MultiSpectralDistributions(
+        np.abs(np.random.default_rng(0).normal(size=(31, 4))), np.arange(400, 701, 10), name="four-channel"
+    )
     with pytest.raises(ValueError, match="has 4 channels"):
         metamer_correction(cam, method="matrix")
 
@@ -162,8 +175,12 @@ def test_metamer_correction_falls_back_per_colour():
         return base.corrector.predict(c)
 
     seen = []
-    m = MetamerCorrection(dataclasses.replace(base.corrector, predict=fragile), quantum=0, batch_size=4,
-                          progress=lambda done, total: seen.append((done, total)))
+    m = MetamerCorrection(
+        dataclasses.replace(base.corrector, predict=fragile),
+        quantum=0,
+        batch_size=4,
+        progress=lambda done, total: seen.append((done, total)),
+    )
     c = np.random.default_rng(1).uniform(0.05, 0.6, (20, 3))
     out = m(c)
     bad = c[:, 0] > 0.5

@@ -24,8 +24,9 @@ def test_550d_dng_layout_matches_rawpy(dng_550d, raw_550d):
 def test_550d_dng_colour_tags(raw_550d):
     # values from PROVENANCE.md (decoded independently with exiftool/tifffile)
     p = raw_550d.profile
-    np.testing.assert_allclose(p.color_matrix_1, [[0.6461, -0.1164, -0.0857], [-0.3825, 1.1597, 0.2534],
-                                                  [-0.0416, 0.1540, 0.6039]])
+    np.testing.assert_allclose(
+        p.color_matrix_1, [[0.6461, -0.1164, -0.0857], [-0.3825, 1.1597, 0.2534], [-0.0416, 0.1540, 0.6039]]
+    )
     assert p.color_matrix_2 is None and p.forward_matrix_1 is None
     assert p.calibration_illuminant_1 == 0
     np.testing.assert_allclose(p.analog_balance, 1.0)

@@ -37,8 +37,11 @@ def _patch_means(image, labels, n, margin=3):
     out = []
     for k in range(n):
         ys, xs = np.nonzero(labels == k)
-        out.append(image[ys.min() + margin:ys.max() + 1 - margin, xs.min() + margin:xs.max() + 1 - margin]
-                   .reshape(-1, image.shape[-1]).mean(0))
+        out.append(
+            image[ys.min() + margin : ys.max() + 1 - margin, xs.min() + margin : xs.max() + 1 - margin]
+            .reshape(-1, image.shape[-1])
+            .mean(0)
+        )
     return np.array(out)
 
 
@@ -46,8 +49,9 @@ def _delta_E_D65(XYZ_est, XYZ_true, white_true):
     """ΔE00 in CIELAB (D65) after adapting the truth from the illuminant's white (Bradford)."""
     D65 = colour.xy_to_XYZ(D65_xy)
     truth = colour.chromatic_adaptation(XYZ_true, white_true, D65, method="Von Kries", transform="Bradford")
-    return colour.delta_E(colour.XYZ_to_Lab(XYZ_est, D65_xy), colour.XYZ_to_Lab(truth, D65_xy),
-                          method="CIE 2000")
+    return colour.delta_E(
+        colour.XYZ_to_Lab(XYZ_est, D65_xy), colour.XYZ_to_Lab(truth, D65_xy), method="CIE 2000"
+    )
 
 
 def test_setup_normalisation(setup):

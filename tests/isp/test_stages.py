@@ -33,8 +33,10 @@ def test_linearise_closed_form():
     expect = (m - np.tile(black, (2, 1))) / (4095 - np.tile(black, (2, 1)))
     np.testing.assert_allclose(out, np.clip(expect, 0, 1))
     table = np.linspace(0, 1000, 11) ** 1.0  # raw value v → 100 v
-    np.testing.assert_allclose(linearise(np.array([[0, 5], [10, 20]]), black_level=0, white_level=1000,
-                                         table=table), [[0, 0.5], [1, 1]])
+    np.testing.assert_allclose(
+        linearise(np.array([[0, 5], [10, 20]]), black_level=0, white_level=1000, table=table),
+        [[0, 0.5], [1, 1]],
+    )
     with pytest.raises(PipelineError, match="NaN"):
         linearise(np.full((2, 2), np.nan), black_level=0, white_level=1)
     with pytest.raises(PipelineError, match="exceed"):
@@ -91,10 +93,19 @@ def _bilinear_reference(m: np.ndarray, cfa: str) -> np.ndarray:
                             vals.append(m[yy, xx])
                             wts.append(1.0)
                 # green at R/B: the 4 direct neighbours; R/B: 2 or 4 nearest
-                out[y, x, c] = np.mean(vals) if c != 1 else np.mean(
-                    [m[abs(y + dy) if y + dy < H else 2 * (H - 1) - (y + dy),
-                       abs(x + dx) if x + dx < W else 2 * (W - 1) - (x + dx)]
-                     for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1))])
+                out[y, x, c] = (
+                    np.mean(vals)
+                    if c != 1
+                    else np.mean(
+                        [
+                            m[
+                                abs(y + dy) if y + dy < H else 2 * (H - 1) - (y + dy),
+                                abs(x + dx) if x + dx < W else 2 * (W - 1) - (x + dx),
+                            ]
+                            for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1))
+                        ]
+                    )
+                )
     return out
 
 
@@ -102,8 +113,9 @@ def _bilinear_reference(m: np.ndarray, cfa: str) -> np.ndarray:
 def test_bilinear_matches_reference_twin(cfa):
     rng = np.random.default_rng(3)
     m = rng.uniform(size=(8, 10))
-    np.testing.assert_allclose(demosaic(m, cfa=cfa, method="bilinear"), _bilinear_reference(m, cfa),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        demosaic(m, cfa=cfa, method="bilinear"), _bilinear_reference(m, cfa), atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("method", list(DEMOSAIC_METHODS))
@@ -182,8 +194,9 @@ def test_apply_correction_matrix_callable():
     out = apply_correction(rgb, XYZ_from_responses=lambda c: c @ M.T)
     white = M.sum(1)
     D50 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
-    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white / white[1], colour.xy_to_XYZ(D50),
-                                                                 transform="Bradford")
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        white / white[1], colour.xy_to_XYZ(D50), transform="Bradford"
+    )
     np.testing.assert_allclose(out, rgb @ (cat @ M / white[1]).T)
     with pytest.raises(PipelineError, match=r"\(N, 3\)"):
         apply_correction(rgb, XYZ_from_responses=lambda c: c[:, :2])

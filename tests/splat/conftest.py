@@ -24,12 +24,18 @@ def random_gaussians(G=120, N=4, *, seed=0, spread=1.0, dtype=None):
     from splat import init_gaussians
 
     r = np.random.default_rng(seed)
-    g = init_gaussians(r.uniform(-spread, spread, (G, 3)), r.uniform(0.05, 0.9, (G, N)),
-                       scales=np.exp(r.uniform(np.log(0.04), np.log(0.15), G)), opacity=0.5,
-                       key=jax.random.key(seed), dtype=dtype or jnp.float32)
+    g = init_gaussians(
+        r.uniform(-spread, spread, (G, 3)),
+        r.uniform(0.05, 0.9, (G, N)),
+        scales=np.exp(r.uniform(np.log(0.04), np.log(0.15), G)),
+        opacity=0.5,
+        key=jax.random.key(seed),
+        dtype=dtype or jnp.float32,
+    )
     # varied opacities
-    return type(g)(g.means, g.quats, g.log_scales,
-                   jnp.asarray(r.uniform(-2, 3, G), g.means.dtype), g.colour_params)
+    return type(g)(
+        g.means, g.quats, g.log_scales, jnp.asarray(r.uniform(-2, 3, G), g.means.dtype), g.colour_params
+    )
 
 
 @pytest.fixture(scope="session")

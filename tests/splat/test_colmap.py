@@ -57,7 +57,11 @@ def test_round_trip_is_read_back_by_us_and_by_pycolmap(pycolmap_model, tmp_path,
         np.testing.assert_allclose(again.images[iid].xys, model.images[iid].xys, atol=1e-12)
     theirs = pycolmap.Reconstruction(str(tmp_path))
     assert (theirs.num_images(), theirs.num_points3D(), theirs.num_frames(), theirs.num_rigs()) == (
-        rec.num_images(), rec.num_points3D(), rec.num_frames(), rec.num_rigs())
+        rec.num_images(),
+        rec.num_points3D(),
+        rec.num_frames(),
+        rec.num_rigs(),
+    )
     if binary:
         for name in ("cameras.bin", "images.bin", "points3D.bin", "rigs.bin", "frames.bin"):
             assert filecmp.cmp(root / "bin" / name, tmp_path / name, shallow=False), name

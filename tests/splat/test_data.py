@@ -55,8 +55,9 @@ def test_transforms_and_colmap_round_trips(tmp_path, model):
     capture = capture_from_colmap(model, channels={1: (0, 2), 2: (1, 3, 4)}, labels="abcde")
     back = read_transforms(write_transforms(capture, tmp_path / "transforms.json"))
     assert back.channels == capture.channels and back.labels == tuple("abcde")
-    again = capture_from_colmap(read_colmap(write_colmap(colmap_from_capture(back), tmp_path / "sparse")),
-                                channels=back.channels)
+    again = capture_from_colmap(
+        read_colmap(write_colmap(colmap_from_capture(back), tmp_path / "sparse")), channels=back.channels
+    )
     for a, b, c in zip(capture.views, back.views, again.views):
         assert a.name == b.name == c.name and a.camera_id == b.camera_id == c.camera_id
         for other in (b, c):

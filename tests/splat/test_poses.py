@@ -23,16 +23,22 @@ def similarity(X, Y):
 def test_recovers_rendered_poses_up_to_similarity(tmp_path):
     rng = np.random.default_rng(0)
     n = 2500  # confetti on a floor and two walls: texture for SIFT
-    pts = np.concatenate([np.c_[rng.uniform(-1, 1, (n, 2)), np.zeros(n)],
-                          np.c_[rng.uniform(-1, 1, n), np.ones(n), rng.uniform(0, 1.2, n)],
-                          np.c_[-np.ones(n), rng.uniform(-1, 1, n), rng.uniform(0, 1.2, n)]])
-    g = init_gaussians(pts, rng.uniform(0, 1, (3 * n, 3)), scales=rng.uniform(0.01, 0.03, 3 * n),
-                       opacity=0.95)
+    pts = np.concatenate(
+        [
+            np.c_[rng.uniform(-1, 1, (n, 2)), np.zeros(n)],
+            np.c_[rng.uniform(-1, 1, n), np.ones(n), rng.uniform(0, 1.2, n)],
+            np.c_[-np.ones(n), rng.uniform(-1, 1, n), rng.uniform(0, 1.2, n)],
+        ]
+    )
+    g = init_gaussians(
+        pts, rng.uniform(0, 1, (3 * n, 3)), scales=rng.uniform(0.01, 0.03, 3 * n), opacity=0.95
+    )
     truth = {}
     for k in range(12):
         a = -np.pi / 2 - 1.7 + 1.4 * k / 11
-        cam = look_at((2.8 * np.cos(a), 2.8 * np.sin(a), 1.6), (-0.3, 0.3, 0.3), width=160, height=160,
-                      fov_deg=55)
+        cam = look_at(
+            (2.8 * np.cos(a), 2.8 * np.sin(a), 1.6), (-0.3, 0.3, 0.3), width=160, height=160, fov_deg=55
+        )
         folder = tmp_path / "images" / f"cam{k % 3 + 1}"
         folder.mkdir(parents=True, exist_ok=True)
         img = np.clip(np.asarray(render(g, cam).image), 0, 1) ** (1 / 2.2)

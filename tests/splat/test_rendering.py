@@ -50,8 +50,9 @@ def test_gradients_pass_finite_differences_in_float64(method, make_gaussians):
         g = make_gaussians(G=8, N=2, seed=3, spread=0.5, dtype=jnp.float64)
         cam = look_at((0.2, -3.0, 0.3), (0, 0, 0), width=10, height=8, fov_deg=40, dtype=jnp.float64)
         # a smooth footprint (no cut-offs) so that finite differences are meaningful
-        cfg = RenderConfig(alpha_min=0.0, sigma_cutoff=1e3, transmittance_min=0.0, tile_size=8,
-                           tile_capacity=8, chunk=4)
+        cfg = RenderConfig(
+            alpha_min=0.0, sigma_cutoff=1e3, transmittance_min=0.0, tile_size=8, tile_capacity=8, chunk=4
+        )
         w = jnp.asarray(np.random.default_rng(0).normal(size=(8, 10, 2)))
 
         def loss(params):
@@ -104,15 +105,20 @@ def test_mask_and_culling(small_scene):
     # masked Gaussians receive exactly zero gradient
     mask = jnp.arange(G) < G // 2
     grad = jax.grad(lambda p: render(p, cam, mask=mask).image.sum())(g)
-    assert np.all(np.asarray(grad.colour_params)[G // 2:] == 0)
+    assert np.all(np.asarray(grad.colour_params)[G // 2 :] == 0)
     assert np.any(np.asarray(grad.colour_params)[: G // 2] != 0)
     # behind the camera, or NaN: ignored, not propagated
     behind = Gaussians(g.means.at[:, 1].set(-10.0), g.quats, g.log_scales, g.opacity_logits, g.colour_params)
     assert float(render(behind, cam).alpha.max()) == 0.0
     bad = Gaussians(g.means.at[0].set(jnp.nan), g.quats, g.log_scales, g.opacity_logits, g.colour_params)
     assert np.all(np.isfinite(np.asarray(render(bad, cam).image)))
-    background = render(g, cam, method="reference", mask=jnp.zeros(G, bool),
-                        config=RenderConfig(background=0.25, tile_size=8, tile_capacity=128))
+    background = render(
+        g,
+        cam,
+        method="reference",
+        mask=jnp.zeros(G, bool),
+        config=RenderConfig(background=0.25, tile_size=8, tile_capacity=128),
+    )
     np.testing.assert_allclose(background.image, 0.25)
 
 

@@ -40,8 +40,14 @@ BOUNDS = np.array([[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]])
 
 
 def _capture(n: int = 2, size: int = 8) -> Capture:
-    views = tuple(View(f"v{i}.png", look_at((3 * np.cos(i), 3 * np.sin(i), 0.5), (0, 0, 0), width=size,
-                                            height=size), 1 + i % 2) for i in range(n))
+    views = tuple(
+        View(
+            f"v{i}.png",
+            look_at((3 * np.cos(i), 3 * np.sin(i), 0.5), (0, 0, 0), width=size, height=size),
+            1 + i % 2,
+        )
+        for i in range(n)
+    )
     return Capture(views, {1: (0, 1, 2), 2: (3, 4, 5)})
 
 
@@ -91,9 +97,13 @@ def test_sigkill_mid_checkpoint_keeps_a_good_checkpoint(tmp_path):
 
     hits = 0
     for delay in (0.0, 0.05, 0.15):
-        proc = subprocess.Popen([sys.executable, "-c", _SAVER, str(path)], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, cwd=ROOT, env={**__import__("os").environ,
-                                                                           "JAX_PLATFORMS": "cpu"})
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _SAVER, str(path)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            cwd=ROOT,
+            env={**__import__("os").environ, "JAX_PLATFORMS": "cpu"},
+        )
         assert proc.stdout.readline()  # one checkpoint complete
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
@@ -115,17 +125,20 @@ def _cam(**kw):
     return Camera(**parts)
 
 
-@pytest.mark.parametrize(("kw", "exposure", "match"), [
-    (dict(t=np.array([np.nan, 0, 0])), 1.0, "NaN"),
-    (dict(R=np.zeros((3, 3))), 1.0, "not a rotation"),
-    (dict(R=np.full((3, 3), np.nan)), 1.0, "NaN"),
-    (dict(R=-np.eye(3)), 1.0, "not a rotation"),
-    (dict(focal=np.array([0.0, 10.0])), 1.0, "focal"),
-    (dict(focal=np.array([-5.0, -5.0])), 1.0, "focal"),
-    (dict(principal=np.array([np.inf, 4.0])), 1.0, "principal"),
-    ({}, float("nan"), "exposure"),
-    ({}, 0.0, "exposure"),
-])
+@pytest.mark.parametrize(
+    ("kw", "exposure", "match"),
+    [
+        (dict(t=np.array([np.nan, 0, 0])), 1.0, "NaN"),
+        (dict(R=np.zeros((3, 3))), 1.0, "not a rotation"),
+        (dict(R=np.full((3, 3), np.nan)), 1.0, "NaN"),
+        (dict(R=-np.eye(3)), 1.0, "not a rotation"),
+        (dict(focal=np.array([0.0, 10.0])), 1.0, "focal"),
+        (dict(focal=np.array([-5.0, -5.0])), 1.0, "focal"),
+        (dict(principal=np.array([np.inf, 4.0])), 1.0, "principal"),
+        ({}, float("nan"), "exposure"),
+        ({}, 0.0, "exposure"),
+    ],
+)
 def test_view_refuses_what_would_train_nan(kw, exposure, match):
     with pytest.raises(SplatError, match=match):
         View("a.png", _cam(**kw), 1, exposure)
@@ -135,19 +148,22 @@ def _transforms(tmp_path) -> Path:
     return write_transforms(_capture(3), tmp_path / "transforms.json")
 
 
-@pytest.mark.parametrize(("frame_edit", "match"), [
-    ({"fl_x": "wide"}, "fl_x|could not convert|frame 0"),
-    ({"fl_x": 0}, "focal"),
-    ({"fl_x": -3.0}, "focal"),
-    ({"w": "8px"}, "frame 0"),
-    ({"exposure": "bright"}, "frame 0"),
-    ({"exposure": float("nan")}, "exposure"),
-    ({"transform_matrix": [[0] * 4] * 4}, "frame 0"),
-    ({"transform_matrix": [[float("nan")] * 4] * 4}, "frame 0"),
-    ({"transform_matrix": "identity"}, "frame 0"),
-    ({"camera_id": "left"}, "frame 0"),
-    ({"camera_id": 10**30}, "camera id"),
-])
+@pytest.mark.parametrize(
+    ("frame_edit", "match"),
+    [
+        ({"fl_x": "wide"}, "fl_x|could not convert|frame 0"),
+        ({"fl_x": 0}, "focal"),
+        ({"fl_x": -3.0}, "focal"),
+        ({"w": "8px"}, "frame 0"),
+        ({"exposure": "bright"}, "frame 0"),
+        ({"exposure": float("nan")}, "exposure"),
+        ({"transform_matrix": [[0] * 4] * 4}, "frame 0"),
+        ({"transform_matrix": [[float("nan")] * 4] * 4}, "frame 0"),
+        ({"transform_matrix": "identity"}, "frame 0"),
+        ({"camera_id": "left"}, "frame 0"),
+        ({"camera_id": 10**30}, "camera id"),
+    ],
+)
 def test_transforms_bad_fields(tmp_path, frame_edit, match):
     p = _transforms(tmp_path)
     doc = json.loads(p.read_text())
@@ -157,11 +173,19 @@ def test_transforms_bad_fields(tmp_path, frame_edit, match):
         read_transforms(p)
 
 
-@pytest.mark.parametrize("doc", [
-    [], "x", {"frames": {}}, {"frames": [1]}, {"frames": [], "channels": [1]},
-    {"frames": [], "channels": {"1": ["a"]}}, {"frames": [], "channels": {"x": [0]}},
-    {"frames": [], "channels": {"1": [-1]}},
-])
+@pytest.mark.parametrize(
+    "doc",
+    [
+        [],
+        "x",
+        {"frames": {}},
+        {"frames": [1]},
+        {"frames": [], "channels": [1]},
+        {"frames": [], "channels": {"1": ["a"]}},
+        {"frames": [], "channels": {"x": [0]}},
+        {"frames": [], "channels": {"1": [-1]}},
+    ],
+)
 def test_transforms_wrong_shape(tmp_path, doc):
     p = tmp_path / "t.json"
     p.write_text(json.dumps(doc))
@@ -221,8 +245,13 @@ def colmap_dirs(tmp_path_factory):
 def test_images_txt_without_final_blank_line_keeps_the_last_image(tmp_path, colmap_dirs):
     model = read_colmap(colmap_dirs / "bin")
     last = max(model.images)
-    model.images[last] = type(model.images[last])(last, model.images[last].qvec, model.images[last].tvec,
-                                                   model.images[last].camera_id, model.images[last].name)
+    model.images[last] = type(model.images[last])(
+        last,
+        model.images[last].qvec,
+        model.images[last].tvec,
+        model.images[last].camera_id,
+        model.images[last].name,
+    )
     folder = write_colmap(model, tmp_path / "m", binary=False)
     text = (folder / "images.txt").read_text()
     assert text.endswith("\n\n") or text.endswith("\n")
@@ -237,7 +266,7 @@ def test_images_txt_without_final_blank_line_keeps_the_last_image(tmp_path, colm
 def _mutate(data, blob: bytes) -> bytes:
     b = bytearray(blob)
     if data.draw(st.booleans()):
-        del b[data.draw(st.integers(0, len(b) - 1)):]
+        del b[data.draw(st.integers(0, len(b) - 1)) :]
     else:
         for _ in range(data.draw(st.integers(1, 6))):
             b[data.draw(st.integers(0, len(b) - 1))] = data.draw(st.integers(0, 255))
@@ -326,8 +355,9 @@ def test_nan_in_unmeasured_channels_changes_nothing():
     dirty = images.copy()
     dirty[0, :, :, 3:] = np.nan  # view 0 is camera 1: channels 3–5 are not measured
     dirty[1, 0, 0, :] = np.nan  # zero weight
-    cfg = TrainConfig(steps=3, capacity=64, densify_from=100,
-                      render=RenderConfig(tile_size=8, tile_capacity=64))
+    cfg = TrainConfig(
+        steps=3, capacity=64, densify_from=100, render=RenderConfig(tile_size=8, tile_capacity=64)
+    )
     a = train(cap, images, weights, config=cfg, bounds=BOUNDS)
     b = train(cap, dirty, weights, config=cfg, bounds=BOUNDS)
     import jax

@@ -20,7 +20,7 @@ import isp
 import splat
 from splat.simcapture import SimCamera, SimCaptureConfig, build_scene, write_synthetic_capture
 
-GRID = np.arange(400.0, 681.0, 5.0)   # the cameras' common range (Sigma SDMerill ends at 680 nm)
+GRID = np.arange(400.0, 681.0, 5.0)  # the cameras' common range (Sigma SDMerill ends at 680 nm)
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +43,7 @@ def _toml(path: Path) -> dict:
 def _exif_product(path: Path) -> float:
     tags = isp.read_dng_tags(path)
     t, n = float(np.ravel(tags["ExposureTime"])[0]), float(np.ravel(tags["FNumber"])[0])
-    return t * float(tags["ISOSpeedRatings"]) / n ** 2
+    return t * float(tags["ISOSpeedRatings"]) / n**2
 
 
 def _relative_exposures(root: Path) -> dict[str, float]:
@@ -70,12 +70,14 @@ def _pixels_inside(model: splat.ColmapModel, name: str, corners: np.ndarray) -> 
     rows = np.arange(max(0, int(uv[:, 1].min())), min(cam.height, int(uv[:, 1].max()) + 1))
     cols = np.arange(max(0, int(uv[:, 0].min())), min(cam.width, int(uv[:, 0].max()) + 1))
     r, c = (a.ravel() for a in np.meshgrid(rows, cols, indexing="ij"))
-    pts = np.stack([np.stack([c, r], 1), np.stack([c + 1, r], 1), np.stack([c + 1, r + 1], 1),
-                    np.stack([c, r + 1], 1)], 1).astype(float)            # (P, 4 pixel corners, 2)
-    e = np.roll(uv, -1, axis=0) - uv                                        # quad edges (4, 2)
-    rel = pts[:, None, :, :] - uv[None, :, None, :]                         # (P, 4 edges, 4 corners, 2)
+    pts = np.stack(
+        [np.stack([c, r], 1), np.stack([c + 1, r], 1), np.stack([c + 1, r + 1], 1), np.stack([c, r + 1], 1)],
+        1,
+    ).astype(float)  # (P, 4 pixel corners, 2)
+    e = np.roll(uv, -1, axis=0) - uv  # quad edges (4, 2)
+    rel = pts[:, None, :, :] - uv[None, :, None, :]  # (P, 4 edges, 4 corners, 2)
     dist = (e[None, :, None, 0] * rel[..., 1] - e[None, :, None, 1] * rel[..., 0]) / np.hypot(*e.T)[:, None]
-    inside = np.all(dist > 0.02, axis=(1, 2)) | np.all(dist < -0.02, axis=(1, 2))   # signed px distances
+    inside = np.all(dist > 0.02, axis=(1, 2)) | np.all(dist < -0.02, axis=(1, 2))  # signed px distances
     return list(zip(r[inside].tolist(), c[inside].tolist()))
 
 
@@ -98,7 +100,10 @@ def test_layout_and_capture_toml(capture):
     cfg = _toml(capture / "capture.toml")
     assert cfg["illuminant"] == "D65" and cfg["observer"] == "CIE 1931 2 Degree Standard Observer"
     assert [(c["folder"], c["ssf"]) for c in cfg["camera"]] == [
-        ("nikon", "Nikon 5100 (NPL)"), ("sigma", "Sigma SDMerill (NPL)"), ("canon", "Canon EOS 5D Mark II")]
+        ("nikon", "Nikon 5100 (NPL)"),
+        ("sigma", "Sigma SDMerill (NPL)"),
+        ("canon", "Canon EOS 5D Mark II"),
+    ]
     for c in cfg["camera"]:
         files = sorted((capture / c["folder"]).glob("*.dng"))
         assert len(files) == 8
@@ -106,7 +111,7 @@ def test_layout_and_capture_toml(capture):
     assert len(cfg["holdout"]["images"]) == 6
     assert all((capture / name).is_file() for name in cfg["holdout"]["images"])
     assert cfg["white"]["method"] == "patch" and (capture / cfg["white"]["image"]).is_file()
-    assert not list(capture.parent.glob(".*"))   # no temporary folder left behind
+    assert not list(capture.parent.glob(".*"))  # no temporary folder left behind
     truth = _toml(capture / "truth" / "truth.toml")
     assert truth["generator"] == "splat.simcapture" and len(truth["view"]) == 24
 
@@ -136,7 +141,7 @@ def test_dng_tags_and_readers(capture):
                 assert raw.white_level == cam.white_level
                 assert list(raw.black_level_per_channel[:3]) == [cam.black_level] * 3
             pixels = tifffile.imread(f)
-            if cam.cfa is None:   # full-colour sensor: LinearRaw, 3 samples per pixel
+            if cam.cfa is None:  # full-colour sensor: LinearRaw, 3 samples per pixel
                 assert "CFAPattern" not in tags and pixels.shape == (cam.height, cam.width, 3)
                 np.testing.assert_array_equal(data[..., :3], pixels)
             else:
@@ -155,8 +160,11 @@ def test_dng_tags_and_readers(capture):
     np.testing.assert_allclose(tags["ColorMatrix2"].reshape(3, 3), M, atol=5e-5)
     # Bayer phases differ between makes; some highlights saturate
     assert scene.config.cameras[0].cfa != scene.config.cameras[2].cfa
-    assert any(tifffile.imread(f).max() == c.white_level
-               for c in scene.config.cameras for f in (capture / c.folder).glob("*.dng"))
+    assert any(
+        tifffile.imread(f).max() == c.white_level
+        for c in scene.config.cameras
+        for f in (capture / c.folder).glob("*.dng")
+    )
 
 
 # ------------------------------------------------------------------------------- forward model
@@ -202,8 +210,12 @@ def test_noise_free_mosaic_is_the_spectral_forward_model(clean):
                             got, want = dn[r, c], expect[ch]
                         else:
                             got, want = dn[r, c], expect
-                        np.testing.assert_allclose(got, np.clip(np.round(want), 0, cam["white_level"]),
-                                                   atol=1.0, err_msg=f"{name} pixel {(r, c)} patch {patch}")
+                        np.testing.assert_allclose(
+                            got,
+                            np.clip(np.round(want), 0, cam["white_level"]),
+                            atol=1.0,
+                            err_msg=f"{name} pixel {(r, c)} patch {patch}",
+                        )
                         checked += 1
     assert checked >= 100
 
@@ -263,7 +275,7 @@ def test_exif_exposure_matches_brightness(capture):
             unsat = want < 0.95
             if unsat.sum() >= 12:
                 ratios.append(np.mean(vals[unsat]) / np.mean(want[unsat]))
-            else:   # over-exposed: the card clips at the white level
+            else:  # over-exposed: the card clips at the white level
                 assert np.all(dn[tuple(np.array(pix).T)] == cam["white_level"])
     assert len(ratios) >= 10
     np.testing.assert_allclose(ratios, 1.0, atol=0.02)
@@ -288,8 +300,21 @@ def test_true_poses_round_trip(capture):
 
 # ------------------------------------------------------------------------------------ bad input
 def _tiny(**changes) -> SimCaptureConfig:
-    cam = SimCamera("cam", "Nikon 5100 (NPL)", "NIKON CORPORATION", "NIKON D5100", "DSC_", 32, 24, 60.0,
-                    "RGGB", 0, 16383, radius=3.0, eye_height=2.0)
+    cam = SimCamera(
+        "cam",
+        "Nikon 5100 (NPL)",
+        "NIKON CORPORATION",
+        "NIKON D5100",
+        "DSC_",
+        32,
+        24,
+        60.0,
+        "RGGB",
+        0,
+        16383,
+        radius=3.0,
+        eye_height=2.0,
+    )
     return SimCaptureConfig.ci(cameras=(cam,), n_train=2, n_holdout=1, **changes)
 
 
@@ -309,22 +334,30 @@ def test_refuses_to_overwrite(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["photos", "sim"]
 
 
-@pytest.mark.parametrize("changes, match", [
-    ({"n_train": 1}, "n_train"),
-    ({"n_holdout": 2}, "n_holdout"),
-    ({"supersample": 0}, "supersample"),
-    ({"gain": 1.5}, "gain"),
-])
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"n_train": 1}, "n_train"),
+        ({"n_holdout": 2}, "n_holdout"),
+        ({"supersample": 0}, "supersample"),
+        ({"gain": 1.5}, "gain"),
+    ],
+)
 def test_bad_config(tmp_path, changes, match):
     with pytest.raises(splat.SplatError, match=match):
         write_synthetic_capture(tmp_path / "x", replace(_tiny(), **changes))
     assert not (tmp_path / "x").exists()
 
 
-@pytest.mark.parametrize("camera, match", [
-    ({"width": 20}, "22 px"), ({"height": 25}, "even"), ({"ssf": "Nikon D9"}, "built-in camera"),
-    ({"black_level": 20000}, "black_level"),
-])
+@pytest.mark.parametrize(
+    "camera, match",
+    [
+        ({"width": 20}, "22 px"),
+        ({"height": 25}, "even"),
+        ({"ssf": "Nikon D9"}, "built-in camera"),
+        ({"black_level": 20000}, "black_level"),
+    ],
+)
 def test_bad_camera(tmp_path, camera, match):
     cfg = _tiny()
     cfg = replace(cfg, cameras=(replace(cfg.cameras[0], **camera),))
@@ -344,8 +377,9 @@ def test_sift_registers_every_view(capture, tmp_path):
             rgb = raw.postprocess(output_bps=8, use_camera_wb=True, no_auto_bright=True)
         (tmp_path / "previews" / f.parent.name).mkdir(parents=True, exist_ok=True)
         iio.imwrite(tmp_path / "previews" / f.parent.name / f"{f.stem}.png", rgb)
-    model = splat.recover_poses(tmp_path / "previews", tmp_path / "colmap",
-                                config=splat.PoseConfig(num_threads=2))
+    model = splat.recover_poses(
+        tmp_path / "previews", tmp_path / "colmap", config=splat.PoseConfig(num_threads=2)
+    )
     names = {im.name for im in model.images.values()}
     for folder in ("nikon", "sigma", "canon"):
         assert sum(n.startswith(folder + "/") for n in names) == 8, sorted(names)
@@ -354,8 +388,10 @@ def test_sift_registers_every_view(capture, tmp_path):
     true = splat.read_colmap(capture / "truth")
 
     def centres(m):
-        return {Path(im.name).with_suffix("").as_posix(): -splat.qvec_to_rotmat(im.qvec).T @ im.tvec
-                for im in m.images.values()}
+        return {
+            Path(im.name).with_suffix("").as_posix(): -splat.qvec_to_rotmat(im.qvec).T @ im.tvec
+            for im in m.images.values()
+        }
 
     T, C = centres(true), centres(model)
     A = np.array([C[n] for n in sorted(T)])
@@ -363,9 +399,9 @@ def test_sift_registers_every_view(capture, tmp_path):
     A0, B0 = A - A.mean(0), B - B.mean(0)
     U, S, Vt = np.linalg.svd(B0.T @ A0)
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    scale = (S * np.diag(D)).sum() / (A0 ** 2).sum()
+    scale = (S * np.diag(D)).sum() / (A0**2).sum()
     err = np.linalg.norm(scale * A0 @ (U @ D @ Vt).T - B0, axis=1)
-    assert np.sqrt(np.mean(err ** 2)) < 0.1    # metres, on orbits of radius 3–3.6 m (measured 0.02)
+    assert np.sqrt(np.mean(err**2)) < 0.1  # metres, on orbits of radius 3–3.6 m (measured 0.02)
 
 
 def test_extra_reflectances(shared_data):
@@ -379,7 +415,7 @@ def test_extra_reflectances(shared_data):
     munsell = zonotope.load_reflectances(path)
     np.testing.assert_allclose(scene.library[K:], np.clip(_data(munsell, scene.wavelengths).T, 0, 1))
     idx, wts = scene.trace(scene.views[0])
-    assert np.any((idx >= K) & (wts > 0))    # the floor and backdrop now carry Munsell samples
+    assert np.any((idx >= K) & (wts > 0))  # the floor and backdrop now carry Munsell samples
     with pytest.raises(splat.SplatError, match="extra_reflectances"):
         build_scene(_tiny(extra_reflectances=(str(shared_data / "no such file.csv"),)))
 

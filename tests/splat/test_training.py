@@ -30,8 +30,14 @@ def tiny(steps, **kw) -> TrainConfig:
     kw.setdefault("capacity", 192)
     kw.setdefault("lr_means", 2e-3)  # short runs like faster rates
     kw.setdefault("lr_colours", 2e-2)
-    return TrainConfig(steps=steps, densify_from=40, densify_every=40, densify_until=int(0.7 * steps),
-                       render=RenderConfig(tile_size=8, tile_capacity=128), **kw)
+    return TrainConfig(
+        steps=steps,
+        densify_from=40,
+        densify_every=40,
+        densify_until=int(0.7 * steps),
+        render=RenderConfig(tile_size=8, tile_capacity=128),
+        **kw,
+    )
 
 
 def test_rawnerf_loss_matches_multinerf():
@@ -51,8 +57,12 @@ def test_rawnerf_loss_matches_multinerf():
 def test_end_to_end_three_cameras_held_out_views(scene):
     assert len(scene.capture.views) == 36 and scene.images.shape[-1] == 9
     result = train(scene.capture, scene.images, scene.weights, config=tiny(400), bounds=scene.bounds)
-    pred = render_views(result.gaussians, [v.camera for v in scene.test.views], mask=result.alive,
-                        config=RenderConfig(tile_size=8, tile_capacity=128))
+    pred = render_views(
+        result.gaussians,
+        [v.camera for v in scene.test.views],
+        mask=result.alive,
+        config=RenderConfig(tile_size=8, tile_capacity=128),
+    )
     assert pred.shape == scene.test_images.shape
     baseline = psnr(np.broadcast_to(scene.test_images.mean((0, 1, 2)), pred.shape), scene.test_images)
     score = psnr(pred, scene.test_images)
@@ -84,8 +94,9 @@ def test_unmeasured_channels_do_not_matter_and_resume_is_exact(scene, tmp_path):
 
     with pytest.raises(Crash):
         train(scene.capture, images, scene.weights, config=cfg, bounds=scene.bounds, callback=crash)
-    resumed = train(scene.capture, images, scene.weights, config=cfg, bounds=scene.bounds,
-                    resume=tmp_path / "ckpt.npz")
+    resumed = train(
+        scene.capture, images, scene.weights, config=cfg, bounds=scene.bounds, resume=tmp_path / "ckpt.npz"
+    )
     assert resumed.state.step == 30 and len(resumed.history["loss"]) == 10
     np.testing.assert_allclose(resumed.gaussians.means, straight.gaussians.means, atol=1e-6)
     np.testing.assert_array_equal(resumed.alive, straight.alive)
