@@ -169,10 +169,15 @@ def _develop(args: argparse.Namespace) -> int:
 
         return develop_folder(args)
     from ._errors import PipelineError
+    from .io import _is_our_output
 
     if out.exists() and (not args.overwrite or (src.exists() and out.resolve() == src.resolve())):
         # checked before the long work (a metamer fit takes minutes), not only when writing
         raise PipelineError(f"{out} exists; pass --overwrite or choose another name (never the input).")
+    if out.exists() and not _is_our_output(out):
+        raise PipelineError(
+            f"{out} exists and was not written by isp; --overwrite replaces only isp outputs."
+        )
     tonemap = None if args.tonemap.lower() == "none" else args.tonemap
     options = {}
     if args.exposure is not None:

@@ -41,6 +41,35 @@ def to_uint16(image) -> np.ndarray:
     return np.round(np.clip(a, 0.0, 1.0) * 65535.0).astype(np.uint16)
 
 
+SOFTWARE = "isp (zonotope)"  # written into every image, so that --overwrite recognises our own outputs
+
+
+def _is_our_output(path: Path) -> bool:
+    """Whether ``path`` is an image :func:`write_image` wrote (TIFF Software tag or PNG tEXt chunk)."""
+    import tifffile
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+            if head == b"\x89PNG\r\n\x1a\n":
+                while True:  # walk the chunks before the pixel data
+                    size_kind = fh.read(8)
+                    if len(size_kind) < 8 or size_kind[4:] in (b"IDAT", b"IEND"):
+                        return False
+                    size = struct.unpack(">I", size_kind[:4])[0]
+                    data = fh.read(size)
+                    fh.read(4)
+                    if size_kind[4:] == b"tEXt" and data == b"Software\0" + SOFTWARE.encode():
+                        return True
+        if head[:4] in (b"II*\x00", b"MM\x00*"):
+            with tifffile.TiffFile(path) as tif:
+                tag = tif.pages.first.tags.get("Software")
+                return tag is not None and tag.value == SOFTWARE
+    except (OSError, ValueError, IndexError, struct.error, tifffile.TiffFileError):
+        return False
+    return False
+
+
 def _png_bytes(img: np.ndarray) -> bytes:
     """Encode a uint16 (H, W) or (H, W, 1|3|4) array as a 16-bit PNG (ISO/IEC 15948)."""
     if img.ndim == 2:
@@ -57,6 +86,7 @@ def _png_bytes(img: np.ndarray) -> bytes:
     return (
         b"\x89PNG\r\n\x1a\n"
         + chunk(b"IHDR", header)
+        + chunk(b"tEXt", b"Software\0" + SOFTWARE.encode())
         + chunk(b"IDAT", zlib.compress(raw, 6))
         + chunk(b"IEND", b"")
     )
@@ -112,6 +142,11 @@ def write_image(
             raise PipelineError(f"{path} is an input file; refusing to overwrite it.")
     if path.exists() and not overwrite:
         raise PipelineError(f"{path} exists; pass overwrite=True (CLI: --overwrite) or choose another name.")
+    if path.exists() and not _is_our_output(path):
+        raise PipelineError(
+            f"{path} exists and was not written by isp; overwrite replaces only a previous isp output. "
+            "Choose another name."
+        )
     if dtype not in ("uint16", "float32") or (dtype == "float32" and suffix == ".png"):
         raise PipelineError(f"dtype={dtype!r}: use 'uint16', or 'float32' with a .tif path.")
     if dtype == "float32":
@@ -136,7 +171,7 @@ def write_image(
                 img,
                 photometric="rgb" if rgb else "minisblack",
                 metadata=None,
-                software="isp (zonotope)",
+                software=SOFTWARE,
                 iccprofile=icc_profile,
                 extratags=list(tiff_tags),
             )

@@ -41,8 +41,12 @@ def test_never_overwrites(tmp_path, image):
     with pytest.raises(PipelineError, match="input file"):
         write_image(src, image, overwrite=True, protect=[src])
     assert src.read_bytes() == b"original"
-    write_image(src, image, overwrite=True)
-    assert sorted(x.name for x in tmp_path.iterdir()) == ["in.png"]  # no temporary left behind
+    with pytest.raises(PipelineError, match="not written by isp"):  # overwrite replaces only our outputs
+        write_image(src, image, overwrite=True)
+    assert src.read_bytes() == b"original"
+    ours = write_image(tmp_path / "out.png", image)
+    write_image(ours, image, overwrite=True)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["in.png", "out.png"]  # no temporary left behind
 
 
 def test_bad_inputs(tmp_path, image):

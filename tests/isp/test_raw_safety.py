@@ -245,3 +245,20 @@ def test_full_colour_linear_raw_is_a_project_error(tmp_path):
     )
     with pytest.raises(RawFormatError, match="no CFA mosaic"):
         read_raw(path)
+
+
+@pytest.mark.parametrize("suffix", [".png", ".tif"])
+def test_overwrite_replaces_only_a_previous_isp_output(tmp_path, suffix):
+    from isp import PipelineError
+
+    img = np.full((4, 5, 3), 0.5)
+    ours = write_image(tmp_path / f"ours{suffix}", img)
+    write_image(ours, np.zeros_like(img), overwrite=True)  # a previous output of ours: replaced when asked
+    if suffix == ".tif":
+        assert not np.any(tifffile.imread(ours))
+    magic = b"\x89PNG\r\n\x1a\n" if suffix == ".png" else b"II*\x00"
+    user = tmp_path / f"user{suffix}"
+    user.write_bytes(magic + bytes(64))  # the user's own file (not written by isp)
+    with pytest.raises(PipelineError, match="not written by isp"):
+        write_image(user, img, overwrite=True)
+    assert user.read_bytes() == magic + bytes(64)
