@@ -66,17 +66,21 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from .pipeline import STEPS, PipelineConfig, run
 
-    config = PipelineConfig(
-        steps=args.steps,
-        capacity=args.capacity,
-        camera=args.camera,
-        all_views=args.all_views,
-        novel=args.novel,
-        method=args.method,
-        quantum=args.quantum,
-        threads=args.threads,
-        seed=args.seed,
-    )
+    try:
+        config = PipelineConfig(
+            steps=args.steps,
+            capacity=args.capacity,
+            camera=args.camera,
+            all_views=args.all_views,
+            novel=args.novel,
+            method=args.method,
+            quantum=args.quantum,
+            threads=args.threads,
+            seed=args.seed,
+        )
+    except ZonotopeError as exc:  # bad option values: one line, before any work
+        print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
     steps = STEPS if args.step == "run" else (args.step,)
     console = Console(stderr=True)
     bar = Progress(

@@ -93,6 +93,20 @@ class PipelineConfig:
     min_registered: float = 0.5
     densify_until: int | None = None
 
+    def __post_init__(self):
+        positive = {"steps": self.steps, "capacity": self.capacity}
+        for name, value in positive.items():
+            if not isinstance(value, int) or value < 1:
+                raise SplatError(f"{name}={value!r}: must be a positive integer (e.g. --{name} 3000).")
+        if not isinstance(self.novel, int) or self.novel < 0:
+            raise SplatError(f"novel={self.novel!r}: must be a non-negative integer.")
+        if not (np.isfinite(self.quantum) and self.quantum > 0):
+            raise SplatError(f"quantum={self.quantum!r}: must be a positive number (default 5e-3).")
+        if not (0.0 < self.min_registered <= 1.0):
+            raise SplatError(f"min_registered={self.min_registered!r}: must be a fraction in (0, 1].")
+        if self.densify_until is not None and self.densify_until < 0:
+            raise SplatError(f"densify_until={self.densify_until!r}: must be ≥ 0 or None.")
+
 
 # ---------------------------------------------------------------------------------------------
 # small helpers

@@ -817,7 +817,10 @@ def _surface_points(scene: SimScene, per_view: int = 400):
 def main(argv: list[str] | None = None) -> int:
     """``python -m splat.simcapture OUT [--size ci|benchmark] [--seed N] [--no-noise] [--overwrite]``."""
     import argparse
+    import sys
     import time
+
+    import zonotope
 
     parser = argparse.ArgumentParser(
         prog="python -m splat.simcapture",
@@ -841,8 +844,8 @@ def main(argv: list[str] | None = None) -> int:
     t = time.perf_counter()
     try:
         out = write_synthetic_capture(args.out, config, overwrite=args.overwrite)
-    except SplatError as exc:
-        print(f"error: {exc}")
+    except (SplatError, zonotope.ZonotopeError, OSError) as exc:  # one line on stderr, no traceback
+        print(f"splat.simcapture: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     n = sum(1 for _ in out.glob("*/*.dng"))
     print(f"wrote {out} ({n} DNG files, {len(config.cameras)} cameras) in {time.perf_counter() - t:.1f} s")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from splat import SplatError
 from splat.capture import (
     CameraSpec,
     CaptureError,
@@ -213,3 +214,33 @@ def test_patch_scale_with_reflectance(tmp_path):
     # the marked patch has reflectance 0.5: a perfect white would be twice as bright
     assert s["method"] == "patch"
     assert s["scale"][0] == pytest.approx(2 * 0.3 * 0.75 * white, rel=3e-3)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"steps": 0},
+        {"steps": -3},
+        {"capacity": 0},
+        {"novel": -1},
+        {"quantum": float("nan")},
+        {"quantum": 0.0},
+        {"min_registered": 0.0},
+        {"min_registered": 1.5},
+        {"densify_until": -1},
+    ],
+)
+def test_pipeline_config_refuses_bad_values(bad):
+    from splat.pipeline import PipelineConfig
+
+    with pytest.raises(SplatError, match=next(iter(bad))):
+        PipelineConfig(**bad)
+
+
+def test_cli_bad_option_is_one_line(capsys, tmp_path):
+    from splat.cli import main
+
+    assert main(["run", str(tmp_path), "-o", str(tmp_path / "out"), "--steps", "-3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "steps=-3" in err[0]
+    assert not (tmp_path / "out").exists()  # refused before any work
