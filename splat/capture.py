@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from isp.batch import RAW_SUFFIXES, raw_files  # one list of RAW suffixes for isp folders and captures
+
 from ._errors import SplatError
 
 __all__ = [
@@ -57,32 +59,6 @@ __all__ = [
     "read_linear",
     "white_scale",
 ]
-
-#: File suffixes treated as RAW files in a camera folder (case-insensitive).
-RAW_SUFFIXES = (
-    ".dng",
-    ".nef",
-    ".nrw",
-    ".cr2",
-    ".cr3",
-    ".crw",
-    ".arw",
-    ".srf",
-    ".sr2",
-    ".orf",
-    ".rw2",
-    ".raf",
-    ".pef",
-    ".srw",
-    ".x3f",
-    ".3fr",
-    ".iiq",
-    ".erf",
-    ".kdc",
-    ".mrw",
-    ".raw",
-    ".rwl",
-)
 
 _WHITE_METHODS = ("patch", "brightest-neutral")
 
@@ -174,7 +150,7 @@ class CaptureSpec:
     def raw_files(self, k: int) -> list[Path]:
         """The RAW files of camera ``k``, sorted by name."""
         folder = self.root / self.cameras[k].folder
-        return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in RAW_SUFFIXES)
+        return raw_files(folder)
 
     def load_ssf(self, k: int):
         """The spectral sensitivities of camera ``k`` (a colour MSDS with 3 channels)."""
@@ -312,7 +288,8 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
     for k, c in enumerate(specs):
         if not spec.raw_files(k):
             raise CaptureError(
-                f"{file}: folder {root / c.folder} holds no RAW files ({', '.join(RAW_SUFFIXES[:4])}, ...)."
+                f"{file}: folder {root / c.folder} holds no RAW files "
+                f"({', '.join(sorted(RAW_SUFFIXES)[:4])}, ...)."
             )
     return spec
 

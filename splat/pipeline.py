@@ -113,22 +113,11 @@ class PipelineConfig:
 # ---------------------------------------------------------------------------------------------
 
 
-_UMASK = os.umask(0)
-os.umask(_UMASK)
+def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
+    """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
+    from zonotope._io import atomic_path
 
-
-def _atomic(path: Path, write: Callable[[Path], None]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp" + path.suffix)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600 files; outputs get the usual permissions
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return atomic_path(path, write)
 
 
 def _write_json(path: Path, doc) -> Path:
