@@ -129,7 +129,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"render: {len(results['render'])} views")
     if "correct" in results:
         c = results["correct"]
-        print(f"correct: {c['method']}, δ = {c['delta']:.4f} (3σ of the training residual)")
+        print(
+            f"correct: {c['method']}, δ = {c['delta']:.4f} (95th percentile of the rendered "
+            "responses' distances to the object-colour solid)"
+        )
     if "report" in results:
         print(f"report: {results['report']}")
     return 0

@@ -715,10 +715,7 @@ def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: flo
     from zonotope.correct import CORRECTION_METHODS, fit_correction
 
     problem = correction_problem_of(spec, cameras)
-    key = "".join(ch for ch in method.lower() if ch.isalnum())
-    name = next(
-        (m for m in CORRECTION_METHODS if "".join(ch for ch in m.lower() if ch.isalnum()) == key), method
-    )
+    name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
     opts = {
         "Prior": {"noise": sigma},
         "Centroid": {"delta": delta},
