@@ -427,4 +427,4 @@ def test_main(tmp_path, capsys):
     assert "24 DNG files" in capsys.readouterr().out
     assert _toml(tmp_path / "c" / "truth" / "truth.toml")["noise"] is False
     assert main([str(tmp_path / "c")]) == 2
-    assert "overwrite=True" in capsys.readouterr().out
+    assert "overwrite=True" in capsys.readouterr().err
