@@ -6,6 +6,14 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# CI runs one fixed set of hypothesis examples (HYPOTHESIS_PROFILE=ci in .ci/run), so a landing is
+# judged on reproducible tests; local runs keep exploring new random examples. A failure found locally
+# prints its reproduction blob.
+settings.register_profile("ci", derandomize=True, print_blob=True)
+settings.register_profile("default", print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
