@@ -350,37 +350,42 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             tags = read_dng_tags(path)
         except RawFormatError:
             tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
-    if tags:
-        profile = DNGProfile.from_tags(tags)
-        source = "AsShotNeutral" if "AsShotNeutral" in tags else "AsShotWhiteXY"
-        if "AsShotNeutral" in tags:
-            neutral = np.asarray(tags["AsShotNeutral"], dtype=np.float64)
-        elif "AsShotWhiteXY" in tags:
-            import colour
+    try:  # a damaged file can carry tags of the wrong type or shape
+        if tags:
+            profile = DNGProfile.from_tags(tags)
+            source = "AsShotNeutral" if "AsShotNeutral" in tags else "AsShotWhiteXY"
+            if "AsShotNeutral" in tags:
+                neutral = np.asarray(tags["AsShotNeutral"], dtype=np.float64)
+            elif "AsShotWhiteXY" in tags:
+                import colour
 
-            xy = np.asarray(tags["AsShotWhiteXY"], dtype=np.float64)
-            neutral = profile.XYZ_to_camera(xy) @ colour.xy_to_XYZ(xy)
+                xy = np.asarray(tags["AsShotWhiteXY"], dtype=np.float64)
+                neutral = profile.XYZ_to_camera(xy) @ colour.xy_to_XYZ(xy)
+            else:
+                source = "camera" if np.all(cam_wb > 0) else "none"
+                neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
+            capture.update(_capture_from_tags(tags))
+            table = tags.get("LinearizationTable")
+            table = None if table is None else np.asarray(table, dtype=np.float64)
+            make = str(tags.get("Make", "") or "")
+            model = str(tags.get("Model", tags.get("UniqueCameraModel", "")) or "")
+            baseline = float(np.ravel(tags.get("BaselineExposure", [0.0]))[0])
         else:
-            source = "camera" if np.all(cam_wb > 0) else "none"
-            neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
-        capture.update(_capture_from_tags(tags))
-        table = tags.get("LinearizationTable")
-        table = None if table is None else np.asarray(table, dtype=np.float64)
-        make = str(tags.get("Make", "") or "")
-        model = str(tags.get("Model", tags.get("UniqueCameraModel", "")) or "")
-        baseline = float(np.ravel(tags.get("BaselineExposure", [0.0]))[0])
-    else:
-        if not np.any(libraw_cm):
-            raise RawFormatError(
-                f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
-                "or use a correction callable."
-            )
-        profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
-        # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW)
-        source = "camera" if np.all(cam_wb > 0) else "daylight" if np.all(day_wb > 0) else "none"
-        wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
-        neutral = 1.0 / wb
-        table, make, model, baseline = None, "", "", 0.0
+            if not np.any(libraw_cm):
+                raise RawFormatError(
+                    f"{path}: LibRaw has no colour matrix for this camera; pass a DNGProfile "
+                    "or use a correction callable."
+                )
+            profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
+            # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW)
+            source = "camera" if np.all(cam_wb > 0) else "daylight" if np.all(day_wb > 0) else "none"
+            wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
+            neutral = 1.0 / wb
+            table, make, model, baseline = None, "", "", 0.0
+    except (ValueError, TypeError, IndexError, KeyError, ZeroDivisionError, np.linalg.LinAlgError) as exc:
+        raise RawFormatError(
+            f"{path}: malformed DNG metadata ({type(exc).__name__}: {exc}); the file may be damaged."
+        ) from exc
     return RawImage(
         mosaic=mosaic,
         cfa=cfa,

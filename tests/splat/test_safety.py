@@ -9,6 +9,7 @@ import json
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -281,8 +282,7 @@ def test_fuzz_colmap_models(colmap_dirs, tmp_path, data):
     struct.error, ..."""
     fmt = data.draw(st.sampled_from(["bin", "txt"]))
     src = colmap_dirs / fmt
-    dst = tmp_path / f"m{FUZZ_COUNT['colmap']}"
-    dst.mkdir()
+    dst = Path(tempfile.mkdtemp(prefix="m", dir=tmp_path))  # unique even when hypothesis replays a case
     target = data.draw(st.sampled_from(sorted(p.name for p in src.iterdir())))
     for p in src.iterdir():
         blob = p.read_bytes()
