@@ -33,7 +33,7 @@ def test_evaluate_table():
     methods = {r.method for r in ev.rows}
     assert {"Finlayson 2015", "Dyer 2017", "MAP", "Prior"} <= methods
     rp = next(r for r in ev.rows if r.method == "Finlayson 2015" and r.kind == "natural")
-    assert rp.n == 24 and 0 < rp.median <= rp.p95 <= rp.max and rp.inside == 1.0
+    assert rp.n == 24 - 7 and 0 < rp.median <= rp.p95 <= rp.max and rp.inside == 1.0  # 7 in training
     assert set(ev.summary("atypical")) == methods
     md = ev.to_markdown()
     assert "| cameras | test set | estimator |" in md and "Prior" in md
@@ -73,3 +73,65 @@ def test_natural_sets_from_shared_data(shared_data):
         assert expected in names
     for s in sets:
         assert s.reflectances.shape[1] == GRID.size and 0 <= s.reflectances.min() <= s.reflectances.max() <= 1
+
+
+def test_structured_generator_seeded_valid_and_independent():
+    from zonotope.atypical import STRUCTURED_KINDS, structured_reflectances
+
+    A, labels = structured_reflectances(GRID, 60, seed=3)
+    assert np.array_equal(A, structured_reflectances(GRID, 60, seed=3)[0])
+    assert A.shape == (60, GRID.size) and A.min() >= 0 and A.max() <= 1
+    assert {lab.rsplit(" ", 1)[0] for lab in labels} == set(STRUCTURED_KINDS)
+    steps = A[[lab.startswith("steps") for lab in labels]]
+    assert all(np.unique(s).size <= 2 for s in steps)  # two levels only
+    with pytest.raises(SpectralDataError, match="steps"):
+        structured_reflectances(GRID, 2, kinds=["ramp"])
+    from zonotope.evaluate import atypical_test_sets
+
+    a, b = atypical_test_sets(GRID, 10)
+    assert (a.name, b.name) == ("atypical (10)", "atypical B (10)") and a.kind == b.kind == "atypical"
+    # independent families: no spectrum of one set is within 0.05 of one of the other everywhere
+    d = np.abs(a.reflectances[:, None] - b.reflectances[None]).max(-1)
+    assert d.min() > 0.05
+
+
+def test_source_split_removes_near_training_spectra():
+    from zonotope.evaluate import source_split
+
+    rng = np.random.default_rng(0)
+    train = rng.uniform(0, 1, (30, GRID.size))
+    near = np.clip(train[:5] + rng.uniform(-0.019, 0.019, (5, GRID.size)), 0, 1)
+    far = train[5:10].copy()
+    far[:, 3] = np.where(far[:, 3] > 0.5, far[:, 3] - 0.05, far[:, 3] + 0.05)  # one band 0.05 away
+    sets = [TestSet("mixed", np.vstack([near, far])), TestSet("all near", near)]
+    kept, notes = source_split(sets, train, exclude_within=0.02)
+    assert [s.name for s in kept] == ["mixed"] and np.array_equal(kept[0].reflectances, far)
+    assert any("5 of 10 spectra removed" in n for n in notes)
+    # brute force: every kept spectrum is farther than 0.02 from every training one
+    for x in kept[0].reflectances:
+        assert all(np.abs(x - t).max() > 0.02 for t in train)
+    assert source_split(sets, train, exclude_within=None)[0] == sets
+
+
+def test_pooled_and_paired_statistics_from_samples():
+    nat = natural_test_sets(GRID)
+    sets = [nat[0], nat[1], TestSet("atyp", atypical_reflectances(GRID, 8, seed=2)[0], "atypical")]
+    ev = evaluate(
+        ["Nikon 5100 (NPL)"], methods=["least squares", "root-polynomial"], shape=GRID, test_sets=sets
+    )
+    assert any("spectra removed" in n for n in ev.notes)  # ColorChecker patches are in rawtoaces 190
+    cams = ev.rows[0].cameras
+    e_ls = np.concatenate([ev.errors[k] for k in ev.errors if k[2] == "Cheung 2004" and k[1] != "atyp"])
+    n, mean, p95, mx = ev.pooled_stats("natural", cams)["Cheung 2004"]
+    assert n == e_ls.size < 24 + 14 and mean == pytest.approx(e_ls.mean()) and mx == e_ls.max()
+    assert p95 == pytest.approx(np.percentile(e_ls, 95))
+    e_rp = np.concatenate([ev.errors[k] for k in ev.errors if k[2] == "Finlayson 2015" and k[1] != "atyp"])
+    p = ev.paired("Cheung 2004", "Finlayson 2015", kind="natural", cameras=cams)
+    q = ev.paired("Finlayson 2015", "Cheung 2004", kind="natural", cameras=cams)
+    assert p.n == e_ls.size and p.mean_diff == pytest.approx((e_ls - e_rp).mean())
+    assert p.a_better == pytest.approx(np.mean(e_ls < e_rp - 0.01)) and p.a_better == q.b_better
+    assert p.max_diff == pytest.approx(-q.min_diff)
+    assert ev.paired("Cheung 2004", "Cheung 2004").mean_diff == 0.0
+    with pytest.raises(SpectralDataError, match="MAP"):
+        ev.paired("Cheung 2004", "MAP")
+    assert "pooled mean" in ev.to_markdown()

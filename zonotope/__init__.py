@@ -145,7 +145,7 @@ _EXPORTS = {
         "metamer_mismatch_bounds",
     ],
     "prior": ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"],
-    "atypical": ["ATYPICAL_KINDS", "atypical_reflectances"],
+    "atypical": ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"],
     "correct": [
         "CORRECTION_METHODS",
         "CorrectionProblem",
@@ -178,9 +178,12 @@ _EXPORTS = {
         "DEFAULT_METHODS",
         "Evaluation",
         "EvaluationRow",
+        "PairedComparison",
         "TestSet",
         "atypical_test_set",
+        "atypical_test_sets",
         "natural_test_sets",
+        "source_split",
     ],
     "report": ["ReportExistsError", "write_report"],
     "viz": [

@@ -29,7 +29,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["ATYPICAL_KINDS", "atypical_reflectances"]
+from ._errors import SpectralDataError
+
+__all__ = ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"]
 
 #: Families of atypical spectra :func:`atypical_reflectances` can draw.
 ATYPICAL_KINDS: tuple[str, ...] = ("band-pass", "band-stop", "narrow-band", "spiky")
@@ -129,5 +131,103 @@ def atypical_reflectances(
     for i in range(n):
         kind = kinds[int(rng.integers(0, len(kinds)))]
         out[i] = np.clip(_MAKERS[kind](rng, w), 0.0, 1.0)
+        labels.append(f"{kind} {i}")
+    return out, labels
+
+
+# --- a second, independent generator ------------------------------------------------------------
+
+#: Families of :func:`structured_reflectances` (a generator written independently of
+#: :func:`atypical_reflectances`, so that an estimator tuned on one can be checked on the other).
+STRUCTURED_KINDS: tuple[str, ...] = ("steps", "interference", "rough")
+
+
+def _steps(rng: np.random.Generator, w: np.ndarray) -> np.ndarray:
+    """Piecewise constant, 1–5 transitions between a dark and a bright level (multi-transition
+    near-optimal colours: the solid's surface holds optimal colours with more than 2 transitions)."""
+    cuts = np.sort(rng.uniform(w[0], w[-1], rng.integers(1, 6)))
+    lo, hi = rng.uniform(0.0, 0.15), rng.uniform(0.75, 1.0)
+    level = np.searchsorted(cuts, w) % 2  # 0, 1, 0, ... between successive cuts
+    if rng.random() < 0.5:
+        level = 1 - level
+    return np.where(level == 1, hi, lo)
+
+
+def _interference(rng: np.random.Generator, w: np.ndarray) -> np.ndarray:
+    """Thin-film (structural colour) fringes ``a + b·cos(4π n d / λ + φ)``: 1–4 fringes over the grid."""
+    fringes = rng.uniform(1.0, 4.0)
+    nd = fringes / (2.0 * (1.0 / w[0] - 1.0 / w[-1]))  # optical thickness giving that many fringes
+    a = rng.uniform(0.3, 0.7)
+    b = rng.uniform(0.6, 1.0) * min(a, 1.0 - a)
+    return a + b * np.cos(4.0 * np.pi * nd / w + rng.uniform(0, 2 * np.pi))
+
+
+def _rough(rng: np.random.Generator, w: np.ndarray) -> np.ndarray:
+    """A Gaussian process with a short correlation length (8–25 nm) around 0.5: high-frequency spectra
+    that no smooth natural-reflectance basis represents."""
+    ell = rng.uniform(8.0, 25.0)
+    K = np.exp(-0.5 * ((w[:, None] - w[None, :]) / ell) ** 2) + 1e-9 * np.eye(w.size)
+    z = np.linalg.cholesky(K) @ rng.standard_normal(w.size)
+    return 0.5 + rng.uniform(0.2, 0.35) * z
+
+
+_STRUCTURED = {"steps": _steps, "interference": _interference, "rough": _rough}
+
+
+def structured_reflectances(
+    wavelengths: Sequence[float] | np.ndarray,
+    n: int = 100,
+    *,
+    seed: int = 7_041_993,
+    kinds: Sequence[str] | None = None,
+) -> tuple[np.ndarray, list[str]]:
+    """Draw ``n`` atypical spectra of a second, independent family (:data:`STRUCTURED_KINDS`).
+
+    ``"steps"``: piecewise-constant spectra with 1–5 transitions between a dark (≤ 0.15) and a
+    bright (≥ 0.75) level; ``"interference"``: thin-film fringes ``a + b cos(4π n d / λ + φ)`` with
+    1–4 fringes over the grid; ``"rough"``: a Gaussian process of correlation length 8–25 nm around
+    0.5. All clipped to [0, 1]. Same contract as :func:`atypical_reflectances` (seeded, labels).
+
+    Parameters
+    ----------
+    wavelengths : array_like of shape (n_wavelengths,)
+    n
+        Number of spectra.
+    seed
+        Seed of ``numpy.random.default_rng``.
+    kinds
+        Families to draw from (subset of :data:`STRUCTURED_KINDS`); default all, uniformly.
+
+    Returns
+    -------
+    reflectances : ndarray of shape (n, n_wavelengths)
+    labels : list of str
+
+    Raises
+    ------
+    SpectralDataError
+        An unknown family or ``n < 0`` (a ``ValueError``).
+
+    Examples
+    --------
+    >>> X, labels = structured_reflectances(np.arange(400, 701, 10), 3, seed=1)
+    >>> X.shape, bool(X.min() >= 0 and X.max() <= 1)
+    ((3, 31), True)
+    """
+    w = np.asarray(wavelengths, dtype=np.float64)
+    kinds = tuple(kinds) if kinds is not None else STRUCTURED_KINDS
+    bad = [k for k in kinds if k not in _STRUCTURED]
+    if bad or not kinds:
+        raise SpectralDataError(
+            f"kinds={list(kinds)!r}: unknown family {bad}; choose from {list(STRUCTURED_KINDS)}."
+        )
+    if n < 0:
+        raise SpectralDataError(f"n must be >= 0, got {n}.")
+    rng = np.random.default_rng(seed)
+    out = np.empty((n, w.size))
+    labels = []
+    for i in range(n):
+        kind = kinds[int(rng.integers(0, len(kinds)))]
+        out[i] = np.clip(_STRUCTURED[kind](rng, w), 0.0, 1.0)
         labels.append(f"{kind} {i}")
     return out, labels

@@ -150,7 +150,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from .evaluate import DEFAULT_METHODS, TestSet, atypical_test_set, evaluate, natural_test_sets
+    from .evaluate import DEFAULT_METHODS, TestSet, atypical_test_sets, evaluate, natural_test_sets
 
     console = Console(width=max(Console().width, 130))
     if args.markdown:  # refuse a bad output path before the long run, never an input file
@@ -178,7 +178,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             )
         sets.append(TestSet(path, R.clip(0, 1)))
     if args.atypical:
-        sets.append(atypical_test_set(w, args.atypical, seed=args.seed))
+        sets.extend(atypical_test_sets(w, args.atypical, seed=args.seed))  # generators A and B
     camera_sets = [args.camera] if not args.pairs else [[c] for c in args.camera] + [args.camera]
     progress, callback = _rich_progress(console)
     with progress:
@@ -211,12 +211,13 @@ def _evaluate(args: argparse.Namespace) -> int:
     console.print(table)
     for cams in dict.fromkeys(r.cameras for r in ev.rows):
         for kind in ("natural", "atypical"):
-            pooled = ev.pooled(kind, cams)
+            pooled = ev.pooled_stats(kind, cams)
             if pooled:
                 console.print(
-                    f"{cams} · {kind} (pooled mean / max): "
-                    + ", ".join(f"{m} {v[0]:.3f}/{v[1]:.1f}" for m, v in pooled.items())
+                    f"{cams} · {kind} (pooled mean / p95 / max): "
+                    + ", ".join(f"{m} {v[1]:.3f}/{v[2]:.2f}/{v[3]:.1f}" for m, v in pooled.items())
                 )
+    console.print(ev.pooled_markdown(), soft_wrap=True)  # pooled statistics and paired comparisons
     for note in ev.notes:
         console.print(f"note: {note}")
     if args.markdown:

@@ -13,7 +13,20 @@ atypical generator :func:`zonotope.atypical.atypical_reflectances`. With a data 
 like ``../shared/data`` (see its README) also: a seeded subset of the 1269 matte Munsell chips,
 the SFU 1995 Krinov natural surfaces and Vrhel objects (subsets), and the CIE 224:2017 colour
 evaluation samples. Test reflectances are clipped to [0, 1] (a few measured values exceed 1 by
-fluorescence or gloss; they would be outside the object-colour solid).
+fluorescence or gloss; they would be outside the object-colour solid). A second, independently written
+atypical generator (:func:`zonotope.atypical.structured_reflectances`: multi-transition steps,
+thin-film fringes, rough spectra) is the set "atypical B", so that an estimator tuned on one atypical
+family can be checked on another.
+
+Evaluation that cannot be tuned to
+----------------------------------
+Training and test reflectances are split by source: every test spectrum within ``exclude_within``
+(default 0.02) of a training spectrum at every wavelength (L∞ distance) is removed from the test set
+before anything is computed (the rawtoaces 190 training set holds ColorChecker, Munsell and Vrhel-like
+samples; the notes say how many were removed per set). Besides the per-set rows, :class:`Evaluation`
+keeps every sample's ΔE00, so it reports pooled mean / 95th percentile / max over all sets of one kind
+(:meth:`Evaluation.pooled_stats`) and paired comparisons on the same samples
+(:meth:`Evaluation.paired`: how often A beats B, and by how much).
 """
 
 from __future__ import annotations
@@ -27,7 +40,7 @@ import numpy as np
 
 from . import spectra
 from ._errors import SpectralDataError, ZonotopeError
-from .atypical import atypical_reflectances
+from .atypical import atypical_reflectances, structured_reflectances
 from .correct import (
     CORRECTION_METHODS,
     CorrectionProblem,
@@ -41,10 +54,13 @@ __all__ = [
     "DEFAULT_METHODS",
     "Evaluation",
     "EvaluationRow",
+    "PairedComparison",
     "TestSet",
     "atypical_test_set",
+    "atypical_test_sets",
     "evaluate",
     "natural_test_sets",
+    "source_split",
 ]
 
 #: Seed of the atypical test set of ``zonotope evaluate``, ``zonotope report`` and :func:`evaluate`
@@ -80,11 +96,11 @@ def _subset(R: np.ndarray, n: int | None, seed: int) -> np.ndarray:
     return R[np.sort(np.random.default_rng(seed).choice(R.shape[0], n, replace=False))]
 
 
-def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED) -> TestSet:
-    """The atypical test set: ``n`` spectra of :func:`zonotope.atypical.atypical_reflectances`.
+def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED, generator: str = "A") -> TestSet:
+    """An atypical test set: ``n`` spectra of one of the two independent generators.
 
     Every caller (evaluate, report, the CLI) builds it here, so one label names one set: "atypical
-    (n)" with the default seed, "atypical (n, seed s)" otherwise.
+    (n)" / "atypical B (n)" with the default seed, "atypical (n, seed s)" otherwise.
 
     Parameters
     ----------
@@ -94,14 +110,77 @@ def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED) -> Test
         Number of spectra.
     seed
         Generator seed.
+    generator
+        ``"A"``: :func:`zonotope.atypical.atypical_reflectances` (band-pass/stop, narrow-band,
+        spiky); ``"B"``: :func:`zonotope.atypical.structured_reflectances` (steps, thin-film
+        fringes, rough).
 
     Returns
     -------
     TestSet
     """
-    X, _ = atypical_reflectances(np.asarray(wavelengths, dtype=np.float64), n, seed=seed)
-    label = f"atypical ({n})" if seed == ATYPICAL_SEED else f"atypical ({n}, seed {seed})"
+    w = np.asarray(wavelengths, dtype=np.float64)
+    if generator == "A":
+        X, _ = atypical_reflectances(w, n, seed=seed)
+        name = "atypical"
+    elif generator == "B":
+        X, _ = structured_reflectances(w, n, seed=1_000_003 + seed)
+        name = "atypical B"
+    else:
+        raise SpectralDataError(f"generator={generator!r}: choose 'A' or 'B'.")
+    label = f"{name} ({n})" if seed == ATYPICAL_SEED else f"{name} ({n}, seed {seed})"
     return TestSet(label, X, "atypical")
+
+
+def atypical_test_sets(wavelengths, n: int, *, seed: int = ATYPICAL_SEED) -> list[TestSet]:
+    """Both atypical test sets (generators A and B, :func:`atypical_test_set`), ``n`` spectra each."""
+    return [atypical_test_set(wavelengths, n, seed=seed, generator=g) for g in ("A", "B")]
+
+
+def source_split(
+    test_sets: Sequence[TestSet], training, *, exclude_within: float = 0.02
+) -> tuple[list[TestSet], list[str]]:
+    """Remove from each test set the spectra that (nearly) occur in the training set.
+
+    A test spectrum is removed when some training spectrum is within ``exclude_within`` of it at
+    every wavelength (L∞ distance ≤ ``exclude_within``): the same physical sample measured twice, or
+    a near-duplicate, would otherwise reward an estimator for memorising its training set.
+
+    Parameters
+    ----------
+    test_sets : sequence of TestSet
+    training : ndarray of shape (N, n)
+        Training reflectances on the same grid.
+    exclude_within
+        Tolerance (reflectance units); ``None`` or a negative value disables the split.
+
+    Returns
+    -------
+    sets : list of TestSet
+        The filtered sets (a set left empty is dropped).
+    notes : list of str
+        One line per set that lost spectra.
+    """
+    if exclude_within is None or exclude_within < 0:
+        return list(test_sets), []
+    T = np.asarray(training, dtype=np.float64)
+    out, notes = [], []
+    for ts in test_sets:
+        X = ts.reflectances
+        near = np.zeros(X.shape[0], dtype=bool)
+        for start in range(0, X.shape[0], 256):
+            block = X[start : start + 256]
+            near[start : start + 256] = (
+                np.abs(block[:, None, :] - T[None]).max(axis=-1).min(axis=1) <= exclude_within
+            )
+        if near.any():
+            notes.append(
+                f"{ts.name}: {int(near.sum())} of {X.shape[0]} spectra removed (within "
+                f"{exclude_within:g} of a training spectrum at every wavelength)."
+            )
+        if (~near).any():
+            out.append(TestSet(ts.name, X[~near], ts.kind) if near.any() else ts)
+    return out, notes
 
 
 def natural_test_sets(
@@ -171,6 +250,36 @@ class EvaluationRow:
     seconds: float = 0.0
 
 
+@dataclass(frozen=True)
+class PairedComparison:
+    """Method ``a`` against method ``b`` on the same samples (:meth:`Evaluation.paired`).
+
+    Attributes
+    ----------
+    a, b : str
+    n : int
+        Samples compared.
+    a_better, b_better : float
+        Fraction of samples where a's ΔE00 is lower by more than 0.01 (b's, resp.); the rest are ties.
+    mean_diff : float
+        Mean of ``ΔE00(a) − ΔE00(b)`` (negative: a is better on average).
+    p95_diff, max_diff : float
+        95th percentile and maximum of that difference (how much worse a can be than b).
+    min_diff : float
+        Its minimum (how much better a can be).
+    """
+
+    a: str
+    b: str
+    n: int
+    a_better: float
+    b_better: float
+    mean_diff: float
+    p95_diff: float
+    max_diff: float
+    min_diff: float
+
+
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """Result of :func:`evaluate`.
@@ -182,11 +291,63 @@ class Evaluation:
         ``(cameras, test_set) → (mean, median, max)`` MMV volume (XYZ units, Y_white = 1).
     notes : list of str
         Estimators skipped and why, infeasible responses, settings.
+    errors : dict
+        ``(cameras, test_set, method) → ndarray`` of per-sample ΔE00 (same sample order for every
+        method), for pooled statistics and paired comparisons.
     """
 
     rows: list[EvaluationRow]
     volumes: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    errors: dict = field(default_factory=dict)
+
+    def _pooled_errors(self, method: str, kind: str | None, cameras: str | None) -> np.ndarray:
+        kinds = {r.test_set: r.kind for r in self.rows}
+        parts = [
+            e
+            for (c, t, m), e in self.errors.items()
+            if m == method and (cameras is None or c == cameras) and (kind is None or kinds.get(t) == kind)
+        ]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def pooled_stats(self, kind: str | None = None, cameras: str | None = None) -> dict[str, tuple]:
+        """Pooled ``(n, mean, p95, max)`` ΔE00 of each method over every sample of the test sets of
+        one kind (``None``: all kinds) and camera set (``None``: all)."""
+        out = {}
+        for m in dict.fromkeys(r.method for r in self.rows):
+            e = self._pooled_errors(m, kind, cameras)
+            if e.size:
+                out[m] = (int(e.size), float(e.mean()), float(np.percentile(e, 95)), float(e.max()))
+        return out
+
+    def paired(
+        self, a: str, b: str, *, kind: str | None = None, cameras: str | None = None, tie: float = 0.01
+    ) -> PairedComparison:
+        """Compare methods ``a`` and ``b`` sample by sample (ties: |difference| ≤ ``tie`` ΔE00).
+
+        Raises
+        ------
+        SpectralDataError
+            When either method has no samples in the selection.
+        """
+        ea, eb = self._pooled_errors(a, kind, cameras), self._pooled_errors(b, kind, cameras)
+        if ea.size == 0 or ea.size != eb.size:
+            raise SpectralDataError(
+                f"paired: methods {a!r} and {b!r} were not both evaluated on the selected sets "
+                f"(kind={kind!r}, cameras={cameras!r}); evaluated: {sorted({m for *_, m in self.errors})}."
+            )
+        d = ea - eb
+        return PairedComparison(
+            a,
+            b,
+            int(d.size),
+            float(np.mean(d < -tie)),
+            float(np.mean(d > tie)),
+            float(d.mean()),
+            float(np.percentile(d, 95)),
+            float(d.max()),
+            float(d.min()),
+        )
 
     def summary(self, kind: str, cameras: str | None = None) -> dict[str, float]:
         """Mean of the per-set ΔE00 means of each method over test sets of one kind."""
@@ -228,7 +389,40 @@ class Evaluation:
                 )
             )
         notes = "".join(f"\n- {n}" for n in self.notes)
-        return head + body + vol + (f"\nNotes:{notes}\n" if notes else "")
+        return head + body + self.pooled_markdown() + vol + (f"\nNotes:{notes}\n" if notes else "")
+
+    def pooled_markdown(self, reference: str | None = None) -> str:
+        """Pooled statistics per camera set and kind, and paired comparisons of ``reference`` (default:
+        the default estimator if evaluated, else the first method) against every other method."""
+        if not self.errors:
+            return ""
+        methods = list(dict.fromkeys(r.method for r in self.rows))
+        if reference is None:
+            reference = "Prior" if "Prior" in methods else methods[0]
+        lines = [
+            "\n| cameras | kind | estimator | n | pooled mean | p95 | max |"
+            f" {reference} better | worse | mean diff | p95 diff |\n"
+            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        ]
+        for cams in dict.fromkeys(r.cameras for r in self.rows):
+            for kind in dict.fromkeys(r.kind for r in self.rows if r.cameras == cams):
+                for m, (n, mean, p95, mx) in self.pooled_stats(kind, cams).items():
+                    pc = ""
+                    if m != reference and reference in methods:
+                        try:
+                            p = self.paired(reference, m, kind=kind, cameras=cams)
+                            pc = (
+                                f"{100 * p.a_better:.0f} % | {100 * p.b_better:.0f} % | {p.mean_diff:+.3f} | "
+                                f"{p.p95_diff:+.2f}"
+                            )
+                        except SpectralDataError:
+                            pc = ""
+                    lines.append(
+                        f"| {cams} | {kind} | {m} | {n} | {mean:.3f} | {p95:.3f} | {mx:.2f} | "
+                        + (pc or " | | | ")
+                        + " |\n"
+                    )
+        return "".join(lines)
 
 
 def _stats(dE: np.ndarray) -> tuple[float, float, float, float]:
@@ -265,6 +459,7 @@ def evaluate(
     noise: float = 0.0,
     seed: int = 0,
     centroid_eps: float = 1e-3,
+    exclude_within: float | None = 0.02,
     progress: Callable[[str, int], None] | None = None,
 ) -> Evaluation:
     """ΔE00 of each estimator, for each camera set and test set.
@@ -292,6 +487,9 @@ def evaluate(
         Seed of the atypical spectra and of the noise.
     centroid_eps
         Certification tolerance of the MMVs.
+    exclude_within
+        Test spectra within this L∞ distance of a training spectrum are removed (:func:`source_split`,
+        per camera set's training data); ``None`` keeps every test spectrum.
     progress
         Called as ``progress(description, n_steps)`` before each step (for progress bars).
 
@@ -311,7 +509,7 @@ def evaluate(
     if test_sets is None:
         test_sets = natural_test_sets(w)
         if atypical:
-            test_sets.append(atypical_test_set(w, atypical, seed=seed))
+            test_sets.extend(atypical_test_sets(w, atypical, seed=seed))
     for ts in test_sets:
         if ts.reflectances.ndim != 2 or ts.reflectances.shape[0] == 0:
             raise SpectralDataError(f"test set {ts.name!r} is empty; give at least one reflectance.")
@@ -322,6 +520,8 @@ def evaluate(
     rows: list[EvaluationRow] = []
     volumes: dict = {}
     notes: list[str] = []
+    errors: dict = {}
+    all_sets = list(test_sets)
     rng = np.random.default_rng(seed)
     for cams in camera_sets:
         cams = [cams] if isinstance(cams, str) or not isinstance(cams, Sequence) else list(cams)
@@ -329,6 +529,8 @@ def evaluate(
             cams, target=target, illuminant=illuminant, shape=shape, training=training
         )
         label = " + ".join(problem.sources)
+        test_sets, split_notes = source_split(all_sets, problem.training, exclude_within=exclude_within)
+        notes.extend(n for n in split_notes if n not in notes)
         fitted = {}
         for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
             props = CORRECTION_METHODS.properties(m)
@@ -366,6 +568,7 @@ def evaluate(
                 E = cents if m == centroid else est(C)
                 secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
                 dE = problem.delta_E(E, T)
+                errors[label, ts.name, m] = np.asarray(dE, dtype=np.float64)
                 inside = None
                 if CORRECTION_METHODS.properties(m)["closed_form"]:
                     inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
@@ -378,4 +581,4 @@ def evaluate(
         f"grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, illuminant {illuminant}, target "
         f"{target} (XYZ, Y_white = 1), training {training}, noise σ = {noise:g}."
     )
-    return Evaluation(rows, volumes, notes)
+    return Evaluation(rows, volumes, notes, errors)

@@ -223,9 +223,9 @@ def write_report(
         step("evaluation", len(sets))
         tests = natural_test_sets(w, data_dir=data_dir, size=size)
         if atypical:  # the same set, seed and label as 'zonotope evaluate' (was another seed)
-            from .evaluate import atypical_test_set
+            from .evaluate import atypical_test_sets
 
-            tests.append(atypical_test_set(w, atypical))
+            tests.extend(atypical_test_sets(w, atypical))  # generators A and B
         camera_sets = [[c] for c in curves] + ([curves] if len(curves) > 1 else [])
         ev = evaluate(
             camera_sets,
