@@ -41,7 +41,7 @@ def test_matches_the_lp_twin_and_the_exact_mmv(cameras):
         assert got[-1]  # the truth is always seeable
         ref = np.array([feasible(Phi, Psi, c, y) for y in Y])
         span = float((hi - lo).max())
-        clear = mmv.contains(Y, tol=1e-6 * span) == mmv.contains(Y, tol=-1e-6 * span)
+        clear = mmv.contains(Y, atol=1e-6 * span) == mmv.contains(Y, atol=-1e-6 * span)
         np.testing.assert_array_equal(got[clear], ref[clear])
         np.testing.assert_array_equal(got[clear], mmv.contains(Y)[clear])
         assert 0 < got.sum() < got.size and clear.sum() >= 35

@@ -78,7 +78,7 @@ def test_exact_certified_by_highs(grid):
     Phi, Psi, R = gens("Nikon 5100 (NPL)", grid), gens(TARGET, grid), checker(grid)
     c = R[18] @ Phi
     mmv = metamer_mismatch(Phi, Psi, c)
-    assert mmv.dim == 3
+    assert mmv.affine_dim == 3
     A, b = mmv.halfspaces
     rng = np.random.default_rng(0)
     pick = rng.choice(len(A), size=min(40, len(A)), replace=False)
@@ -96,9 +96,9 @@ def test_random_direction_sampling_inside(nikon10):
     mmv = metamer_mismatch(Phi, Psi, c)
     U = np.random.default_rng(3).normal(size=(40, 3))
     _, pts, _ = HighsOracle(Phi, Psi, c).support(U)
-    assert mmv.contains(pts, tol=1e-8).all()
+    assert mmv.contains(pts, atol=1e-8).all()
     _, pts, _ = SimplexOracle(Phi, Psi, c).support(U)
-    assert mmv.contains(pts, tol=1e-10).all()
+    assert mmv.contains(pts, atol=1e-10).all()
 
 
 def test_mmv_inside_target_solid(nikon10):
@@ -106,18 +106,18 @@ def test_mmv_inside_target_solid(nikon10):
     solid = Zonotope(Psi)
     for i in (0, 9, 21):
         mmv = metamer_mismatch(Phi, Psi, R[i] @ Phi)
-        assert solid.contains(mmv.vertices, tol=1e-9).all()
-        assert mmv.contains(R[i] @ Psi, tol=1e-9)
+        assert solid.contains(mmv.vertices, atol=1e-9).all()
+        assert mmv.contains(R[i] @ Psi, atol=1e-9)
 
 
 def test_psi_equal_phi_gives_point(nikon10):
     Phi, _, R = nikon10
     c = R[4] @ Phi
     mmv = metamer_mismatch(Phi, Phi, c)
-    assert mmv.dim == 0 and mmv.volume == 0.0
+    assert mmv.affine_dim == 0 and mmv.volume == 0.0
     np.testing.assert_allclose(mmv.centroid, c, atol=1e-12)
     cert = metamer_mismatch_bounds(Phi, Phi, c, eps=1e-3)
-    assert cert.dim == 0 and cert.volume_bounds == (0.0, 0.0)
+    assert cert.affine_dim == 0 and cert.volume_bounds == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("level", [0.0, 1.0])
@@ -126,7 +126,7 @@ def test_black_and_white_give_a_point(nikon10, level):
     assert np.all(np.abs(Phi).sum(axis=1) > 0)  # the camera sees every wavelength of the grid
     x = np.full(len(Phi), level)
     mmv = metamer_mismatch(Phi, Psi, x @ Phi)
-    assert mmv.dim == 0
+    assert mmv.affine_dim == 0
     np.testing.assert_allclose(mmv.centroid, x @ Psi, atol=1e-9)
 
 
@@ -134,8 +134,8 @@ def test_boundary_response_is_lower_dimensional(nikon10):
     Phi, Psi, _ = nikon10
     sup = Zonotope(Phi).support(np.array([0.3, -1.0, 0.5]))  # optimal stimulus: on the boundary
     mmv = metamer_mismatch(Phi, Psi, sup.point)
-    assert mmv.dim < 3 and mmv.volume == 0.0
-    assert mmv.contains(sup.reflectance @ Psi, tol=1e-9)
+    assert mmv.affine_dim < 3 and mmv.volume == 0.0
+    assert mmv.contains(sup.reflectance @ Psi, atol=1e-9)
 
 
 def test_adding_a_camera_never_enlarges():
@@ -145,11 +145,11 @@ def test_adding_a_camera_never_enlarges():
     for i in (1, 11):
         big = metamer_mismatch(one, Psi, R[i] @ one)
         small = metamer_mismatch(two, Psi, R[i] @ two)
-        assert big.contains(small.vertices, tol=1e-9).all()
+        assert big.contains(small.vertices, atol=1e-9).all()
         assert small.volume < big.volume
-        assert small.contains(R[i] @ Psi, tol=1e-9)
+        assert small.contains(R[i] @ Psi, atol=1e-9)
         outer = channelwise_intersection(two, Psi, R[i] @ two)
-        assert outer.contains(small.vertices, tol=1e-8).all()
+        assert outer.contains(small.vertices, atol=1e-8).all()
         assert outer.volume >= small.volume * (1 - 1e-9)
 
 
@@ -161,8 +161,8 @@ def test_certified_bounds_and_shrinking_gap(nikon10):
     for eps in (3e-2, 3e-3, 3e-4):
         res = metamer_mismatch_bounds(Phi, Psi, c, eps=eps)
         assert isinstance(res, CertifiedMMV)
-        assert exact.contains(res.inner.vertices, tol=1e-9).all()
-        assert res.outer.contains(exact.vertices, tol=1e-9).all()
+        assert exact.contains(res.inner.vertices, atol=1e-9).all()
+        assert res.outer.contains(exact.vertices, atol=1e-9).all()
         lo, hi = res.volume_bounds
         assert lo <= exact.volume * (1 + 1e-9) and exact.volume <= hi * (1 + 1e-9)
         assert np.linalg.norm(res.centroid - exact.centroid) <= res.centroid_error + 1e-12
@@ -176,7 +176,7 @@ def test_noise_tolerance_grows_and_infeasible(nikon10):
     c = R[3] @ Phi
     base = metamer_mismatch(Phi, Psi, c)
     noisy = metamer_mismatch(Phi, Psi, c, delta=0.01)
-    assert noisy.contains(base.vertices, tol=1e-9).all() and noisy.volume > base.volume
+    assert noisy.contains(base.vertices, atol=1e-9).all() and noisy.volume > base.volume
     outside = Zonotope(Phi).white * 1.02  # 2 % brighter than white: impossible
     with pytest.raises(InfeasibleResponseError) as info:
         metamer_mismatch(Phi, Psi, outside)
@@ -188,7 +188,7 @@ def test_noise_tolerance_grows_and_infeasible(nikon10):
     assert near.diameter < 1e-5  # the only response 0.02 from 1.02·white is white (δ rounded up)
     np.testing.assert_allclose(near.centroid, Zonotope(Psi).white, atol=1e-6)
     ok = metamer_mismatch(Phi, Psi, outside, delta=expect * 1.5)
-    assert ok.contains(Zonotope(Psi).white, tol=1e-9)
+    assert ok.contains(Zonotope(Psi).white, atol=1e-9)
 
 
 def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
@@ -217,9 +217,9 @@ def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
         for x in R:
             res = metamer_mismatch_bounds(Phi, Psi, x @ Phi, eps=eps)
             truth = x @ Psi
-            assert res.outer.contains(truth, tol=1e-9)
+            assert res.outer.contains(truth, atol=1e-9)
             # every inner facet is within eps of the support, so each MMV point is within eps of it
-            assert res.inner.contains(truth, tol=eps + 1e-9)
+            assert res.inner.contains(truth, atol=eps + 1e-9)
 
 
 def test_truth_in_exact_mmv_two_cameras():
@@ -227,7 +227,7 @@ def test_truth_in_exact_mmv_two_cameras():
     R = checker(G10)
     for x in R[::6]:
         mmv = mm(mm.source_of(x))
-        assert mmv.contains(mm.target_of(x), tol=1e-9)
+        assert mmv.contains(mm.target_of(x), atol=1e-9)
 
 
 def test_metamer_mismatch_class_and_batch():
@@ -259,7 +259,7 @@ def test_random_generators_truth_and_reference(seed, n, k, m):
     x = rng.random(n)
     c = x @ Phi
     mmv = metamer_mismatch(Phi, Psi, c)
-    assert isinstance(mmv, Polytope) and mmv.contains(x @ Psi, tol=1e-9)
+    assert isinstance(mmv, Polytope) and mmv.contains(x @ Psi, atol=1e-9)
     U = rng.normal(size=(10, m))
     h_ref, _, _ = HighsOracle(Phi, Psi, c).support(U)
     h_ours = (U @ mmv.vertices.T).max(axis=1)
@@ -359,5 +359,5 @@ def test_thin_certified_mmv_outside_response_nearest():
     mmv = metamer_mismatch_bounds(Phi, Psi, c, eps=1e-3, on_infeasible="nearest")
     lo, hi = mmv.volume_bounds
     assert 0.0 <= lo <= hi
-    assert mmv.outer.contains(mmv.inner.vertices, tol=1e-9).all()
-    assert mmv.outer.contains(mmv.centroid, tol=1e-9)
+    assert mmv.outer.contains(mmv.inner.vertices, atol=1e-9).all()
+    assert mmv.outer.contains(mmv.centroid, atol=1e-9)

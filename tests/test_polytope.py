@@ -47,7 +47,7 @@ def random_points(seed: int, n: int = 40) -> np.ndarray:
 
 def test_cube_exact():
     P = Polytope(CUBE)
-    assert P.dim == 3 and P.volume == pytest.approx(1.0, abs=1e-15)
+    assert P.affine_dim == 3 and P.volume == pytest.approx(1.0, abs=1e-15)
     np.testing.assert_allclose(P.centroid, 0.5, atol=1e-15)
     A, _ = P.halfspaces
     assert A.shape == (6, 3)  # 12 hull triangles merged into 6 facets
@@ -88,7 +88,7 @@ def test_centroid_is_not_vertex_mean():
 @pytest.mark.parametrize("name, pts, dim, measure, centroid", DEGENERATE, ids=[d[0] for d in DEGENERATE])
 def test_degenerate_catalogue(name, pts, dim, measure, centroid):
     P = Polytope(pts)
-    assert P.dim == dim
+    assert P.affine_dim == dim
     assert P.volume == 0.0
     assert P.measure == pytest.approx(measure, rel=1e-12)
     np.testing.assert_allclose(P.centroid, centroid, atol=1e-12)
@@ -110,7 +110,7 @@ def test_flat_in_3d_no_qhull_crash():
     uv = rng.random((100, 2))
     pts = np.array([0.1, 0.2, 0.3]) + uv @ np.array([[1.0, 0.5, 0.2], [-0.3, 1.0, 0.4]])
     P = Polytope(pts + 1e-14 * rng.normal(size=pts.shape))
-    assert P.dim == 2
+    assert P.affine_dim == 2
     area = ConvexHull(uv).volume * np.linalg.norm(np.cross([1.0, 0.5, 0.2], [-0.3, 1.0, 0.4]))
     assert P.measure == pytest.approx(area, rel=1e-9)
 
@@ -121,7 +121,7 @@ def test_contains_matches_delaunay(seed):
     P = Polytope(pts)
     q = random_points(seed + 100, 2000) * 1.2
     expect = Delaunay(pts).find_simplex(q) >= 0
-    np.testing.assert_array_equal(P.contains(q, tol=0.0), expect)
+    np.testing.assert_array_equal(P.contains(q, atol=0.0), expect)
 
 
 def _project_slsqp(P: Polytope, p: np.ndarray, W: np.ndarray) -> np.ndarray:
@@ -161,7 +161,7 @@ def test_project_invariants(seed):
     P = Polytope(rng.random((12, 3)))
     q = rng.normal(size=(8, 3)) * 3
     y = P.project(q)
-    assert P.contains(y, tol=1e-9).all()
+    assert P.contains(y, atol=1e-9).all()
     np.testing.assert_allclose(P.project(y), y, atol=1e-12)
     d = np.linalg.norm(y - q, axis=1)
     dv = np.linalg.norm(q[:, None] - P.vertices[None], axis=2).min(axis=1)
@@ -184,10 +184,10 @@ def test_intersection_degenerate_and_empty():
     cube = Polytope(CUBE)
     touching = Polytope(CUBE + np.array([1.0, 0.0, 0.0]))
     face = cube.intersect(touching)
-    assert face.dim == 2 and face.measure == pytest.approx(1.0, rel=1e-9)
+    assert face.affine_dim == 2 and face.measure == pytest.approx(1.0, rel=1e-9)
     np.testing.assert_allclose(face.centroid, [1.0, 0.5, 0.5], atol=1e-9)
     empty = cube.intersect(Polytope(CUBE + 3.0))
-    assert empty.dim == -1 and empty.volume == 0.0 and not empty.contains([0.5, 0.5, 0.5])
+    assert empty.affine_dim == -1 and empty.volume == 0.0 and not empty.contains([0.5, 0.5, 0.5])
     with pytest.raises(GeometryError, match="empty"):
         empty.centroid  # noqa: B018
 
@@ -212,6 +212,6 @@ def test_pyvista_surface_closed():
 
 def test_2d_ambient():
     sq = Polytope(np.array([[0, 0], [2, 0], [0, 1], [2, 1], [1, 0.5]], float))
-    assert sq.dim == 2 and sq.volume == pytest.approx(2.0) and sq.n_facets == 4
+    assert sq.affine_dim == 2 and sq.volume == pytest.approx(2.0) and sq.n_facets == 4
     np.testing.assert_allclose(sq.centroid, [1.0, 0.5])
     np.testing.assert_allclose(sq.project(np.array([[3.0, 3.0]])), [[2.0, 1.0]])

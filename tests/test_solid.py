@@ -54,7 +54,7 @@ def test_matches_brute_force_hull(G):
     # generators within TOL.parallel (1e-7 rad) are merged: a relative change of that order
     assert Z.volume == pytest.approx(hull.volume, rel=1e-9 if separated else 1e-6, abs=1e-12)
     # same set: every brute-force corner is in the solid and every vertex is a corner
-    assert np.all(Z.contains(P, tol=1e-6))
+    assert np.all(Z.contains(P, atol=1e-6))
     assert np.all(hull.equations[:, :3] @ Z.vertices.T + hull.equations[:, 3:] <= 1e-9)
     if separated:  # no (near-)parallel pairs or (near-)coplanar triples: identical vertex sets
         assert rows(Z.vertices, 7) == rows(P[hull.vertices], 7)
@@ -85,7 +85,7 @@ def test_vertex_sweep_equals_key_deduplication(G):
     integer generators make many exactly coplanar triples (zonogon facets) and parallel pairs."""
     assume(not 0 < np.abs(G).max() < 1e-150)  # refused with a GeometryError (test_bad_generators_raise)
     Z = Zonotope(G)
-    if Z.rank < 3:
+    if Z.affine_dim < 3:
         return
     fast = Z._vertices_sweep()
     slow = Z._vertices_by_keys()
@@ -182,7 +182,7 @@ def test_colour_outer_surface_points_are_on_the_solid():
     XYZ = colour.volume.XYZ_outer_surface(cmfs, illuminant)
     G = zonotope.generators(cmfs, illuminant, shape, normalise=1)
     Z = Zonotope(G)
-    assert np.all(Z.contains(XYZ, tol=1e-9))
+    assert np.all(Z.contains(XYZ, atol=1e-9))
     A, b = Z.halfspaces
     distance = (XYZ @ A.T - b).max(axis=1)
     assert distance.max() < 1e-9
@@ -208,8 +208,8 @@ def test_cube_map_inside_test_equals_dense_test_near_the_boundary():
     V = Z.vertices[rng.choice(Z.vertices.shape[0], 2000)]
     c = Z.centroid
     Q = np.concatenate([c + (V - c) * (1 + 1e-6), c + (V - c) * (1 - 1e-6), rng.random((20000, 3))])
-    np.testing.assert_array_equal(Z.contains(Q, tol=0.0), Z.contains_reference(Q, tol=0.0))
-    assert Z.contains(Q[:2000], tol=0.0).sum() == 0 and Z.contains(Q[2000:4000], tol=0.0).all()
+    np.testing.assert_array_equal(Z.contains(Q, atol=0.0), Z.contains_reference(Q, atol=0.0))
+    assert Z.contains(Q[:2000], atol=0.0).sum() == 0 and Z.contains(Q[2000:4000], atol=0.0).all()
 
 
 @pytest.mark.parametrize("dims", [2, 4])
@@ -230,7 +230,7 @@ def test_nd_support_contains_and_volume_against_brute_force(dims):
 def test_flat_solids_are_honest():
     G = np.random.default_rng(9).random((8, 2))
     Z = Zonotope(np.column_stack([G, G[:, 0]]))  # third channel duplicates the first
-    assert Z.rank == 2 and Z.volume == 0.0
+    assert Z.affine_dim == 2 and Z.volume == 0.0
     with pytest.raises(GeometryError, match="flat"):
         _ = Z.halfspaces
     inside = Z.centroid

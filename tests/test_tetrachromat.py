@@ -33,7 +33,7 @@ def test_four_channel_solid_against_brute_force(problem):
     Z = Zonotope(G)
     P = np.array(list(itertools.product([0.0, 1.0], repeat=G.shape[0]))) @ G
     hull = ConvexHull(P)
-    assert Z.dim == 4 and Z.rank == 4
+    assert Z.ambient_dim == 4 and Z.affine_dim == 4
     assert Z.volume == pytest.approx(hull.volume, rel=1e-9)
     rng = np.random.default_rng(0)
     U = rng.normal(size=(50, 4))
@@ -52,7 +52,7 @@ def test_four_channel_mmv_exact_vs_highs_twin(problem, seed):
     c = x @ Phi
     fast = metamer_mismatch(Phi, Psi, c)
     ref = metamer_mismatch(Phi, Psi, c, oracle="highs")
-    assert fast.dim == 4 and fast.ambient_dim == 4
+    assert fast.affine_dim == 4 and fast.ambient_dim == 4
     assert fast.volume == pytest.approx(ref.volume, rel=1e-9)
     assert bool(fast.contains(x @ Psi))
     # support in random directions = the LP max over the fibre (independent of both oracles)
@@ -70,6 +70,6 @@ def test_camera_to_camera_four_channels(problem):
     x = np.random.default_rng(3).random(Phi.shape[0])
     mmv = metamer_mismatch(Phi4, Psi, x @ Phi4)
     # the fourth target channel is measured by the source: the MMV is flat along it
-    assert mmv.dim == 3
+    assert mmv.affine_dim == 3
     assert np.allclose(mmv.vertices[:, 3], x @ Psi[:, 3], atol=1e-9)
     assert bool(mmv.contains(x @ Psi))

@@ -32,7 +32,7 @@ def test_polytope_flatness_threshold_is_AFFINE():
     diameter = np.sqrt(2.0)
     for height, dim in [(0.01 * _tol.AFFINE * diameter, 2), (100 * _tol.AFFINE * diameter, 3)]:
         P = Polytope(np.vstack([square, [0.5, 0.5, height]]))
-        assert P.dim == dim
+        assert P.affine_dim == dim
 
 
 def test_tolerance_values_are_documented():

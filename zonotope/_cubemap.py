@@ -7,8 +7,8 @@ max_F (a_F·(p − c)) / (b_F − a_F·c). So testing only the facets whose shad
 direction decides "inside" exactly:
 
 - max over candidates ≤ 0  ⇒ inside (the exit facet is among them, gauge ≤ 1);
-- max over candidates > tol ⇒ outside (some facet is violated by more than tol);
-- otherwise (within tol of the boundary) the point is re-tested against every facet.
+- max over candidates > atol ⇒ outside (some facet is violated by more than atol);
+- otherwise (within atol of the boundary) the point is re-tested against every facet.
 
 Directions are bucketed on the six faces of a cube (K×K cells each). A facet is a candidate
 for a cell when the angular caps around the facet's shadow and around the cell overlap.
@@ -122,8 +122,8 @@ class CubeMap:
     def mean_candidates(self) -> float:
         return float(np.mean(np.diff(self.start)))
 
-    def contains(self, points: np.ndarray, tol: float) -> np.ndarray:
-        """Exact inside test of points (B, 3) within absolute slack ``tol``."""
+    def contains(self, points: np.ndarray, atol: float) -> np.ndarray:
+        """Exact inside test of points (B, 3) within absolute slack ``atol``."""
         v = points - self.c
         out = np.ones(v.shape[0], dtype=bool)
         nz = np.nonzero(np.any(v != 0.0, axis=1))[0]
@@ -143,11 +143,11 @@ class CubeMap:
             if F.size == 0:  # pragma: no cover - every cell meets some facet's shadow
                 F = np.arange(self.A.shape[0])
             worst[s:e] = (vs[s:e] @ self.A[F].T - self.h[F]).max(axis=1)
-        unsure = np.nonzero((worst > 0.0) & (worst <= tol))[0]
+        unsure = np.nonzero((worst > 0.0) & (worst <= atol))[0]
         if unsure.size:
             full = (vs[unsure] @ self.A.T - self.h).max(axis=1)
             worst[unsure] = full
         res = np.empty(nz.size, dtype=bool)
-        res[order] = worst <= tol
+        res[order] = worst <= atol
         out[nz] = res
         return out

@@ -41,7 +41,7 @@ class Refinement:
     values : ndarray of shape (Q,)
         Support values h(direction) (so the body ⊆ ∩ {y : dᵀy ≤ h}).
     origin, basis : ndarray of shape (m,), (m, d)
-        Affine hull of the body (certified flat within ``tol`` along the complement).
+        Affine hull of the body (certified flat within ``atol`` along the complement).
     lp_calls : int
     rounds : int
     max_gap : float
@@ -65,13 +65,13 @@ class Refinement:
         o, B = self.origin, self.basis
         d = B.shape[1]
         if d == 0:
-            return Polytope(o[None], tol=self.inner.tol)
+            return Polytope(o[None], atol=self.inner.atol)
         A = self.directions @ B
         b = self.values - self.directions @ o
         norms = np.linalg.norm(A, axis=1)
         keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
         A, b = A[keep], b[keep]
-        if self.inner.dim == d and d >= 2:
+        if self.inner.affine_dim == d and d >= 2:
             # Work in the inner polytope's principal frame, scaled to unit spread: a very thin MMV
             # (1e-8 thick, 1e-3 wide) is then well conditioned for Qhull. The inner centroid is
             # interior to the outer bound; the map is affine, so vertices map back exactly.
@@ -84,7 +84,7 @@ class Refinement:
             Zw = _vertices_from_halfspaces(AL / n[:, None], (b - A @ c) / n, None, interior=np.zeros(d))
             Z = c + Zw @ L.T
         else:
-            Z = _vertices_from_halfspaces(A, b, self.inner.tol)
+            Z = _vertices_from_halfspaces(A, b, self.inner.atol)
         # Degenerate vertices (more than d planes through one point) come back once per
         # d-subset, ~1e-11 apart: in 4-D Qhull then fails on a "wide merge" (QH6271, found with a
         # tetrachromat target). One representative per 1e-9-of-span cell.
@@ -92,7 +92,7 @@ class Refinement:
         if span > 0 and d >= 3:
             _, first = np.unique(np.round(Z / (1e-9 * span)), axis=0, return_index=True)
             Z = Z[np.sort(first)]
-        return Polytope(o + Z @ B.T, tol=self.inner.tol)
+        return Polytope(o + Z @ B.T, atol=self.inner.atol)
 
 
 def _initial_directions(m: int) -> np.ndarray:
@@ -105,7 +105,7 @@ def _initial_directions(m: int) -> np.ndarray:
 
 
 def refine(
-    oracle, m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000
+    oracle, m: int, *, threshold: float, atol: float, max_rounds: int = 200, max_points: int = 200_000
 ) -> Refinement:
     """Facet refinement with an oracle ``support(U (q, m), warm) -> (values, points, ids)``.
 
@@ -116,11 +116,11 @@ def refine(
     m : int
         Ambient dimension.
     threshold : float
-        Support gap under which a facet is certified (``tol`` in exact mode, ε otherwise).
-    tol : float
+        Support gap under which a facet is certified (``atol`` in exact mode, ε otherwise).
+    atol : float
         Absolute geometric tolerance (flatness, coplanarity).
     """
-    steps = refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds, max_points=max_points)
+    steps = refine_steps(m, threshold=threshold, atol=atol, max_rounds=max_rounds, max_points=max_points)
     request = next(steps)
     while True:
         try:
@@ -130,7 +130,7 @@ def refine(
 
 
 def refine_many(
-    oracle, rows, m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000
+    oracle, rows, m: int, *, threshold: float, atol: float, max_rounds: int = 200, max_points: int = 200_000
 ) -> list[Refinement]:
     """:func:`refine` for several responses of one multi-response oracle, in lockstep.
 
@@ -139,7 +139,7 @@ def refine_many(
     """
     rows = [int(r) for r in rows]
     steps = {
-        r: refine_steps(m, threshold=threshold, tol=tol, max_rounds=max_rounds, max_points=max_points)
+        r: refine_steps(m, threshold=threshold, atol=atol, max_rounds=max_rounds, max_points=max_points)
         for r in rows
     }
     pending = {r: next(s) for r, s in steps.items()}
@@ -163,7 +163,7 @@ def refine_many(
     return [done[r] for r in rows]
 
 
-def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200, max_points: int = 200_000):
+def refine_steps(m: int, *, threshold: float, atol: float, max_rounds: int = 200, max_points: int = 200_000):
     """The refinement as a generator: yields ``(U, warm)`` support queries, is sent the oracle's
     ``(values, points, ids)`` and returns the :class:`Refinement` (see :func:`refine`)."""
     calls = 0
@@ -174,7 +174,7 @@ def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
     rounds = 0
     # 1. affine hull: ask the directions orthogonal to the points' hull until none leaves it
     while True:
-        o, B = _affine_hull(P, tol)
+        o, B = _affine_hull(P, atol)
         if B.shape[1] == m:
             break
         C = _complement(B)
@@ -184,24 +184,24 @@ def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
         dirs.append(Uc)
         hs.append(v)
         rounds += 1
-        out = v - Uc @ o > tol
+        out = v - Uc @ o > atol
         if not out.any():
             break
         P, ids = np.concatenate([P, p[out]]), np.concatenate([ids, s[out]])
-    o, B = _affine_hull(P, tol)
+    o, B = _affine_hull(P, atol)
     d = B.shape[1]
     max_gap = 0.0
     if d == 0:
-        inner = Polytope(P, tol=tol)
+        inner = Polytope(P, atol=atol)
         return Refinement(inner, np.concatenate(dirs), np.concatenate(hs), o, B, calls, rounds, max_gap, True)
     # 2. refinement inside the affine hull
     is_new = np.ones(len(P), dtype=bool)
     converged = False
     while True:
-        poly = Polytope(P, tol=tol)
-        if poly.dim != d:  # pragma: no cover - the hull was certified above
+        poly = Polytope(P, atol=atol)
+        if poly.affine_dim != d:  # pragma: no cover - the hull was certified above
             o, B = poly.affine_hull
-            d = poly.dim
+            d = poly.affine_dim
         ns, offs, label = poly._facets_sub
         src = poly._keep
         S = src[poly._simplices]  # boundary simplices as indices of P
@@ -228,7 +228,7 @@ def refine_steps(m: int, *, threshold: float, tol: float, max_rounds: int = 200,
             converged = True
             break
         pn, sn = p[out], s[out]
-        _, first = np.unique(np.round(pn / max(tol, 1e-300)), axis=0, return_index=True)
+        _, first = np.unique(np.round(pn / max(atol, 1e-300)), axis=0, return_index=True)
         P = np.concatenate([P, pn[first]])
         ids = np.concatenate([ids, sn[first]])
         is_new = np.zeros(len(P), dtype=bool)

@@ -6,15 +6,29 @@ All are *relative*: they are multiplied by the natural scale of the object they 
 Vocabulary (one meaning each, across the three packages):
 
 ``tol``
-    On :class:`~zonotope.Zonotope`: a :class:`Tolerances` object (relative tolerances of the
-    solid's combinatorics). On :class:`~zonotope.Polytope` (constructor and ``.tol``) and in every
-    ``contains(points, tol=...)``: an absolute slack in the object's units (response units).
-    (Still two meanings: the rename of the absolute one to ``atol`` is pending, see CHANGELOG.)
+    Only ever a :class:`Tolerances` object of *relative* tolerances (the ``tol`` of
+    :class:`~zonotope.Zonotope`).
+``atol``
+    An absolute slack in the object's own units (response units): the ``atol`` of a
+    :class:`~zonotope.Polytope` (constructor and attribute), of every ``contains(points, atol=...)``,
+    of :func:`~zonotope.is_object_colour`, :func:`~zonotope.invert`, :func:`~zonotope.mmv_contains`
+    and :attr:`~zonotope.CertifiedMMV.atol`.
+``rtol``
+    A relative tolerance passed as a single float (e.g. :func:`zonotope.vora.projector`).
 ``eps``
     The certification tolerance of a metamer mismatch volume, relative to the target's scale
     (``eps = 0``: exact; ``eps > 0``: certified inner and outer bounds).
 ``delta``
     Per-channel tolerance on the source response (noise), in response units.
+``ambient_dim`` / ``affine_dim``
+    On both :class:`~zonotope.Zonotope` and :class:`~zonotope.Polytope`: the number of
+    coordinates (channels) of the space, and the dimension of the object's affine hull
+    (``affine_dim ≤ ambient_dim``; -1 for an empty polytope). There is no bare ``dim``.
+
+Array-shape letters: ``n`` wavelengths (rows of generator matrices), ``k`` source channels, ``m``
+target channels, ``N`` a count of items (points, responses, reflectances). ``splat`` says
+"N-channel" in prose (the thesis' name for its Gaussians) but its shape letters are ``C`` for
+channels and ``G`` for Gaussians.
 
 Why each value: float64 rounding is ε = 2.2e-16 and sums of n ≤ 10³ generators or LP solutions
 carry errors of about n·ε·scale ≲ 1e-12·scale. Tolerances that decide *combinatorics* (is this

@@ -91,7 +91,7 @@ def is_object_colour(
     observer: str = "CIE 1931 2°",
     illuminant: str = "D65",
     solid: Zonotope | None = None,
-    tol: float | None = None,
+    atol: float | None = None,
 ) -> np.ndarray:
     """Whether each XYZ (Y_white = 1) is the colour of some reflectance in [0, 1], exactly.
 
@@ -103,14 +103,14 @@ def is_object_colour(
         Used when ``solid`` is not given (see :func:`object_colour_solid`).
     solid : Zonotope, optional
         Any 3-channel solid instead (e.g. another grid).
-    tol : float, optional
-        Absolute slack; default ``TOL.contains × scale`` (~1e-9).
+    atol : float, optional
+        Absolute slack (XYZ units); default ``TOL.contains × scale`` (~1e-9).
 
     Returns
     -------
     ndarray of bool, shape (...)
     """
-    return _solid(solid, observer, illuminant).contains(XYZ, tol)
+    return _solid(solid, observer, illuminant).contains(XYZ, atol)
 
 
 def section(solid: Zonotope, normal, value: float) -> np.ndarray:
@@ -236,7 +236,7 @@ def invert(
     solid: Zonotope | None = None,
     observer: str = "CIE 1931 2°",
     illuminant: str = "D65",
-    tol: float | None = None,
+    atol: float | None = None,
     chunk: int | None = None,
 ) -> np.ndarray:
     """A reflectance in [0, 1] for each point of a 3-D solid (a metamer generator), exactly.
@@ -247,9 +247,10 @@ def invert(
         Responses inside the solid.
     solid : Zonotope, optional
         The solid; default :func:`object_colour_solid` of ``observer`` and ``illuminant``.
-    tol : float, optional
-        Points whose gauge exceeds ``1 + tol / scale`` are refused; default ``TOL.contains``
-        relative (~1e-9). Points within it are treated as boundary points.
+    atol : float, optional
+        Absolute slack (response units): points whose gauge exceeds ``1 + atol / scale`` are
+        refused; default ``TOL.contains × scale`` (~1e-9 relative). Points within it are
+        treated as boundary points.
     chunk : int, optional
         Points handled per vectorised block; default so that a block's gauge matrix (points ×
         facets) holds about 2·10⁶ numbers.
@@ -283,7 +284,7 @@ def invert(
     if not np.all(np.isfinite(P)):
         raise GeometryError("points contain NaN or inf.")
     flat = P.reshape(-1, 3)
-    rtol = TOL.contains if tol is None else float(tol) / Z.scale
+    rtol = TOL.contains if atol is None else float(atol) / Z.scale
     H, off, group, flipped = Z._reduction
     f = Z._facets
     A, b = Z.halfspaces

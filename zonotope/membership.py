@@ -74,7 +74,7 @@ def mmv_contains(
     responses,
     targets,
     *,
-    tol: float | None = None,
+    atol: float | None = None,
     halfspaces: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Whether each target response lies in the MMV of its source response, exactly.
@@ -87,8 +87,8 @@ def mmv_contains(
         Target generators.
     responses : array_like of shape (..., k)
     targets : array_like of shape (..., m)
-    tol : float, optional
-        Absolute slack; default ``TOL.contains`` × the joint solid's largest extent.
+    atol : float, optional
+        Absolute slack (response units); default ``TOL.contains`` × the joint solid's largest extent.
     halfspaces : (A, b), optional
         :func:`joint_halfspaces` of ``[Phi Psi]``, to reuse across calls.
 
@@ -117,7 +117,7 @@ def mmv_contains(
     J = np.concatenate([Phi, Psi], axis=1)
     A, b = halfspaces if halfspaces is not None else joint_halfspaces(J)
     z = np.concatenate([c, y], axis=-1).reshape(-1, J.shape[1])
-    slack = TOL.contains * float(np.abs(J).sum(axis=0).max()) if tol is None else float(tol)
+    slack = TOL.contains * float(np.abs(J).sum(axis=0).max()) if atol is None else float(atol)
     out = np.empty(z.shape[0], dtype=bool)
     step = max(1, 4_000_000 // max(A.shape[0], 1))
     for s in range(0, z.shape[0], step):

@@ -25,7 +25,7 @@ scipy-HiGHS twin (``oracle="highs"``) is the reference used by the tests and the
   centroid error bound. (One function per return type: the type never depends on a value.)
 
 Lower-dimensional MMVs (Ψ = Φ, black, white, responses on the source solid's boundary) are found
-by certifying the affine hull first (``dim`` 0, 1 or 2), never by a Qhull failure.
+by certifying the affine hull first (``affine_dim`` 0, 1 or 2), never by a Qhull failure.
 
 Choosing the noise tolerance δ
 ------------------------------
@@ -95,8 +95,9 @@ class CertifiedMMV:
         Convex hull of support points: ``inner ⊆ MMV``.
     outer : Polytope
         Intersection of the supporting half-spaces asked: ``MMV ⊆ outer``.
-    eps : float
-        Absolute support-gap tolerance used (target units).
+    atol : float
+        Absolute support-gap tolerance used (target units): ``max(eps × scale, CERTIFY × scale)``
+        for the relative ``eps`` asked and the target's scale.
     centroid_error : float
         Bound on ``‖centroid(MMV) − centroid(inner)‖`` (Euclidean, target units).
     lp_calls : int
@@ -105,14 +106,14 @@ class CertifiedMMV:
 
     inner: Polytope
     outer: Polytope
-    eps: float
+    atol: float
     centroid_error: float
     lp_calls: int
 
     @property
-    def dim(self) -> int:
+    def affine_dim(self) -> int:
         """Affine dimension of the MMV (certified flat along the complement to 1e-9 of the scale)."""
-        return self.inner.dim
+        return self.inner.affine_dim
 
     @property
     def volume_bounds(self) -> tuple[float, float]:
@@ -146,7 +147,7 @@ class MMVBatch:
         ``outer=False``).
     centroid_errors : ndarray of shape (...)
         Certified bound on each centroid's error (0 for ``eps = 0``, NaN with ``outer=False``).
-    dims : ndarray of int, shape (...)
+    affine_dims : ndarray of int, shape (...)
         Affine dimension of each MMV.
     lp_calls : int
         Support LPs solved in all.
@@ -156,7 +157,7 @@ class MMVBatch:
     volumes: np.ndarray
     volume_bounds: np.ndarray
     centroid_errors: np.ndarray
-    dims: np.ndarray
+    affine_dims: np.ndarray
     lp_calls: int
 
 
@@ -227,7 +228,7 @@ def _refinement(
         raise ValueError(f"eps must be a finite number ≥ 0; got {eps!r}.")
     tol, thr = _tolerances(Psi, eps)
     orc = _oracle_for(Phi, Psi, c, delta, oracle, on_infeasible)
-    return refine(orc, Psi.shape[1], threshold=thr, tol=tol, max_rounds=max_rounds), thr, tol
+    return refine(orc, Psi.shape[1], threshold=thr, atol=tol, max_rounds=max_rounds), thr, tol
 
 
 def metamer_mismatch(
@@ -261,7 +262,7 @@ def metamer_mismatch(
     -------
     Polytope
         The exact MMV (facets certified to :data:`zonotope._tol.CERTIFY` × the target scale);
-        ``dim`` < m for flat MMVs. For certified inner/outer bounds at a coarser tolerance, which
+        ``affine_dim`` < m for flat MMVs. For certified inner/outer bounds at a coarser tolerance, which
         cost fewer support LPs, use :func:`metamer_mismatch_bounds`.
 
     Raises
@@ -282,7 +283,7 @@ def metamer_mismatch(
     >>> Phi = zonotope.generators("Nikon 5100 (NPL)", shape=grid).values
     >>> Psi = zonotope.generators("Stockman & Sharpe 2°", shape=grid).values
     >>> mmv = metamer_mismatch(Phi, Psi, np.full(31, 0.5) @ Phi)
-    >>> mmv.dim, bool(mmv.contains(np.full(31, 0.5) @ Psi))
+    >>> mmv.affine_dim, bool(mmv.contains(np.full(31, 0.5) @ Psi))
     (3, True)
     """
     ref, _, _ = _refinement(
@@ -338,7 +339,7 @@ def metamer_mismatch_bounds(
 def _certified(ref: Refinement, thr: float) -> CertifiedMMV:
     inner = ref.inner
     outer = ref.outer()
-    if inner.dim >= 1:
+    if inner.affine_dim >= 1:
         m_in, m_out = inner.measure, outer.measure
         reach = float(np.linalg.norm(outer.vertices - inner.centroid, axis=1).max())
         frac = (m_out - m_in) / m_out if m_out > 0 else 0.0
@@ -393,12 +394,12 @@ def channelwise_intersection(
         idx = [list(map(int, g)) for g in groups]
     d = np.broadcast_to(np.asarray(delta, dtype=np.float64), (k,))
     parts = [metamer_mismatch(Phi[:, g], Psi, c[g], delta=d[g], oracle=oracle) for g in idx]
-    if all(p.dim == 3 for p in parts):
+    if all(p.affine_dim == 3 for p in parts):
         solid = parts[0].to_manifold()
         for p in parts[1:]:
             solid = solid ^ p.to_manifold()
         if solid.volume() > 0:
-            return Polytope.from_manifold(solid, tol=parts[0].tol)
+            return Polytope.from_manifold(solid, atol=parts[0].atol)
     out = parts[0]
     for p in parts[1:]:
         out = out.intersect(p)
@@ -666,7 +667,7 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
         tol, thr = _tolerances(Psi, eps)
         orc = SimplexOracle(Phi, Psi, part, delta)
         ok = np.nonzero(orc.feasible)[0]
-        for r, ref in zip(ok, refine_many(orc, ok, m, threshold=thr, tol=tol, max_rounds=500)):
+        for r, ref in zip(ok, refine_many(orc, ok, m, threshold=thr, atol=tol, max_rounds=500)):
             refs[r] = (ref, thr)
     for r, c in enumerate(part):
         if refs[r] is None:  # the reference oracle, or an infeasible response
@@ -682,12 +683,12 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
         if eps > 0 and outer:
             res = _certified(ref, thr)
             cents[r], bounds[r], errs[r] = res.centroid, res.volume_bounds, res.centroid_error
-            dims[r] = res.dim
+            dims[r] = res.affine_dim
         elif eps > 0:  # inner polytope only: a lower volume bound, no certified upper one
             cents[r], bounds[r], errs[r] = ref.inner.centroid, (ref.inner.volume, np.nan), np.nan
-            dims[r] = ref.inner.dim
+            dims[r] = ref.inner.affine_dim
         else:
             if not ref.converged:  # pragma: no cover - safety net
                 raise GeometryError("facet refinement did not converge; use eps > 0.")
-            cents[r], bounds[r], dims[r] = ref.inner.centroid, ref.inner.volume, ref.inner.dim
+            cents[r], bounds[r], dims[r] = ref.inner.centroid, ref.inner.volume, ref.inner.affine_dim
     return cents, bounds, errs, dims, calls

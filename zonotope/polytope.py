@@ -3,12 +3,12 @@
 A :class:`Polytope` is built from points (its convex hull) or from half-spaces ``A y ≤ b``.
 The affine hull is found first (SVD of the centred points), and the hull is computed inside it,
 so a point, a segment or a polygon in 3-D space is an honest lower-dimensional polytope
-(``dim`` 0, 1 or 2, ``volume`` 0) instead of a Qhull precision error.
+(``affine_dim`` 0, 1 or 2, ``volume`` 0) instead of a Qhull precision error.
 
 What is exact
 -------------
 - ``volume``: sum of the signed volumes of the tetrahedra (interior point, boundary triangle);
-  0 when ``dim`` < ambient dimension.
+  0 when ``affine_dim`` < ``ambient_dim``.
 - ``centroid``: the volume centroid by the same tetrahedral decomposition (3-D), the area centroid
   of a polygon, the midpoint of a segment, the point itself (never the mean of the vertices).
 - ``halfspaces``: unit normals with coplanar triangles merged into one facet; lower-dimensional
@@ -17,7 +17,7 @@ What is exact
   closest point over a triangulation of the boundary (inside points are returned unchanged).
 
 Ambient dimension 3 is complete; other dimensions support everything that does not need a
-boundary triangulation (``project`` and the mesh conversions need ``dim`` ≤ 3).
+boundary triangulation (``project`` and the mesh conversions need ``affine_dim`` ≤ 3).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from ._tol import AFFINE, ANGLE
 __all__ = ["Polytope"]
 
 
-def _affine_hull(P: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+def _affine_hull(P: np.ndarray, atol: float) -> tuple[np.ndarray, np.ndarray]:
     """Origin (m,) and orthonormal basis (m, d) of the affine hull of points P (N, m)."""
     o = P.mean(axis=0)
     Q = P - o
@@ -40,7 +40,7 @@ def _affine_hull(P: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
         return o, np.zeros((P.shape[1], 0))
     _, _, Vt = np.linalg.svd(Q, full_matrices=False)
     dev = np.abs(Q @ Vt.T).max(axis=0) if Vt.size else np.zeros(0)
-    d = int(np.sum(dev > tol))
+    d = int(np.sum(dev > atol))
     return o, Vt[:d].T.copy()
 
 
@@ -76,17 +76,21 @@ class Polytope:
         The polytope is their convex hull (V-representation).
     halfspaces : tuple (A (F, m), b (F,)), optional
         ``{y : A y ≤ b}``; with ``points`` too, the intersection of both.
-    tol : float, optional
+    atol : float, optional
         Absolute tolerance (same units as the points) under which the points count as lying
-        in a lower-dimensional affine subspace and coplanar facets are merged; default
-        ``1e-9 ×`` the diameter.
+        in a lower-dimensional affine subspace and coplanar facets are merged, and the default
+        slack of :meth:`contains`; default ``AFFINE × span`` (``1e-9 ×`` the largest
+        per-coordinate extent of the points, :data:`zonotope._tol.AFFINE`).
 
     Attributes
     ----------
     vertices : ndarray of shape (V, m)
-    dim : int
+    affine_dim : int
         Affine dimension: -1 empty, 0 point, 1 segment, 2 polygon, 3 solid.
     ambient_dim : int
+        Dimension m of the space the points live in (number of coordinates).
+    atol : float
+        The absolute tolerance in use (see the parameter).
 
     Raises
     ------
@@ -98,22 +102,22 @@ class Polytope:
     --------
     >>> import numpy as np
     >>> cube = Polytope(np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)]))
-    >>> cube.dim, float(cube.volume), cube.centroid.tolist()
+    >>> cube.affine_dim, float(cube.volume), cube.centroid.tolist()
     (3, 1.0, [0.5, 0.5, 0.5])
-    >>> Polytope(np.array([[0.0, 0, 0], [1, 1, 1]])).dim
+    >>> Polytope(np.array([[0.0, 0, 0], [1, 1, 1]])).affine_dim
     1
     """
 
-    def __init__(self, points=None, halfspaces=None, *, tol: float | None = None) -> None:
+    def __init__(self, points=None, halfspaces=None, *, atol: float | None = None) -> None:
         if points is None and halfspaces is None:
             raise GeometryError("Polytope needs points (N, m) and/or halfspaces (A, b).")
         if halfspaces is not None:
             A, b = (np.asarray(a, dtype=np.float64) for a in halfspaces)
             if points is not None:
-                other = Polytope(points, tol=tol)
+                other = Polytope(points, atol=atol)
                 A2, b2 = other.halfspaces
                 A, b = np.concatenate([A, A2]), np.concatenate([b, b2])
-            points = _vertices_from_halfspaces(A, b, tol)
+            points = _vertices_from_halfspaces(A, b, atol)
         P = np.array(points, dtype=np.float64)
         if P.ndim != 2:
             raise GeometryError(f"points must have shape (N, m); got {P.shape}.")
@@ -121,29 +125,29 @@ class Polytope:
             raise GeometryError("points contain NaN or inf.")
         self.ambient_dim = P.shape[1]
         span = float(np.ptp(P, axis=0).max()) if P.shape[0] else 0.0
-        self.tol = float(tol) if tol is not None else AFFINE * max(span, 1e-300)
+        self.atol = float(atol) if atol is not None else AFFINE * max(span, 1e-300)
         if P.shape[0] == 0:
             self._o, self._B = np.zeros(self.ambient_dim), np.zeros((self.ambient_dim, 0))
-            self.dim = -1
+            self.affine_dim = -1
             self._Z = np.zeros((0, 0))
             self.vertices = P
             self._simplices = np.zeros((0, 0), dtype=int)
             self._keep = np.zeros(0, dtype=int)
             return
-        self._o, self._B = _affine_hull(P, self.tol)
-        self.dim = self._B.shape[1]
+        self._o, self._B = _affine_hull(P, self.atol)
+        self.affine_dim = self._B.shape[1]
         Z = (P - self._o) @ self._B
         keep, simplices = self._hull(Z)
         self._keep = keep  # indices of the vertices among the input points
         self.vertices = P[keep]
         self.vertices.flags.writeable = False
         self._Z = Z[keep]
-        self._simplices = simplices  # boundary simplices (dim ≥ 2) as rows of vertex indices
+        self._simplices = simplices  # boundary simplices (affine_dim ≥ 2) as rows of vertex indices
 
     # -- construction helpers -------------------------------------------------------------------
 
     def _hull(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        d = self.dim
+        d = self.affine_dim
         if d == 0:
             return np.array([0]), np.zeros((0, 1), dtype=int)
         if d == 1:
@@ -164,12 +168,15 @@ class Polytope:
         return keep, remap[hull.simplices]
 
     @classmethod
-    def from_halfspaces(cls, A, b, *, tol: float | None = None) -> Polytope:
+    def from_halfspaces(cls, A, b, *, atol: float | None = None) -> Polytope:
         """The polytope ``{y : A y ≤ b}`` (A of shape (F, m), b of shape (F,)); may be empty."""
-        return cls(halfspaces=(A, b), tol=tol)
+        return cls(halfspaces=(A, b), atol=atol)
 
     def __repr__(self) -> str:
-        return f"Polytope(dim={self.dim}, ambient_dim={self.ambient_dim}, n_vertices={len(self.vertices)})"
+        return (
+            f"Polytope(affine_dim={self.affine_dim}, ambient_dim={self.ambient_dim}, "
+            f"n_vertices={len(self.vertices)})"
+        )
 
     # -- facets ---------------------------------------------------------------------------------
 
@@ -180,7 +187,7 @@ class Polytope:
         Returns normals (F, d) (unit, outward), offsets (F,) and, for every boundary simplex
         (row of ``_simplices``), the index of the merged facet it belongs to (T,).
         """
-        d, Z = self.dim, self._Z
+        d, Z = self.affine_dim, self._Z
         if d <= 0:
             return np.zeros((0, max(d, 0))), np.zeros(0), np.zeros(0, dtype=int)
         if d == 1:
@@ -201,7 +208,7 @@ class Polytope:
         rows = np.repeat(np.arange(T), nb.shape[1])
         cols = nb.ravel()
         same = (np.einsum("ij,ij->i", n[rows], n[cols]) > 1.0 - ANGLE) & (
-            np.abs(off[rows] - off[cols]) <= self.tol
+            np.abs(off[rows] - off[cols]) <= self.atol
         )
         if same.any():
             graph = coo_matrix((np.ones(int(same.sum())), (rows[same], cols[same])), shape=(T, T))
@@ -229,17 +236,17 @@ class Polytope:
         -------
         A : ndarray of shape (F, m)
         b : ndarray of shape (F,)
-            For ``dim`` < m the first rows are the facets inside the affine hull, followed by
+            For ``affine_dim`` < m the first rows are the facets inside the affine hull, followed by
             ± rows of the hull's equations (so ``A y ≤ b`` is exactly the polytope).
         """
         m = self.ambient_dim
-        if self.dim < 0:
+        if self.affine_dim < 0:
             e = np.eye(m)[:1]
             return np.concatenate([e, -e]), np.array([-1.0, -1.0])  # y_0 ≤ -1 and y_0 ≥ 1
         ns, offs, _ = self._facets_sub
         A = ns @ self._B.T
         b = offs + A @ self._o
-        if self.dim < m:
+        if self.affine_dim < m:
             C = _complement(self._B)
             A = np.concatenate([A, C, -C])
             b = np.concatenate([b, C @ self._o, -(C @ self._o)])
@@ -247,7 +254,7 @@ class Polytope:
 
     @property
     def affine_hull(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(origin (m,), basis (m, dim))``: the affine hull is ``origin + basis @ z``."""
+        """``(origin (m,), basis (m, affine_dim))``: the affine hull is ``origin + basis @ z``."""
         return self._o.copy(), self._B.copy()
 
     # -- measures -------------------------------------------------------------------------------
@@ -255,7 +262,7 @@ class Polytope:
     @cached_property
     def _simplex_measures(self) -> tuple[np.ndarray, np.ndarray]:
         """Measures (T,) and centroids (T, d) of a decomposition into d-simplices (in the hull)."""
-        d, Z = self.dim, self._Z
+        d, Z = self.affine_dim, self._Z
         if d < 1:
             return np.zeros(0), np.zeros((0, max(d, 0)))
         c = Z.mean(axis=0)
@@ -269,30 +276,30 @@ class Polytope:
 
     @property
     def volume(self) -> float:
-        """Exact m-dimensional volume (0 when ``dim`` < ambient dimension)."""
-        if self.dim < self.ambient_dim:
+        """Exact m-dimensional volume (0 when ``affine_dim`` < ``ambient_dim``)."""
+        if self.affine_dim < self.ambient_dim:
             return 0.0
         return float(self._simplex_measures[0].sum())
 
     @property
     def measure(self) -> float:
-        """Exact ``dim``-dimensional measure: volume, area, length, or 1 for a point (0 if empty)."""
-        if self.dim < 0:
+        """Exact ``affine_dim``-dimensional measure: volume, area, length, or 1 for a point (0 if empty)."""
+        if self.affine_dim < 0:
             return 0.0
-        if self.dim == 0:
+        if self.affine_dim == 0:
             return 1.0
         return float(self._simplex_measures[0].sum())
 
     @cached_property
     def centroid(self) -> np.ndarray:
-        """Exact centroid of the ``dim``-dimensional measure, ndarray of shape (m,).
+        """Exact centroid of the ``affine_dim``-dimensional measure, ndarray of shape (m,).
 
         Volume centroid for solids (tetrahedral decomposition), area centroid for polygons,
         midpoint for segments, the point itself for a point.
         """
-        if self.dim < 0:
+        if self.affine_dim < 0:
             raise GeometryError("the polytope is empty; it has no centroid.")
-        if self.dim == 0:
+        if self.affine_dim == 0:
             return self.vertices[0].copy()
         meas, cents = self._simplex_measures
         z = (meas[:, None] * cents).sum(axis=0) / meas.sum()
@@ -324,15 +331,15 @@ class Polytope:
         radius : float
             Only with ``return_radius=True``; 0 for a point.
         """
-        if self.dim < 0:
+        if self.affine_dim < 0:
             raise GeometryError("the polytope is empty; it has no Chebyshev centre.")
-        if self.dim == 0:
+        if self.affine_dim == 0:
             out = self.vertices[0].copy(), 0.0
         else:
             from scipy.optimize import linprog
 
             ns, offs, _ = self._facets_sub
-            d = self.dim
+            d = self.affine_dim
             cost = np.zeros(d + 1)
             cost[-1] = -1.0
             res = linprog(
@@ -349,26 +356,26 @@ class Polytope:
 
     # -- queries --------------------------------------------------------------------------------
 
-    def contains(self, points, tol: float | None = None) -> np.ndarray:
-        """Whether each point lies in the polytope (within ``tol``), vectorised.
+    def contains(self, points, atol: float | None = None) -> np.ndarray:
+        """Whether each point lies in the polytope (within ``atol``), vectorised.
 
         Parameters
         ----------
         points : array_like of shape (..., m)
-        tol : float, optional
-            Absolute slack; default the polytope's ``tol``.
+        atol : float, optional
+            Absolute slack (the points' units); default the polytope's ``atol``.
 
         Returns
         -------
         ndarray of bool, shape (...)
         """
         P = self._check_points(points)
-        tol = self.tol if tol is None else float(tol)
+        atol = self.atol if atol is None else float(atol)
         A, b = self.halfspaces
         flat = P.reshape(-1, self.ambient_dim)
         out = np.empty(flat.shape[0], dtype=bool)
         for s in range(0, flat.shape[0], 4096):
-            out[s : s + 4096] = (flat[s : s + 4096] @ A.T - b).max(axis=1, initial=-np.inf) <= tol
+            out[s : s + 4096] = (flat[s : s + 4096] @ A.T - b).max(axis=1, initial=-np.inf) <= atol
         return out.reshape(P.shape[:-1])
 
     def _check_points(self, points) -> np.ndarray:
@@ -401,14 +408,14 @@ class Polytope:
         closest point over the boundary simplices (triangles, edges or the segment).
         """
         P = self._check_points(points)
-        if self.dim < 0:
+        if self.affine_dim < 0:
             raise GeometryError("cannot project onto an empty polytope.")
         m = self.ambient_dim
         W = np.eye(m) if metric is None else np.asarray(metric, dtype=np.float64)
         if W.shape != (m, m) or not np.allclose(W, W.T):
             raise GeometryError(f"metric must be a symmetric ({m}, {m}) matrix; got shape {W.shape}.")
         flat = P.reshape(-1, m)
-        if self.dim == 0:
+        if self.affine_dim == 0:
             return np.broadcast_to(self.vertices[0], P.shape).copy()
         B, o = self._B, self._o
         M = B.T @ W @ B
@@ -421,39 +428,41 @@ class Polytope:
         zstar = np.linalg.solve(M, B.T @ W @ (flat - o).T).T
         S = zstar @ L  # (N, d) Euclidean coordinates
         V = self._Z @ L
-        if self.dim == 1:
+        if self.affine_dim == 1:
             lo, hi = np.sort(V[:, 0])
             out = np.clip(S, lo, hi)
         else:
             out = S.copy()
-            if self.dim == 2:
+            if self.affine_dim == 2:
                 simp = np.stack(
                     [np.zeros(len(V) - 2, int), np.arange(1, len(V) - 1), np.arange(2, len(V))], axis=1
                 )
                 out = _closest_on_triangles(S, V[simp])
-            elif self.dim == 3:
-                inside = self.contains(flat) if self.dim == m else np.zeros(len(flat), bool)
-                if self.dim < m:
+            elif self.affine_dim == 3:
+                inside = self.contains(flat) if self.affine_dim == m else np.zeros(len(flat), bool)
+                if self.affine_dim < m:
                     ns, offs, _ = self._facets_sub
                     zin = np.linalg.solve(L.T, S.T).T
-                    inside = (zin @ ns.T - offs).max(axis=1) <= self.tol
+                    inside = (zin @ ns.T - offs).max(axis=1) <= self.atol
                 out[~inside] = _closest_on_triangles(S[~inside], V[self._simplices])
             else:
-                raise GeometryError(f"project supports polytopes of dimension ≤ 3 (dim={self.dim}).")
+                raise GeometryError(
+                    f"project supports polytopes of dimension ≤ 3 (affine_dim={self.affine_dim})."
+                )
         z = np.linalg.solve(L.T, out.T).T
         res = o + z @ B.T
         keep = self.contains(flat)
         res[keep] = flat[keep]  # inside: unchanged, bit for bit
         return res.reshape(P.shape)
 
-    def intersect(self, other: Polytope, *, tol: float | None = None) -> Polytope:
+    def intersect(self, other: Polytope, *, atol: float | None = None) -> Polytope:
         """Intersection with another polytope of the same ambient dimension (may be empty)."""
         if not isinstance(other, Polytope) or other.ambient_dim != self.ambient_dim:
             raise GeometryError("intersect needs a Polytope of the same ambient dimension.")
         A1, b1 = self.halfspaces
         A2, b2 = other.halfspaces
-        t = tol if tol is not None else max(self.tol, other.tol)
-        return Polytope(halfspaces=(np.concatenate([A1, A2]), np.concatenate([b1, b2])), tol=t)
+        t = atol if atol is not None else max(self.atol, other.atol)
+        return Polytope(halfspaces=(np.concatenate([A1, A2]), np.concatenate([b1, b2])), atol=t)
 
     # -- conversions ----------------------------------------------------------------------------
 
@@ -465,20 +474,20 @@ class Polytope:
         if self.ambient_dim != 3:
             raise GeometryError("triangles are defined for polytopes in 3-D space.")
         V = self.vertices
-        if self.dim == 3:
+        if self.affine_dim == 3:
             F = self._simplices.copy()
             P = V[F]
             nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
             flip = np.einsum("ij,ij->i", nrm, P[:, 0] - self.centroid) < 0
             F[flip] = F[flip][:, ::-1]
             return V, F
-        if self.dim == 2:
+        if self.affine_dim == 2:
             M = len(V)
             return V, np.stack([np.zeros(M - 2, int), np.arange(1, M - 1), np.arange(2, M)], axis=1)
         return V, np.zeros((0, 3), dtype=int)
 
     def to_trimesh(self):
-        """:class:`trimesh.Trimesh` of the boundary (watertight for solids; faceless if dim < 2)."""
+        """:class:`trimesh.Trimesh` of the boundary (watertight for solids; faceless if affine_dim < 2)."""
         import trimesh
 
         V, F = self.triangles()
@@ -489,18 +498,18 @@ class Polytope:
         import pyvista as pv
 
         V, F = self.triangles()
-        if self.dim >= 2:
+        if self.affine_dim >= 2:
             return pv.PolyData(V, np.hstack([np.full((F.shape[0], 1), 3), F]).ravel())
-        if self.dim == 1:
+        if self.affine_dim == 1:
             return pv.PolyData(V, lines=np.array([2, 0, 1]))
         return pv.PolyData(V)
 
     def to_manifold(self):
         """:class:`manifold3d.Manifold` of a 3-D solid (float64 mesh) for booleans."""
-        if self.dim != 3 or self.ambient_dim != 3:
+        if self.affine_dim != 3 or self.ambient_dim != 3:
             raise GeometryError(
-                f"to_manifold needs a solid in 3-D space (dim={self.dim}); flat polytopes have no "
-                "volume for booleans. Use Polytope.intersect instead."
+                f"to_manifold needs a solid in 3-D space (affine_dim={self.affine_dim}); flat polytopes "
+                "have no volume for booleans. Use Polytope.intersect instead."
             )
         import manifold3d as m3d
 
@@ -512,11 +521,11 @@ class Polytope:
         return m3d.Manifold(mesh)
 
     @classmethod
-    def from_manifold(cls, manifold, *, tol: float | None = None) -> Polytope:
+    def from_manifold(cls, manifold, *, atol: float | None = None) -> Polytope:
         """Convex hull of the vertices of a :class:`manifold3d.Manifold`."""
         mesh = manifold.to_mesh64() if hasattr(manifold, "to_mesh64") else manifold.to_mesh()
         V = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
-        return cls(V if V.size else np.zeros((0, 3)), tol=tol)
+        return cls(V if V.size else np.zeros((0, 3)), atol=atol)
 
 
 def _complement(B: np.ndarray) -> np.ndarray:
@@ -588,7 +597,7 @@ def _halfspace_intersection(A: np.ndarray, b: np.ndarray, centre: np.ndarray) ->
 
 
 def _vertices_from_halfspaces(
-    A: np.ndarray, b: np.ndarray, tol: float | None, interior: np.ndarray | None = None
+    A: np.ndarray, b: np.ndarray, atol: float | None, interior: np.ndarray | None = None
 ) -> np.ndarray:
     """Vertices of the bounded polytope {y : A y ≤ b} (possibly empty or lower-dimensional).
 
@@ -607,7 +616,7 @@ def _vertices_from_halfspaces(
         A, b, norms = A[norms > 0], b[norms > 0], norms[norms > 0]
     A, b = A / norms[:, None], b / norms
     scale = max(float(np.abs(b).max()), 1.0)
-    t = tol if tol is not None else AFFINE * scale
+    t = atol if atol is not None else AFFINE * scale
     if interior is not None and m >= 2 and float((b - A @ interior).min()) > 10 * t:
         return _halfspace_intersection(A, b, np.asarray(interior, dtype=np.float64))
     from scipy.optimize import linprog

@@ -103,7 +103,16 @@ class Zonotope:
     offset : array_like of shape (k,), optional
         Translation; default the origin (black).
     tol : Tolerances, optional
-        Relative tolerances, default :data:`zonotope.TOL`.
+        Relative tolerances of the combinatorics (zero, parallel, coplanar generators, rank,
+        default slack of :meth:`contains`), default :data:`zonotope.TOL`. Absolute slacks are
+        called ``atol`` (e.g. ``contains(points, atol=...)``).
+
+    Attributes
+    ----------
+    ambient_dim : int
+        k, the number of channels (columns of ``generators``).
+    affine_dim : int
+        Dimension of the solid's affine hull (the rank of ``generators``), ≤ ``ambient_dim``.
 
     Examples
     --------
@@ -152,13 +161,13 @@ class Zonotope:
         self.tol = tol
 
     def __repr__(self) -> str:
-        return f"Zonotope(n_generators={self.n_generators}, dim={self.dim})"
+        return f"Zonotope(n_generators={self.n_generators}, ambient_dim={self.ambient_dim})"
 
     # -- basic quantities ---------------------------------------------------------------------
 
     @property
-    def dim(self) -> int:
-        """Ambient dimension k (number of channels)."""
+    def ambient_dim(self) -> int:
+        """Ambient dimension k (number of channels, columns of ``generators``)."""
         return self.generators.shape[1]
 
     @property
@@ -182,8 +191,9 @@ class Zonotope:
         return float(np.abs(self.generators).sum(axis=0).max()) or 1.0
 
     @cached_property
-    def rank(self) -> int:
-        """Dimension of the affine hull (< k for flat solids, e.g. duplicated channels)."""
+    def affine_dim(self) -> int:
+        """Dimension of the affine hull = rank of ``generators`` (< k for flat solids, e.g.
+        duplicated channels); singular values below ``tol.rank ×`` the largest count as zero."""
         s = np.linalg.svd(self.generators, compute_uv=False)
         return int(np.sum(s > self.tol.rank * (s[0] if s.size else 0.0))) if s.size else 0
 
@@ -217,8 +227,8 @@ class Zonotope:
             (wavelengths with ``u · g = 0`` get reflectance 0).
         """
         u = np.asarray(directions, dtype=np.float64)
-        if u.shape[-1:] != (self.dim,):
-            raise GeometryError(f"directions must have shape (..., {self.dim}); got {u.shape}.")
+        if u.shape[-1:] != (self.ambient_dim,):
+            raise GeometryError(f"directions must have shape (..., {self.ambient_dim}); got {u.shape}.")
         x = (u @ self.generators.T > 0).astype(np.float64)
         point = self.offset + x @ self.generators
         transitions = np.count_nonzero(np.diff(x, axis=-1), axis=-1)
@@ -227,12 +237,14 @@ class Zonotope:
     # -- 3-D exact facets ---------------------------------------------------------------------
 
     def _require_3d(self, what: str) -> None:
-        if self.dim != 3:
-            raise GeometryError(f"{what} is computed in closed form for 3 channels only (k={self.dim}).")
-        if self.rank < 3:
+        if self.ambient_dim != 3:
             raise GeometryError(
-                f"{what}: the solid is flat (rank {self.rank} < 3), so it has no 3-D facets; "
-                "its channels are linearly dependent."
+                f"{what} is computed in closed form for 3 channels only (k={self.ambient_dim})."
+            )
+        if self.affine_dim < 3:
+            raise GeometryError(
+                f"{what}: the solid is flat (affine dimension {self.affine_dim} < 3), so it has no "
+                "3-D facets; its channels are linearly dependent."
             )
 
     @cached_property
@@ -337,8 +349,8 @@ class Zonotope:
     def volume_nd(self, *, max_terms: int = 10_000_000) -> float:
         """Exact k-volume Σ over k-subsets of |det| (any k); refuses when C(n, k) > max_terms."""
         H, _ = self._reduced
-        k = self.dim
-        if H.shape[0] < k or self.rank < k:
+        k = self.ambient_dim
+        if H.shape[0] < k or self.affine_dim < k:
             return 0.0
         terms = math.comb(H.shape[0], k)
         if terms > max_terms:
@@ -364,21 +376,21 @@ class Zonotope:
         3-D: ``(1/3) Σ_{i<j} n_ij · (2 B⁺_ij − T)`` from the facets, which equals
         Σ_{i<j<k} |det(h_i, h_j, h_k)| (McMullen) in O(p² log p). Other k: :meth:`volume_nd`.
         """
-        if self.rank < self.dim:
+        if self.affine_dim < self.ambient_dim:
             return 0.0
-        if self.dim == 3:
+        if self.ambient_dim == 3:
             return self._facets.volume
         return self.volume_nd()
 
     # -- inside test --------------------------------------------------------------------------
 
-    def contains(self, points, tol: float | None = None) -> np.ndarray:
-        """Whether each point lies in the solid (within ``tol``), vectorised.
+    def contains(self, points, atol: float | None = None) -> np.ndarray:
+        """Whether each point lies in the solid (within ``atol``), vectorised.
 
         Parameters
         ----------
         points : array_like of shape (..., k)
-        tol : float, optional
+        atol : float, optional
             Absolute slack in response units; default ``self.tol.contains × scale`` (the solid's
             own :class:`Tolerances`).
 
@@ -390,34 +402,34 @@ class Zonotope:
         -----
         3-D full-rank solids use the exact H-representation with a cube-map of candidate facets
         around the centre (only the facets whose radial shadow can meet a point's direction are
-        tested; points within ``tol`` of the boundary are re-tested against every facet), built on
+        tested; points within ``atol`` of the boundary are re-tested against every facet), built on
         the first call with at least as many points as the map has cells (before that, every
         facet is tested: same answer, cheaper for a few thousand points). Other
         solids solve one HiGHS LP per point for the ∞-norm distance.
         """
         P = np.asarray(points, dtype=np.float64)
-        if P.shape[-1:] != (self.dim,):
-            raise GeometryError(f"points must have shape (..., {self.dim}); got {P.shape}.")
+        if P.shape[-1:] != (self.ambient_dim,):
+            raise GeometryError(f"points must have shape (..., {self.ambient_dim}); got {P.shape}.")
         if not np.all(np.isfinite(P)):
             raise GeometryError("points contain NaN or inf.")
-        tol = self.tol.contains * self.scale if tol is None else float(tol)
-        flat = P.reshape(-1, self.dim)
-        if self.dim == 3 and self.rank == 3:
+        atol = self.tol.contains * self.scale if atol is None else float(atol)
+        flat = P.reshape(-1, self.ambient_dim)
+        if self.ambient_dim == 3 and self.affine_dim == 3:
             m = self.halfspaces[0].shape[0]
             K = int(np.clip(np.sqrt(m / 12.0), 4, 48))
             if "_cubemap" in self.__dict__ or flat.shape[0] >= 6 * K * K:
-                inside = self._cubemap.contains(flat, tol)
+                inside = self._cubemap.contains(flat, atol)
             else:  # building the cube map costs ~6K² facet sweeps: test few points densely
-                inside = self.contains_reference(flat, tol)
+                inside = self.contains_reference(flat, atol)
         else:
             H, off = self._reduced
-            inside = np.array([distance_to_zonotope(H, off, q)[0] <= tol for q in flat], dtype=bool)
+            inside = np.array([distance_to_zonotope(H, off, q)[0] <= atol for q in flat], dtype=bool)
         return inside.reshape(P.shape[:-1])
 
-    def contains_reference(self, points, tol: float | None = None) -> np.ndarray:
+    def contains_reference(self, points, atol: float | None = None) -> np.ndarray:
         """Slow twin of :meth:`contains` for 3-D: every facet for every point (tests use it)."""
         P = np.asarray(points, dtype=np.float64)
-        tol = self.tol.contains * self.scale if tol is None else float(tol)
+        atol = self.tol.contains * self.scale if atol is None else float(atol)
         A, b = self.halfspaces
         flat = P.reshape(-1, 3)
         out = np.empty(flat.shape[0], dtype=bool)
@@ -426,7 +438,7 @@ class Zonotope:
         step = max(1, 2_000_000 // max(half, 1))
         for s in range(0, flat.shape[0], step):
             v = flat[s : s + step] @ N.T
-            out[s : s + step] = np.maximum((v - bp).max(axis=1), (-v - bm).max(axis=1)) <= tol
+            out[s : s + step] = np.maximum((v - bp).max(axis=1), (-v - bm).max(axis=1)) <= atol
         return out.reshape(P.shape[:-1])
 
     @cached_property
