@@ -84,7 +84,7 @@ class Capture:
     channels : dict int -> tuple of int
         For each camera id, the indices of the scene channels its images measure.
     labels : tuple of str, optional
-        Names of the N scene channels.
+        Names of the k scene channels.
     """
 
     views: tuple[View, ...]
@@ -108,11 +108,11 @@ class Capture:
 
     @property
     def n_channels(self) -> int:
-        """N, one more than the largest channel index."""
+        """k, one more than the largest channel index."""
         return 1 + max((max(c) for c in self.channels.values() if c), default=-1)
 
     def channel_mask(self, view: View) -> np.ndarray:
-        """Boolean mask of shape (N,) of the channels ``view`` measures."""
+        """Boolean mask of shape (k,) of the channels ``view`` measures."""
         m = np.zeros(self.n_channels, bool)
         m[list(self.channels[view.camera_id])] = True
         return m

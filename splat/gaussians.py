@@ -33,8 +33,8 @@ class Gaussians:
     opacity_logits : Array of shape (G,)
         ``opacity = sigmoid(opacity_logits)``: ONE opacity per Gaussian, shared by every channel
         (the geometry is the same for all cameras; only the colours differ).
-    colour_params : Array of shape (G, N)
-        ``colours = softplus(colour_params)``: linear RAW-space responses, non-negative, any N ≥ 1.
+    colour_params : Array of shape (G, k)
+        ``colours = softplus(colour_params)``: linear RAW-space responses, non-negative, any k ≥ 1.
     """
 
     means: jax.Array
@@ -50,7 +50,7 @@ class Gaussians:
 
     @property
     def n_channels(self) -> int:
-        """Number of colour channels N."""
+        """Number of colour channels k."""
         return self.colour_params.shape[-1]
 
     @property
@@ -64,7 +64,7 @@ class Gaussians:
         return jax.nn.sigmoid(self.opacity_logits)
 
     @property
-    def colours(self) -> jax.Array:  # [G, N]
+    def colours(self) -> jax.Array:  # [G, k]
         """Non-negative N-channel colours, ``softplus(colour_params)``."""
         return jax.nn.softplus(self.colour_params)
 
@@ -145,8 +145,8 @@ def init_gaussians(
     Parameters
     ----------
     means : array_like of shape (G, 3)
-    colours : array_like of shape (G, N)
-        Initial non-negative colours (N channels).
+    colours : array_like of shape (G, k)
+        Initial non-negative colours (k channels).
     scales : float or array_like of shape (G,)
         Standard deviation of each Gaussian, in world units.
     opacity : float
@@ -166,7 +166,7 @@ def init_gaussians(
         raise SplatError(f"means must have shape (G, 3); got {means.shape}.")
     if colours.ndim != 2 or colours.shape[0] != means.shape[0] or colours.shape[1] < 1:
         raise SplatError(
-            f"colours must have shape (G, N) with G = {means.shape[0]} and N ≥ 1; got {colours.shape}."
+            f"colours must have shape (G, k) with G = {means.shape[0]} and k ≥ 1; got {colours.shape}."
         )
     if not 0 < opacity < 1:
         raise SplatError(f"opacity must lie in (0, 1); got {opacity}.")

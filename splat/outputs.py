@@ -1,4 +1,4 @@
-"""What a trained model gives: (H, W, N) renders, per-camera images, PCA false colour, PSNR."""
+"""What a trained model gives: (H, W, k) renders, per-camera images, PCA false colour, PSNR."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ __all__ = ["correct_image", "pca_false_colour", "psnr", "render_views", "split_c
 def render_views(
     gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled", config: RenderConfig | None = None
 ) -> np.ndarray:
-    """Multispectral renders of several views, shape (V, H, W, N) (one image size).
+    """Multispectral renders of several views, shape (V, H, W, k) (one image size).
 
     Parameters
     ----------
@@ -46,7 +46,7 @@ def split_cameras(image, capture: Capture) -> dict[int, np.ndarray]:
 
     Parameters
     ----------
-    image : array_like of shape (..., N)
+    image : array_like of shape (..., k)
     capture : Capture
         Its channel map says which channels belong to which camera.
 
@@ -66,7 +66,7 @@ def pca_false_colour(image, *, mask=None, percentile: float = 99.0) -> np.ndarra
 
     Parameters
     ----------
-    image : array_like of shape (H, W, N)
+    image : array_like of shape (H, W, k)
     mask : array_like of bool, shape (H, W), optional
         Pixels used to fit the components (e.g. alpha > 0.5); all pixels are coloured.
     percentile : float
@@ -75,12 +75,12 @@ def pca_false_colour(image, *, mask=None, percentile: float = 99.0) -> np.ndarra
     Returns
     -------
     ndarray of shape (H, W, 3) in [0, 1]
-        Component 1 → R, 2 → G, 3 → B (missing components, for N < 3, are 0.5); the sign of each
+        Component 1 → R, 2 → G, 3 → B (missing components, for k < 3, are 0.5); the sign of each
         component is fixed so that its largest loading is positive.
     """
     image = np.asarray(image, float)
     if image.ndim != 3:
-        raise SplatError(f"image must have shape (H, W, N); got {image.shape}.")
+        raise SplatError(f"image must have shape (H, W, k); got {image.shape}.")
     X = image.reshape(-1, image.shape[-1])
     fit = X if mask is None else X[np.asarray(mask, bool).reshape(-1)]
     if len(fit) < 2:
@@ -111,7 +111,7 @@ def correct_image(
 
     Parameters
     ----------
-    image : array_like of shape (H, W, N)
+    image : array_like of shape (H, W, k)
         A render of the trained model (linear, white-balanced: the perfect white gives 1 per
         channel, as in :func:`splat.synthetic_scene`).
     capture : Capture

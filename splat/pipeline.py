@@ -10,7 +10,7 @@ step       writes (under ``OUT``)
 poses      ``previews/<folder>/<stem>.png`` (8-bit, developed by :mod:`isp`), ``poses/`` (COLMAP text
            model with image names ``<folder>/<file>``), ``poses/summary.json``
 train      ``train/checkpoint.npz`` (resumable), ``train/model.npz``, ``train/summary.json``
-render     ``render/<folder>/<stem>/`` ``render.tiff`` (float32, H × W × N, exposure 1),
+render     ``render/<folder>/<stem>/`` ``render.tiff`` (float32, H × W × k, exposure 1),
            ``camera_<folder>.tiff`` per camera, ``pca.png``
 correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XYZ, white Y = 1),
            ``<method>_sRGB.tiff`` (16-bit) + ``.png``, ``dng_<folder>_sRGB.png`` (each camera's own

@@ -115,7 +115,7 @@ class Projected(NamedTuple):
     radii : Array (G,)          ``sigma_cutoff · sqrt(largest eigenvalue)``, pixels (3DGS radius)
     depths : Array (G,)         camera-space z
     opacities : Array (G,)
-    colours : Array (G, N)
+    colours : Array (G, k)
     valid : Array (G,) bool     in front of the near plane, finite, and in ``mask``
     """
 
@@ -134,7 +134,7 @@ class RenderOutput(NamedTuple):
 
     Attributes
     ----------
-    image : Array (H, W, N)
+    image : Array (H, W, k)
         Composited colours (plus ``background · transmittance``).
     alpha : Array (H, W)
         Accumulated opacity ``1 − T``.
@@ -165,7 +165,7 @@ def project(
 
     Parameters
     ----------
-    gaussians : Gaussians with G Gaussians and N channels
+    gaussians : Gaussians with G Gaussians and k channels
     camera : Camera
     config : RenderConfig
     mask : array_like of bool, shape (G,), optional
@@ -238,8 +238,8 @@ def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig) -> j
 def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_used=None):
     """Front-to-back compositing of K depth-ordered Gaussians at P pixels, chunk by chunk.
 
-    Parameters: px (P, 2); means2d (K, 2); conics (K, 3); opacities (K,); colours (K, N);
-    K must be a multiple of ``config.chunk``. Returns colour (P, N) and transmittance (P,).
+    Parameters: px (P, 2); means2d (K, 2); conics (K, 3); opacities (K,); colours (K, k);
+    K must be a multiple of ``config.chunk``. Returns colour (P, k) and transmittance (P,).
     ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)`` (Kerbl et al. 2023, eq. 3), products kept as sums of logs.
     """
     K, N = colours.shape
@@ -364,7 +364,7 @@ def render_tiled(
     used = jnp.minimum(counts, K)
     C, T = jax.lax.map(
         lambda a: _composite(*a[:-1], config, n_used=a[-1]), (px, means2d, conics, opac, colours, used)
-    )  # [n_tiles, s*s, N], [n_tiles, s*s]
+    )  # [n_tiles, s*s, k], [n_tiles, s*s]
     C = C + config.background * T[..., None]
 
     def untile(x):
@@ -391,12 +391,12 @@ def render(
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
 ) -> RenderOutput:
-    """Render an (H, W, N) image of N-channel Gaussians from one camera (differentiable).
+    """Render an (H, W, k) image of N-channel Gaussians from one camera (differentiable).
 
     Parameters
     ----------
     gaussians : Gaussians
-        G Gaussians with N channels.
+        G Gaussians with k channels.
     camera : Camera
         The view (its ``width`` and ``height`` are static: a new size compiles anew).
     method : {"tiled", "reference"}
@@ -409,7 +409,7 @@ def render(
     Returns
     -------
     RenderOutput
-        ``image`` (H, W, N), ``alpha`` (H, W), ``n_dropped`` and ``max_per_tile``.
+        ``image`` (H, W, k), ``alpha`` (H, W), ``n_dropped`` and ``max_per_tile``.
 
     Raises
     ------

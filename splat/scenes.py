@@ -71,15 +71,15 @@ class SyntheticScene:
         The ground-truth Gaussians.
     capture : Capture
         Training views (with ``camera_id`` 1, 2, ... per camera and their exposures).
-    images : ndarray of shape (V, H, W, N)
+    images : ndarray of shape (V, H, W, k)
         RAW-like measurements placed in the channels they measure (0 elsewhere).
-    weights : ndarray of shape (V, H, W, N)
+    weights : ndarray of shape (V, H, W, k)
         1 where a channel is measured at a pixel (the mosaic), else 0.
     test : Capture
         Held-out views (exposure 1).
-    test_images : ndarray of shape (T, H, W, N)
+    test_images : ndarray of shape (T, H, W, k)
         Noise-free renders of every channel for the held-out views.
-    generators : ndarray of shape (n_wavelengths, N)
+    generators : ndarray of shape (n_wavelengths, k)
     wavelengths : ndarray of shape (n_wavelengths,)
     bounds : ndarray of shape (2, 3)
         Lower and upper corner of a box around the scene (for initialisation).
@@ -147,7 +147,7 @@ def synthetic_scene(config: SceneConfig = SceneConfig()) -> SyntheticScene:
     Returns
     -------
     SyntheticScene
-        ``N = 3 × len(config.cameras)`` channels; camera ``k`` (id ``k + 1``) measures channels
+        ``k = 3 × len(config.cameras)`` channels; camera ``k`` (id ``k + 1``) measures channels
         ``3k, 3k + 1, 3k + 2``.
 
     Examples
@@ -168,7 +168,7 @@ def synthetic_scene(config: SceneConfig = SceneConfig()) -> SyntheticScene:
     G = zonotope.generators(cams, config.illuminant, shape)
     refl = [zonotope.resample(s, shape).T for s in sets]  # (n_samples, n_λ)
     means, log_scales, rows = _scene_gaussians(refl[0], refl[-1], rng)
-    colours = rows @ G.values  # (n_gauss, N)
+    colours = rows @ G.values  # (n_gauss, k)
     truth = init_gaussians(means, colours, opacity=0.95)
     truth = Gaussians(
         truth.means,

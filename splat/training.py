@@ -51,7 +51,7 @@ def rawnerf_loss(pred: jax.Array, target: jax.Array, weight: jax.Array, *, eps: 
 
     Parameters
     ----------
-    pred, target, weight : array_like of shape (..., N)
+    pred, target, weight : array_like of shape (..., k)
         Prediction ŷ, RAW measurement y, and weight (e.g. the Bayer mask × the channels measured).
 
     Returns
@@ -177,7 +177,7 @@ def init_state(
     n_channels : int
     points : array_like of shape (P, 3), optional
         Initial centres (e.g. COLMAP points3D); the first ``capacity`` are used.
-    colours : array_like of shape (P, N), optional
+    colours : array_like of shape (P, k), optional
         Initial colours (default 0.2 in every channel).
     n_init : int, optional
         Initially alive Gaussians (default: half the capacity, or all the points).
@@ -223,9 +223,9 @@ def train_step(
     ----------
     state : TrainState
     camera : Camera
-    image, weight : Array of shape (H, W, N)
+    image, weight : Array of shape (H, W, k)
         Measurement and its weight (zero on channels and pixels not measured).
-    channel_mask : Array of shape (N,)
+    channel_mask : Array of shape (k,)
         Channels this view measures (the loss ignores the rest).
     exposure : Array of shape ()
     """
@@ -360,16 +360,16 @@ def train(
     Parameters
     ----------
     capture : Capture
-        V views (one image size) and the channel map; N = ``capture.n_channels``.
-    images : array_like of shape (V, H, W, N)
+        V views (one image size) and the channel map; k = ``capture.n_channels``.
+    images : array_like of shape (V, H, W, k)
         Measurements in the channels each view measures (anything elsewhere is ignored).
-    weights : array_like of shape (V, H, W, N)
+    weights : array_like of shape (V, H, W, k)
         Per-pixel, per-channel weights, e.g. the Bayer mosaic (so mosaiced RAW is used directly).
     config : TrainConfig
     bounds : array_like of shape (2, 3)
         Box around the scene (initialisation and the scale of the learning rate of the centres).
     points, colours : optional
-        Initial centres (P, 3) and colours (P, N), see :func:`init_state`.
+        Initial centres (P, 3) and colours (P, k), see :func:`init_state`.
     resume : path, optional
         A checkpoint written by an earlier run with the same configuration: training continues from
         its step.
@@ -385,7 +385,7 @@ def train(
     V, N = len(capture.views), capture.n_channels
     if images.shape != weights.shape or images.ndim != 4 or images.shape[0] != V or images.shape[-1] != N:
         raise SplatError(
-            f"images and weights must both have shape (V={V}, H, W, N={N}); got "
+            f"images and weights must both have shape (V={V}, H, W, k={N}); got "
             f"{images.shape} and {weights.shape}."
         )
     cams = stack_cameras(v.camera for v in capture.views)
