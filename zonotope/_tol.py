@@ -27,8 +27,8 @@ Vocabulary (one meaning each, across the three packages):
 
 Array-shape letters: ``n`` wavelengths (rows of generator matrices), ``k`` source channels, ``m``
 target channels, ``N`` a count of items (points, responses, reflectances). ``splat`` says
-"N-channel" in prose (the thesis' name for its Gaussians) but its shape letters are ``C`` for
-channels and ``G`` for Gaussians.
+"N-channel" in prose (the thesis' name for its Gaussians), but its shape letter for channels is
+``k`` too (they are the stacked cameras' source channels) and ``G`` counts Gaussians.
 
 Why each value: float64 rounding is ε = 2.2e-16 and sums of n ≤ 10³ generators or LP solutions
 carry errors of about n·ε·scale ≲ 1e-12·scale. Tolerances that decide *combinatorics* (is this
@@ -99,6 +99,7 @@ class Tolerances:
     contains: float = 1e-9
 
 
+#: The tolerances every function uses unless given others: :class:`Tolerances` with its defaults.
 TOL = Tolerances()
 
 #: Affine-hull flatness of a :class:`~zonotope.Polytope`, relative to its diameter: points farther
