@@ -70,7 +70,7 @@ def pca_false_colour(image, *, mask=None, percentile: float = 99.0) -> np.ndarra
     mask : array_like of bool, shape (H, W), optional
         Pixels used to fit the components (e.g. alpha > 0.5); all pixels are coloured.
     percentile : float
-        Each component is stretched so that this percentile of |score| maps to the edge of [0, 1].
+        Each component is stretched so that this percentile of ``|score|`` maps to the edge of [0, 1].
 
     Returns
     -------

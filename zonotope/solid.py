@@ -13,14 +13,14 @@ What is exact, and up to which size
   dropped, and coplanar generators give one zonogon facet instead of slivers (tolerances in
   :data:`zonotope.TOL`).
 - k ≠ 3: ``contains`` solves one small LP per point (scipy HiGHS); ``volume`` is the exact
-  sum over k-subsets of generators of |det|, allowed while C(n, k) ≤ ``max_terms``
+  sum over k-subsets of generators of ``|det|``, allowed while C(n, k) ≤ ``max_terms``
   (default 10⁷: e.g. 6 channels on a 10 nm 400–700 nm grid, C(31, 6) ≈ 7.4·10⁵).
 
 References
 ----------
 .. [1] Schrödinger, E. (1920). Theorie der Pigmente von größter Leuchtkraft. Ann. Phys. 62.
 .. [2] McMullen, P. (1971). On zonotopes. Trans. AMS 159 — facets of a 3-zonotope come in
-   ± pairs, one per pair of generator directions; volume = Σ_{i<j<k} |det(g_i, g_j, g_k)|.
+   ± pairs, one per pair of generator directions; volume = ``Σ_{i<j<k} |det(g_i, g_j, g_k)|``.
 .. [3] Centore, P. (2013). A zonohedral approach to optimal colours. Color Res. Appl. 38(2).
 """
 
@@ -347,7 +347,7 @@ class Zonotope:
         return int(self.halfspaces[0].shape[0])
 
     def volume_nd(self, *, max_terms: int = 10_000_000) -> float:
-        """Exact k-volume Σ over k-subsets of |det| (any k); refuses when C(n, k) > max_terms."""
+        """Exact k-volume Σ over k-subsets of ``|det|`` (any k); refuses when C(n, k) > max_terms."""
         H, _ = self._reduced
         k = self.ambient_dim
         if H.shape[0] < k or self.affine_dim < k:
@@ -374,7 +374,7 @@ class Zonotope:
         """Exact volume (k-dimensional measure); 0 for flat solids.
 
         3-D: ``(1/3) Σ_{i<j} n_ij · (2 B⁺_ij − T)`` from the facets, which equals
-        Σ_{i<j<k} |det(h_i, h_j, h_k)| (McMullen) in O(p² log p). Other k: :meth:`volume_nd`.
+        ``Σ_{i<j<k} |det(h_i, h_j, h_k)|`` (McMullen) in O(p² log p). Other k: :meth:`volume_nd`.
         """
         if self.affine_dim < self.ambient_dim:
             return 0.0

@@ -1,0 +1,252 @@
+"""Sphinx extension of this project: API pages, CLI reference and gallery copies, generated at build.
+
+* **API reference**: one page per package and one per defining module, listing *every* name in the
+  package's ``__all__`` (the lazy exports included) under its public path (``zonotope.Zonotope``).
+  A public function or class without a docstring, or a public constant without a ``#:`` comment in
+  the module that defines it, is a Sphinx warning, so ``sphinx-build -W`` fails on it.
+* **CLI reference**: the ``--help`` text of every command and sub-command, taken from the parsers
+  themselves (``zonotope.cli._parser`` and friends), so it cannot drift from the code.
+* **Gallery**: ``notebooks/*.ipynb`` copied into ``docs/gallery/``. A notebook whose code cells all
+  carry an execution count (already executed, e.g. by ``pytest --nbmake --overwrite`` earlier in the
+  same CI run) is rendered as it is; the others are executed once by myst-nb during the build.
+
+Everything generated lives in ignored paths (``docs/api/generated``, ``docs/guide/cli_help``,
+``docs/gallery/*.ipynb``) and is rewritten on every build.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import inspect
+import io
+import json
+import os
+import pkgutil
+import shutil
+from pathlib import Path
+
+from sphinx.pycode import ModuleAnalyzer
+from sphinx.util import logging
+
+logger = logging.getLogger(__name__)
+
+DOCS = Path(__file__).resolve().parents[1]
+ROOT = DOCS.parent
+PACKAGES = ("zonotope", "isp", "splat")
+
+#: Command-line programs: (title, module, how to get the parser).
+CLIS = (
+    ("zonotope", "zonotope.cli", "_parser"),
+    ("isp", "isp.cli", "_parser"),
+    ("splat", "splat.cli", "_parser"),
+    ("python -m splat.simcapture", "splat.simcapture", "main"),
+)
+
+
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` only when it changed (keeps Sphinx's incremental build incremental)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+def _title(text: str, char: str = "=") -> str:
+    return f"{text}\n{char * len(text)}\n"
+
+
+def _summary(doc: str | None) -> str:
+    """First sentence-ish line of a docstring, safe inside a list-table cell."""
+    if not doc:
+        return ""
+    line = doc.strip().split("\n\n")[0].replace("\n", " ").strip()
+    return line.replace("|", "\\|")
+
+
+def _data_docs(package: str) -> dict[str, tuple[str, str]]:
+    """``name → (module, doc)`` for every ``#:`` documented module-level name in ``package``."""
+    found: dict[str, tuple[str, str]] = {}
+    pkg = importlib.import_module(package)
+    modules = [package] + [
+        f"{package}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if m.name != "__main__"
+    ]
+    for mod in modules:
+        try:
+            docs = ModuleAnalyzer.for_module(mod).find_attr_docs()
+        except Exception:  # a module the analyzer cannot parse has no #: docs for us
+            continue
+        for (scope, name), lines in docs.items():
+            if scope == "" and name not in found:
+                found[name] = (mod, "\n".join(lines).strip())
+    return found
+
+
+def _kind(obj) -> str:
+    if inspect.isclass(obj):
+        return "exception" if issubclass(obj, BaseException) else "class"
+    if inspect.isroutine(obj):
+        return "function"
+    return "data"
+
+
+def _public_names(package: str):
+    """``[(name, obj, kind, defining module, doc)]`` for every name in ``package.__all__``."""
+    pkg = importlib.import_module(package)
+    data = _data_docs(package)
+    lazy = getattr(pkg, "_WHERE", {})
+    out = []
+    for name in pkg.__all__:
+        obj = getattr(pkg, name)
+        kind = _kind(obj)
+        if kind == "data":
+            module, doc = data.get(name, (f"{package}.{lazy[name]}" if name in lazy else package, ""))
+        else:
+            module, doc = obj.__module__, inspect.getdoc(obj) or ""
+        if not doc.strip():
+            logger.warning(
+                "public name %s.%s has no docstring (%s); document it in %s",
+                package,
+                name,
+                "a '#:' comment above its assignment" if kind == "data" else "a numpydoc docstring",
+                module,
+            )
+        out.append((name, obj, kind, module, doc))
+    return out
+
+
+def _module_group(module: str) -> str:
+    """Page name of a defining module's names (``zonotope._tol`` → ``zonotope-tol``)."""
+    if "." not in module:
+        return f"{module}-package"
+    return module.replace("._", ".").replace(".", "-")
+
+
+def generate_api(app, config) -> None:
+    """Write ``docs/api/generated/*.rst``: one page per package, one per defining module."""
+    out = DOCS / "api" / "generated"
+    written = set()
+    for package in PACKAGES:
+        names = _public_names(package)
+        groups: dict[str, list] = {}
+        for row in names:
+            groups.setdefault(row[3], []).append(row)
+        lines = [
+            f".. _api-{package}:\n",
+            _title(f"``{package}``"),
+            f".. automodule:: {package}\n   :no-members:\n",
+            _title("Public names", "-"),
+            f"All {len(names)} names of ``{package}.__all__``, by the module that defines them "
+            f"(import them from ``{package}``).\n",
+        ]
+        toc = []
+        for module in sorted(groups, key=lambda m: (m.split(".")[-1].lstrip("_"), m)):
+            rows = sorted(groups[module], key=lambda r: r[0].lower())
+            page = _module_group(module)
+            toc.append(page)
+            lines += [
+                f".. list-table:: from ``{module}`` — :doc:`details <{page}>`",
+                "   :widths: 30 12 58\n   :header-rows: 0\n",
+            ]
+            for name, _obj, kind, _m, doc in rows:
+                lines += [
+                    f"   * - :py:{'obj'}:`~{package}.{name}`",
+                    f"     - {kind}",
+                    f"     - {_summary(doc)}",
+                ]
+            lines.append("")
+            mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
+            body = [
+                _title(f"``{module}``"),
+                f"{mod_doc}\n" if mod_doc else "",
+                f".. currentmodule:: {package}\n",
+            ]
+            for name, _obj, kind, _m, doc in rows:
+                if kind == "data":
+                    body += [f".. py:data:: {name}\n", _indent(doc) + "\n"]
+                elif kind in ("class", "exception"):
+                    members = "" if kind == "exception" else "   :members:\n   :show-inheritance:\n"
+                    body += [f".. autoclass:: {name}\n{members}"]
+                else:
+                    body += [f".. autofunction:: {name}\n"]
+            _write(out / f"{page}.rst", "\n".join(body))
+            written.add(f"{page}.rst")
+        lines += [".. toctree::\n   :hidden:\n"] + [f"   {t}" for t in toc] + [""]
+        _write(out / f"{package}.rst", "\n".join(lines))
+        written.add(f"{package}.rst")
+    for stale in out.glob("*.rst"):  # a module that no longer defines public names
+        if stale.name not in written:
+            stale.unlink()
+
+
+def _indent(text: str, n: int = 3) -> str:
+    return "\n".join((" " * n + line) if line.strip() else "" for line in text.splitlines())
+
+
+def _parsers(module: str, builder: str):
+    """``[(command line, help text)]`` of a program and each of its sub-commands."""
+    import argparse
+
+    mod = importlib.import_module(module)
+    if builder == "main":  # a program without a parser builder: capture what --help prints
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf), contextlib.suppress(SystemExit):
+            mod.main(["--help"])
+        return [(None, buf.getvalue())]
+    parser = getattr(mod, builder)()
+    out = [(None, parser.format_help())]
+    seen = set()
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                if id(sub) in seen:
+                    continue  # an alias of a command already listed
+                seen.add(id(sub))
+                out.append((name, sub.format_help()))
+    return out
+
+
+def generate_cli(app, config) -> None:
+    """Write ``docs/guide/cli_help/*.rst`` from the programs' own argparse parsers."""
+    os.environ["COLUMNS"] = "100"  # argparse wraps to the terminal; fix it for a stable page
+    out = DOCS / "guide" / "cli_help"
+    for title, module, builder in CLIS:
+        lines = [_title(f"``{title}``", "-")]
+        for sub, text in _parsers(module, builder):
+            if sub is not None:
+                lines.append(_title(f"``{title} {sub}``", "~"))
+            lines += [".. code-block:: text\n", _indent(text.rstrip()), ""]
+        _write(out / f"{module.split('.')[-1] if '.' in title else title}.rst", "\n".join(lines))
+
+
+def _executed(nb_path: Path) -> bool:
+    nb = json.loads(nb_path.read_text())
+    cells = [c for c in nb["cells"] if c["cell_type"] == "code"]
+    return bool(cells) and all(c.get("execution_count") is not None for c in cells)
+
+
+def copy_gallery(app, config) -> None:
+    """Copy ``notebooks/*.ipynb`` into ``docs/gallery``; executed ones are not executed again."""
+    dst = DOCS / "gallery"
+    dst.mkdir(exist_ok=True)
+    names = set()
+    excluded = []
+    for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        names.add(nb.name)
+        target = dst / nb.name
+        if not target.exists() or target.read_bytes() != nb.read_bytes():
+            shutil.copyfile(nb, target)
+        if _executed(nb):
+            excluded.append(f"gallery/{nb.name}")
+    for stale in dst.glob("*.ipynb"):
+        if stale.name not in names:
+            stale.unlink()
+    config.nb_execution_excludepatterns = list(config.nb_execution_excludepatterns) + excluded
+    logger.info("gallery: %d notebooks, %d already executed", len(names), len(excluded))
+
+
+def setup(app):
+    """Register the generators (they run once the configuration is read, before sources are found)."""
+    app.connect("config-inited", generate_api)
+    app.connect("config-inited", generate_cli)
+    app.connect("config-inited", copy_gallery)
+    return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}

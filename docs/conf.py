@@ -1,0 +1,68 @@
+"""Sphinx configuration: ``sphinx-build -W --keep-going docs docs/_build/html`` (see README)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parent
+sys.path.insert(0, str(DOCS / "_ext"))
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # offscreen pyvista in notebooks
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+from zonotope import __version__  # noqa: E402
+
+project = "zonotope"
+author = "the zonotope developers"
+copyright = "2026, the zonotope developers"
+release = __version__
+version = __version__
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+    "myst_nb",
+    "zdocs",
+]
+
+root_doc = "index"
+exclude_patterns = ["_build", "jupyter_execute", "**.ipynb_checkpoints", "guide/cli_help/*"]
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
+
+# -- autodoc / numpydoc ---------------------------------------------------------------------------
+autodoc_member_order = "bysource"
+autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types and shapes
+autodoc_default_options = {"exclude-members": "__init__, __new__"}
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+# Public names without a docstring fail the build (the generated API pages warn for constants).
+numpydoc_validation_checks = {"GL08"}
+numpydoc_validation_exclude = {r"\._[a-z]", r"\.__\w+__$"}
+
+# -- notebooks (myst-nb) --------------------------------------------------------------------------
+# A notebook already executed in this CI run (pytest --nbmake --overwrite) is rendered as it is
+# (zdocs adds it to the exclude patterns); the others run once here.
+nb_execution_mode = "force"
+nb_execution_excludepatterns: list[str] = []
+nb_execution_timeout = 900
+nb_execution_raise_on_error = True
+nb_execution_show_tb = True
+nb_merge_streams = True
+myst_enable_extensions = ["dollarmath", "amsmath"]
+# README sections are included below their own heading level; module docstrings list References
+# that their text does not cite (numpydoc renames them, Sphinx then calls them unreferenced).
+suppress_warnings = ["myst.header", "ref.citation"]
+
+# -- HTML -----------------------------------------------------------------------------------------
+html_theme = "pydata_sphinx_theme"
+html_title = f"zonotope {release}"
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+    "footer_start": ["copyright"],
+    "footer_end": ["sphinx-version"],
+}
+html_static_path: list[str] = []
