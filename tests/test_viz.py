@@ -93,3 +93,21 @@ def test_mmv_pictures(tmp_path):
     )
     assert _non_blank(tmp_path / "grey.png", min_colours=20)
     assert _non_blank(tmp_path / "cmp.png", min_colours=20)
+
+
+def test_matplotlib_backend_is_left_alone():
+    """Charts go to whatever backend is active (Jupyter's inline one in notebooks): none is forced."""
+    code = textwrap.dedent(
+        """
+        import os, matplotlib
+        os.environ.pop("DISPLAY", None)
+        matplotlib.use("svg")
+        import numpy as np
+        from zonotope import viz
+        from zonotope.correct import correction_problem
+        viz.plot_sensitivities(correction_problem("Nikon 5100 (NPL)", shape=np.arange(400.0, 701.0, 10.0)))
+        print(matplotlib.get_backend())
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().lower() == "svg"

@@ -269,10 +269,9 @@ def plot_mmv_comparison(
 
 
 def _figure(ax, figsize=(7, 4)):
-    import matplotlib
-
     if ax is None:
-        matplotlib.use("Agg") if not os.environ.get("DISPLAY") else None
+        # No backend is forced: matplotlib falls back to Agg without a display by itself, and
+        # Jupyter's inline backend (figures in executed notebooks) must be left alone.
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=figsize, constrained_layout=True)
