@@ -133,7 +133,7 @@ def develop_folder(args: argparse.Namespace) -> int:
             (values, fitted),
             manifest=out_dir / "manifest.csv",
             scheduler=where,
-            progress=lambda done, total: bar.update(task, completed=done),
+            progress=lambda stage, done, total: bar.update(task, completed=done),
         )
     failed = [r for r in rows if r["status"] == "failed"]
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}

@@ -232,7 +232,7 @@ def _develop(args: argparse.Namespace) -> int:
 
             colour_task = []
 
-            def on_colours(done: int, total: int) -> None:  # a second bar: distinct colours corrected
+            def on_colours(stage: str, done: int, total: int) -> None:  # a second bar: distinct colours
                 if not colour_task:
                     colour_task.append(
                         progress.add_task(f"  {metamer.method}: distinct colours", total=total)
@@ -241,10 +241,11 @@ def _develop(args: argparse.Namespace) -> int:
 
             metamer.progress = on_colours
 
-        def on_stage(i: int, name: str) -> None:
-            progress.update(task, completed=i + 1, description=name)
+        def on_stage(stage: str, done: int, total: int) -> None:  # zonotope.ProgressCallback
+            name = pipeline.stages[done].name if done < total else "developed"
+            progress.update(task, completed=done + 1, description=name)
 
-        dev = pipeline(raw, on_stage=on_stage, keep=bool(args.save_stages))
+        dev = pipeline(raw, progress=on_stage, keep=bool(args.save_stages))
         progress.update(task, completed=len(pipeline) + 1, description=f"writing {out.name}")
         encoded = "encode_sRGB" in pipeline.names
         write_image(

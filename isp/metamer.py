@@ -13,13 +13,13 @@ so ``import isp`` stays light. (Split out of :mod:`isp.pipeline`, which knows no
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
+    from zonotope import ProgressCallback
     from zonotope.correct import Corrector
 
 __all__ = ["METAMER_RANGE", "MetamerCorrection", "metamer_correction"]
@@ -62,7 +62,8 @@ class MetamerCorrection:
     batch_size : int
         Distinct colours per call of the estimator.
     progress : callable, optional
-        ``progress(done, total)`` in distinct colours while correcting an image (not the white).
+        ``progress("distinct colours", done, total)`` while correcting an image (not the white;
+        :class:`zonotope.ProgressCallback`).
     white_level : float
         White-balanced response of a perfect white reflector in the image (default 1).
     fallbacks : int
@@ -75,7 +76,7 @@ class MetamerCorrection:
     corrector: Corrector
     quantum: float = 2e-3
     batch_size: int = 64
-    progress: Callable[[int, int], None] | None = None
+    progress: ProgressCallback | None = None
     white_level: float = 1.0
     fallbacks: int = 0
     neutral: np.ndarray | None = field(default=None, repr=False)
@@ -152,7 +153,7 @@ def metamer_correction(
     white_level: float = 1.0,
     quantum: float = 2e-3,
     batch_size: int = 64,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressCallback | None = None,
     **options,
 ) -> MetamerCorrection:
     """Fit a metamer-based colour correction (``zonotope.correct``) for a camera with known SSF.

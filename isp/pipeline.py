@@ -19,12 +19,16 @@ from __future__ import annotations
 import weakref
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import stages as st
 from ._errors import PipelineError
 from .raw import RawImage
+
+if TYPE_CHECKING:
+    from zonotope import ProgressCallback
 
 __all__ = ["Development", "Pipeline", "Stage", "chain", "correction_stage", "default_pipeline", "develop"]
 
@@ -165,7 +169,7 @@ class Pipeline:
         *,
         stop_after: str | None = None,
         keep: bool = True,
-        on_stage: Callable[[int, str], None] | None = None,
+        progress: ProgressCallback | None = None,
     ) -> Development:
         """Develop ``raw``.
 
@@ -177,8 +181,10 @@ class Pipeline:
             Name of the last stage to run.
         keep
             Keep every intermediate (else only the input and the output).
-        on_stage
-            Called as ``on_stage(i, name)`` before each stage (progress displays).
+        progress
+            Called as ``progress("develop", i, n)`` before stage ``i`` (0-based; its name is
+            ``stages[i].name``) of the ``n`` stages run, and ``progress("develop", n, n)`` at the
+            end (:class:`zonotope.ProgressCallback`).
 
         Returns
         -------
@@ -193,8 +199,8 @@ class Pipeline:
         x = np.asarray(raw.mosaic)
         inter: dict[str, np.ndarray] = {"input": x}
         for i, s in enumerate(run.stages):
-            if on_stage is not None:
-                on_stage(i, s.name)
+            if progress is not None:
+                progress("develop", i, len(run.stages))
             y = s(x, raw)
             if not isinstance(y, np.ndarray):
                 raise PipelineError(f"stage {s.name!r} returned {type(y).__name__}, not an ndarray.")
@@ -205,6 +211,8 @@ class Pipeline:
             x = y
         if not keep and run.stages:
             inter[run.stages[-1].name] = x
+        if progress is not None:
+            progress("develop", len(run.stages), len(run.stages))
         return Development(image=x, intermediates=inter, raw=raw)
 
 
@@ -378,7 +386,7 @@ def develop(
     pipeline: Pipeline | None = None,
     stop_after: str | None = None,
     keep: bool = True,
-    on_stage: Callable[[int, str], None] | None = None,
+    progress: ProgressCallback | None = None,
     **options,
 ) -> Development:
     """Read (if needed) and develop a RAW image.
@@ -389,7 +397,7 @@ def develop(
         A :class:`~isp.raw.RawImage` or a path to a RAW/DNG file.
     pipeline
         The pipeline to run; default :func:`default_pipeline` built with ``**options``.
-    stop_after, keep, on_stage
+    stop_after, keep, progress
         See :meth:`Pipeline.__call__`.
     **options
         Keywords of :func:`default_pipeline` (only when ``pipeline`` is None).
@@ -412,4 +420,4 @@ def develop(
         )
     raw = source if isinstance(source, RawImage) else read_raw(source)
     p = pipeline if pipeline is not None else default_pipeline(**options)
-    return p(raw, stop_after=stop_after, keep=keep, on_stage=on_stage)
+    return p(raw, stop_after=stop_after, keep=keep, progress=progress)

@@ -493,7 +493,7 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
     ----------
     spec : CaptureSpec
     progress : callable, optional
-        ``progress(done, total)`` after each file.
+        ``progress("read", done, total)`` after each file (:class:`zonotope.ProgressCallback`).
 
     Returns
     -------
@@ -529,7 +529,7 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
             )
         )
         if progress is not None:
-            progress(i + 1, len(jobs))
+            progress("read", i + 1, len(jobs))
     for k, cam in enumerate(spec.cameras):
         mine = [v for v in views if v.camera == k]
         sizes = sorted({v.shape for v in mine})

@@ -31,11 +31,15 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ._errors import SplatError
 from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
+
+if TYPE_CHECKING:
+    from zonotope import ProgressCallback
 
 __all__ = [
     "STEPS",
@@ -50,8 +54,6 @@ __all__ = [
 ]
 
 STEPS = ("poses", "train", "render", "correct", "report")
-
-Progress = Callable[[str, int, int], None]
 
 
 @dataclass(frozen=True)
@@ -220,7 +222,7 @@ def poses_step(
     out: str | os.PathLike,
     *,
     config: PipelineConfig = PipelineConfig(),
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> dict:
     """Recover (or read) the poses of every RAW file; one COLMAP camera per physical camera.
 
@@ -244,7 +246,7 @@ def poses_step(
     if done.is_file():
         return json.loads(done.read_text())
     t0 = time.perf_counter()
-    views = load_views(spec, progress=None if progress is None else lambda i, n: progress("read", i, n))
+    views = load_views(spec, progress=progress)
     names = [v.name for v in views]
     if spec.colmap is not None or spec.transforms is not None:
         source = "colmap" if spec.colmap is not None else "transforms"
@@ -369,7 +371,7 @@ def train_step_(
     out: str | os.PathLike,
     *,
     config: PipelineConfig = PipelineConfig(),
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> dict:
     """Train the N-channel Gaussians on every camera's RAW mosaics (held-out views excluded).
 
@@ -554,7 +556,7 @@ def render_step(
     out: str | os.PathLike,
     *,
     config: PipelineConfig = PipelineConfig(),
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> dict:
     """Render held-out views, views of the chosen camera and novel views (N channels, exposure 1).
 
@@ -747,7 +749,7 @@ def correct_step(
     out: str | os.PathLike,
     *,
     config: PipelineConfig = PipelineConfig(),
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> dict:
     """Colour-correct every rendered view with all cameras (``config.method``), and develop each
     camera's channels with its own DNG matrix; held-out RAW files are also developed by isp.
@@ -834,7 +836,7 @@ def report_step(
     out: str | os.PathLike,
     *,
     config: PipelineConfig = PipelineConfig(),
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> Path:
     """Write ``OUT/report.html``: summaries of every step and, per rendered view, the corrected image,
     each camera's DNG-matrix development, the PCA false colour (and ``score.json`` if a scoring run
@@ -888,7 +890,7 @@ def run(
     *,
     config: PipelineConfig = PipelineConfig(),
     steps=STEPS,
-    progress: Progress | None = None,
+    progress: ProgressCallback | None = None,
 ) -> dict:
     """Run the steps in order (each skipped or resumed when its results exist); returns their results."""
     fns = {

@@ -19,10 +19,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: zonotope's modules by layer (0 = lowest). A new module must be placed here.
 LAYERS: dict[int, set[str]] = {
-    0: {"_errors", "_tol", "_registry", "_io", "parallel", "_cubemap"},
+    0: {"_errors", "_tol", "_registry", "_io", "_progress", "parallel", "_cubemap"},
     1: {"spectra", "_loading", "_generators"},
     2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "membership"},
-    3: {"_oracle", "_mmv_refine", "_mmv_walk", "mismatch"},
+    3: {"_oracle", "_mmv_refine", "_mmv_walk", "_mmv_walk_kernel", "mismatch"},
     4: {"prior", "atypical", "_correction_problem", "_regressions", "_mmv_estimators", "correct"},
     5: {"image", "profile"},
     6: {"evaluate", "report", "viz", "survey", "_batch_cli", "_profile_cli", "cli", "__main__", "__init__"},

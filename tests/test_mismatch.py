@@ -242,8 +242,8 @@ def test_metamer_mismatch_class_and_batch():
     single = mm.bounds(C[1, 2], eps=1e-3)
     np.testing.assert_allclose(out.centroids[1, 2], single.centroid, atol=1e-12)
     seen = []
-    exact = mm.batch(C[0], eps=0.0, chunk=2, progress=lambda done, total: seen.append((done, total)))
-    assert seen == [(2, 3), (3, 3)]
+    exact = mm.batch(C[0], eps=0.0, chunk=2, progress=lambda *call: seen.append(call))
+    assert seen == [("metamer mismatch volumes", 2, 3), ("metamer mismatch volumes", 3, 3)]
     for c, v in zip(C[0], exact.volumes, strict=True):
         assert v == pytest.approx(mm(c).volume, rel=1e-12)
     assert mm.target_of(R).shape == (2, 3, 3)

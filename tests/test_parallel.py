@@ -84,9 +84,9 @@ def test_serial_executor_outcomes_and_map():
         assert list(ex.map(_square_or_fail, [1, 2])) == [1, 4]
         seen = []
         out = dict(
-            ex.outcomes(_square_or_fail, range(5), shared=10, progress=lambda d, t: seen.append((d, t)))
+            ex.outcomes(_square_or_fail, range(5), shared=10, progress=lambda *call: seen.append(call))
         )
-        assert seen[-1] == (5, 5)
+        assert seen[-1] == ("tasks", 5, 5)
         assert isinstance(out[3], TaskFailure) and "three is bad" in out[3].error
         assert [out[i] for i in (0, 1, 2, 4)] == [10, 11, 14, 26]
 
@@ -171,7 +171,8 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
     manifest = tmp_path / "out" / "manifest.csv"
     killed = []
 
-    def progress(done, total):
+    def progress(stage, done, total):
+        assert stage == "files"
         if done == 2 and not killed:  # mid-run: 10 tasks still queued or running
             cluster.kill_worker()
             killed.append(done)

@@ -23,13 +23,14 @@ def test_report_written_atomically(tmp_path):
         pictures=False,
         methods=["root-polynomial", "Prior"],
         volumes=False,
-        progress=lambda d, n: steps.append(d),
+        progress=lambda stage, done, total: steps.append((stage, done, total)),
     )
     html = (out / "index.html").read_text()
     md = (out / "report.md").read_text()
     assert "Vora" in html and "Greedy order" in md and "Colour-correction evaluation" in md
     assert "Nikon 5100 (NPL) + Canon EOS 5D Mark II" in md
-    assert steps and [p.name for p in tmp_path.iterdir()] == ["rep"]  # no temp folders left
+    assert ("loading cameras", 0, 2) in steps and all(d == 0 for _, d, _ in steps)
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]  # no temp folders left
 
     with pytest.raises(ReportExistsError, match="force"):
         write_report(["Nikon 5100 (NPL)"], out, pictures=False)

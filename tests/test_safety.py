@@ -460,7 +460,7 @@ def test_mmv_batch_streams_in_bounded_memory():
     class Stop(Exception):
         pass
 
-    def stop(done, total):
+    def stop(stage, done, total):
         raise Stop
 
     peaks = []

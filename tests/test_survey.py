@@ -103,7 +103,7 @@ def test_survey_on_a_cluster_survives_a_killed_worker(cams, serial_rows, dask_cl
     dask_cluster.wait_for(2)
     killed = []
 
-    def progress(done, total):
+    def progress(stage, done, total):
         if done == 1 and not killed:
             dask_cluster.kill_worker()
             killed.append(done)

@@ -23,8 +23,9 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 =========================  ==================================================================
 
 Shared infrastructure: ``_errors`` (one exception hierarchy), ``_tol`` (every tolerance, with
-its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``parallel``
-(executors), ``_io`` (atomic output files).
+its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``_progress``
+(:class:`ProgressCallback`, the one ``progress(stage, done, total)`` type of every long-running
+function), ``parallel`` (executors), ``_io`` (atomic output files).
 
 ``import zonotope`` loads the spectra and the solid; everything else loads on first use of a
 public name. Two module names are not shadowed by a function of the same name:
@@ -196,7 +197,7 @@ _EXPORTS = {
         "plot_spectral_locus",
         "plot_vora_chain",
     ],
-    "parallel": ["ProgressCallback"],
+    "_progress": ["ProgressCallback"],
     "_lp": ["distance_to_zonotope"],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}

@@ -105,7 +105,7 @@ def _bar(console, quiet: bool, description: str):
         disable=quiet,
     )
     task = bar.add_task(description, total=None)
-    return bar, lambda done, total: bar.update(task, completed=done, total=total)
+    return bar, lambda stage, done, total: bar.update(task, completed=done, total=total)
 
 
 def _image_files(inputs) -> list[Path]:

@@ -113,7 +113,9 @@ def _shape(args: argparse.Namespace):
 
 
 def _rich_progress(console):
-    """A (progress, callback) pair: callback(description, n) starts a new task.
+    """A (progress, callback) pair; ``callback(stage, done, total)`` (:class:`~zonotope.ProgressCallback`).
+
+    A new stage name completes the previous bar and starts a new one.
 
     On a terminal, rich's live bars; otherwise (output piped into a file or a pager, where rich
     draws nothing) one plain line per step on stderr, with the time since the start.
@@ -125,19 +127,26 @@ def _rich_progress(console):
 
         t0 = time.monotonic()
 
-        def plain(description: str, n: int) -> None:
-            print(f"[{time.monotonic() - t0:7.1f} s] {description}", file=sys.stderr, flush=True)
+        last = {"stage": None}
+
+        def plain(stage: str, done: int, total: int) -> None:
+            if stage != last["stage"]:  # one line per stage
+                last["stage"] = stage
+                print(f"[{time.monotonic() - t0:7.1f} s] {stage}", file=sys.stderr, flush=True)
 
         return contextlib.nullcontext(), plain
     progress = Progress(
         TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=console, transient=True
     )
-    state = {"task": None}
+    state: dict = {"task": None, "stage": None, "total": 1}
 
-    def callback(description: str, n: int) -> None:
-        if state["task"] is not None:
-            progress.update(state["task"], completed=1)
-        state["task"] = progress.add_task(description, total=1)
+    def callback(stage: str, done: int, total: int) -> None:
+        if stage != state["stage"]:
+            if state["task"] is not None:  # the previous stage is finished
+                progress.update(state["task"], completed=state["total"])
+            state.update(task=progress.add_task(stage, total=max(total, 1)), stage=stage)
+        state["total"] = max(total, 1)
+        progress.update(state["task"], completed=done, total=state["total"])
 
     return progress, callback
 

@@ -32,7 +32,7 @@ keeps every sample's ΔE00, so it reports pooled mean / 95th percentile / max ov
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,6 +40,7 @@ import numpy as np
 
 from . import spectra
 from ._errors import SpectralDataError, ZonotopeError
+from ._progress import ProgressCallback
 from .atypical import atypical_reflectances, structured_reflectances
 from .correct import (
     CORRECTION_METHODS,
@@ -460,7 +461,7 @@ def evaluate(
     seed: int = 0,
     centroid_eps: float = 1e-3,
     exclude_within: float | None = 0.02,
-    progress: Callable[[str, int], None] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> Evaluation:
     """ΔE00 of each estimator, for each camera set and test set.
 
@@ -491,7 +492,8 @@ def evaluate(
         Test spectra within this L∞ distance of a training spectrum are removed (:func:`source_split`,
         per camera set's training data); ``None`` keeps every test spectrum.
     progress
-        Called as ``progress(description, n_steps)`` before each step (for progress bars).
+        Called as ``progress(stage, 0, n)`` before and ``progress(stage, n, n)`` after each step
+        (n test responses; :class:`~zonotope.ProgressCallback`).
 
     Returns
     -------
@@ -556,16 +558,20 @@ def evaluate(
             centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
             if centroid is not None:
                 if progress:
-                    progress(f"{label} · {ts.name}: MMVs", len(C))
+                    progress(f"{label} · {ts.name}: MMVs", 0, len(C))
                 t0 = time.perf_counter()
                 cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise)
+                if progress:
+                    progress(f"{label} · {ts.name}: MMVs", len(C), len(C))
                 volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))
                 mmv_time = time.perf_counter() - t0
             for m, est in fitted.items():
                 if progress:
-                    progress(f"{label} · {ts.name}: {m}", len(C))
+                    progress(f"{label} · {ts.name}: {m}", 0, len(C))
                 t0 = time.perf_counter()
                 E = cents if m == centroid else est(C)
+                if progress:
+                    progress(f"{label} · {ts.name}: {m}", len(C), len(C))
                 secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
                 dE = problem.delta_E(E, T)
                 errors[label, ts.name, m] = np.asarray(dE, dtype=np.float64)

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import zipfile
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ._errors import SpectralDataError
+from ._progress import ProgressCallback
 from .correct import CORRECTION_METHODS, Corrector, fit_correction
 
 __all__ = ["correct_image"]
@@ -73,7 +73,7 @@ def correct_image(
     base: Corrector | str | None = "auto",
     batch_size: int = 2048,
     cache_dir: str | Path | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressCallback | None = None,
     **options,
 ) -> np.ndarray:
     """Correct a linear multi-camera image to target XYZ.
@@ -104,7 +104,8 @@ def correct_image(
         Folder for a persistent per-colour cache (one ``.npz`` per estimator and grid), written
         atomically after each batch.
     progress
-        Called as ``progress(done, total)`` (distinct colours) after each batch.
+        Called as ``progress("distinct colours", done, total)`` after each batch
+        (:class:`~zonotope.ProgressCallback`).
 
     Returns
     -------
@@ -185,7 +186,7 @@ def correct_image(
             cache.update({uniq[i].tobytes(): result[i] for i in idx})
             _save_cache(cache_path, cache, k, m)
         if progress is not None:
-            progress(min(start + batch_size, todo.size), todo.size)
+            progress("distinct colours", min(start + batch_size, todo.size), todo.size)
     inverse = inverse.reshape(-1)
     out[ok] = result[inverse]
     if base is not None and quantum > 0:

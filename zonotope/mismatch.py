@@ -7,7 +7,7 @@ generators Ψ (n, m) (LMS, XYZ or another camera), both on one wavelength grid a
     MMV(c) = {Ψᵀx : Φᵀx = c, 0 ≤ x ≤ 1}          (responses are row vectors xᵀΦ),
 
 a convex polytope inside the target object-colour solid. With a per-channel noise tolerance δ the
-constraint becomes |Φᵀx − c| ≤ δ.
+constraint becomes ``|Φᵀx − c| ≤ δ``.
 
 How it is computed
 ------------------
@@ -50,7 +50,6 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property, partial
 from typing import TYPE_CHECKING
@@ -60,6 +59,7 @@ import numpy as np
 from ._errors import GeometryError, InfeasibleResponseError
 from ._mmv_refine import Refinement, refine, refine_many
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
+from ._progress import ProgressCallback
 from ._registry import MethodRegistry
 from ._tol import CERTIFY, FEASIBLE_ABS, FEASIBLE_REL
 from .polytope import Polytope
@@ -245,7 +245,7 @@ def metamer_mismatch(
     response : array_like of shape (k,)
         Source response c = xᵀΦ.
     delta : float or array_like of shape (k,)
-        Per-channel tolerance: |Φᵀx − c| ≤ δ (see the module notes on choosing it). Default 0.
+        Per-channel tolerance: ``|Φᵀx − c| ≤ δ`` (see the module notes on choosing it). Default 0.
     oracle : {"fast", "highs"}
         Support-LP solver (key of :data:`ORACLES`): the batched warm-started simplex, or the
         scipy-HiGHS reference twin.
@@ -537,7 +537,7 @@ class MetamerMismatch:
         eps: float = 1e-3,
         delta=0.0,
         on_infeasible: str = "raise",
-        progress: Callable[[int, int], None] | None = None,
+        progress: ProgressCallback | None = None,
         chunk: int = 256,
         executor: Executor | None = None,
         outer: bool = True,
@@ -567,7 +567,7 @@ def metamer_mismatch_batch(
     delta=0.0,
     oracle: str = "fast",
     on_infeasible: str = "raise",
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressCallback | None = None,
     chunk: int = 256,
     executor: Executor | None = None,
     outer: bool = True,
@@ -586,7 +586,8 @@ def metamer_mismatch_batch(
     oracle : {"fast", "highs"}
     on_infeasible : {"raise", "nearest"}
     progress : callable, optional
-        Called as ``progress(done, total)`` (responses) after each chunk; the library draws nothing.
+        Called as ``progress("metamer mismatch volumes", done, total)`` (responses) after each
+        chunk (:class:`~zonotope.ProgressCallback`); the library draws nothing.
     chunk : int
         Responses refined side by side: every round of facet refinement asks the support LPs of
         all of them in one batched simplex call, which shares numpy's per-call overhead (≈ 2× faster
@@ -640,7 +641,7 @@ def metamer_mismatch_batch(
         results.append(r)
         done += r[0].shape[0]
         if progress is not None:
-            progress(done, N)
+            progress("metamer mismatch volumes", done, N)
     lead = C.shape[:-1]
     if results:
         cents, bounds, errs, dims = (np.concatenate([r[j] for r in results]) for j in range(4))

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from ._errors import ZonotopeError
+from ._progress import ProgressCallback
 
 __all__ = [
     "ENV_VAR",
@@ -51,7 +52,6 @@ __all__ = [
     "Executor",
     "FileTask",
     "ParallelError",
-    "ProgressCallback",
     "SerialExecutor",
     "TaskFailure",
     "dask_available",
@@ -62,9 +62,6 @@ __all__ = [
 
 #: Environment variable read when ``scheduler=None``.
 ENV_VAR = "ZONOTOPE_SCHEDULER"
-
-#: Called as ``progress(done, total)``.
-ProgressCallback = Callable[[int, int], None]
 
 _ADDRESS = re.compile(r"^([a-z0-9+]+://.+|[A-Za-z0-9_.\-]+:\d+)$")
 
@@ -108,13 +105,20 @@ class Executor(_Executor):
     workers: int = 1
 
     def outcomes(
-        self, fn: Callable, items: Iterable, *, shared: Any = None, progress: ProgressCallback | None = None
+        self,
+        fn: Callable,
+        items: Iterable,
+        *,
+        shared: Any = None,
+        progress: ProgressCallback | None = None,
+        stage: str = "tasks",
     ) -> Iterator[tuple[int, Any]]:
         """Run ``fn(item, shared)`` (or ``fn(item)`` when ``shared`` is None) for every item.
 
         Yields ``(index, result)`` as the tasks finish (any order); a task that raised yields a
         :class:`TaskFailure` instead of its result and the others go on. ``shared`` is sent to
-        each worker once, not once per item.
+        each worker once, not once per item. ``progress(stage, done, total)`` is called after
+        each finished task (:class:`~zonotope.ProgressCallback`).
         """
         raise NotImplementedError  # pragma: no cover - the subclasses implement it
 
@@ -139,7 +143,7 @@ class SerialExecutor(Executor):
         """Lazy ``map(fn, *iterables)`` in this process."""
         return map(fn, *iterables)
 
-    def outcomes(self, fn, items, *, shared=None, progress=None):
+    def outcomes(self, fn, items, *, shared=None, progress=None, stage="tasks"):
         """See :meth:`Executor.outcomes` (here: one item after the other, in order)."""
         items = list(items)
         for i, item in enumerate(items):
@@ -148,7 +152,7 @@ class SerialExecutor(Executor):
             except Exception as error:  # one bad item must not stop the batch
                 out = TaskFailure(f"{type(error).__name__}: {error}", traceback.format_exc())
             if progress is not None:
-                progress(i + 1, len(items))
+                progress(stage, i + 1, len(items))
             yield i, out
 
 
@@ -188,7 +192,7 @@ class DaskExecutor(Executor):
         while pending:
             yield pending.popleft().result(timeout=timeout)
 
-    def outcomes(self, fn, items, *, shared=None, progress=None):
+    def outcomes(self, fn, items, *, shared=None, progress=None, stage="tasks"):
         """See :meth:`Executor.outcomes` (here: Dask futures, yielded as they complete)."""
         from distributed import as_completed
 
@@ -225,7 +229,7 @@ class DaskExecutor(Executor):
             fut.release()
             done += 1
             if progress is not None:
-                progress(done, total)
+                progress(stage, done, total)
             for new in more(1):
                 pool.add(new)
             yield i, out
@@ -472,7 +476,8 @@ def run_files(
     scheduler, min_tasks
         Where to run (see :func:`executor`).
     progress : callable, optional
-        ``progress(done, total)`` over the files that had to be made.
+        ``progress("files", done, total)`` over the files that had to be made
+        (:class:`~zonotope.ProgressCallback`).
 
     Returns
     -------
@@ -528,7 +533,7 @@ def run_files(
     try:
         with executor(scheduler, tasks=len(todo), min_tasks=min_tasks) as ex:
             for j, out in ex.outcomes(
-                _file_task, [tasks[i] for i in todo], shared=(work, options), progress=progress
+                _file_task, [tasks[i] for i in todo], shared=(work, options), progress=progress, stage="files"
             ):
                 i = todo[j]
                 if isinstance(out, TaskFailure):  # the task itself was lost (e.g. killed too often)

@@ -19,7 +19,7 @@ writes); any other folder is never touched. Both are checked before the long com
 from __future__ import annotations
 
 import html
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from itertools import combinations
 from pathlib import Path
 
@@ -27,6 +27,7 @@ import numpy as np
 
 from ._errors import SpectralDataError
 from ._io import OutputExistsError, atomic_dir, check_output
+from ._progress import ProgressCallback
 
 __all__ = ["ReportExistsError", "write_report"]
 
@@ -80,7 +81,7 @@ def write_report(
     pictures: bool = True,
     methods: Sequence[str] | None = None,
     volumes: bool = True,
-    progress: Callable[[str, int], None] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> Path:
     """Write ``index.html`` and ``report.md`` (plus PNGs) for a camera set into ``output``.
 
@@ -109,7 +110,8 @@ def write_report(
     volumes
         Compute the MMV volume tables (one MMV per grey level and ColorChecker patch and set).
     progress
-        ``progress(description, n)`` before each step.
+        ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.ProgressCallback`; a new
+        stage name closes the previous one).
 
     Returns
     -------
@@ -147,7 +149,10 @@ def write_report(
         raise SpectralDataError("write_report needs at least one camera.")
     shape = colour.SpectralShape(400, 700, 10) if shape is None else shape
     w = np.asarray(shape.wavelengths, dtype=np.float64)
-    step = progress or (lambda description, n: None)
+
+    def step(stage: str, n: int) -> None:
+        if progress is not None:
+            progress(stage, 0, n)
 
     step("loading cameras", len(cameras))
     curves = [load_camera(c) for c in cameras]

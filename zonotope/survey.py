@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, fields
 from itertools import combinations
 from pathlib import Path
@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import SpectralDataError, ZonotopeError
+from ._progress import ProgressCallback
 
 __all__ = ["REGRESSIONS", "SurveyRow", "best_partners", "load_cameras", "survey", "write_table"]
 
@@ -196,7 +197,7 @@ def survey(
     eps: float = 1e-3,
     containing: Iterable[str] | None = None,
     scheduler: str | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> list[SurveyRow]:
     """Score every set of ``size`` cameras; ranked best first.
 
@@ -221,7 +222,7 @@ def survey(
     scheduler
         Where the tasks run (:func:`zonotope.parallel.executor`); one task per camera set.
     progress
-        ``progress(done, total)`` in camera sets.
+        ``progress("camera sets", done, total)`` (:class:`~zonotope.ProgressCallback`).
 
     Returns
     -------
@@ -268,7 +269,7 @@ def survey(
     )
     rows: list = [None] * len(sets)
     with executor(scheduler, tasks=len(sets), min_tasks=8) as ex:
-        for i, out in ex.outcomes(_score, sets, shared=(cams, opts), progress=progress):
+        for i, out in ex.outcomes(_score, sets, shared=(cams, opts), progress=progress, stage="camera sets"):
             if isinstance(out, TaskFailure):
                 out = SurveyRow(sets[i], 0, "", math.nan, math.nan, math.nan, "", math.nan, 0.0, out.error)
             rows[i] = out

@@ -91,7 +91,7 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
     tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in raw_files(dng_folder)]
     killed = []
 
-    def progress(done, total):
+    def progress(stage, done, total):
         if done == 1 and not killed:
             dask_cluster.kill_worker()
             killed.append(done)

@@ -74,8 +74,10 @@ def test_run_keeps_intermediates(crop):
     assert list(short.intermediates) == ["input", "camera_to_XYZ"]
     np.testing.assert_allclose(short.image, dev.intermediates["camera_to_XYZ"], atol=0.05)  # Malvar/bilinear
     seen = []
-    develop(crop, on_stage=lambda i, n: seen.append(n), tonemap=None)
-    assert tuple(seen) == NAMES[:5] + NAMES[6:]
+    notone = develop(crop, progress=lambda *call: seen.append(call), tonemap=None)
+    assert tuple(notone.intermediates)[1:] == NAMES[:5] + NAMES[6:]
+    n = len(NAMES) - 1
+    assert seen == [("develop", i, n) for i in range(n + 1)]  # before each stage, and at the end
 
 
 def test_stage_errors(crop):
@@ -179,7 +181,7 @@ def test_metamer_correction_falls_back_per_colour():
         dataclasses.replace(base.corrector, predict=fragile),
         quantum=0,
         batch_size=4,
-        progress=lambda done, total: seen.append((done, total)),
+        progress=lambda stage, done, total: seen.append((stage, done, total)),
     )
     c = np.random.default_rng(1).uniform(0.05, 0.6, (20, 3))
     out = m(c)
@@ -187,7 +189,7 @@ def test_metamer_correction_falls_back_per_colour():
     assert m.fallbacks == bad.sum() > 0
     np.testing.assert_allclose(out[~bad], base(c[~bad]), atol=1e-9)
     np.testing.assert_allclose(out[bad], m._regression(c[bad]), atol=1e-12)
-    assert seen[-1] == (20, 20) and len(seen) == 5  # per batch, distinct colours only
+    assert seen[-1] == ("distinct colours", 20, 20) and len(seen) == 5  # per batch, distinct colours only
     m(np.ones((1, 3)))  # the white alone: no progress report
     assert len(seen) == 5
 
