@@ -267,3 +267,120 @@ def test_projection_matches_polytope_project(problem, checker):
         mmv = mismatch.metamer_mismatch(problem.Phi, problem.Psi, C[i])
         ref = mmv.project(far[i], metric=W[i])
         assert problem.delta_E(ours[i], ref) < 0.02
+
+
+# -- issue 14: closed-form fast paths, cross-validated regression, uncertainty, executor -------------
+
+
+def test_interior_solution_is_the_bounded_solution(problem, checker):
+    """Where the unconstrained MAP lies in [0, 1]ⁿ it equals the BVLS solution (independent solver)."""
+    from zonotope.prior import interior_solution
+
+    prior = ReflectancePrior.fit(problem.training)
+    A, _ = atypical_reflectances(GRID, 12, seed=3)
+    C = problem.source_of(np.vstack([checker, A]))
+    x, interior = interior_solution(prior, problem.Phi, C)
+    assert 0 < interior.sum() < len(C)  # both paths are exercised
+    ref = fiber_lsq(problem.Phi, C, prior.root, prior.root @ prior.mean)
+    np.testing.assert_allclose(x[interior], ref[interior], atol=1e-6)
+    np.testing.assert_allclose(x[interior] @ problem.Phi, C[interior], atol=1e-12)
+    np.testing.assert_allclose(map_reflectance(problem, C, prior), ref, atol=1e-6)  # both paths
+    xn, _ = interior_solution(prior, problem.Phi, C, noise=0.01)  # relaxed: the Gaussian posterior mode
+    P = prior.precision
+    grad = P @ (xn[0] - prior.mean) + problem.Phi @ (xn[0] @ problem.Phi - C[0]) / 0.01**2
+    assert np.abs(grad).max() < 1e-6 * np.abs(P @ (xn[0] - prior.mean)).max()
+
+
+def test_projection_witness_rows_are_inside(problem2, checker):
+    """Rows certified by a witness reflectance are returned unchanged and are inside (HiGHS LP)."""
+    C = problem2.source_of(checker)
+    t = fit_correction(problem2, method="Finlayson 2015")(C)
+    far = t.copy()
+    far[:3] += np.array([0.05, -0.03, 0.04])
+    out, inside = project_to_mmv(problem2, C, far)
+    assert inside[3:].all() and not inside[:3].any()
+    np.testing.assert_array_equal(out[3:], far[3:])
+    for i in (3, 10, 20):
+        assert in_mmv(problem2, C[i], far[i])
+    for i in range(3):
+        assert in_mmv(problem2, C[i], out[i], tol=1e-4)
+
+
+def test_regression_chosen_by_cross_validation_on_training_only(problem):
+    from dataclasses import replace
+
+    from zonotope.correct import select_regression
+
+    reg, cv = select_regression(problem)
+    assert set(cv["scores"]) == {"Cheung 2004", "Finlayson 2015"}
+    best = min(cv["scores"], key=cv["scores"].get)
+    assert reg.method == best and cv["errors"].size == problem.training.shape[0]
+    assert np.isclose(cv["errors"].mean(), cv["scores"][best])
+    np.testing.assert_allclose(reg.params["M"], fit_correction(problem, method=best).params["M"])
+    # 3 cameras (9 channels: 45 root-polynomial terms) trained on 40 samples: only the matrix can be
+    # cross-validated (the root-polynomial has more terms than any training fold), so it is chosen
+    three = correction_problem(
+        ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II", "Sigma SDMerill (NPL)"], shape=GRID[:-2]
+    )
+    small = replace(three, training=three.training[:40])
+    reg, cv = select_regression(small)
+    assert reg.method == "Cheung 2004" and list(cv["scores"]) == ["Cheung 2004"]
+
+
+def test_prior_uncertainty_and_documented_centroid_fraction(problem, problem2):
+    """The docstring's fractions of centroid blends hold on the built-in natural sets; radii are
+    credible radii of the same estimates, larger where the natural model does not explain the response."""
+    from zonotope.evaluate import natural_test_sets, source_split
+
+    sets, _ = source_split(natural_test_sets(GRID), problem.training)
+    X = np.vstack([s.reflectances for s in sets])  # 42 spectra not in the training set
+    for pb, documented in ((problem, 0.10), (problem2, 0.03)):
+        est = fit_correction(pb, method="Prior")
+        C = pb.source_of(X)
+        w = est.params["weights"](C, map_reflectance(pb, C, est.params["prior"]))
+        assert np.mean(w < 0.99) <= documented
+    est = fit_correction(problem2, method="Prior")
+    A, _ = atypical_reflectances(GRID, 6, seed=5, kinds=["narrow-band"])
+    C = problem2.source_of(np.vstack([X[:10], A]))
+    E, r = est.with_uncertainty(C)
+    np.testing.assert_allclose(E, est(C), atol=1e-12)
+    assert np.isfinite(r).all() and (r > 0).all()
+    assert np.median(r[10:]) > np.median(r[:10])  # atypical: the MMV's spread, not the regression's
+    w = est.params["weights"](C, map_reflectance(problem2, C, est.params["prior"]))
+    sure = w >= 0.99  # no MMV computed: the regression's cross-validated radius, scaled by √w
+    assert sure[:10].sum() >= 8
+    np.testing.assert_allclose(r[sure], np.sqrt(w[sure]) * est.params["r_nat"], rtol=1e-12)
+    E2, r2 = est.with_uncertainty(np.full((2, 2, 6), np.nan))
+    assert E2.shape == (2, 2, 3) and np.isnan(r2).all()
+    with pytest.raises(SpectralDataError, match="no uncertainty model"):
+        fit_correction(problem2, method="Finlayson 2015").with_uncertainty(C)
+
+
+def test_centroids_with_an_executor_equal_serial(problem, checker):
+    from concurrent.futures import ThreadPoolExecutor
+
+    C = problem.source_of(checker[:6])
+    serial = fit_correction(problem, method="Centroid")(C)
+    with ThreadPoolExecutor(2) as pool:
+        par = fit_correction(problem, method="Centroid", executor=pool)(C)
+        par_prior = fit_correction(problem, method="Prior", executor=pool)(C)
+    np.testing.assert_array_equal(par, serial)
+    np.testing.assert_array_equal(par_prior, fit_correction(problem, method="Prior")(C))
+
+
+def test_correct_image_noisy_closed_form_pixels_exact(problem2):
+    """Noisy image: every pixel outside ``needs_solver`` is the exact per-pixel estimate; the grouped
+    rest stays close to it."""
+    from zonotope import spectra
+
+    est = fit_correction(problem2, method="Prior", noise=0.003)
+    pool = np.clip(spectra.resample(spectra.reflectances("BabelColor Average"), GRID).T, 0, 1)
+    rng = np.random.default_rng(1)
+    tiles = pool[rng.integers(0, len(pool), (4, 4))]
+    img = np.repeat(np.repeat(tiles, 6, 0), 6, 1) @ problem2.Phi + rng.normal(0, 0.003, (24, 24, 6))
+    out = correct_image(img, est, quantum=0.01)
+    exact = est(img)
+    slow = est.params["needs_solver"](img.reshape(-1, 6)).reshape(24, 24)
+    assert 0 < slow.mean() < 0.5
+    np.testing.assert_allclose(out[~slow], exact[~slow], atol=1e-9)
+    assert problem2.delta_E(out[slow], exact[slow]).max() < 0.5

@@ -135,3 +135,19 @@ def test_pooled_and_paired_statistics_from_samples():
     with pytest.raises(SpectralDataError, match="MAP"):
         ev.paired("Cheung 2004", "MAP")
     assert "pooled mean" in ev.to_markdown()
+
+
+def test_evaluate_with_an_executor_equals_serial():
+    from concurrent.futures import ThreadPoolExecutor
+
+    sets = [TestSet("cc", natural_test_sets(GRID)[2].reflectances[:4])]
+    kw = dict(methods=["Centroid", "Prior"], shape=GRID, test_sets=sets)
+    serial = evaluate(["Nikon 5100 (NPL)"], **kw)
+    with ThreadPoolExecutor(2) as pool:
+        par = evaluate(["Nikon 5100 (NPL)"], executor=pool, **kw)
+    for key, e in serial.errors.items():
+        np.testing.assert_array_equal(par.errors[key], e)
+    assert serial.volumes == par.volumes
+    prior = next(r for r in serial.rows if r.method == "Prior")
+    assert prior.radius > 0 and 0 <= prior.coverage <= 1  # the uncertainty columns
+    assert "covered" in serial.to_markdown()

@@ -6,21 +6,21 @@ metamer-based colour correction.
 Module map, in data-flow order (each layer imports only the layers above it; the test
 ``tests/test_architecture.py`` enforces it):
 
-=========================  ==================================================================
-``spectra``, ``_loading``, spectral curves on one grid: built-in cameras, observers,
-``_generators``            illuminants, reflectance sets; file readers; :func:`generators`;
-                           :class:`GeneratorPair` (source Φ and target Ψ on one grid)
-``solid``, ``polytope``    :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
-``vora``, ``macadam``       Vora values and camera-set ranking; MacAdam limits (object colours)
-``mismatch``               metamer mismatch volumes (:func:`metamer_mismatch`,
-                           :class:`MetamerMismatch`), certified by facet refinement
-``prior``, ``atypical``    a reflectance prior and atypical test spectra
-``correct``                estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`
-``image``, ``profile``     :func:`correct_image` (unique colours, batches, cache); 3-D LUTs
-                           and saved corrections
-``evaluate``, ``report``,  applications: ΔE00 evaluation, HTML/Markdown reports, pictures,
-``viz``, ``cli``           the ``zonotope`` command
-=========================  ==================================================================
+===========================  ==================================================================
+``spectra``, ``_loading``,   spectral curves on one grid: built-in cameras, observers,
+``_generators``              illuminants, reflectance sets; file readers; :func:`generators`;
+                             :class:`GeneratorPair` (source Φ and target Ψ on one grid)
+``solid``, ``polytope``      :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
+``vora``, ``macadam``        Vora values and camera-set ranking; MacAdam limits (object colours)
+``mismatch``                 metamer mismatch volumes (:func:`metamer_mismatch`,
+                             :class:`MetamerMismatch`), certified by facet refinement
+``prior``, ``atypical``      a reflectance prior and atypical test spectra
+``correct``                  estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`
+``image``, ``profile``       :func:`correct_image` (unique colours, batches, cache); 3-D LUTs
+                             and saved corrections
+``evaluate``, ``report``,    applications: ΔE00 evaluation, HTML/Markdown reports, pictures,
+``viz``, ``cli``             the ``zonotope`` command
+===========================  ==================================================================
 
 Shared infrastructure: ``_errors`` (one exception hierarchy), ``_tol`` (every tolerance, with
 its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``_progress``
@@ -145,7 +145,7 @@ _EXPORTS = {
         "metamer_mismatch_batch",
         "metamer_mismatch_bounds",
     ],
-    "prior": ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"],
+    "prior": ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"],
     "atypical": ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"],
     "correct": [
         "CORRECTION_METHODS",
@@ -163,6 +163,7 @@ _EXPORTS = {
         "fit_correction",
         "mmv_centroids",
         "root_polynomial_terms",
+        "select_regression",
     ],
     "image": ["correct_image"],
     "profile": [

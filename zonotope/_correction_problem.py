@@ -218,6 +218,49 @@ class Corrector:
     problem: CorrectionProblem = field(repr=False)
     predict: Callable[[np.ndarray], np.ndarray] = field(repr=False)
     params: dict = field(default_factory=dict, repr=False)
+    #: ``(N, k) → ((N, m) estimates, (N,) credible radii in ΔE00)`` for estimators that know their
+    #: uncertainty (``"Prior"``); None for the others.
+    predict_with_radius: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = field(
+        default=None, repr=False
+    )
+
+    def with_uncertainty(self, responses) -> tuple[np.ndarray, np.ndarray]:
+        """Estimates and, per estimate, a 95 % credible radius in ΔE00 (a confidence map per pixel).
+
+        Parameters
+        ----------
+        responses : array_like of shape (..., k)
+
+        Returns
+        -------
+        estimates : ndarray of shape (..., m)
+        radius : ndarray of shape (...)
+            NaN where the response is not finite.
+
+        Raises
+        ------
+        SpectralDataError
+            Wrong channel count, or an estimator without an uncertainty model (use ``"Prior"``).
+        """
+        if self.predict_with_radius is None:
+            raise SpectralDataError(
+                f"the {self.method!r} estimator has no uncertainty model; fit method='Prior' for "
+                "estimates with credible radii."
+            )
+        c = np.asarray(responses, dtype=np.float64)
+        k = self.problem.k
+        if c.shape[-1:] != (k,):
+            raise SpectralDataError(
+                f"responses: last axis must have the {k} source channels "
+                f"({', '.join(self.problem.sources)}); got shape {c.shape}."
+            )
+        flat = c.reshape(-1, k)
+        out = np.full((flat.shape[0], self.problem.m), np.nan)
+        rad = np.full(flat.shape[0], np.nan)
+        ok = np.all(np.isfinite(flat), axis=1)
+        if ok.any():
+            out[ok], rad[ok] = self.predict_with_radius(flat[ok])
+        return out.reshape(*c.shape[:-1], self.problem.m), rad.reshape(c.shape[:-1])
 
     def __call__(self, responses) -> np.ndarray:
         """Estimate target values.

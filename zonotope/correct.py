@@ -61,7 +61,14 @@ from collections.abc import Callable
 import numpy as np
 
 from ._correction_problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
-from ._mmv_estimators import fit_Centroid, fit_MAP, fit_Prior, fit_Projection, mmv_centroids
+from ._mmv_estimators import (
+    fit_Centroid,
+    fit_MAP,
+    fit_Prior,
+    fit_Projection,
+    mmv_centroids,
+    select_regression,
+)
 from ._registry import MethodRegistry
 from ._regressions import fit_Cheung2004, fit_Dyer2017, fit_Finlayson2015, root_polynomial_terms
 
@@ -82,6 +89,7 @@ __all__ = [
     "fit_correction",
     "mmv_centroids",
     "root_polynomial_terms",
+    "select_regression",
 ]
 
 #: Estimators by name → fitting function ``fit(problem, **options) → Corrector``.

@@ -31,6 +31,7 @@ keeps every sample's ΔE00, so it reports pooled mean / 95th percentile / max ov
 
 from __future__ import annotations
 
+import inspect
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -236,7 +237,12 @@ def natural_test_sets(
 
 @dataclass(frozen=True)
 class EvaluationRow:
-    """ΔE00 statistics of one estimator on one test set (``inside``: fraction in the MMV)."""
+    """ΔE00 statistics of one estimator on one test set.
+
+    ``inside``: fraction of its estimates in the MMV (regressions); ``radius`` and ``coverage``: for
+    estimators with an uncertainty model (:meth:`~zonotope.correct.Corrector.with_uncertainty`),
+    the median 95 % credible radius (ΔE00) and the fraction of samples whose true error is within it.
+    """
 
     cameras: str
     test_set: str
@@ -249,6 +255,8 @@ class EvaluationRow:
     max: float
     inside: float | None = None
     seconds: float = 0.0
+    radius: float | None = None
+    coverage: float | None = None
 
 
 @dataclass(frozen=True)
@@ -324,7 +332,7 @@ class Evaluation:
     def paired(
         self, a: str, b: str, *, kind: str | None = None, cameras: str | None = None, tie: float = 0.01
     ) -> PairedComparison:
-        """Compare methods ``a`` and ``b`` sample by sample (ties: |difference| ≤ ``tie`` ΔE00).
+        """Compare methods ``a`` and ``b`` sample by sample (ties: ``|difference| ≤ tie`` ΔE00).
 
         Raises
         ------
@@ -372,12 +380,14 @@ class Evaluation:
     def to_markdown(self) -> str:
         """The table as GitHub Markdown."""
         head = (
-            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV |\n"
-            "|---|---|---|---:|---:|---:|---:|---:|---:|\n"
+            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV | radius (95 %) "
+            "| covered |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         )
         body = "".join(
             f"| {r.cameras} | {r.test_set} | {r.method} | {r.n} | {r.mean:.3f} | {r.median:.3f} | "
-            f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} |\n"
+            f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} | "
+            f"{'' if r.radius is None else f'{r.radius:.2f}'} | "
+            f"{'' if r.coverage is None else f'{100 * r.coverage:.0f} %'} |\n"
             for r in self.rows
         )
         vol = ""
@@ -430,11 +440,13 @@ def _stats(dE: np.ndarray) -> tuple[float, float, float, float]:
     return (float(np.mean(dE)), float(np.median(dE)), float(np.percentile(dE, 95)), float(np.max(dE)))
 
 
-def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: float):
+def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: float, executor=None):
     """Centroids (N, m) and volumes (N,) of the MMVs of responses C (N, k)."""
     from .mismatch import metamer_mismatch_batch
 
-    out = metamer_mismatch_batch(problem.Phi, problem.Psi, C, eps=eps, delta=delta, on_infeasible="nearest")
+    out = metamer_mismatch_batch(
+        problem.Phi, problem.Psi, C, eps=eps, delta=delta, on_infeasible="nearest", executor=executor
+    )
     return out.centroids, out.volumes
 
 
@@ -461,6 +473,7 @@ def evaluate(
     seed: int = 0,
     centroid_eps: float = 1e-3,
     exclude_within: float | None = 0.02,
+    executor=None,
     progress: ProgressCallback | None = None,
 ) -> Evaluation:
     """ΔE00 of each estimator, for each camera set and test set.
@@ -491,6 +504,9 @@ def evaluate(
     exclude_within
         Test spectra within this L∞ distance of a training spectrum are removed (:func:`source_split`,
         per camera set's training data); ``None`` keeps every test spectrum.
+    executor
+        Where the MMV batches run (:func:`zonotope.parallel.executor`; also given to the estimators
+        that compute MMVs); None: this process. The table is identical either way.
     progress
         Called as ``progress(stage, 0, n)`` before and ``progress(stage, n, n)`` after each step
         (n test responses; :class:`~zonotope.ProgressCallback`).
@@ -539,6 +555,8 @@ def evaluate(
             opts = {"noise": noise} if props["noise"] and noise > 0 else {}
             if props["centroid"]:
                 opts = {"delta": 3 * noise, "eps": centroid_eps}
+            if executor is not None and "executor" in inspect.signature(CORRECTION_METHODS[m]).parameters:
+                opts["executor"] = executor
             try:
                 fitted[m] = fit_correction(problem, method=m, **opts)
             except ZonotopeError as error:
@@ -560,7 +578,7 @@ def evaluate(
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", 0, len(C))
                 t0 = time.perf_counter()
-                cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise)
+                cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise, executor=executor)
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", len(C), len(C))
                 volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))
@@ -569,18 +587,27 @@ def evaluate(
                 if progress:
                     progress(f"{label} · {ts.name}: {m}", 0, len(C))
                 t0 = time.perf_counter()
-                E = cents if m == centroid else est(C)
+                radius = None
+                if m == centroid:
+                    E = cents
+                elif est.predict_with_radius is not None:
+                    E, radius = est.with_uncertainty(C)
+                else:
+                    E = est(C)
                 if progress:
                     progress(f"{label} · {ts.name}: {m}", len(C), len(C))
                 secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
                 dE = problem.delta_E(E, T)
                 errors[label, ts.name, m] = np.asarray(dE, dtype=np.float64)
+                unc = {}
+                if radius is not None:
+                    unc = {"radius": float(np.median(radius)), "coverage": float(np.mean(dE <= radius))}
                 inside = None
                 if CORRECTION_METHODS.properties(m)["closed_form"]:
                     inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
                 rows.append(
                     EvaluationRow(
-                        label, ts.name, ts.kind, m, len(C), *_stats(dE), inside=inside, seconds=secs
+                        label, ts.name, ts.kind, m, len(C), *_stats(dE), inside=inside, seconds=secs, **unc
                     )
                 )
     notes.append(

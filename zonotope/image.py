@@ -90,7 +90,10 @@ def correct_image(
         Estimator when cameras are given (default ``"Prior"``).
     quantum
         Pixels whose responses round to the same multiples of ``quantum`` form one group,
-        corrected once at the response of its first pixel (0: exact deduplication only).
+        corrected once at the response of its first pixel (0: exact deduplication only). For
+        estimators with closed-form rows (``"Prior"``: ``params["needs_solver"]``) only the pixels
+        that need a solver are grouped; the others are corrected exactly, pixel by pixel, so noisy
+        photos (as many distinct colours as pixels) cost little more than the regression.
     base
         A cheap estimator used to carry each group's result to its pixels:
         ``out = est(c₀) + base(c) − base(c₀)`` (``c₀`` the group's representative response), which
@@ -156,6 +159,31 @@ def correct_image(
     if not ok.any():
         return out.reshape(*img.shape[:-1], m)
     pixels = flat[ok]
+    needs_solver = corrector.params.get("needs_solver")
+    if needs_solver is not None and quantum > 0:
+        # exact per pixel where the estimator is a closed form; grouping only where it solves
+        slow = np.concatenate(
+            [needs_solver(pixels[i : i + _CHUNK]) for i in range(0, pixels.shape[0], _CHUNK)]
+        )
+        res = np.empty((pixels.shape[0], m))
+        fast = np.flatnonzero(~slow)
+        for i in range(0, fast.size, _CHUNK):
+            res[fast[i : i + _CHUNK]] = corrector(pixels[fast[i : i + _CHUNK]])
+        if slow.any():
+            res[slow] = _grouped(pixels[slow], corrector, quantum, base, batch_size, cache_dir, progress)
+        out[ok] = res
+        return out.reshape(*img.shape[:-1], m)
+    out[ok] = _grouped(pixels, corrector, quantum, base, batch_size, cache_dir, progress)
+    return out.reshape(*img.shape[:-1], m)
+
+
+#: Pixels per vectorised call of the closed-form path (bounds the memory of (N, n) reflectances).
+_CHUNK = 65_536
+
+
+def _grouped(pixels, corrector, quantum, base, batch_size, cache_dir, progress) -> np.ndarray:
+    """Correct ``pixels (N, k)`` once per group of responses equal after rounding to ``quantum``."""
+    k, m = corrector.problem.k, corrector.problem.m
     keys = (
         np.round(pixels / quantum).astype(np.int64)
         if quantum > 0
@@ -188,7 +216,7 @@ def correct_image(
         if progress is not None:
             progress("distinct colours", min(start + batch_size, todo.size), todo.size)
     inverse = inverse.reshape(-1)
-    out[ok] = result[inverse]
+    res = result[inverse]
     if base is not None and quantum > 0:
-        out[ok] += base(pixels) - base(colours)[inverse]
-    return out.reshape(*img.shape[:-1], m)
+        res += base(pixels) - base(colours)[inverse]
+    return res

@@ -18,7 +18,40 @@ import numpy as np
 
 from ._errors import SpectralDataError
 
-__all__ = ["ReflectancePrior", "fiber_lsq", "map_reflectance", "project_to_mmv"]
+__all__ = ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"]
+
+
+def interior_solution(prior: ReflectancePrior, A, values, *, noise=0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form most probable reflectance with ``Aᵀx = values``, ignoring the bounds, and whether it
+    lies in [0, 1].
+
+    ``x = μ + ΣA(AᵀΣA + σ²I)⁻¹(values − Aᵀμ)`` minimises the prior energy ``½(x − μ)ᵀΣ⁻¹(x − μ)``
+    subject to ``Aᵀx = values`` (``noise = 0``) or plus ``‖Aᵀx − values‖² / 2σ²``. When it lies in
+    [0, 1]ⁿ it is *the* solution of the bounded problem too (the bounds are inactive at a feasible
+    unconstrained optimum of a convex problem), so the bounded least squares need only be solved for
+    the other rows: the exact fast path of :func:`map_reflectance` and :func:`project_to_mmv`.
+
+    Parameters
+    ----------
+    prior : ReflectancePrior
+    A : ndarray of shape (n, p)
+        Constraint columns (Φ for a fiber, ``[Φ Ψ]`` for a fiber with a given target colour).
+    values : ndarray of shape (N, p)
+    noise : float or array_like of shape (p,)
+        σ of a Gaussian relaxation of the constraint (0: exact), one per column of ``A`` if an array.
+
+    Returns
+    -------
+    x : ndarray of shape (N, n)
+    interior : ndarray of bool, shape (N,)
+        ``0 ≤ x ≤ 1`` (up to 1e-12): ``x`` is the exact bounded solution.
+    """
+    A = np.asarray(A, dtype=np.float64)
+    V = np.atleast_2d(np.asarray(values, dtype=np.float64))
+    SA = prior.cov @ A
+    K = A.T @ SA + np.diag(np.broadcast_to(np.asarray(noise, dtype=np.float64) ** 2, (A.shape[1],)))
+    x = prior.mean + np.linalg.solve(K, (V - prior.mean @ A).T).T @ SA.T
+    return x, (x.min(axis=1) >= -1e-12) & (x.max(axis=1) <= 1.0 + 1e-12)
 
 
 def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) -> np.ndarray:
@@ -117,6 +150,12 @@ def map_reflectance(problem, responses, prior: ReflectancePrior, *, noise: float
 
     ``argmin_x ½ (x − μ)ᵀΣ⁻¹(x − μ)  s.t.  Φᵀx = c,  0 ≤ x ≤ 1`` (see :func:`fiber_lsq`).
 
+    Rows whose unconstrained optimum already lies in [0, 1]ⁿ are solved in closed form
+    (:func:`interior_solution`, exact); only the others go to the bounded least squares. Measured on
+    the natural sets of ``zonotope evaluate`` (400–700 nm / 10 nm, D65, rawtoaces 190 prior): 96 % of
+    responses take the closed form with Nikon 5100 alone, 98 % with Nikon 5100 + Sigma SD Merrill
+    (atypical spectra: 68 % and 43 %).
+
     Parameters
     ----------
     problem : CorrectionProblem
@@ -127,7 +166,12 @@ def map_reflectance(problem, responses, prior: ReflectancePrior, *, noise: float
     -------
     ndarray of shape (N, n)
     """
-    return fiber_lsq(problem.Phi, responses, prior.root, prior.root @ prior.mean, noise=noise)
+    C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
+    x, interior = interior_solution(prior, problem.Phi, C, noise=noise)
+    rest = ~interior
+    if rest.any():
+        x[rest] = fiber_lsq(problem.Phi, C[rest], prior.root, prior.root @ prior.mean, noise=noise)
+    return np.clip(x, 0.0, 1.0)
 
 
 def project_to_mmv(
@@ -145,7 +189,12 @@ def project_to_mmv(
     ``Φᵀx = c``), with ``W = JᵀJ`` the CIELAB metric at ``t`` (:meth:`CorrectionProblem.lab_metric`).
     This is the projection of ``t`` onto the MMV ``Ψ{x : Φᵀx = c, 0 ≤ x ≤ 1}`` in that metric,
     computed in reflectance space (:func:`fiber_lsq`); a tiny prior term picks a natural
-    reflectance among the ties.
+    reflectance among the ties. An estimate is certified inside the MMV without solving anything
+    when the most probable reflectance with ``Φᵀx = c`` and ``Ψᵀx = t`` (closed form,
+    :func:`interior_solution`) lies in [0, 1]ⁿ — it is then a witness reflectance (98–99 % of
+    root-polynomial estimates on natural sets); only the other rows are solved. With ``noise = σ``
+    the witness needs ``Ψᵀx = t`` exactly and ``Φᵀx ≈ c`` under the Gaussian likelihood of σ (the
+    same relaxation as the solved rows).
 
     Parameters
     ----------
@@ -168,6 +217,21 @@ def project_to_mmv(
     """
     prior = prior or ReflectancePrior.fit(problem.training)
     t = np.atleast_2d(np.asarray(estimates, dtype=np.float64))
+    C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
+    sigma = np.concatenate([np.full(problem.k, float(noise)), np.zeros(problem.m)])
+    _, witness = interior_solution(
+        prior, np.hstack([problem.Phi, problem.Psi]), np.hstack([C, t]), noise=sigma
+    )
+    if witness.all():
+        return t.copy(), witness
+    if witness.any():
+        rest = ~witness
+        y, ins = project_to_mmv(problem, C[rest], t[rest], prior=prior, noise=noise, tol_dE=tol_dE)
+        out = t.copy()
+        out[rest] = y
+        inside = witness.copy()
+        inside[rest] = ins
+        return out, inside
     W = problem.lab_metric(t)  # (N, m, m)
     L = np.swapaxes(np.linalg.cholesky(W + 1e-12 * np.eye(problem.m)), -1, -2)  # LᵀL = W
     U = prior.root
@@ -182,7 +246,7 @@ def project_to_mmv(
         [np.einsum("nij,nj->ni", L, t), np.broadcast_to(tie * U @ prior.mean, (t.shape[0], U.shape[0]))],
         axis=1,
     )
-    y = fiber_lsq(problem.Phi, responses, A, b, noise=noise) @ problem.Psi
+    y = fiber_lsq(problem.Phi, C, A, b, noise=noise) @ problem.Psi
     d = y - t
     moved = np.sqrt(np.einsum("ni,nij,nj->n", d, W, d))
     inside = moved < tol_dE
