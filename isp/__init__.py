@@ -31,6 +31,7 @@ The names of ``simulate``, ``dcp``, ``profile_fit`` and ``batch`` load on first 
 
 from ._errors import PipelineError, PipelineMethodError, RawFormatError
 from .dng import (
+    DNGMetadata,
     DNGProfile,
     camera_neutral_to_xy,
     matrix_interpolated,
@@ -65,6 +66,7 @@ __all__ = [
     "CFA_PATTERNS",
     "DEMOSAIC_METHODS",
     "TONEMAP_METHODS",
+    "DNGMetadata",
     "DNGProfile",
     "Development",
     "MetamerCorrection",

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import colour
@@ -39,6 +39,7 @@ from ._errors import RawFormatError
 __all__ = [
     "DNG_TAGS",
     "LIGHT_SOURCE_CCT",
+    "DNGMetadata",
     "DNGProfile",
     "camera_neutral_to_xy",
     "matrix_interpolated",
@@ -507,26 +508,143 @@ def _exposure_rational(t: float) -> tuple[int, int]:
 _CFA_CODES = {"R": 0, "G": 1, "B": 2}
 
 
+@dataclass(frozen=True)
+class DNGMetadata:
+    """Everything :func:`write_dng` stores besides the pixels, checked when it is made.
+
+    One object can be reused for every frame of a camera (a simulated capture writes many).
+
+    Attributes
+    ----------
+    cfa : str or None
+        2 × 2 pattern, e.g. ``"RGGB"``; required for a Bayer mosaic, ignored (may be None) for a
+        full-colour LinearRaw image.
+    black_level : float or array_like of shape (2, 2)
+        Per CFA site (LinearRaw: a float or 3 values, one per channel).
+    white_level : int
+        Saturation value, 1…65535.
+    color_matrix_1 : array_like of shape (3, 3)
+        XYZ → camera under ``calibration_illuminant_1`` (stored to 4 decimals, as SRATIONAL/10000).
+    as_shot_neutral : array_like of shape (3,)
+        Positive camera response to the scene white.
+    calibration_illuminant_1 : int
+        EXIF LightSource code (21 = D65).
+    forward_matrix_1 : array_like of shape (3, 3), optional
+    make, model : str
+        Make, Model and UniqueCameraModel tags.
+    color_matrix_2 : array_like of shape (3, 3), optional
+        XYZ → camera under ``calibration_illuminant_2`` (both or neither).
+    calibration_illuminant_2 : int, optional
+    exposure_time, iso, f_number : optional
+        EXIF ExposureTime (s, RATIONAL 33434), ISOSpeedRatings (SHORT 34855) and FNumber (RATIONAL
+        33437), written in IFD 0; positive.
+    orientation : int
+        TIFF/EXIF Orientation (274) of the picture: 1 = as stored, 3 = rotate 180°, 6 = rotate 90°
+        clockwise to view, 8 = 90° counter-clockwise; 2, 4, 5, 7 add a mirror.
+
+    Raises
+    ------
+    PipelineError
+        A value of the wrong shape or range (named, with what is allowed).
+    RawFormatError
+        A CFA pattern that is not a 2 × 2 arrangement of R, G, B.
+    """
+
+    cfa: str | None
+    black_level: object
+    white_level: int
+    color_matrix_1: object
+    as_shot_neutral: object
+    calibration_illuminant_1: int = 21
+    forward_matrix_1: object = None
+    make: str = "zonotope"
+    model: str = "simulated"
+    color_matrix_2: object = None
+    calibration_illuminant_2: int | None = None
+    exposure_time: float | None = None
+    iso: int | None = None
+    f_number: float | None = None
+    orientation: int = 1
+
+    def __post_init__(self):
+        from ._errors import PipelineError
+        from .raw import check_cfa
+
+        def fail(name, value, allowed):
+            raise PipelineError(f"DNGMetadata.{name}={value!r}: {allowed}.")
+
+        if self.cfa is not None:
+            object.__setattr__(self, "cfa", check_cfa(self.cfa))
+        if not _integral(self.white_level) or not 1 <= self.white_level <= 65535:
+            fail("white_level", self.white_level, "use an integer saturation value in 1…65535")
+        object.__setattr__(self, "white_level", int(self.white_level))
+        black = np.asarray(self.black_level, dtype=np.float64) if _numeric(self.black_level) else None
+        if black is None or black.size not in (1, 3, 4) or not np.all(np.isfinite(black)) or black.min() < 0:
+            fail("black_level", self.black_level, "use one value ≥ 0, 3 (LinearRaw) or 2 × 2 (per CFA site)")
+        if black.max() >= self.white_level:
+            fail("black_level", self.black_level, f"it must lie below white_level={self.white_level}")
+        for name in ("color_matrix_1", "forward_matrix_1", "color_matrix_2"):
+            v = getattr(self, name)
+            if v is None and name != "color_matrix_1":
+                continue
+            M = np.asarray(v, dtype=np.float64) if _numeric(v) else None
+            if M is None or M.shape != (3, 3) or not np.all(np.isfinite(M)):
+                fail(name, v, "give a finite 3 × 3 matrix (XYZ → camera)")
+            object.__setattr__(self, name, M)
+        n = np.asarray(self.as_shot_neutral, dtype=np.float64) if _numeric(self.as_shot_neutral) else None
+        if n is None or n.shape != (3,) or not np.all(np.isfinite(n)) or n.min() <= 0:
+            fail("as_shot_neutral", self.as_shot_neutral, "give 3 positive finite camera responses")
+        for name in ("calibration_illuminant_1", "calibration_illuminant_2", "iso"):
+            v = getattr(self, name)
+            if v is None and name != "calibration_illuminant_1":
+                continue
+            if not _integral(v) or not 0 <= v <= 65535:
+                fail(name, v, "use an integer in 0…65535 (an EXIF SHORT)")
+            object.__setattr__(self, name, int(v))
+        if (self.color_matrix_2 is None) != (self.calibration_illuminant_2 is None):
+            raise PipelineError(
+                "color_matrix_2 and calibration_illuminant_2 go together: pass both or neither."
+            )
+        for name in ("exposure_time", "f_number"):
+            v = getattr(self, name)
+            if v is not None and not (_numeric(v) and np.ndim(v) == 0 and np.isfinite(v) and v > 0):
+                fail(name, v, "give a positive finite number or None")
+        if isinstance(self.orientation, bool) or self.orientation not in range(1, 9):
+            raise PipelineError(
+                f"orientation={self.orientation!r}: use a TIFF Orientation code 1–8 (1 = as stored, "
+                "6 = rotate 90° clockwise, 3 = 180°, 8 = 90° counter-clockwise)."
+            )
+        for name in ("make", "model"):
+            if not isinstance(getattr(self, name), str):
+                fail(name, getattr(self, name), "give a string")
+
+
+def _integral(value) -> bool:
+    """Whether ``value`` is a whole number (an int, or a float such as 4095.0; not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        return False
+    return bool(np.isfinite(value)) and float(value).is_integer()
+
+
+def _numeric(value) -> bool:
+    """Whether ``value`` is a number or a regular array of numbers (no strings, bools, ragged lists)."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):
+        return False
+    return a.dtype.kind in "iuf"
+
+
+_DNG_FIELDS = tuple(f for f in DNGMetadata.__dataclass_fields__)
+
+
 def write_dng(
     path: str | os.PathLike,
     mosaic,
+    metadata: DNGMetadata | None = None,
     *,
-    cfa: str,
-    black_level,
-    white_level: int,
-    color_matrix_1,
-    as_shot_neutral,
-    calibration_illuminant_1: int = 21,
-    forward_matrix_1=None,
-    make: str = "zonotope",
-    model: str = "simulated",
     overwrite: bool = False,
-    color_matrix_2=None,
-    calibration_illuminant_2: int | None = None,
-    exposure_time: float | None = None,
-    iso: int | None = None,
-    f_number: float | None = None,
-    orientation: int = 1,
+    **fields,
 ) -> Path:
     """Write a Bayer mosaic (or a full-colour LinearRaw image) as an uncompressed DNG 1.4 that
     rawpy/LibRaw reads (atomically).
@@ -539,31 +657,15 @@ def write_dng(
         Raw values including the black level; stored as uint16. An (H, W, 3) array (a full-colour,
         e.g. Foveon-type, sensor) is written as LinearRaw (PhotometricInterpretation 34892, no CFA
         tags; ``cfa`` is then ignored).
-    cfa
-        2 × 2 pattern, e.g. ``"RGGB"``.
-    black_level : float or array_like of shape (2, 2)
-        Per CFA site (LinearRaw: a float or 3 values, one per channel).
-    white_level
-        Saturation value.
-    color_matrix_1 : array_like of shape (3, 3)
-        XYZ → camera under ``calibration_illuminant_1`` (stored to 4 decimals, as SRATIONAL/10000).
-    as_shot_neutral : array_like of shape (3,)
-    calibration_illuminant_1
-        EXIF LightSource code (21 = D65).
-    forward_matrix_1 : array_like of shape (3, 3), optional
-    make, model
-        Make, Model and UniqueCameraModel tags.
+    metadata : DNGMetadata, optional
+        The tags (see :class:`DNGMetadata`); made from ``**fields`` when omitted.
     overwrite
         Refuse to replace an existing file unless True.
-    color_matrix_2 : array_like of shape (3, 3), optional
-        XYZ → camera under ``calibration_illuminant_2`` (both or neither).
-    calibration_illuminant_2 : int, optional
-    exposure_time, iso, f_number : optional
-        EXIF ExposureTime (s, RATIONAL 33434), ISOSpeedRatings (SHORT 34855) and FNumber (RATIONAL
-        33437), written in IFD 0.
-    orientation
-        TIFF/EXIF Orientation (274) of the picture: 1 = as stored, 3 = rotate 180°, 6 = rotate 90°
-        clockwise to view, 8 = 90° counter-clockwise; 2, 4, 5, 7 add a mirror.
+    **fields
+        :class:`DNGMetadata` fields (``cfa=``, ``black_level=``, ``white_level=``,
+        ``color_matrix_1=``, ``as_shot_neutral=``, ...), alone or overriding those of ``metadata``.
+        Keeping them as keywords lets a one-off call read as before; a series of files shares
+        one checked :class:`DNGMetadata`.
 
     Returns
     -------
@@ -572,15 +674,45 @@ def write_dng(
     Raises
     ------
     PipelineError
-        ``path`` exists and ``overwrite`` is False.
+        ``path`` exists and ``overwrite`` is False; an unknown or missing field, or a bad value
+        (see :class:`DNGMetadata`).
     RawFormatError
         Bad mosaic (not 2-D, out of range) or CFA pattern.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> meta = DNGMetadata(cfa="RGGB", black_level=64, white_level=4095,
+    ...                    color_matrix_1=np.eye(3), as_shot_neutral=[0.5, 1.0, 0.7])
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "grey.dng"
+    >>> write_dng(out, np.full((4, 6), 1000, np.uint16), meta).name
+    'grey.dng'
+    >>> write_dng(out, np.full((4, 6), 1000, np.uint16), meta, overwrite=True, iso=200).stat().st_size > 0
+    True
     """
     import tifffile
 
     from ._errors import PipelineError
-    from .raw import check_cfa
 
+    unknown = sorted(set(fields) - set(_DNG_FIELDS))
+    if unknown:
+        raise PipelineError(
+            f"write_dng: unknown option(s) {', '.join(unknown)}; the DNGMetadata fields are "
+            f"{', '.join(_DNG_FIELDS)}."
+        )
+    if metadata is None:
+        required = ("cfa", "black_level", "white_level", "color_matrix_1", "as_shot_neutral")
+        missing = [f for f in required if f not in fields]
+        if missing:
+            raise PipelineError(
+                f"write_dng: missing {', '.join(missing)} (pass them as keywords or a DNGMetadata)."
+            )
+        metadata = DNGMetadata(**fields)
+    elif not isinstance(metadata, DNGMetadata):
+        raise PipelineError(f"write_dng: metadata must be a DNGMetadata; got {type(metadata).__name__}.")
+    elif fields:
+        metadata = replace(metadata, **fields)
+    d = metadata
     path = Path(path)
     if path.exists() and not overwrite:
         raise PipelineError(f"{path} exists; pass overwrite=True or choose another name.")
@@ -589,61 +721,56 @@ def write_dng(
     if linear_raw:
         if m.shape[2] != 3 or m.shape[0] < 2 or m.shape[1] < 2:
             raise RawFormatError(f"mosaic: a full-colour image must have shape (H, W, 3); got {m.shape}.")
-        black = np.broadcast_to(np.asarray(black_level, dtype=np.float64).ravel(), (3,))
+        black = np.broadcast_to(np.asarray(d.black_level, dtype=np.float64).ravel(), (3,))
     else:
-        cfa = check_cfa(cfa)
+        if d.cfa is None:
+            raise RawFormatError("cfa: a Bayer mosaic needs its 2 × 2 pattern, e.g. cfa='RGGB'.")
         if m.ndim != 2 or m.shape[0] < 2 or m.shape[1] < 2 or m.shape[0] % 2 or m.shape[1] % 2:
             raise RawFormatError(f"mosaic: expected an (H, W) array with even H, W ≥ 2, got shape {m.shape}.")
-        black = np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2))
-    if not np.all(np.isfinite(m)) or m.min() < 0 or m.max() > white_level or white_level > 65535:
+        black = np.broadcast_to(np.asarray(d.black_level, dtype=np.float64), (2, 2))
+    white_level = int(d.white_level)
+    if not np.all(np.isfinite(m)) or m.min() < 0 or m.max() > white_level:
         raise RawFormatError(
             f"mosaic: values must lie in [0, white_level={white_level}] ≤ 65535; got {m.min()}…{m.max()}."
         )
-    if isinstance(orientation, bool) or orientation not in range(1, 9):
-        raise PipelineError(
-            f"orientation={orientation!r}: use a TIFF Orientation code 1–8 (1 = as stored, "
-            "6 = rotate 90° clockwise, 3 = 180°, 8 = 90° counter-clockwise)."
-        )
-    if (color_matrix_2 is None) != (calibration_illuminant_2 is None):
-        raise PipelineError("color_matrix_2 and calibration_illuminant_2 go together: pass both or neither.")
     layout = (
         [(50713, "H", 2, (1, 1), True)]
         if linear_raw
         else [
             (33421, "H", 2, (2, 2), True),
-            (33422, "B", 4, tuple(_CFA_CODES[c] for c in cfa), True),
+            (33422, "B", 4, tuple(_CFA_CODES[c] for c in d.cfa), True),
             (50713, "H", 2, (2, 2), True),
         ]
     )
     tags = [
         (254, "I", 1, 0, True),
-        (271, "s", 0, make, True),
-        (272, "s", 0, model, True),
-        (274, "H", 1, int(orientation), True),
+        (271, "s", 0, d.make, True),
+        (272, "s", 0, d.model, True),
+        (274, "H", 1, int(d.orientation), True),
         *layout,
         (50706, "B", 4, (1, 4, 0, 0), True),
         (50707, "B", 4, (1, 1, 0, 0), True),
-        (50708, "s", 0, f"{make} {model}", True),
+        (50708, "s", 0, f"{d.make} {d.model}", True),
         (50714, "I", black.size, tuple(round(float(b)) for b in black.ravel()), True),
         (50717, "I", 1, int(white_level), True),
-        (50721, 10, 9, _srational(color_matrix_1), True),
+        (50721, 10, 9, _srational(d.color_matrix_1), True),
         (50727, 5, 3, _rational(np.ones(3)), True),
-        (50728, 5, 3, _rational(_neutral(as_shot_neutral)), True),
-        (50778, "H", 1, int(calibration_illuminant_1), True),
+        (50728, 5, 3, _rational(_neutral(d.as_shot_neutral)), True),
+        (50778, "H", 1, int(d.calibration_illuminant_1), True),
     ]
-    if forward_matrix_1 is not None:
-        tags.append((50964, 10, 9, _srational(forward_matrix_1), True))
-    if color_matrix_2 is not None:
+    if d.forward_matrix_1 is not None:
+        tags.append((50964, 10, 9, _srational(d.forward_matrix_1), True))
+    if d.color_matrix_2 is not None:
         tags += [
-            (50722, 10, 9, _srational(color_matrix_2), True),
-            (50779, "H", 1, int(calibration_illuminant_2), True),
+            (50722, 10, 9, _srational(d.color_matrix_2), True),
+            (50779, "H", 1, int(d.calibration_illuminant_2), True),
         ]
-    if exposure_time is not None:
-        tags.append((33434, 5, 1, _exposure_rational(exposure_time), True))
-    if f_number is not None:
-        tags.append((33437, 5, 1, _rational(f_number), True))
-    if iso is not None:
-        tags.append((34855, "H", 1, int(iso), True))
+    if d.exposure_time is not None:
+        tags.append((33434, 5, 1, _exposure_rational(d.exposure_time), True))
+    if d.f_number is not None:
+        tags.append((33437, 5, 1, _rational(d.f_number), True))
+    if d.iso is not None:
+        tags.append((34855, "H", 1, int(d.iso), True))
     fd, tmp = tempfile.mkstemp(suffix=".dng.tmp", dir=path.parent)
     os.close(fd)
     try:

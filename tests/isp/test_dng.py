@@ -172,3 +172,81 @@ def test_read_dng_tags_rejects_plain_tiff(tmp_path):
     (tmp_path / "junk.dng").write_bytes(b"II*\x00garbage")
     with pytest.raises(RawFormatError):
         read_dng_tags(tmp_path / "junk.dng")
+
+
+def _meta(**over):
+    from isp import DNGMetadata
+
+    base = dict(
+        cfa="RGGB", black_level=64, white_level=4095, color_matrix_1=CM_D65, as_shot_neutral=[0.5, 1, 0.7]
+    )
+    return DNGMetadata(**{**base, **over})
+
+
+def test_write_dng_metadata_object_equals_keywords(tmp_path):
+    """A DNGMetadata (plus per-file overrides) writes the same bytes as the keyword call."""
+    m = np.random.default_rng(2).integers(64, 4000, size=(8, 12)).astype(np.uint16)
+    meta = _meta(make="Sim", model="Cam")
+    a = write_dng(tmp_path / "a.dng", m, meta, iso=400, exposure_time=0.01)
+    b = write_dng(
+        tmp_path / "b.dng",
+        m,
+        cfa="RGGB",
+        black_level=64,
+        white_level=4095,
+        color_matrix_1=CM_D65,
+        as_shot_neutral=[0.5, 1, 0.7],
+        make="Sim",
+        model="Cam",
+        iso=400,
+        exposure_time=0.01,
+    )
+    assert a.read_bytes() == b.read_bytes()
+    assert read_dng_tags(a)["ISOSpeedRatings"] == 400
+
+
+@pytest.mark.parametrize(
+    ("over", "match"),
+    [
+        ({"white_level": 0}, "white_level=0"),
+        ({"white_level": 70000}, "white_level=70000"),
+        ({"white_level": 4095.5}, "white_level=4095.5"),
+        ({"black_level": 5000}, "black_level=5000"),
+        ({"black_level": [1, 2]}, "black_level"),
+        ({"black_level": "64"}, "black_level"),
+        ({"color_matrix_1": np.eye(2)}, "color_matrix_1"),
+        ({"color_matrix_1": [[1, 0, 0], [0, np.nan, 0], [0, 0, 1]]}, "color_matrix_1"),
+        ({"forward_matrix_1": "identity"}, "forward_matrix_1"),
+        ({"as_shot_neutral": [1, 0, 1]}, "as_shot_neutral"),
+        ({"as_shot_neutral": [1, 1]}, "as_shot_neutral"),
+        ({"iso": True}, "iso=True"),
+        ({"iso": -1}, "iso=-1"),
+        ({"exposure_time": -0.01}, "exposure_time"),
+        ({"f_number": float("inf")}, "f_number"),
+        ({"orientation": 9}, "orientation=9"),
+        ({"color_matrix_2": CM_A}, "both or neither"),
+        ({"make": 3}, "make=3"),
+    ],
+)
+def test_dng_metadata_refuses_bad_values(over, match):
+    with pytest.raises(PipelineError, match=match):
+        _meta(**over)
+
+
+def test_dng_metadata_refuses_bad_cfa():
+    with pytest.raises(RawFormatError):
+        _meta(cfa="RGBX")
+
+
+def test_write_dng_option_errors(tmp_path):
+    m = np.full((4, 4), 100, np.uint16)
+    with pytest.raises(PipelineError, match=r"unknown option.*colour_matrix_1"):
+        write_dng(tmp_path / "a.dng", m, _meta(), colour_matrix_1=CM_D65)
+    with pytest.raises(PipelineError, match="missing cfa, as_shot_neutral"):
+        write_dng(tmp_path / "a.dng", m, black_level=0, white_level=4095, color_matrix_1=CM_D65)
+    with pytest.raises(PipelineError, match="must be a DNGMetadata"):
+        write_dng(tmp_path / "a.dng", m, {"cfa": "RGGB"})
+    with pytest.raises(RawFormatError, match="cfa"):
+        write_dng(tmp_path / "a.dng", m, _meta(cfa=None))
+    assert write_dng(tmp_path / "rgb.dng", np.full((4, 4, 3), 100, np.uint16), _meta(cfa=None)).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rgb.dng"]
