@@ -237,11 +237,15 @@ def copy_gallery(app, config) -> None:
             shutil.copyfile(nb, target)
         if _executed(nb):
             excluded.append(f"gallery/{nb.name}")
-    for stale in dst.glob("*.ipynb"):
+    for helper in sorted((ROOT / "notebooks").glob("*.py")):  # modules the notebooks import
+        names.add(helper.name)
+        if not (dst / helper.name).exists() or (dst / helper.name).read_bytes() != helper.read_bytes():
+            shutil.copyfile(helper, dst / helper.name)
+    for stale in [*dst.glob("*.ipynb"), *dst.glob("*.py")]:
         if stale.name not in names:
             stale.unlink()
     config.nb_execution_excludepatterns = list(config.nb_execution_excludepatterns) + excluded
-    logger.info("gallery: %d notebooks, %d already executed", len(names), len(excluded))
+    logger.info("gallery: %d files, %d notebooks already executed", len(names), len(excluded))
 
 
 def setup(app):
