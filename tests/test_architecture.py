@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: zonotope's modules by layer (0 = lowest). A new module must be placed here.
 LAYERS: dict[int, set[str]] = {
-    0: {"_errors", "_tol", "_registry", "_io", "_progress", "parallel", "_cubemap"},
+    0: {"_errors", "_tol", "_registry", "_io", "_progress", "_config", "parallel", "_cubemap"},
     1: {"spectra", "_loading", "_generators"},
     2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "membership"},
     3: {"_oracle", "_mmv_refine", "_mmv_walk", "_mmv_walk_kernel", "mismatch"},
@@ -118,7 +118,7 @@ NOT_REEXPORTED = {
 
 #: Public modules used through their module path, with the reason.
 MODULE_NAMESPACES = {
-    "parallel": "the execution layer: zonotope.parallel.executor(...), only ProgressCallback is re-exported",
+    "parallel": "the execution layer: zonotope.parallel.executor(...)",
     "survey": "an application (zonotope survey), used as zonotope.survey",
     "cli": "the command line",
     "__main__": "python -m zonotope",

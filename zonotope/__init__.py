@@ -47,6 +47,7 @@ from importlib.metadata import PackageNotFoundError, version
 from ._errors import (
     GeometryError,
     InfeasibleResponseError,
+    OptionError,
     SpectralDataError,
     UnknownMethodError,
     ZonotopeError,
@@ -94,6 +95,7 @@ __all__ = [
     "InfeasibleResponseError",
     "Method",
     "MethodRegistry",
+    "OptionError",
     "Parallelograms",
     "SpectralDataError",
     "SpectralFileNotFoundError",
@@ -139,6 +141,7 @@ _EXPORTS = {
         "ORACLES",
         "CertifiedMMV",
         "MMVBatch",
+        "MMVBatchConfig",
         "MetamerMismatch",
         "channelwise_intersection",
         "metamer_mismatch",

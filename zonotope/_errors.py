@@ -5,6 +5,7 @@ from __future__ import annotations
 __all__ = [
     "GeometryError",
     "InfeasibleResponseError",
+    "OptionError",
     "SpectralDataError",
     "UnknownMethodError",
     "ZonotopeError",
@@ -36,6 +37,11 @@ class InfeasibleResponseError(ZonotopeError, ValueError):
     def __init__(self, message: str, *, distance: float | None = None) -> None:
         super().__init__(message)
         self.distance = distance
+
+
+class OptionError(ZonotopeError, ValueError):
+    """An option (a field of a config dataclass, or its keyword) that is unknown, missing or out of
+    range; the message names it, the value given and what is allowed."""
 
 
 class UnknownMethodError(ZonotopeError, ValueError):

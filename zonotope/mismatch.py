@@ -50,13 +50,14 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._errors import GeometryError, InfeasibleResponseError
+from ._config import check_bool, check_count, check_nonnegative, with_options
+from ._errors import GeometryError, InfeasibleResponseError, OptionError
 from ._mmv_refine import Refinement, refine, refine_many
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
 from ._progress import ProgressCallback
@@ -71,6 +72,7 @@ __all__ = [
     "ORACLES",
     "CertifiedMMV",
     "MMVBatch",
+    "MMVBatchConfig",
     "MetamerMismatch",
     "channelwise_intersection",
     "metamer_mismatch",
@@ -533,44 +535,90 @@ class MetamerMismatch:
     def batch(
         self,
         responses,
+        config: MMVBatchConfig | None = None,
         *,
-        eps: float = 1e-3,
-        delta=0.0,
-        on_infeasible: str = "raise",
         progress: ProgressCallback | None = None,
-        chunk: int = 256,
         executor: Executor | None = None,
-        outer: bool = True,
+        **options,
     ) -> MMVBatch:
-        """Volumes and centroids of the MMVs of many responses; see :func:`metamer_mismatch_batch`."""
+        """Volumes and centroids of the MMVs of many responses; see :func:`metamer_mismatch_batch`
+        (the ``oracle`` is this object's)."""
+        if "oracle" in options:
+            raise OptionError("MetamerMismatch.batch: the oracle is the MetamerMismatch's (oracle=...).")
+        cfg = with_options(MMVBatchConfig, config, options, where="MetamerMismatch.batch")
         return metamer_mismatch_batch(
             self.Phi,
             self.Psi,
             responses,
-            eps=eps,
-            delta=delta,
-            oracle=self.oracle,
-            on_infeasible=on_infeasible,
+            replace(cfg, oracle=self.oracle),
             progress=progress,
-            chunk=chunk,
             executor=executor,
-            outer=outer,
         )
+
+
+@dataclass(frozen=True)
+class MMVBatchConfig:
+    """Options of :func:`metamer_mismatch_batch` (checked when made).
+
+    Attributes
+    ----------
+    eps : float
+        Certification tolerance relative to the target's scale (see
+        :func:`metamer_mismatch_bounds`); 0 for exact polytopes. Default 1e-3.
+    delta : float or tuple of float
+        Per-channel tolerance on the source responses (one value, or k values), ≥ 0.
+    oracle : str
+        Support-LP solver, a key of :data:`ORACLES` (stored resolved: ``"fast"`` or ``"highs"``).
+    on_infeasible : {"raise", "nearest"}
+    chunk : int
+        Responses refined side by side: every round of facet refinement asks the support LPs of
+        all of them in one batched simplex call, which shares numpy's per-call overhead (≈ 2×
+        faster than one by one at 10 nm); memory grows with it. Chunks are also the unit of work
+        handed to an executor. ≥ 1, default 256.
+    outer : bool
+        With ``eps > 0``, also compute each certified outer bound (a half-space intersection and a
+        hull: about half the time per response at 10 nm). False when only centroids are
+        wanted: the upper volume bounds and the centroid error bounds are then NaN (not
+        computed), the lower bounds and the centroids are unchanged.
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named, with what is allowed).
+    UnknownMethodError
+        Unknown ``oracle``.
+    """
+
+    eps: float = 1e-3
+    delta: float | tuple[float, ...] = 0.0
+    oracle: str = "fast"
+    on_infeasible: str = "raise"
+    chunk: int = 256
+    outer: bool = True
+
+    def __post_init__(self):
+        name = "MMVBatchConfig"
+        object.__setattr__(self, "eps", check_nonnegative(name, "eps", self.eps))
+        d = np.asarray(self.delta, dtype=np.float64) if not isinstance(self.delta, str) else None
+        if d is None or d.ndim > 1 or not np.all(np.isfinite(d)) or np.any(d < 0):
+            raise OptionError(f"{name}.delta={self.delta!r}: give one finite value ≥ 0 or one per channel.")
+        object.__setattr__(self, "delta", float(d) if d.ndim == 0 else tuple(float(v) for v in d))
+        object.__setattr__(self, "oracle", ORACLES.resolve(self.oracle))
+        if self.on_infeasible not in ("raise", "nearest"):
+            raise OptionError(f"{name}.on_infeasible={self.on_infeasible!r}: choose 'raise' or 'nearest'.")
+        check_count(name, "chunk", self.chunk, minimum=1)
+        check_bool(name, "outer", self.outer)
 
 
 def metamer_mismatch_batch(
     Phi,
     Psi,
     responses,
+    config: MMVBatchConfig | None = None,
     *,
-    eps: float = 1e-3,
-    delta=0.0,
-    oracle: str = "fast",
-    on_infeasible: str = "raise",
     progress: ProgressCallback | None = None,
-    chunk: int = 256,
     executor: Executor | None = None,
-    outer: bool = True,
+    **options,
 ) -> MMVBatch:
     """Volumes and centroids of the MMVs of many responses (functional form of
     :meth:`MetamerMismatch.batch`).
@@ -580,50 +628,54 @@ def metamer_mismatch_batch(
     Phi : array_like of shape (n, k)
     Psi : array_like of shape (n, m)
     responses : array_like of shape (..., k)
-    eps : float
-        Certification tolerance (see :func:`metamer_mismatch`); 0 for exact polytopes.
-    delta : float or array_like of shape (k,)
-    oracle : {"fast", "highs"}
-    on_infeasible : {"raise", "nearest"}
+    config : MMVBatchConfig, optional
+        ``eps``, ``delta``, ``oracle``, ``on_infeasible``, ``chunk``, ``outer`` (see
+        :class:`MMVBatchConfig`); default ``MMVBatchConfig()``.
     progress : callable, optional
         Called as ``progress("metamer mismatch volumes", done, total)`` (responses) after each
         chunk (:class:`~zonotope.ProgressCallback`); the library draws nothing.
-    chunk : int
-        Responses refined side by side: every round of facet refinement asks the support LPs of
-        all of them in one batched simplex call, which shares numpy's per-call overhead (≈ 2× faster
-        than one by one at 10 nm); memory grows with it. Chunks are also the unit of work handed to
-        ``executor``.
     executor : concurrent.futures.Executor, optional
         Where the chunks run: any object whose ``map(fn, iterable)`` yields the results in the
         order of ``iterable``, as :meth:`concurrent.futures.Executor.map` does (a
         ``ProcessPoolExecutor``, or :func:`zonotope.parallel.executor` for a local or remote Dask
         cluster). None: this process, one chunk after another. The results do not depend on it:
         every chunk is computed by the same code on the same responses.
-    outer : bool
-        With ``eps > 0``, also compute each certified outer bound (a half-space intersection and a
-        hull: about half the time per response at 10 nm). False when only centroids are
-        wanted: the upper volume bounds and the centroid error bounds are then NaN (not
-        computed), the lower bounds and the centroids are unchanged.
+    **options
+        :class:`MMVBatchConfig` fields as keywords (alone, or overriding those of ``config``),
+        e.g. ``metamer_mismatch_batch(Phi, Psi, C, eps=0.0, chunk=64)``.
 
     Returns
     -------
     MMVBatch
         Results in the order and leading shape of ``responses``.
+
+    Raises
+    ------
+    OptionError
+        An unknown option or a value out of range.
+    GeometryError
+        Shapes that do not match, NaN input.
+    InfeasibleResponseError
+        An infeasible response with ``on_infeasible="raise"``.
     """
+    cfg = with_options(MMVBatchConfig, config, options, where="metamer_mismatch_batch")
+    eps, delta, oracle, on_infeasible, chunk, outer = (
+        cfg.eps,
+        cfg.delta,
+        cfg.oracle,
+        cfg.on_infeasible,
+        cfg.chunk,
+        cfg.outer,
+    )
     Phi, Psi = _check_generators(Phi, Psi)
     k, m = Phi.shape[1], Psi.shape[1]
     C = np.asarray(responses, dtype=np.float64)
     if C.shape[-1:] != (k,):
         raise GeometryError(f"responses must have shape (..., {k}); got {C.shape}.")
-    if not (np.isfinite(eps) and eps >= 0):
-        raise ValueError(f"eps must be a finite number ≥ 0; got {eps!r}.")
-    oracle = ORACLES.resolve(oracle)
-    if on_infeasible not in ("raise", "nearest"):
-        raise ValueError(f"on_infeasible must be 'raise' or 'nearest'; got {on_infeasible!r}.")
-    if chunk < 1:
-        raise ValueError(f"chunk must be ≥ 1; got chunk={chunk!r}.")
+    if isinstance(delta, tuple) and len(delta) != k:
+        raise OptionError(f"MMVBatchConfig.delta has {len(delta)} values; the source has {k} channels.")
     if executor is not None and not callable(getattr(executor, "map", None)):
-        raise ValueError(
+        raise OptionError(
             f"executor must have a map(fn, iterable) method (a concurrent.futures.Executor); "
             f"got {executor!r}."
         )
