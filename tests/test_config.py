@@ -79,3 +79,82 @@ def test_mmv_batch_option_errors(pair):
     with pytest.raises(UnknownMethodError, match="oracle"):
         MMVBatchConfig(oracle="simplex2")
     assert isinstance(OptionError("x"), ValueError)  # callers that caught ValueError still do
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"methods": "Prior"}, "methods='Prior'"),
+        ({"methods": []}, r"methods=\[\]"),
+        ({"atypical": -1}, "atypical=-1"),
+        ({"atypical": 1.5}, "atypical=1.5"),
+        ({"noise": -0.01}, "noise=-0.01"),
+        ({"seed": "zero"}, "seed='zero'"),
+        ({"centroid_eps": float("inf")}, "centroid_eps=inf"),
+        ({"exclude_within": -1}, "exclude_within=-1"),
+        ({"shape": [700, 400]}, "shape"),
+        ({"shape": "400-700"}, "shape"),
+        ({"test_sets": [np.ones((2, 31))]}, "test_sets"),
+        ({"test_sets": 5}, "test_sets"),
+    ],
+)
+def test_evaluation_config_refuses_bad_values(options, match):
+    from zonotope import EvaluationConfig
+
+    with pytest.raises(OptionError, match=match):
+        EvaluationConfig(**options)
+
+
+def test_evaluation_config_and_keywords(tmp_path):
+    """An unknown method or option fails before any work; config and keywords give the same rows."""
+    from zonotope import EvaluationConfig, TestSet
+    from zonotope.evaluate import evaluate
+
+    with pytest.raises(UnknownMethodError, match="Centroyd"):
+        EvaluationConfig(methods=["Centroyd"])
+    with pytest.raises(OptionError, match=r"unknown option.*nosie"):
+        evaluate(["Nikon 5100 (NPL)"], nosie=0.01)
+    w = np.arange(400, 701, 10.0)
+    R = np.random.default_rng(3).uniform(0.05, 0.95, (6, w.size))
+    cfg = EvaluationConfig(
+        methods=("root-polynomial",), test_sets=(TestSet("random", R),), exclude_within=None
+    )
+    a = evaluate(["Nikon 5100 (NPL)"], cfg)
+    b = evaluate(
+        ["Nikon 5100 (NPL)"],
+        methods=["root-polynomial"],
+        test_sets=[TestSet("random", R)],
+        exclude_within=None,
+    )
+    assert [(r.method, r.mean, r.max) for r in a.rows] == [(r.method, r.mean, r.max) for r in b.rows]
+    assert cfg.methods == ("root-polynomial",) and isinstance(cfg.test_sets, tuple)
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"shape": np.arange(400, 701, 10)}, "shape"),
+        ({"methods": ["Bogus"]}, "Bogus"),
+        ({"size": 0}, "size=0"),
+        ({"atypical": -3}, "atypical=-3"),
+        ({"pictures": "yes"}, "pictures='yes'"),
+        ({"volumes": None}, "volumes=None"),
+        ({"data_dir": 3}, "data_dir=3"),
+    ],
+)
+def test_report_config_refuses_bad_values(options, match):
+    from zonotope import ReportConfig
+
+    with pytest.raises((OptionError, UnknownMethodError), match=match):
+        ReportConfig(**options)
+
+
+def test_write_report_refuses_options_before_writing(tmp_path):
+    from zonotope import write_report
+
+    out = tmp_path / "rep"
+    with pytest.raises(OptionError, match=r"unknown option.*picture"):
+        write_report(["Nikon 5100 (NPL)"], out, picture=False)
+    with pytest.raises(OptionError, match="size=0"):
+        write_report(["Nikon 5100 (NPL)"], out, size=0)
+    assert not out.exists() and list(tmp_path.iterdir()) == []

@@ -182,6 +182,7 @@ _EXPORTS = {
         "ATYPICAL_SEED",
         "DEFAULT_METHODS",
         "Evaluation",
+        "EvaluationConfig",
         "EvaluationRow",
         "PairedComparison",
         "TestSet",
@@ -190,7 +191,7 @@ _EXPORTS = {
         "natural_test_sets",
         "source_split",
     ],
-    "report": ["ReportExistsError", "write_report"],
+    "report": ["ReportConfig", "ReportExistsError", "write_report"],
     "viz": [
         "mmv_polytope",
         "plot_grey_mmvs",

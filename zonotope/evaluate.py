@@ -40,7 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from . import spectra
-from ._errors import SpectralDataError, ZonotopeError
+from ._config import check_count, check_nonnegative, with_options
+from ._errors import OptionError, SpectralDataError, ZonotopeError
 from ._progress import ProgressCallback
 from .atypical import atypical_reflectances, structured_reflectances
 from .correct import (
@@ -55,6 +56,7 @@ __all__ = [
     "ATYPICAL_SEED",
     "DEFAULT_METHODS",
     "Evaluation",
+    "EvaluationConfig",
     "EvaluationRow",
     "PairedComparison",
     "TestSet",
@@ -459,22 +461,103 @@ def _outside_solid(problem: CorrectionProblem, C: np.ndarray, tol: float = 1e-6)
     return np.abs(x @ problem.Phi - C).max(axis=1) > tol
 
 
+@dataclass(frozen=True, eq=False)
+class EvaluationConfig:
+    """Options of :func:`evaluate` (checked when made; see :mod:`zonotope._config`).
+
+    Attributes
+    ----------
+    methods : tuple of str
+        Estimators (keys or aliases of :data:`zonotope.correct.CORRECTION_METHODS`); those that do
+        not apply (the ACES IDT with stacked cameras) are skipped with a note.
+    illuminant, target, training
+        See :func:`zonotope.correct.correction_problem`.
+    shape : colour.SpectralShape or array_like of wavelengths, optional
+        Wavelength grid; default 400–700 nm / 10 nm.
+    test_sets : tuple of TestSet, optional
+        Default: :func:`natural_test_sets` (built-ins) and ``atypical`` atypical spectra.
+    atypical : int
+        Number of atypical spectra added when ``test_sets`` is None (0 for none).
+    noise : float
+        Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
+        ``delta = 3σ``) are told about it.
+    seed : int
+        Seed of the atypical spectra and of the noise.
+    centroid_eps : float
+        Certification tolerance of the MMVs.
+    exclude_within : float or None
+        Test spectra within this L∞ distance of a training spectrum are removed
+        (:func:`source_split`, per camera set's training data); ``None`` keeps every test spectrum.
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named, with what is allowed).
+    UnknownMethodError
+        An unknown estimator name (the valid ones are listed).
+    """
+
+    methods: tuple[str, ...] = DEFAULT_METHODS
+    illuminant: object = "D65"
+    target: object = "CIE 2015 2°"
+    shape: object = None
+    training: object = "rawtoaces 190"
+    test_sets: tuple[TestSet, ...] | None = None
+    atypical: int = 100
+    noise: float = 0.0
+    seed: int = 0
+    centroid_eps: float = 1e-3
+    exclude_within: float | None = 0.02
+
+    def __post_init__(self):
+        name = "EvaluationConfig"
+        methods = self.methods
+        if isinstance(methods, str) or not isinstance(methods, Sequence) or not methods:
+            raise OptionError(f"{name}.methods={methods!r}: give a non-empty list of estimator names.")
+        for m in methods:
+            CORRECTION_METHODS.resolve(m)
+        object.__setattr__(self, "methods", tuple(methods))
+        if self.test_sets is not None:
+            sets = self.test_sets
+            if not isinstance(sets, Sequence) or not all(isinstance(t, TestSet) for t in sets):
+                raise OptionError(
+                    f"{name}.test_sets: give a list of TestSet objects (or None for the defaults)."
+                )
+            object.__setattr__(self, "test_sets", tuple(sets))
+        _check_shape(name, self.shape)
+        check_count(name, "atypical", self.atypical)
+        check_count(name, "seed", self.seed)
+        object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
+        object.__setattr__(self, "centroid_eps", check_nonnegative(name, "centroid_eps", self.centroid_eps))
+        object.__setattr__(
+            self,
+            "exclude_within",
+            check_nonnegative(name, "exclude_within", self.exclude_within, allow_none=True),
+        )
+
+
+def _check_shape(owner: str, shape) -> None:
+    """A wavelength grid: None, a colour.SpectralShape or an increasing finite 1-D array (≥ 2 nm)."""
+    if shape is None or type(shape).__name__ == "SpectralShape":
+        return
+    try:
+        w = np.asarray(shape, dtype=np.float64)
+    except (TypeError, ValueError):
+        w = None
+    if w is None or w.ndim != 1 or w.size < 2 or not np.all(np.isfinite(w)) or np.any(np.diff(w) <= 0):
+        raise OptionError(
+            f"{owner}.shape={shape!r}: give a colour.SpectralShape or increasing wavelengths (nm), "
+            "e.g. numpy.arange(400, 701, 10)."
+        )
+
+
 def evaluate(
     camera_sets: Sequence,
+    config: EvaluationConfig | None = None,
     *,
-    methods: Sequence[str] = DEFAULT_METHODS,
-    illuminant="D65",
-    target="CIE 2015 2°",
-    shape=None,
-    training="rawtoaces 190",
-    test_sets: Sequence[TestSet] | None = None,
-    atypical: int = 100,
-    noise: float = 0.0,
-    seed: int = 0,
-    centroid_eps: float = 1e-3,
-    exclude_within: float | None = 0.02,
     executor=None,
     progress: ProgressCallback | None = None,
+    **options,
 ) -> Evaluation:
     """ΔE00 of each estimator, for each camera set and test set.
 
@@ -482,34 +565,18 @@ def evaluate(
     ----------
     camera_sets
         Sequence of camera sets; each is one camera or a list of 1–3 cameras (names or files).
-    methods
-        Estimators (keys or aliases of :data:`zonotope.correct.CORRECTION_METHODS`). Those that do
-        not apply (the ACES IDT with stacked cameras; MMV estimators without
-        :mod:`zonotope.mismatch`) are skipped with a note.
-    illuminant, target, training
-        See :func:`zonotope.correct.correction_problem`.
-    shape
-        Wavelength grid; default 400–700 nm / 10 nm.
-    test_sets
-        Default: :func:`natural_test_sets` (built-ins) and ``atypical`` atypical spectra.
-    atypical
-        Number of atypical spectra added when ``test_sets`` is None (0 for none).
-    noise
-        Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
-        ``delta = 3σ``) are told about it.
-    seed
-        Seed of the atypical spectra and of the noise.
-    centroid_eps
-        Certification tolerance of the MMVs.
-    exclude_within
-        Test spectra within this L∞ distance of a training spectrum are removed (:func:`source_split`,
-        per camera set's training data); ``None`` keeps every test spectrum.
+    config : EvaluationConfig, optional
+        The options (estimators, illuminant, target, grid, training and test sets, noise, ...);
+        default ``EvaluationConfig()``.
     executor
         Where the MMV batches run (:func:`zonotope.parallel.executor`; also given to the estimators
         that compute MMVs); None: this process. The table is identical either way.
     progress
         Called as ``progress(stage, 0, n)`` before and ``progress(stage, n, n)`` after each step
         (n test responses; :class:`~zonotope.ProgressCallback`).
+    **options
+        :class:`EvaluationConfig` fields as keywords, alone or overriding those of ``config``
+        (e.g. ``evaluate(sets, noise=0.01, atypical=0)``).
 
     Returns
     -------
@@ -517,9 +584,23 @@ def evaluate(
 
     Raises
     ------
+    OptionError
+        An unknown option or a value out of range.
+    UnknownMethodError
+        An unknown estimator name.
     SpectralDataError
         An empty test set, or an invalid camera set (see :func:`correction_problem`).
     """
+    cfg = with_options(EvaluationConfig, config, options, where="evaluate")
+    methods, illuminant, target, shape, training = (
+        cfg.methods,
+        cfg.illuminant,
+        cfg.target,
+        cfg.shape,
+        cfg.training,
+    )
+    test_sets, atypical, noise, seed = cfg.test_sets, cfg.atypical, cfg.noise, cfg.seed
+    centroid_eps, exclude_within = cfg.centroid_eps, cfg.exclude_within
     import colour
 
     shape = colour.SpectralShape(400, 700, 10) if shape is None else shape

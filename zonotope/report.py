@@ -20,16 +20,18 @@ from __future__ import annotations
 
 import html
 from collections.abc import Sequence
+from dataclasses import dataclass
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
-from ._errors import SpectralDataError
+from ._config import check_bool, check_count, with_options
+from ._errors import OptionError, SpectralDataError
 from ._io import OutputExistsError, atomic_dir, check_output
 from ._progress import ProgressCallback
 
-__all__ = ["ReportExistsError", "write_report"]
+__all__ = ["ReportConfig", "ReportExistsError", "write_report"]
 
 GREY_LEVELS = (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 0.9)
 
@@ -68,20 +70,78 @@ def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray:
     return np.array(vols)
 
 
+@dataclass(frozen=True)
+class ReportConfig:
+    """Options of :func:`write_report` (checked when made; see :mod:`zonotope._config`).
+
+    Attributes
+    ----------
+    illuminant : str
+        Scene illuminant.
+    shape : colour.SpectralShape, optional
+        Wavelength grid (default 400–700 nm / 10 nm).
+    data_dir : path, optional
+        Folder laid out like ``../shared/data`` for the natural test sets.
+    atypical : int
+        Number of atypical spectra in the evaluation (≥ 0).
+    size : int or None
+        Subsample size of large natural sets (≥ 1; None: all).
+    pictures : bool
+        Render the pyvista and matplotlib pictures (needs an OpenGL context, e.g. EGL).
+    methods : tuple of str, optional
+        Estimators to evaluate (default all of :data:`zonotope.evaluate.DEFAULT_METHODS`).
+    volumes : bool
+        Compute the MMV volume tables (one MMV per grey level and ColorChecker patch and set).
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named, with what is allowed).
+    UnknownMethodError
+        An unknown estimator name.
+    """
+
+    illuminant: str = "D65"
+    shape: object = None
+    data_dir: str | Path | None = None
+    atypical: int = 100
+    size: int | None = 150
+    pictures: bool = True
+    methods: tuple[str, ...] | None = None
+    volumes: bool = True
+
+    def __post_init__(self):
+        from .correct import CORRECTION_METHODS
+
+        name = "ReportConfig"
+        if self.shape is not None and type(self.shape).__name__ != "SpectralShape":
+            raise OptionError(
+                f"{name}.shape={self.shape!r}: give a colour.SpectralShape, e.g. "
+                "colour.SpectralShape(400, 700, 10)."
+            )
+        if self.methods is not None:
+            m = self.methods
+            if isinstance(m, str) or not isinstance(m, Sequence) or not m:
+                raise OptionError(f"{name}.methods={m!r}: give a non-empty list of estimator names or None.")
+            for x in m:
+                CORRECTION_METHODS.resolve(x)
+            object.__setattr__(self, "methods", tuple(m))
+        if self.data_dir is not None and not isinstance(self.data_dir, str | Path):
+            raise OptionError(f"{name}.data_dir={self.data_dir!r}: give a folder path or None.")
+        check_count(name, "atypical", self.atypical)
+        check_count(name, "size", self.size, minimum=1, allow_none=True)
+        check_bool(name, "pictures", self.pictures)
+        check_bool(name, "volumes", self.volumes)
+
+
 def write_report(
     cameras: Sequence,
     output: str | Path,
+    config: ReportConfig | None = None,
     *,
-    illuminant: str = "D65",
-    shape=None,
     force: bool = False,
-    data_dir: str | Path | None = None,
-    atypical: int = 100,
-    size: int | None = 150,
-    pictures: bool = True,
-    methods: Sequence[str] | None = None,
-    volumes: bool = True,
     progress: ProgressCallback | None = None,
+    **options,
 ) -> Path:
     """Write ``index.html`` and ``report.md`` (plus PNGs) for a camera set into ``output``.
 
@@ -91,27 +151,17 @@ def write_report(
         Camera names or files (at least one; duplicates are refused).
     output
         Folder to create.
-    illuminant
-        Scene illuminant.
-    shape
-        Wavelength grid (default 400–700 nm / 10 nm).
+    config : ReportConfig, optional
+        What the report contains (illuminant, grid, test data, estimators, pictures, volume
+        tables); default ``ReportConfig()``.
     force
         Replace an existing ``output``.
-    data_dir
-        Folder laid out like ``../shared/data`` for the natural test sets (optional).
-    atypical
-        Number of atypical spectra in the evaluation.
-    size
-        Subsample size of large natural sets.
-    pictures
-        Render the pyvista and matplotlib pictures (needs an OpenGL context, e.g. EGL).
-    methods
-        Estimators to evaluate (default all of :data:`zonotope.evaluate.DEFAULT_METHODS`).
-    volumes
-        Compute the MMV volume tables (one MMV per grey level and ColorChecker patch and set).
     progress
         ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.ProgressCallback`; a new
         stage name closes the previous one).
+    **options
+        :class:`ReportConfig` fields as keywords, alone or overriding those of ``config``
+        (e.g. ``write_report(cams, out, pictures=False)``).
 
     Returns
     -------
@@ -120,11 +170,16 @@ def write_report(
 
     Raises
     ------
+    OptionError
+        An unknown option or a value out of range (before anything is written).
     ReportExistsError
         ``output`` exists and ``force`` is False.
     SpectralDataError
         No camera, duplicated cameras, or curves without a common range.
     """
+    cfg = with_options(ReportConfig, config, options, where="write_report")
+    illuminant, shape, data_dir, atypical = cfg.illuminant, cfg.shape, cfg.data_dir, cfg.atypical
+    size, pictures, methods, volumes = cfg.size, cfg.pictures, cfg.methods, cfg.volumes
     import colour
 
     from . import spectra
@@ -251,14 +306,33 @@ def write_report(
                 f"{r.p95:.3f}",
                 f"{r.max:.2f}",
                 "" if r.inside is None else f"{100 * r.inside:.0f} %",
+                "" if r.radius is None else f"{r.radius:.2f}",
+                "" if r.coverage is None else f"{100 * r.coverage:.0f} %",
             )
             for r in ev.rows
         ]
         parts.append(
             "<h2>Colour-correction evaluation (CIEDE2000)</h2>"
             + _table_html(
-                ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"), rows
+                (
+                    "cameras",
+                    "test set",
+                    "estimator",
+                    "n",
+                    "mean",
+                    "median",
+                    "p95",
+                    "max",
+                    "in MMV",
+                    "radius (95 %)",
+                    "covered",
+                ),
+                rows,
             )
+            + "<p>radius: median 95 % credible radius (ΔE00) of the estimator's uncertainty model (a "
+            "confidence map per pixel: Corrector.with_uncertainty); covered: share of samples whose true "
+            "error lies within their radius.</p>"
+            + _pooled_html(ev)
             + "".join(f"<p>{html.escape(n)}</p>" for n in ev.notes)
         )
 
@@ -287,6 +361,24 @@ def write_report(
             encoding="utf-8",
         )
     return output
+
+
+def _pooled_html(ev) -> str:
+    """Pooled statistics per camera set and kind, with paired comparisons against the default."""
+    methods = list(dict.fromkeys(r.method for r in ev.rows))
+    ref = "Prior" if "Prior" in methods else methods[0]
+    rows = []
+    for cams in dict.fromkeys(r.cameras for r in ev.rows):
+        for kind in dict.fromkeys(r.kind for r in ev.rows if r.cameras == cams):
+            for m, (n, mean, p95, mx) in ev.pooled_stats(kind, cams).items():
+                pc = ("", "", "")
+                if m != ref:
+                    p = ev.paired(ref, m, kind=kind, cameras=cams)
+                    pc = (f"{100 * p.a_better:.0f} %", f"{100 * p.b_better:.0f} %", f"{p.mean_diff:+.3f}")
+                rows.append((cams, kind, m, str(n), f"{mean:.3f}", f"{p95:.3f}", f"{mx:.2f}", *pc))
+    header = ("cameras", "kind", "estimator", "n", "pooled mean", "p95", "max")
+    header += (f"{ref} better", f"{ref} worse", "mean difference")
+    return "<h3>Pooled over the test sets, and paired comparisons</h3>" + _table_html(header, rows)
 
 
 def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]:
