@@ -16,11 +16,12 @@ the ColorMatrix (XYZ → camera) is fitted by least squares on training reflecta
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import colour
 import numpy as np
+
+import zonotope
 
 from ._errors import PipelineError
 from .dng import write_dng
@@ -53,25 +54,55 @@ ILLUMINANT_LIGHT_SOURCE: dict[str, int] = {
 
 @dataclass(frozen=True, eq=False)
 class SpectralSetup:
-    """Camera and observer generators on one grid under one illuminant.
+    """A camera and the CIE 1931 observer on one grid under one illuminant, plus the camera's white.
+
+    The generators are a :class:`zonotope.GeneratorPair`, the object every part of the project
+    uses for "source and target on one grid", with its one normalisation: ``Phi`` white-balanced
+    (the perfect white gives 1 in every camera channel), ``Psi`` CIE 1931 2° XYZ with Y of the
+    white = 1. What a RAW file records is the *un-balanced* response, ``Phi · diag(neutral)``:
+    :attr:`camera`.
 
     Attributes
     ----------
-    wavelengths : ndarray of shape (n,)
-    camera : ndarray of shape (n, 3)
-        Un-balanced camera generators, scaled so the white's largest channel is 1.
-    observer : ndarray of shape (n, 3)
-        CIE 1931 2° XYZ generators with Y of the white = 1.
+    generators : zonotope.GeneratorPair
+        ``Phi`` (n, 3) camera (white → 1 per channel), ``Psi`` (n, 3) XYZ (Y_white = 1),
+        ``wavelengths`` (n,), ``illuminant``: identical to what ``zonotope.correction_problem``
+        and ``zonotope.MetamerMismatch`` build for the same camera, illuminant and grid.
     neutral : ndarray of shape (3,)
-        Camera response to the perfect white (max 1): the AsShotNeutral.
-    illuminant : str
+        Camera response to the perfect white, largest channel 1: the AsShotNeutral.
     """
 
-    wavelengths: np.ndarray
-    camera: np.ndarray
-    observer: np.ndarray
+    generators: zonotope.GeneratorPair
     neutral: np.ndarray
-    illuminant: str
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.neutral, dtype=np.float64)
+        if n.shape != (self.generators.k,) or not np.all(np.isfinite(n)) or n.min() <= 0:
+            raise PipelineError(
+                f"neutral: give {self.generators.k} positive camera responses to the white; "
+                f"got {self.neutral!r}."
+            )
+        object.__setattr__(self, "neutral", n)
+
+    @property
+    def wavelengths(self) -> np.ndarray:
+        """The grid (n,), nm (``generators.wavelengths``)."""
+        return self.generators.wavelengths
+
+    @property
+    def camera(self) -> np.ndarray:
+        """Un-balanced camera generators ``Phi · diag(neutral)`` (n, 3): the RAW response."""
+        return self.generators.Phi * self.neutral
+
+    @property
+    def observer(self) -> np.ndarray:
+        """CIE 1931 2° XYZ generators (n, 3), Y of the white = 1 (``generators.Psi``)."""
+        return self.generators.Psi
+
+    @property
+    def illuminant(self) -> str:
+        """Name of the illuminant."""
+        return self.generators.illuminant
 
 
 def spectral_setup(camera, *, illuminant: str = "D65", shape=None) -> SpectralSetup:
@@ -89,25 +120,17 @@ def spectral_setup(camera, *, illuminant: str = "D65", shape=None) -> SpectralSe
     Returns
     -------
     SpectralSetup
+        ``generators`` from :func:`zonotope.generator_pair` (target CIE 1931 2°, Y_white = 1).
     """
-    import zonotope
-
     cam = zonotope.load_camera(camera)
     obs = zonotope.observer("CIE 1931 2°")
     light = zonotope.illuminant(illuminant)
     if shape is None:
         shape = zonotope.common_shape(cam, obs, light, interval=5)
-    G = zonotope.generators(cam, light, shape, normalise=None).values
-    white = G.sum(axis=0)
-    Psi = zonotope.generators(obs, light, shape, normalise=1).values
-    w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, dtype=np.float64)
-    return SpectralSetup(
-        wavelengths=w,
-        camera=G / white.max(),
-        observer=Psi,
-        neutral=white / white.max(),
-        illuminant=str(illuminant),
-    )
+    pair = zonotope.generator_pair(cam, obs, light, shape, target_normalise=1)
+    pair = replace(pair, target="CIE 1931 2°", illuminant=str(illuminant))
+    white = zonotope.generators(cam, light, pair.wavelengths, normalise=None).values.sum(axis=0)
+    return SpectralSetup(generators=pair, neutral=white / white.max())
 
 
 def _reflectance_array(R, n: int, what: str = "reflectances") -> np.ndarray:

@@ -10,7 +10,9 @@ import rawpy
 
 import isp
 import zonotope
+from isp import PipelineError
 from isp.simulate import (
+    SpectralSetup,
     chart_image,
     fit_color_matrix,
     simulate_capture,
@@ -62,6 +64,28 @@ def test_setup_normalisation(setup):
     np.testing.assert_allclose(colour.XYZ_to_xy(setup.observer.sum(0)), D65_xy, atol=2e-4)
 
 
+def test_setup_generators_are_the_projects_generator_pair(setup):
+    """One concept, one normalisation: the simulator's generators are the GeneratorPair that
+    correction_problem and MetamerMismatch build for the same camera, illuminant and grid."""
+    g = setup.generators
+    assert isinstance(g, zonotope.GeneratorPair)
+    p = zonotope.correction_problem(
+        ["Nikon 5100 (NPL)"], target="CIE 1931 2°", illuminant="D65", shape=setup.wavelengths
+    )
+    np.testing.assert_array_equal(g.Phi, p.Phi)
+    np.testing.assert_array_equal(g.Psi, p.Psi)
+    np.testing.assert_array_equal(g.wavelengths, p.wavelengths)
+    mm = zonotope.MetamerMismatch("Nikon 5100 (NPL)", "CIE 1931 2°", "D65", setup.wavelengths)
+    np.testing.assert_array_equal(g.Phi, mm.Phi)
+    np.testing.assert_allclose(mm.Psi, g.Psi / g.Psi.sum(0), rtol=1e-12)  # MMVs: white → 1 per channel
+    np.testing.assert_allclose(g.Phi.sum(0), 1.0, rtol=1e-14)  # balanced: white → 1
+    np.testing.assert_allclose(setup.camera, g.Phi * setup.neutral, rtol=0)  # RAW = balanced · neutral
+    assert (g.target, g.illuminant) == ("CIE 1931 2°", "D65")
+    for bad in ([1.0, 1.0], [1.0, 0.0, 0.5], [1.0, np.nan, 0.5]):
+        with pytest.raises(PipelineError, match="neutral"):
+            SpectralSetup(generators=g, neutral=bad)
+
+
 def test_fit_color_matrix_holds_the_white(setup, checker):
     R = checker[0]
     M = fit_color_matrix(setup, R)
@@ -69,7 +93,8 @@ def test_fit_color_matrix_holds_the_white(setup, checker):
     # a camera that *is* the observer is fitted exactly
     from dataclasses import replace
 
-    obs_cam = replace(setup, camera=setup.observer, neutral=setup.observer.sum(0))
+    w = setup.observer.sum(0)
+    obs_cam = SpectralSetup(generators=replace(setup.generators, Phi=setup.observer / w), neutral=w)
     np.testing.assert_allclose(fit_color_matrix(obs_cam, R), np.eye(3), atol=1e-10)
 
 
