@@ -20,11 +20,13 @@ Order of operations (DNG 1.6, chapter 6; Adobe DNG SDK ``dng_render``, ``RefBase
 6. back to XYZ D50 (the isp pipeline's connection space).
 
 Departures from the SDK, all for scene-referred float data and matching RawTherapee's float
-implementation (``rtengine/dcp.cc``): saturation is not clipped to 1 after the table and values
-above 1 are not pinned (except by the tone curve, whose domain is [0, 1]); a pixel with
-``max(r, g, b) ≤ 0`` is left unchanged. The tone curve is interpolated with a natural cubic spline
-through its points (the SDK's ``dng_spline_solver``). BaselineExposureOffset is read and kept but
-not applied: exposure is the pipeline's tone-mapping stage's business.
+implementation (``rtengine/dcp.cc``): saturation is not clipped to 1 after the HueSatMap (it is
+after the LookTable, as the SDK and RawTherapee do) and values above 1 are not pinned (except by
+the tone curve, whose domain is [0, 1]; RawTherapee clips them to 1 whenever a LookTable or tone
+curve is applied); a pixel with ``max(r, g, b) ≤ 0`` is left unchanged. The tone curve is
+interpolated with a natural cubic spline through its points (the SDK's ``dng_spline_solver``).
+BaselineExposureOffset is read and kept but not applied: exposure is the pipeline's tone-mapping
+stage's business.
 
 References
 ----------
@@ -354,7 +356,7 @@ class DCPProfile:
         if hsm is not None:
             rgb = apply_hue_sat_map(rgb, hsm, encoding=self.hue_sat_map_encoding)
         if lut is not None:
-            rgb = apply_hue_sat_map(rgb, lut, encoding=self.look_table_encoding)
+            rgb = apply_hue_sat_map(rgb, lut, encoding=self.look_table_encoding, clip_saturation=True)
         if curve is not None:
             rgb = apply_tone_curve(rgb, curve)
         return rgb @ XYZ_FROM_PROPHOTO.T
@@ -419,7 +421,7 @@ def _srgb_encode(x):
     return colour.models.eotf_inverse_sRGB(np.clip(x, 0.0, 1.0))
 
 
-def apply_hue_sat_map(rgb, table, *, encoding: int = 0) -> np.ndarray:
+def apply_hue_sat_map(rgb, table, *, encoding: int = 0, clip_saturation: bool = False) -> np.ndarray:
     """Apply a ProfileHueSatMap or ProfileLookTable to linear ProPhoto RGB (DNG SDK order).
 
     Parameters
@@ -433,6 +435,9 @@ def apply_hue_sat_map(rgb, table, *, encoding: int = 0) -> np.ndarray:
     encoding
         0: the value axis is linear; 1: it is sRGB-encoded (the value scale then applies to the
         encoded value).
+    clip_saturation
+        Clip the new saturation to 1 (the SDK does for both tables, RawTherapee for the
+        LookTable; a saturation above 1 is a negative ProPhoto component).
 
     Returns
     -------
@@ -465,6 +470,8 @@ def apply_hue_sat_map(rgb, table, *, encoding: int = 0) -> np.ndarray:
                 mod = mod + (wv * wh * ws)[..., None] * T[vi, hi, si]
     h_new = h + mod[..., 0] * (6.0 / 360.0)
     s_new = s * mod[..., 1]
+    if clip_saturation:
+        s_new = np.minimum(s_new, 1.0)
     if encoding == 1:
         v_new = colour.models.eotf_sRGB(np.clip(v_enc * mod[..., 2], 0.0, 1.0))
         v_new = np.where(v > 1, v * mod[..., 2], v_new)  # above the encoding's range: linear
