@@ -1,7 +1,7 @@
 """Image output: 16-bit TIFF and PNG, written atomically, never over an input file.
 
 Files are written to a temporary file in the destination folder, synced and moved into place with
-``os.replace`` (:func:`zonotope._io.atomic_path`), so a crash never leaves a half-written image,
+``os.replace`` (:func:`zonotope.atomic_path`), so a crash never leaves a half-written image,
 readers never see one, an interruption leaves no temporary behind and files get the usual
 umask-based permissions.
 """
@@ -157,7 +157,7 @@ def write_image(
         img = to_uint16(image)
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 3, 4)):
         raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
-    from zonotope._io import atomic_path
+    from zonotope import atomic_path
 
     def write(tmp: Path) -> None:
         if suffix == ".png":

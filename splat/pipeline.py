@@ -117,7 +117,7 @@ class PipelineConfig:
 
 def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
     """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
-    from zonotope._io import atomic_path
+    from zonotope import atomic_path
 
     return atomic_path(path, write)
 

@@ -305,7 +305,7 @@ def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainStat
 
 def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
-    from zonotope._io import atomic_path
+    from zonotope import atomic_path
 
     leaves = jax.tree.leaves((state.params, state.opt_state, state.alive, state.grad_accum, state.grad_count))
     arrays = {f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)}

@@ -30,9 +30,7 @@ LAYERS: dict[int, set[str]] = {
 RANK = {m: r for r, mods in LAYERS.items() for m in mods}
 
 #: Private zonotope modules isp/splat may still import, each with its reason (keep this empty).
-ALLOWED_PRIVATE = {
-    "zonotope._io": "atomic output files shared by the three packages' writers (to be made public)",
-}
+ALLOWED_PRIVATE: dict[str, str] = {}
 
 
 def _imports(path: Path, package: str) -> list[tuple[int, str]]:

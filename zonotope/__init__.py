@@ -204,6 +204,15 @@ _EXPORTS = {
     ],
     "_progress": ["ProgressCallback"],
     "_lp": ["distance_to_zonotope"],
+    "_io": [
+        "OutputExistsError",
+        "atomic_dir",
+        "atomic_file",
+        "atomic_path",
+        "atomic_write_bytes",
+        "atomic_write_text",
+        "check_output",
+    ],
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 
