@@ -437,7 +437,7 @@ def xy_to_camera_neutral(xy, profile: DNGProfile) -> np.ndarray:
 
 
 def camera_neutral_to_xy(
-    neutral, profile: DNGProfile, *, tol: float = 1e-10, max_iter: int = 100
+    neutral, profile: DNGProfile, *, atol: float = 1e-10, max_iter: int = 100
 ) -> np.ndarray:
     """Chromaticity of the scene white from the camera neutral (DNG spec 1.4, p. 81).
 
@@ -447,8 +447,8 @@ def camera_neutral_to_xy(
         Camera neutral (AsShotNeutral), any positive scale.
     profile
         The camera's :class:`DNGProfile`.
-    tol, max_iter
-        Convergence threshold on xy and iteration limit.
+    atol, max_iter
+        Absolute convergence threshold on xy and iteration limit.
 
     Returns
     -------
@@ -469,7 +469,7 @@ def camera_neutral_to_xy(
                 "neutral is not a plausible white for this colour matrix."
             )
         new = colour.XYZ_to_xy(XYZ)
-        if np.abs(new - xy).max() <= tol:
+        if np.abs(new - xy).max() <= atol:
             return new
         xy = new
     raise RawFormatError(
