@@ -38,7 +38,11 @@ def test_polytope_flatness_threshold_is_AFFINE():
 def test_tolerance_values_are_documented():
     """Every named tolerance has a reason next to it (a comment block or the class notes)."""
     source = open(_tol.__file__, encoding="utf-8").read()
-    for name in ("AFFINE", "ANGLE", "CERTIFY", "FEASIBLE_REL", "FEASIBLE_ABS"):
+    names = [n for n in _tol.__all__ if n.isupper() and n != "TOL"]
+    assert {"AFFINE", "ANGLE", "CERTIFY", "COLLINEAR", "FEASIBLE_REL", "FEASIBLE_ABS", "SINGULAR"} <= set(
+        names
+    )
+    for name in names:
         assert "#: " in source.split(f"\n{name} = ")[0].rsplit("\n\n", 1)[-1], name
     for field in ("zero", "parallel", "coplanar", "rank", "contains"):
         assert f"``{field} = " in Tolerances.__doc__, field
@@ -56,3 +60,20 @@ def test_oracle_names_are_case_insensitive_and_unknown_ones_are_project_errors()
     np.testing.assert_allclose(a.volume, b.volume, rtol=1e-7)
     with pytest.raises(zonotope.UnknownMethodError, match=r"oracle='cdd' is not a support oracle method"):
         metamer_mismatch(Phi, Psi, c, oracle="cdd")
+
+
+@pytest.mark.parametrize(("bump", "n_vertices"), [(0.0, 4), (1e-17, 4), (1e-9, 5)])
+def test_polygon_collinear_threshold_is_COLLINEAR(bump, n_vertices):
+    """A point on a square's edge is dropped when it is off the edge by rounding only (COLLINEAR)."""
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, -bump]], dtype=float)
+    assert len(Polytope(pts).vertices) == n_vertices
+
+
+def test_flat_halfspace_vertices_skip_singular_subsets():
+    """A flat triangle as half-spaces (two opposite planes z ≤ 0, −z ≤ 0 plus 3 sides): the parallel
+    pair's |det| is 0 ≤ SINGULAR, skipped; the vertices come from the well-conditioned subsets."""
+    A = np.array([[0, 0, 1], [0, 0, -1], [-1, 0, 0], [0, -1, 0], [1, 1, 0]], dtype=float)
+    b = np.array([0, 0, 0, 0, 1], dtype=float)
+    P = Polytope.from_halfspaces(A, b)
+    assert P.affine_dim == 2
+    np.testing.assert_allclose(sorted(map(tuple, P.vertices)), [(0, 0, 0), (0, 1, 0), (1, 0, 0)], atol=1e-12)

@@ -41,7 +41,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["AFFINE", "ANGLE", "CERTIFY", "FEASIBLE_ABS", "FEASIBLE_REL", "TOL", "Tolerances"]
+__all__ = [
+    "AFFINE",
+    "ANGLE",
+    "CERTIFY",
+    "COLLINEAR",
+    "FEASIBLE_ABS",
+    "FEASIBLE_REL",
+    "SINGULAR",
+    "TOL",
+    "Tolerances",
+]
 
 
 @dataclass(frozen=True)
@@ -128,3 +138,17 @@ FEASIBLE_REL = 1e-7
 #: See :data:`FEASIBLE_REL` (absolute part, relative to the source scale: a response exactly on
 #: the boundary, distance 0, still gets a strictly positive δ).
 FEASIBLE_ABS = 1e-10
+
+#: 2-D convex hulls of a :class:`~zonotope.Polytope` (Andrew's monotone chain): a point is dropped
+#: as collinear when the cross product of its two edges is at most ``COLLINEAR ×`` the product of
+#: their extents, i.e. when the turn is below ≈ 1e-15 rad. That is a few float64 roundings (ε =
+#: 2.2e-16) of the cross product itself: only points collinear to rounding are dropped, so a polygon
+#: never loses a genuine vertex, and a rounding-level bump never becomes one.
+COLLINEAR = 1e-15
+
+#: Vertex enumeration of a thin or flat ``{y : A y ≤ b}`` (unit rows): an m-subset of rows whose
+#: ``|det|`` is at most ``SINGULAR`` is skipped as (nearly) parallel. Its intersection point would
+#: carry a relative error ≈ ε / |det| ≳ 2e-4, far above :data:`AFFINE`; every vertex of the polytope
+#: is also reached from a well-conditioned subset of its active rows (for unit normals of distinct
+#: facets, |det| is the volume of their parallelotope, ≫ 1e-12).
+SINGULAR = 1e-12

@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from ._errors import GeometryError
-from ._tol import AFFINE, ANGLE
+from ._tol import AFFINE, ANGLE, COLLINEAR, SINGULAR
 
 __all__ = ["Polytope"]
 
@@ -55,7 +55,7 @@ def _hull_2d(Z: np.ndarray) -> np.ndarray:
             while len(out) >= 2:
                 a, b = pts[out[-2]], pts[out[-1]]
                 cross = (b[0] - a[0]) * (pts[i][1] - a[1]) - (b[1] - a[1]) * (pts[i][0] - a[0])
-                if cross <= 1e-15 * (np.abs(b - a).max() * np.abs(pts[i] - a).max()):
+                if cross <= COLLINEAR * (np.abs(b - a).max() * np.abs(pts[i] - a).max()):
                     out.pop()
                 else:
                     break
@@ -649,7 +649,7 @@ def _vertices_from_halfspaces(
     for s in range(0, len(combos), 200_000):
         cb = combos[s : s + 200_000]
         M = A[cb]
-        ok = np.abs(np.linalg.det(M)) > 1e-12
+        ok = np.abs(np.linalg.det(M)) > SINGULAR
         y = np.linalg.solve(M[ok], b[cb[ok]][..., None])[..., 0]
         feas = (y @ A.T - b).max(axis=1) <= t
         pts.append(y[feas])
