@@ -110,6 +110,7 @@ _LAZY = {
     "simulate": [
         "ILLUMINANT_LIGHT_SOURCE",
         "Capture",
+        "SensorConfig",
         "SpectralSetup",
         "chart_image",
         "fit_color_matrix",

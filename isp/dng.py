@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import colour
@@ -635,9 +635,6 @@ def _numeric(value) -> bool:
     return a.dtype.kind in "iuf"
 
 
-_DNG_FIELDS = tuple(f for f in DNGMetadata.__dataclass_fields__)
-
-
 def write_dng(
     path: str | os.PathLike,
     mosaic,
@@ -692,26 +689,10 @@ def write_dng(
     """
     import tifffile
 
+    from ._config import with_options
     from ._errors import PipelineError
 
-    unknown = sorted(set(fields) - set(_DNG_FIELDS))
-    if unknown:
-        raise PipelineError(
-            f"write_dng: unknown option(s) {', '.join(unknown)}; the DNGMetadata fields are "
-            f"{', '.join(_DNG_FIELDS)}."
-        )
-    if metadata is None:
-        required = ("cfa", "black_level", "white_level", "color_matrix_1", "as_shot_neutral")
-        missing = [f for f in required if f not in fields]
-        if missing:
-            raise PipelineError(
-                f"write_dng: missing {', '.join(missing)} (pass them as keywords or a DNGMetadata)."
-            )
-        metadata = DNGMetadata(**fields)
-    elif not isinstance(metadata, DNGMetadata):
-        raise PipelineError(f"write_dng: metadata must be a DNGMetadata; got {type(metadata).__name__}.")
-    elif fields:
-        metadata = replace(metadata, **fields)
+    metadata = with_options(DNGMetadata, metadata, fields, where="write_dng")
     d = metadata
     path = Path(path)
     if path.exists() and not overwrite:

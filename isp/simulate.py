@@ -31,6 +31,7 @@ from .stages import cfa_masks
 __all__ = [
     "ILLUMINANT_LIGHT_SOURCE",
     "Capture",
+    "SensorConfig",
     "SpectralSetup",
     "chart_image",
     "fit_color_matrix",
@@ -256,18 +257,76 @@ class Capture:
     exposure: float = 1.0
 
 
+@dataclass(frozen=True)
+class SensorConfig:
+    """The simulated sensor of :func:`simulate_capture` (checked when made).
+
+    Attributes
+    ----------
+    exposure : float
+        Response of the white's largest channel, as a fraction of saturation, in (0, 1].
+    cfa : str
+        Bayer pattern, e.g. ``"RGGB"``.
+    black_level, white_level : int
+        In DN, ``0 ≤ black_level < white_level ≤ 65535``.
+    full_well : float
+        Electrons at saturation (sets the shot noise; ``inf`` for none), > 0.
+    read_noise : float
+        Standard deviation of the read noise in DN (0 for none), ≥ 0.
+
+    Raises
+    ------
+    PipelineError
+        A value out of range (named, with what is allowed).
+    RawFormatError
+        A CFA pattern that is not a 2 × 2 arrangement of R, G, B.
+    """
+
+    exposure: float = 0.8
+    cfa: str = "RGGB"
+    black_level: int = 512
+    white_level: int = 16383
+    full_well: float = 30000.0
+    read_noise: float = 2.0
+
+    def __post_init__(self) -> None:
+        def number(name, value, ok, allowed):
+            try:
+                numeric = isinstance(value, int | float | np.number) and not isinstance(value, bool)
+                good = numeric and bool(ok(float(value)))
+            except (TypeError, ValueError):
+                good = False
+            if not good:
+                raise PipelineError(f"SensorConfig.{name}={value!r}: {allowed}.")
+
+        number("exposure", self.exposure, lambda v: 0 < v <= 1, "must lie in (0, 1] (fraction of saturation)")
+        object.__setattr__(self, "cfa", check_cfa(self.cfa))
+        for name in ("black_level", "white_level"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not hasattr(v, "__index__") or not 0 <= int(v) <= 65535:
+                raise PipelineError(f"SensorConfig.{name}={v!r}: give an integer DN in 0…65535.")
+        if self.black_level >= self.white_level:
+            raise PipelineError(
+                f"SensorConfig.black_level={self.black_level!r}: must lie below "
+                f"white_level={self.white_level!r}."
+            )
+        number(
+            "full_well",
+            self.full_well,
+            lambda v: v > 0,
+            "give a positive electron count (inf: no shot noise)",
+        )
+        number("read_noise", self.read_noise, lambda v: np.isfinite(v) and v >= 0, "give a finite DN ≥ 0")
+
+
 def simulate_capture(
     reflectance_image,
     setup: SpectralSetup,
+    sensor: SensorConfig | None = None,
     *,
     training=None,
-    exposure: float = 0.8,
-    cfa: str = "RGGB",
-    black_level: int = 512,
-    white_level: int = 16383,
-    full_well: float = 30000.0,
-    read_noise: float = 2.0,
     seed: int | None = 0,
+    **options,
 ) -> Capture:
     """Render a reflectance image through a camera into a noisy Bayer mosaic.
 
@@ -277,31 +336,38 @@ def simulate_capture(
         Reflectances on the setup's grid (H, W even).
     setup
         From :func:`spectral_setup`.
+    sensor : SensorConfig, optional
+        Exposure, CFA, black/white level and noise; default ``SensorConfig()``.
     training : array_like of shape (N, n), optional
         Reflectances for the ColorMatrix fit; default the image's distinct pixels.
-    exposure
-        Response of the white's largest channel, as a fraction of saturation.
-    cfa
-        Bayer pattern.
-    black_level, white_level
-        In DN.
-    full_well
-        Electrons at saturation (sets the shot noise; ``inf`` for none).
-    read_noise
-        Standard deviation of the read noise in DN (0 for none).
     seed
         Random seed (None: fresh randomness).
+    **options
+        :class:`SensorConfig` fields as keywords, alone or overriding those of ``sensor``
+        (e.g. ``simulate_capture(image, setup, full_well=np.inf, read_noise=0)``).
 
     Returns
     -------
     Capture
+
+    Raises
+    ------
+    PipelineError
+        A bad reflectance image, an unknown option or a sensor value out of range.
     """
+    from ._config import with_options
+
+    sensor = with_options(SensorConfig, sensor, options, where="simulate_capture")
+    exposure, cfa, black_level, white_level = (
+        sensor.exposure,
+        sensor.cfa,
+        sensor.black_level,
+        sensor.white_level,
+    )
+    full_well, read_noise = sensor.full_well, sensor.read_noise
     R = _reflectance_array(reflectance_image, setup.wavelengths.size, "reflectance_image")
     if R.ndim != 3 or R.shape[0] % 2 or R.shape[1] % 2:
         raise PipelineError(f"reflectance_image: expected shape (H, W, n) with even H, W; got {R.shape}.")
-    cfa = check_cfa(cfa)
-    if not 0 < exposure <= 1:
-        raise PipelineError(f"exposure={exposure}: must lie in (0, 1] (fraction of saturation).")
     rgb = exposure * (R @ setup.camera)
     XYZ = R @ setup.observer
     signal = np.sum(rgb * cfa_masks(rgb.shape[:2], cfa), axis=-1)

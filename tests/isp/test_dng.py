@@ -244,7 +244,7 @@ def test_write_dng_option_errors(tmp_path):
         write_dng(tmp_path / "a.dng", m, _meta(), colour_matrix_1=CM_D65)
     with pytest.raises(PipelineError, match="missing cfa, as_shot_neutral"):
         write_dng(tmp_path / "a.dng", m, black_level=0, white_level=4095, color_matrix_1=CM_D65)
-    with pytest.raises(PipelineError, match="must be a DNGMetadata"):
+    with pytest.raises(PipelineError, match="expected a DNGMetadata"):
         write_dng(tmp_path / "a.dng", m, {"cfa": "RGGB"})
     with pytest.raises(RawFormatError, match="cfa"):
         write_dng(tmp_path / "a.dng", m, _meta(cfa=None))

@@ -170,3 +170,37 @@ def test_simulate_errors(setup):
         simulate_capture(np.full((4, 4, n), 50.0), setup)
     with pytest.raises(isp.PipelineError, match="exposure"):
         simulate_capture(np.full((4, 4, n), 0.5), setup, exposure=2.0)
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"exposure": 0.0}, "exposure=0.0"),
+        ({"exposure": float("nan")}, "exposure=nan"),
+        ({"black_level": 20000, "white_level": 16383}, "black_level=20000"),
+        ({"white_level": 70000}, "white_level=70000"),
+        ({"white_level": 4095.0}, "white_level=4095.0"),
+        ({"full_well": -1.0}, "full_well=-1.0"),
+        ({"read_noise": float("inf")}, "read_noise=inf"),
+        ({"read_noise": "2"}, "read_noise='2'"),
+    ],
+)
+def test_sensor_config_refuses_bad_values(options, match):
+    with pytest.raises(isp.PipelineError, match=match):
+        isp.SensorConfig(**options)
+
+
+def test_sensor_config_equals_keywords(setup):
+    """A SensorConfig and the same keywords give the same mosaic; unknown options are refused."""
+    img = np.full((8, 8, setup.wavelengths.size), 0.4)
+    sensor = isp.SensorConfig(exposure=0.6, cfa="GRBG", read_noise=1.0)
+    a = simulate_capture(img, setup, sensor, seed=3)
+    b = simulate_capture(img, setup, exposure=0.6, cfa="GRBG", read_noise=1.0, seed=3)
+    c = simulate_capture(
+        img, setup, isp.SensorConfig(exposure=0.9, cfa="GRBG"), exposure=0.6, read_noise=1.0, seed=3
+    )
+    np.testing.assert_array_equal(a.mosaic, b.mosaic)
+    np.testing.assert_array_equal(a.mosaic, c.mosaic)
+    assert (a.cfa, a.exposure) == ("GRBG", 0.6)
+    with pytest.raises(isp.PipelineError, match=r"unknown option.*read_nosie"):
+        simulate_capture(img, setup, read_nosie=1.0)
