@@ -23,17 +23,26 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
-from ._errors import SpectralDataError, ZonotopeError
+from ._config import check_count, check_nonnegative, with_options
+from ._errors import OptionError, SpectralDataError, ZonotopeError
 from ._progress import ProgressCallback
 
-__all__ = ["REGRESSIONS", "SurveyRow", "best_partners", "load_cameras", "survey", "write_table"]
+__all__ = [
+    "REGRESSIONS",
+    "SurveyConfig",
+    "SurveyRow",
+    "best_partners",
+    "load_cameras",
+    "survey",
+    "write_table",
+]
 
 #: Regressions whose best mean ΔE00 is reported per camera set.
 REGRESSIONS = ("Cheung 2004", "Finlayson 2015", "Dyer 2017")
@@ -185,19 +194,64 @@ def _score(names: tuple[str, ...], shared) -> SurveyRow:
         )
 
 
+@dataclass(frozen=True)
+class SurveyConfig:
+    """Options of :func:`survey` (checked when made; see :mod:`zonotope._config`).
+
+    Attributes
+    ----------
+    size : int
+        Cameras per set (1 = each camera alone), ≥ 1 (and at most the number of cameras).
+    target, illuminant
+        Observer (XYZ colour-matching functions or LMS) and scene illuminant.
+    interval : float
+        Grid step in nm, 1–20 (each set on 400–700 nm narrowed to its cameras' common range).
+    reflectances
+        Reflectance set (built-in name, file or MSDS) for the MMV volumes and the ΔE00 test.
+    training
+        Training set of the regressions.
+    eps : float
+        Certification tolerance of the MMVs (relative to the target scale), ≥ 0.
+    containing : tuple of str, optional
+        Only the sets that contain at least one of these camera names (e.g. partners of one camera).
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named, with what is allowed).
+    """
+
+    size: int = 2
+    target: object = "CIE 2015 2°"
+    illuminant: object = "D65"
+    interval: float = 10.0
+    reflectances: object = "ColorChecker N Ohta"
+    training: object = "rawtoaces 190"
+    eps: float = 1e-3
+    containing: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        name = "SurveyConfig"
+        check_count(name, "size", self.size, minimum=1)
+        interval = check_nonnegative(name, "interval", self.interval)
+        if not 1 <= interval <= 20:
+            raise OptionError(f"{name}.interval={self.interval!r}: give a grid step of 1–20 nm.")
+        object.__setattr__(self, "interval", interval)
+        object.__setattr__(self, "eps", check_nonnegative(name, "eps", self.eps))
+        if self.containing is not None:
+            c = self.containing
+            if isinstance(c, str) or not all(isinstance(x, str) for x in c):
+                raise OptionError(f"{name}.containing={c!r}: give a list of camera names or None.")
+            object.__setattr__(self, "containing", tuple(c))
+
+
 def survey(
     cameras,
+    config: SurveyConfig | None = None,
     *,
-    size: int = 2,
-    target="CIE 2015 2°",
-    illuminant="D65",
-    interval: float = 10.0,
-    reflectances="ColorChecker N Ohta",
-    training="rawtoaces 190",
-    eps: float = 1e-3,
-    containing: Iterable[str] | None = None,
     scheduler: str | None = None,
     progress: ProgressCallback | None = None,
+    **options,
 ) -> list[SurveyRow]:
     """Score every set of ``size`` cameras; ranked best first.
 
@@ -205,30 +259,32 @@ def survey(
     ----------
     cameras
         As :func:`load_cameras` takes, or its dict of name → MSDS.
-    size
-        Cameras per set (1 = each camera alone).
-    target, illuminant
-        Observer (XYZ colour-matching functions or LMS) and scene illuminant.
-    interval
-        Grid step in nm (each set on 400–700 nm narrowed to its cameras' common range).
-    reflectances
-        Reflectance set (built-in name, file or MSDS) for the MMV volumes and the ΔE00 test.
-    training
-        Training set of the regressions.
-    eps
-        Certification tolerance of the MMVs (relative to the target scale).
-    containing
-        Only the sets that contain at least one of these camera names (e.g. partners of one camera).
+    config : SurveyConfig, optional
+        Set size, target, illuminant, grid step, reflectance and training sets, ``eps``,
+        ``containing``; default ``SurveyConfig()``.
     scheduler
         Where the tasks run (:func:`zonotope.parallel.executor`); one task per camera set.
     progress
         ``progress("camera sets", done, total)`` (:class:`~zonotope.ProgressCallback`).
+    **options
+        :class:`SurveyConfig` fields as keywords, alone or overriding those of ``config``
+        (e.g. ``survey(cams, size=3)``).
 
     Returns
     -------
     list of SurveyRow
         Successful sets ranked by median MMV volume (ties: higher Vora first), then failed ones.
+
+    Raises
+    ------
+    OptionError
+        An unknown option or a value out of range.
+    SpectralDataError
+        ``size`` larger than the number of cameras, ``containing`` names no camera, bad curves.
     """
+    cfg = with_options(SurveyConfig, config, options, where="survey")
+    size, target, illuminant, interval = cfg.size, cfg.target, cfg.illuminant, cfg.interval
+    reflectances, training, eps, containing = cfg.reflectances, cfg.training, cfg.eps, cfg.containing
     from . import spectra
     from .parallel import TaskFailure, executor
 
@@ -237,8 +293,6 @@ def survey(
         raise SpectralDataError(
             f"size must be an integer in 1..{len(cams)} (the number of cameras); got {size!r}."
         )
-    if not (np.isfinite(interval) and 1 <= interval <= 20):
-        raise SpectralDataError(f"interval must be 1–20 nm; got {interval!r}.")
     names = sorted(cams)
     sets = list(combinations(names, size))
     if containing is not None:
