@@ -158,7 +158,7 @@ class CaptureSpec:
 
         s = self.cameras[k].ssf
         try:
-            cam = zonotope.read_camera(s) if Path(s).is_file() else zonotope.camera(s)
+            cam = zonotope.load_camera(s)
         except (OSError, KeyError, TypeError, ValueError) as e:
             raise CaptureError(
                 f"{self.file}: camera {self.cameras[k].folder!r}: ssf = {s!r} is neither a "

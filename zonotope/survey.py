@@ -32,6 +32,7 @@ import numpy as np
 
 from ._config import check_count, check_nonnegative, with_options
 from ._errors import OptionError, SpectralDataError, ZonotopeError
+from ._loading import load_camera
 from ._progress import ProgressCallback
 
 __all__ = [
@@ -118,7 +119,7 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
             cams.update(more)
             skipped += skip
             continue
-        curve = spectra.read_camera(n) if Path(n).is_file() else spectra.camera(n)
+        curve = load_camera(n)
         cams[Path(n).stem if Path(n).is_file() else curve.name] = curve
     return cams, skipped
 

@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import combinations
@@ -23,6 +24,7 @@ import numpy as np
 
 from . import spectra
 from ._errors import SpectralDataError
+from ._loading import load_camera
 from ._tol import TOL
 
 __all__ = ["CameraSetScore", "projector", "rank_camera_sets", "vora_value"]
@@ -102,7 +104,7 @@ class CameraSetScore:
 
 
 def _matrices(cameras, target, illuminant, shape):
-    cams = [spectra.camera(c) if isinstance(c, str) else c for c in cameras]
+    cams = [load_camera(c) if isinstance(c, str | os.PathLike) else c for c in cameras]
     tgt = spectra.observer(target) if isinstance(target, str) else target
     if shape is None:
         shape = spectra.common_shape(*cams, tgt, spectra.illuminant(illuminant))
