@@ -384,3 +384,23 @@ def test_correct_image_noisy_closed_form_pixels_exact(problem2):
     assert 0 < slow.mean() < 0.5
     np.testing.assert_allclose(out[~slow], exact[~slow], atol=1e-9)
     assert problem2.delta_E(out[slow], exact[slow]).max() < 0.5
+
+
+def test_leader_groups_against_brute_force():
+    from zonotope.image import _leader_groups
+
+    rng = np.random.default_rng(4)
+    P = np.vstack([rng.normal(c, 0.004, (60, 6)) for c in rng.uniform(0.1, 0.9, (5, 6))])
+    first, label = _leader_groups(P, 0.01)
+    assert (
+        label.min() == 0
+        and label.max() == first.size - 1
+        and np.array_equal(label[first], np.arange(first.size))
+    )
+    assert np.all(np.abs(P - P[first][label]).max(axis=1) <= 0.01)  # every member near its leader
+    lead = P[first]
+    gap = np.abs(lead[:, None] - lead[None]).max(-1) + np.eye(first.size)
+    assert gap.min() > 0.01  # no leader lies within the radius of another (it would have been taken)
+    assert first.size < P.shape[0] / 4  # noise clouds are not cut into grid cells
+    again, label2 = _leader_groups(P.copy(), 0.01)
+    assert np.array_equal(again, first) and np.array_equal(label2, label)
