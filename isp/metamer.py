@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._errors import PipelineError
+
 if TYPE_CHECKING:
     from zonotope import ProgressCallback
     from zonotope.correct import Corrector
@@ -87,7 +89,7 @@ class MetamerCorrection:
         from zonotope.correct import fit_correction
 
         if not (np.isfinite(self.white_level) and self.white_level > 0):
-            raise ValueError(
+            raise PipelineError(
                 f"white_level={self.white_level}: must be a positive number (the response of "
                 "a perfect white reflector after white balance, 1 when it just saturates)."
             )
@@ -216,7 +218,7 @@ def metamer_correction(
         cam, method=method, target=target, illuminant=illuminant, shape=shape, training=train, **options
     )
     if corrector.problem.k != 3:
-        raise ValueError(
+        raise PipelineError(
             f"camera {getattr(cam, 'name', camera)!r} has {corrector.problem.k} channels; a Bayer RAW has 3."
         )
     white = zonotope.generators(cam, illuminant, corrector.problem.wavelengths, normalise=None).values.sum(0)

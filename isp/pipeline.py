@@ -353,7 +353,7 @@ def default_pipeline(
             white_balance_xy(white_balance)
     if isinstance(correction, str):
         if correction.lower() != "dng":
-            raise ValueError(
+            raise PipelineError(
                 f"correction={correction!r}: use 'dng' or a callable responses → XYZ "
                 "(for a camera with known sensitivities: isp.metamer_correction(camera))."
             )
@@ -361,7 +361,7 @@ def default_pipeline(
     elif callable(correction):
         colour_stage = correction_stage(correction)
     else:
-        raise ValueError(f"correction must be 'dng' or a callable; got {type(correction).__name__}.")
+        raise PipelineError(f"correction must be 'dng' or a callable; got {type(correction).__name__}.")
     stages = [
         Stage("linearise", _linearise),
         _white_balance_stage(neutral),

@@ -59,7 +59,7 @@ def test_builtin_cameras_and_sets():
     assert [s.channels for s in chain] == [3, 6, 9]
     assert all(b.vora >= a.vora - 1e-12 for a, b in itertools.pairwise(chain))
     assert all(0.8 < s.vora <= 1.0 for s in chain)
-    with pytest.raises(ValueError, match="valid methods"):
+    with pytest.raises(ValueError, match="'pairs' or 'greedy'"):
         rank_camera_sets(list(zonotope.CAMERAS), method="best")
 
 

@@ -10,7 +10,7 @@ import colour
 import numpy as np
 
 from ._correction_problem import CorrectionProblem, Corrector
-from ._errors import SpectralDataError
+from ._errors import OptionError, SpectralDataError
 
 __all__ = ["fit_Cheung2004", "fit_Dyer2017", "fit_Finlayson2015", "root_polynomial_terms"]
 
@@ -37,7 +37,7 @@ def root_polynomial_terms(responses, *, degree: int = 2) -> np.ndarray:
     c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0)
     k = c.shape[-1]
     if degree < 1:
-        raise ValueError(f"degree must be >= 1, got {degree}.")
+        raise OptionError(f"degree={degree!r}: give a polynomial degree ≥ 1.")
     cols = [c[..., i] for i in range(k)]
     for d in range(2, degree + 1):
         for combo in itertools.combinations_with_replacement(range(k), d):

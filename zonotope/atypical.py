@@ -29,7 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._errors import SpectralDataError
+from ._errors import OptionError, SpectralDataError
 
 __all__ = ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"]
 
@@ -122,9 +122,9 @@ def atypical_reflectances(
     kinds = tuple(kinds) if kinds is not None else ATYPICAL_KINDS
     bad = [k for k in kinds if k not in _MAKERS]
     if bad or not kinds:
-        raise ValueError(f"kinds={list(kinds)!r}: unknown family {bad}; choose from {list(ATYPICAL_KINDS)}.")
+        raise OptionError(f"kinds={list(kinds)!r}: unknown family {bad}; choose from {list(ATYPICAL_KINDS)}.")
     if n < 0:
-        raise ValueError(f"n must be >= 0, got {n}.")
+        raise OptionError(f"n={n!r}: give a number of spectra ≥ 0.")
     rng = np.random.default_rng(seed)
     out = np.empty((n, w.size))
     labels = []

@@ -752,5 +752,5 @@ def generators(
             raise SpectralDataError(f"normalise={normalise} is not a channel index (k={G.shape[1]}).")
         G = G / white[normalise]
     elif normalise is not None:
-        raise ValueError(f"normalise must be 'channel', a channel index or None; got {normalise!r}.")
+        raise SpectralDataError(f"normalise={normalise!r}: use 'channel', a channel index or None.")
     return colour.MultiSpectralDistributions(G, grid, labels=labels, name="generators")

@@ -23,7 +23,7 @@ from itertools import combinations
 import numpy as np
 
 from . import spectra
-from ._errors import SpectralDataError
+from ._errors import OptionError, SpectralDataError, UnknownMethodError
 from ._loading import load_camera
 from ._tol import TOL
 
@@ -150,7 +150,7 @@ def rank_camera_sets(
 
     if method == "pairs":
         if not 1 <= size <= len(Qs):
-            raise ValueError(f"size must be in 1..{len(Qs)}, got {size}.")
+            raise OptionError(f"size={size!r}: give a set size in 1..{len(Qs)} (the number of cameras).")
         out = [score(idx) for idx in combinations(range(len(Qs)), size)]
         return sorted(out, key=lambda s: -s.vora)
     if method == "greedy":
@@ -161,4 +161,9 @@ def rank_camera_sets(
             chosen.append(best)
             chain.append(score(chosen))
         return chain
-    raise ValueError(f"unknown method {method!r}; valid methods: 'pairs', 'greedy'.")
+    raise UnknownMethodError(
+        f"method={method!r}: choose 'pairs' or 'greedy'.",
+        argument="method",
+        value=method,
+        valid=("pairs", "greedy"),
+    )
