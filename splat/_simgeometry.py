@@ -85,9 +85,20 @@ def _value_noise(uv: np.ndarray, size: float, salt: int) -> np.ndarray:
 
 
 def _texture(scene: SimScene, uv: np.ndarray, palette: str, size: float, salt: int):
-    """Library indices (N, 3) and weights (N, 3) of the procedural texture at surface coordinates uv."""
+    """Library indices (N, 3) and weights (N, 3) of the procedural texture at surface coordinates uv.
+
+    ``texture="fine"``: Voronoi cells mixed with a second reflectance in cells a third the size under a
+    smooth noise, with dark borders. ``texture="coarse"``: each cell is one constant reflectance, with a
+    thin dark border (corners for SIFT), so most pixels see a flat patch.
+    """
     pal = scene.palettes[palette]
     n = np.uint64(len(pal))
+    if scene.config.texture == "coarse":
+        h, edge = _voronoi(uv, size, salt)
+        i0 = pal[(h % n).astype(np.int64)]
+        e = np.where(edge < 0.025 * size, 0.9, 0.0)
+        idx = np.stack([i0, np.full_like(i0, 1), np.full_like(i0, 1)], axis=1)
+        return idx, np.stack([1 - e, e, np.zeros_like(e)], axis=1)
     h, edge = _voronoi(uv, size, salt)  # cells of one reflectance each …
     h2, _ = _voronoi(uv, size / 3, salt + 5)  # … mixed with a second one in smaller cells
     i0 = pal[(h % n).astype(np.int64)]
@@ -97,6 +108,16 @@ def _texture(scene: SimScene, uv: np.ndarray, palette: str, size: float, salt: i
     idx = np.stack([i0, i1, np.full_like(i0, 1)], axis=1)
     wts = np.stack([(1 - m) * (1 - e), m * (1 - e), e], axis=1)
     return idx, wts
+
+
+def _radial_warp(uv: np.ndarray, a: float) -> np.ndarray:
+    """Floor coordinates warped by ``r → a·log(1 + r/a)``: a Voronoi cell of fixed size in the warped
+    coordinates is ``1 + r/a`` times larger at the distance ``r`` (m) from the scene's centre, which keeps
+    the far floor's cells (seen foreshortened at a grazing angle) several pixels wide."""
+    r = np.hypot(uv[:, 0], uv[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where(r > 1e-12, a * np.log1p(r / a) / r, 1.0)
+    return uv * f[:, None]
 
 
 def _primitives():
@@ -201,7 +222,7 @@ def _surface(kind: str, q, p: np.ndarray):
 def shade(scene: SimScene, o: np.ndarray, d: np.ndarray):
     """Nearest hit of every ray (origin o (3,), directions d (N, 3)) → library indices, weights, depth."""
     N = len(d)
-    cell = scene.config.cell
+    cell = scene.config.cell_size
     t_best = np.full(N, np.inf)
     surf = np.full(N, -1)
     prims = _primitives()
@@ -235,10 +256,14 @@ def shade(scene: SimScene, o: np.ndarray, d: np.ndarray):
     groups += [(10 + k, b[6], b[7] * cell, 13 + k) for k, b in enumerate(_BOXES)]
     groups += [(20 + k, s[2], s[3] * cell, 23 + k) for k, s in enumerate(_SPHERES)]
     groups += [(30 + k, c[4], c[5] * cell, 33 + k) for k, c in enumerate(_CYLINDERS)]
+    coarse = scene.config.texture == "coarse"
     for sid, palette, size, salt in groups:
         sel = surf == sid
         if sel.any():
-            idx[sel], wts[sel] = _texture(scene, uv[sel], palette, size, salt + 100 * scene.config.seed)
+            u = uv[sel]
+            if coarse and sid == 0:
+                u = _radial_warp(u, 1.0)  # floor cells grow with the distance from the centre
+            idx[sel], wts[sel] = _texture(scene, u, palette, size, salt + 100 * scene.config.seed)
     # the chart and the white card are flat patches on the floor (a texture override)
     fl = surf == 0
     x0, y0, side, gap = CHART

@@ -81,6 +81,11 @@ class PipelineConfig:
     seed, threads : int
     min_registered : float
         Fraction of each camera's views that must register.
+    densify_until : int or None
+        Last densification step (default 70 % of ``steps``).
+    refine_exposure : bool
+        Learn a per-view exposure correction in training (one reference view per camera fixed at its
+        EXIF exposure); the factors go to ``train/summary.json``.
     """
 
     steps: int = 3000
@@ -94,6 +99,7 @@ class PipelineConfig:
     threads: int = -1
     min_registered: float = 0.5
     densify_until: int | None = None
+    refine_exposure: bool = True
 
     def __post_init__(self):
         positive = {"steps": self.steps, "capacity": self.capacity}
@@ -448,6 +454,7 @@ def train_step_(
         densify_from=min(200, config.steps // 5),
         densify_until=until,
         densify_every=max(25, min(100, config.steps // 20)),
+        refine_exposure=config.refine_exposure,
     )
     resume = tc.checkpoint if Path(tc.checkpoint).is_file() else None
     t0 = time.perf_counter()
@@ -475,9 +482,10 @@ def train_step_(
     sq, cnt = np.zeros(N), np.zeros(N)
     for i in np.linspace(0, len(padded) - 1, min(6, len(padded))).astype(int):
         v = padded[i]
-        pred = render_views(res.gaussians, [v.camera], mask=alive)[0] * v.exposure
+        pred = render_views(res.gaussians, [v.camera], mask=alive)[0] * v.exposure * res.exposure_factors[i]
         w = weights[i] * (pred < 1)
-        sq += np.sum(w * ((pred - images[i]) / v.exposure) ** 2, axis=(0, 1))
+        e = v.exposure * res.exposure_factors[i]
+        sq += np.sum(w * ((pred - images[i]) / e) ** 2, axis=(0, 1))
         cnt += w.sum((0, 1))
     sigma = np.sqrt(sq / np.maximum(cnt, 1))
     params = res.gaussians.to_numpy()
@@ -496,6 +504,7 @@ def train_step_(
         "residual_sigma_raw": sigma.tolist(),
         "bounds": bounds.tolist(),
         "init_points": 0 if xyz is None else len(xyz),
+        "exposure_factors": {v.name: float(f) for v, f in zip(views, res.exposure_factors)},
         "backend": jax.default_backend(),
     }
     _write_json(done, summary)

@@ -5,8 +5,14 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
 
 - ``dng:<cam>`` the view's own RAW file developed by :mod:`isp` with its DNG ColorMatrix (white → 1
   scale and exposure of the pipeline), only for the camera that took the view;
+- ``raw-<method>:<cam>`` the view's own RAW file (demosaiced by isp, Malvar 2004; full-colour files as
+  they are) corrected by ``<method>`` with that camera alone — the single-camera metamer correction;
 - ``<method>:<cams>`` the splat's render of the view through the channels of ``<cams>`` (one camera,
   pairs, all), corrected by Prior and Centroid with the pipeline's δ;
+
+each over all pixels and (``flat_delta_E00``) over the *flat* pixels only: those whose true XYZ is
+constant over their 5 × 5 neighbourhood (every channel's range ≤ 1 % of max(Y, 0.02)), where neither
+demosaicing nor the splat's blur at edges enters and the estimate measures colour alone;
 
 plus the held-out render PSNR per channel (render × exposure against the view's RAW mosaic on its valid
 pixels; peak 1 = saturation) and the pose error of the recovered cameras against the true ones after a
@@ -22,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["score", "similarity"]
+__all__ = ["flat_mask", "raw_balanced", "score", "similarity"]
 
 
 def similarity(X, Y):
@@ -37,6 +43,21 @@ def similarity(X, Y):
     return s, R, my - s * R @ mx
 
 
+def raw_balanced(view, scale) -> np.ndarray:
+    """A RAW view on the white → 1 scale at exposure 1: demosaiced by isp (Malvar 2004; a full-colour
+    file as it is), divided by its EXIF exposure and the camera's white ``scale`` (3,)."""
+    from isp.stages import demosaic
+
+    from .pipeline import _cfa_of
+
+    lin = (
+        view.values.astype(np.float64)
+        if view.full_colour
+        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method="Malvar 2004")
+    )
+    return lin / view.exif / np.asarray(scale, float)
+
+
 def _dE(problem, est, ref):
     import colour
 
@@ -48,6 +69,21 @@ def _dE(problem, est, ref):
     return {"mean": float(np.mean(d)), "p95": float(np.percentile(d, 95))}
 
 
+def flat_mask(XYZ, *, radius: int = 2, tol: float = 0.01) -> np.ndarray:
+    """Pixels whose true XYZ is constant over their ``(2 radius + 1)²`` neighbourhood: every channel's
+    range there ≤ ``tol · max(Y, 0.02)`` (image borders are extended)."""
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    XYZ = np.asarray(XYZ, float)
+    size = 2 * radius + 1
+    ok = np.ones(XYZ.shape[:2], bool)
+    lim = tol * np.maximum(XYZ[..., 1], 0.02)
+    for c in range(3):
+        x = XYZ[..., c]
+        ok &= maximum_filter(x, size, mode="nearest") - minimum_filter(x, size, mode="nearest") <= lim
+    return ok
+
+
 def score(
     capture: str | os.PathLike,
     out: str | os.PathLike,
@@ -55,6 +91,7 @@ def score(
     stride: int = 2,
     methods=("Prior", "Centroid"),
     subsets=None,
+    raw_methods=("Prior",),
 ) -> dict:
     """Score ``OUT`` against ``CAPTURE/truth`` and write ``OUT/score.json``.
 
@@ -67,6 +104,9 @@ def score(
     methods : sequence of str
     subsets : sequence of tuple of int, optional
         Camera subsets (default: each camera, each pair, all).
+    raw_methods : sequence of str
+        Estimators applied to each held-out RAW file with its own camera alone (on every ``stride``-th
+        pixel, δ of the pipeline); empty to skip.
 
     Returns
     -------
@@ -97,25 +137,42 @@ def score(
         if v["kind"] == "holdout" and (truth / "xyz" / f"{_stem(k)}.tiff").is_file()
     ]
     rows: dict[str, list] = {}
+    flat_rows: dict[str, list] = {}
     psnr: dict[str, list] = {}
     corr = {(m, s): fit_corrector(spec, list(s), m, delta) for m in methods for s in subsets}
+    raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
+    n_flat = []
+
+    def add(label, est, ref, flat):
+        rows.setdefault(label, []).append(_dE(problem, est, ref))
+        if flat.any():
+            flat_rows.setdefault(label, []).append(_dE(problem, est[flat], ref[flat]))
+
     for name in held:
         ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_stem(name)}.tiff"), float)
+        flat = flat_mask(ref)
+        n_flat.append(float(flat.mean()))
         d = out / "correct" / _stem(name)
         raw_dng = d / "raw_dng_XYZ.tiff"
         cam = raws[name].camera
         if raw_dng.is_file():
             est = np.asarray(tifffile.imread(raw_dng), float)
-            rows.setdefault(f"dng:{spec.cameras[cam].folder}", []).append(_dE(problem, est, ref))
+            add(f"dng:{spec.cameras[cam].folder}", est, ref, flat)
+        r, fl = ref[::stride, ::stride], flat[::stride, ::stride]
+        if raw_corr:
+            bal = raw_balanced(raws[name], white["scale"][cam])[::stride, ::stride]
+            for m in raw_methods:
+                cor = raw_corr[(m, cam)]
+                est = correct_image(np.maximum(bal, 0), cor, quantum=2e-3)
+                add(f"raw-{cor.method}:{spec.cameras[cam].folder}", est, r, fl)
         render = np.asarray(tifffile.imread(out / "render" / _stem(name) / "render.tiff"), float)
         c = np.maximum(render / scale, 0)[::stride, ::stride]
-        r = ref[::stride, ::stride]
         for (_m, s), cor in corr.items():
             idx = [3 * k + j for k in s for j in range(3)]
             est = correct_image(c[..., idx], cor, quantum=2e-3)
             label = f"{cor.method}:{'+'.join(spec.cameras[k].folder for k in s)}"
-            rows.setdefault(label, []).append(_dE(problem, est, r))
+            add(label, est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
         w = v.weight > 0
@@ -124,17 +181,21 @@ def score(
             psnr.setdefault(f"{spec.cameras[cam].folder}:{'RGB'[j]}", []).append(
                 float(10 * np.log10(1 / mse))
             )
-    summary = {
-        k: {
-            "mean": float(np.mean([x["mean"] for x in v])),
-            "p95": float(np.mean([x["p95"] for x in v])),
-            "views": len(v),
+    def summarise(table):
+        return {
+            k: {
+                "mean": float(np.mean([x["mean"] for x in v])),
+                "p95": float(np.mean([x["p95"] for x in v])),
+                "views": len(v),
+            }
+            for k, v in table.items()
         }
-        for k, v in rows.items()
-    }
+
     result = {
         "held_out_views": held,
-        "delta_E00": summary,
+        "delta_E00": summarise(rows),
+        "flat_delta_E00": summarise(flat_rows),
+        "flat_fraction": float(np.mean(n_flat)) if n_flat else 0.0,
         "psnr_db": {k: float(np.mean(v)) for k, v in psnr.items()},
         "delta": delta,
         "white": white["method"],

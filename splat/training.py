@@ -93,6 +93,17 @@ class TrainConfig:
         Where to save a checkpoint (``.npz``) every ``checkpoint_every`` steps and at the end.
     checkpoint_every : int
     seed : int
+    init_scale : {"knn", "uniform"}
+        Initial size of Gaussians placed at given points: ``"knn"`` (default) the RMS distance to each
+        point's 3 nearest neighbours, as 3DGS does (clipped to at most the uniform size); ``"uniform"``
+        one size for all, ``0.5 · extent / n^(1/3)``. Random initial centres always get the uniform size.
+        With "uniform", COLMAP-initialised Gaussians start so large that nearly all of them overlap every
+        16-pixel tile, which makes each step several times slower and fills the tiles' capacity.
+    refine_exposure : bool
+        Learn a log-exposure correction per view (initialised at 0, i.e. the EXIF exposure), with the
+        first view of each camera id in ``reference_views`` held fixed (see :func:`train`).
+    lr_exposure : float
+        Learning rate of the log-exposure corrections.
     """
 
     steps: int = 3000
@@ -114,6 +125,13 @@ class TrainConfig:
     checkpoint: str | Path | None = None
     checkpoint_every: int = 500
     seed: int = 0
+    init_scale: str = "knn"
+    refine_exposure: bool = False
+    lr_exposure: float = 1e-2
+
+    def __post_init__(self):
+        if self.init_scale not in ("knn", "uniform"):
+            raise SplatError(f"TrainConfig.init_scale={self.init_scale!r}: choose 'knn' or 'uniform'.")
 
 
 class TrainState(NamedTuple):
@@ -126,16 +144,21 @@ class TrainState(NamedTuple):
     grad_count: jax.Array  # [G] steps each Gaussian was visible
     step: int
     key: jax.Array
+    log_exposure: jax.Array | None = None  # [V] learned log-exposure corrections (refine_exposure)
+    exposure_opt: optax.OptState | None = None
 
 
 class TrainResult(NamedTuple):
-    """Trained ``gaussians``, their ``alive`` mask (G,), the final ``state`` and a ``history`` dict of
-    per-step ``loss``, ``n_alive`` and ``n_dropped`` arrays."""
+    """Trained ``gaussians``, their ``alive`` mask (G,), the final ``state``, a ``history`` dict of
+    per-step ``loss``, ``n_alive`` and ``n_dropped`` arrays, and ``exposure_factors`` (V,): each view's
+    learned exposure correction (the view's exposure is ``EXIF × factor``; all 1 without
+    ``refine_exposure``)."""
 
     gaussians: Gaussians
     alive: np.ndarray
     state: TrainState
     history: dict[str, np.ndarray]
+    exposure_factors: np.ndarray | None = None
 
 
 def stack_cameras(cameras) -> Camera:
@@ -147,6 +170,10 @@ def stack_cameras(cameras) -> Camera:
             f"{sorted({(c.width, c.height) for c in cameras})}."
         )
     return jax.tree.map(lambda *x: jnp.stack(x), *cameras)
+
+
+def _exposure_optimiser(config: TrainConfig) -> optax.GradientTransformation:
+    return optax.adam(optax.exponential_decay(config.lr_exposure, config.steps, config.lr_final), eps=1e-15)
 
 
 def _optimiser(config: TrainConfig, extent: float) -> optax.GradientTransformation:
@@ -165,7 +192,14 @@ def _optimiser(config: TrainConfig, extent: float) -> optax.GradientTransformati
 
 
 def init_state(
-    config: TrainConfig, *, bounds, n_channels: int, points=None, colours=None, n_init: int | None = None
+    config: TrainConfig,
+    *,
+    bounds,
+    n_channels: int,
+    points=None,
+    colours=None,
+    n_init: int | None = None,
+    n_views: int | None = None,
 ) -> TrainState:
     """A fresh training state: ``n_init`` Gaussians alive in a buffer of ``config.capacity``.
 
@@ -181,10 +215,14 @@ def init_state(
         Initial colours (default 0.2 in every channel).
     n_init : int, optional
         Initially alive Gaussians (default: half the capacity, or all the points).
+    n_views : int, optional
+        Number of views; needed with ``config.refine_exposure`` (their log-exposure corrections start
+        at 0).
     """
     G = config.capacity
     bounds = np.asarray(bounds, float)
     rng = np.random.default_rng(config.seed)
+    given = points is not None
     if points is None:
         n_init = n_init or G // 2
         points = rng.uniform(bounds[0], bounds[1], (n_init, 3))
@@ -196,12 +234,32 @@ def init_state(
     col = np.full((G, n_channels), 0.2)
     if colours is not None:
         col[:n_init] = np.asarray(colours)[:n_init]
-    scale = 0.5 * extent / max(n_init, 1) ** (1 / 3)
+    scale = np.full(G, 0.5 * extent / max(n_init, 1) ** (1 / 3))
+    if given and config.init_scale == "knn" and n_init >= 4:
+        from scipy.spatial import cKDTree
+
+        d, _ = cKDTree(points).query(points, k=4)  # itself and its 3 nearest neighbours
+        knn = np.sqrt(np.mean(d[:, 1:] ** 2, axis=1))
+        scale[:n_init] = np.clip(knn, 1e-4 * extent, scale[0])
     params = init_gaussians(full, col, scales=scale, opacity=0.1, key=jax.random.key(config.seed))
     alive = jnp.arange(G) < n_init
     opt = _optimiser(config, extent)
+    log_e = exp_opt = None
+    if config.refine_exposure:
+        if not isinstance(n_views, int | np.integer) or n_views < 1:
+            raise SplatError(f"n_views={n_views!r}: refine_exposure needs the number of views (≥ 1).")
+        log_e = jnp.zeros(int(n_views))
+        exp_opt = _exposure_optimiser(config).init(log_e)
     return TrainState(
-        params, opt.init(params), alive, jnp.zeros(G), jnp.zeros(G), 0, jax.random.key(config.seed + 1)
+        params,
+        opt.init(params),
+        alive,
+        jnp.zeros(G),
+        jnp.zeros(G),
+        0,
+        jax.random.key(config.seed + 1),
+        log_e,
+        exp_opt,
     )
 
 
@@ -216,6 +274,8 @@ def train_step(
     *,
     config: TrainConfig,
     extent: float,
+    view=None,
+    exposure_mask=None,
 ):
     """One Adam step on one view; returns the new state (step not incremented), loss and drops.
 
@@ -228,24 +288,42 @@ def train_step(
     channel_mask : Array of shape (k,)
         Channels this view measures (the loss ignores the rest).
     exposure : Array of shape ()
+        The view's exposure (EXIF, relative).
+    view : Array of shape () int, optional
+        The view's index into ``state.log_exposure`` (needed when the state refines exposures: the
+        exposure used is ``exposure · exp(log_exposure[view])``).
+    exposure_mask : Array of shape (V,), optional
+        1 for views whose log-exposure may change, 0 for the fixed reference views.
     """
+    refine = state.log_exposure is not None
 
-    def loss_fn(params):
+    def loss_fn(params, log_e):
         out = render(params, camera, method=config.method, config=config.render, mask=state.alive)
-        pred = exposure * out.image
-        return rawnerf_loss(pred, image, weight * channel_mask), out.n_dropped
+        e = exposure * jnp.exp(log_e[view]) if refine else exposure
+        return rawnerf_loss(e * out.image, image, weight * channel_mask), out.n_dropped
 
-    (loss, dropped), grads = jax.value_and_grad(loss_fn, has_aux=True)(state.params)
+    (loss, dropped), (grads, g_exp) = jax.value_and_grad(loss_fn, argnums=(0, 1), has_aux=True)(
+        state.params, state.log_exposure
+    )
     updates, opt_state = _optimiser(config, extent).update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)
     gnorm = jnp.linalg.norm(grads.means, axis=-1)
     seen = gnorm > 0
+    new = {}
+    if refine:
+        if exposure_mask is not None:
+            g_exp = g_exp * exposure_mask
+        upd, exp_opt = _exposure_optimiser(config).update(g_exp, state.exposure_opt, state.log_exposure)
+        if exposure_mask is not None:
+            upd = upd * exposure_mask  # the reference views stay exactly at their EXIF exposure
+        new = {"log_exposure": state.log_exposure + upd, "exposure_opt": exp_opt}
     return (
         state._replace(
             params=params,
             opt_state=opt_state,
             grad_accum=state.grad_accum + gnorm,
             grad_count=state.grad_count + seen,
+            **new,
         ),
         loss,
         dropped,
@@ -307,7 +385,17 @@ def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
     from zonotope import atomic_path
 
-    leaves = jax.tree.leaves((state.params, state.opt_state, state.alive, state.grad_accum, state.grad_count))
+    leaves = jax.tree.leaves(
+        (
+            state.params,
+            state.opt_state,
+            state.alive,
+            state.grad_accum,
+            state.grad_count,
+            state.log_exposure,
+            state.exposure_opt,
+        )
+    )
     arrays = {f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)}
     key = np.asarray(jax.random.key_data(state.key))
 
@@ -322,14 +410,22 @@ def save_checkpoint(state: TrainState, path: str | Path) -> Path:
 
 def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
     """Load a checkpoint into the structure of ``like`` (a fresh state from :func:`init_state`)."""
-    like_tree = (like.params, like.opt_state, like.alive, like.grad_accum, like.grad_count)
+    like_tree = (
+        like.params,
+        like.opt_state,
+        like.alive,
+        like.grad_accum,
+        like.grad_count,
+        like.log_exposure,
+        like.exposure_opt,
+    )
     leaves, treedef = jax.tree.flatten(like_tree)
     with np.load(path) as f:
         stored = sorted(k for k in f.files if k.startswith("leaf_"))
         if len(stored) != len(leaves):
             raise SplatError(
                 f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
-                f"{len(leaves)} (capacity or channels changed?)."
+                f"{len(leaves)} (capacity, channels or refine_exposure changed?)."
             )
         new = [jnp.asarray(f[k]) for k in stored]
         for a, b in zip(new, leaves):
@@ -339,8 +435,8 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
                     "is expected (capacity or channels changed?)."
                 )
         step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
-    params, opt_state, alive, ga, gc = jax.tree.unflatten(treedef, new)
-    return TrainState(params, opt_state, alive, ga, gc, step, key)
+    params, opt_state, alive, ga, gc, log_e, e_opt = jax.tree.unflatten(treedef, new)
+    return TrainState(params, opt_state, alive, ga, gc, step, key, log_e, e_opt)
 
 
 def train(
@@ -354,8 +450,15 @@ def train(
     colours=None,
     resume: str | Path | None = None,
     callback=None,
+    reference_views=None,
 ) -> TrainResult:
     """Fit N-channel Gaussians to the RAW views of a multi-camera capture.
+
+    With ``config.refine_exposure`` each view also gets a learned log-exposure correction ``ε_v``
+    (prediction ``= EXIF exposure · exp(ε_v) · render``), starting at 0. Each camera's colours are free,
+    so a common factor on all views of one camera is not identifiable from the images: one reference view
+    per camera id keeps ``ε = 0`` (by default the view whose EXIF exposure is the median of that camera's
+    views), which ties the scale to EXIF as the white → 1 scale assumes.
 
     Parameters
     ----------
@@ -375,6 +478,9 @@ def train(
         its step.
     callback : callable, optional
         Called as ``callback(step, state, loss)`` after every step.
+    reference_views : sequence of int, optional
+        Views whose exposure stays fixed when ``config.refine_exposure`` (default: one per camera id,
+        see above). Every camera id needs at least one.
 
     Returns
     -------
@@ -412,7 +518,19 @@ def train(
             f"bounds: expected a finite (2, 3) box [min, max] with max > min, got {bounds.tolist()}."
         )
     extent = float(np.linalg.norm(bounds[1] - bounds[0]))
-    state = init_state(config, bounds=bounds, n_channels=N, points=points, colours=colours)
+    state = init_state(config, bounds=bounds, n_channels=N, points=points, colours=colours, n_views=V)
+    exposure_mask = None
+    if config.refine_exposure:
+        ref = _reference_views(capture) if reference_views is None else [int(i) for i in reference_views]
+        if any(not 0 <= i < V for i in ref):
+            raise SplatError(f"reference_views={ref}: view indices must lie in [0, {V}).")
+        missing = {v.camera_id for v in capture.views} - {capture.views[i].camera_id for i in ref}
+        if missing:
+            raise SplatError(
+                f"reference_views={ref}: camera id(s) {sorted(missing)} have no reference view; their "
+                "exposure scale would be unidentifiable. Give one view of every camera."
+            )
+        exposure_mask = jnp.ones(V).at[jnp.asarray(ref)].set(0.0)
     if resume is not None:
         state = load_checkpoint(resume, state)
 
@@ -425,7 +543,16 @@ def train(
         v = int(order(step // V)[step % V])
         cam = jax.tree.map(lambda x, v=v: x[v], cams)
         state, loss, dropped = train_step(
-            state, cam, images[v], weights[v], masks[v], exposures[v], config=config, extent=extent
+            state,
+            cam,
+            images[v],
+            weights[v],
+            masks[v],
+            exposures[v],
+            config=config,
+            extent=extent,
+            view=jnp.asarray(v, jnp.int32),
+            exposure_mask=exposure_mask,
         )
         state = state._replace(step=step + 1)
         if config.densify_from <= step + 1 < config.densify_until and (step + 1) % config.densify_every == 0:
@@ -438,4 +565,15 @@ def train(
         if config.checkpoint and ((step + 1) % config.checkpoint_every == 0 or step + 1 == config.steps):
             save_checkpoint(state, config.checkpoint)
     history = {k: np.asarray(jnp.stack(v)) if v else np.zeros(0) for k, v in hist.items()}
-    return TrainResult(state.params, np.asarray(state.alive), state, history)
+    factors = np.ones(V) if state.log_exposure is None else np.exp(np.asarray(state.log_exposure, float))
+    return TrainResult(state.params, np.asarray(state.alive), state, history, factors)
+
+
+def _reference_views(capture: Capture) -> list[int]:
+    """Per camera id, the view whose exposure is nearest the median of that camera's views."""
+    out = []
+    for cid in sorted({v.camera_id for v in capture.views}):
+        idx = [i for i, v in enumerate(capture.views) if v.camera_id == cid]
+        e = np.log([capture.views[i].exposure for i in idx])
+        out.append(idx[int(np.argmin(np.abs(e - np.median(e))))])
+    return out

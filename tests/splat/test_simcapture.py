@@ -341,6 +341,8 @@ def test_refuses_to_overwrite(tmp_path):
         ({"n_holdout": 2}, "n_holdout"),
         ({"supersample": 0}, "supersample"),
         ({"gain": 1.5}, "gain"),
+        ({"texture": "smooth"}, "texture"),
+        ({"cell": 0.0}, "cell"),
     ],
 )
 def test_bad_config(tmp_path, changes, match):
@@ -428,3 +430,21 @@ def test_main(tmp_path, capsys):
     assert _toml(tmp_path / "c" / "truth" / "truth.toml")["noise"] is False
     assert main([str(tmp_path / "c")]) == 2
     assert "overwrite=True" in capsys.readouterr().err
+
+
+def test_coarse_texture_is_flat_over_several_bayer_periods():
+    """The coarse texture exists so that colour, not demosaicing, can be measured: far more pixels lie
+    inside a patch of constant true colour (5 × 5 neighbourhood) than with the fine texture, on the same
+    view, and each flat pixel's spectrum is one measured reflectance (with shading), not a mix."""
+    from splat.scoring import flat_mask
+
+    fine = build_scene(SimCaptureConfig.ci())
+    coarse = build_scene(SimCaptureConfig.ci(texture="coarse"))
+    assert coarse.config.cell_size == 0.5 and fine.config.cell_size == 0.2
+    view = next(v for v in coarse.views if v.holdout)
+    f_fine = flat_mask(fine.XYZ(view)).mean()
+    f_coarse = flat_mask(coarse.XYZ(view)).mean()
+    assert f_fine < 0.05 and f_coarse > 0.2, (f_fine, f_coarse)
+    idx, wts = coarse.trace(view)
+    single = np.all((wts[..., 1:] == 0) | (idx[..., 1:] == 1), axis=-1)  # one reflectance (+ border black)
+    assert single.mean() > 0.99

@@ -114,3 +114,61 @@ def test_errors(scene, tmp_path):
     other = init_state(tiny(2, capacity=32), bounds=scene.bounds, n_channels=9)
     with pytest.raises(SplatError, match="capacity"):
         load_checkpoint(tmp_path / "s.npz", other)
+
+
+def test_exposure_refinement_recovers_wrong_exif(tmp_path):
+    """Views whose EXIF exposure is off by a known factor: with the true Gaussians fixed (all Gaussian
+    learning rates 0), training the log-exposures alone must find the factors; the reference view of
+    each camera stays exactly at its EXIF exposure."""
+    import dataclasses
+
+    from splat import Capture, load_checkpoint, save_checkpoint
+
+    sc = synthetic_scene(
+        SceneConfig(views_per_camera=2, test_views_per_camera=1, noise=(0.0, 0.0), width=16, height=16)
+    )
+    V = len(sc.capture.views)
+    rng = np.random.default_rng(3)
+    factor = np.exp(rng.uniform(-0.25, 0.25, V))  # true exposure = EXIF × factor
+    ids = [v.camera_id for v in sc.capture.views]
+    refs = [ids.index(c) for c in sorted(set(ids))]  # one view per camera id
+    assert len(refs) == 3
+    factor[refs] = 1.0
+    views = tuple(dataclasses.replace(v, exposure=v.exposure / f) for v, f in zip(sc.capture.views, factor))
+    cap = Capture(views, sc.capture.channels, sc.capture.labels)
+    zero = dict(lr_means=0.0, lr_log_scales=0.0, lr_quats=0.0, lr_opacity=0.0, lr_colours=0.0)
+    cfg = TrainConfig(
+        steps=100,
+        capacity=sc.truth.n,
+        densify_from=10_000,
+        refine_exposure=True,
+        lr_exposure=0.05,
+        method="reference",  # the renderer of the scene's images (the tiled one would drop Gaussians)
+        render=RenderConfig(chunk=64),
+        checkpoint=tmp_path / "ckpt.npz",
+        **zero,
+    )
+    start = init_state(cfg, bounds=sc.bounds, n_channels=9, points=sc.truth.means, n_views=V)
+    save_checkpoint(start._replace(params=sc.truth), tmp_path / "start.npz")
+    res = train(
+        cap,
+        sc.images,
+        sc.weights,
+        config=cfg,
+        bounds=sc.bounds,
+        resume=tmp_path / "start.npz",
+        reference_views=refs,
+    )
+    np.testing.assert_array_equal(res.exposure_factors[refs], 1.0)
+    np.testing.assert_allclose(res.exposure_factors, factor, rtol=0.01)
+    np.testing.assert_array_equal(res.gaussians.colour_params, sc.truth.colour_params)
+    # without refinement the factors are 1 and a checkpoint of one kind does not load into the other
+    assert np.all(train(cap, sc.images, sc.weights, config=tiny(1), bounds=sc.bounds).exposure_factors == 1)
+    with pytest.raises(SplatError, match="refine_exposure"):
+        load_checkpoint(
+            tmp_path / "ckpt.npz", init_state(tiny(1, capacity=sc.truth.n), bounds=sc.bounds, n_channels=9)
+        )
+    with pytest.raises(SplatError, match="no reference view"):
+        train(cap, sc.images, sc.weights, config=cfg, bounds=sc.bounds, reference_views=refs[:2])
+    with pytest.raises(SplatError, match="n_views"):
+        init_state(cfg, bounds=sc.bounds, n_channels=9)
