@@ -203,7 +203,9 @@ def _evaluate(args: argparse.Namespace) -> int:
             progress=callback,
         )
     table = Table(title="CIEDE2000 per estimator")
-    for col in ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV"):
+    cols = ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV")
+    cols += ("radius", "covered")
+    for col in cols:
         table.add_column(col, justify="left" if col in ("cameras", "test set", "estimator") else "right")
     for r in ev.rows:
         table.add_row(
@@ -216,8 +218,11 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"{r.p95:.3f}",
             f"{r.max:.2f}",
             "" if r.inside is None else f"{100 * r.inside:.0f} %",
+            "" if r.radius is None else f"{r.radius:.2f}",
+            "" if r.coverage is None else f"{100 * r.coverage:.0f} %",
         )
     console.print(table)
+    console.print("radius: median 95 % credible radius (ΔE00); covered: share of true colours within it")
     for cams in dict.fromkeys(r.cameras for r in ev.rows):
         for kind in ("natural", "atypical"):
             pooled = ev.pooled_stats(kind, cams)
