@@ -192,7 +192,7 @@ def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
     """Build the support oracle; handle infeasible responses as asked."""
     oracle = ORACLES.resolve(oracle)
     if on_infeasible not in ("raise", "nearest"):
-        raise ValueError(f"on_infeasible must be 'raise' or 'nearest'; got {on_infeasible!r}.")
+        raise OptionError(f"on_infeasible={on_infeasible!r}: choose 'raise' or 'nearest'.")
     cls = ORACLES[oracle]
     try:
         return cls(Phi, Psi, c, delta)
@@ -227,7 +227,7 @@ def _refinement(
 ) -> tuple[Refinement, float, float]:
     Phi, Psi, c = _check_arrays(Phi, Psi, response)
     if not (np.isfinite(eps) and eps >= 0):
-        raise ValueError(f"eps must be a finite number ≥ 0; got {eps!r}.")
+        raise OptionError(f"eps={eps!r}: give a finite number ≥ 0.")
     tol, thr = _tolerances(Psi, eps)
     orc = _oracle_for(Phi, Psi, c, delta, oracle, on_infeasible)
     return refine(orc, Psi.shape[1], threshold=thr, atol=tol, max_rounds=max_rounds), thr, tol
@@ -388,10 +388,12 @@ def channelwise_intersection(
             idx = [[i] for i in range(k)]
         elif groups == "camera":
             if k % 3:
-                raise ValueError(f"groups='camera' needs k a multiple of 3; got k={k}.")
+                raise OptionError(f"groups='camera' needs k a multiple of 3; got k={k}.")
             idx = [list(range(i, i + 3)) for i in range(0, k, 3)]
         else:
-            raise ValueError(f"groups must be 'auto', 'channel', 'camera' or index lists; got {groups!r}.")
+            raise OptionError(
+                f"groups={groups!r}: use 'auto', 'channel', 'camera' or lists of channel indices."
+            )
     else:
         idx = [list(map(int, g)) for g in groups]
     d = np.broadcast_to(np.asarray(delta, dtype=np.float64), (k,))
