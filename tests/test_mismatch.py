@@ -159,7 +159,7 @@ def test_certified_bounds_and_shrinking_gap(nikon10):
     exact = metamer_mismatch(Phi, Psi, c)
     gaps, errs = [], []
     for eps in (3e-2, 3e-3, 3e-4):
-        res = metamer_mismatch_bounds(Phi, Psi, c, eps=eps)
+        res = metamer_mismatch_bounds(Phi, Psi, c, eps=eps, oracle="fast")  # facet refinement
         assert isinstance(res, CertifiedMMV)
         assert exact.contains(res.inner.vertices, atol=1e-9).all()
         assert res.outer.contains(exact.vertices, atol=1e-9).all()
@@ -169,6 +169,9 @@ def test_certified_bounds_and_shrinking_gap(nikon10):
         gaps.append(hi - lo)
         errs.append(res.centroid_error)
     assert gaps[0] > gaps[1] > gaps[2] and errs[0] > errs[2]
+    walked = metamer_mismatch_bounds(Phi, Psi, c, eps=3e-2)  # the vertex walk: exact at any eps
+    assert walked.volume_bounds[0] == walked.volume_bounds[1] == pytest.approx(exact.volume, rel=1e-12)
+    assert walked.centroid_error == 0.0
 
 
 def test_noise_tolerance_grows_and_infeasible(nikon10):
@@ -303,12 +306,20 @@ def test_batch_lockstep_equals_one_by_one(nikon10):
     for i, c in enumerate(C[:4]):
         assert exact.volumes[i] == pytest.approx(metamer_mismatch(Phi, Psi, c).volume, rel=1e-9)
     highs = metamer_mismatch_batch(Phi, Psi, C[:2], eps=1e-3, oracle="highs")
-    np.testing.assert_allclose(highs.centroids, out.centroids[:2], atol=1e-6)
-    inner_only = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, on_infeasible="nearest", outer=False)
-    np.testing.assert_allclose(inner_only.centroids, out.centroids, atol=1e-12)
-    np.testing.assert_allclose(inner_only.volume_bounds[:, 0], out.volume_bounds[:, 0], rtol=1e-9)
+    err = np.linalg.norm(highs.centroids - out.centroids[:2], axis=1)  # walk: exact; HiGHS: ε = 1e-3
+    assert np.all(err <= highs.centroid_errors + 1e-12) and np.all(out.centroid_errors[:2] == 0)
+    # facet refinement without outer bounds: lower bounds only (NaN upper bounds and errors)
+    fast = metamer_mismatch_batch(Phi, Psi, C, eps=1e-3, on_infeasible="nearest", oracle="fast")
+    inner_only = metamer_mismatch_batch(
+        Phi, Psi, C, eps=1e-3, on_infeasible="nearest", outer=False, oracle="fast"
+    )
+    np.testing.assert_allclose(inner_only.centroids, fast.centroids, atol=1e-12)
+    np.testing.assert_allclose(inner_only.volume_bounds[:, 0], fast.volume_bounds[:, 0], rtol=1e-9)
     assert np.isnan(inner_only.volume_bounds[:, 1]).all() and np.isnan(inner_only.centroid_errors).all()
     np.testing.assert_array_equal(inner_only.volumes, inner_only.volume_bounds[:, 0])
+    # the walk's MMVs are exact either way: outer=False changes nothing for them
+    walk_only = metamer_mismatch_batch(Phi, Psi, C[:7], eps=1e-3, outer=False)
+    np.testing.assert_array_equal(walk_only.volume_bounds, out.volume_bounds[:7])
     empty = metamer_mismatch_batch(Phi, Psi, np.zeros((0, 3)))
     assert empty.centroids.shape == (0, 3) and empty.lp_calls == 0
     with pytest.raises(ValueError, match="chunk"):
@@ -361,3 +372,99 @@ def test_thin_certified_mmv_outside_response_nearest():
     assert 0.0 <= lo <= hi
     assert mmv.outer.contains(mmv.inner.vertices, atol=1e-9).all()
     assert mmv.outer.contains(mmv.centroid, atol=1e-9)
+
+
+# -- the exact vertex walk (zonotope._mmv_walk) against its two twins ---------------------------------
+
+
+def test_walk_support_equals_highs_lp():
+    """Independent truth: the support function of the walk's vertex list equals HiGHS' LP optimum in
+    random directions (conv(vertices) = MMV), for 1, 2 cameras and a noise tolerance δ."""
+    from zonotope._mmv_walk import walk_mmv
+
+    nik, two = "Nikon 5100 (NPL)", ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]
+    for grid, cams, delta, patch in ((G10, nik, 0.0, 1), (G10, two, 0.0, 7), (G10, nik, 0.02, 3)):
+        Phi, Psi, R = gens(cams, grid), gens(TARGET, grid), checker(grid)
+        c = R[patch] @ Phi
+        Y, vol, cen, status, moves = walk_mmv(Phi, Psi, c, delta)
+        assert status == 0 and moves >= len(Y) > 50
+        U = np.random.default_rng(patch).normal(size=(40, 3))
+        ref, _, _ = HighsOracle(Phi, Psi, c, delta).support(U)
+        np.testing.assert_allclose((U @ Y.T).max(axis=1), ref, rtol=0, atol=1e-10)
+        # face-traced volume and centroid = the hull of the same vertices (tetrahedra from Qhull)
+        hull = Polytope(Y)
+        assert len(hull.vertices) == len(Y)  # every vertex is extreme, none repeated
+        assert vol == pytest.approx(hull.volume, rel=1e-12)
+        np.testing.assert_allclose(cen, hull.centroid, rtol=0, atol=1e-13)
+
+
+def test_walk_equals_refinement_twins(nikon10):
+    """The walk, facet refinement with the simplex ("fast", second twin) and with HiGHS (reference)."""
+    Phi, Psi, R = nikon10
+    for i in (0, 9, 12, 18, 23):
+        c = R[i] @ Phi
+        walk = metamer_mismatch(Phi, Psi, c)
+        fast = metamer_mismatch(Phi, Psi, c, oracle="fast")
+        # The refinement certifies facets to 1e-9 of the scale: every vertex it finds is one of the
+        # walk's, but it can miss true vertices whose support gap is under 1e-9 (patch 9: one
+        # 9e-4 away from all of its vertices, 5.8e-10 beyond its facet; HiGHS confirms the walk).
+        assert walk.volume == pytest.approx(fast.volume, rel=1e-10)
+        np.testing.assert_allclose(walk.centroid, fast.centroid, rtol=0, atol=1e-12)
+        D = np.linalg.norm(fast.vertices[:, None] - walk.vertices[None], axis=2)
+        assert D.min(axis=1).max() <= 1e-12
+        assert fast.contains(walk.vertices, atol=1e-9).all()
+        out = metamer_mismatch_batch(Phi, Psi, c[None], eps=0.0)
+        assert out.volumes[0] == pytest.approx(walk.volume, rel=1e-12)
+        np.testing.assert_allclose(out.centroids[0], walk.centroid, rtol=0, atol=1e-13)
+    c = R[9] @ Phi
+    walk, fast = metamer_mismatch(Phi, Psi, c), metamer_mismatch(Phi, Psi, c, oracle="fast")
+    A, b = fast.halfspaces
+    far = np.linalg.norm(walk.vertices[:, None] - fast.vertices[None], axis=2).min(axis=1)
+    y = walk.vertices[np.argmax(far)]
+    f = np.argmax(A @ y - b)
+    h, _, _ = HighsOracle(Phi, Psi, c).support(A[f][None])
+    assert far.max() > 1e-4 and 0 < A[f] @ y - b[f] < 1e-9  # a true vertex the refinement missed
+    assert h[0] == pytest.approx(A[f] @ y, abs=1e-12)
+
+
+def test_walk_declines_degenerate_cases_and_falls_back(nikon10):
+    """Degenerate bases, flat MMVs and 4-channel targets are declined with a status, never guessed."""
+    from zonotope._mmv_walk import STATUS, WalkOracle, walk_mmv
+
+    Phi, Psi, _ = nikon10
+    assert walk_mmv(Phi, Psi, np.zeros(3))[3] in (2, 4)  # black: every basic variable at 0
+    assert walk_mmv(Phi, Psi, Phi.sum(axis=0))[3] in (2, 4)  # white
+    grey = np.full(31, 0.5) @ Phi
+    assert walk_mmv(Phi, Phi, grey)[3] in (4, 5)  # Ψ = Φ: the MMV is a point
+    assert walk_mmv(Phi, np.hstack([Psi, Phi[:, :1]]), grey)[3] == 6
+    assert walk_mmv(Phi, Psi, Phi.sum(axis=0) * 1.1)[3] == 1  # infeasible
+    assert set(STATUS) == set(range(10))
+    point = metamer_mismatch(Phi, Phi, grey)  # falls back to refinement: a point, not an error
+    assert point.affine_dim == 0
+    np.testing.assert_allclose(point.vertices[0], grey, atol=1e-9)
+    orc = WalkOracle(Phi, Phi, grey)
+    assert orc.status != 0 and orc.support(np.eye(3))[0] == pytest.approx(grey, abs=1e-9)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    st.integers(6, 12),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([0.0, 0.05]),
+)
+def test_walk_matches_highs_on_random_generators(n, seed, delta):
+    """Random smooth-ish generators (non-negative, like spectral data) and interior responses."""
+    from zonotope._mmv_walk import walk_mmv
+
+    rng = np.random.default_rng(seed)
+    Phi, Psi = rng.random((n, 3)), rng.random((n, 3))
+    c = rng.uniform(0.1, 0.9, n) @ Phi
+    Y, vol, _, status, _ = walk_mmv(Phi, Psi, c, delta)
+    if status != 0:  # declined: the public function falls back and must still be right
+        assert status in (4, 5)
+        return
+    ref = metamer_mismatch(Phi, Psi, c, delta=delta, oracle="fast")
+    assert vol == pytest.approx(ref.volume, rel=1e-8, abs=1e-14)
+    U = rng.normal(size=(30, 3))
+    h, _, _ = HighsOracle(Phi, Psi, c, delta).support(U)
+    np.testing.assert_allclose((U @ Y.T).max(axis=1), h, rtol=0, atol=1e-9)

@@ -48,6 +48,9 @@ class Refinement:
         Largest support gap h(n) − b over the facets asked in the last round (≤ threshold).
     converged : bool
         Every facet certified (False only when ``max_rounds`` or ``max_points`` stopped it).
+    exact : bool
+        ``inner`` is the body itself (from the exact vertex walk of :mod:`zonotope._mmv_walk`;
+        ``directions`` is then empty and ``lp_calls`` counts the walk's simplex moves).
     """
 
     inner: Polytope
@@ -59,9 +62,13 @@ class Refinement:
     rounds: int
     max_gap: float
     converged: bool
+    exact: bool = False
 
     def outer(self) -> Polytope:
-        """The outer bound ∩ {y : dᵀy ≤ h(d)} restricted to the affine hull, as a Polytope."""
+        """The outer bound ∩ {y : dᵀy ≤ h(d)} restricted to the affine hull, as a Polytope
+        (``inner`` itself when ``exact``: the MMV's vertex walk has no gap to bound)."""
+        if self.exact:
+            return self.inner
         o, B = self.origin, self.basis
         d = B.shape[1]
         if d == 0:
