@@ -1,7 +1,9 @@
 """Camera profiles benchmark: our DCP vs the DNG ColorMatrix, in our pipeline and in RawTherapee.
 
-Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQR]``.
-Prints three tables (no timings); ``--quick`` fits the DCPs on 300 instead of 1,500 random spectra.
+Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQRS]``.
+Prints four tables (no timings); ``--quick`` fits the DCPs on 300 instead of 1,500 random spectra.
+The DCPs are fitted without the ColorChecker sets (``isp.profile_fit.profile_reflectances``), so the
+chart every table evaluates on is held out.
 Needs ``rawtherapee-cli`` for the RawTherapee columns (skipped otherwise) and ../shared/data for
 table Q (skipped otherwise).
 
@@ -13,16 +15,23 @@ P. Simulated ColorChecker (ColorChecker N Ohta reflectances × camera SSF × D65
    The DNG's ColorMatrix is what a camera maker would ship: least squares on the rawtoaces 190
    training set, white exact (``isp.simulate.fit_color_matrix``). Columns: that matrix in
    ``isp develop`` and in ``rawtherapee-cli`` ("(camera)" input profile); our DCP
-   (``zonotope profile``: Prior, A + D65, HueSatMap 90 × 30) in ``isp develop --profile`` and in
+   (``isp profile``: Prior, A + D65, HueSatMap 90 × 30 + LookTable 36 × 12 × 8) in ``isp develop
+   --profile`` and in
    ``rawtherapee-cli``; ``isp develop --correction metamer`` (Prior, D65, scene white = exposure).
 Q. Real Canon EOS 550D DNG with RawTherapee's shipped ``Canon EOS 550D.dcp``: per ColorChecker
    patch (40 × 40 boxes, centres of bench_isp.py) ΔE00 between ``rawtherapee-cli`` and
    ``isp develop --profile`` (both XYZ D50, same white scale), and the same for the DNG's own
    ColorMatrix: an independent check of our DCP reader.
 R. Encoding accuracy: ΔE00 between an estimator (root-polynomial, Nikon 5100, D65, CIE 1931) and its
-   DCP (per HueSatMap size) or 3-D LUT (per lattice size, log2 shaper, 16× headroom) encoding, on
+   DCP (per HueSatMap size, without and with the LookTable) or 3-D LUT (per lattice size, log2
+   shaper, 16× headroom) encoding, on
    natural sets (ColorChecker, CIE 1995 TCS, NIST CQS) and 200 atypical spectra
    (``zonotope.atypical``), responses at the white's exposure.
+S. Why the profile is fitted as it is (noise-free spectra, D65, ColorChecker N Ohta held out): ΔE00
+   vs truth of the DNG matrix, the Prior estimator, last round's recipe (ForwardMatrix and 2.5-D
+   HueSatMap fitted on all colours, random smooth spectra 87 % of them; with and without the
+   ColorChecker in the fit), matrices + HueSatMap on natural colours only, and that + the 3-D
+   LookTable (what ``fit_dcp`` ships); and each profile's encoding error on the random spectra.
 """
 
 from __future__ import annotations
@@ -204,9 +213,12 @@ def table_R(quick: bool) -> None:
         return colour.XYZ_to_Lab(X, D50_xy)
 
     rows = []
-    encoders = [("matrices only", dict(dims=None))] + [
-        (f"HueSatMap {h}×{s}", dict(dims=(h, s, 1))) for h, s in ((6, 6), (36, 12), (90, 30), (180, 60))
+    encoders = [("matrices only", dict(dims=None, look_table_dims=None))]
+    encoders += [
+        (f"HueSatMap {h}×{s}", dict(dims=(h, s, 1), look_table_dims=None))
+        for h, s in ((6, 6), (36, 12), (90, 30), (180, 60))
     ]
+    encoders += [("HueSatMap 90×30 + LookTable 36×12×8 (default)", {})]
     for label, kw in encoders:
         prof: DCPProfile = fit_dcp(cam, corrections=mcs, n_random=300 if quick else 1500, **kw).profile
         row = [label]
@@ -232,11 +244,83 @@ def table_R(quick: bool) -> None:
     )
 
 
+def table_S(cameras, quick: bool) -> None:
+    """Why the profile is fitted as it is: noise-free spectral ablation on the held-out ColorChecker."""
+    from isp.dcp import PROPHOTO_FROM_XYZ
+    from isp.profile_fit import _fit_white_preserving, fit_hue_sat_map
+
+    def lab(X):
+        return colour.XYZ_to_Lab(X, D50_xy)
+
+    def dE(a, b):
+        return colour.delta_E(lab(a), lab(b), method="CIE 2000")
+
+    rows = []
+    for cam in cameras:
+        fit = fit_dcp(cam, method="Prior", n_random=300 if quick else 1500)
+        mc, prof = fit.corrections[1], fit.profile  # D65: the CCT weight is all on table 2
+        prob = mc.corrector.problem
+        Phi, XYZ_of = prob.Phi, prob.Psi @ prob.XYZ_from_target
+        xw = XYZ_of.sum(0)
+        to_D50 = colour.adaptation.matrix_chromatic_adaptation_VonKries(xw, D50, transform="Bradford")
+        cc = np.clip(
+            zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), prob.wavelengths).T, 0, 1
+        )
+        c_cc, truth = cc @ Phi, (cc @ XYZ_of / xw[1]) @ to_D50.T
+        CM = _fit_white_preserving(prob.training @ XYZ_of, prob.training @ Phi, xw, np.ones(3))
+        dng = (c_cc @ np.linalg.inv(CM).T / xw[1]) @ to_D50.T
+        white = np.asarray(mc(np.ones((1, 3))))[0]
+        cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+            white / white[1], D50, transform="Bradford"
+        )
+        est_cc = (np.asarray(mc(c_cc)) / white[1]) @ cat.T
+        c_all, T_all, rnd = fit.reflectances @ Phi, fit.targets[1], ~fit.natural
+
+        def old_recipe(c_fit, T_fit, prof=prof):  # last round: one 2.5-D fit over all colours, equal weights
+            F = _fit_white_preserving(c_fit, T_fit, np.ones(3), D50)
+            hsm = fit_hue_sat_map((c_fit @ F.T) @ PROPHOTO_FROM_XYZ.T, T_fit @ PROPHOTO_FROM_XYZ.T)
+            return prof.with_options(forward_matrix_2=F, hue_sat_map_2=hsm, look_table=None)
+
+        variants = {
+            "old recipe, CC in fit": old_recipe(np.vstack([c_all, c_cc]), np.vstack([T_all, est_cc])),
+            "old recipe, CC held out": old_recipe(c_all, T_all),
+            "natural FM + HSM": prof.with_options(look_table=None),
+            "+ LookTable (ours)": prof,
+        }
+        e_dng, e_est = dE(dng, truth).mean(), dE(est_cc, truth).mean()
+        row = [cam, f"{e_dng:.3f}", f"{e_est:.3f}"]
+        atyp = []
+        for p in variants.values():
+            row.append(f"{dE(p.apply(c_cc, mc.neutral), truth).mean():.3f}")
+            atyp.append(f"{dE(p.apply(c_all[rnd], mc.neutral), T_all[rnd]).mean():.3f}")
+        e_ours = dE(prof.apply(c_cc, mc.neutral), truth).mean()
+        row += [f"{100 * (1 - e_ours / e_dng):.0f} %", *atyp[1:]]
+        rows.append(row)
+    _table(
+        "S. Noise-free ColorChecker (held out), D65, mean ΔE00 vs truth; last three columns: mean ΔE00 "
+        "between each profile and the estimator on the random smooth spectra",
+        [
+            "camera",
+            "DNG CM",
+            "Prior",
+            "old, CC in fit",
+            "old, CC out",
+            "natural FM+HSM",
+            "+ LookTable",
+            "gain vs DNG",
+            "atyp: old",
+            "atyp: FM+HSM",
+            "atyp: +LT",
+        ],
+        rows,
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer fitting colours (300 random, not 1,500)")
     ap.add_argument("--camera", action="append", help="table P for these cameras (default all built-in)")
-    ap.add_argument("--tables", default="PQR", help="which tables to print (default PQR)")
+    ap.add_argument("--tables", default="PQRS", help="which tables to print (default PQRS)")
     args = ap.parse_args()
     cameras = args.camera or zonotope.list_builtin()["cameras"]
     if "P" in args.tables:
@@ -245,6 +329,8 @@ def main() -> None:
         table_Q()
     if "R" in args.tables:
         table_R(args.quick)
+    if "S" in args.tables:
+        table_S(cameras, args.quick)
 
 
 if __name__ == "__main__":

@@ -33,6 +33,11 @@ def _profile(args: argparse.Namespace) -> int:
     if args.lut and Path(args.lut).suffix.lower() not in (".cube", ".csp"):
         raise ZonotopeError(f"--lut {args.lut}: use a .cube (Resolve) or .csp (Cinespace) file.")
     dims = None if args.matrix_only else (args.hue_sat_size[0], args.hue_sat_size[1], 1)
+    look = None if args.matrix_only or args.no_look_table else tuple(args.look_table_size)
+    if look is not None and (look[0] < 1 or look[1] < 2 or look[2] < 1):
+        raise ZonotopeError(
+            f"--look-table-size {' '.join(map(str, look))}: need hues ≥ 1, saturations ≥ 2, values ≥ 1."
+        )
     with console.status(f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
         fit = fit_dcp(
             args.camera,
@@ -40,6 +45,7 @@ def _profile(args: argparse.Namespace) -> int:
             illuminants=args.illuminants,
             training=args.training,
             dims=dims,
+            look_table_dims=look,
             unique_camera_model=args.unique_camera_model,
             profile_name=args.profile_name,
             copyright=args.copyright or "",
@@ -48,7 +54,8 @@ def _profile(args: argparse.Namespace) -> int:
     write_dcp(out, fit.profile, overwrite=args.overwrite)
     console.print(
         f"camera profile written to {out} (UniqueCameraModel {fit.profile.unique_camera_model!r}, "
-        f"{'matrices only' if dims is None else f'HueSatMap {dims[0]}×{dims[1]}'})"
+        f"{'matrices only' if dims is None else f'HueSatMap {dims[0]}×{dims[1]}'}"
+        f"{'' if look is None else f', LookTable {look[0]}×{look[1]}×{look[2]}'})"
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
@@ -108,7 +115,22 @@ def add_command(sub) -> None:
         metavar=("HUES", "SATS"),
         help="ProfileHueSatMap divisions (default 90 30)",
     )
-    p.add_argument("--matrix-only", action="store_true", help="no HueSatMap: ColorMatrix/ForwardMatrix only")
+    p.add_argument(
+        "--look-table-size",
+        type=int,
+        nargs=3,
+        default=[36, 12, 8],
+        metavar=("HUES", "SATS", "VALUES"),
+        help="ProfileLookTable divisions, sRGB-encoded value axis (default 36 12 8)",
+    )
+    p.add_argument(
+        "--no-look-table",
+        action="store_true",
+        help="no LookTable (exposure-invariant profile: matrices + HueSatMap only)",
+    )
+    p.add_argument(
+        "--matrix-only", action="store_true", help="no HueSatMap or LookTable: ColorMatrix/ForwardMatrix only"
+    )
     p.add_argument("--lut", help="also write a 3-D LUT (.cube or .csp) of the estimator")
     p.add_argument(
         "--lut-space",

@@ -279,6 +279,9 @@ class ProfileFit:
     natural : ndarray of bool, shape (M,)
         Which fitting reflectances are natural (training and built-in sets); the others are the
         random smooth ones, which only the LookTable is fitted on.
+    targets : tuple of ndarray of shape (M, 3)
+        Per calibration illuminant, the estimator's output for every fitting colour, XYZ D50
+        (Bradford from the estimator's white, white Y = 1): what the profile encodes.
     """
 
     profile: DCPProfile
@@ -287,6 +290,7 @@ class ProfileFit:
     reflectances: np.ndarray
     wavelengths: np.ndarray
     natural: np.ndarray
+    targets: tuple
 
 
 def _light_source(name: str) -> int:
@@ -405,7 +409,7 @@ def fit_dcp(
         raise PipelineError("corrections: give one fitted MetamerCorrection per illuminant.")
     D50 = colour.xy_to_XYZ(D50_xy)
     CM, FM, HSM = [], [], []
-    lt_src, lt_dst, lt_w = [], [], []
+    lt_src, lt_dst, lt_w, targets = [], [], [], []
     R_all = nat = None
     for mc in corrections:
         prob = mc.corrector.problem
@@ -424,15 +428,15 @@ def fit_dcp(
         xw = XYZ_of.sum(0)
         CM.append(_fit_white_preserving(X_tr, C_tr, xw, n))
         # estimator output on the fitting colours (the random ones only for a LookTable), at D50
-        R = R_all if look_table_dims is not None else R_all[nat]
-        c = R @ Phi
+        c = R_all @ Phi
         T = np.asarray(mc(c), dtype=np.float64)
         white = np.asarray(mc(np.ones((1, 3))), dtype=np.float64)[0]
         cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
             white / white[1], D50, transform="Bradford"
         )
         T50 = (T / white[1]) @ cat.T
-        is_nat = nat if look_table_dims is not None else np.ones(R.shape[0], dtype=bool)
+        targets.append(T50)
+        is_nat = nat
         F = _fit_white_preserving(c[is_nat], T50[is_nat], np.ones(3), D50)
         FM.append(F)
         src = (c @ F.T) @ PROPHOTO_FROM_XYZ.T
@@ -480,4 +484,5 @@ def fit_dcp(
         reflectances=R_all,
         wavelengths=np.asarray(corrections[0].corrector.problem.wavelengths),
         natural=nat,
+        targets=tuple(targets),
     )

@@ -225,6 +225,10 @@ def test_isp_profile_cli(tmp_path):
         "--hue-sat-size",
         "36",
         "12",
+        "--look-table-size",
+        "12",
+        "6",
+        "4",
         "--lut",
         str(tmp_path / "cam.cube"),
         "--lut-size",
@@ -239,6 +243,7 @@ def test_isp_profile_cli(tmp_path):
     assert main(args) == 0
     p = read_dcp(out)
     assert p.hue_sat_map_1.shape == (1, 36, 12, 3) and p.unique_camera_model == "NIKON D5100"
+    assert p.look_table.shape == (4, 12, 6, 3) and p.look_table_encoding == 1
     assert p.copyright == "CC0" and p.embed_policy == 3
     assert load_correction(tmp_path / "cam.npz").method == "Finlayson 2015"
     assert "LUT_3D_SIZE 9" in (tmp_path / "cam.cube").read_text()
