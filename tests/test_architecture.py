@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS: dict[int, set[str]] = {
     0: {"_errors", "_tol", "_registry", "_io", "_progress", "_config", "parallel", "_cubemap"},
     1: {"spectra", "_loading", "_generators"},
-    2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "membership"},
-    3: {"_oracle", "_mmv_refine", "_mmv_walk", "_mmv_walk_kernel", "mismatch"},
+    2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "_mmv_walk_kernel", "membership"},
+    3: {"_oracle", "_mmv_refine", "_mmv_walk", "mismatch"},
     4: {"prior", "atypical", "_correction_problem", "_regressions", "_mmv_estimators", "correct"},
     5: {"image", "profile"},
     6: {"evaluate", "report", "viz", "survey", "_batch_cli", "_profile_cli", "cli", "__main__", "__init__"},

@@ -128,7 +128,7 @@ __all__ = [
 #: Public names loaded on first use, by module.
 _EXPORTS = {
     "polytope": ["Polytope"],
-    "membership": ["joint_halfspaces", "mmv_contains"],
+    "membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
     "macadam": [
         "MacAdamLimits",
         "invert",

@@ -653,3 +653,84 @@ def _faces(Y, nbr, deg, nv):
     for q in range(3):
         cen[q] = o[q] + cen[q] / vol
     return vol, cen, _OK
+
+
+@njit(cache=True)
+def l1_distances(Phi, Psi, C, Y, feas_tol):
+    """L1 distance from each target response Y[p] to the MMV of the source response C[p].
+
+    One bounded-variable simplex per pair: min Σ_i (p_i + q_i) s.t. Φᵀx = c, Ψᵀx − p + q = y,
+    0 ≤ x ≤ 1, p, q ≥ 0 (phase 1 on artificial variables for the source rows first). Returns the
+    distances (NaN where c itself is infeasible, i.e. its phase 1 leaves more than ``feas_tol``)
+    and a status per pair (0 ok, 3 pivot limit).
+    """
+    n, k = Phi.shape
+    m = Psi.shape[1]
+    R = k + m
+    N = n + 2 * m + k
+    F = np.zeros((N, R))
+    F[:n, :k] = Phi
+    F[:n, k:] = Psi
+    for i in range(m):
+        F[n + i, k + i] = -1.0  # p_i: Ψᵀx above y
+        F[n + m + i, k + i] = 1.0  # q_i: Ψᵀx below y
+    lo = np.zeros(N)
+    hi = np.empty(N)
+    hi[:n] = 1.0
+    hi[n:] = np.inf
+    w1 = np.zeros(N)
+    w1[n + 2 * m :] = -1.0
+    w2 = np.zeros(N)
+    w2[n : n + 2 * m] = -1.0
+    P = C.shape[0]
+    out = np.empty(P)
+    status = np.zeros(P, dtype=np.int64)
+    rhs = np.empty(R)
+    B = np.empty(R, dtype=np.int64)
+    up = np.zeros(N, dtype=np.bool_)
+    isb = np.zeros(N, dtype=np.bool_)
+    Minv = np.empty((R, R))
+    xB = np.empty(R)
+    limit = 50 * (N + R)
+    for p in range(P):
+        for r in range(k):
+            rhs[r] = C[p, r]
+            F[n + 2 * m + r, :] = 0.0
+            F[n + 2 * m + r, r] = 1.0 if C[p, r] >= 0.0 else -1.0
+            B[r] = n + 2 * m + r
+        for i in range(m):
+            rhs[k + i] = Y[p, i]
+            B[k + i] = n + m + i if Y[p, i] >= 0.0 else n + i
+        hi[n + 2 * m :] = np.inf
+        up[:] = False
+        isb[:] = False
+        for r in range(R):
+            isb[B[r]] = True
+        st, _ = _primal(F, lo, hi, rhs, w1, B, up, isb, limit)
+        if st != _OK:
+            out[p] = np.nan
+            status[p] = st
+            continue
+        _inverse(F, B, Minv)
+        _basic_values(F, lo, hi, rhs, B, up, isb, Minv, xB)
+        infeas = 0.0
+        for r in range(R):
+            if B[r] >= n + 2 * m:
+                infeas += abs(xB[r])
+        if infeas > feas_tol:
+            out[p] = np.nan
+            continue
+        hi[n + 2 * m :] = 0.0  # artificials fixed at zero (a basic one leaves at the first move)
+        st, _ = _primal(F, lo, hi, rhs, w2, B, up, isb, limit)
+        if st != _OK:
+            out[p] = np.nan
+            status[p] = st
+            continue
+        _inverse(F, B, Minv)
+        _basic_values(F, lo, hi, rhs, B, up, isb, Minv, xB)
+        d = 0.0
+        for r in range(R):
+            if n <= B[r] < n + 2 * m:
+                d += max(xB[r], 0.0)
+        out[p] = d
+    return out, status
