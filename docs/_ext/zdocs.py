@@ -23,6 +23,7 @@ import io
 import json
 import os
 import pkgutil
+import re
 import shutil
 from pathlib import Path
 
@@ -248,9 +249,25 @@ def copy_gallery(app, config) -> None:
     logger.info("gallery: %d files, %d notebooks already executed", len(names), len(excluded))
 
 
+#: ``|x|`` written as an absolute value (``|det|``, ``|Φᵀx − c| ≤ δ``): reStructuredText would read it
+#: as a substitution reference and fail the build. Docstrings here never use substitutions, so such
+#: spans are escaped outside inline literals (``...``) before numpydoc and docutils see them.
+_ABS = re.compile(r"(?<![\\`|\w])\|(?=[^\s|])([^|`\n]*?[^\s|\\])\|(?![`|\w])")
+_LITERAL = re.compile(r"(``.*?``)")
+
+
+def escape_absolute_values(app, what, name, obj, options, lines) -> None:
+    r"""``autodoc-process-docstring`` hook: escape ``|x|`` as ``\|x\|`` outside ``inline literals``."""
+    for i, line in enumerate(lines):
+        if "|" in line:
+            parts = _LITERAL.split(line)
+            lines[i] = "".join(p if p.startswith("``") else _ABS.sub(r"\\|\1\\|", p) for p in parts)
+
+
 def setup(app):
     """Register the generators (they run once the configuration is read, before sources are found)."""
     app.connect("config-inited", generate_api)
     app.connect("config-inited", generate_cli)
     app.connect("config-inited", copy_gallery)
+    app.connect("autodoc-process-docstring", escape_absolute_values, priority=400)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
