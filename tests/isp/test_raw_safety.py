@@ -158,7 +158,9 @@ for name in ("zonotope", "isp"):
     sys.modules[name] = pkg
     if name == "zonotope":
         import zonotope._errors
+        import zonotope._io
         vars(pkg).update({k: v for k, v in vars(zonotope._errors).items() if k.endswith("Error")})
+        vars(pkg).update({k: getattr(zonotope._io, k) for k in zonotope._io.__all__})
 import numpy as np
 from isp.io import write_image
 dest = sys.argv[1]
