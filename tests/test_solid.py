@@ -106,6 +106,24 @@ def test_vertex_sweep_equals_key_deduplication(G):
         assert D.min(axis=1).max() <= 1e-6 * Z.scale
 
 
+def test_coplanar_triple_across_the_angle_seam():
+    """The CI failure of test_vertex_sweep_equals_key_deduplication (found again by a 200-seed
+    hypothesis hunt): in the sweep of h₁ the coplanar h₂ and h₄ sit at angles +π and −π, the
+    two ends of the sorted row, so the pair (1, 2) was not flagged and the zonogon {1, 2, 4}
+    became three parallelograms: both vertex methods returned 22 points, 2 of the 20 true
+    vertices missing (old code)."""
+    G = np.array([[-2.0, 1, 1], [-2, -2, 2], [1, 2, -2], [1, 1, 1], [1, 1, 1], [-2, 2, -2], [1, -1, 1]])
+    Z = Zonotope(G)
+    P = corners(G)
+    hull = ConvexHull(P)
+    truth = rows(P[hull.vertices])
+    assert [m.tolist() for m in Z._facets.members] == [[1, 2, 4]]
+    assert rows(Z._vertices_sweep()) == rows(Z._vertices_by_keys()) == rows(Z.vertices) == truth
+    assert Z.volume == pytest.approx(hull.volume, rel=1e-12) and Z.n_facets == 16
+    hull_facets = np.unique(np.round(hull.equations, 9), axis=0).shape[0]
+    assert Z.n_facets == hull_facets
+
+
 def test_unit_cube_and_closed_forms():
     Z = Zonotope(np.eye(3))
     assert Z.volume == 1.0 and Z.n_facets == 6 and Z.vertices.shape == (8, 3)

@@ -182,9 +182,12 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     volume = float(np.einsum("ij,ij->", n, 2.0 * Bp - T)) / 3.0
     # generators coplanar with (i, j): angle within tol of θ_j or θ_j + π (mod 2π). Cheap
     # test first (neighbours in sorted order), exact windows only for the flagged pairs.
+    # Both neighbours wrap around the row: θ = π and θ' = −π are one direction (the last angle's
+    # next neighbour is the first one + 2π; missing it dropped a zonogon, found by hypothesis).
     prev = np.where(tt > 0, a_s[ii, tt - 1], a_s[ii, m - 1] - two_pi)
+    after = np.where(tt + 1 < m, a_s[ii, np.minimum(tt + 1, m - 1)], a_s[ii, 0] + two_pi)
     nxt = np.where(hi < 2 * m, a_s[ii, hi % m] + two_pi * (hi >= m), np.inf)
-    flag = (lo > tt + 1) | (th - prev <= tol) | (nxt <= th + np.pi + tol)
+    flag = (lo > tt + 1) | (th - prev <= tol) | (after - th <= tol) | (nxt <= th + np.pi + tol)
     th = th + big * ii
     zonogons, planes = [], []
     keep = np.ones(ii.size, dtype=bool)
