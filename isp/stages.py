@@ -480,7 +480,7 @@ _Y_sRGB = np.array(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
 
 
 def tonemap_Reinhard2002(
-    rgb, *, key: float | None = 0.18, white: float | None = None, eps: float = 1e-6
+    rgb, *, key: float | None = 0.18, white: float | None = None, log_offset: float = 1e-6
 ) -> np.ndarray:
     """Reinhard et al. (2002) global photographic operator on luminance; chromaticity kept.
 
@@ -495,8 +495,10 @@ def tonemap_Reinhard2002(
         Middle-grey target of the log-average luminance; None keeps the exposure (``L = Y``).
     white
         Smallest luminance mapped to 1 (after scaling); default the largest ``L``.
-    eps
-        Offset in the log average (black pixels).
+    log_offset
+        The paper's δ: added to Y inside the log average so black pixels stay finite (named so
+        because ``eps`` is the MMV certification tolerance and ``delta`` the noise tolerance
+        elsewhere in the project).
 
     Returns
     -------
@@ -509,7 +511,7 @@ def tonemap_Reinhard2002(
     """
     a = _image_array(rgb, "rgb")
     Y = np.maximum(a @ _Y_sRGB, 0.0)
-    scale = 1.0 if key is None else key / float(np.exp(np.mean(np.log(eps + Y))))
+    scale = 1.0 if key is None else key / float(np.exp(np.mean(np.log(log_offset + Y))))
     L = scale * Y
     Lw = float(L.max()) if white is None else float(white)
     if Lw <= 0:
