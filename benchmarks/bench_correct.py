@@ -6,8 +6,15 @@ of ``correct_image`` (deduplication + batching) for the prior-aware estimator an
 it and the exact per-pixel estimator, next to per-pixel root-polynomial regression as baseline.
 
 Goal (issue 4): ≤ 30 s on 2 cores, within 0.5 ΔE00 of the exact per-pixel estimator.
+Goal (issue 14), with ``--noise 0.005``: a noisy 1 MP two-camera image (as many distinct colours as
+pixels) in ≤ 60 s on 2 cores, compared with exact per-pixel estimates on a pixel sample; the share of
+pixels that need a solver (the rest are exact closed forms) is printed.
 
-Run: ``python benchmarks/bench_correct.py [--size 1000] [--tile 25] [--vignette]``
+``--fit-apply N``: fit + apply of each estimator on N natural responses (Munsell chips under random
+exposures), median of ``--repeats`` runs, against MAP (issue 14: within 10× of MAP).
+
+Run: ``python benchmarks/bench_correct.py [--size 1000] [--tile 25] [--vignette] [--noise 0.005]``
+or ``python benchmarks/bench_correct.py --fit-apply 10000``
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ import numpy as np
 import zonotope.spectra as spectra
 from zonotope.correct import correction_problem, fit_correction
 from zonotope.image import correct_image
+from zonotope.prior import ReflectancePrior, fiber_lsq
 
 DATA = Path(os.environ.get("ZONOTOPE_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
@@ -52,7 +60,13 @@ def main() -> None:
     ap.add_argument("--method", default="Prior")
     ap.add_argument("--quantum", type=float, default=2e-3)
     ap.add_argument("--no-base", action="store_true", help="no regression transfer within groups")
+    ap.add_argument("--noise", type=float, default=0.0, help="Gaussian response noise σ (white = 1)")
+    ap.add_argument("--fit-apply", type=int, default=0, help="time fit + apply on N responses instead")
+    ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
+    if args.fit_apply:
+        fit_apply(args.fit_apply, args.repeats)
+        return
 
     shape = colour.SpectralShape(400, 700, 10)
     w = np.asarray(shape.wavelengths)
@@ -69,6 +83,8 @@ def main() -> None:
         gain = gain * (1.0 - 0.4 * (xx**2 + yy**2))[..., None]
     image = (R @ problem.Phi) * gain  # (H, W, 6)
     truth = (R @ problem.Psi) * gain
+    if args.noise > 0:
+        image = image + rng.normal(0.0, args.noise, image.shape)
     H, W, k = image.shape
     print(
         f"image {H}×{W}×{k} ({H * W / 1e6:.2f} MP) "
@@ -76,13 +92,18 @@ def main() -> None:
     )
 
     t0 = time.perf_counter()
-    est = fit_correction(problem, method=args.method)
+    opts = {"noise": args.noise} if args.noise > 0 else {}
+    est = fit_correction(problem, method=args.method, **opts)
     t_fit = time.perf_counter() - t0
+    if "needs_solver" in est.params:
+        share = float(np.mean(est.params["needs_solver"](image.reshape(-1, image.shape[-1])[::97])))
+        print(f"share of pixels that need a solver (1 in 97 sampled): {100 * share:.1f} %")
     with tempfile.TemporaryDirectory() as cache:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         base = None if args.no_base else "auto"
         fast = correct_image(image, est, quantum=args.quantum, cache_dir=cache, base=base)
         t_fast = time.perf_counter() - t0
+        cpu_fast = time.process_time() - c0  # CPU seconds of this process (all its threads)
         t0 = time.perf_counter()
         correct_image(image, est, quantum=args.quantum, cache_dir=cache, base=base)
         t_cached = time.perf_counter() - t0
@@ -100,10 +121,11 @@ def main() -> None:
         t0 = time.perf_counter()
         exact[sample] = est(image[sample])
         t_exact = (time.perf_counter() - t0) * n_exact / 3000  # extrapolated to every colour
-    rp = fit_correction(problem, method="Finlayson 2015")
-    t0 = time.perf_counter()
+    rp = fit_correction(problem, method="Finlayson 2015", **opts)
+    t0, c0 = time.perf_counter(), time.process_time()
     base = rp(image)
     t_rp = time.perf_counter() - t0
+    cpu_rp = time.process_time() - c0
 
     d_fast_exact = problem.delta_E(fast[sample], exact[sample])
     d_fast = problem.delta_E(fast, truth)
@@ -113,6 +135,10 @@ def main() -> None:
     label = f"{args.method} correct_image (q={args.quantum:g})"
     print(f"{label:34s} {t_fast + t_fit:8.2f} {n_q:8d} {d_fast.mean():12.3f} / {d_fast.max():.2f}")
     print(f"{'  same, warm disk cache':34s} {t_cached:8.2f}")
+    print(
+        f"CPU seconds of this process (robust to other load): correct_image {cpu_fast:.1f}, "
+        f"per-pixel root-polynomial {cpu_rp:.2f} (ratio {cpu_fast / max(cpu_rp, 1e-9):.0f}×)"
+    )
     what = "exact per pixel" + ("" if sample.all() else " (3000-px sample; time extrapolated)")
     print(
         f"{args.method + ' ' + what:34s} {t_exact + t_fit:8.2f} {n_exact:8d} "
@@ -126,8 +152,42 @@ def main() -> None:
         f"correct_image vs exact per-pixel ({int(sample.sum())} px): ΔE00 mean {d_fast_exact.mean():.4f}, "
         f"p99 {np.percentile(d_fast_exact, 99):.4f}, max {d_fast_exact.max():.4f}"
     )
-    ok = (t_fast + t_fit) <= 30 and d_fast_exact.max() <= 0.5
-    print(f"goal (≤ 30 s, ≤ 0.5 ΔE00 from exact): {'met' if ok else 'MISSED'}")
+    limit = 60 if args.noise > 0 else 30
+    ok = (t_fast + t_fit) <= limit and d_fast_exact.max() <= 0.5
+    print(f"goal (≤ {limit} s, ≤ 0.5 ΔE00 from exact): {'met' if ok else 'MISSED'}")
+
+
+def fit_apply(n: int, repeats: int) -> None:
+    """Median wall time of fit + apply on ``n`` natural responses, per estimator, against MAP."""
+    shape = colour.SpectralShape(400, 700, 10)
+    w = np.asarray(shape.wavelengths)
+    pool, pool_name = reflectance_pool(w)
+    rng = np.random.default_rng(1)
+    for cams in (["Nikon 5100 (NPL)"], cameras()):
+        problem = correction_problem(cams, shape=shape)
+        X = pool[rng.integers(0, pool.shape[0], n)] * rng.uniform(0.3, 1.0, (n, 1))
+        C = X @ problem.Phi
+        times = {}
+        for method in ("Finlayson 2015", "MAP", "MAP, every row solved (before the closed form)", "Prior"):
+            runs = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                if method.startswith("MAP, every"):
+                    prior = ReflectancePrior.fit(problem.training, shrinkage=0.01)
+                    fiber_lsq(problem.Phi, C, prior.root, prior.root @ prior.mean) @ problem.Psi
+                else:
+                    fit_correction(problem, method=method)(C)
+                runs.append(time.perf_counter() - t0)
+            times[method] = float(np.median(runs))
+        est = fit_correction(problem, method="Prior")
+        share = float(np.mean(est.params["needs_solver"](C)))
+        print(
+            f"{' + '.join(problem.sources)}: fit + apply {n} responses ({pool_name}), median of {repeats}: "
+            + ", ".join(f"{m} {t:.3g} s" for m, t in times.items())
+            + f"; Prior / MAP = {times['Prior'] / times['MAP']:.1f} (goal ≤ 10), Prior / MAP solved per row "
+            f"= {times['Prior'] / times['MAP, every row solved (before the closed form)']:.1f}; "
+            f"{100 * share:.1f} % of responses need a solver"
+        )
 
 
 if __name__ == "__main__":
