@@ -14,6 +14,7 @@ from . import spectra
 from ._errors import SpectralDataError
 from ._generators import GeneratorPair
 from ._loading import load_camera, load_reflectances
+from ._tol import REFLECTANCE_MAX, REFLECTANCE_MIN
 
 __all__ = ["CorrectionProblem", "Corrector", "check_reflectances", "correction_problem"]
 
@@ -194,7 +195,7 @@ def check_reflectances(R: np.ndarray, what: str) -> None:
         raise SpectralDataError(f"{what}: no reflectances (shape {R.shape}); give at least one sample.")
     if not np.all(np.isfinite(R)):
         raise SpectralDataError(f"{what}: reflectances contain NaN or inf.")
-    if R.min() < -1e-6 or R.max() > 1.5:
+    if R.min() < REFLECTANCE_MIN or R.max() > REFLECTANCE_MAX:
         raise SpectralDataError(
             f"{what}: reflectances must lie in [0, 1] (got {R.min():.3g}…{R.max():.3g}); "
             "percent data must be divided by 100."

@@ -48,6 +48,10 @@ __all__ = [
     "COLLINEAR",
     "FEASIBLE_ABS",
     "FEASIBLE_REL",
+    "GRID",
+    "NEGATIVE_NOISE",
+    "REFLECTANCE_MAX",
+    "REFLECTANCE_MIN",
     "SINGULAR",
     "TOL",
     "Tolerances",
@@ -152,3 +156,22 @@ COLLINEAR = 1e-15
 #: is also reached from a well-conditioned subset of its active rows (for unit normals of distinct
 #: facets, |det| is the volume of their parallelotope, ≫ 1e-12).
 SINGULAR = 1e-12
+
+#: Wavelength comparisons (grid snapping of ``common_shape``, "does the curve cover the grid?"),
+#: relative to the wavelength: grids built with ``arange``/``linspace`` differ from their ideal
+#: values by a few ulps (≈ 1e-13 nm at 700 nm), and measured tables are tabulated to ≥ 0.1 nm,
+#: so 1e-9 separates float noise from a real difference by four orders either way.
+GRID = 1e-9
+
+#: A spectral curve's negative values above ``-NEGATIVE_NOISE ×`` its peak are float noise left by
+#: interpolation where a curve reaches 0 (colour leaves values like -3e-22) and are cleared; a real
+#: negative lobe (a colour-matching function) is ≥ 1e-3 of the peak.
+NEGATIVE_NOISE = 1e-12
+
+#: Reflectances are accepted in ``[REFLECTANCE_MIN, REFLECTANCE_MAX]``: slightly negative values
+#: (≥ -1e-6: the rounding of measured or resampled data) and fluorescent/gloss values up to 1.5;
+#: anything outside is refused, which catches percent data (values up to 100) without clipping them.
+REFLECTANCE_MIN = -1e-6
+
+#: See :data:`REFLECTANCE_MIN`.
+REFLECTANCE_MAX = 1.5

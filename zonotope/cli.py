@@ -178,9 +178,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     for path in args.test_set or []:
         from . import spectra
         from ._errors import SpectralDataError
+        from ._tol import REFLECTANCE_MAX, REFLECTANCE_MIN
 
         R = spectra.resample(spectra.read_reflectances(path), w).T
-        if R.max() > 1.5 or R.min() < -1e-6:  # percent data are refused, not clipped to 1
+        if R.max() > REFLECTANCE_MAX or R.min() < REFLECTANCE_MIN:  # percent data are refused
             raise SpectralDataError(
                 f"--test-set {path}: reflectances must lie in [0, 1] (got {R.min():.3g}…{R.max():.3g}); "
                 "divide percent data by 100."

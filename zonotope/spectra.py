@@ -41,6 +41,7 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError
+from ._tol import GRID, NEGATIVE_NOISE
 
 __all__ = [
     "CAMERAS",
@@ -100,8 +101,8 @@ def _check(wavelengths: np.ndarray, values: np.ndarray, what: str, *, allow_nega
         )
     if not allow_negative:
         # interpolation in colour leaves values like -3e-22 where a curve reaches 0: that is
-        # float noise, not a negative lobe, so it is cleared (relative threshold 1e-12)
-        noise = (v < 0) & (v >= -1e-12 * max(float(np.abs(v).max()), 1e-300))
+        # float noise, not a negative lobe, so it is cleared (_tol.NEGATIVE_NOISE of the peak)
+        noise = (v < 0) & (v >= -NEGATIVE_NOISE * max(float(np.abs(v).max()), 1e-300))
         if np.any(noise):
             v = np.where(noise, 0.0, v)
     if not allow_negative and np.any(v < 0):
@@ -170,8 +171,8 @@ def common_shape(*curves: Curve, interval: float | None = None) -> colour.Spectr
     step = float(interval) if interval is not None else max(float(np.max(np.diff(w))) for w in arrays)
     if not step > 0:
         raise SpectralDataError(f"interval must be positive, got {interval}.")
-    lo = math.ceil(start / step - 1e-9) * step
-    hi = math.floor(end / step + 1e-9) * step
+    lo = math.ceil(start / step - GRID) * step
+    hi = math.floor(end / step + GRID) * step
     if hi - lo < step:
         ranges = ", ".join(
             f"{getattr(c, 'name', '?')}: {w[0]:g}–{w[-1]:g} nm" for c, w in zip(curves, arrays)
@@ -207,8 +208,8 @@ def resample(
     name = getattr(curve, "name", "curve")
     w, v = _check(*_arrays(curve), name, allow_negative=allow_negative)
     grid = _grid(shape)
-    eps = 1e-9 * max(1.0, abs(w[-1]))
-    if grid[0] < w[0] - eps or grid[-1] > w[-1] + eps:
+    slack = GRID * max(1.0, abs(w[-1]))
+    if grid[0] < w[0] - slack or grid[-1] > w[-1] + slack:
         raise SpectralDataError(
             f"{name}: measured on {w[0]:g}–{w[-1]:g} nm but the grid asks for "
             f"{grid[0]:g}–{grid[-1]:g} nm. Nothing is extrapolated: use common_shape(...) or a "
