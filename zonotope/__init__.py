@@ -25,7 +25,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 Shared infrastructure: ``_errors`` (one exception hierarchy), ``_tol`` (every tolerance, with
 its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``_progress``
 (:class:`ProgressCallback`, the one ``progress(stage, done, total)`` type of every long-running
-function), ``parallel`` (executors), ``_io`` (atomic output files).
+function), ``_config`` (config dataclasses taken as one checked object or as keywords),
+``parallel`` (executors), ``_io`` (atomic output files).
 
 ``import zonotope`` loads the spectra and the solid; everything else loads on first use of a
 public name. Two module names are not shadowed by a function of the same name:
