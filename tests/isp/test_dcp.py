@@ -354,9 +354,10 @@ def test_fit_recovers_a_known_3d_look_table(encoding):
     fitted = fit_hue_sat_map(rgb, out, dims=(H, S, V), smoothness=1e-9, encoding=encoding)
     np.testing.assert_allclose(fitted, T, atol=2e-4)
     flat = fit_hue_sat_map(rgb, out, dims=(H, S, 1), smoothness=1e-9)  # 2.5-D cannot say it
-    assert np.abs(apply_hue_sat_map(rgb, flat) - out).max() > 50 * np.abs(
-        apply_hue_sat_map(rgb, fitted, encoding=encoding) - out
-    ).max()
+    assert (
+        np.abs(apply_hue_sat_map(rgb, flat) - out).max()
+        > 50 * np.abs(apply_hue_sat_map(rgb, fitted, encoding=encoding) - out).max()
+    )
     with pytest.raises(PipelineError, match="encoding"):
         fit_hue_sat_map(rgb, out, dims=(H, S, V), encoding=2)
     with pytest.raises(PipelineError, match="weights"):
