@@ -51,9 +51,9 @@ def _parser() -> argparse.ArgumentParser:
         s.add_argument("--threads", type=int, default=-1, help="COLMAP threads (-1: all cores)")
         s.add_argument("--seed", type=int, default=0)
         s.add_argument(
-            "--no-refine-exposure",
+            "--refine-exposure",
             action="store_true",
-            help="trust the EXIF exposures (default: learn a per-view correction, one view per camera fixed)",
+            help="learn a per-view exposure correction (one view per camera fixed); default: trust EXIF",
         )
     return p
 
@@ -82,7 +82,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             quantum=args.quantum,
             threads=args.threads,
             seed=args.seed,
-            refine_exposure=not args.no_refine_exposure,
+            refine_exposure=args.refine_exposure,
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
