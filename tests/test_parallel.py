@@ -159,7 +159,7 @@ def test_mmv_batch_on_a_cluster_is_bit_identical(cluster):
         assert ex.kind == "cluster" and ex.workers == 2
         two = metamer_mismatch_batch(mm.Phi, mm.Psi, C, chunk=4, executor=ex)
         failing = dict(ex.outcomes(_square_or_fail, range(6), shared=1))
-    for name in ("centroids", "volumes", "volume_bounds", "centroid_errors", "dims"):
+    for name in ("centroids", "volumes", "volume_bounds", "centroid_errors", "affine_dims"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
     assert one.lp_calls == two.lp_calls
     assert isinstance(failing[3], TaskFailure) and "three is bad" in failing[3].error
