@@ -162,6 +162,7 @@ def fit_hue_sat_map(
     smoothness: float = 1e-3,
     weights=None,
     encoding: int = 0,
+    unbiased_saturation: float = 0.0,
 ) -> np.ndarray:
     """Fit a ProfileHueSatMap or ProfileLookTable taking linear ProPhoto ``source`` to ``target``.
 
@@ -245,6 +246,28 @@ def fit_hue_sat_map(
     D2 = _second_differences(H, S, V)
     grey = np.arange(V * H) * S  # saturation node 0 of every (value, hue)
     G = sp.csr_matrix((np.ones(grey.size), (np.arange(grey.size), grey)), shape=(grey.size, n))
+    # rings up to unbiased_saturation: hue-mean of (entry − identity) and its first hue harmonic 0,
+    # so that noise spread evenly around the grey axis keeps its mean (to first order in s)
+    rings = [j for j in range(1, S) if j / (S - 1) <= unbiased_saturation + 1e-12]
+    ang = 2 * np.pi * np.arange(H) / H
+    ub_rows = []
+    for vi in range(V):
+        for j in rings:
+            nodes = (vi * H + np.arange(H)) * S + j
+            for wvec in (np.ones(H), np.cos(ang), np.sin(ang)):
+                ub_rows.append((nodes, wvec / H))
+    if ub_rows:
+        U = sp.csr_matrix(
+            (
+                np.concatenate([w for _, w in ub_rows]),
+                (np.repeat(np.arange(len(ub_rows)), H), np.concatenate([nd for nd, _ in ub_rows])),
+            ),
+            shape=(len(ub_rows), n),
+        )
+        ub_ident = np.array([w.sum() for _, w in ub_rows])  # the rows' value at identity
+    else:
+        U = sp.csr_matrix((0, n))
+        ub_ident = np.zeros(0)
     out = np.empty((n, 3))
     problems = [  # (row weights, rhs, identity value)
         (s * 6.0 / 360.0, s * dh, 0.0),
@@ -259,6 +282,9 @@ def fit_hue_sat_map(
         ridge = 1e-6 * m2
         AtA = A.T @ A + lam * (D2.T @ D2) + ridge * sp.eye(n) + 1e3 * m2 * (G.T @ G)
         b = A.T @ rhs + ridge * ident * np.ones(n) + 1e3 * m2 * ident * (G.T @ np.ones(grey.size))
+        if U.shape[0]:
+            AtA = AtA + 1e3 * m2 * N * (U.T @ U)
+            b = b + 1e3 * m2 * N * (U.T @ (ident * ub_ident))
         out[:, k] = spla.spsolve(AtA.tocsc(), b)
     return out.reshape(V, H, S, 3)
 
@@ -320,6 +346,7 @@ def fit_dcp(
     n_random: int = 1500,
     seed: int = 0,
     smoothness: float = 1e-3,
+    unbiased_saturation: float = 0.0,
     corrections: Sequence | None = None,
     **options,
 ) -> ProfileFit:
@@ -442,7 +469,13 @@ def fit_dcp(
         src = (c @ F.T) @ PROPHOTO_FROM_XYZ.T
         dst = T50 @ PROPHOTO_FROM_XYZ.T
         if dims is not None:
-            table = fit_hue_sat_map(src[is_nat], dst[is_nat], dims=dims, smoothness=smoothness)
+            table = fit_hue_sat_map(
+                src[is_nat],
+                dst[is_nat],
+                dims=dims,
+                smoothness=smoothness,
+                unbiased_saturation=unbiased_saturation,
+            )
             HSM.append(table)
             src = apply_hue_sat_map(src, table)
         if look_table_dims is not None:
@@ -459,6 +492,7 @@ def fit_dcp(
             smoothness=smoothness,
             weights=np.concatenate(lt_w),
             encoding=look_table_encoding,
+            unbiased_saturation=unbiased_saturation,
         )
     name = getattr(camera, "name", None) or os.path.splitext(os.path.basename(str(camera)))[0]
     profile = DCPProfile(
