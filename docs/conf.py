@@ -28,6 +28,9 @@ extensions = [
 ]
 
 root_doc = "index"
+# Every cross-reference must resolve (zdocs links module paths and short names to the public API pages,
+# and turns references to existing undocumented or external objects into plain text).
+nitpicky = True
 exclude_patterns = ["_build", "jupyter_execute", "**.ipynb_checkpoints", "guide/cli_help/*"]
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 

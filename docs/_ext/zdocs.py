@@ -264,10 +264,83 @@ def escape_absolute_values(app, what, name, obj, options, lines) -> None:
             lines[i] = "".join(p if p.startswith("``") else _ABS.sub(r"\\|\1\\|", p) for p in parts)
 
 
+#: Packages whose objects cannot be linked (no intersphinx: CI reaches only package registries).
+EXTERNAL = (
+    "colour",
+    "trimesh",
+    "pyvista",
+    "manifold3d",
+    "numpy",
+    "scipy",
+    "jax",
+    "concurrent",
+    "collections",
+)
+
+
+def _lookup(dotted: str):
+    """The Python object a dotted path names (module, then attributes), or None."""
+    parts = dotted.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:cut]))
+        except Exception:  # not a module (or not importable): try a shorter module path
+            continue
+        try:
+            for attr in parts[cut:]:
+                obj = getattr(obj, attr)
+        except AttributeError:
+            return None
+        return obj
+    return None
+
+
+def resolve_public(app, env, node, contnode):
+    """``missing-reference`` hook: link module paths and short names to the public API pages.
+
+    The API pages document every name once, under its public path (``zonotope.fit_correction``);
+    docstrings often write the defining module's path (``zonotope.correct.fit_correction``), a short
+    name relative to their module or class, or an attribute listed in a class's Attributes section.
+    Those are linked to the public object; a reference to an existing but undocumented object
+    (private helpers, external packages: no intersphinx in CI) becomes plain text; a reference to a
+    name that does not exist at all stays a warning, so ``-W`` fails on it.
+    """
+    if node.get("refdomain") != "py":
+        return None
+    domain = env.get_domain("py")
+    target = node["reftarget"].lstrip("~.")
+    module, klass = node.get("py:module") or "", node.get("py:class") or ""
+    objects = domain.objects
+    contexts = [target]
+    if klass:
+        contexts.append(f"{module}.{klass}.{target}" if module else f"{klass}.{target}")
+    if module:
+        contexts.append(f"{module}.{target}")
+    for full in contexts:
+        obj = _lookup(full)
+        if obj is None:
+            continue
+        # the same object documented under a public path?
+        name = getattr(obj, "__qualname__", None) or full.rsplit(".", 1)[-1]
+        package = full.split(".")[0]
+        for public in (f"{package}.{name}", f"{package}.{full.rsplit('.', 1)[-1]}"):
+            if public in objects and _lookup(public) is obj:
+                return domain.resolve_xref(env, node["refdoc"], app.builder, "obj", public, node, contnode)
+        return contnode  # exists, but is not part of the documented API: plain text
+    if klass and node["reftype"] in ("attr", "meth", "obj"):
+        owner = f"{module}.{klass}" if module else klass
+        if _lookup(owner) is not None:  # an attribute listed in the class's Attributes section
+            return contnode
+    if target.split(".")[0] in EXTERNAL:
+        return contnode
+    return None
+
+
 def setup(app):
     """Register the generators (they run once the configuration is read, before sources are found)."""
     app.connect("config-inited", generate_api)
     app.connect("config-inited", generate_cli)
     app.connect("config-inited", copy_gallery)
     app.connect("autodoc-process-docstring", escape_absolute_values, priority=400)
+    app.connect("missing-reference", resolve_public)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
