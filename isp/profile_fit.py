@@ -180,6 +180,12 @@ def fit_hue_sat_map(
     encoding
         ProfileHueSatMapEncoding / ProfileLookTableEncoding: 0 linear, 1 sRGB-encoded value axis
         (and value scale), as :func:`isp.dcp.apply_hue_sat_map` reads it.
+    unbiased_saturation
+        Saturation rings up to this value (0: none) are held *bias-free*: per ring, the hue-mean
+        of each entry is the identity's and its first hue harmonic (cos, sin) is 0. Noise spread
+        evenly around the grey axis then keeps its mean to first order in the saturation, where a
+        free table rotates and scales it hue by hue (a near-grey patch's mean moves by up to
+        6 ΔE00 on the Sigma SD Merrill). Hue-varying corrections stay free.
 
     Returns
     -------
@@ -346,7 +352,7 @@ def fit_dcp(
     n_random: int = 1500,
     seed: int = 0,
     smoothness: float = 1e-3,
-    unbiased_saturation: float = 0.0,
+    unbiased_saturation: float = 0.35,
     corrections: Sequence | None = None,
     **options,
 ) -> ProfileFit:
@@ -383,6 +389,12 @@ def fit_dcp(
         Random smooth reflectances added to the fitting set (:func:`profile_reflectances`).
     smoothness
         See :func:`fit_hue_sat_map`.
+    unbiased_saturation
+        Rings of both tables up to this saturation (default 0.35: 10 of the HueSatMap's 30) are
+        kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a per-pixel table applied
+        to noisy near-grey pixels otherwise shifts their mean. Measured on the simulated Sigma SD
+        Merrill chart (noisy): dark grey patches 1.5–2.0 → 0.6 ΔE00, mean 1.57 → 1.37; noise-free
+        the natural sets move by ≤ 0.01. 0 switches it off.
     corrections
         Already fitted :class:`isp.MetamerCorrection` objects, one per illuminant (skip fitting).
     **options

@@ -362,3 +362,32 @@ def test_fit_recovers_a_known_3d_look_table(encoding):
         fit_hue_sat_map(rgb, out, dims=(H, S, V), encoding=2)
     with pytest.raises(PipelineError, match="weights"):
         fit_hue_sat_map(rgb, out, dims=(H, S, V), weights=-np.ones(6000))
+
+
+def test_unbiased_rings_keep_the_mean_of_noisy_greys():
+    """unbiased_saturation: the rings near grey have identity hue-means and no first hue harmonic,
+    so a noise cloud around a grey keeps its mean, where the free fit follows a table that rotates
+    and scales low saturations hue by hue."""
+    from isp.profile_fit import fit_hue_sat_map
+
+    H, S = 24, 11
+    h = np.linspace(0, 2 * np.pi, H, endpoint=False)[:, None] * np.ones((H, S))
+    s = np.linspace(0, 1, S)[None, :] * np.ones((H, S))
+    T = np.stack([30 * s * np.cos(h), 1 + 0.5 * s * np.cos(h), 1 + 0.2 * s * (1 + np.sin(h))], -1)[None]
+    rng = np.random.default_rng(5)
+    rgb = colour.HSV_to_RGB(rng.uniform([0, 0, 0.05], [1, 1, 0.95], (5000, 3)))
+    out = apply_hue_sat_map(rgb, T)
+    free = fit_hue_sat_map(rgb, out, dims=(H, S, 1), smoothness=1e-6)
+    ub = fit_hue_sat_map(rgb, out, dims=(H, S, 1), smoothness=1e-6, unbiased_saturation=0.4)
+    rings = slice(1, 5)  # saturation nodes 0.1 … 0.4
+    ang = 2 * np.pi * np.arange(H) / H
+    np.testing.assert_allclose(ub[0, :, rings].mean(0), [[0, 1, 1]] * 4, atol=1e-3)  # a 10³ penalty
+    for f in (np.cos(ang), np.sin(ang)):
+        np.testing.assert_allclose(np.einsum("h,hjk->jk", f, ub[0, :, rings]) / H, 0, atol=1e-3)
+    assert np.abs(np.cos(ang) @ free[0, :, 4, 0]) / H > 5  # the free fit has the 6° first harmonic
+    far = ub[0, :, 6:] - T[0, :, 6:]  # farther out (saturation ≥ 0.6): still the data's
+    assert np.abs(far[..., 0]).max() < 1.5 and np.abs(far[..., 1:]).max() < 0.05
+    grey = 0.3 * (1 + 0.03 * rng.normal(size=(200_000, 3)))  # noise spreads saturations to ~0.1
+    bias_free = np.abs(apply_hue_sat_map(grey, free).mean(0) - grey.mean(0)).max()
+    bias_ub = np.abs(apply_hue_sat_map(grey, ub).mean(0) - grey.mean(0)).max()
+    assert bias_ub < 0.1 * bias_free, (bias_ub, bias_free)
