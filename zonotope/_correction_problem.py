@@ -1,5 +1,6 @@
 """The correction problem: source and target generators on one grid, training reflectances, and the
-fitted-estimator type :class:`Corrector` that every method of :mod:`zonotope.correct` returns."""
+fitted-estimator type :class:`~zonotope.correct.Corrector` that every method of
+:mod:`zonotope.correct` returns."""
 
 from __future__ import annotations
 
