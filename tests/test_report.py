@@ -94,6 +94,8 @@ def test_report_with_pictures(tmp_path):
     write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["least squares"], volumes=False)
     assert (out / "solid.png").stat().st_size > 10_000
     assert "solid.png" in (out / "index.html").read_text()
+    assert (out / "confidence_map.png").stat().st_size > 10_000  # the credible radii, per patch
+    assert "confidence_map.png" in (out / "report.md").read_text()
 
 
 @pytest.mark.slow

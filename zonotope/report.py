@@ -405,4 +405,50 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
     problems = [singles[0], full] if len(singles) > 1 else [full]
     viz.plot_mmv_comparison(problems, x, filename=folder / "mmv_comparison.png").close()
     pics.append(("mmv_comparison.png", "MMV of ColorChecker 'blue sky': one camera vs all cameras"))
+    step("pictures: confidence map", 1)
+    _confidence_map(full, folder / "confidence_map.png")
+    pics.append(
+        (
+            "confidence_map.png",
+            "Confidence map of the default estimator: estimates and their 95 % credible radius (ΔE00) "
+            "for the ColorChecker and 24 atypical spectra",
+        )
+    )
     return pics
+
+
+def _confidence_map(problem, filename: Path) -> None:
+    """Estimates of ``"Prior"`` and their credible radii (:meth:`Corrector.with_uncertainty`) as
+    two patch charts: the ColorChecker (natural) and 24 spectra of the atypical generator B."""
+    import colour
+    import matplotlib.pyplot as plt
+
+    from . import spectra
+    from .correct import fit_correction
+    from .evaluate import atypical_test_set
+
+    w = problem.wavelengths
+    cc = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)[:24]
+    X = np.vstack([cc, atypical_test_set(w, 24, generator="B").reflectances])
+    est, radius = fit_correction(problem, method="Prior").with_uncertainty(problem.source_of(X))
+    white = problem.white_XYZ
+    rgb = colour.XYZ_to_sRGB(problem.to_XYZ(est) / white[1], illuminant=colour.XYZ_to_xy(white))
+    rgb = np.clip(rgb, 0, 1).reshape(2, 4, 6, 3)
+    rad = radius.reshape(2, 4, 6)
+    fig, axes = plt.subplots(2, 2, figsize=(9, 5.6), constrained_layout=True)
+    top = float(np.max(rad))
+    for row, name in enumerate(("ColorChecker", "atypical B")):
+        axes[row, 0].imshow(rgb[row], interpolation="nearest")
+        axes[row, 0].set_title(f"{name}: estimate (sRGB)")
+        im = axes[row, 1].imshow(rad[row], cmap="magma", vmin=0, vmax=top, interpolation="nearest")
+        axes[row, 1].set_title(f"{name}: credible radius (ΔE00)")
+        for j, i in np.ndindex(4, 6):
+            ink = "k" if rad[row, j, i] > 0.6 * top else "w"
+            axes[row, 1].text(i, j, f"{rad[row, j, i]:.1f}", ha="center", va="center", color=ink, fontsize=7)
+        for ax in axes[row]:
+            ax.set_xticks([])
+            ax.set_yticks([])
+    fig.colorbar(im, ax=axes[:, 1], shrink=0.8, label="ΔE00")
+    fig.suptitle(f"{' + '.join(problem.sources)}: Prior estimates and their 95 % credible radius")
+    fig.savefig(filename, dpi=110)
+    plt.close(fig)
