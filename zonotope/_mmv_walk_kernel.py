@@ -14,7 +14,7 @@ from numba import njit
 _OK, _INFEASIBLE, _ART, _LIMIT, _DEGEN, _FLAT, _COLLIDE, _VLIMIT, _ADJ = 0, 1, 2, 3, 4, 5, 7, 8, 9
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _inverse(F, B, Minv):
     """Minv ← inverse of the k×k matrix whose column i is F[B[i]]; False when singular."""
     k = B.shape[0]
@@ -56,7 +56,7 @@ def _inverse(F, B, Minv):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _basic_values(F, lo, hi, c, B, up, isb, Minv, xB):
     """Set xB to the values of the basic variables (nonbasic ones at their bounds)."""
     N, k = F.shape
@@ -74,7 +74,7 @@ def _basic_values(F, lo, hi, c, B, up, isb, Minv, xB):
         xB[i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _primal(F, lo, hi, c, w, B, up, isb, max_iter):
     """Bounded-variable primal simplex maximising w·x from the feasible basis (B, up).
 
@@ -152,7 +152,7 @@ def _primal(F, lo, hi, c, w, B, up, isb, max_iter):
     return _LIMIT, max_iter
 
 
-@njit("void(i8[::1])", cache=True)
+@njit("void(i8[::1])", cache=True, error_model="numpy")
 def _isort(a):
     """In-place insertion sort (k is small)."""
     for i in range(1, a.shape[0]):
@@ -164,14 +164,14 @@ def _isort(a):
         a[j + 1] = x
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _cross(a, b, out):
     out[0] = a[1] * b[2] - a[2] * b[1]
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@njit("i8(f8[::1], f8[::1], i8, i8[::1], i8[::1])", cache=True)
+@njit("i8(f8[::1], f8[::1], i8, i8[::1], i8[::1])", cache=True, error_model="numpy")
 def _hull2(px, py, n, hull, tmp):
     """CCW convex hull of points 0..n−1 by gift wrapping (O(n·h), h hull points, usually 3–5).
 
@@ -209,7 +209,7 @@ def _hull2(px, py, n, hull, tmp):
             return h
 
 
-@njit("b1(f8[:, ::1], f8[::1], i8, f8[::1], f8[::1], b1, f8[::1])", cache=True)
+@njit("b1(f8[:, ::1], f8[::1], i8, f8[::1], f8[::1], b1, f8[::1])", cache=True, error_model="numpy")
 def _interior(A, na, cnt, w0, d0, has_d, w):
     """Set w to a direction with a·w > 0 for every row of A[:cnt] (True): w0 + η d0, else a perceptron."""
     etas = (0.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)
@@ -247,7 +247,7 @@ def _interior(A, na, cnt, w0, d0, has_d, w):
     return False
 
 
-@njit("i8(i8[::1], i8[::1], i8)", cache=True)
+@njit("i8(i8[::1], i8[::1], i8)", cache=True, error_model="numpy")
 def _tget(tkeys, tvals, key):
     """Value stored under ``key`` in the open-addressing table, or −1."""
     mask = tkeys.shape[0] - 1
@@ -259,7 +259,7 @@ def _tget(tkeys, tvals, key):
     return -1
 
 
-@njit("void(i8[::1], i8[::1], i8, i8)", cache=True)
+@njit("void(i8[::1], i8[::1], i8, i8)", cache=True, error_model="numpy")
 def _tput(tkeys, tvals, key, val):
     mask = tkeys.shape[0] - 1
     i = (key ^ (key >> 29)) & mask
@@ -269,7 +269,7 @@ def _tput(tkeys, tvals, key, val):
     tvals[i] = val
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _same_state(Bs, Ups, v, B, up):
     k = B.shape[0]
     for i in range(k):
@@ -281,7 +281,7 @@ def _same_state(Bs, Ups, v, B, up):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     """Vertices (V, 3), status and number of moves of the MMV {Σ x_j G[j] : Σ x_j F[j] = c, lo ≤ x ≤ hi}."""
     N, k = F.shape
@@ -592,7 +592,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     return Y[:nv].copy(), vol, cen, _OK, moves
 
 
-@njit("Tuple((f8, f8[::1], i8))(f8[:, ::1], i8[:, ::1], i8[::1], i8)", cache=True)
+@njit("Tuple((f8, f8[::1], i8))(f8[:, ::1], i8[:, ::1], i8[::1], i8)", cache=True, error_model="numpy")
 def _faces(Y, nbr, deg, nv):
     """Volume and centroid from the vertex graph: every face traced once by its directed edges.
 
@@ -655,7 +655,7 @@ def _faces(Y, nbr, deg, nv):
     return vol, cen, _OK
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def l1_distances(Phi, Psi, C, Y, feas_tol):
     """L1 distance from each target response Y[p] to the MMV of the source response C[p].
 
