@@ -61,6 +61,8 @@ def _summary(doc: str | None) -> str:
     if not doc:
         return ""
     line = doc.strip().split("\n\n")[0].replace("\n", " ").strip()
+    # roles become literals: a table row has no module or class context to resolve short names in
+    line = re.sub(r":(?:py:)?\w+:`~?([^`]+)`", r"``\1``", line)
     return line.replace("|", "\\|")
 
 
@@ -158,6 +160,7 @@ def generate_api(app, config) -> None:
             mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
             body = [
                 _title(f"``{module}``"),
+                f".. currentmodule:: {module}\n",  # short references in the module's summary
                 f"{mod_doc}\n" if mod_doc else "",
                 f".. currentmodule:: {package}\n",
             ]
@@ -333,7 +336,34 @@ def resolve_public(app, env, node, contnode):
             return contnode
     if target.split(".")[0] in EXTERNAL:
         return contnode
+    # a short name written in a docstring of another module (documented under the package's path):
+    # link it when exactly one public object has that name, else plain text if it exists anywhere
+    short = target.rsplit(".", 1)[-1]
+    public = [f"{p}.{short}" for p in PACKAGES if f"{p}.{short}" in objects]
+    if len(public) == 1:
+        return domain.resolve_xref(env, node["refdoc"], app.builder, "obj", public[0], node, contnode)
+    if short in _module_names():
+        return contnode
     return None
+
+
+_NAMES: set[str] = set()
+
+
+def _module_names() -> set[str]:
+    """Every top-level name defined in any module of the three packages (built once)."""
+    if not _NAMES:
+        for package in PACKAGES:
+            pkg = importlib.import_module(package)
+            for info in pkgutil.iter_modules(pkg.__path__):
+                if info.name == "__main__":
+                    continue
+                try:
+                    mod = importlib.import_module(f"{package}.{info.name}")
+                except Exception:  # an optional dependency missing: its names are simply unknown
+                    continue
+                _NAMES.update(n for n in vars(mod) if not n.startswith("__"))
+    return _NAMES
 
 
 def setup(app):
