@@ -413,6 +413,12 @@ def test_walk_equals_refinement_twins(nikon10):
         D = np.linalg.norm(fast.vertices[:, None] - walk.vertices[None], axis=2)
         assert D.min(axis=1).max() <= 1e-12
         assert fast.contains(walk.vertices, atol=1e-9).all()
+        # the Polytope built from the walk's own faces (no Qhull) = Qhull's hull of its vertices
+        qhull = Polytope(walk.vertices, atol=walk.atol)
+        assert walk.n_facets == qhull.n_facets and walk.volume == pytest.approx(qhull.volume, rel=1e-12)
+        Q = walk.vertices.min(0) + np.ptp(walk.vertices, 0) * np.random.default_rng(i).random((500, 3))
+        np.testing.assert_array_equal(walk.contains(Q), qhull.contains(Q))
+        np.testing.assert_allclose(walk.project(Q[:50]), qhull.project(Q[:50]), rtol=0, atol=1e-12)
         out = metamer_mismatch_batch(Phi, Psi, c[None], eps=0.0)
         assert out.volumes[0] == pytest.approx(walk.volume, rel=1e-12)
         np.testing.assert_allclose(out.centroids[0], walk.centroid, rtol=0, atol=1e-13)

@@ -67,7 +67,7 @@ def _kernel():
     return _KERNEL
 
 
-def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000):
+def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000, triangles: bool = False):
     """Vertices of the 3-D MMV of one response by the normal-fan walk.
 
     Parameters
@@ -78,6 +78,8 @@ def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000):
     delta : float or ndarray of shape (k,)
         Per-channel tolerance |Φᵀx − c| ≤ δ (adds k slack variables with range [−δ, δ]).
     max_vertices : int
+    triangles : bool
+        Also return the boundary triangulation (see Returns).
 
     Returns
     -------
@@ -91,13 +93,17 @@ def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000):
         0 on success, else a key of :data:`STATUS`.
     moves : int
         Simplex moves made (phase 1 and 2 pivots plus one per walked edge).
+    tris : ndarray of int, shape (T, 4)
+        Only with ``triangles=True``: the faces' fan triangles (vertex indices, counter-clockwise
+        seen from outside) and the index of the face each belongs to.
     """
     Phi = np.ascontiguousarray(Phi, dtype=np.float64)
     Psi = np.ascontiguousarray(Psi, dtype=np.float64)
     c = np.ascontiguousarray(c, dtype=np.float64)
     n, k = Phi.shape
     if Psi.shape[1] != 3:
-        return np.zeros((0, Psi.shape[1])), 0.0, np.zeros(Psi.shape[1]), 6, 0
+        out = np.zeros((0, Psi.shape[1])), 0.0, np.zeros(Psi.shape[1]), 6, 0
+        return (*out, np.zeros((0, 4), dtype=np.int64)) if triangles else out
     d = np.broadcast_to(np.asarray(delta, dtype=np.float64), (k,))
     slack = np.nonzero(d > 0)[0]
     F = np.concatenate([Phi, np.eye(k)[slack]]) if slack.size else Phi
@@ -108,7 +114,7 @@ def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000):
     if _ZOBRIST[0].size < N:
         rng = np.random.default_rng(20261123)
         _ZOBRIST[:] = [rng.integers(1, 2**62, size=2 * N, dtype=np.int64) for _ in range(2)]
-    Y, vol, cen, status, moves = _kernel()(
+    Y, vol, cen, status, moves, tris = _kernel()(
         np.ascontiguousarray(F),
         np.ascontiguousarray(G),
         lo,
@@ -118,6 +124,8 @@ def walk_mmv(Phi, Psi, c, delta=0.0, *, max_vertices: int = 200_000):
         _ZOBRIST[0][:N],
         _ZOBRIST[1][:N],
     )
+    if triangles:
+        return Y, float(vol), cen, int(status), int(moves), tris
     return Y, float(vol), cen, int(status), int(moves)
 
 
@@ -142,6 +150,8 @@ class WalkOracle:
     centroid : ndarray of shape (m,)
     status : int
     moves : int
+    triangles : ndarray of int, shape (T, 4)
+        Boundary fan triangles and their face (see :func:`walk_mmv`).
 
     Raises
     ------
@@ -153,7 +163,8 @@ class WalkOracle:
         from ._oracle import Infeasible, SimplexOracle, _as_delta
 
         d = _as_delta(delta, Phi.shape[1])
-        self.vertices, self.volume, self.centroid, self.status, self.moves = walk_mmv(Phi, Psi, c, d)
+        out = walk_mmv(Phi, Psi, c, d, triangles=True)
+        self.vertices, self.volume, self.centroid, self.status, self.moves, self.triangles = out
         if self.status == 1:
             raise Infeasible
         self.n_calls = 0

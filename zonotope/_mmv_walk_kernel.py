@@ -287,6 +287,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     N, k = F.shape
     empty = np.zeros((0, 3))
     zc = np.zeros(3)
+    notri = np.zeros((0, 4), dtype=np.int64)
     # ---- phase 1: artificial variables ±e_i, minimise their sum
     Nx = N + k
     Fx = np.zeros((Nx, k))
@@ -311,11 +312,11 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     limit = 50 * (Nx + k)
     st, piv1 = _primal(Fx, lox, hix, c, w1, Bx, upx, isbx, limit)
     if st != _OK:
-        return empty, 0.0, zc, st, piv1
+        return empty, 0.0, zc, st, piv1, notri
     Minv = np.empty((k, k))
     xB = np.empty(k)
     if not _inverse(Fx, Bx, Minv):
-        return empty, 0.0, zc, _DEGEN, piv1
+        return empty, 0.0, zc, _DEGEN, piv1, notri
     _basic_values(Fx, lox, hix, c, Bx, upx, isbx, Minv, xB)
     scale = 0.0
     for r in range(k):
@@ -328,10 +329,10 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         if Bx[i] >= N:
             infeas += xB[i]
     if infeas > 1e-9 * max(scale, 1.0):
-        return empty, 0.0, zc, _INFEASIBLE, piv1
+        return empty, 0.0, zc, _INFEASIBLE, piv1, notri
     for i in range(k):
         if Bx[i] >= N:
-            return empty, 0.0, zc, _ART, piv1
+            return empty, 0.0, zc, _ART, piv1, notri
     # ---- phase 2 for a generic direction u0
     B = Bx.copy()
     up = upx[:N].copy()
@@ -344,7 +345,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     st, piv2 = _primal(F, lo, hi, c, w2, B, up, isb, limit)
     moves = piv1 + piv2
     if st != _OK:
-        return empty, 0.0, zc, st, moves
+        return empty, 0.0, zc, st, moves, notri
     # ---- the walk
     cap = 1024
     Bs = np.empty((cap, k), dtype=np.int64)
@@ -403,13 +404,13 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         for i in range(k):
             isb[B[i]] = True
         if not _inverse(F, B, Minv):
-            return empty, 0.0, zc, _DEGEN, moves
+            return empty, 0.0, zc, _DEGEN, moves, notri
         _basic_values(F, lo, hi, c, B, up, isb, Minv, xB)
         for i in range(k):
             b = B[i]
             eta = 1e-12 * (hi[b] - lo[b])
             if not (xB[i] > lo[b] + eta and xB[i] < hi[b] - eta):
-                return empty, 0.0, zc, _DEGEN, moves
+                return empty, 0.0, zc, _DEGEN, moves, notri
         for q in range(3):
             s = 0.0
             for j in range(N):
@@ -445,9 +446,9 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             var[cnt] = j
             cnt += 1
         if cnt < 3:
-            return empty, 0.0, zc, _FLAT, moves
+            return empty, 0.0, zc, _FLAT, moves, notri
         if not _interior(A, na, cnt, Ms[v], Ds[v], has_dir[v], w):
-            return empty, 0.0, zc, _FLAT, moves
+            return empty, 0.0, zc, _FLAT, moves, notri
         nw = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         for q in range(3):
             w[q] /= nw
@@ -466,7 +467,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             py[t] = (A[t, 0] * b2[0] + A[t, 1] * b2[1] + A[t, 2] * b2[2]) / s
         h = _hull2(px, py, cnt, hull, tmp)
         if h < 3:
-            return empty, 0.0, zc, _FLAT, moves
+            return empty, 0.0, zc, _FLAT, moves, notri
         deg[v] = h
         # parallel edge vectors (a point repeated at a hull vertex) are not handled by single moves
         span = 0.0
@@ -476,7 +477,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             a = hull[g]
             for t in range(cnt):
                 if t != a and abs(px[t] - px[a]) <= 1e-12 * span and abs(py[t] - py[a]) <= 1e-12 * span:
-                    return empty, 0.0, zc, _FLAT, moves
+                    return empty, 0.0, zc, _FLAT, moves, notri
         for g in range(h):
             a = hull[g]
             ap = hull[(g - 1) % h]
@@ -532,11 +533,11 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             u = _tget(tkeys, tvals, nkey)
             if u >= 0:
                 if not _same_state(Bs, Ups, u, nB, nup):
-                    return empty, 0.0, zc, _COLLIDE, moves
+                    return empty, 0.0, zc, _COLLIDE, moves, notri
                 nbr[v, g] = u
                 continue
             if nv >= max_vertices:
-                return empty, 0.0, zc, _VLIMIT, moves
+                return empty, 0.0, zc, _VLIMIT, moves, notri
             if nv == cap:
                 cap *= 2
                 Bs2 = np.empty((cap, k), dtype=np.int64)
@@ -586,19 +587,28 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             nbr[v, g] = nv
             nv += 1
         v += 1
-    vol, cen, st = _faces(Y, nbr, deg, nv)
+    tris = np.empty((2 * nv + 8, 4), dtype=np.int64)
+    vol, cen, st, nt = _faces(Y, nbr, deg, nv, tris)
     if st != _OK:
-        return empty, 0.0, zc, st, moves
-    return Y[:nv].copy(), vol, cen, _OK, moves
+        return empty, 0.0, zc, st, moves, notri
+    return Y[:nv].copy(), vol, cen, _OK, moves, tris[:nt].copy()
 
 
-@njit("Tuple((f8, f8[::1], i8))(f8[:, ::1], i8[:, ::1], i8[::1], i8)", cache=True, error_model="numpy")
-def _faces(Y, nbr, deg, nv):
+@njit(
+    "Tuple((f8, f8[::1], i8, i8))(f8[:, ::1], i8[:, ::1], i8[::1], i8, i8[:, ::1])",
+    cache=True,
+    error_model="numpy",
+)
+def _faces(Y, nbr, deg, nv, tris):
     """Volume and centroid from the vertex graph: every face traced once by its directed edges.
 
     The edges of each vertex are in counter-clockwise order seen from outside, so the face to the
-    left of the directed edge v → u continues at u with the edge just before u → v.
+    left of the directed edge v → u continues at u with the edge just before u → v. The fan
+    triangles (outward, counter-clockwise) go to ``tris`` as (a, b, c, face); returns (volume,
+    centroid, status, number of triangles).
     """
+    nt = 0
+    face = 0
     o = np.zeros(3)
     for v in range(nv):
         for q in range(3):
@@ -622,6 +632,13 @@ def _faces(Y, nbr, deg, nv):
                 used[cur, g] = True
                 u = nbr[cur, g]
                 if cur != v0 and u != v0:
+                    if nt >= tris.shape[0]:
+                        return 0.0, cen, _ADJ, 0
+                    tris[nt, 0] = v0
+                    tris[nt, 1] = cur
+                    tris[nt, 2] = u
+                    tris[nt, 3] = face
+                    nt += 1
                     for q in range(3):
                         a[q] = Y[v0, q] - o[q]
                         b[q] = Y[cur, q] - o[q]
@@ -640,19 +657,20 @@ def _faces(Y, nbr, deg, nv):
                         gg = x
                         break
                 if gg < 0:
-                    return 0.0, cen, _ADJ
+                    return 0.0, cen, _ADJ, 0
                 g = (gg - 1) % deg[u]
                 cur = u
                 if cur == v0 and g == g0:
+                    face += 1
                     break
                 steps += 1
                 if steps > nv + 2 or used[cur, g]:
-                    return 0.0, cen, _ADJ
+                    return 0.0, cen, _ADJ, 0
     if not vol > 0.0:
-        return 0.0, cen, _ADJ
+        return 0.0, cen, _ADJ, 0
     for q in range(3):
         cen[q] = o[q] + cen[q] / vol
-    return vol, cen, _OK
+    return vol, cen, _OK, nt
 
 
 @njit(cache=True, error_model="numpy")

@@ -168,6 +168,55 @@ class Polytope:
         return keep, remap[hull.simplices]
 
     @classmethod
+    def _from_triangulation(cls, points, triangles, faces, *, atol: float | None = None) -> Polytope:
+        """A 3-D solid whose boundary is already known, without Qhull (the exact MMV walk).
+
+        ``points (V, 3)`` are all vertices; ``triangles (T, 3)`` index them, counter-clockwise seen
+        from outside, and tile the boundary; ``faces (T,)`` says which planar facet each belongs
+        to. Each facet's plane comes from its summed triangle areas (Newell's normal), so the
+        triangles of one facet share it exactly and merge as Qhull's coplanar ones do.
+        """
+        P = np.array(points, dtype=np.float64)
+        S = np.asarray(triangles, dtype=np.intp)
+        obj = cls.__new__(cls)
+        obj.ambient_dim = P.shape[1]
+        span = float(np.ptp(P, axis=0).max())
+        obj.atol = float(atol) if atol is not None else AFFINE * max(span, 1e-300)
+        obj._o, obj._B = _affine_hull(P, obj.atol)
+        obj.affine_dim = obj._B.shape[1]
+        if obj.affine_dim != 3 or obj.ambient_dim != 3:
+            raise GeometryError("_from_triangulation needs a full-dimensional 3-D point set.")
+        Z = (P - obj._o) @ obj._B
+        if np.linalg.det(obj._B) < 0:  # the SVD frame is a reflection: keep triangles outward
+            S = S[:, ::-1]
+        area = np.cross(Z[S[:, 1]] - Z[S[:, 0]], Z[S[:, 2]] - Z[S[:, 0]])
+        faces = np.asarray(faces)
+        order = np.argsort(faces, kind="stable")
+        S, area, faces = S[order], area[order], faces[order]
+        start = np.flatnonzero(np.r_[True, faces[1:] != faces[:-1]])
+        label = np.cumsum(np.r_[False, faces[1:] != faces[:-1]])
+        n = np.add.reduceat(area, start, axis=0)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        off = np.maximum.reduceat(np.einsum("tvd,td->tv", Z[S], n[label]).max(axis=1), start)
+        faces = label
+        # neighbours (Qhull's convention: row t, column j = the triangle across the edge opposite
+        # vertex j), from the two directed copies of each edge
+        T = S.shape[0]
+        a, b = np.roll(S, -1, axis=1).ravel(), np.roll(S, -2, axis=1).ravel()  # edge opposite j
+        V = P.shape[0]
+        fwd, back = a * V + b, b * V + a
+        order = np.argsort(fwd)
+        pos = np.searchsorted(fwd[order], back)
+        obj._hull_neighbors = (order[np.minimum(pos, order.size - 1)] // 3).reshape(T, 3)
+        obj._hull_equations = np.column_stack([n[faces], -off[faces]])
+        obj._keep = np.arange(V)
+        obj.vertices = P
+        obj.vertices.flags.writeable = False
+        obj._Z = Z
+        obj._simplices = S
+        return obj
+
+    @classmethod
     def from_halfspaces(cls, A, b, *, atol: float | None = None) -> Polytope:
         """The polytope ``{y : A y ≤ b}`` (A of shape (F, m), b of shape (F,)); may be empty."""
         return cls(halfspaces=(A, b), atol=atol)
