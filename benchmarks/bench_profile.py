@@ -92,6 +92,16 @@ def isp_XYZ(path, *, correction="dng", profile=None) -> np.ndarray:
     return isp.develop(path, pipeline=p, stop_after="camera_to_XYZ").image
 
 
+_FITS: dict = {}
+
+
+def _fit(cam: str, quick: bool):
+    """fit_dcp (Prior, the defaults) once per camera for tables P and S."""
+    if (cam, quick) not in _FITS:
+        _FITS[cam, quick] = fit_dcp(cam, method="Prior", n_random=300 if quick else 1500)
+    return _FITS[cam, quick]
+
+
 def table_P(cameras, quick: bool) -> None:
     rows = []
     have_rt = rawtherapee_cli() is not None
@@ -99,7 +109,7 @@ def table_P(cameras, quick: bool) -> None:
         folder = Path(tmp)
         for cam in cameras:
             path, labels, truth = simulated_chart(cam, folder)
-            fit = fit_dcp(cam, method="Prior", n_random=300 if quick else 1500)
+            fit = _fit(cam, quick)
             dcp = write_dcp(folder / "camera.dcp", fit.profile, overwrite=True)
 
             def score(XYZ, offset=(0, 0), labels=labels, truth=truth):
@@ -257,7 +267,7 @@ def table_S(cameras, quick: bool) -> None:
 
     rows = []
     for cam in cameras:
-        fit = fit_dcp(cam, method="Prior", n_random=300 if quick else 1500)
+        fit = _fit(cam, quick)
         mc, prof = fit.corrections[1], fit.profile  # D65: the CCT weight is all on table 2
         prob = mc.corrector.problem
         Phi, XYZ_of = prob.Phi, prob.Psi @ prob.XYZ_from_target
