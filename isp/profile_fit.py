@@ -211,6 +211,10 @@ def fit_hue_sat_map(
         )
     if encoding not in (0, 1):
         raise PipelineError(f"encoding={encoding!r}: 0 (linear) or 1 (sRGB-encoded value axis).")
+    if not 0.0 <= unbiased_saturation <= 1.0:  # also refuses NaN
+        raise PipelineError(
+            f"unbiased_saturation={unbiased_saturation!r}: give a saturation in [0, 1] (0: no rings held)."
+        )
     p = np.asarray(source, dtype=np.float64)
     q = np.asarray(target, dtype=np.float64)
     wt = _weights(weights, p.shape[0])

@@ -360,6 +360,8 @@ def test_fit_recovers_a_known_3d_look_table(encoding):
     )
     with pytest.raises(PipelineError, match="encoding"):
         fit_hue_sat_map(rgb, out, dims=(H, S, V), encoding=2)
+    with pytest.raises(PipelineError, match="unbiased_saturation"):
+        fit_hue_sat_map(rgb, out, dims=(H, S, V), unbiased_saturation=float("nan"))
     with pytest.raises(PipelineError, match="weights"):
         fit_hue_sat_map(rgb, out, dims=(H, S, V), weights=-np.ones(6000))
 
