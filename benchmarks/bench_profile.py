@@ -15,8 +15,8 @@ P. Simulated ColorChecker (ColorChecker N Ohta reflectances × camera SSF × D65
    The DNG's ColorMatrix is what a camera maker would ship: least squares on the rawtoaces 190
    training set, white exact (``isp.simulate.fit_color_matrix``). Columns: that matrix in
    ``isp develop`` and in ``rawtherapee-cli`` ("(camera)" input profile); our DCP
-   (``isp profile``: Prior, A + D65, HueSatMap 90 × 30 + LookTable 36 × 12 × 8) in ``isp develop
-   --profile`` and in
+   (``isp profile``: Prior, A + D65, HueSatMap 90 × 30 + LookTable 36 × 12 × 8, rings up to
+   saturation 0.35 bias-free) in ``isp develop --profile`` and in
    ``rawtherapee-cli``; ``isp develop --correction metamer`` (Prior, D65, scene white = exposure).
 Q. Real Canon EOS 550D DNG with RawTherapee's shipped ``Canon EOS 550D.dcp``: per ColorChecker
    patch (40 × 40 boxes, centres of bench_isp.py) ΔE00 between ``rawtherapee-cli`` and
