@@ -111,7 +111,7 @@ def score(
         pixel, δ of the pipeline); empty to skip.
     flat_only : bool
         Correct only the flat pixels (the splat and ``raw-`` estimates then appear in
-        ``flat_delta_E00`` alone): the estimators cost up to a second per distinct 9-channel colour, and
+        ``flat_delta_E00`` alone): the 9-channel estimators are slow per distinct colour, and
         the flat pixels of a coarse texture share few colours.
     quantum : float
         Colour deduplication step of :func:`zonotope.image.correct_image`.
