@@ -34,9 +34,12 @@ def test_evaluate_table():
     assert {"Finlayson 2015", "Dyer 2017", "MAP", "Prior"} <= methods
     rp = next(r for r in ev.rows if r.method == "Finlayson 2015" and r.kind == "natural")
     assert rp.n == 24 - 7 and 0 < rp.median <= rp.p95 <= rp.max and rp.inside == 1.0  # 7 in training
+    # exact share of answers outside the MMV of their responses, for every estimator (noise-free run)
+    assert all(r.outside is not None and 0.0 <= r.outside <= 1.0 for r in ev.rows)
     assert set(ev.summary("atypical")) == methods
     md = ev.to_markdown()
     assert "| cameras | test set | estimator |" in md and "Prior" in md
+    assert "outside MMV (exact)" in md
 
 
 def test_evaluate_skips_idt_for_two_cameras_and_rejects_empty_sets():

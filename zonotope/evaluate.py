@@ -4,7 +4,9 @@ For a camera set (1–3 cameras, channels stacked), an illuminant and a training
 of :data:`zonotope.correct.CORRECTION_METHODS` is fitted once and applied to the responses of each
 test set; the table reports ΔE00 mean / median / 95th percentile / max against the true target
 colours, the fraction of regression estimates that lie inside the metamer mismatch volume (MMV),
-and MMV volume statistics (XYZ units, Y_white = 1).
+the share of every estimator's answers that lie outside the MMV of its input (physically impossible
+colours: no reflectance gives both, by the exact test :func:`zonotope.membership.outside_mmv_fraction`;
+noise-free runs only) and MMV volume statistics (XYZ units, Y_white = 1).
 
 Test sets
 ---------
@@ -50,6 +52,7 @@ from .correct import (
     correction_problem,
     fit_correction,
 )
+from .membership import outside_mmv_fraction
 from .prior import project_to_mmv
 
 __all__ = [
@@ -241,7 +244,9 @@ def natural_test_sets(
 class EvaluationRow:
     """ΔE00 statistics of one estimator on one test set.
 
-    ``inside``: fraction of its estimates in the MMV (regressions); ``radius`` and ``coverage``: for
+    ``inside``: fraction of its estimates in the MMV (regressions, tolerant projection test);
+    ``outside``: exact share of its estimates outside the MMV of their responses (every estimator,
+    noise-free runs; :func:`zonotope.membership.outside_mmv_fraction`); ``radius`` and ``coverage``: for
     estimators with an uncertainty model (:meth:`~zonotope.correct.Corrector.with_uncertainty`),
     the median 95 % credible radius (ΔE00) and the fraction of samples whose true error is within it.
     """
@@ -259,6 +264,7 @@ class EvaluationRow:
     seconds: float = 0.0
     radius: float | None = None
     coverage: float | None = None
+    outside: float | None = None
 
 
 @dataclass(frozen=True)
@@ -382,12 +388,13 @@ class Evaluation:
     def to_markdown(self) -> str:
         """The table as GitHub Markdown."""
         head = (
-            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV | radius (95 %) "
-            "| covered |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV | outside MMV (exact) "
+            "| radius (95 %) | covered |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         )
         body = "".join(
             f"| {r.cameras} | {r.test_set} | {r.method} | {r.n} | {r.mean:.3f} | {r.median:.3f} | "
             f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} | "
+            f"{'' if r.outside is None else f'{100 * r.outside:.1f} %'} | "
             f"{'' if r.radius is None else f'{r.radius:.2f}'} | "
             f"{'' if r.coverage is None else f'{100 * r.coverage:.0f} %'} |\n"
             for r in self.rows
@@ -686,6 +693,8 @@ def evaluate(
                 inside = None
                 if CORRECTION_METHODS.properties(m)["closed_form"]:
                     inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
+                if noise == 0:  # exact responses: is each answer possible at all?
+                    unc["outside"] = outside_mmv_fraction(problem.Phi, problem.Psi, C, E)
                 rows.append(
                     EvaluationRow(
                         label, ts.name, ts.kind, m, len(C), *_stats(dE), inside=inside, seconds=secs, **unc
