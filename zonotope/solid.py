@@ -252,6 +252,14 @@ class Zonotope:
         """Facets of the zonohedron (+ side of each ± pair), see :func:`._zonohedron.facets`."""
         self._require_3d("facets")
         H, off = self._reduced
+        s = np.linalg.svd(H, compute_uv=False) if H.size else np.zeros(0)
+        if s.size < 3 or s[2] <= self.tol.rank * s[0]:
+            raise GeometryError(
+                f"facets: after merging generators closer than tol.parallel={self.tol.parallel:g} "
+                f"({H.shape[0]} distinct directions remain) the solid is flat, although its generators "
+                f"have rank {self.affine_dim}; they differ only at the scale of that tolerance. Rescale "
+                "the generators or pass Zonotope(..., tol=Tolerances(parallel=<smaller>))."
+            )
         return _zh.facets(H, off, self._keys_r, self.tol.coplanar)
 
     @cached_property
