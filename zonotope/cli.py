@@ -209,19 +209,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     for col in cols:
         table.add_column(col, justify="left" if col in ("cameras", "test set", "estimator") else "right")
     for r in ev.rows:
-        table.add_row(
-            r.cameras,
-            r.test_set,
-            r.method,
-            str(r.n),
-            f"{r.mean:.3f}",
-            f"{r.median:.3f}",
-            f"{r.p95:.3f}",
-            f"{r.max:.2f}",
-            "" if r.inside is None else f"{100 * r.inside:.0f} %",
-            "" if r.radius is None else f"{r.radius:.2f}",
-            "" if r.coverage is None else f"{100 * r.coverage:.0f} %",
-        )
+        table.add_row(*r.cells())
     console.print(table)
     console.print("radius: median 95 % credible radius (ΔE00); covered: share of true colours within it")
     for cams in dict.fromkeys(r.cameras for r in ev.rows):

@@ -266,6 +266,23 @@ class EvaluationRow:
     coverage: float | None = None
     outside: float | None = None
 
+    def cells(self) -> tuple[str, ...]:
+        """The row as the ``zonotope evaluate`` and report tables print it: cameras, test set,
+        estimator, n, mean, median, p95, max, in MMV, radius, covered."""
+        return (
+            self.cameras,
+            self.test_set,
+            self.method,
+            str(self.n),
+            f"{self.mean:.3f}",
+            f"{self.median:.3f}",
+            f"{self.p95:.3f}",
+            f"{self.max:.2f}",
+            "" if self.inside is None else f"{100 * self.inside:.0f} %",
+            "" if self.radius is None else f"{self.radius:.2f}",
+            "" if self.coverage is None else f"{100 * self.coverage:.0f} %",
+        )
+
 
 @dataclass(frozen=True)
 class PairedComparison:

@@ -295,22 +295,7 @@ def write_report(
             test_sets=tests,
         )
         md.append("\n## Colour-correction evaluation (CIEDE2000)\n\n" + ev.to_markdown())
-        rows = [
-            (
-                r.cameras,
-                r.test_set,
-                r.method,
-                str(r.n),
-                f"{r.mean:.3f}",
-                f"{r.median:.3f}",
-                f"{r.p95:.3f}",
-                f"{r.max:.2f}",
-                "" if r.inside is None else f"{100 * r.inside:.0f} %",
-                "" if r.radius is None else f"{r.radius:.2f}",
-                "" if r.coverage is None else f"{100 * r.coverage:.0f} %",
-            )
-            for r in ev.rows
-        ]
+        rows = [r.cells() for r in ev.rows]
         parts.append(
             "<h2>Colour-correction evaluation (CIEDE2000)</h2>"
             + _table_html(
