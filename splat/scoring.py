@@ -69,15 +69,15 @@ def _dE(problem, est, ref):
     return {"mean": float(np.mean(d)), "p95": float(np.percentile(d, 95))}
 
 
-def flat_mask(XYZ, *, radius: int = 2, tol: float = 0.01) -> np.ndarray:
+def flat_mask(XYZ, *, radius: int = 2, rtol: float = 0.01) -> np.ndarray:
     """Pixels whose true XYZ is constant over their ``(2 radius + 1)²`` neighbourhood: every channel's
-    range there ≤ ``tol · max(Y, 0.02)`` (image borders are extended)."""
+    range there ≤ ``rtol · max(Y, 0.02)`` (a relative tolerance; image borders are extended)."""
     from scipy.ndimage import maximum_filter, minimum_filter
 
     XYZ = np.asarray(XYZ, float)
     size = 2 * radius + 1
     ok = np.ones(XYZ.shape[:2], bool)
-    lim = tol * np.maximum(XYZ[..., 1], 0.02)
+    lim = rtol * np.maximum(XYZ[..., 1], 0.02)
     for c in range(3):
         x = XYZ[..., c]
         ok &= maximum_filter(x, size, mode="nearest") - minimum_filter(x, size, mode="nearest") <= lim
