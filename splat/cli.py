@@ -130,7 +130,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"poses ({p['source']}): {p['registered']} of {p['views']} views registered ({cams})")
     if "train" in results:
         t = results["train"]
-        print(f"train: {t['steps']} steps, {t['gaussians']} Gaussians, {t['seconds']:.0f} s")
+        import jax
+
+        device = jax.devices()[0]  # JAX picks the GPU when the `gpu` extra (jax[cuda12]) is installed
+        print(
+            f"train: {t['steps']} steps, {t['gaussians']} Gaussians, {t['seconds']:.0f} s "
+            f"on {device.platform} ({device.device_kind})"
+        )
     if "render" in results:
         print(f"render: {len(results['render'])} views")
     if "correct" in results:
