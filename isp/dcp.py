@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -686,9 +685,9 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     if p.baseline_exposure_offset:
         tags.append((51109, 10, 1, _srational([p.baseline_exposure_offset], 1000), True))
     tags.append((51110, "I", 1, int(p.default_black_render), True))
-    fd, tmp = tempfile.mkstemp(suffix=".dcp.tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    from zonotope import atomic_path
+
+    def write(tmp: Path) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "writing zero-size array": a DCP has no image
             tifffile.imwrite(
@@ -697,10 +696,8 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
         with open(tmp, "r+b") as fh:
             fh.seek(2)
             fh.write(b"RC")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+
+    atomic_path(path, write)  # temporary sibling, fsync, umask permissions, rename
     return path
 
 

@@ -27,7 +27,6 @@ References
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -752,9 +751,9 @@ def write_dng(
         tags.append((33437, 5, 1, _rational(d.f_number), True))
     if d.iso is not None:
         tags.append((34855, "H", 1, int(d.iso), True))
-    fd, tmp = tempfile.mkstemp(suffix=".dng.tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    from zonotope import atomic_path
+
+    def write(tmp: Path) -> None:
         tifffile.imwrite(
             tmp,
             np.ascontiguousarray(m, dtype=np.uint16),
@@ -764,8 +763,6 @@ def write_dng(
             metadata=None,
             software="isp (zonotope)",
         )
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+
+    atomic_path(path, write)  # temporary sibling, fsync, umask permissions, rename
     return path

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -48,6 +47,7 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError, ZonotopeError
+from ._io import atomic_path
 
 __all__ = [
     "LUT_SHAPERS",
@@ -216,17 +216,14 @@ def write_correction_LUT(
         )
     if path.exists() and not overwrite:
         raise ZonotopeError(f"{path} exists; pass overwrite=True (--overwrite) or choose another name.")
-    fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        colour.write_LUT(lut, tmp, decimals=decimals, method=method)
+
+    def write(tmp: Path) -> None:
+        colour.write_LUT(lut, str(tmp), decimals=decimals, method=method)
         if method == "Resolve Cube":  # OpenColorIO's Resolve reader rejects the TITLE line: drop it
-            text = Path(tmp).read_text().splitlines(keepends=True)
-            Path(tmp).write_text("".join(t for t in text if not t.startswith("TITLE")))
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+            text = tmp.read_text(encoding="utf-8").splitlines(keepends=True)
+            tmp.write_text("".join(t for t in text if not t.startswith("TITLE")), encoding="utf-8")
+
+    atomic_path(path, write)  # temporary sibling, fsync, umask permissions, rename
     return path
 
 
@@ -279,15 +276,12 @@ def save_correction(
     M = corrector.params.get("M")
     if M is not None:
         arrays["param_M"] = np.asarray(M, dtype=np.float64)
-    fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
+
+    def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:
             np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+
+    atomic_path(path, write)  # temporary sibling, fsync, umask permissions, rename
     return path
 
 

@@ -341,8 +341,8 @@ def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
     """Write the ranked rows as CSV (or Parquet for ``.parquet``, if pyarrow is installed), atomically."""
     import csv
     import io
-    import os
-    import tempfile
+
+    from ._io import atomic_path, atomic_write_text
 
     path = Path(path)
     cols = [f.name for f in fields(SurveyRow)]
@@ -355,11 +355,7 @@ def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
                 f"{path}: Parquet needs pyarrow (not installed); write .csv instead."
             ) from error
         table = pa.table({c: [r.as_dict()[c] for r in rows] for c in cols})
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".parquet")
-        os.close(fd)
-        pq.write_table(table, tmp)
-        os.replace(tmp, path)
-        return path
+        return atomic_path(path, lambda tmp: pq.write_table(table, tmp))
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=["rank", *cols], lineterminator="\n")
     w.writeheader()
@@ -367,8 +363,4 @@ def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
         d = r.as_dict()
         cells = {c: (f"{d[c]:.6g}" if isinstance(d[c], float) else d[c]) for c in cols}
         w.writerow({"rank": i if not r.error else "", **cells})
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".csv")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(buf.getvalue())
-    os.replace(tmp, path)
-    return path
+    return atomic_write_text(path, buf.getvalue())

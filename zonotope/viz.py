@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -65,8 +64,9 @@ def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X"
         plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
         plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey")
     if filename is not None:
-        Path(filename).parent.mkdir(parents=True, exist_ok=True)
-        plotter.screenshot(str(filename))
+        from ._io import atomic_path
+
+        atomic_path(filename, lambda tmp: plotter.screenshot(str(tmp)))
     return plotter
 
 
@@ -262,7 +262,10 @@ def plot_mmv_comparison(
         p.add_text(titles[i] if titles else " + ".join(pb.sources), font_size=11)
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
-    return _finish(p, filename, names=_axis_names(problems[0]))
+    # every panel already has its axes (plot_mmv); a second orientation widget on the last panel left
+    # the first one observing camera events of a freed renderer: VTK segfaulted inside render() in
+    # vtkOrientationMarkerWidget::ExecuteCameraUpdateEvent → vtkRenderer::GetActiveCamera (gdb)
+    return _finish(p, filename, axes=False)
 
 
 # -- matplotlib ------------------------------------------------------------------------------------
@@ -281,8 +284,9 @@ def _figure(ax, figsize=(7, 4)):
 
 def _save(fig, filename):
     if filename is not None:
-        Path(filename).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(filename, dpi=110)
+        from ._io import atomic_path
+
+        atomic_path(filename, lambda tmp: fig.savefig(tmp, dpi=110))
 
 
 def plot_sensitivities(problem, *, ax=None, filename=None):
