@@ -337,6 +337,62 @@ def test_vertex_sweep_declines_ties_and_the_fallback_is_exact():
     assert rows(Z.vertices, 9) == rows(P[ConvexHull(P).vertices], 9)
 
 
+# The bug report: g₀ = g₁ + 1.19e-7·e_x, so g₀, g₁, g₃ are exactly coplanar (g₃ − g₁ ∥ e_x) while
+# g₀ and g₁ are 1.5e-6 rad apart (kept apart by tol.parallel).
+_BUG_G = np.array([[1.19e-7, 0.0547, 0.0547], [0, 0.0547, 0.0547], [0.0547, 0.0547, 0], [0.0547] * 3])
+
+
+def _same_points(a, b, atol):
+    """Equal point sets up to ``atol`` (a bijection: same count, every point has a partner)."""
+    if a.shape != b.shape:
+        return False
+    D = np.linalg.norm(a[:, None] - b[None], axis=2)
+    return bool(D.min(axis=0).max() <= atol and D.min(axis=1).max() <= atol)
+
+
+def test_exactly_coplanar_triple_with_a_near_parallel_pair():
+    """Both vertex methods returned 14 points where the hull of the 16 corners has 12 (old code):
+    in the sweep of g₀ the nearly parallel g₁ projects onto a 1e-7 stub whose angle is rounded by
+    2.8e-11 rad > tol.coplanar, so the exact plane {0, 1, 3} became three parallelograms and its
+    interior point a false ± vertex. The angle test now allows for the rounding of each angle."""
+    Z = Zonotope(_BUG_G)
+    P = corners(_BUG_G)
+    truth = P[ConvexHull(P).vertices]
+    assert truth.shape[0] == 12
+    assert [list(S) for S in Z._facets.members] == [[0, 1, 3]]
+    for V in (Z._vertices_sweep(), Z._vertices_by_keys(), Z.vertices):
+        assert V is not None and _same_points(V, truth, 1e-15)
+    mesh = Z.to_trimesh()
+    assert Z.mesh_method == "facets" and mesh.is_watertight and mesh.volume == pytest.approx(Z.volume)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    arrays(np.float64, st.tuples(st.integers(3, 6), st.just(3)), elements=st.sampled_from([-2.0, -1, 0, 1, 2])),
+    st.integers(0, 5),
+    st.integers(0, 2),
+    st.sampled_from([-1e-4, -1e-5, -2e-6, 2e-6, 1e-5, 1e-4]),
+    st.floats(1e-3, 1e3),
+)
+def test_vertices_equal_hull_of_near_degenerate_generators(L, row, col, delta, scale):
+    """Small-integer generators (exactly parallel pairs, exactly coplanar triples) plus a copy of
+    one of them with one entry moved by ``delta`` (a near-parallel pair, ≥ 2e-6 rad apart, as in
+    the bug report). Every determinant is the lattice's or δ × an integer minor, so the truth is
+    unambiguous: both vertex methods give exactly the vertices of the brute-force hull of all 2ⁿ
+    subset sums."""
+    extra = L[row % L.shape[0]].copy()
+    extra[col] += delta
+    G = np.vstack([L, extra]) * scale
+    assume(np.linalg.matrix_rank(L) == 3)
+    Z = Zonotope(G)
+    P = corners(G)
+    truth = P[ConvexHull(P).vertices]
+    for V in (Z._vertices_sweep(), Z._vertices_by_keys()):
+        if V is not None:  # the sweep may decline (ties with its fixed directions)
+            assert _same_points(V, truth, 1e-12 * scale)
+    assert Z.volume == pytest.approx(ConvexHull(P).volume, rel=1e-12)
+
+
 def _near_coplanar(phi, order):
     """Three unit generators, the third tilted ``phi`` rad out of the plane of the first two
     (their row angles differ ~10×: 10·phi in two sweeps, ~phi in the third), plus four generic."""

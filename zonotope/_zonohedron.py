@@ -18,7 +18,7 @@ from itertools import combinations
 
 import numpy as np
 
-from ._tol import Tolerances
+from ._tol import ANGLE_ROUNDING, Tolerances
 
 
 @dataclass(frozen=True)
@@ -155,8 +155,18 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     E1 -= A * np.einsum("ij,ij->i", A, E1)[:, None]
     E1 /= np.linalg.norm(E1, axis=1, keepdims=True)
     E2 = np.cross(A, E1)
-    ang = np.arctan2(E2 @ H.T, E1 @ H.T)
+    P1, P2 = E1 @ H.T, E2 @ H.T
+    ang = np.arctan2(P2, P1)
     ang[np.arange(p), np.arange(p)] = np.inf  # self sorts last and is cut off
+    # Rounding of the row angles: the projection of h_k onto h_i⊥ has length |h_k|·s_ik
+    # (s_ik = sin of their angle) and an absolute error of a few ε·|h_k|, so θ_k in row i is
+    # only good to ≈ ε / s_ik. For nearly parallel generators (s ≈ 1e-6) that exceeds ``tol``:
+    # the old fixed window missed exactly coplanar triples (14 vertices instead of 12). A
+    # generator counts as coplanar when its angle is within ``tol`` *or within rounding*.
+    s = np.hypot(P1, P2) / np.linalg.norm(H, axis=1)[None, :]
+    s[np.arange(p), np.arange(p)] = np.inf
+    noise = ANGLE_ROUNDING / s  # (p, p): rounding of θ_k in row i
+    row_noise = noise.max(axis=1, where=np.isfinite(noise), initial=0.0)
     order = np.argsort(ang, axis=1)[:, :m]
     a_s = np.take_along_axis(ang, order, axis=1)  # (p, m)
     rows = np.arange(p)[:, None]
@@ -171,8 +181,10 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     jj = order[ii, tt]
     th = a_s[ii, tt]
     base_row = ii * m
-    lo = np.searchsorted(flat_as, th + tol + big * ii, "right") - base_row
-    x = th + np.pi - tol
+    # per-pair window: tol plus the rounding of θ_j and of the noisiest angle of the row
+    win = tol + noise[ii, jj] + row_noise[ii]
+    lo = np.searchsorted(flat_as, th + win + big * ii, "right") - base_row
+    x = th + np.pi - win
     wrap = x > np.pi
     hi = np.searchsorted(flat_as, x - two_pi * wrap + big * ii, "left") - base_row + m * wrap
     hi1, hi2 = np.minimum(hi, m), np.maximum(hi - m, 0)
@@ -187,13 +199,13 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     prev = np.where(tt > 0, a_s[ii, tt - 1], a_s[ii, m - 1] - two_pi)
     after = np.where(tt + 1 < m, a_s[ii, np.minimum(tt + 1, m - 1)], a_s[ii, 0] + two_pi)
     nxt = np.where(hi < 2 * m, a_s[ii, hi % m] + two_pi * (hi >= m), np.inf)
-    flag = (lo > tt + 1) | (th - prev <= tol) | (after - th <= tol) | (nxt <= th + np.pi + tol)
+    flag = (lo > tt + 1) | (th - prev <= win) | (after - th <= win) | (nxt <= th + np.pi + win)
     th = th + big * ii
     zonogons, planes = [], []
     keep = np.ones(ii.size, dtype=bool)
     deg = np.nonzero(flag)[0]
     if deg.size:
-        planes = _coplanar_classes(deg, ii, jj, th, flat_as, order.ravel(), tol)
+        planes = _coplanar_classes(deg, ii, jj, th, flat_as, order.ravel(), win, tol, noise)
         if planes:
             pid = ii * p + jj
             inside = np.concatenate([np.array([a * p + b for a, b in combinations(S, 2)]) for S in planes])
@@ -222,33 +234,39 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     )
 
 
-def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, tol) -> list[list[int]]:
+def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, win, tol, noise) -> list[list[int]]:
     """Coplanar generator sets (≥ 3) from the flagged pairs, with one decision per triple.
 
     A plane's generator set is decided once, in the sweep of its smallest generator i: with j
-    the smallest other member, S = {i} ∪ {k : angle of k within ``tol`` of θ_j modulo π}. The
+    the smallest other member, S = {i} ∪ {k : angle of k within ``tol`` of θ_j modulo π, plus
+    the rounding ``noise[i, j] + noise[i, k]`` of the two angles}. Candidates come from the
+    per-pair windows ``win`` (≥ every such bound in the row). The
     sweeps of the other members are not asked: their angle tests can disagree with row i's near
     the tolerance (between 1e-12 and 1e-11 rad on near-coplanar data), which used to drop or
     double a facet. Every pair inside S belongs to the zonogon and to no parallelogram; a pair
     claimed by two sets (tolerances chaining through near-parallel generators) stays with the
     first, and the vertex sweep's pair count then hands over to key deduplication.
     """
-    thd = th[deg]
+    thd, wd = th[deg], win[deg]
+    ti, tj = ii[deg], jj[deg]
     di, dk = [], []
     for c in (0.0, 2.0 * np.pi, -2.0 * np.pi, np.pi, -np.pi):
-        a = np.searchsorted(flat_as, thd + c - tol, "left")
-        b = np.searchsorted(flat_as, thd + c + tol, "right")
+        a = np.searchsorted(flat_as, thd + c - wd, "left")
+        b = np.searchsorted(flat_as, thd + c + wd, "right")
         cnt = np.maximum(b - a, 0)
         total = int(cnt.sum())
         if total == 0:
             continue
         pos = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt) + np.repeat(a, cnt)
-        di.append(np.repeat(np.arange(deg.size), cnt))
-        dk.append(g_flat[pos])
+        e = np.repeat(np.arange(deg.size), cnt)
+        k = g_flat[pos]
+        # the decision for this triple: tol plus the rounding of both row angles
+        ok = np.abs(flat_as[pos] - thd[e] - c) <= tol + noise[ti[e], tj[e]] + noise[ti[e], k]
+        di.append(e[ok])
+        dk.append(k[ok])
     if not di:
         return []
     di, tk = np.concatenate(di), np.concatenate(dk)
-    ti, tj = ii[deg], jj[deg]
     low = np.full(deg.size, np.iinfo(np.int64).max)
     np.minimum.at(low, di, tk)
     # the plane's smallest generator i sweeps it; its second smallest j names the pair (i, j)
