@@ -368,7 +368,9 @@ def test_exactly_coplanar_triple_with_a_near_parallel_pair():
 
 @settings(max_examples=60, deadline=None)
 @given(
-    arrays(np.float64, st.tuples(st.integers(3, 6), st.just(3)), elements=st.sampled_from([-2.0, -1, 0, 1, 2])),
+    arrays(
+        np.float64, st.tuples(st.integers(3, 6), st.just(3)), elements=st.sampled_from([-2.0, -1, 0, 1, 2])
+    ),
     st.integers(0, 5),
     st.integers(0, 2),
     st.sampled_from([-1e-4, -1e-5, -2e-6, 2e-6, 1e-5, 1e-4]),
