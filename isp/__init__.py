@@ -41,7 +41,7 @@ from .dng import (
 )
 from .exif import output_tags, srgb_icc_profile
 from .io import write_image
-from .metamer import MetamerCorrection, metamer_correction
+from .metamer import MetamerConfig, MetamerCorrection, metamer_correction
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
 from .raw import CFA_PATTERNS, RawImage, read_raw
 from .stages import (
@@ -69,6 +69,7 @@ __all__ = [
     "DNGMetadata",
     "DNGProfile",
     "Development",
+    "MetamerConfig",
     "MetamerCorrection",
     "Pipeline",
     "PipelineError",
@@ -133,6 +134,7 @@ _LAZY = {
     "profile_fit": [
         "DCP_DEFAULT_DIMS",
         "LOOK_TABLE_DEFAULT_DIMS",
+        "ProfileConfig",
         "ProfileFit",
         "fit_dcp",
         "fit_hue_sat_map",

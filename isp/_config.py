@@ -3,12 +3,19 @@
 ``write_dng(path, mosaic, metadata, **fields)`` and ``simulate_capture(image, setup, sensor,
 **options)`` accept a frozen dataclass, the same fields as keywords, or both (keywords override the
 object's fields). Unknown or missing fields are :class:`~isp.PipelineError` s naming them.
+:func:`~isp.metamer_correction` (:class:`~isp.MetamerConfig`) and :func:`~isp.fit_dcp`
+(:class:`~isp.ProfileConfig`) work the same way; the options they pass on to a ``zonotope.correct``
+estimator are one field, ``estimator_options`` (a mapping), so that every other keyword is checked.
+The ``check_*`` helpers below are what the configs' ``__post_init__`` use.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, fields, replace
 from typing import Any, TypeVar
+
+import numpy as np
 
 from ._errors import PipelineError
 
@@ -35,3 +42,40 @@ def with_options(cls: type[T], config: T | None, options: dict[str, Any], *, whe
     if not isinstance(config, cls):
         raise PipelineError(f"{where}: expected a {cls.__name__}; got {type(config).__name__}.")
     return replace(config, **options) if options else config
+
+
+def check_number(owner: str, name: str, value, ok: Callable[[float], bool], allowed: str) -> float:
+    """``float(value)`` if it is a real number (not a bool) for which ``ok`` holds, else a PipelineError."""
+    try:
+        numeric = isinstance(value, int | float | np.number) and not isinstance(value, bool)
+        good = numeric and bool(ok(float(value)))
+    except (TypeError, ValueError, OverflowError):
+        good = False
+    if not good:
+        raise PipelineError(f"{owner}.{name}={value!r}: {allowed}.")
+    return float(value)
+
+
+def check_int(owner: str, name: str, value, *, minimum: int, maximum: int | None = None) -> int:
+    """``int(value)`` if it is an integer in ``[minimum, maximum]`` (not a bool), else a PipelineError."""
+    ok = hasattr(value, "__index__") and not isinstance(value, bool)
+    if not ok or int(value) < minimum or (maximum is not None and int(value) > maximum):
+        where = f"≥ {minimum}" if maximum is None else f"in {minimum}…{maximum}"
+        raise PipelineError(f"{owner}.{name}={value!r}: give an integer {where}.")
+    return int(value)
+
+
+def check_options(owner: str, name: str, value) -> dict[str, Any]:
+    """A copy of ``value`` (a dict, so configs stay picklable) if it is a mapping with string keys,
+    else a PipelineError.
+
+    Used for ``estimator_options``: keywords passed on to an estimator's fitting function, kept
+    apart from the config's own fields so that a misspelt field is refused, not passed on.
+    """
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
+        raise PipelineError(
+            f"{owner}.{name}={value!r}: give a mapping of keyword names to values, e.g. {{'noise': 0.01}}."
+        )
+    return dict(value)

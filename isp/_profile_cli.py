@@ -17,10 +17,10 @@ def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from zonotope import ZonotopeError
-    from zonotope.profile import correction_LUT, save_correction, write_correction_LUT
+    from zonotope.profile import LUTConfig, correction_LUT, save_correction, write_correction_LUT
 
     from .dcp import write_dcp
-    from .profile_fit import fit_dcp
+    from .profile_fit import ProfileConfig, fit_dcp
 
     console = Console(stderr=True)
     out = Path(args.output)
@@ -38,19 +38,23 @@ def _profile(args: argparse.Namespace) -> int:
         raise ZonotopeError(
             f"--look-table-size {' '.join(map(str, look))}: need hues ≥ 1, saturations ≥ 2, values ≥ 1."
         )
+    # both configs are checked before the (long) fit starts
+    config = ProfileConfig(
+        method=args.method,
+        illuminants=tuple(args.illuminants),
+        training=args.training,
+        dims=dims,
+        look_table_dims=look,
+        unique_camera_model=args.unique_camera_model,
+        profile_name=args.profile_name,
+        copyright=args.copyright or "",
+        embed_policy=args.embed_policy,
+    )
+    lut_config = None
+    if args.lut:
+        lut_config = LUTConfig(size=args.lut_size, space=args.lut_space, headroom=args.headroom)
     with console.status(f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
-        fit = fit_dcp(
-            args.camera,
-            method=args.method,
-            illuminants=args.illuminants,
-            training=args.training,
-            dims=dims,
-            look_table_dims=look,
-            unique_camera_model=args.unique_camera_model,
-            profile_name=args.profile_name,
-            copyright=args.copyright or "",
-            embed_policy=args.embed_policy,
-        )
+        fit = fit_dcp(args.camera, config)
     write_dcp(out, fit.profile, overwrite=args.overwrite)
     console.print(
         f"camera profile written to {out} (UniqueCameraModel {fit.profile.unique_camera_model!r}, "
@@ -60,7 +64,7 @@ def _profile(args: argparse.Namespace) -> int:
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
         with console.status(f"sampling a {args.lut_size}³ LUT…"):
-            lut = correction_LUT(mc, size=args.lut_size, space=args.lut_space, headroom=args.headroom)
+            lut = correction_LUT(mc, lut_config)
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
             f"3-D LUT written to {args.lut} (white-balanced camera RGB under "

@@ -46,7 +46,7 @@ _METAMER_OPTIONS = {
 
 def _metamer(args: argparse.Namespace):
     """The fitted metamer correction, or an error message (exit 2) when the options are wrong."""
-    from .metamer import metamer_correction
+    from .metamer import MetamerConfig, metamer_correction
 
     if args.correction != "metamer":
         given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]
@@ -70,14 +70,15 @@ def _metamer(args: argparse.Namespace):
         return None, (
             f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just saturates)."
         )
-    corr = metamer_correction(
-        args.camera,
-        method=args.method or "Prior",
-        illuminant=args.illuminant or "D65",
-        training=args.training or "rawtoaces 190",
-        white_level=1.0 if args.scene_white is None else args.scene_white,
-        quantum=2e-3 if args.quantum is None else args.quantum,
+    defaults = MetamerConfig()
+    config = MetamerConfig(
+        method=args.method or defaults.method,
+        illuminant=args.illuminant or defaults.illuminant,
+        training=args.training or defaults.training,
+        white_level=defaults.white_level if args.scene_white is None else args.scene_white,
+        quantum=defaults.quantum if args.quantum is None else args.quantum,
     )
+    corr = metamer_correction(args.camera, config)
     return corr, None
 
 

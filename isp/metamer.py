@@ -13,8 +13,9 @@ so ``import isp`` stays light. (Split out of :mod:`isp.pipeline`, which knows no
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
     from zonotope import ProgressCallback
     from zonotope.correct import Corrector
 
-__all__ = ["METAMER_RANGE", "MetamerCorrection", "metamer_correction"]
+__all__ = ["METAMER_RANGE", "MetamerConfig", "MetamerCorrection", "metamer_correction"]
 
 
 #: Default wavelength range (nm) and step of the metamer correction fit: 31 samples keep fitting
@@ -144,17 +145,83 @@ class MetamerCorrection:
         return XYZ * (over * self.white_level)
 
 
+@dataclass(frozen=True)
+class MetamerConfig:
+    """The options of :func:`metamer_correction`, checked when the object is made.
+
+    Attributes
+    ----------
+    method : str
+        Estimator (key or alias of ``zonotope.correct.CORRECTION_METHODS``; default ``"Prior"``).
+    illuminant : str or colour.SpectralDistribution
+        Scene illuminant of the fit (name or SD); should match the light the file's white balance
+        was set for.
+    training : str, path or colour.MultiSpectralDistributions
+        Training reflectances: built-in set name, a file readable by ``zonotope.read_reflectances``
+        or an MSDS.
+    target : str
+        Observer of the XYZ output; CIE 1931 2° (default) is the one of sRGB and DNG.
+    shape : colour.SpectralShape or array_like, optional
+        Wavelength grid; default 400–700 nm every 10 nm (:data:`METAMER_RANGE`), narrowed to the
+        range all curves cover.
+    white_level : float
+        White-balanced response of a perfect white reflector in the image, > 0 (default 1).
+    quantum : float
+        Deduplication step in response units (white = 1), ≥ 0; 0 for exact deduplication only.
+    batch_size : int
+        Distinct colours per call of the estimator, ≥ 1.
+    estimator_options : mapping of str to object
+        Keywords passed on to the estimator's fitting function (e.g. ``{"noise": 0.01}``); kept
+        apart so that a misspelt field of this config is refused instead of passed on.
+
+    Raises
+    ------
+    PipelineError
+        A field out of range (named, with what is allowed).
+    """
+
+    method: str = "Prior"
+    illuminant: Any = "D65"
+    training: Any = "rawtoaces 190"
+    target: Any = "CIE 1931 2°"
+    shape: Any = None
+    white_level: float = 1.0
+    quantum: float = 2e-3
+    batch_size: int = 64
+    estimator_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from ._config import check_int, check_number, check_options
+
+        owner = "MetamerConfig"
+        if not (isinstance(self.method, str) and self.method.strip()):
+            raise PipelineError(f"{owner}.method={self.method!r}: give an estimator name, e.g. 'Prior'.")
+        check_number(
+            owner,
+            "white_level",
+            self.white_level,
+            lambda v: np.isfinite(v) and v > 0,
+            "must be a positive number (the response of a perfect white reflector after white "
+            "balance, 1 when it just saturates)",
+        )
+        check_number(
+            owner, "quantum", self.quantum, lambda v: np.isfinite(v) and v >= 0, "give a finite number ≥ 0"
+        )
+        check_int(owner, "batch_size", self.batch_size, minimum=1)
+        opts = check_options(owner, "estimator_options", self.estimator_options)
+        clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training"})
+        if clash:
+            raise PipelineError(
+                f"{owner}.estimator_options: {', '.join(clash)} are fields of {owner} itself; "
+                "set them there, not in estimator_options."
+            )
+        object.__setattr__(self, "estimator_options", opts)
+
+
 def metamer_correction(
     camera,
+    config: MetamerConfig | None = None,
     *,
-    method: str = "Prior",
-    illuminant="D65",
-    training="rawtoaces 190",
-    target="CIE 1931 2°",
-    shape=None,
-    white_level: float = 1.0,
-    quantum: float = 2e-3,
-    batch_size: int = 64,
     progress: ProgressCallback | None = None,
     **options,
 ) -> MetamerCorrection:
@@ -170,23 +237,15 @@ def metamer_correction(
     camera
         Built-in camera name (``zonotope.list_builtin()["cameras"]``), a camera file readable by
         ``zonotope.read_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
-    method
-        Estimator (key or alias of ``zonotope.correct.CORRECTION_METHODS``; default ``"Prior"``).
-    illuminant
-        Scene illuminant of the fit (name or SD); should match the light the file's white balance
-        was set for.
-    training
-        Training reflectances: built-in set name, a file readable by ``zonotope.read_reflectances``
-        or an MSDS.
-    target
-        Observer of the XYZ output; CIE 1931 2° (default) is the one of sRGB and DNG.
-    shape
-        Wavelength grid; default 400–700 nm every 10 nm (:data:`METAMER_RANGE`), narrowed to the
-        range all curves cover.
-    white_level, quantum, batch_size, progress
+    config
+        The options (:class:`MetamerConfig`: method, illuminant, training, target, shape,
+        white_level, quantum, batch_size, estimator_options); default all defaults.
+    progress
         See :class:`MetamerCorrection`.
     **options
-        Passed to the estimator's fitting function (e.g. ``noise=0.01``).
+        Fields of :class:`MetamerConfig` as keywords (override those of ``config``), e.g.
+        ``method="MAP", quantum=0``; the estimator's own options go in ``estimator_options``
+        (e.g. ``estimator_options={"noise": 0.01}``).
 
     Returns
     -------
@@ -194,9 +253,11 @@ def metamer_correction(
 
     Raises
     ------
+    PipelineError
+        A bad option (named), or a camera without exactly 3 channels.
     ValueError
         Unknown method, camera, illuminant or training set (``zonotope.SpectralDataError`` is a
-        ValueError), an unreadable file, or a camera without exactly 3 channels.
+        ValueError), an unreadable file.
     FileNotFoundError
         A camera or training file that does not exist.
     """
@@ -205,8 +266,12 @@ def metamer_correction(
     import zonotope
     from zonotope.correct import fit_correction
 
+    from ._config import with_options
+
+    cfg = with_options(MetamerConfig, config, options, where="metamer_correction")
+    target, illuminant, shape = cfg.target, cfg.illuminant, cfg.shape
     cam = zonotope.load_camera(camera)
-    train = zonotope.load_reflectances(training)
+    train = zonotope.load_reflectances(cfg.training)
     if shape is None:
         lo, hi, step = METAMER_RANGE
         curves = [cam, zonotope.observer(target), zonotope.illuminant(illuminant)]
@@ -215,7 +280,13 @@ def metamer_correction(
         common = zonotope.common_shape(*curves, interval=step)
         shape = np.arange(max(common.start, lo), min(common.end, hi) + step / 2, step)
     corrector = fit_correction(
-        cam, method=method, target=target, illuminant=illuminant, shape=shape, training=train, **options
+        cam,
+        method=cfg.method,
+        target=target,
+        illuminant=illuminant,
+        shape=shape,
+        training=train,
+        **cfg.estimator_options,
     )
     if corrector.problem.k != 3:
         raise PipelineError(
@@ -224,9 +295,9 @@ def metamer_correction(
     white = zonotope.generators(cam, illuminant, corrector.problem.wavelengths, normalise=None).values.sum(0)
     return MetamerCorrection(
         corrector,
-        quantum=quantum,
-        batch_size=batch_size,
+        quantum=cfg.quantum,
+        batch_size=cfg.batch_size,
         progress=progress,
-        white_level=white_level,
+        white_level=cfg.white_level,
         neutral=white / white.max(),
     )

@@ -29,8 +29,9 @@ added for the LookTable. All are physically possible object colours at the white
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import colour
 import numpy as np
@@ -43,6 +44,7 @@ from .simulate import ILLUMINANT_LIGHT_SOURCE
 __all__ = [
     "DCP_DEFAULT_DIMS",
     "LOOK_TABLE_DEFAULT_DIMS",
+    "ProfileConfig",
     "ProfileFit",
     "fit_dcp",
     "fit_hue_sat_map",
@@ -339,24 +341,153 @@ def _light_source(name: str) -> int:
     return code
 
 
+def _dims(owner: str, name: str, value) -> tuple[int, int, int] | None:
+    """A table size ``(hues, saturations, values)`` as a tuple of ints, or a PipelineError."""
+    if value is None:
+        return None
+    try:
+        dims = tuple(value)
+    except TypeError:
+        dims = ()
+    ok = len(dims) == 3 and all(hasattr(d, "__index__") and not isinstance(d, bool) for d in dims)
+    if ok:
+        H, S, V = (int(d) for d in dims)
+        ok = H >= 1 and S >= 2 and V >= 1
+    if not ok:
+        raise PipelineError(
+            f"{owner}.{name}={value!r}: give (hues, saturations, values) integers with hues ≥ 1, "
+            "saturations ≥ 2, values ≥ 1; or None for no table."
+        )
+    return (H, S, V)
+
+
+@dataclass(frozen=True)
+class ProfileConfig:
+    """The options of :func:`fit_dcp`, checked when the object is made (the ``isp profile`` CLI
+    builds one from its options before any fitting starts).
+
+    Attributes
+    ----------
+    method : str
+        ``zonotope.correct`` estimator (default ``"Prior"``).
+    illuminants : tuple of two str
+        The two calibration illuminants (names of :data:`isp.simulate.ILLUMINANT_LIGHT_SOURCE`),
+        lower CCT first by convention.
+    training : str, path or colour.MultiSpectralDistributions
+        Training reflectances of the estimator and of the ColorMatrix.
+    dims : tuple of three int, optional
+        ProfileHueSatMap divisions (hue ≥ 1, saturation ≥ 2, value ≥ 1; 1 for the usual
+        2.5-D table); None for no HueSatMap.
+    look_table_dims : tuple of three int, optional
+        ProfileLookTable divisions (hue ≥ 1, saturation ≥ 2, value ≥ 1); None for no LookTable.
+        With ``dims=None, look_table_dims=None`` the profile is matrix-only.
+    look_table_encoding : int
+        ProfileLookTableEncoding: 1 (default) sRGB-encoded value axis, more nodes in the shadows;
+        0 linear.
+    atypical_weight : float
+        Total weight of the random smooth reflectances in the LookTable fit relative to the
+        natural ones' (default 1: equal), finite ≥ 0.
+    unique_camera_model : str, optional
+        The string a raw developer matches against the file's camera model (e.g. ``"Canon EOS
+        550D"``); default the camera's name.
+    profile_name, copyright : str
+        ProfileName (default ``"<camera> <method> (zonotope)"``), ProfileCopyright.
+    embed_policy : int
+        ProfileEmbedPolicy 0…3 (3 = no restrictions).
+    n_random, seed : int
+        Random smooth reflectances added to the fitting set (:func:`profile_reflectances`), ≥ 0.
+    smoothness : float
+        See :func:`fit_hue_sat_map`, finite ≥ 0.
+    unbiased_saturation : float
+        Rings of both tables up to this saturation, in [0, 1] (default 0.35: 10 of the
+        HueSatMap's 30), are kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a
+        per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. Measured on
+        the simulated Sigma SD Merrill chart (noisy): dark grey patches 1.5–2.0 → 0.6 ΔE00, mean
+        1.57 → 1.37; noise-free the natural sets move by ≤ 0.01. 0 switches it off.
+    estimator_options : mapping of str to object
+        Keywords of the estimator's fitting function (e.g. ``{"noise": 0.01}``), passed on through
+        :class:`isp.MetamerConfig`.
+
+    Raises
+    ------
+    PipelineError
+        A field out of range or of the wrong kind (named, with what is allowed).
+    """
+
+    method: str = "Prior"
+    illuminants: Sequence[str] = ("A", "D65")
+    training: Any = "rawtoaces 190"
+    dims: Sequence[int] | None = DCP_DEFAULT_DIMS
+    look_table_dims: Sequence[int] | None = LOOK_TABLE_DEFAULT_DIMS
+    look_table_encoding: int = 1
+    atypical_weight: float = 1.0
+    unique_camera_model: str | None = None
+    profile_name: str | None = None
+    copyright: str = ""
+    embed_policy: int = 3
+    n_random: int = 1500
+    seed: int = 0
+    smoothness: float = 1e-3
+    unbiased_saturation: float = 0.35
+    estimator_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from ._config import check_int, check_number, check_options
+        from .metamer import MetamerConfig
+
+        owner = "ProfileConfig"
+        if not (isinstance(self.method, str) and self.method.strip()):
+            raise PipelineError(f"{owner}.method={self.method!r}: give an estimator name, e.g. 'Prior'.")
+        ills = (self.illuminants,) if isinstance(self.illuminants, str) else tuple(self.illuminants)
+        if len(ills) != 2:
+            raise PipelineError(f"{owner}.illuminants={ills}: give exactly two calibration illuminants.")
+        for i in ills:
+            _light_source(i)
+        object.__setattr__(self, "illuminants", ills)
+        object.__setattr__(self, "dims", _dims(owner, "dims", self.dims))
+        object.__setattr__(self, "look_table_dims", _dims(owner, "look_table_dims", self.look_table_dims))
+        if self.look_table_encoding not in (0, 1) or isinstance(self.look_table_encoding, bool):
+            raise PipelineError(
+                f"{owner}.look_table_encoding={self.look_table_encoding!r}: 0 (linear) or 1 "
+                "(sRGB-encoded value axis)."
+            )
+        check_number(
+            owner,
+            "atypical_weight",
+            self.atypical_weight,
+            lambda v: np.isfinite(v) and v >= 0,
+            "give a finite weight ≥ 0",
+        )
+        for name in ("unique_camera_model", "profile_name", "copyright"):
+            v = getattr(self, name)
+            if not (isinstance(v, str) or (v is None and name != "copyright")):
+                raise PipelineError(f"{owner}.{name}={v!r}: give a text (ASCII, as DCP tags are).")
+        check_int(owner, "embed_policy", self.embed_policy, minimum=0, maximum=3)
+        check_int(owner, "n_random", self.n_random, minimum=0)
+        check_int(owner, "seed", self.seed, minimum=0)
+        check_number(
+            owner,
+            "smoothness",
+            self.smoothness,
+            lambda v: np.isfinite(v) and v >= 0,
+            "give a finite number ≥ 0",
+        )
+        check_number(
+            owner,
+            "unbiased_saturation",
+            self.unbiased_saturation,
+            lambda v: 0.0 <= v <= 1.0,
+            "give a saturation in [0, 1] (0: no rings held)",
+        )
+        opts = check_options(owner, "estimator_options", self.estimator_options)
+        MetamerConfig(estimator_options=opts)  # the same checks as the estimator will apply
+        object.__setattr__(self, "estimator_options", opts)
+
+
 def fit_dcp(
     camera,
+    config: ProfileConfig | None = None,
     *,
-    method: str = "Prior",
-    illuminants: Sequence[str] = ("A", "D65"),
-    training="rawtoaces 190",
-    dims: Sequence[int] | None = DCP_DEFAULT_DIMS,
-    look_table_dims: Sequence[int] | None = LOOK_TABLE_DEFAULT_DIMS,
-    look_table_encoding: int = 1,
-    atypical_weight: float = 1.0,
-    unique_camera_model: str | None = None,
-    profile_name: str | None = None,
-    copyright: str = "",
-    embed_policy: int = 3,
-    n_random: int = 1500,
-    seed: int = 0,
-    smoothness: float = 1e-3,
-    unbiased_saturation: float = 0.35,
     corrections: Sequence | None = None,
     **options,
 ) -> ProfileFit:
@@ -366,43 +497,15 @@ def fit_dcp(
     ----------
     camera
         Built-in camera name, camera file (rawtoaces JSON / CSV) or colour MSDS.
-    method
-        ``zonotope.correct`` estimator (default ``"Prior"``).
-    illuminants
-        The two calibration illuminants (names of :data:`isp.simulate.ILLUMINANT_LIGHT_SOURCE`),
-        lower CCT first by convention.
-    training
-        Training reflectances of the estimator and of the ColorMatrix.
-    dims
-        ProfileHueSatMap divisions (hue, saturation, 1); None for no HueSatMap.
-    look_table_dims
-        ProfileLookTable divisions (hue, saturation, value); None for no LookTable. With
-        ``dims=None, look_table_dims=None`` the profile is matrix-only.
-    look_table_encoding
-        ProfileLookTableEncoding: 1 (default) sRGB-encoded value axis, more nodes in the shadows;
-        0 linear.
-    atypical_weight
-        Total weight of the random smooth reflectances in the LookTable fit relative to the
-        natural ones' (default 1: equal).
-    unique_camera_model
-        The string a raw developer matches against the file's camera model (e.g. ``"Canon EOS
-        550D"``); default the camera's name.
-    profile_name, copyright, embed_policy
-        ProfileName, ProfileCopyright, ProfileEmbedPolicy (3 = no restrictions).
-    n_random, seed
-        Random smooth reflectances added to the fitting set (:func:`profile_reflectances`).
-    smoothness
-        See :func:`fit_hue_sat_map`.
-    unbiased_saturation
-        Rings of both tables up to this saturation (default 0.35: 10 of the HueSatMap's 30) are
-        kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a per-pixel table applied
-        to noisy near-grey pixels otherwise shifts their mean. Measured on the simulated Sigma SD
-        Merrill chart (noisy): dark grey patches 1.5–2.0 → 0.6 ΔE00, mean 1.57 → 1.37; noise-free
-        the natural sets move by ≤ 0.01. 0 switches it off.
+    config
+        The options (:class:`ProfileConfig`); default all defaults.
     corrections
-        Already fitted :class:`isp.MetamerCorrection` objects, one per illuminant (skip fitting).
+        Already fitted :class:`isp.MetamerCorrection` objects, one per illuminant (skip fitting;
+        then ``method``, ``training`` and ``estimator_options`` are not used).
     **options
-        Passed to :func:`isp.metamer_correction` (e.g. ``noise=0.01``).
+        Fields of :class:`ProfileConfig` as keywords (override those of ``config``), e.g.
+        ``method="MAP", n_random=300``; the estimator's own options go in ``estimator_options``
+        (e.g. ``estimator_options={"noise": 0.01}``).
 
     Returns
     -------
@@ -425,27 +528,26 @@ def fit_dcp(
     camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical colours moves along
     the value axis; natural colours are not affected.
     """
-    from . import metamer_correction
+    from ._config import with_options
+    from .metamer import MetamerConfig, metamer_correction
 
-    if len(illuminants) != 2:
-        raise PipelineError(f"illuminants={tuple(illuminants)}: give exactly two calibration illuminants.")
-    if not (np.isfinite(atypical_weight) and atypical_weight >= 0):
-        raise PipelineError(f"atypical_weight={atypical_weight!r}: give a finite weight ≥ 0.")
-    if look_table_encoding not in (0, 1):
-        raise PipelineError(
-            f"look_table_encoding={look_table_encoding!r}: 0 (linear) or 1 (sRGB-encoded value axis)."
-        )
+    cfg = with_options(ProfileConfig, config, options, where="fit_dcp")
+    illuminants, dims, look_table_dims = cfg.illuminants, cfg.dims, cfg.look_table_dims
+    atypical_weight, look_table_encoding = cfg.atypical_weight, cfg.look_table_encoding
+    smoothness, unbiased_saturation = cfg.smoothness, cfg.unbiased_saturation
     codes = [_light_source(i) for i in illuminants]
     if corrections is None:
         corrections = [
             metamer_correction(
                 camera,
-                method=method,
-                illuminant=i,
-                training=training,
-                quantum=0.0,
-                target="CIE 1931 2°",
-                **options,
+                MetamerConfig(
+                    method=cfg.method,
+                    illuminant=i,
+                    training=cfg.training,
+                    quantum=0.0,
+                    target="CIE 1931 2°",
+                    estimator_options=cfg.estimator_options,
+                ),
             )
             for i in illuminants
         ]
@@ -460,7 +562,7 @@ def fit_dcp(
         w = prob.wavelengths
         if R_all is None:
             R_all, nat = profile_reflectances(
-                w, prob.training, n_random=n_random, seed=seed, return_natural=True
+                w, prob.training, n_random=cfg.n_random, seed=cfg.seed, return_natural=True
             )
         elif R_all.shape[1] != w.size:
             raise PipelineError("the corrections of both illuminants must share one wavelength grid.")
@@ -523,10 +625,10 @@ def fit_dcp(
         hue_sat_map_2=HSM[1] if HSM else None,
         look_table=look,
         look_table_encoding=look_table_encoding if look is not None else 0,
-        profile_name=profile_name or f"{name} {corrections[0].method} (zonotope)",
-        unique_camera_model=unique_camera_model or str(name),
-        copyright=copyright,
-        embed_policy=embed_policy,
+        profile_name=cfg.profile_name or f"{name} {corrections[0].method} (zonotope)",
+        unique_camera_model=cfg.unique_camera_model or str(name),
+        copyright=cfg.copyright,
+        embed_policy=cfg.embed_policy,
     )
     return ProfileFit(
         profile=profile,

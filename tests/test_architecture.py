@@ -183,3 +183,67 @@ def test_isp_reexports_every_public_name(module):
     missing = [n for n in mod.__all__ if n not in isp.__all__]
     assert not missing, f"isp.{module} names missing from isp.__all__: {missing}"
     assert all(getattr(isp, n) is getattr(mod, n) for n in mod.__all__)
+
+
+#: Public functions with more than 8 parameters (besides ``*args``/``**options``), with the reason
+#: each may stay (issue 13 item 6: more than ~8 options go into a frozen config dataclass).
+MANY_PARAMETERS_ALLOWED = {
+    "splat.training.train": "already takes splat.TrainConfig; the other 9 are its inputs (capture, "
+    "images, weights, bounds, points, colours) and runtime objects (resume, callback, reference_views)",
+    "zonotope._mmv_estimators.fit_Prior": "engineer B's estimator; its config dataclass is due in this "
+    "round (remove this entry when it lands)",
+}
+
+
+def _public_callables():
+    """``(qualified name, function)`` of every public function and public method of a public class
+    named in the ``__all__`` of ``zonotope``, ``isp``, ``splat`` or one of their modules."""
+    import inspect
+    import pkgutil
+
+    out = {}
+    for package in ("zonotope", "isp", "splat"):
+        pkg = importlib.import_module(package)
+        modules = [pkg] + [
+            importlib.import_module(f"{package}.{m.name}")
+            for m in pkgutil.iter_modules(pkg.__path__)
+            if m.name != "__main__"
+        ]
+        for mod in modules:
+            for name in getattr(mod, "__all__", []):
+                obj = getattr(mod, name, None)
+                if inspect.isfunction(obj):
+                    out[f"{obj.__module__}.{obj.__qualname__}"] = obj
+                elif inspect.isclass(obj) and obj.__module__.split(".")[0] == package:
+                    for attr, fn in vars(obj).items():
+                        if inspect.isfunction(fn) and not attr.startswith("_"):
+                            out[f"{obj.__module__}.{obj.__qualname__}.{attr}"] = fn
+    return out
+
+
+def _n_parameters(fn) -> int:
+    import inspect
+
+    skip = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    params = inspect.signature(fn).parameters.values()
+    return sum(p.kind not in skip and p.name not in ("self", "cls") for p in params)
+
+
+def test_no_public_function_has_more_than_8_parameters():
+    """Functions with more than ~8 options take a config dataclass (``f(data, config=None, *,
+    <runtime keywords>, **options)``); the allow-list says why each exception stays."""
+    functions = _public_callables()
+    assert len(functions) > 200  # the walk found the packages' surface (guards against a silent no-op)
+    many = {name: _n_parameters(fn) for name, fn in functions.items() if _n_parameters(fn) > 8}
+    unexplained = {n: k for n, k in many.items() if n not in MANY_PARAMETERS_ALLOWED}
+    assert not unexplained, f"take a config dataclass (or allow-list with a reason): {unexplained}"
+    pending = {"zonotope._mmv_estimators.fit_Prior"}  # may land any time: not an error once it does
+    stale = [n for n in MANY_PARAMETERS_ALLOWED if n not in pending and n not in many]
+    assert not stale, f"no longer over 8 parameters: remove from MANY_PARAMETERS_ALLOWED: {stale}"
+
+
+def test_parameter_counter_counts_keywords_not_options():
+    def f(a, b, /, c, *args, d=1, e=2, **options):
+        return a
+
+    assert _n_parameters(f) == 5

@@ -158,3 +158,144 @@ def test_write_report_refuses_options_before_writing(tmp_path):
     with pytest.raises(OptionError, match="size=0"):
         write_report(["Nikon 5100 (NPL)"], out, size=0)
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# isp.metamer_correction / isp.fit_dcp / zonotope.correction_LUT: MetamerConfig, ProfileConfig, LUTConfig
+# ---------------------------------------------------------------------------------------------
+
+CAM = "Nikon 5100 (NPL)"
+
+
+def test_metamer_config_equals_keywords_and_passes_estimator_options():
+    import isp
+    from zonotope.correct import fit_correction
+
+    c = np.random.default_rng(1).uniform(0.05, 0.9, (7, 3))
+    cfg = isp.MetamerConfig(method="root-polynomial", quantum=0, estimator_options={"degree": 3})
+    a = isp.metamer_correction(CAM, cfg)
+    b = isp.metamer_correction(CAM, method="root-polynomial", quantum=0, estimator_options={"degree": 3})
+    d = isp.metamer_correction(CAM, isp.MetamerConfig(method="matrix"), method="root-polynomial", quantum=0)
+    np.testing.assert_array_equal(a(c), b(c))
+    assert a.corrector.params["degree"] == 3 and d.corrector.params["degree"] == 2
+    assert not np.allclose(a(c), d(c))
+    # the estimator options reach fit_correction unchanged (same problem, same answer)
+    direct = fit_correction(
+        CAM, method="root-polynomial", target="CIE 1931 2°", shape=a.corrector.problem.wavelengths, degree=3
+    )
+    np.testing.assert_allclose(a.corrector.predict(c), direct.predict(c), rtol=1e-12)
+    with pytest.raises(isp.PipelineError, match=r"unknown option\(s\) degree.*estimator_options"):
+        isp.metamer_correction(CAM, method="root-polynomial", degree=3)
+    with pytest.raises(isp.PipelineError, match="expected a MetamerConfig"):
+        isp.metamer_correction(CAM, {"method": "matrix"})
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"white_level": 0}, "white_level=0"),
+        ({"white_level": float("nan")}, "white_level=nan"),
+        ({"quantum": -1e-3}, "quantum=-0.001"),
+        ({"quantum": float("inf")}, "quantum=inf"),
+        ({"quantum": "0"}, "quantum='0'"),
+        ({"batch_size": 0}, "batch_size=0"),
+        ({"batch_size": True}, "batch_size=True"),
+        ({"method": ""}, "method=''"),
+        ({"estimator_options": [("noise", 0.1)]}, "estimator_options"),
+        ({"estimator_options": {1: 2}}, "estimator_options"),
+        ({"estimator_options": {"training": "x"}}, "training are fields of MetamerConfig"),
+    ],
+)
+def test_metamer_config_refuses_bad_values(options, match):
+    import isp
+
+    with pytest.raises(isp.PipelineError, match=match):
+        isp.MetamerConfig(**options)
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        ({"illuminants": ("D65",)}, "exactly two"),
+        ({"illuminants": ("A", "moonlight")}, "moonlight"),
+        ({"dims": (90, 1, 1)}, r"dims=\(90, 1, 1\)"),
+        ({"dims": (90, 30)}, "dims"),
+        ({"dims": "90x30"}, "dims"),
+        ({"look_table_dims": (36, 12, 0)}, "look_table_dims"),
+        ({"look_table_encoding": 2}, "look_table_encoding=2"),
+        ({"atypical_weight": -1}, "atypical_weight=-1"),
+        ({"atypical_weight": float("inf")}, "atypical_weight=inf"),
+        ({"embed_policy": 4}, "embed_policy=4"),
+        ({"n_random": -5}, "n_random=-5"),
+        ({"n_random": 10.5}, "n_random=10.5"),
+        ({"smoothness": -1.0}, "smoothness=-1.0"),
+        ({"unbiased_saturation": 1.5}, "unbiased_saturation=1.5"),
+        ({"unbiased_saturation": float("nan")}, "unbiased_saturation=nan"),
+        ({"copyright": None}, "copyright=None"),
+        ({"estimator_options": {"method": "MAP"}}, "method are fields"),
+    ],
+)
+def test_profile_config_refuses_bad_values(options, match):
+    import isp
+
+    with pytest.raises(isp.PipelineError, match=match):
+        isp.ProfileConfig(**options)
+
+
+def test_fit_dcp_config_equals_keywords_and_refuses_options_before_fitting():
+    import isp
+
+    cfg = isp.ProfileConfig(method="matrix", dims=None, look_table_dims=None, n_random=20)
+    a = isp.fit_dcp(CAM, cfg).profile
+    b = isp.fit_dcp(CAM, method="matrix", dims=None, look_table_dims=None, n_random=20).profile
+    c = isp.fit_dcp(
+        CAM,
+        isp.ProfileConfig(method="root-polynomial"),
+        corrections=None,
+        **{"method": "matrix", "dims": None, "look_table_dims": None, "n_random": 20},
+    )
+    for other in (b, c.profile):
+        for name in ("color_matrix_1", "color_matrix_2", "forward_matrix_1", "forward_matrix_2"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(other, name))
+    assert a.hue_sat_map_1 is None and a.look_table is None
+    assert cfg.illuminants == ("A", "D65") and cfg.estimator_options == {}
+    with pytest.raises(isp.PipelineError, match=r"unknown option\(s\) noise.*estimator_options"):
+        isp.fit_dcp(CAM, noise=0.01)
+    with pytest.raises(isp.PipelineError, match="n_random=-1"):
+        isp.fit_dcp(CAM, n_random=-1)
+
+
+def test_lut_config_equals_keywords_and_refuses_bad_values():
+    from zonotope import LUTConfig
+    from zonotope.profile import correction_LUT
+
+    M = np.array([[0.6, 0.3, 0.1], [0.25, 0.7, 0.05], [0.05, 0.1, 0.9]])
+
+    def f(c):
+        return c @ M.T
+
+    a = correction_LUT(f, LUTConfig(size=5, space="linear srgb", shaper_size=64))
+    b = correction_LUT(f, size=5, space="sRGB", shaper_size=64)
+    c = correction_LUT(f, LUTConfig(size=9), size=5, space="sRGB", shaper_size=64)
+    for other in (b, c):
+        np.testing.assert_array_equal(a[1].table, other[1].table)
+        np.testing.assert_array_equal(a[0].table, other[0].table)
+    assert LUTConfig(space="aces2065-1").space == "ACES2065-1"
+    bad = [
+        ({"size": 130}, "size=130"),
+        ({"size": True}, "size=True"),
+        ({"headroom": 0.5}, "headroom=0.5"),
+        ({"headroom": "16"}, "headroom='16'"),
+        ({"shaper": "gamma"}, "shaper='gamma'"),
+        ({"space": "Lab"}, "space='Lab'"),
+        ({"shaper_size": 1}, "shaper_size=1"),
+        ({"batch": 0}, "batch=0"),
+        ({"name": 3}, "name=3"),
+        ({"white_XYZ": [1, 0, 1]}, "white_XYZ"),
+        ({"white_XYZ": "D65"}, "white_XYZ"),
+    ]
+    for options, match in bad:
+        with pytest.raises(zonotope.ZonotopeError, match=match):
+            LUTConfig(**options)
+    with pytest.raises(OptionError, match=r"unknown option\(s\) lattice"):
+        correction_LUT(f, lattice=5)

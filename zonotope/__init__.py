@@ -173,6 +173,7 @@ _EXPORTS = {
     "profile": [
         "LUT_SHAPERS",
         "LUT_SPACES",
+        "LUTConfig",
         "apply_correction_LUT",
         "correction_LUT",
         "load_correction",

@@ -41,6 +41,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import colour
@@ -52,6 +53,7 @@ from ._io import atomic_path
 __all__ = [
     "LUT_SHAPERS",
     "LUT_SPACES",
+    "LUTConfig",
     "apply_correction_LUT",
     "correction_LUT",
     "load_correction",
@@ -100,17 +102,85 @@ def _exposure_safe(fn: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarr
     return g
 
 
+@dataclass(frozen=True)
+class LUTConfig:
+    """The options of :func:`correction_LUT`, checked when the object is made.
+
+    Attributes
+    ----------
+    size : int
+        3-D lattice size per axis, 2…129 (17, 33 and 65 are the usual ones).
+    space : str
+        Output: ``"XYZ"``, ``"sRGB"`` (linear) or ``"ACES2065-1"`` (spelling is forgiving:
+        ``"srgb"``, ``"linear sRGB"``); stored as the key of :data:`LUT_SPACES`.
+    headroom : float
+        Largest input per channel, in units of the white (default 16 = 4 stops), ≥ 1.
+    shaper : str
+        ``"log2"`` or ``"linear"``.
+    shaper_size : int
+        Entries of the 1-D shaper, ≥ 2.
+    white_XYZ : array_like of shape (3,), optional
+        XYZ of the scene white (default: the estimator's output for (1, 1, 1)); finite, Y > 0.
+    batch : int
+        Lattice nodes per call of the estimator, ≥ 1.
+    name : str
+        LUT name (written into the file).
+
+    Raises
+    ------
+    ZonotopeError
+        A field out of range (an :class:`~zonotope.OptionError` naming it).
+    """
+
+    size: int = 33
+    space: str = "sRGB"
+    headroom: float = 16.0
+    shaper: str = "log2"
+    shaper_size: int = 4096
+    white_XYZ: object = None
+    batch: int = 4096
+    name: str = "zonotope correction"
+
+    def __post_init__(self) -> None:
+        from ._config import check_count
+        from ._errors import OptionError
+
+        if not (
+            isinstance(self.size, int | np.integer)
+            and not isinstance(self.size, bool)
+            and 2 <= self.size <= 129
+        ):
+            raise OptionError(f"size={self.size!r}: a 3-D LUT needs 2…129 nodes per axis (33 is usual).")
+        try:
+            headroom_ok = not isinstance(self.headroom, bool) and bool(
+                np.isfinite(self.headroom) and self.headroom >= 1
+            )
+        except TypeError:
+            headroom_ok = False
+        if not headroom_ok:
+            raise OptionError(
+                f"headroom={self.headroom!r}: must be ≥ 1 (the white is 1; 16 = four stops above)."
+            )
+        if self.shaper not in LUT_SHAPERS:
+            raise OptionError(f"shaper={self.shaper!r}: choose one of {list(LUT_SHAPERS)}.")
+        object.__setattr__(self, "space", _space(self.space))
+        check_count("LUTConfig", "shaper_size", self.shaper_size, minimum=2)
+        check_count("LUTConfig", "batch", self.batch, minimum=1)
+        if not isinstance(self.name, str):
+            raise OptionError(f"LUTConfig.name={self.name!r}: give a text.")
+        if self.white_XYZ is not None:
+            try:
+                w = np.asarray(self.white_XYZ, dtype=np.float64)
+            except (TypeError, ValueError):
+                w = np.full(1, np.nan)
+            if w.shape != (3,) or not (np.all(np.isfinite(w)) and w[1] > 0):
+                raise OptionError(f"white_XYZ={self.white_XYZ!r}: give 3 finite XYZ values with Y > 0.")
+
+
 def correction_LUT(
     XYZ_from_balanced: Callable[[np.ndarray], np.ndarray],
-    *,
-    size: int = 33,
-    space: str = "sRGB",
-    headroom: float = 16.0,
-    shaper: str = "log2",
-    shaper_size: int = 4096,
-    white_XYZ=None,
-    batch: int = 4096,
-    name: str = "zonotope correction",
+    config: LUTConfig | None = None,
+    **options,
 ) -> colour.LUTSequence:
     """Sample an estimator into a shaper + 3-D LUT (see the module notes for domain and shaper).
 
@@ -119,22 +189,11 @@ def correction_LUT(
     XYZ_from_balanced
         ``(N, 3) → (N, 3)``: white-balanced camera RGB (white = 1) → XYZ under the scene
         illuminant (e.g. a fitted ``zonotope.correct`` Corrector, or ``isp.MetamerCorrection``).
-    size
-        3-D lattice size per axis (17, 33 and 65 are the usual ones).
-    space
-        Output: ``"XYZ"``, ``"sRGB"`` (linear) or ``"ACES2065-1"``.
-    headroom
-        Largest input per channel, in units of the white (default 16 = 4 stops).
-    shaper
-        ``"log2"`` or ``"linear"``.
-    shaper_size
-        Entries of the 1-D shaper.
-    white_XYZ : array_like of shape (3,), optional
-        XYZ of the scene white (default: the estimator's output for (1, 1, 1)).
-    batch
-        Lattice nodes per call of the estimator.
-    name
-        LUT name (written into the file).
+    config
+        The options (:class:`LUTConfig`: size, space, headroom, shaper, shaper_size, white_XYZ,
+        batch, name); default all defaults.
+    **options
+        Fields of :class:`LUTConfig` as keywords (override those of ``config``), e.g. ``size=17``.
 
     Returns
     -------
@@ -144,15 +203,14 @@ def correction_LUT(
     Raises
     ------
     ZonotopeError
-        Bad size, headroom, shaper or space, or an estimator that returns NaN.
+        Bad size, headroom, shaper or space (:class:`~zonotope.OptionError`), or an estimator that
+        returns NaN.
     """
-    if not (isinstance(size, int | np.integer) and 2 <= size <= 129):
-        raise ZonotopeError(f"size={size!r}: a 3-D LUT needs 2…129 nodes per axis (33 is usual).")
-    if not (np.isfinite(headroom) and headroom >= 1):
-        raise ZonotopeError(f"headroom={headroom!r}: must be ≥ 1 (the white is 1; 16 = four stops above).")
-    if shaper not in LUT_SHAPERS:
-        raise ZonotopeError(f"shaper={shaper!r}: choose one of {list(LUT_SHAPERS)}.")
-    sp = _space(space)
+    from ._config import with_options
+
+    cfg = with_options(LUTConfig, config, options, where="correction_LUT")
+    size, headroom, shaper, white_XYZ = cfg.size, cfg.headroom, cfg.shaper, cfg.white_XYZ
+    shaper_size, batch, name, sp = cfg.shaper_size, cfg.batch, cfg.name, cfg.space
     f = _exposure_safe(XYZ_from_balanced)
     w = np.asarray(f(np.ones((1, 3)))[0] if white_XYZ is None else white_XYZ, dtype=np.float64)
     if not (np.all(np.isfinite(w)) and w[1] > 0):
