@@ -259,7 +259,9 @@ def _refinement(
 def _walked(orc: WalkOracle, atol: float) -> Refinement:
     """The exact MMV found by the walk, as a converged :class:`Refinement` (outer = inner)."""
     tri = orc.triangles
-    inner = Polytope._from_triangulation(orc.vertices, tri[:, :3], tri[:, 3], atol=atol)
+    inner = Polytope._from_triangulation(
+        orc.vertices, tri[:, :3], tri[:, 3], atol=atol, volume=orc.volume, centroid=orc.centroid
+    )
     o, B = inner.affine_hull
     m = orc.vertices.shape[1]
     return Refinement(inner, np.zeros((0, m)), np.zeros(0), o, B, orc.moves, 0, 0.0, True, exact=True)
