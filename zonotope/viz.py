@@ -17,6 +17,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ._tol import LOCUS_ZERO
+
 __all__ = [
     "mmv_polytope",
     "plot_grey_mmvs",
@@ -61,7 +63,11 @@ def _axis_names(problem) -> tuple[str, str, str]:
 def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X", "Y", "Z")):
     if axes:  # a labelled orientation widget and a grid with the channel names and their scale
         x, y, z = names
-        plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
+        if tuple(plotter.shape) == (1, 1):
+            # not in multi-panel plotters: there VTK segfaulted now and then inside render(), in
+            # vtkOrientationMarkerWidget::ExecuteCameraUpdateEvent → vtkRenderer::GetActiveCamera
+            # (gdb backtrace); the grid below still names the axes of every panel
+            plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
         plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey")
     if filename is not None:
         from ._io import atomic_path
@@ -144,7 +150,7 @@ def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 
     p = _plotter(plotter)
     G = problem.Psi
     norms = np.linalg.norm(G, axis=1)
-    keep = norms > 1e-9 * norms.max()
+    keep = norms > LOCUS_ZERO * norms.max()
     pts = G[keep] / norms[keep, None] * scale * np.linalg.norm(problem.white_XYZ)
     line = pv.lines_from_points(pts)
     line.point_data["sRGB"] = (255 * _srgb(problem, pts / pts[:, 1:2].clip(1e-9) * 0.5)).astype(np.uint8)
@@ -262,10 +268,7 @@ def plot_mmv_comparison(
         p.add_text(titles[i] if titles else " + ".join(pb.sources), font_size=11)
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
-    # every panel already has its axes (plot_mmv); a second orientation widget on the last panel left
-    # the first one observing camera events of a freed renderer: VTK segfaulted inside render() in
-    # vtkOrientationMarkerWidget::ExecuteCameraUpdateEvent → vtkRenderer::GetActiveCamera (gdb)
-    return _finish(p, filename, axes=False)
+    return _finish(p, filename, axes=False)  # every panel already has its labelled grid (plot_mmv)
 
 
 # -- matplotlib ------------------------------------------------------------------------------------
