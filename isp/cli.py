@@ -170,6 +170,7 @@ def _develop(args: argparse.Namespace) -> int:
 
         return develop_folder(args)
     from ._errors import PipelineError
+    from ._tol import NEUTRAL_MISMATCH
     from .io import _is_our_output
 
     if out.exists() and (not args.overwrite or (src.exists() and out.resolve() == src.resolve())):
@@ -223,7 +224,7 @@ def _develop(args: argparse.Namespace) -> int:
         progress.advance(task)
         if metamer is not None:
             mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
-            if mismatch > 0.1:
+            if mismatch > NEUTRAL_MISMATCH:
                 console.print(
                     f"[yellow]warning:[/] the file's AsShotNeutral differs by "
                     f"{100 * mismatch:.0f} % from the white of {args.camera!r} under "

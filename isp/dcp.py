@@ -48,6 +48,7 @@ import colour
 import numpy as np
 
 from ._errors import RawFormatError
+from ._tol import NEUTRAL_XY_STEP
 from .dng import (
     LIGHT_SOURCE_CCT,
     D50_xy,
@@ -377,7 +378,7 @@ def white_xy(neutral, profile: DNGProfile) -> np.ndarray:
     last = D50_xy.copy()
     for i in range(30):
         nxt = colour.XYZ_to_xy(np.linalg.solve(profile.XYZ_to_camera(last), n))
-        if np.abs(nxt - last).sum() < 1e-7:
+        if np.abs(nxt - last).sum() < NEUTRAL_XY_STEP:
             return nxt
         if i == 29:
             nxt = 0.5 * (nxt + last)

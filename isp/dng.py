@@ -34,6 +34,7 @@ import colour
 import numpy as np
 
 from ._errors import RawFormatError
+from ._tol import EXPOSURE_RECIPROCAL
 
 __all__ = [
     "DNG_TAGS",
@@ -499,7 +500,7 @@ def _rational(v) -> tuple[int, ...]:
 def _exposure_rational(t: float) -> tuple[int, int]:
     """Exposure time as a camera writes it: 1/n for short times, else micro-second precision."""
     t = float(t)
-    if 0 < t < 1 and abs(1 / t - round(1 / t)) < 1e-9:
+    if 0 < t < 1 and abs(1 / t - round(1 / t)) < EXPOSURE_RECIPROCAL:
         return (1, round(1 / t))
     return (round(t * 1_000_000), 1_000_000)
 

@@ -17,6 +17,7 @@ import functools
 
 import numpy as np
 
+from ._tol import EXPOSURE_NOMINAL
 from .raw import RawImage
 
 __all__ = ["output_tags", "srgb_icc_profile"]
@@ -38,7 +39,7 @@ def srgb_icc_profile() -> bytes:
 def _rational(v: float, exposure: bool = False) -> tuple[int, int]:
     v = float(v)
     if exposure and 0 < v < 1:
-        if abs(1 / round(1 / v) - v) < 0.01 * v:
+        if abs(1 / round(1 / v) - v) < EXPOSURE_NOMINAL * v:
             return (1, round(1 / v))  # 1/200 s, as cameras write it (nominal within 1 %)
         return (round(v * 1_000_000), 1_000_000)
     return (round(v * 10_000), 10_000)

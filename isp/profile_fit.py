@@ -37,6 +37,7 @@ import colour
 import numpy as np
 
 from ._errors import PipelineError
+from ._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
 from .dcp import PROPHOTO_FROM_XYZ, DCPProfile, _rgb_to_hsv, apply_hue_sat_map
 from .dng import D50_xy
 from .simulate import ILLUMINANT_LIGHT_SOURCE
@@ -222,7 +223,7 @@ def fit_hue_sat_map(
     wt = _weights(weights, p.shape[0])
     h, s, v = _rgb_to_hsv(p)
     hq, sq, vq = _rgb_to_hsv(q)
-    ok = (v > 0) & (vq > 0) & (s > 1e-4) & np.all(np.isfinite(q), axis=-1) & (wt > 0)
+    ok = (v > 0) & (vq > 0) & (s > TABLE_GREY_SATURATION) & np.all(np.isfinite(q), axis=-1) & (wt > 0)
     if V > 1 and encoding == 1:
         ok &= (v < 1) & (vq < 1)  # the encoded axis and scale saturate at 1
     h, s, v, hq, sq, vq = h[ok], s[ok], v[ok], hq[ok], sq[ok], vq[ok]
@@ -260,7 +261,7 @@ def fit_hue_sat_map(
     G = sp.csr_matrix((np.ones(grey.size), (np.arange(grey.size), grey)), shape=(grey.size, n))
     # rings up to unbiased_saturation: hue-mean of (entry − identity) and its first hue harmonic 0,
     # so that noise spread evenly around the grey axis keeps its mean (to first order in s)
-    rings = [j for j in range(1, S) if j / (S - 1) <= unbiased_saturation + 1e-12]
+    rings = [j for j in range(1, S) if j / (S - 1) <= unbiased_saturation + TABLE_RING_ROUNDING]
     ang = 2 * np.pi * np.arange(H) / H
     ub_rows = []
     for vi in range(V):
@@ -291,12 +292,13 @@ def fit_hue_sat_map(
         A = sp.diags(rw) @ W
         m2 = float(np.mean(rw**2))
         lam = smoothness * m2 * max(N / n, 1.0)
-        ridge = 1e-6 * m2
-        AtA = A.T @ A + lam * (D2.T @ D2) + ridge * sp.eye(n) + 1e3 * m2 * (G.T @ G)
-        b = A.T @ rhs + ridge * ident * np.ones(n) + 1e3 * m2 * ident * (G.T @ np.ones(grey.size))
+        ridge = TABLE_RIDGE * m2
+        hard = TABLE_HARD_WEIGHT * m2
+        AtA = A.T @ A + lam * (D2.T @ D2) + ridge * sp.eye(n) + hard * (G.T @ G)
+        b = A.T @ rhs + ridge * ident * np.ones(n) + hard * ident * (G.T @ np.ones(grey.size))
         if U.shape[0]:
-            AtA = AtA + 1e3 * m2 * N * (U.T @ U)
-            b = b + 1e3 * m2 * N * (U.T @ (ident * ub_ident))
+            AtA = AtA + hard * N * (U.T @ U)
+            b = b + hard * N * (U.T @ (ident * ub_ident))
         out[:, k] = spla.spsolve(AtA.tocsc(), b)
     return out.reshape(V, H, S, 3)
 

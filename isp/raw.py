@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import RawFormatError
+from ._tol import STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .dng import DNGProfile, read_dng_tags
 
 __all__ = ["CFA_PATTERNS", "RawImage", "check_cfa", "read_raw"]
@@ -332,9 +333,10 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             f"{path}: not a readable RAW file ({type(exc).__name__}: {msg}). The file "
             "may be truncated, corrupt or of a format LibRaw does not know."
         ) from exc
-    # Stripped pixel data decode to zeros or to whatever LibRaw's buffers held, so judge by size:
-    # no RAW codec stores less than 0.5 bit per pixel.
-    stripped = path.stat().st_size < mosaic.size / 16 or np.count_nonzero(mosaic) < 1e-3 * mosaic.size
+    # Stripped pixel data decode to zeros or to whatever LibRaw's buffers held, so judge by size
+    # (_tol.STRIPPED_BITS_PER_PIXEL) and by the share of non-zero pixels (_tol.STRIPPED_NONZERO).
+    too_small = path.stat().st_size < mosaic.size * STRIPPED_BITS_PER_PIXEL / 8
+    stripped = too_small or np.count_nonzero(mosaic) < STRIPPED_NONZERO * mosaic.size
     if not metadata_only and stripped:
         raise RawFormatError(
             f"{path}: the image has no pixel data (file too small or all zeros). Use "

@@ -138,7 +138,7 @@ def _reflectance_array(R, n: int, what: str = "reflectances") -> np.ndarray:
     a = np.asarray(R, dtype=np.float64)
     if a.shape[-1:] != (n,):
         raise PipelineError(f"{what}: last axis must have the {n} wavelengths of the grid; got {a.shape}.")
-    if not np.all(np.isfinite(a)) or a.min() < -1e-6 or a.max() > 1.5:
+    if not np.all(np.isfinite(a)) or a.min() < zonotope.REFLECTANCE_MIN or a.max() > zonotope.REFLECTANCE_MAX:
         raise PipelineError(
             f"{what}: reflectances must be finite and within [0, 1] (got "
             f"{np.nanmin(a):.3g}…{np.nanmax(a):.3g}); divide percent data by 100."

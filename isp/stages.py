@@ -20,6 +20,7 @@ import numpy as np
 from zonotope import MethodRegistry
 
 from ._errors import PipelineError, PipelineMethodError
+from ._tol import WHITE_XY
 from .dng import D50_xy, DNGProfile
 from .raw import check_cfa
 
@@ -444,7 +445,7 @@ def XYZ_to_linear_sRGB(XYZ, *, white_xy=D50_xy, cat: str = "Bradford") -> np.nda
     """
     X = _image_array(XYZ, "XYZ")
     srgb = colour.RGB_COLOURSPACES["sRGB"]
-    same = np.allclose(np.asarray(white_xy, dtype=np.float64), srgb.whitepoint, atol=1e-6)
+    same = np.allclose(np.asarray(white_xy, dtype=np.float64), srgb.whitepoint, atol=WHITE_XY)
     return colour.XYZ_to_RGB(
         X,
         srgb,

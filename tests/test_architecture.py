@@ -192,6 +192,8 @@ MANY_PARAMETERS_ALLOWED = {
     "images, weights, bounds, points, colours) and runtime objects (resume, callback, reference_views)",
     "zonotope._mmv_estimators.fit_Prior": "engineer B's estimator; its config dataclass is due in this "
     "round (remove this entry when it lands)",
+    "zonotope._mmv_estimators.learn_mix": "engineer B's work in progress this round (11 parameters when "
+    "seen); pending its config dataclass",
 }
 
 
@@ -237,7 +239,7 @@ def test_no_public_function_has_more_than_8_parameters():
     many = {name: _n_parameters(fn) for name, fn in functions.items() if _n_parameters(fn) > 8}
     unexplained = {n: k for n, k in many.items() if n not in MANY_PARAMETERS_ALLOWED}
     assert not unexplained, f"take a config dataclass (or allow-list with a reason): {unexplained}"
-    pending = {"zonotope._mmv_estimators.fit_Prior"}  # may land any time: not an error once it does
+    pending = {"zonotope._mmv_estimators.fit_Prior", "zonotope._mmv_estimators.learn_mix"}  # in flux
     stale = [n for n in MANY_PARAMETERS_ALLOWED if n not in pending and n not in many]
     assert not stale, f"no longer over 8 parameters: remove from MANY_PARAMETERS_ALLOWED: {stale}"
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import ast
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -77,3 +80,186 @@ def test_flat_halfspace_vertices_skip_singular_subsets():
     P = Polytope.from_halfspaces(A, b)
     assert P.affine_dim == 2
     np.testing.assert_allclose(sorted(map(tuple, P.vertices)), [(0, 0, 0), (0, 1, 0), (1, 0, 0)], atol=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# No stray tolerance literals: every numerical threshold is a named value of a _tol module
+# ---------------------------------------------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Keywords whose value is a tolerance wherever they are passed.
+_TOLERANCE_KEYWORDS = {"atol", "rtol", "tol", "eps", "xtol", "ftol", "gtol", "xatol", "fatol"}
+
+#: Calls whose literal arguments are floors or clip bounds (``max(x, 1e-300)`` against a division
+#: by zero, ``np.clip(x, 1e-3, 1)``), not decisions.
+_FLOOR_CALLS = {"max", "maximum", "clip", "fmax"}
+
+#: Literals that stay, by ``(file, value)``, with the reason. Files of the other engineers carry
+#: "pending" entries while they move theirs this round (issue 13 item 4); the lead prunes them.
+STRAY_ALLOWED: dict[tuple[str, float], str] = {}
+_PENDING = {
+    "zonotope/_correction_problem.py": (1e-6,),
+    "zonotope/_mmv_estimators.py": (1e-4,),
+    "zonotope/_mmv_refine.py": (1e-12, 1e-9),
+    "zonotope/_mmv_walk_kernel.py": (
+        1e-13,
+        1e-14,
+        1e-11,
+        1e-9,
+        1e-10,
+        1e-12,
+        1e-3,
+        1e-4,
+        1e-5,
+        1e-6,
+        1e-7,
+        1e-8,
+    ),
+    "zonotope/_oracle.py": (1e-11, 1e-9, 1e-10),
+    "zonotope/_zonohedron.py": (1e-9, 1e-12),
+    "zonotope/atypical.py": (1e-3, 1e-9),
+    "zonotope/membership.py": (1e-10, 1e-9),
+    "zonotope/prior.py": (1e-4, 1e-12),
+    "zonotope/report.py": (1e-3, 0.6),
+    "zonotope/solid.py": (1e-150, 1e150),
+    "splat/_simgeometry.py": (0.06, 0.025, 1e-7, 1e-9, 1e-12),
+    "splat/capture.py": (1.5,),
+    "splat/cli.py": (10.0,),
+    "splat/colmap.py": (1e-6, 1e6),
+    "splat/data.py": (1e-3,),
+    "splat/pipeline.py": (1e-9,),
+    "splat/simcapture.py": (1e-9, 0.999, 0.9),
+    "splat/training.py": (1e-15,),
+}
+for _file, _values in _PENDING.items():
+    for _v in _values:
+        STRAY_ALLOWED[_file, _v] = "pending: the owner of this file moves its literals to _tol this round"
+
+
+def _stray_literals(path: Path) -> list[tuple[int, float]]:
+    """``(line, value)`` of the tolerance-like float literals of a module.
+
+    A literal is tolerance-like when it is small (``0 < |v| ≤ 1e-3``: an epsilon or threshold), is
+    compared with (``x > 0.1 * y``; 0, ±0.5, ±1, ±2 excepted), or is passed as ``atol``/``rtol``/
+    ``tol``/``eps``/... . Not counted: docstrings, default values of parameters and of dataclass
+    fields and ``default=`` of CLI options (documented API defaults), and the arguments of
+    ``max``/``np.maximum``/``clip`` (floors against a division by zero, clip bounds).
+    """
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    skip: set[int] = set()
+
+    def skip_all(node):
+        skip.update(id(c) for c in ast.walk(node))
+
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Module | ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            if n.body and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant):
+                skip.add(id(n.body[0].value))
+        if isinstance(n, ast.arguments):
+            for d in [*n.defaults, *n.kw_defaults]:
+                if d is not None:
+                    skip_all(d)
+        if isinstance(n, ast.ClassDef):
+            for st in n.body:
+                if isinstance(st, ast.AnnAssign) and st.value is not None:
+                    skip_all(st.value)
+        if isinstance(n, ast.keyword) and n.arg == "default":
+            skip_all(n.value)
+        if isinstance(n, ast.Call):
+            f = n.func
+            name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+            if name in _FLOOR_CALLS:
+                for a in [*n.args, *(k.value for k in n.keywords)]:
+                    skip_all(a)
+
+    def floats(node):
+        return [c for c in ast.walk(node) if isinstance(c, ast.Constant) and type(c.value) is float]
+
+    found = {}
+    for n in ast.walk(tree):
+        cands = []
+        if isinstance(n, ast.Constant) and type(n.value) is float and 0 < abs(n.value) <= 1e-3:
+            cands = [n]
+        elif isinstance(n, ast.Compare):
+            cands = [c for s in (n.left, *n.comparators) for c in floats(s)]
+            cands = [c for c in cands if abs(c.value) not in (0.0, 0.5, 1.0, 2.0)]
+        elif isinstance(n, ast.keyword) and n.arg in _TOLERANCE_KEYWORDS:
+            cands = [c for c in floats(n.value) if c.value != 0]
+        for c in cands:
+            if id(c) not in skip:
+                found[id(c)] = (c.lineno, c.value)
+    return sorted(found.values())
+
+
+def _package_modules():
+    for package in ("zonotope", "isp", "splat"):
+        for path in sorted((ROOT / package).glob("*.py")):
+            if path.name != "_tol.py":  # the homes of the named values
+                yield path
+
+
+def test_no_stray_tolerance_literals():
+    """Every numerical threshold is a named, documented value of ``zonotope/_tol.py`` (or, for isp,
+    which may use only public zonotope names, ``isp/_tol.py``); the allow-list says why a literal
+    stays. Results do not depend on this: moving a literal to a name keeps its value."""
+    stray, used = [], set()
+    for path in _package_modules():
+        rel = path.relative_to(ROOT).as_posix()
+        for line, value in _stray_literals(path):
+            if (rel, value) in STRAY_ALLOWED:
+                used.add((rel, value))
+            else:
+                stray.append(f"{rel}:{line}: {value!r}")
+    assert not stray, (
+        "name these in _tol.py with the reason for the value (or allow-list them):\n" + "\n".join(stray)
+    )
+    stale = [k for k, why in STRAY_ALLOWED.items() if k not in used and not why.startswith("pending")]
+    assert not stale, f"no longer in the code, remove from STRAY_ALLOWED: {stale}"
+
+
+def test_stray_literal_finder_finds_and_skips_what_it_should(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text(
+        '"""Doc 1e-9."""\n'
+        "def f(x, atol=1e-9):\n"
+        "    y = max(x, 1e-300)\n"
+        "    if x < 1e-7 * y:\n"  # line 4: small
+        "        return 0.1 < x\n"  # line 5: compared with
+        "    return g(x, rtol=0.05, z=0.5 * x)\n"  # line 6: a tolerance keyword
+    )
+    assert _stray_literals(f) == [(4, 1e-7), (5, 0.1), (6, 0.05)]
+
+
+def test_isp_tolerances_are_documented():
+    """isp's thresholds, like zonotope's, each have a reason next to them."""
+    import isp._tol as itol
+
+    source = Path(itol.__file__).read_text(encoding="utf-8")
+    assert len(itol.__all__) >= 10
+    for name in itol.__all__:
+        block = source.split(f"\n{name} = ")[0].rsplit("\n\n", 1)[-1]
+        assert block.startswith("#: ") and len(block) > 120, name
+
+
+def test_output_writers_go_through_the_atomic_writers():
+    """Files are written only through ``zonotope``'s atomic, umask-respecting writers (``_io``):
+    no module of zonotope or isp makes its own temporary + rename (which gave 0600 files)."""
+    allowed = {
+        "zonotope/_io.py": "the atomic writers themselves",
+        "zonotope/parallel.py": "folder batches publish a finished temporary with os.link/os.replace "
+        "(first attempt wins); the temporaries are created by open() and so already get umask modes",
+    }
+    bad = []
+    for package in ("zonotope", "isp"):
+        for path in sorted((ROOT / package).glob("*.py")):
+            rel = path.relative_to(ROOT).as_posix()
+            code = "\n".join(
+                line
+                for line in path.read_text(encoding="utf-8").splitlines()
+                if not line.strip().startswith("#")
+            )
+            for pattern in ("mkstemp(", "os.replace(", "NamedTemporaryFile("):
+                if pattern in code and rel not in allowed:
+                    bad.append(f"{rel}: {pattern}")
+    assert not bad, f"write through zonotope.atomic_path / atomic_file / atomic_write_*: {bad}"

@@ -56,7 +56,7 @@ from ._errors import (
 from ._generators import GeneratorPair, generator_pair
 from ._loading import SpectralFileNotFoundError, load_camera, load_reflectances
 from ._registry import Method, MethodRegistry
-from ._tol import TOL, Tolerances
+from ._tol import REFLECTANCE_MAX, REFLECTANCE_MIN, TOL, Tolerances
 from .solid import Parallelograms, Support, Zonotope
 from .spectra import (
     CAMERAS,
@@ -89,6 +89,8 @@ __all__ = [
     "ILLUMINANTS",
     "OBSERVERS",
     "REFLECTANCES",
+    "REFLECTANCE_MAX",
+    "REFLECTANCE_MIN",
     "TOL",
     "CameraSetScore",
     "GeneratorPair",

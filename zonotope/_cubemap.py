@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._tol import CAP_HEMISPHERE, CAP_MARGIN
+
 __all__ = ["CubeMap"]
 
 
@@ -101,10 +103,10 @@ class CubeMap:
         falpha = np.concatenate([a_plus, a_plus])
         # a cap wider than a hemisphere is not spherically convex, so it may not hold the
         # facet's shadow: such (huge, close) facets are candidates everywhere
-        falpha = np.where(falpha >= 0.5 * np.pi - 1e-6, 2.0 * np.pi, falpha)
+        falpha = np.where(falpha >= 0.5 * np.pi - CAP_HEMISPHERE, 2.0 * np.pi, falpha)
         self.K = K or int(np.clip(np.sqrt(m / 12.0), 4, 48))
         cdir, crad = _cells(self.K)
-        reach = falpha[None, :] + 1e-9
+        reach = falpha[None, :] + CAP_MARGIN
         cells, facets = [], []
         step = max(1, 4_000_000 // max(m, 1))
         for s in range(0, cdir.shape[0], step):

@@ -45,14 +45,20 @@ __all__ = [
     "AFFINE",
     "ANGLE",
     "ANGLE_ROUNDING",
+    "BVLS",
+    "CAP_HEMISPHERE",
+    "CAP_MARGIN",
     "CERTIFY",
     "COLLINEAR",
     "FEASIBLE_ABS",
     "FEASIBLE_REL",
     "GRID",
+    "LOCUS_ZERO",
     "NEGATIVE_NOISE",
     "REFLECTANCE_MAX",
     "REFLECTANCE_MIN",
+    "SECTION_MERGE",
+    "SECTION_PLANE",
     "SINGULAR",
     "TOL",
     "Tolerances",
@@ -187,3 +193,43 @@ REFLECTANCE_MIN = -1e-6
 
 #: See :data:`REFLECTANCE_MIN`.
 REFLECTANCE_MAX = 1.5
+
+# --- sections, reflectances of boundary points, cube map, plots (spectra/macadam/_cubemap/viz) ---
+
+#: :func:`zonotope.macadam.section`: an edge end within ``SECTION_PLANE × scale`` of the cutting
+#: plane lies *on* it (it is a vertex of the section), farther ends are on one side. The signed
+#: distances are dot products of coordinates of size ``scale`` and carry ≈ 10 ε · scale ≈ 2e-15 ·
+#: scale of rounding; 1e-13 is fifty times that, and four orders below :data:`SECTION_MERGE`, so a
+#: vertex is never counted on both sides and never lost between them.
+SECTION_PLANE = 1e-13
+
+#: :func:`zonotope.macadam.section`: cut points closer than ``SECTION_MERGE × scale`` (rounded to
+#: that grid) are one vertex — the same vertex reached from the edges of neighbouring facets, which
+#: agree to the ≈ 1e-15 · scale rounding of the edge interpolation. Distinct vertices of a measured
+#: solid's section lie ≥ 1e-6 · scale apart (one generator's length at 10 nm is ≈ 1e-2 · scale).
+SECTION_MERGE = 1e-10
+
+#: :func:`zonotope.macadam.reflectance_for` on a zonogon facet: the ``tol`` of scipy's bounded least
+#: squares (``lsq_linear(method="bvls")``) over the facet's coplanar generators. At its floor
+#: (float64 rounding) so that the reflectance re-integrates to the point to ≈ 1e-15 relative, which
+#: the tests check; the problem is at most a few dozen generators, so the cost is nil.
+BVLS = 1e-15
+
+#: Cube map of :meth:`zonotope.Zonotope.contains`: a facet whose shadow's angular cap is within
+#: ``CAP_HEMISPHERE`` rad of a hemisphere (π/2) is made a candidate of every cell. The shadow of a
+#: facet is spherically convex only when its cap is below a hemisphere, and the cap angle itself
+#: comes from ``arccos`` of a minimum cosine, whose rounding near π/2 is ≈ ε; 1e-6 rad is far above
+#: that and costs nothing (such facets — huge and close to the centre — are rare).
+CAP_HEMISPHERE = 1e-6
+
+#: Cube map: the angular margin (rad) added to every facet's cap before the cap/cell overlap test,
+#: so that rounding of the ``arccos`` of unit-vector dot products (≈ ε / sin θ ≲ 1e-12 rad away
+#: from θ ≈ 0) never drops the exit facet from a cell's candidates. A larger margin only adds
+#: candidates (never changes an answer: the test is exact over the candidates, see ``_cubemap``).
+CAP_MARGIN = 1e-9
+
+#: :func:`zonotope.viz.plot_spectral_locus`: wavelengths whose target generator is shorter than
+#: ``LOCUS_ZERO ×`` the longest one are not drawn: their direction is rounding noise of a curve that
+#: has reached 0 (the tails of the CIE observers fall to ≈ 1e-7 of the peak before they are 0).
+#: A drawing threshold only; no computed value depends on it.
+LOCUS_ZERO = 1e-9

@@ -37,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 
 from ._errors import GeometryError
+from ._tol import BVLS, SECTION_MERGE, SECTION_PLANE
 from .solid import Zonotope
 
 __all__ = ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid", "section"]
@@ -150,14 +151,14 @@ def section(solid: Zonotope, normal, value: float) -> np.ndarray:
     b = np.concatenate([np.roll(L, -1, axis=1).reshape(-1, 3) for L in loops])
     sa, sb = a @ n - value, b @ n - value
     scale = solid.scale * np.linalg.norm(n)
-    eps = 1e-13 * scale
+    eps = SECTION_PLANE * scale
     cross = ((sa < -eps) & (sb > eps)) | ((sa > eps) & (sb < -eps))
     pts = a[cross] + (b[cross] - a[cross]) * (sa[cross] / (sa[cross] - sb[cross]))[:, None]
     on = np.concatenate([a[np.abs(sa) <= eps], b[np.abs(sb) <= eps]])
     pts = np.concatenate([pts, on])
     if pts.shape[0] == 0:
         return np.zeros((0, 3))
-    key = np.round(pts / (1e-10 * solid.scale))
+    key = np.round(pts / (SECTION_MERGE * solid.scale))
     _, first = np.unique(key, axis=0, return_index=True)
     pts = pts[np.sort(first)]
     if pts.shape[0] < 3:
@@ -359,6 +360,6 @@ def _zonogon_point(H, off, f, z, q) -> np.ndarray:
     side[S] = False
     x = side.astype(np.float64)
     r = q - off - side @ H
-    sol = lsq_linear(H[S].T, r, bounds=(0.0, 1.0), method="bvls", tol=1e-15)
+    sol = lsq_linear(H[S].T, r, bounds=(0.0, 1.0), method="bvls", tol=BVLS)
     x[S] = sol.x
     return x

@@ -361,7 +361,7 @@ def reflectances(name: str | colour.MultiSpectralDistributions) -> colour.MultiS
     resolved = _resolve(name, REFLECTANCES, _REFLECTANCE_ALIASES, "reflectance set")
     msds = REFLECTANCES[resolved]()
     values = np.asarray(msds.values, dtype=np.float64)
-    if np.any(values < -1e-12):  # pragma: no cover - colour's datasets are non-negative
+    if np.any(values < -NEGATIVE_NOISE):  # pragma: no cover - colour's data are non-negative (peak ≈ 1)
         raise SpectralDataError(f"built-in set {resolved} has negative reflectances.")
     # a few entries of colour's tables are -2e-16 (float noise, e.g. rawtoaces 190): clear them
     return colour.MultiSpectralDistributions(

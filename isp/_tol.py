@@ -1,0 +1,92 @@
+"""The numerical thresholds of ``isp``, each with the reason for its value (as ``zonotope/_tol.py``).
+
+``isp`` uses only public ``zonotope`` names, so its own decisions live here rather than in
+``zonotope._tol``; thresholds the two packages share come from ``zonotope`` itself (the accepted
+reflectance range is :data:`zonotope.REFLECTANCE_MIN` / :data:`zonotope.REFLECTANCE_MAX`).
+Defaults of public parameters (``camera_neutral_to_xy(atol=1e-10)``, ``MetamerConfig.quantum``,
+``ProfileConfig.smoothness``, ``tonemap_Reinhard2002(log_offset=1e-6)``) are documented where they
+are parameters, not here.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "EXPOSURE_NOMINAL",
+    "EXPOSURE_RECIPROCAL",
+    "NEUTRAL_MISMATCH",
+    "NEUTRAL_XY_STEP",
+    "STRIPPED_BITS_PER_PIXEL",
+    "STRIPPED_NONZERO",
+    "TABLE_GREY_SATURATION",
+    "TABLE_HARD_WEIGHT",
+    "TABLE_RIDGE",
+    "TABLE_RING_ROUNDING",
+    "WHITE_XY",
+]
+
+#: ``isp develop --correction metamer`` warns when the file's AsShotNeutral and the camera's white
+#: under ``--illuminant`` (both green-normalised) differ by more than this in some channel. Measured
+#: on the three built-in cameras against D65: D55 and D75 differ by 4–10 %, D50 by 7–16 %, FL2 by
+#: 13–36 %, A by 29–82 %. So 0.1 stays quiet for daylight near the fit's illuminant and warns for
+#: tungsten and fluorescent light (or sensitivities of another camera).
+NEUTRAL_MISMATCH = 0.1
+
+#: :func:`isp.dcp.white_xy` fallback iteration (camera neutral → white xy): stop when the xy estimate
+#: moves by less than this (sum of |Δx| + |Δy|). The DNG SDK's own threshold
+#: (``dng_color_spec::NeutralToXY``), so that profiles on which the fixed point oscillates give the
+#: SDK's answer.
+NEUTRAL_XY_STEP = 1e-7
+
+#: :func:`isp.write_dng`: an exposure time ``t < 1`` s is written as the rational ``1/n`` when
+#: ``1/t`` is within this of an integer. ``1/n`` computed in float64 and inverted again is off by
+#: ≈ 1e-13 relative; times that are not ``1/n`` (1/3.2 s, 0.3 s) are ≥ 1e-3 off, so both sides are
+#: far from the threshold.
+EXPOSURE_RECIPROCAL = 1e-9
+
+#: EXIF ExposureTime of output images (:func:`isp.output_tags`): a time within 1 % of ``1/n`` is
+#: written as ``1/n`` (the camera's nominal speed: 1/200 s rather than 0.004998 s); others in µs.
+#: Nominal shutter speeds are ≥ 1/3 stop (≈ 26 %) apart, so 1 % never picks the wrong one.
+EXPOSURE_NOMINAL = 0.01
+
+#: :func:`isp.read_raw`: a file smaller than this many bits per mosaic pixel has no pixel data
+#: (metadata only, or truncated). Lossless RAW codecs store 12–14-bit data in ≈ 6–10 bits per
+#: pixel and lossy ones (lossy DNG, C-RAW) in ≳ 2; no codec stores less than 0.5 bit per pixel.
+STRIPPED_BITS_PER_PIXEL = 0.5
+
+#: :func:`isp.read_raw`: a mosaic with fewer non-zero pixels than this fraction is stripped pixel
+#: data (LibRaw decodes a file without pixels to zeros). A real frame, even with the lens cap on,
+#: has black level and read noise in nearly every pixel; 0.1 % leaves room for a few hundred
+#: thousand dead pixels or a masked border on any sensor.
+STRIPPED_NONZERO = 1e-3
+
+#: :func:`isp.fit_hue_sat_map`: colours with an SDK-HSV saturation at or below this are left out of
+#: a table fit. Their hue is decided by rounding (the hue of grey is undefined) and their hue and
+#: saturation rows, weighted by the saturation, would carry nothing; a 10⁻⁴ relative channel
+#: difference is far below any correction a table makes (the grey nodes are held at identity).
+TABLE_GREY_SATURATION = 1e-4
+
+#: :func:`isp.fit_hue_sat_map`: ring ``j`` of ``S`` is held bias-free when ``j / (S − 1) ≤
+#: unbiased_saturation + TABLE_RING_ROUNDING``, so that a ring position given as a float (1/3 for
+#: ``S = 4``, 10/29 typed out) includes its ring despite rounding; ring positions are ≥ 1/(S − 1)
+#: ≥ 1e-3 apart, so no other ring is ever included.
+TABLE_RING_ROUNDING = 1e-12
+
+#: :func:`isp.fit_hue_sat_map`: a ridge of this × the mean squared row weight pulls every table
+#: entry towards identity, so the normal equations stay non-singular for nodes no colour reaches
+#: (empty hue sectors of a LookTable, ``smoothness = 0``). It moves the entries colours do reach by
+#: ≈ 1e-6 relative, far below the table's float32 storage (≈ 6e-8 relative) times the data's
+#: condition — and the identity is the right answer where there are no data.
+TABLE_RIDGE = 1e-6
+
+#: :func:`isp.fit_hue_sat_map`: the grey nodes (held at identity) and the bias-free ring rows are
+#: equality constraints, imposed as least-squares rows weighted 10³ × the mean squared data
+#: weight (× the number of colours for the ring rows, which average over every colour's pull).
+#: They then hold to ≈ 10⁻³ of the data's pull on those nodes, which is below the fit's noise;
+#: a much larger weight only worsens the conditioning of the sparse solve.
+TABLE_HARD_WEIGHT = 1e3
+
+#: :func:`isp.XYZ_to_linear_sRGB`: a white chromaticity within this (per coordinate) of sRGB's
+#: D65 white is taken as D65 and no chromatic adaptation is applied. White points are tabulated to
+#: 4–5 decimals (0.3127, 0.3290), so distinct whites differ by ≥ 1e-5; an adaptation between whites
+#: 1e-6 apart would be the identity to ≈ 1e-6 anyway.
+WHITE_XY = 1e-6
