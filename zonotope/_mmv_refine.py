@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._tol import NORMAL_ZERO, VERTEX_MERGE
 from .polytope import Polytope, _affine_hull, _complement, _vertices_from_halfspaces
 
 __all__ = ["Refinement", "refine", "refine_many", "refine_steps"]
@@ -76,7 +77,7 @@ class Refinement:
         A = self.directions @ B
         b = self.values - self.directions @ o
         norms = np.linalg.norm(A, axis=1)
-        keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
+        keep = norms > NORMAL_ZERO * max(float(norms.max()), 1e-300)
         A, b = A[keep], b[keep]
         if self.inner.affine_dim == d and d >= 2:
             # Work in the inner polytope's principal frame, scaled to unit spread: a very thin MMV
@@ -97,7 +98,7 @@ class Refinement:
         # tetrachromat target). One representative per 1e-9-of-span cell.
         span = float(np.ptp(Z, axis=0).max()) if Z.shape[0] else 0.0
         if span > 0 and d >= 3:
-            _, first = np.unique(np.round(Z / (1e-9 * span)), axis=0, return_index=True)
+            _, first = np.unique(np.round(Z / (VERTEX_MERGE * span)), axis=0, return_index=True)
             Z = Z[np.sort(first)]
         return Polytope(o + Z @ B.T, atol=self.inner.atol)
 

@@ -10,6 +10,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._tol import (
+    CONE_INTERIOR,
+    CONE_STEPS,
+    DEGENERATE,
+    EDGE_ZERO,
+    HULL2_COLLINEAR,
+    PARALLEL_EDGES,
+    PHASE1,
+    PIVOT,
+    REDUCED_COST,
+)
+
 # status codes (see zonotope._mmv_walk.STATUS)
 _OK, _INFEASIBLE, _ART, _LIMIT, _DEGEN, _FLAT, _COLLIDE, _VLIMIT, _ADJ = 0, 1, 2, 3, 4, 5, 7, 8, 9
 
@@ -34,7 +46,7 @@ def _inverse(F, B, Minv):
         for r in range(col + 1, k):
             if abs(M[r, col]) > abs(M[p, col]):
                 p = r
-        if abs(M[p, col]) <= 1e-13 * big:
+        if abs(M[p, col]) <= PIVOT * big:
             return False
         if p != col:
             for q in range(2 * k):
@@ -88,7 +100,7 @@ def _primal(F, lo, hi, c, w, B, up, isb, max_iter):
     wmax = 0.0
     for j in range(N):
         wmax = max(wmax, abs(w[j]))
-    dtol = 1e-11 * max(wmax, 1e-300)
+    dtol = REDUCED_COST * max(wmax, 1e-300)
     for it in range(max_iter):
         if not _inverse(F, B, Minv):
             return _DEGEN, it
@@ -175,7 +187,7 @@ def _cross(a, b, out):
 def _hull2(px, py, n, hull, tmp):
     """CCW convex hull of points 0..n−1 by gift wrapping (O(n·h), h hull points, usually 3–5).
 
-    Nearly collinear points (cross product within 1e-14 of the squared span) keep only the
+    Nearly collinear points (cross product within HULL2_COLLINEAR of the squared span) keep only the
     farthest. Returns the hull size, or 0 when the wrap does not close (numerical trouble).
     """
     span = 0.0
@@ -184,7 +196,7 @@ def _hull2(px, py, n, hull, tmp):
         span = max(span, abs(px[i]), abs(py[i]))
         if px[i] < px[start] or (px[i] == px[start] and py[i] < py[start]):
             start = i
-    eps = 1e-14 * span * span
+    eps = HULL2_COLLINEAR * span * span
     h = 0
     p = start
     while True:
@@ -212,8 +224,7 @@ def _hull2(px, py, n, hull, tmp):
 @njit("b1(f8[:, ::1], f8[::1], i8, f8[::1], f8[::1], b1, f8[::1])", cache=True, error_model="numpy")
 def _interior(A, na, cnt, w0, d0, has_d, w):
     """Set w to a direction with a·w > 0 for every row of A[:cnt] (True): w0 + η d0, else a perceptron."""
-    etas = (0.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)
-    for e in etas:
+    for e in CONE_STEPS:
         if e > 0.0 and not has_d:
             break
         if e == 0.0 and has_d:
@@ -225,7 +236,7 @@ def _interior(A, na, cnt, w0, d0, has_d, w):
         for t in range(cnt):
             if not ok:
                 break
-            if (A[t, 0] * w[0] + A[t, 1] * w[1] + A[t, 2] * w[2]) <= 1e-10 * na[t] * nw:
+            if (A[t, 0] * w[0] + A[t, 1] * w[1] + A[t, 2] * w[2]) <= CONE_INTERIOR * na[t] * nw:
                 ok = False
         if ok:
             return True
@@ -240,7 +251,7 @@ def _interior(A, na, cnt, w0, d0, has_d, w):
             if v < wv:
                 wv = v
                 worst = t
-        if worst < 0 or wv > 1e-10 * nw:
+        if worst < 0 or wv > CONE_INTERIOR * nw:
             return nw > 0.0
         for q in range(3):
             w[q] += A[worst, q] / na[worst]
@@ -281,7 +292,7 @@ def _same_state(Bs, Ups, v, B, up):
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     """Vertices (V, 3), status and number of moves of the MMV {Σ x_j G[j] : Σ x_j F[j] = c, lo ≤ x ≤ hi}."""
     N, k = F.shape
@@ -328,7 +339,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     for i in range(k):
         if Bx[i] >= N:
             infeas += xB[i]
-    if infeas > 1e-9 * max(scale, 1.0):
+    if infeas > PHASE1 * max(scale, 1.0):
         return empty, 0.0, zc, _INFEASIBLE, piv1, notri
     for i in range(k):
         if Bx[i] >= N:
@@ -377,7 +388,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         for j in range(N):
             s += abs(G[j, q]) * max(abs(lo[j]), abs(hi[j]))
         gscale = max(gscale, s)
-    zeta = 1e-13 * max(gscale, 1e-300)
+    zeta = EDGE_ZERO * max(gscale, 1e-300)
     A = np.empty((N, 3))
     na = np.empty(N)
     var = np.empty(N, dtype=np.int64)
@@ -408,7 +419,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         _basic_values(F, lo, hi, c, B, up, isb, Minv, xB)
         for i in range(k):
             b = B[i]
-            eta = 1e-12 * (hi[b] - lo[b])
+            eta = DEGENERATE * (hi[b] - lo[b])
             if not (xB[i] > lo[b] + eta and xB[i] < hi[b] - eta):
                 return empty, 0.0, zc, _DEGEN, moves, notri
         for q in range(3):
@@ -476,7 +487,8 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         for g in range(h):
             a = hull[g]
             for t in range(cnt):
-                if t != a and abs(px[t] - px[a]) <= 1e-12 * span and abs(py[t] - py[a]) <= 1e-12 * span:
+                tie = PARALLEL_EDGES * span
+                if t != a and abs(px[t] - px[a]) <= tie and abs(py[t] - py[a]) <= tie:
                     return empty, 0.0, zc, _FLAT, moves, notri
         for g in range(h):
             a = hull[g]
@@ -673,7 +685,7 @@ def _faces(Y, nbr, deg, nv, tris):
     return vol, cen, _OK, nt
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def l1_distances(Phi, Psi, C, Y, feas_tol):
     """L1 distance from each target response Y[p] to the MMV of the source response C[p].
 

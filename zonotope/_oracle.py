@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._errors import GeometryError
+from ._tol import HIGHS_FEASIBILITY, PHASE1, RATIO_PIVOT, REDUCED_COST
 
 __all__ = ["HighsOracle", "Infeasible", "SimplexOracle"]
 
@@ -82,7 +83,10 @@ class HighsOracle:
                 bounds=(0, 1),
                 method="highs",
                 **self._kw,
-                options=dict(primal_feasibility_tolerance=1e-10, dual_feasibility_tolerance=1e-10),
+                options=dict(
+                    primal_feasibility_tolerance=HIGHS_FEASIBILITY,
+                    dual_feasibility_tolerance=HIGHS_FEASIBILITY,
+                ),
             )
             self.n_calls += 1
             if res.status == 2:
@@ -176,7 +180,7 @@ class SimplexOracle:
         W1[:, n_main:] = -1.0
         basis, upper, xB, _ = self._solve(W1, basis, upper, rows)
         infeas = np.where(basis >= n_main, xB, 0.0).sum(axis=1)
-        self.feasible = infeas <= 1e-9 * max(self.scale, 1.0)
+        self.feasible = infeas <= PHASE1 * max(self.scale, 1.0)
         if single and not self.feasible[0]:
             raise Infeasible
         self.hi[n_main:] = 0.0  # artificials fixed at zero from now on
@@ -259,7 +263,7 @@ class SimplexOracle:
         Binv, xB = self._refactor(basis, upper, cs, rhs)
         isbasic = np.zeros((q, N), dtype=bool)
         np.put_along_axis(isbasic, basis, True, axis=1)
-        dtol = 1e-11 * np.maximum(np.abs(W).max(axis=1), 1e-300)
+        dtol = REDUCED_COST * np.maximum(np.abs(W).max(axis=1), 1e-300)
         free = hi > lo
         iters = np.zeros(q, dtype=np.int64)
         since = 0
@@ -308,7 +312,7 @@ class SimplexOracle:
             bB = basis[a]
             loB, hiB = lo[bB], hi[bB]
             xb = xB[a]
-            ptol = 1e-9
+            ptol = RATIO_PIVOT
             lim = np.full(rate.shape, np.inf)  # step until each basic variable hits a bound
             np.divide(xb - loB, rate, out=lim, where=rate > ptol)
             np.divide(xb - hiB, rate, out=lim, where=rate < -ptol)

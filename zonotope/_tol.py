@@ -50,17 +50,36 @@ __all__ = [
     "CAP_MARGIN",
     "CERTIFY",
     "COLLINEAR",
+    "CONE_INTERIOR",
+    "CONE_STEPS",
+    "DEGENERATE",
+    "EDGE_ZERO",
     "FEASIBLE_ABS",
     "FEASIBLE_REL",
     "GRID",
+    "HIGHS_FEASIBILITY",
+    "HULL2_COLLINEAR",
+    "HYPERPLANE_RANK",
     "LOCUS_ZERO",
+    "MAGNITUDE_MAX",
+    "MAGNITUDE_MIN",
     "NEGATIVE_NOISE",
+    "NORMAL_ZERO",
+    "PARALLEL_EDGES",
+    "PARALLEL_PREFILTER",
+    "PHASE1",
+    "PIVOT",
+    "RATIO_PIVOT",
+    "REDUCED_COST",
     "REFLECTANCE_MAX",
     "REFLECTANCE_MIN",
     "SECTION_MERGE",
     "SECTION_PLANE",
     "SINGULAR",
+    "SWEEP_GENERIC",
     "TOL",
+    "VERTEX_MERGE",
+    "ZONOGON_HALFTURN",
     "Tolerances",
 ]
 
@@ -164,17 +183,6 @@ COLLINEAR = 1e-15
 #: facets, |det| is the volume of their parallelotope, ≫ 1e-12).
 SINGULAR = 1e-12
 
-#: --- zonotope core (issue 10: facet sweep, MMV walk, refinement, membership) -------------------
-
-#: Facet sweep of a zonohedron: the angle of generator k in the sweep of generator i (its direction
-#: in the plane ⊥ h_i) is rounded by ≈ ``ANGLE_ROUNDING / s_ik`` rad, s_ik the sine of the angle
-#: between them: the projection has length |h_k|·s_ik and an absolute error of a few ε·|h_k|
-#: (ε = 2.2e-16; measured 0.2 ε/s on the near-parallel pair of tests/test_solid.py). Coplanarity
-#: (``Tolerances.coplanar``) is decided within that tolerance *plus* this rounding, so an exactly
-#: coplanar triple with a near-parallel pair is never split into slivers. 16 ε leaves a margin of
-#: ~80× over the measured rounding and stays ≤ 4e-8 rad for pairs kept apart by ``parallel``.
-ANGLE_ROUNDING = 16 * 2.220446049250313e-16
-
 #: Wavelength comparisons (grid snapping of ``common_shape``, "does the curve cover the grid?"),
 #: relative to the wavelength: grids built with ``arange``/``linspace`` differ from their ideal
 #: values by a few ulps (≈ 1e-13 nm at 700 nm), and measured tables are tabulated to ≥ 0.1 nm,
@@ -233,3 +241,130 @@ CAP_MARGIN = 1e-9
 #: has reached 0 (the tails of the CIE observers fall to ≈ 1e-7 of the peak before they are 0).
 #: A drawing threshold only; no computed value depends on it.
 LOCUS_ZERO = 1e-9
+
+# --- MMV engine: simplex kernels, vertex walk, refinement, membership; zonohedron sweeps -------
+# The numba kernels (_mmv_walk_kernel) read these as compile-time constants and cache the compiled
+# code on disk keyed by the kernel's own source file: after changing a value used there, delete
+# zonotope/__pycache__/_mmv_walk_kernel.* so that it is recompiled.
+
+#: Simplex kernels (walk, ``mmv_distance``): a basis matrix whose Gauss–Jordan pivot falls below
+#: ``PIVOT ×`` its largest entry is singular. Basis columns are source generators (|det| of a
+#: well-posed 3-channel basis is ≥ 1e-6 of the entries³ on measured cameras); elimination leaves
+#: pivots of exactly dependent columns at ≈ k ε ≈ 1e-15 of the largest entry, so 1e-13 separates
+#: them with two orders either way.
+PIVOT = 1e-13
+
+#: Simplex pricing (walk, ``mmv_distance``, :class:`~zonotope._oracle.SimplexOracle`): a reduced
+#: cost counts as improving above ``REDUCED_COST ×`` the largest objective coefficient. Reduced
+#: costs are sums of ≈ n products, rounded to ≈ n ε ≈ 1e-14 of that coefficient at n ≤ 100; 1e-11
+#: stops on rounding noise (no cycling on ties) while a support LP's optimum moves by at most
+#: 1e-11 × Σ|Ψu| ≈ 1e-11 of the target scale, below :data:`CERTIFY`.
+REDUCED_COST = 1e-11
+
+#: Phase 1 (walk, :class:`~zonotope._oracle.SimplexOracle`, ``mmv_distance``): a response is
+#: feasible when the artificial variables sum to at most ``PHASE1 × scale`` (source scale, or 1).
+#: Equal to :data:`CERTIFY`: a response on the solid's boundary computed in float64 (≈ 1e-15 ·
+#: scale off) is feasible, one a billionth of the scale outside is not.
+PHASE1 = 1e-9
+
+#: Vertex walk: an edge vector shorter than ``EDGE_ZERO ×`` the target scale is zero (a non-basic
+#: wavelength the target does not see, after the basic variables compensate). Edge vectors are
+#: differences of sums of k+1 products of size ≈ scale/n, rounded to ≈ 1e-16 · scale; the shortest
+#: real edges of a 5 nm MMV are ≈ 1e-6 · scale.
+EDGE_ZERO = 1e-13
+
+#: Vertex walk: a basic variable within ``DEGENERATE × (hi − lo)`` of a bound makes the vertex
+#: degenerate (more than k + 3 active bounds); the walk then declines and refinement answers.
+#: Basic values come from a k×k solve with ≈ 1e-15 relative rounding; 1e-12 flags ties of
+#: rounding size and no genuine vertex (bounded away from its bounds by ≥ 1e-9 on measured data).
+DEGENERATE = 1e-12
+
+#: Vertex walk: a direction w is interior to a vertex's normal cone when a·w > ``CONE_INTERIOR ×``
+#: |a| |w| for every edge vector a (sin of its angle to each cone facet above 1e-10 rad). Well above
+#: the ≈ 1e-16 rounding of the products, and far below the angular size of any real normal cone
+#: (an MMV with 5 000 vertices has cones of ≈ 1e-3 sr).
+CONE_INTERIOR = 1e-10
+
+#: Vertex walk, the search for an interior direction: the steps η tried along the direction back
+#: into the cone (w = w₀ + η d₀), largest first; then a perceptron. Not a tolerance but a schedule:
+#: η = 0.1 almost always succeeds, the smaller steps cover thin cones down to :data:`CONE_INTERIOR`.
+CONE_STEPS = (0.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)
+
+#: Vertex walk, 2-D hull of the central projections of a cone's edge vectors: points whose cross
+#: product lies within ``HULL2_COLLINEAR × span²`` of a hull edge are collinear with it (the
+#: farthest is kept). The cross products carry ≈ 4 ε · span² ≈ 1e-15 · span² of rounding; real
+#: turns of the projected edges are ≳ 1e-8.
+HULL2_COLLINEAR = 1e-14
+
+#: Vertex walk: two projected edge vectors closer than ``PARALLEL_EDGES × span`` in both
+#: coordinates are parallel (one hull point twice): single moves cannot cross such a cone facet,
+#: so the walk declines. Projections are exact to ≈ 1e-15 · span; distinct measured edge
+#: directions differ by ≥ 1e-7 rad (:attr:`Tolerances.parallel`).
+PARALLEL_EDGES = 1e-12
+
+#: :class:`~zonotope._oracle.SimplexOracle` ratio test: basic variables whose rate of change is
+#: below ``RATIO_PIVOT`` (in variable units per unit step, variables in [0, 1]) do not bound the
+#: step. Dropping pivots that small keeps the basis well conditioned (|pivot| ≥ 1e-9 bounds the
+#: growth of the basis inverse) at the cost of a bound violation ≤ 1e-9 × step ≤ 1e-9, which phase
+#: 2 removes and :data:`PHASE1` tolerates.
+RATIO_PIVOT = 1e-9
+
+#: :class:`~zonotope._oracle.HighsOracle` (reference twin): HiGHS' primal and dual feasibility
+#: tolerances, tightened from their default 1e-7 so that the reference's support values are exact
+#: to ≈ 1e-10 of the scale, below :data:`CERTIFY` (1e-9) of the refinement it checks.
+HIGHS_FEASIBILITY = 1e-10
+
+#: Refinement's outer bound (:meth:`zonotope._mmv_refine.Refinement.outer`): a support direction
+#: whose component inside the MMV's affine hull is shorter than ``NORMAL_ZERO ×`` the longest is
+#: dropped (it is normal to the hull: no constraint inside it). Unit directions projected onto a
+#: basis round to ≈ 1e-16; genuine facet normals have components ≈ 1.
+NORMAL_ZERO = 1e-12
+
+#: Refinement's outer bound: vertices from the half-space intersection within ``VERTEX_MERGE ×``
+#: their span (one grid cell) are one. A degenerate vertex (more than d planes through it) comes
+#: back once per d-subset, ≈ 1e-11 of the span apart; distinct vertices of a certified bound are at
+#: least :data:`CERTIFY` apart. Equal to :data:`AFFINE` (the polytope's own flatness threshold).
+VERTEX_MERGE = 1e-9
+
+#: Zonohedron reduction: candidate parallel pairs are those with 1 − cos θ ≤ max(PARALLEL_PREFILTER,
+#: parallel²) (then confirmed by |u_i − u_j| ≤ parallel). The cosine of unit vectors carries
+#: ≈ 2e-16 of rounding, so 1 − cos θ cannot resolve θ below ≈ 2e-8; the floor 1e-12 keeps every
+#: pair the exact distance test might merge among the candidates for any ``parallel`` ≥ 1e-6 rad.
+PARALLEL_PREFILTER = 1e-12
+
+#: Zonogon facets: a coplanar generator is flipped (t ↦ 1 − t) to point into the facet's upper
+#: half-plane when its angle is below ``−ZONOGON_HALFTURN`` or at least π − ``ZONOGON_HALFTURN``
+#: rad; the angles of unit vectors are exact to ≈ 1e-16 rad, coplanar generators are ≥ 1e-7 rad
+#: apart (:attr:`Tolerances.parallel`), so the value only decides which end of a half-turn owns
+#: the generator lying on the axis.
+ZONOGON_HALFTURN = 1e-12
+
+#: Zonohedron vertex sweep: the fixed generic directions w, e of the sweep are *too close* to the
+#: data (the sweep declines and key deduplication answers) when a facet normal, a climbing
+#: coefficient, a shadow direction or a gap between shadow events is within ``SWEEP_GENERIC`` (rad
+#: or relative) of zero. Rounding of those quantities is ≈ 1e-15; any margin above it is correct,
+#: 1e-9 keeps the sweep's combinatorics far from ties at the cost of declining on ~1e-9 of inputs.
+SWEEP_GENERIC = 1e-9
+
+#: :func:`zonotope.membership` (dense half-spaces of a zonotope in any dimension): a subset of d − 1
+#: generators spans a hyperplane when its smallest singular value exceeds ``HYPERPLANE_RANK ×`` the
+#: largest generator entry. Equal to :attr:`Tolerances.rank` for the same reason: singular values
+#: of exactly dependent subsets come out at ≈ 1e-15 relative, measured independent ones ≥ 1e-4.
+HYPERPLANE_RANK = 1e-10
+
+#: :class:`~zonotope.Zonotope`: generator magnitudes outside [MAGNITUDE_MIN, MAGNITUDE_MAX] are
+#: refused: the products of two (cross products) or three (volumes) would under- or overflow
+#: float64 (range ≈ 1e±308). A range guard, not a tolerance; data in any physical unit fit.
+MAGNITUDE_MIN = 1e-150
+
+#: See :data:`MAGNITUDE_MIN`.
+MAGNITUDE_MAX = 1e150
+
+#: Facet sweep of a zonohedron: the angle of generator k in the sweep of generator i (its direction
+#: in the plane ⊥ h_i) is rounded by ≈ ``ANGLE_ROUNDING / s_ik`` rad, s_ik the sine of the angle
+#: between them: the projection has length |h_k|·s_ik and an absolute error of a few ε·|h_k|
+#: (ε = 2.2e-16; measured 0.2 ε/s on the near-parallel pair of tests/test_solid.py). Coplanarity
+#: (``Tolerances.coplanar``) is decided within that tolerance *plus* this rounding, so an exactly
+#: coplanar triple with a near-parallel pair is never split into slivers. 16 ε leaves a margin of
+#: ~80× over the measured rounding and stays ≤ 4e-8 rad for pairs kept apart by ``parallel``.
+ANGLE_ROUNDING = 16 * 2.220446049250313e-16

@@ -18,7 +18,7 @@ from itertools import combinations
 
 import numpy as np
 
-from ._tol import ANGLE_ROUNDING, Tolerances
+from ._tol import ANGLE_ROUNDING, PARALLEL_PREFILTER, SWEEP_GENERIC, ZONOGON_HALFTURN, Tolerances
 
 
 @dataclass(frozen=True)
@@ -124,7 +124,7 @@ def reduce_with_groups(G: np.ndarray, offset: np.ndarray, tol: Tolerances):
     H[flip] *= -1.0
     U = H / np.linalg.norm(H, axis=1, keepdims=True)
     # candidates by cosine (cheap), confirmed by |u_i − u_j|, which resolves tiny angles
-    ci, cj = np.nonzero(U @ U.T >= 1.0 - max(1e-12, tol.parallel**2))  # 1 − cos θ ≈ θ²/2
+    ci, cj = np.nonzero(U @ U.T >= 1.0 - max(PARALLEL_PREFILTER, tol.parallel**2))  # 1 − cos θ ≈ θ²/2
     d2 = np.einsum("ij,ij->i", U[ci] - U[cj], U[ci] - U[cj])
     close = np.zeros((U.shape[0], U.shape[0]), dtype=bool)
     close[ci, cj] = d2 <= tol.parallel**2
@@ -304,7 +304,7 @@ def zonogon(H, r, normal, base, key, zset):
     Z = H[zset].copy()
     rz = r[zset].copy()
     ang = np.arctan2(Z @ e2, Z @ e1)
-    flip = (ang < -1e-12) | (ang >= np.pi - 1e-12)
+    flip = (ang < -ZONOGON_HALFTURN) | (ang >= np.pi - ZONOGON_HALFTURN)
     base = base + Z[flip].sum(axis=0)
     key = np.array([key], dtype=np.int64) + rz[flip].sum(dtype=np.int64)
     Z[flip] *= -1.0
@@ -412,7 +412,7 @@ def vertices_sweep(
     w /= np.linalg.norm(w)
     e = np.cross(w, [0.8314159, -0.2718281, 0.4845213])
     e /= np.linalg.norm(e)
-    eps = 1e-9
+    eps = SWEEP_GENERIC
     # crossings in the upper hemisphere: the + facet (normal n) or its − twin (normal −n)
     i, j = f.pairs[:, 0], f.pairs[:, 1]
     n = f.normals

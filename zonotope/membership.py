@@ -30,7 +30,7 @@ from itertools import combinations
 import numpy as np
 
 from ._errors import GeometryError
-from ._tol import TOL
+from ._tol import HYPERPLANE_RANK, PHASE1, TOL
 
 __all__ = ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"]
 
@@ -66,7 +66,7 @@ def joint_halfspaces(generators, *, max_terms: int = 2_000_000) -> tuple[np.ndar
     idx = np.fromiter(combinations(range(n), d - 1), dtype=(np.intp, d - 1), count=terms)
     _, s, Vt = np.linalg.svd(G[idx], full_matrices=True)
     scale = np.abs(G).max()
-    ok = s[:, -1] > 1e-10 * max(scale, 1e-300)  # the subset spans a hyperplane
+    ok = s[:, -1] > HYPERPLANE_RANK * max(scale, 1e-300)  # the subset spans a hyperplane
     U = Vt[ok, -1, :]
     U = np.concatenate([U, -U])
     h = np.clip(U @ G.T, 0.0, None).sum(axis=1)
@@ -196,9 +196,8 @@ def mmv_distance(Phi, Psi, responses, targets) -> np.ndarray:
     k, m = Phi.shape[1], Psi.shape[1]
     lead = c.shape[:-1]
     scale = max(float(np.abs(Phi).sum(axis=0).max()), 1.0)
-    d, status = l1_distances(
-        Phi, Psi, np.ascontiguousarray(c.reshape(-1, k)), np.ascontiguousarray(y.reshape(-1, m)), 1e-9 * scale
-    )
+    C, Y = np.ascontiguousarray(c.reshape(-1, k)), np.ascontiguousarray(y.reshape(-1, m))
+    d, status = l1_distances(Phi, Psi, C, Y, PHASE1 * scale)
     if np.any(status != 0):  # pragma: no cover - pivot limit (cycling): the HiGHS twin answers
         from scipy.optimize import linprog
 

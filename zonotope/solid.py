@@ -36,7 +36,7 @@ import numpy as np
 from . import _zonohedron as _zh
 from ._errors import GeometryError
 from ._lp import distance_to_zonotope
-from ._tol import TOL, Tolerances
+from ._tol import MAGNITUDE_MAX, MAGNITUDE_MIN, TOL, Tolerances
 
 __all__ = ["Parallelograms", "Support", "Zonotope"]
 
@@ -137,7 +137,7 @@ class Zonotope:
         if not np.all(np.isfinite(G)):
             raise GeometryError("generators contain NaN or inf; check the spectral data.")
         peak = float(np.abs(G).max())
-        if peak > 0 and not 1e-150 <= peak <= 1e150:
+        if peak > 0 and not MAGNITUDE_MIN <= peak <= MAGNITUDE_MAX:
             raise GeometryError(
                 f"generators of magnitude {peak:.3g}: products of two (cross products, volumes) would "
                 "underflow or overflow in float64. Rescale them, e.g. generators(..., normalise=1)."
