@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from zonotope._errors import SpectralDataError
+from zonotope._errors import OptionError, SpectralDataError
 from zonotope._lp import distance_to_zonotope
+from zonotope._mmv_estimators import MIX_GRID, PriorConfig
 from zonotope.atypical import atypical_reflectances
 from zonotope.correct import (
     CORRECTION_METHODS,
@@ -199,10 +200,15 @@ def test_prior_estimator_natural_vs_atypical(problem2, checker):
     est = prior_est(CA)
     for c, t in zip(CA, est):
         assert in_mmv(problem2, c, t, tol=1e-4)
-    # improbable under the natural model → the posterior mean of the uniform model, the MMV centroid
+    # improbable under the natural model → the atypical branch alone: λ · MAP + (1 − λ) · MMV centroid,
+    # λ learnt by cross-validation on contrast-stretched training spectra
     low = wA <= 1e-4
     assert low.any()
-    np.testing.assert_allclose(est[low], mmv_centroids(problem2, CA[low]), atol=1e-12)
+    lam = prior_est.params["mix"]
+    assert lam in MIX_GRID and set(prior_est.params["mix_cv"]["scores"]) == set(MIX_GRID)
+    t_map = map_reflectance(problem2, CA[low], prior_est.params["prior"]) @ problem2.Psi
+    expected = lam * t_map + (1 - lam) * mmv_centroids(problem2, CA[low]) if lam < 0.99 else t_map
+    np.testing.assert_allclose(est[low], expected, atol=1e-12)
 
 
 def test_prior_with_noise_runs(problem, checker):
@@ -404,3 +410,43 @@ def test_leader_groups_against_brute_force():
     assert first.size < P.shape[0] / 4  # noise clouds are not cut into grid cells
     again, label2 = _leader_groups(P.copy(), 0.01)
     assert np.array_equal(again, first) and np.array_equal(label2, label)
+
+
+def test_prior_config_checked_and_equal_to_keywords(problem, checker):
+    """PriorConfig is checked when made; a config and the same keywords give the same estimator."""
+    C = problem.source_of(checker)
+    by_config = fit_correction(problem, method="Prior", config=PriorConfig(mix=0.5, odds=10.0))
+    by_keywords = fit_correction(problem, method="Prior", mix=0.5, odds=10.0)
+    np.testing.assert_array_equal(by_config(C), by_keywords(C))
+    assert isinstance(by_keywords.params["config"], PriorConfig)
+    assert by_keywords.params["mix"] == 0.5 and by_keywords.params["mix_cv"] is None
+    for bad, match in (
+        ({"odds": 0}, "odds"),
+        ({"mix": 1.5}, "mix"),
+        ({"mix": "sometimes"}, "mix"),
+        ({"folds": 1}, "folds"),
+        ({"shrinkage": -0.1}, "shrinkage"),
+        ({"noise": float("nan")}, "noise"),
+    ):
+        with pytest.raises(OptionError, match=match):
+            PriorConfig(**bad)
+    with pytest.raises(OptionError, match="unknown option"):
+        fit_correction(problem, method="Prior", odd=10.0)
+
+
+def test_sharpened_reflectances_are_steeper_versions_of_the_training_set(problem):
+    from zonotope.atypical import sharpened_reflectances
+
+    R = problem.training
+    X = sharpened_reflectances(R, 200, seed=3)
+    assert X.shape == (200, R.shape[1]) and X.min() >= 0 and X.max() <= 1
+    np.testing.assert_array_equal(X, sharpened_reflectances(R, 200, seed=3))  # seeded
+    steep = np.abs(np.diff(X, axis=1)).max(axis=1)
+    assert np.median(steep) > 2 * np.median(np.abs(np.diff(R, axis=1)).max(axis=1))
+    # further from the natural prior than the training spectra themselves
+    prior = ReflectancePrior.fit(R)
+    assert np.median(prior.energy(X)) > 10 * np.median(prior.energy(R))
+    with pytest.raises(SpectralDataError, match="n must be"):
+        sharpened_reflectances(R, -1)
+    with pytest.raises(SpectralDataError, match="reflectances"):
+        sharpened_reflectances(np.empty((0, 31)), 3)

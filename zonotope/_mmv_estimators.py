@@ -5,15 +5,30 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from ._config import check_count, check_nonnegative, with_options
 from ._correction_problem import CorrectionProblem, Corrector
-from ._errors import SpectralDataError
+from ._errors import OptionError, SpectralDataError
 from ._regressions import fit_Cheung2004, fit_Finlayson2015
 from .prior import ReflectancePrior, interior_solution, map_reflectance, project_to_mmv
 
-__all__ = ["fit_Centroid", "fit_MAP", "fit_Prior", "fit_Projection", "mmv_centroids", "select_regression"]
+__all__ = [
+    "CENTROID_MIN_WEIGHT",
+    "GATE_NONE",
+    "GATE_SURE",
+    "MIX_GRID",
+    "PriorConfig",
+    "fit_Centroid",
+    "fit_MAP",
+    "fit_Prior",
+    "fit_Projection",
+    "learn_mix",
+    "mmv_centroids",
+    "select_regression",
+]
 
 
 _LOG_VOLUMES: dict[bytes, float] = {}  # Φ bytes → log volume (6-channel solids take seconds)
@@ -197,18 +212,162 @@ def _ab_to_00(problem: CorrectionProblem, target: np.ndarray, radius_ab: np.ndar
     return best
 
 
-def fit_Prior(
+def _gate(problem: CorrectionProblem, prior: ReflectancePrior, *, noise: float, odds: float, log_vol: float):
+    """The posterior probability of "natural", ``weights(c, x)``, for responses ``c (N, k)`` and their
+    MAP reflectances ``x (N, n)`` under ``prior`` (see :func:`fit_Prior`)."""
+    Sc = problem.Phi.T @ prior.cov @ problem.Phi + noise**2 * np.eye(problem.k)
+    half_logdet = 0.5 * np.linalg.slogdet(2 * np.pi * Sc)[1]
+
+    def weights(c, x):
+        E = prior.energy(x)
+        if noise > 0:
+            E = E + 0.5 * np.sum((x @ problem.Phi - c) ** 2, axis=-1) / noise**2
+        logit = np.log(odds) - E - half_logdet + log_vol
+        return 0.5 * (1.0 + np.tanh(0.5 * logit))  # logistic, overflow-free
+
+    return weights
+
+
+def _fit_regression(problem: CorrectionProblem, name: str, *, degree: int, noise: float) -> Corrector:
+    if name == "Cheung 2004":
+        return fit_Cheung2004(problem, noise=noise)
+    return fit_Finlayson2015(problem, degree=degree, noise=noise)
+
+
+#: Weights of MAP in the atypical branch that :func:`fit_Prior` chooses from by cross-validation.
+MIX_GRID: tuple[float, ...] = tuple(np.round(np.linspace(0.0, 1.0, 11), 2))
+
+
+def learn_mix(
     problem: CorrectionProblem,
+    regression: str,
     *,
     degree: int = 2,
     shrinkage: float = 0.01,
-    odds: float = 100.0,
     noise: float = 0.0,
+    odds: float = 100.0,
     eps: float = 1e-3,
-    regression: str = "cv",
     folds: int = 10,
+    augment: int = 300,
+    seed: int = 0,
     executor=None,
-) -> Corrector:
+) -> tuple[float, dict]:
+    """Weight ``λ`` of the MAP estimate in the atypical branch of :func:`fit_Prior`, by cross-validation
+    on atypical spectra made from the training set only.
+
+    Each training fold gives ``augment / folds`` contrast-stretched spectra
+    (``zonotope.atypical.sharpened_reflectances``: saturated, band- and step-like versions of its
+    natural spectra); the regression and the prior are refitted on the other folds, the whole
+    ``"Prior"`` estimate ``w · t_nat + (1 − w) · (λ t_MAP + (1 − λ) t_centroid)`` is formed for each
+    λ of :data:`MIX_GRID` and the λ with the lowest mean ΔE00 on those held-out spectra wins. No test
+    data are involved; the two atypical test generators of ``zonotope evaluate`` are not used.
+
+    Returns
+    -------
+    lam : float
+    cv : dict
+        ``"scores"``: mean held-out ΔE00 per λ; ``"n"``: number of augmented spectra.
+    """
+    from .atypical import sharpened_reflectances
+
+    R = problem.training
+    folds = int(max(2, min(folds, R.shape[0])))
+    perm = np.random.default_rng(seed).permutation(R.shape[0])
+    parts = np.array_split(perm, folds)
+    rng = np.random.default_rng(seed + 2)
+    log_vol = _log_volume(problem.Phi)
+    C_all, T_all, nat_all, map_all, w_all = [], [], [], [], []
+    for i, f in enumerate(parts):
+        X = sharpened_reflectances(R[f], -(-augment // folds), seed=seed + 17 * i)
+        if X.shape[0] == 0:
+            continue
+        sub = dataclasses.replace(problem, training=R[np.setdiff1d(perm, f)])
+        prior = ReflectancePrior.fit(sub.training, shrinkage=shrinkage)
+        reg = _fit_regression(sub, regression, degree=degree, noise=noise)
+        C = problem.source_of(X)
+        if noise > 0:
+            C = C + rng.normal(0.0, noise, C.shape)
+        x = map_reflectance(sub, C, prior, noise=noise)
+        C_all.append(C)
+        T_all.append(problem.target_of(X))
+        nat_all.append(project_to_mmv(sub, C, reg(C), prior=prior, noise=noise)[0])
+        map_all.append(x @ problem.Psi)
+        w_all.append(_gate(sub, prior, noise=noise, odds=odds, log_vol=log_vol)(C, x))
+    C, T = np.concatenate(C_all), np.concatenate(T_all)
+    t_nat, t_map, w = np.concatenate(nat_all), np.concatenate(map_all), np.concatenate(w_all)[:, None]
+    t_cen = mmv_centroids(problem, C, eps=eps, delta=3.0 * noise, executor=executor)
+    scores = {
+        lam: float(np.mean(problem.delta_E(w * t_nat + (1 - w) * (lam * t_map + (1 - lam) * t_cen), T)))
+        for lam in MIX_GRID
+    }
+    return min(scores, key=scores.get), {"scores": scores, "n": int(C.shape[0])}
+
+
+#: Gate thresholds of :func:`fit_Prior`: where the posterior weight of "natural" reaches GATE_SURE the
+#: atypical branch (an MMV centroid, tens of ms) is skipped — its weight under 1 % moves the estimate
+#: by less than 1 % of the distance between the branches; where it is at most GATE_NONE the natural
+#: branch (a projection onto the MMV, a bounded least squares) is skipped for the same reason.
+GATE_SURE = 0.99
+
+#: See :data:`GATE_SURE`.
+GATE_NONE = 1e-4
+
+#: The MMV centroid is computed only where its weight ``(1 − w)(1 − λ)`` in the estimate of
+#: :func:`fit_Prior` reaches this (the same 1 %-of-the-gap rule as :data:`GATE_SURE`).
+CENTROID_MIN_WEIGHT = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class PriorConfig:
+    """Options of :func:`fit_Prior` (checked when made; see :mod:`zonotope._config`).
+
+    ``fit_Prior(problem, PriorConfig(noise=0.01))`` and ``fit_Prior(problem, noise=0.01)`` are the
+    same call. Attributes: see the parameters of :func:`fit_Prior`.
+
+    Raises
+    ------
+    OptionError
+        A value out of range (named, with what is allowed).
+    """
+
+    degree: int = 2
+    shrinkage: float = 0.01
+    odds: float = 100.0
+    noise: float = 0.0
+    eps: float = 1e-3
+    regression: str = "cv"
+    folds: int = 10
+    mix: float | str = "cv"
+    augment: int = 300
+    executor: object = None
+
+    def __post_init__(self):
+        name = "PriorConfig"
+        check_count(name, "degree", self.degree, minimum=1)
+        check_count(name, "folds", self.folds, minimum=2)
+        check_count(name, "augment", self.augment, minimum=1)
+        object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
+        object.__setattr__(self, "eps", check_nonnegative(name, "eps", self.eps))
+        shrinkage = check_nonnegative(name, "shrinkage", self.shrinkage)
+        if shrinkage > 1:
+            raise OptionError(f"{name}.shrinkage={self.shrinkage!r}: give a number in [0, 1].")
+        object.__setattr__(self, "shrinkage", shrinkage)
+        odds = check_nonnegative(name, "odds", self.odds)
+        if odds <= 0:
+            raise OptionError(f"{name}.odds={self.odds!r}: give a finite number > 0.")
+        object.__setattr__(self, "odds", odds)
+        if not isinstance(self.regression, str):
+            raise OptionError(
+                f"{name}.regression={self.regression!r}: give 'cv', 'Cheung 2004' or 'Finlayson 2015'."
+            )
+        if self.mix != "cv":
+            mix = check_nonnegative(name, "mix", self.mix) if not isinstance(self.mix, str) else -1.0
+            if not 0.0 <= mix <= 1.0:
+                raise OptionError(f"{name}.mix={self.mix!r}: give 'cv' or a weight in [0, 1].")
+            object.__setattr__(self, "mix", mix)
+
+
+def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **options) -> Corrector:
     """Default estimator: posterior mean under a two-component reflectance prior, kept in the MMV.
 
     Model: a reflectance is either *natural* (Gaussian ``N(μ, Σ)`` learnt from the training set) or
@@ -284,63 +443,90 @@ def fit_Prior(
         forms: :func:`zonotope.image.correct_image` groups only those); ``with_uncertainty`` gives
         credible radii.
     """
-    reg, cv = select_regression(problem, degree=degree, noise=noise, folds=folds)
-    if regression != "cv":
+    cfg = with_options(PriorConfig, config, options, where="fit_Prior")
+    degree, shrinkage, odds, noise, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
+    executor = cfg.executor
+    reg, cv = select_regression(problem, degree=degree, noise=noise, folds=cfg.folds)
+    if cfg.regression != "cv":
         from .correct import CORRECTION_METHODS
 
-        name = CORRECTION_METHODS.resolve(regression)
+        name = CORRECTION_METHODS.resolve(cfg.regression)
         if name not in ("Cheung 2004", "Finlayson 2015"):
             raise SpectralDataError(
-                f"regression={regression!r}: choose 'cv', 'Cheung 2004' or 'Finlayson 2015'."
+                f"regression={cfg.regression!r}: choose 'cv', 'Cheung 2004' or 'Finlayson 2015'."
             )
-        reg = (
-            fit_Cheung2004(problem, noise=noise)
-            if name == "Cheung 2004"
-            else fit_Finlayson2015(problem, degree=degree, noise=noise)
+        reg = _fit_regression(problem, name, degree=degree, noise=noise)
+    if cfg.mix == "cv":
+        lam, mix_cv = learn_mix(
+            problem,
+            reg.method,
+            degree=degree,
+            shrinkage=shrinkage,
+            noise=noise,
+            odds=odds,
+            eps=eps,
+            folds=cfg.folds,
+            augment=cfg.augment,
+            executor=executor,
         )
+    else:
+        lam, mix_cv = float(cfg.mix), None
     r_nat = float(np.percentile(cv["errors"], 95))
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
     log_vol = _log_volume(problem.Phi)
-    Sc = problem.Phi.T @ prior.cov @ problem.Phi + noise**2 * np.eye(problem.k)
-    half_logdet = 0.5 * np.linalg.slogdet(2 * np.pi * Sc)[1]
-
-    def weights(c, x):
-        E = prior.energy(x)
-        if noise > 0:
-            E = E + 0.5 * np.sum((x @ problem.Phi - c) ** 2, axis=-1) / noise**2
-        logit = np.log(odds) - E - half_logdet + log_vol
-        return 0.5 * (1.0 + np.tanh(0.5 * logit))  # logistic, overflow-free
-
+    weights = _gate(problem, prior, noise=noise, odds=odds, log_vol=log_vol)
     PhiPsi = np.hstack([problem.Phi, problem.Psi])
     sigma = np.concatenate([np.full(problem.k, float(noise)), np.zeros(problem.m)])
 
-    def needs_solver(c):
-        """Rows whose estimate needs a bounded least-squares solve or an MMV centroid (the others
-        are closed forms: an interior MAP reflectance, w ≥ 0.99 and a witnessed regression)."""
+    def needs_centroid(w):
+        """Rows whose MMV centroid enters the estimate with a weight ``(1 − w)(1 − λ)`` of at least
+        CENTROID_MIN_WEIGHT (below it, leaving it out moves the estimate by < 1 % of the gap)."""
+        return (w < GATE_SURE) & ((1.0 - w) * (1.0 - lam) >= CENTROID_MIN_WEIGHT)
+
+    def closed_form(c):
+        """Estimates of every row that needs no solver, and which rows need one (a bounded least
+        squares for a MAP reflectance off the interior or a regression not witnessed inside the MMV,
+        or an MMV centroid); one vectorised pass, the rows flagged are left for :func:`solve`."""
         c = np.atleast_2d(np.asarray(c, dtype=np.float64))
         x, interior = interior_solution(prior, problem.Phi, c, noise=noise)
         w = weights(c, x)
-        _, witness = interior_solution(prior, PhiPsi, np.hstack([c, reg(c)]), noise=sigma)
-        return ~interior | (w < 0.99) | ((w > 1e-4) & ~witness)
+        t = reg(c)
+        _, witness = interior_solution(prior, PhiPsi, np.hstack([c, t]), noise=sigma)
+        slow = ~interior | needs_centroid(w) | ((w > GATE_NONE) & ~witness)
+        wa = np.where(w > GATE_NONE, w, 0.0)[:, None]
+        t_map = np.clip(x, 0.0, 1.0) @ problem.Psi
+        out = np.where((w >= GATE_SURE)[:, None], t, wa * t + (1.0 - wa) * t_map)
+        return out, slow
 
-    def run(c, with_radius: bool):
+    def needs_solver(c):
+        """Rows whose estimate needs a bounded least-squares solve or an MMV centroid (the others
+        are closed forms: an interior MAP reflectance, a witnessed regression and no centroid)."""
+        return closed_form(c)[1]
+
+    def solve(c, with_radius: bool):
         x = map_reflectance(problem, c, prior, noise=noise)
         w = weights(c, x)
         out = reg(c)
-        nat = w > 1e-4
+        nat = w > GATE_NONE
         if nat.any():
             out[nat] = project_to_mmv(problem, c[nat], out[nat], prior=prior, noise=noise)[0]
         t_nat = out.copy()
         r2 = w * r_nat**2
-        arb = w < 0.99  # a centroid weight under 1 % moves the estimate by < 1 % of the gap
+        arb = w < GATE_SURE  # an atypical weight under 1 % moves the estimate by < 1 % of the gap
         if arb.any():
-            t_arb, vol = mmv_centroids(
-                problem, c[arb], eps=eps, delta=3.0 * noise, executor=executor, volumes=True
-            )
-            wa = np.where(nat[arb], w[arb], 0.0)[:, None]  # w ≤ 1e-4: the centroid alone
+            t_arb = x[arb] @ problem.Psi
+            cen = needs_centroid(w[arb])
+            mmv = np.ones_like(cen) if with_radius else cen  # radii need every MMV's volume
+            if mmv.any():
+                t_cen, vol = mmv_centroids(
+                    problem, c[arb][mmv], eps=eps, delta=3.0 * noise, executor=executor, volumes=True
+                )
+                use = cen[mmv]
+                t_arb[cen] = lam * t_arb[cen] + (1.0 - lam) * t_cen[use]
+            wa = np.where(nat[arb], w[arb], 0.0)[:, None]  # w ≤ GATE_NONE: the atypical branch alone
             out[arb] = wa * out[arb] + (1.0 - wa) * t_arb
             if with_radius:
-                J2 = problem.lab_metric(t_arb)  # JᵀJ: det = (d Lab / d target)²
+                J2 = problem.lab_metric(t_cen)  # JᵀJ: det = (d Lab / d target)²
                 vol_lab = np.maximum(vol, 0.0) * np.sqrt(np.abs(np.linalg.det(J2)))
                 r_arb = _ab_to_00(problem, t_arb, 0.983 * np.cbrt(3.0 * vol_lab / (4.0 * np.pi)))
                 gap = problem.delta_E(t_nat[arb], t_arb)
@@ -350,6 +536,14 @@ def fit_Prior(
             return out
         return out, np.sqrt(r2)
 
+    def run(c, with_radius: bool):
+        if with_radius:
+            return solve(c, True)
+        out, slow = closed_form(c)
+        if slow.any():
+            out[slow] = solve(c[slow], False)
+        return out
+
     return Corrector(
         "Prior",
         problem,
@@ -358,12 +552,16 @@ def fit_Prior(
             "prior": prior,
             "regression": reg,
             "cv_scores": cv["scores"],
+            "mix": lam,
+            "mix_cv": mix_cv,
             "log_volume": log_vol,
             "r_nat": r_nat,
             "weights": weights,
             "needs_solver": needs_solver,
+            "closed_form": closed_form,
             "odds": odds,
             "noise": noise,
+            "config": cfg,
         },
         predict_with_radius=lambda c: run(c, True),
     )

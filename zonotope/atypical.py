@@ -31,7 +31,12 @@ import numpy as np
 
 from ._errors import OptionError, SpectralDataError
 
-__all__ = ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"]
+__all__ = [
+    "ATYPICAL_KINDS",
+    "STRUCTURED_KINDS",
+    "atypical_reflectances",
+    "structured_reflectances",
+]
 
 #: Families of atypical spectra :func:`atypical_reflectances` can draw.
 ATYPICAL_KINDS: tuple[str, ...] = ("band-pass", "band-stop", "narrow-band", "spiky")
@@ -231,3 +236,59 @@ def structured_reflectances(
         out[i] = np.clip(_STRUCTURED[kind](rng, w), 0.0, 1.0)
         labels.append(f"{kind} {i}")
     return out, labels
+
+
+def sharpened_reflectances(reflectances, n: int, *, seed: int = 0) -> np.ndarray:
+    """Atypical spectra made from natural ones: each a contrast-stretched training spectrum.
+
+    A training-side helper of :func:`zonotope._mmv_estimators.learn_mix` (not in ``__all__``).
+
+    Training-side augmentation for :func:`zonotope.correct.fit_Prior` (no test generator involved):
+    a randomly drawn spectrum ``x`` of ``reflectances`` keeps its shape, i.e. where it rises and
+    falls, but its logit is stretched by a steepness ``s`` (log-uniform in [2, 30]) about a random
+    level ``z₀`` (between its 20th and 80th logit percentile) and mapped into ``[lo, hi]``
+    (``lo`` ∈ [0, 0.1], ``hi`` ∈ [0.6, 1])::
+
+        y = lo + (hi − lo) · σ(s · (logit x − z₀))
+
+    Steep ``s`` turns a smooth natural spectrum into a saturated band- or step-like one with the same
+    transitions (a more concentrated dye or a sharper filter of the same material), i.e. towards the
+    boundary of the object-colour solid, where regressions extrapolate.
+
+    Parameters
+    ----------
+    reflectances : array_like of shape (N, n_wavelengths)
+        Natural spectra in [0, 1] (the training set).
+    n
+        Number of spectra to make.
+    seed
+        Seed of ``numpy.random.default_rng``.
+
+    Returns
+    -------
+    ndarray of shape (n, n_wavelengths)
+        In [0, 1].
+
+    Raises
+    ------
+    SpectralDataError
+        No spectra given or ``n < 0``.
+    """
+    R = np.asarray(reflectances, dtype=np.float64)
+    if R.ndim != 2 or R.shape[0] == 0:
+        raise SpectralDataError(f"reflectances: give an (N, n_wavelengths) array with N ≥ 1, got {R.shape}.")
+    if n < 0:
+        raise SpectralDataError(f"n must be >= 0, got {n}.")
+    rng = np.random.default_rng(seed)
+    x = np.clip(R[rng.integers(0, R.shape[0], n)], _SHARPEN_CLIP, 1.0 - _SHARPEN_CLIP)
+    z = np.log(x / (1.0 - x))
+    z0 = rng.uniform(np.percentile(z, 20, axis=1), np.percentile(z, 80, axis=1))
+    s = np.exp(rng.uniform(np.log(2.0), np.log(30.0), n))
+    lo = rng.uniform(0.0, 0.1, (n, 1))
+    hi = rng.uniform(0.6, 1.0, (n, 1))
+    return np.clip(lo + (hi - lo) * _logistic(s[:, None] * (z - z0[:, None])), 0.0, 1.0)
+
+
+#: Reflectances are clipped to [c, 1 − c] before their logit is taken (measured zeros and ones would
+#: give infinite logits); 1e-3 is below the noise floor of reflectance measurements.
+_SHARPEN_CLIP = 1e-3

@@ -157,25 +157,34 @@ def correct_image(
     if isinstance(base, str):
         if base != "auto":
             raise OptionError(f"base={base!r}: give a Corrector, 'auto' or None.")
-        base = corrector.params.get("regression") or fit_correction(
-            corrector.problem, method="Finlayson 2015"
-        )
+        closed = corrector.params.get("closed_form")
+        if closed is not None:  # the estimator's own closed-form part: follows its gate per pixel
+            base = lambda c: closed(c)[0]  # noqa: E731
+        else:
+            base = corrector.params.get("regression") or fit_correction(
+                corrector.problem, method="Finlayson 2015"
+            )
     flat = img.reshape(-1, k)
     ok = np.all(np.isfinite(flat), axis=1)
     out = np.full((flat.shape[0], m), np.nan)
     if not ok.any():
         return out.reshape(*img.shape[:-1], m)
     pixels = flat[ok]
+    closed_form = corrector.params.get("closed_form")
     needs_solver = corrector.params.get("needs_solver")
-    if needs_solver is not None and quantum > 0:
+    if (closed_form is not None or needs_solver is not None) and quantum > 0:
         # exact per pixel where the estimator is a closed form; grouping only where it solves
-        slow = np.concatenate(
-            [needs_solver(pixels[i : i + _CHUNK]) for i in range(0, pixels.shape[0], _CHUNK)]
-        )
         res = np.empty((pixels.shape[0], m))
-        fast = np.flatnonzero(~slow)
-        for i in range(0, fast.size, _CHUNK):
-            res[fast[i : i + _CHUNK]] = corrector(pixels[fast[i : i + _CHUNK]])
+        slow = np.empty(pixels.shape[0], dtype=bool)
+        for i in range(0, pixels.shape[0], _CHUNK):
+            if closed_form is not None:  # estimates and solver rows in one vectorised pass
+                res[i : i + _CHUNK], slow[i : i + _CHUNK] = closed_form(pixels[i : i + _CHUNK])
+            else:
+                slow[i : i + _CHUNK] = needs_solver(pixels[i : i + _CHUNK])
+        if closed_form is None:
+            fast = np.flatnonzero(~slow)
+            for i in range(0, fast.size, _CHUNK):
+                res[fast[i : i + _CHUNK]] = corrector(pixels[fast[i : i + _CHUNK]])
         if slow.any():
             res[slow] = _grouped(
                 pixels[slow], corrector, quantum, base, batch_size, cache_dir, progress, leaders=True
