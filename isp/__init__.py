@@ -29,7 +29,7 @@ The names of ``simulate``, ``dcp``, ``profile_fit`` and ``batch`` load on first 
 'demosaic'
 """
 
-from ._errors import PipelineError, PipelineMethodError, RawFormatError
+from ._errors import InputFileNotFoundError, PipelineError, PipelineMethodError, RawFormatError
 from .dng import (
     DNGMetadata,
     DNGProfile,
@@ -69,6 +69,7 @@ __all__ = [
     "DNGMetadata",
     "DNGProfile",
     "Development",
+    "InputFileNotFoundError",
     "MetamerConfig",
     "MetamerCorrection",
     "Pipeline",

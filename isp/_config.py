@@ -79,3 +79,12 @@ def check_options(owner: str, name: str, value) -> dict[str, Any]:
             f"{owner}.{name}={value!r}: give a mapping of keyword names to values, e.g. {{'noise': 0.01}}."
         )
     return dict(value)
+
+
+def float_array(x, what: str, error: type[Exception] = PipelineError) -> np.ndarray:
+    """``np.asarray(x, float64)``, or ``error`` naming ``what`` when ``x`` is not an array of numbers
+    (text, ragged nested lists, objects) instead of numpy's raw ``ValueError``/``TypeError``."""
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{what}: expected an array of numbers; got {type(x).__name__} ({exc}).") from None

@@ -47,7 +47,8 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from ._errors import RawFormatError
+from ._config import float_array
+from ._errors import InputFileNotFoundError, RawFormatError
 from ._tol import NEUTRAL_XY_STEP
 from .dng import (
     LIGHT_SOURCE_CCT,
@@ -204,11 +205,14 @@ class DCPProfile:
         for name in ("color_matrix_1", "color_matrix_2", "forward_matrix_1", "forward_matrix_2"):
             m = getattr(self, name)
             if m is not None:
-                object.__setattr__(self, name, np.asarray(m, dtype=np.float64).reshape(3, 3))
+                m = float_array(m, name, DCPError)
+                if m.size != 9 or not np.all(np.isfinite(m)):
+                    raise DCPError(f"{name}: expected a finite 3 × 3 matrix, got shape {m.shape}.")
+                object.__setattr__(self, name, m.reshape(3, 3))
         for name in ("hue_sat_map_1", "hue_sat_map_2", "look_table"):
             t = getattr(self, name)
             if t is not None:
-                t = np.asarray(t, dtype=np.float64)
+                t = float_array(t, name, DCPError)
                 if t.ndim != 4 or t.shape[-1] != 3 or t.shape[2] < 2 or not np.all(np.isfinite(t)):
                     raise DCPError(f"{name}: expected a finite (V, H, S ≥ 2, 3) table, got shape {t.shape}.")
                 object.__setattr__(self, name, t)
@@ -219,7 +223,10 @@ class DCPProfile:
             if getattr(self, name) not in (0, 1):
                 raise DCPError(f"{name}={getattr(self, name)}: must be 0 (linear) or 1 (sRGB).")
         if self.tone_curve is not None:
-            tc = np.asarray(self.tone_curve, dtype=np.float64).reshape(-1, 2)
+            tc = float_array(self.tone_curve, "tone_curve", DCPError)
+            if tc.size % 2:
+                raise DCPError(f"tone_curve: expected (x, y) pairs, got {tc.size} values.")
+            tc = tc.reshape(-1, 2)
             if (
                 tc.shape[0] < 2
                 or not np.all(np.isfinite(tc))
@@ -443,8 +450,12 @@ def apply_hue_sat_map(rgb, table, *, encoding: int = 0, clip_saturation: bool = 
     -------
     ndarray of shape (..., 3)
     """
-    x = np.asarray(rgb, dtype=np.float64)
-    T = np.asarray(table, dtype=np.float64)
+    x = float_array(rgb, "rgb")
+    if x.ndim < 1 or x.shape[-1] != 3:
+        raise DCPError(f"rgb: expected linear ProPhoto RGB of shape (..., 3), got {x.shape}.")
+    T = float_array(table, "table", DCPError)
+    if T.ndim != 4 or T.shape[-1] != 3 or T.shape[2] < 2:
+        raise DCPError(f"table: expected a (V, H, S ≥ 2, 3) HueSatMap/LookTable, got shape {T.shape}.")
     V, H, S, _ = T.shape
     h, s, v = _rgb_to_hsv(x)
     hs = h * (H / 6.0)
@@ -499,8 +510,10 @@ def apply_tone_curve(rgb, curve) -> np.ndarray:
     """
     from scipy.interpolate import CubicSpline
 
-    pts = np.asarray(curve, dtype=np.float64)
-    x = np.clip(np.asarray(rgb, dtype=np.float64), 0.0, 1.0)
+    pts = float_array(curve, "curve", DCPError)
+    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
+        raise DCPError(f"curve: expected (x, y) pairs of shape (M ≥ 2, 2), got {pts.shape}.")
+    x = np.clip(float_array(rgb, "rgb"), 0.0, 1.0)
     f = (
         CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural")
         if len(pts) > 2
@@ -555,14 +568,14 @@ def read_dcp(path: str | os.PathLike) -> DCPProfile:
     DCPError
         Not a TIFF/DCP file, or tags missing or inconsistent (e.g. table data that does not fit
         its Dims tag, no ColorMatrix1).
-    FileNotFoundError
-        ``path`` does not exist.
+    InputFileNotFoundError
+        ``path`` does not exist (a ``FileNotFoundError`` too).
     """
     import tifffile
 
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"camera profile {path} not found.")
+        raise InputFileNotFoundError(f"camera profile {path} not found.")
     head = path.read_bytes()[:4]
     if head not in (b"IIRC", b"MMCR", b"II*\x00", b"MM\x00*"):
         raise DCPError(f"{path}: not a DNG camera profile (header {head!r}; a .dcp starts with b'IIRC').")
@@ -635,6 +648,8 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     """
     import tifffile
 
+    if not isinstance(profile, DCPProfile):
+        raise DCPError(f"profile: expected an isp.DCPProfile; got {type(profile).__name__}.")
     path = Path(path)
     if path.exists() and not overwrite:
         raise DCPError(f"{path} exists; pass overwrite=True (--overwrite) or choose another name.")

@@ -36,6 +36,7 @@ from typing import Any
 import colour
 import numpy as np
 
+from ._config import float_array
 from ._errors import PipelineError
 from ._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
 from .dcp import PROPHOTO_FROM_XYZ, DCPProfile, _rgb_to_hsv, apply_hue_sat_map
@@ -94,8 +95,8 @@ def profile_reflectances(
     """
     import zonotope
 
-    w = np.asarray(wavelengths, dtype=np.float64)
-    parts = [] if training is None else [np.asarray(training, dtype=np.float64)]
+    w = float_array(wavelengths, "wavelengths")
+    parts = [] if training is None else [float_array(training, "training")]
     for name in _NATURAL_SETS:
         parts.append(np.clip(zonotope.resample(zonotope.reflectances(name), w).T, 0.0, 1.0))
     n_nat = sum(p.shape[0] for p in parts)
@@ -113,7 +114,7 @@ def profile_reflectances(
 def _weights(weights, N: int) -> np.ndarray:
     if weights is None:
         return np.ones(N)
-    wt = np.asarray(weights, dtype=np.float64).reshape(-1)
+    wt = float_array(weights, "weights").reshape(-1)
     if wt.shape != (N,) or not np.all(np.isfinite(wt)) or np.any(wt < 0) or not np.any(wt > 0):
         raise PipelineError(
             f"weights: need {N} finite non-negative values, not all 0 (got shape {wt.shape}); "
@@ -218,14 +219,23 @@ def fit_hue_sat_map(
         raise PipelineError(
             f"unbiased_saturation={unbiased_saturation!r}: give a saturation in [0, 1] (0: no rings held)."
         )
-    p = np.asarray(source, dtype=np.float64)
-    q = np.asarray(target, dtype=np.float64)
+    p = float_array(source, "source")
+    q = float_array(target, "target")
+    if p.ndim != 2 or p.shape[-1] != 3 or q.shape != p.shape or p.shape[0] == 0:
+        raise PipelineError(
+            f"source {p.shape} and target {q.shape}: give two (N, 3) arrays of linear ProPhoto RGB, N ≥ 1."
+        )
     wt = _weights(weights, p.shape[0])
     h, s, v = _rgb_to_hsv(p)
     hq, sq, vq = _rgb_to_hsv(q)
     ok = (v > 0) & (vq > 0) & (s > TABLE_GREY_SATURATION) & np.all(np.isfinite(q), axis=-1) & (wt > 0)
     if V > 1 and encoding == 1:
         ok &= (v < 1) & (vq < 1)  # the encoded axis and scale saturate at 1
+    if not np.any(ok):
+        raise PipelineError(
+            f"none of the {p.shape[0]} colours can be fitted (each is black, grey, not finite or of "
+            "weight 0); give saturated colours with finite source and target."
+        )
     h, s, v, hq, sq, vq = h[ok], s[ok], v[ok], hq[ok], sq[ok], vq[ok]
     sw = np.sqrt(wt[ok] / np.mean(wt[ok]))
     hs = h * (H / 6.0)
@@ -464,6 +474,10 @@ class ProfileConfig:
             v = getattr(self, name)
             if not (isinstance(v, str) or (v is None and name != "copyright")):
                 raise PipelineError(f"{owner}.{name}={v!r}: give a text (ASCII, as DCP tags are).")
+            if isinstance(v, str) and not v.isascii():
+                raise PipelineError(
+                    f"{owner}.{name}={v!r}: DCP text tags are ASCII; remove the non-ASCII characters."
+                )
         check_int(owner, "embed_policy", self.embed_policy, minimum=0, maximum=3)
         check_int(owner, "n_random", self.n_random, minimum=0)
         check_int(owner, "seed", self.seed, minimum=0)

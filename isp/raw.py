@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._errors import RawFormatError
+from ._errors import InputFileNotFoundError, RawFormatError
 from ._tol import STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .dng import DNGProfile, read_dng_tags
 
@@ -304,7 +304,7 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
 
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file.")
+        raise InputFileNotFoundError(f"{path}: no such file.")
     size = path.stat().st_size
     if not metadata_only:
         _check_dng_data(path, size)

@@ -19,6 +19,7 @@ import numpy as np
 
 from zonotope import MethodRegistry
 
+from ._config import float_array
 from ._errors import PipelineError, PipelineMethodError
 from ._tol import WHITE_XY
 from .dng import D50_xy, DNGProfile
@@ -50,14 +51,14 @@ _CHANNEL = {"R": 0, "G": 1, "B": 2}
 
 
 def _mosaic_array(x, what: str = "mosaic") -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
+    a = float_array(x, what)
     if a.ndim != 2 or a.shape[0] < 2 or a.shape[1] < 2:
         raise PipelineError(f"{what}: expected a Bayer mosaic of shape (H, W) with H, W ≥ 2; got {a.shape}.")
     return a
 
 
 def _image_array(x, what: str = "image") -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
+    a = float_array(x, what)
     if a.ndim < 1 or a.shape[-1] != 3:
         raise PipelineError(
             f"{what}: expected channels last, shape (..., 3); got {a.shape}. "

@@ -500,3 +500,72 @@ def test_correct_image_cache_path_problems(tmp_path):
     npz.write_bytes(npz.read_bytes()[:50])  # a damaged cache
     np.testing.assert_array_equal(correct_image(img, est, cache_dir=folder), first)
     assert [p.name for p in folder.iterdir()] == [npz.name]
+
+
+# ---------------------------------------------------------------------------------------------
+# Bad arguments to the public functions of spectra, vora, macadam, profile, survey (issue 13
+# item 8): a project error naming the argument, never numpy's raw ValueError/TypeError/
+# AttributeError or a FileNotFoundError that is not a project error.
+# ---------------------------------------------------------------------------------------------
+
+
+def _lut():
+    return zonotope.correction_LUT(lambda c: c, size=3, space="XYZ")
+
+
+BAD_CALLS = {
+    "resample(str)": (
+        lambda: zonotope.resample("nonsense", np.arange(400, 701, 10.0)),
+        "SpectralDistribution",
+    ),
+    "vora_value(ragged)": (lambda: zonotope.vora_value([[1, 2], [3]], np.eye(3)), "Q: expected an array"),
+    "projector(str)": (lambda: zonotope.vora.projector("ab"), "A: expected an array"),
+    "macadam_limits(str)": (lambda: zonotope.macadam_limits("a"), "Y must lie"),
+    "macadam_limits(True)": (lambda: zonotope.macadam_limits(True), "Y must lie"),
+    "is_object_colour(str)": (lambda: zonotope.is_object_colour("abc"), "XYZ: expected an array"),
+    "invert(str)": (lambda: zonotope.invert("abc"), "points: expected an array"),
+    "section(str normal)": (
+        lambda: zonotope.section(zonotope.object_colour_solid(), "ab", 0.5),
+        "normal: expected an array",
+    ),
+    "load_correction(missing)": (lambda: zonotope.load_correction("/nonexistent/x.npz"), "not found"),
+    "correction_LUT(text output)": (lambda: zonotope.correction_LUT(lambda c: "x", size=3), "output"),
+    "correction_LUT(wrong shape)": (lambda: zonotope.correction_LUT(lambda c: c[:, :2], size=3), "(N, 3)"),
+    "correction_LUT(not callable)": (lambda: zonotope.correction_LUT(3, size=3), "callable"),
+    "apply_correction_LUT(str)": (lambda: zonotope.apply_correction_LUT(_lut(), "abc"), "rgb"),
+    "apply_correction_LUT(2 channels)": (lambda: zonotope.apply_correction_LUT(_lut(), [[1, 2]]), "rgb"),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_CALLS))
+def test_bad_arguments_raise_project_errors(name):
+    call, match = BAD_CALLS[name]
+    with pytest.raises(ZonotopeError, match=match):
+        call()
+
+
+def test_missing_saved_correction_is_still_a_file_not_found_error():
+    with pytest.raises(FileNotFoundError):
+        zonotope.load_correction("/nonexistent/x.npz")
+
+
+def test_survey_table_formats_and_outputs_are_checked_before_the_work(tmp_path, capsys):
+    from zonotope.survey import write_table
+
+    with pytest.raises(ZonotopeError, match=r"\.csv or \.parquet"):
+        write_table([], tmp_path / "t.xlsx")  # was written as CSV under the .xlsx name
+    assert list(tmp_path.iterdir()) == []
+    cams = "Nikon 5100 (NPL),Canon EOS 5D Mark II"
+    base = ["survey", "--cameras", cams, "--scheduler", "serial", "-q", "--partners", "0"]
+    assert zonotope_main([*base, "-o", str(tmp_path / "t.xlsx")]) == 2
+    other = tmp_path / "notes.csv"
+    other.write_text("my,own\n1,2\n")
+    t0 = time.perf_counter()
+    assert zonotope_main([*base, "-o", str(other)]) == 2  # never replaces a file it did not write
+    assert time.perf_counter() - t0 < 5 and other.read_text() == "my,own\n1,2\n"
+    err = capsys.readouterr().err
+    assert "not an output of this command" in err and "Traceback" not in err
+    table = tmp_path / "t.csv"
+    assert zonotope_main([*base, "-o", str(table)]) == 0
+    assert zonotope_main([*base, "-o", str(table)]) == 0  # a previous table is replaced
+    assert table.read_text().startswith("rank,cameras,")

@@ -176,6 +176,7 @@ _EXPORTS = {
         "LUT_SHAPERS",
         "LUT_SPACES",
         "LUTConfig",
+        "SavedCorrectionNotFoundError",
         "apply_correction_LUT",
         "correction_LUT",
         "load_correction",

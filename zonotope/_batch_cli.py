@@ -199,9 +199,22 @@ def _survey(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from . import spectra
+    from ._errors import ZonotopeError
+    from ._io import check_output
     from .parallel import resolve_scheduler
-    from .survey import best_partners, load_cameras, survey, write_table
+    from .survey import TABLE_HEADER, TABLE_SUFFIXES, best_partners, load_cameras, survey, write_table
 
+    if args.output:  # checked before the (long) survey: format, never an input, only a previous table
+        if Path(args.output).suffix.lower() not in TABLE_SUFFIXES:
+            raise ZonotopeError(f"-o {args.output}: write the table as {' or '.join(TABLE_SUFFIXES)}.")
+        inputs = [p for spec in args.cameras for p in ([spec] if Path(spec).is_dir() else spec.split(","))]
+        check_output(
+            args.output,
+            overwrite=True,
+            signature=TABLE_HEADER,
+            inputs=[p for p in inputs if Path(p).exists()],
+            what="-o",
+        )
     console = Console(stderr=True)
     out = Console(width=max(Console().width, 130))
     cams, skipped = load_cameras(

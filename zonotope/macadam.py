@@ -39,6 +39,7 @@ import numpy as np
 from ._errors import GeometryError
 from ._tol import BVLS, SECTION_MERGE, SECTION_PLANE
 from .solid import Zonotope
+from .spectra import float_array
 
 __all__ = ["MacAdamLimits", "invert", "is_object_colour", "macadam_limits", "object_colour_solid", "section"]
 
@@ -111,7 +112,7 @@ def is_object_colour(
     -------
     ndarray of bool, shape (...)
     """
-    return _solid(solid, observer, illuminant).contains(XYZ, atol)
+    return _solid(solid, observer, illuminant).contains(float_array(XYZ, "XYZ", GeometryError), atol)
 
 
 def section(solid: Zonotope, normal, value: float) -> np.ndarray:
@@ -135,7 +136,7 @@ def section(solid: Zonotope, normal, value: float) -> np.ndarray:
     The vertices are where the plane cuts the solid's edges (the edges of its parallelogram and
     zonogon facets), computed edge by edge: no hull and no sampling.
     """
-    n = np.asarray(normal, dtype=np.float64).reshape(-1)
+    n = float_array(normal, "normal", GeometryError).reshape(-1)
     if n.shape != (3,) or not np.all(np.isfinite(n)) or not np.any(n):
         raise GeometryError(f"normal must be a finite non-zero 3-vector; got {normal!r}.")
     if not np.isfinite(value):
@@ -223,7 +224,12 @@ def macadam_limits(
     Z = _solid(solid, observer, illuminant)
     Yw = float(Z.white[1])
     lo = float(Z.offset[1] + np.minimum(Z.generators[:, 1], 0).sum())
-    if not np.isfinite(Y) or not lo < Y < Yw:
+    if (
+        isinstance(Y, bool)
+        or not isinstance(Y, int | float | np.number)
+        or not np.isfinite(Y)
+        or not lo < Y < Yw
+    ):
         raise GeometryError(f"Y must lie strictly between {lo:g} and the white's {Yw:g}; got {Y!r}.")
     P = section(Z, [0.0, 1.0, 0.0], float(Y))
     P = P[::-1]  # counter-clockwise seen from +Y
@@ -279,7 +285,7 @@ def invert(
 
     Z = solid if solid is not None else object_colour_solid(observer, illuminant)
     Z._require_3d("invert")
-    P = np.asarray(points, dtype=np.float64)
+    P = float_array(points, "points", GeometryError)
     if P.shape[-1:] != (3,):
         raise GeometryError(f"points must have shape (..., 3); got {P.shape}.")
     if not np.all(np.isfinite(P)):

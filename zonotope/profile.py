@@ -49,11 +49,13 @@ import numpy as np
 
 from ._errors import SpectralDataError, ZonotopeError
 from ._io import atomic_path
+from .spectra import float_array
 
 __all__ = [
     "LUT_SHAPERS",
     "LUT_SPACES",
     "LUTConfig",
+    "SavedCorrectionNotFoundError",
     "apply_correction_LUT",
     "correction_LUT",
     "load_correction",
@@ -66,6 +68,12 @@ LUT_SPACES: dict[str, str | None] = {"XYZ": None, "sRGB": "sRGB", "ACES2065-1": 
 #: Shaper names of :func:`correction_LUT`.
 LUT_SHAPERS = ("log2", "linear")
 _EPS = 2.0**-8
+
+
+class SavedCorrectionNotFoundError(ZonotopeError, FileNotFoundError):
+    """:func:`load_correction` of a path that does not exist (also a ``FileNotFoundError``)."""
+
+
 _FORMAT = "zonotope-correction/1"
 
 
@@ -94,10 +102,21 @@ def shaper_decode(y, *, headroom: float, shaper: str) -> np.ndarray:
 
 
 def _exposure_safe(fn: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], np.ndarray]:
+    if not callable(fn):
+        raise ZonotopeError(
+            f"XYZ_from_balanced={fn!r:.60}: give a callable (N, 3) → (N, 3), e.g. a fitted Corrector."
+        )
+
     def g(c):
         c = np.maximum(np.asarray(c, dtype=np.float64), 0.0)
         over = np.maximum(c.max(axis=-1, keepdims=True), 1.0)
-        return np.asarray(fn(c / over), dtype=np.float64) * over
+        out = float_array(fn(c / over), "XYZ_from_balanced's output", ZonotopeError)
+        if out.shape != c.shape:
+            raise ZonotopeError(
+                f"XYZ_from_balanced maps {c.shape} responses to shape {out.shape}; it must return "
+                "one XYZ per response, (N, 3)."
+            )
+        return out * over
 
     return g
 
@@ -248,7 +267,10 @@ def correction_LUT(
 
 def apply_correction_LUT(lut: colour.LUTSequence, rgb) -> np.ndarray:
     """Apply a :func:`correction_LUT` result with colour-science (trilinear), shape (..., 3)."""
-    return lut.apply(np.asarray(rgb, dtype=np.float64))
+    rgb = float_array(rgb, "rgb", ZonotopeError)
+    if rgb.ndim < 1 or rgb.shape[-1] != 3:
+        raise ZonotopeError(f"rgb: expected white-balanced camera RGB of shape (..., 3), got {rgb.shape}.")
+    return lut.apply(rgb)
 
 
 def write_correction_LUT(
@@ -365,7 +387,7 @@ def load_correction(path: str | os.PathLike):
 
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"saved correction {path} not found.")
+        raise SavedCorrectionNotFoundError(f"saved correction {path} not found.")
     try:
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))

@@ -132,9 +132,30 @@ def _as_curve(obj: CurveLike, what: str, lookup: Callable[[str], Curve] | None =
     )
 
 
+def float_array(x, name: str, error: type[Exception] = SpectralDataError) -> np.ndarray:
+    """``np.asarray(x, float64)``, or ``error`` naming ``name`` when ``x`` is not an array of numbers
+    (text, ragged nested lists) instead of numpy's raw ``ValueError``/``TypeError``."""
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{name}: expected an array of numbers; got {type(x).__name__} ({exc}).") from None
+
+
 def _arrays(curve: Curve) -> tuple[np.ndarray, np.ndarray]:
-    v = np.asarray(curve.values, dtype=np.float64)
-    return np.asarray(curve.wavelengths, dtype=np.float64), v if v.ndim == 2 else v[:, None]
+    if not (hasattr(curve, "values") and hasattr(curve, "wavelengths")):
+        raise SpectralDataError(
+            f"expected a colour SpectralDistribution or MultiSpectralDistributions; got "
+            f"{type(curve).__name__} {curve!r:.60}. Load names and files with zonotope.load_camera, "
+            "observer, illuminant or load_reflectances first."
+        )
+    try:
+        v = np.asarray(curve.values, dtype=np.float64)
+        w = np.asarray(curve.wavelengths, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise SpectralDataError(
+            f"{getattr(curve, 'name', 'curve')}: values are not numbers ({exc})."
+        ) from None
+    return w, v if v.ndim == 2 else v[:, None]
 
 
 # ---------------------------------------------------------------------------------------------

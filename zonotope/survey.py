@@ -37,6 +37,8 @@ from ._progress import ProgressCallback
 
 __all__ = [
     "REGRESSIONS",
+    "TABLE_HEADER",
+    "TABLE_SUFFIXES",
     "SurveyConfig",
     "SurveyRow",
     "best_partners",
@@ -337,14 +339,33 @@ def best_partners(rows: Sequence[SurveyRow], camera: str, n: int = 10) -> list[S
     return [r for r in rows if camera in r.cameras and not r.error][:n]
 
 
+#: File types :func:`write_table` writes, by suffix.
+TABLE_SUFFIXES = (".csv", ".parquet")
+
+#: The first line of a survey CSV starts with this (how ``zonotope survey -o`` recognises a table it
+#: may replace).
+TABLE_HEADER = "rank,cameras,"
+
+
 def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
-    """Write the ranked rows as CSV (or Parquet for ``.parquet``, if pyarrow is installed), atomically."""
+    """Write the ranked rows as CSV (or Parquet for ``.parquet``, if pyarrow is installed), atomically.
+
+    Raises
+    ------
+    ZonotopeError
+        A suffix other than ``.csv`` / ``.parquet`` (nothing is written), or Parquet without pyarrow.
+    """
     import csv
     import io
 
     from ._io import atomic_path, atomic_write_text
 
     path = Path(path)
+    if path.suffix.lower() not in TABLE_SUFFIXES:
+        raise ZonotopeError(
+            f"{str(path)!r}: a survey table is written as {' or '.join(TABLE_SUFFIXES)}; "
+            f"{path.suffix or 'no suffix'} is not a table format this writes."
+        )
     cols = [f.name for f in fields(SurveyRow)]
     if path.suffix.lower() == ".parquet":
         try:

@@ -43,7 +43,7 @@ def projector(A, *, rtol: float = TOL.rank) -> tuple[np.ndarray, int]:
     rank : int
         Numerical rank of A with its columns scaled to unit length (zero columns dropped).
     """
-    A = np.asarray(A, dtype=np.float64)
+    A = spectra.float_array(A, "A")
     if A.ndim != 2:
         raise SpectralDataError(f"expected a (n_wavelengths, channels) matrix, got shape {A.shape}.")
     if not np.all(np.isfinite(A)):  # a NaN column would otherwise be dropped as if it were zero
@@ -80,8 +80,8 @@ def vora_value(Q, X) -> float:
     >>> round(vora_value(X @ np.array([[1, 2, 0], [0, 1, 0], [1, 0, 3]]), X), 12)
     1.0
     """
-    Q = np.asarray(Q, dtype=np.float64)
-    X = np.asarray(X, dtype=np.float64)
+    Q = spectra.float_array(Q, "Q")
+    X = spectra.float_array(X, "X")
     if Q.ndim != 2 or X.ndim != 2 or Q.shape[0] != X.shape[0]:
         raise SpectralDataError(
             f"Q {Q.shape} and X {X.shape} must be (n, k) and (n, m) on the same wavelength grid."
