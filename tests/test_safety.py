@@ -463,6 +463,8 @@ def test_mmv_batch_streams_in_bounded_memory():
     def stop(stage, done, total):
         raise Stop
 
+    with pytest.raises(Stop):  # compile the numba kernels first: tracing the JIT takes ~100 s
+        metamer_mismatch_batch(Phi, Psi, np.tile(0.4 * Phi.sum(axis=0), (4, 1)), chunk=2, progress=stop)
     peaks = []
     for n in (1_000, 1_000_000):
         C = np.tile(0.4 * Phi.sum(axis=0), (n, 1))
