@@ -393,6 +393,7 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     na = np.empty(N)
     var = np.empty(N, dtype=np.int64)
     alphas = np.empty((N, k))
+    M2 = np.empty((3, k))
     px = np.empty(N)
     py = np.empty(N)
     hull = np.empty(2 * N + 2, dtype=np.int64)
@@ -422,30 +423,40 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             eta = DEGENERATE * (hi[b] - lo[b])
             if not (xB[i] > lo[b] + eta and xB[i] < hi[b] - eta):
                 return empty, 0.0, zc, _DEGEN, moves, notri
-        for q in range(3):
-            s = 0.0
-            for j in range(N):
-                if isb[j]:
-                    continue
-                x = hi[j] if up[j] else lo[j]
-                s += x * G[j, q]
-            for i in range(k):
-                s += xB[i] * G[B[i], q]
-            Y[v, q] = s
+        y0 = 0.0
+        y1 = 0.0
+        y2 = 0.0
+        for j in range(N):  # one pass, each coordinate summed in the same order as before
+            if isb[j]:
+                continue
+            x = hi[j] if up[j] else lo[j]
+            y0 += x * G[j, 0]
+            y1 += x * G[j, 1]
+            y2 += x * G[j, 2]
+        for i in range(k):
+            y0 += xB[i] * G[B[i], 0]
+            y1 += xB[i] * G[B[i], 1]
+            y2 += xB[i] * G[B[i], 2]
+        Y[v, 0] = y0
+        Y[v, 1] = y1
+        Y[v, 2] = y2
         # edge vectors of the non-basic variables, signed so that the cone is {u : a·u ≥ 0}
+        # M2 = G_Bᵀ B⁻¹ (3 × k): edge vector e_j = G[j] − M2 F[j]; the basic-variable rates
+        # alphas = B⁻¹ F[j] are needed only for the hull's edges (computed there)
+        for q in range(3):
+            for r in range(k):
+                s = 0.0
+                for i in range(k):
+                    s += G[B[i], q] * Minv[i, r]
+                M2[q, r] = s
         cnt = 0
         for j in range(N):
             if isb[j] or not (hi[j] > lo[j]):
                 continue
-            for i in range(k):
-                s = 0.0
-                for r in range(k):
-                    s += Minv[i, r] * F[j, r]
-                alphas[cnt, i] = s
             for q in range(3):
                 s = G[j, q]
-                for i in range(k):
-                    s -= alphas[cnt, i] * G[B[i], q]
+                for r in range(k):
+                    s -= M2[q, r] * F[j, r]
                 e[q] = s
             ne = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
             if ne <= zeta:
@@ -473,9 +484,9 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             b1[q] /= n1
         _cross(w, b1, b2)
         for t in range(cnt):
-            s = A[t, 0] * w[0] + A[t, 1] * w[1] + A[t, 2] * w[2]
-            px[t] = (A[t, 0] * b1[0] + A[t, 1] * b1[1] + A[t, 2] * b1[2]) / s
-            py[t] = (A[t, 0] * b2[0] + A[t, 1] * b2[1] + A[t, 2] * b2[2]) / s
+            s = 1.0 / (A[t, 0] * w[0] + A[t, 1] * w[1] + A[t, 2] * w[2])
+            px[t] = (A[t, 0] * b1[0] + A[t, 1] * b1[1] + A[t, 2] * b1[2]) * s
+            py[t] = (A[t, 0] * b2[0] + A[t, 1] * b2[1] + A[t, 2] * b2[2]) * s
         h = _hull2(px, py, cnt, hull, tmp)
         if h < 3:
             return empty, 0.0, zc, _FLAT, moves, notri
@@ -506,6 +517,11 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             nrn = np.sqrt(rn[0] * rn[0] + rn[1] * rn[1] + rn[2] * rn[2])
             # move variable j off its bound: x_B(t) = x_B − t·sgn·alpha
             j = var[a]
+            for i in range(k):
+                s = 0.0
+                for r in range(k):
+                    s += Minv[i, r] * F[j, r]
+                alphas[a, i] = s
             sgn = -1.0 if up[j] else 1.0
             tmax = np.inf
             rr = -1
