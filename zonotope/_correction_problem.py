@@ -15,7 +15,7 @@ from . import spectra
 from ._errors import SpectralDataError
 from ._generators import GeneratorPair
 from ._loading import load_camera, load_reflectances
-from ._tol import REFLECTANCE_MAX, REFLECTANCE_MIN
+from ._tol import LAB_STEP, REFLECTANCE_MAX, REFLECTANCE_MIN
 
 __all__ = ["CorrectionProblem", "Corrector", "check_reflectances", "correction_problem"]
 
@@ -69,7 +69,7 @@ class CorrectionProblem(GeneratorPair):
         Derivatives by central differences of ``colour.XYZ_to_Lab`` (no re-typed formula).
         """
         t = np.asarray(target, dtype=np.float64)
-        h = 1e-6 * max(float(np.abs(self.Psi.sum(0)).max()), 1e-12)
+        h = LAB_STEP * max(float(np.abs(self.Psi.sum(0)).max()), 1e-12)
         cols = []
         for j in range(self.m):
             e = np.zeros(self.m)

@@ -13,6 +13,7 @@ from ._config import check_count, check_nonnegative, with_options
 from ._correction_problem import CorrectionProblem, Corrector
 from ._errors import OptionError, SpectralDataError
 from ._regressions import fit_Cheung2004, fit_Finlayson2015
+from ._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE
 from .prior import ReflectancePrior, interior_solution, map_reflectance, project_to_mmv
 
 __all__ = [
@@ -301,20 +302,6 @@ def learn_mix(
         for lam in MIX_GRID
     }
     return min(scores, key=scores.get), {"scores": scores, "n": int(C.shape[0])}
-
-
-#: Gate thresholds of :func:`fit_Prior`: where the posterior weight of "natural" reaches GATE_SURE the
-#: atypical branch (an MMV centroid, tens of ms) is skipped — its weight under 1 % moves the estimate
-#: by less than 1 % of the distance between the branches; where it is at most GATE_NONE the natural
-#: branch (a projection onto the MMV, a bounded least squares) is skipped for the same reason.
-GATE_SURE = 0.99
-
-#: See :data:`GATE_SURE`.
-GATE_NONE = 1e-4
-
-#: The MMV centroid is computed only where its weight ``(1 − w)(1 − λ)`` in the estimate of
-#: :func:`fit_Prior` reaches this (the same 1 %-of-the-gap rule as :data:`GATE_SURE`).
-CENTROID_MIN_WEIGHT = 0.01
 
 
 @dataclass(frozen=True, eq=False)

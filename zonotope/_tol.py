@@ -368,3 +368,80 @@ MAGNITUDE_MAX = 1e150
 #: coplanar triple with a near-parallel pair is never split into slivers. 16 ε leaves a margin of
 #: ~80× over the measured rounding and stays ≤ 4e-8 rad for pairs kept apart by ``parallel``.
 ANGLE_ROUNDING = 16 * 2.220446049250313e-16
+
+# -- colour-correction estimators (prior, _mmv_estimators, _correction_problem, atypical, report) --
+
+#: :func:`zonotope.prior.interior_solution`: the closed-form MAP reflectance counts as inside [0, 1]ⁿ
+#: (and so as the exact bounded solution) when no entry is below ``-INTERIOR_SLACK`` or above
+#: ``1 + INTERIOR_SLACK``. The closed form is exact to ≈ 1e-15 (a 6 × 6 solve of a well-conditioned
+#: Gram matrix); a row on a bound to rounding is the same solution either way, and it is clipped, which
+#: moves its colour by ≤ 1e-12 of the white.
+INTERIOR_SLACK = 1e-12
+
+#: :func:`zonotope.prior.fiber_lsq`: tolerance of the TRF fallback when BVLS does not converge (never
+#: seen); at 1e-12 its answer agrees with BVLS's exact active-set solution to the constraint weighting.
+BVLS_FALLBACK = 1e-12
+
+#: :func:`zonotope.prior.project_to_mmv`: ``METRIC_JITTER × I`` is added to the CIELAB metric ``JᵀJ``
+#: before its Cholesky factor is taken (``JᵀJ`` is positive definite, entries ≈ 1e3–1e5; the jitter
+#: only guards against rounding making it semidefinite and changes distances by < 1e-15 relative).
+METRIC_JITTER = 1e-12
+
+#: :func:`zonotope.prior.project_to_mmv`: relative weight of the prior energy that picks one
+#: reflectance among the ties of the projection (the MMV point is unique, its fiber is not): at 1e-4
+#: of the colour term's scale it decides only among (near-)ties, and the projection's result is used
+#: only when it moves the estimate by more than ``tol_dE`` (0.01 ΔE*ab).
+PROJECTION_TIE = 1e-4
+
+#: :func:`zonotope.correct.fit_Prior`: where the posterior weight ``w`` of "natural" reaches
+#: ``GATE_SURE`` the atypical branch is not computed (its weight under 1 % moves the estimate by < 1 %
+#: of the distance between the branches); where ``w ≤ GATE_NONE`` the natural branch (a projection onto
+#: the MMV) is skipped for the same reason (a weight of 1e-4 moves it by < 1e-4 of the gap).
+GATE_SURE = 0.99
+
+#: See :data:`GATE_SURE`.
+GATE_NONE = 1e-4
+
+#: :func:`zonotope.correct.fit_Prior`: the MMV centroid (tens of ms) is computed only where its
+#: weight ``(1 − w)(1 − λ)`` in the estimate reaches this, the 1 %-of-the-gap rule of :data:`GATE_SURE`.
+CENTROID_MIN_WEIGHT = 0.01
+
+#: :meth:`zonotope.correct.CorrectionProblem.lab_metric`: central-difference step of target → CIELAB,
+#: relative to the white's largest channel. Lab is smooth away from black; the truncation error
+#: (∝ step²) and the rounding error (∝ ε/step) balance near ε^(1/3) ≈ 6e-6; at 1e-6 both are
+#: ≲ 1e-10 relative (an estimate), far below what a linearised metric is used for.
+LAB_STEP = 1e-6
+
+#: :func:`zonotope.report.write_report`: certification tolerance ``eps`` of the MMV volumes it shows,
+#: the default of :func:`zonotope.correct.fit_Centroid` and ``evaluate`` (volumes certified to 0.1 %
+#: of the target scale, far below the differences the report compares).
+REPORT_MMV_EPS = 1e-3
+
+#: The report's credible-radius map: a cell's label is written in black on cells brighter than this
+#: fraction of the magma colour scale and in white below (legibility, not numerics).
+LABEL_INK = 0.6
+
+#: :func:`zonotope.atypical.structured_reflectances` ("rough"): ``GP_JITTER × I`` on the squared-
+#: exponential kernel so its Cholesky factor exists (the kernel of 8–25 nm on a 10 nm grid has
+#: eigenvalues down to ≈ 1e-16); 1e-9 changes the spectra by ≈ 3e-5 rms, far below their 0.2–0.35 spread.
+GP_JITTER = 1e-9
+
+#: ``zonotope.atypical.sharpened_reflectances``: reflectances are clipped to ``[SHARPEN_CLIP,
+#: 1 − SHARPEN_CLIP]`` before their logit is taken (measured zeros and ones would give infinite
+#: logits); 1e-3 is below the noise of reflectance measurements.
+SHARPEN_CLIP = 1e-3
+
+__all__ += [
+    "BVLS_FALLBACK",
+    "CENTROID_MIN_WEIGHT",
+    "GATE_NONE",
+    "GATE_SURE",
+    "GP_JITTER",
+    "INTERIOR_SLACK",
+    "LABEL_INK",
+    "LAB_STEP",
+    "METRIC_JITTER",
+    "PROJECTION_TIE",
+    "REPORT_MMV_EPS",
+    "SHARPEN_CLIP",
+]

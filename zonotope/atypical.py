@@ -30,6 +30,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ._errors import OptionError, SpectralDataError
+from ._tol import GP_JITTER, SHARPEN_CLIP
 
 __all__ = [
     "ATYPICAL_KINDS",
@@ -171,7 +172,7 @@ def _rough(rng: np.random.Generator, w: np.ndarray) -> np.ndarray:
     """A Gaussian process with a short correlation length (8–25 nm) around 0.5: high-frequency spectra
     that no smooth natural-reflectance basis represents."""
     ell = rng.uniform(8.0, 25.0)
-    K = np.exp(-0.5 * ((w[:, None] - w[None, :]) / ell) ** 2) + 1e-9 * np.eye(w.size)
+    K = np.exp(-0.5 * ((w[:, None] - w[None, :]) / ell) ** 2) + GP_JITTER * np.eye(w.size)
     z = np.linalg.cholesky(K) @ rng.standard_normal(w.size)
     return 0.5 + rng.uniform(0.2, 0.35) * z
 
@@ -280,7 +281,7 @@ def sharpened_reflectances(reflectances, n: int, *, seed: int = 0) -> np.ndarray
     if n < 0:
         raise SpectralDataError(f"n must be >= 0, got {n}.")
     rng = np.random.default_rng(seed)
-    x = np.clip(R[rng.integers(0, R.shape[0], n)], _SHARPEN_CLIP, 1.0 - _SHARPEN_CLIP)
+    x = np.clip(R[rng.integers(0, R.shape[0], n)], SHARPEN_CLIP, 1.0 - SHARPEN_CLIP)
     z = np.log(x / (1.0 - x))
     z0 = rng.uniform(np.percentile(z, 20, axis=1), np.percentile(z, 80, axis=1))
     s = np.exp(rng.uniform(np.log(2.0), np.log(30.0), n))
@@ -288,7 +289,3 @@ def sharpened_reflectances(reflectances, n: int, *, seed: int = 0) -> np.ndarray
     hi = rng.uniform(0.6, 1.0, (n, 1))
     return np.clip(lo + (hi - lo) * _logistic(s[:, None] * (z - z0[:, None])), 0.0, 1.0)
 
-
-#: Reflectances are clipped to [c, 1 − c] before their logit is taken (measured zeros and ones would
-#: give infinite logits); 1e-3 is below the noise floor of reflectance measurements.
-_SHARPEN_CLIP = 1e-3

@@ -18,6 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from ._errors import SpectralDataError
+from ._tol import BVLS_FALLBACK, INTERIOR_SLACK, METRIC_JITTER, PROJECTION_TIE
 
 __all__ = ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"]
 
@@ -45,14 +46,14 @@ def interior_solution(prior: ReflectancePrior, A, values, *, noise=0.0) -> tuple
     -------
     x : ndarray of shape (N, n)
     interior : ndarray of bool, shape (N,)
-        ``0 ≤ x ≤ 1`` (up to 1e-12): ``x`` is the exact bounded solution.
+        ``0 ≤ x ≤ 1`` (up to :data:`zonotope._tol.INTERIOR_SLACK`): ``x`` is the exact bounded solution.
     """
     A = np.asarray(A, dtype=np.float64)
     V = np.atleast_2d(np.asarray(values, dtype=np.float64))
     SA = prior.cov @ A
     K = A.T @ SA + np.diag(np.broadcast_to(np.asarray(noise, dtype=np.float64) ** 2, (A.shape[1],)))
     x = prior.mean + np.linalg.solve(K, (V - prior.mean @ A).T).T @ SA.T
-    return x, (x.min(axis=1) >= -1e-12) & (x.max(axis=1) <= 1.0 + 1e-12)
+    return x, (x.min(axis=1) >= -INTERIOR_SLACK) & (x.max(axis=1) <= 1.0 + INTERIOR_SLACK)
 
 
 def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) -> np.ndarray:
@@ -98,7 +99,7 @@ def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) 
         r = np.concatenate([b[i], s * C[i]])
         res = lsq_linear(M, r, bounds=(0.0, 1.0), method="bvls")
         if not res.success:  # pragma: no cover - BVLS failing to converge; TRF is slower but sure
-            res = lsq_linear(M, r, bounds=(0.0, 1.0), method="trf", tol=1e-12)
+            res = lsq_linear(M, r, bounds=(0.0, 1.0), method="trf", tol=BVLS_FALLBACK)
         out[i] = np.clip(res.x, 0.0, 1.0)
     return out
 
@@ -238,10 +239,10 @@ def project_to_mmv(
         inside[rest] = ins
         return out, inside
     W = problem.lab_metric(t)  # (N, m, m)
-    L = np.swapaxes(np.linalg.cholesky(W + 1e-12 * np.eye(problem.m)), -1, -2)  # LᵀL = W
+    L = np.swapaxes(np.linalg.cholesky(W + METRIC_JITTER * np.eye(problem.m)), -1, -2)  # LᵀL = W
     U = prior.root
     tie = (
-        1e-4
+        PROJECTION_TIE
         * np.linalg.norm(L, 2, axis=(-2, -1)).mean()
         * np.linalg.norm(problem.Psi, 2)
         / np.linalg.norm(U, 2)

@@ -30,6 +30,7 @@ from ._config import check_bool, check_count, with_options
 from ._errors import OptionError, SpectralDataError
 from ._io import OutputExistsError, atomic_dir, check_output
 from ._progress import ProgressCallback
+from ._tol import LABEL_INK, REPORT_MMV_EPS
 
 __all__ = ["ReportConfig", "ReportExistsError", "write_report"]
 
@@ -65,7 +66,9 @@ def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray:
 
     vols = []
     for c in responses:
-        mmv = metamer_mismatch_bounds(problem.Phi, problem.Psi, c, eps=1e-3, on_infeasible="nearest")
+        mmv = metamer_mismatch_bounds(
+            problem.Phi, problem.Psi, c, eps=REPORT_MMV_EPS, on_infeasible="nearest"
+        )
         vols.append(float(np.mean(mmv.volume_bounds)))
     return np.array(vols)
 
@@ -428,7 +431,7 @@ def _confidence_map(problem, filename: Path) -> None:
         im = axes[row, 1].imshow(rad[row], cmap="magma", vmin=0, vmax=top, interpolation="nearest")
         axes[row, 1].set_title(f"{name}: credible radius (ΔE00)")
         for j, i in np.ndindex(4, 6):
-            ink = "k" if rad[row, j, i] > 0.6 * top else "w"
+            ink = "k" if rad[row, j, i] > LABEL_INK * top else "w"
             axes[row, 1].text(i, j, f"{rad[row, j, i]:.1f}", ha="center", va="center", color=ink, fontsize=7)
         for ax in axes[row]:
             ax.set_xticks([])
