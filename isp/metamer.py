@@ -32,6 +32,26 @@ __all__ = ["METAMER_RANGE", "MetamerConfig", "MetamerCorrection", "metamer_corre
 #: and the per-colour optimisations fast; the range is narrowed to the curves' common range.
 METAMER_RANGE = (400.0, 700.0, 10.0)
 
+
+def _check_cie1931(target, where: str) -> None:
+    """Refuse a target observer other than CIE 1931 2°: isp's XYZ (DNG matrices, sRGB output) is CIE
+    1931 XYZ, and an estimator fitted to another observer's XYZ (``zonotope.correct`` defaults to CIE
+    2015 2°) would be mixed in silently (≈ 0.25 ΔE00 on the ColorChecker)."""
+    import zonotope
+
+    cie1931 = zonotope.observer("CIE 1931 2°").name
+    try:
+        name = zonotope.observer(target).name if isinstance(target, str) else getattr(target, "name", None)
+    except zonotope.ZonotopeError:
+        name = None
+    if name != cie1931:
+        raise PipelineError(
+            f"{where}: target {target!r} is not CIE 1931 2°; isp works in CIE 1931 XYZ (DNG, sRGB), and "
+            "another observer's XYZ would be mixed in silently (≈ 0.25 ΔE00). Fit the estimator with "
+            "target='CIE 1931 2°' (isp.metamer_correction does)."
+        )
+
+
 #: Errors of one colour's metamer estimate that fall back to the regression (e.g. Qhull on the
 #: degenerate mismatch volume of a response on or outside the solid's boundary).
 _ESTIMATOR_ERRORS = (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError)
@@ -95,6 +115,7 @@ class MetamerCorrection:
                 "a perfect white reflector after white balance, 1 when it just saturates)."
             )
         c = self.corrector
+        _check_cie1931(c.problem.target, "MetamerCorrection")
         self._regression = c.params.get("regression") or fit_correction(c.problem, method="Finlayson 2015")
         self._safe = dataclasses.replace(c, predict=self._predict)
 
@@ -160,7 +181,8 @@ class MetamerConfig:
         Training reflectances: built-in set name, a file readable by ``zonotope.read_reflectances``
         or an MSDS.
     target : str
-        Observer of the XYZ output; CIE 1931 2° (default) is the one of sRGB and DNG.
+        Observer of the XYZ output: CIE 1931 2° (the default, and the only one accepted: it is the
+        observer of sRGB and DNG; any other would be mixed into isp's XYZ silently).
     shape : colour.SpectralShape or array_like, optional
         Wavelength grid; default 400–700 nm every 10 nm (:data:`METAMER_RANGE`), narrowed to the
         range all curves cover.
@@ -208,6 +230,7 @@ class MetamerConfig:
             owner, "quantum", self.quantum, lambda v: np.isfinite(v) and v >= 0, "give a finite number ≥ 0"
         )
         check_int(owner, "batch_size", self.batch_size, minimum=1)
+        _check_cie1931(self.target, f"{owner}.target")
         opts = check_options(owner, "estimator_options", self.estimator_options)
         clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training"})
         if clash:

@@ -299,3 +299,19 @@ def test_lut_config_equals_keywords_and_refuses_bad_values():
             LUTConfig(**options)
     with pytest.raises(OptionError, match=r"unknown option\(s\) lattice"):
         correction_LUT(f, lattice=5)
+
+
+def test_isp_refuses_estimators_fitted_to_another_observer():
+    """isp's XYZ is CIE 1931; zonotope.correct defaults to CIE 2015 (issue 13 item 9: mixed silently)."""
+    import isp
+    from zonotope.correct import fit_correction
+
+    with pytest.raises(isp.PipelineError, match=r"MetamerConfig.target.*not CIE 1931"):
+        isp.MetamerConfig(target="CIE 2015 2°")
+    assert isp.MetamerConfig(target="cie 1931").target == "cie 1931"
+    w = np.arange(400, 701, 10.0)
+    default = fit_correction(CAM, method="matrix", shape=w)  # CIE 2015 2°
+    with pytest.raises(isp.PipelineError, match="MetamerCorrection: target 'CIE 2015 2°'"):
+        isp.MetamerCorrection(default)
+    ok = isp.MetamerCorrection(fit_correction(CAM, method="matrix", shape=w, target="CIE 1931 2°"))
+    assert ok(np.ones((1, 3))).shape == (1, 3)
