@@ -22,7 +22,7 @@ its range from a bound (degenerate vertex: black, white, boundary responses, Ψ 
 cone is not full-dimensional (a flat MMV, parallel edge vectors), or when the pivot limit is hit.
 
 The kernels are compiled with numba on first use (cached on disk when the package directory is
-writable).
+writable) and release the GIL, so threads run walks of different responses in parallel.
 
 References
 ----------

@@ -24,10 +24,14 @@ most k fractional values. Two exact algorithms:
   vertex are the extreme e_j (a 2-D hull of n − k points), and each neighbouring vertex is one
   simplex move away. Every vertex is visited once, at O(n·k·m) per vertex, with no LPs and no hull
   rebuilds; volume and centroid come from the faces traced on the vertex graph. Compiled with
-  numba (first use in a fresh install: ~10–30 s to compile, then cached on disk; ~0.5 s to load).
-  It declines degenerate cases (a basic variable at a bound — black, white, responses on the
-  source solid's boundary, Ψ = Φ — flat MMVs, targets with m ≠ 3), which then take facet
-  refinement with the simplex oracle.
+  numba (first use in a fresh install: 20–60 s to compile on a loaded 2-core machine, then cached
+  on disk; ~0.5 s to load); the kernel releases the GIL, so ``metamer_mismatch_batch(...,
+  executor=concurrent.futures.ThreadPoolExecutor(2))`` runs walks on two cores with no process
+  start-up. ``eps > 0`` takes the same exact walk (an exact MMV certifies every ε ≥ 0: inner =
+  outer, centroid error 0), so a certified MMV never costs more than an exact one. It declines
+  degenerate cases (a basic variable at a bound — black, white, responses on the source solid's
+  boundary, Ψ = Φ — flat MMVs, targets with m ≠ 3), which then take facet refinement with the
+  simplex oracle.
 - Facet refinement (Lassez' convex-hull method, :mod:`zonotope._mmv_refine`): ask h for the
   normal of every facet of the hull of the support points found so far until every facet is
   certified. The LPs are solved by a batched, warm-started bounded-variable simplex
