@@ -340,11 +340,13 @@ def test_prior_uncertainty_and_documented_centroid_fraction(problem, problem2):
 
     sets, _ = source_split(natural_test_sets(GRID), problem.training)
     X = np.vstack([s.reflectances for s in sets])  # 42 spectra not in the training set
-    for pb, documented in ((problem, 0.10), (problem2, 0.03)):
+    for pb, documented, centroids in ((problem, 0.10, 0.03), (problem2, 0.03, 0.03)):
         est = fit_correction(pb, method="Prior")
         C = pb.source_of(X)
         w = est.params["weights"](C, map_reflectance(pb, C, est.params["prior"]))
-        assert np.mean(w < 0.99) <= documented
+        assert np.mean(w < 0.99) <= documented  # the gate leaves the regression alone
+        rows = est.params["centroid_rows"](C)  # the centroid enters with a weight ≥ 1 %
+        assert np.mean(rows) <= centroids and not (rows & (w >= 0.99)).any()
     est = fit_correction(problem2, method="Prior")
     A, _ = atypical_reflectances(GRID, 6, seed=5, kinds=["narrow-band"])
     C = problem2.source_of(np.vstack([X[:10], A]))

@@ -358,50 +358,68 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     """Default estimator: posterior mean under a two-component reflectance prior, kept in the MMV.
 
     Model: a reflectance is either *natural* (Gaussian ``N(μ, Σ)`` learnt from the training set) or
-    *arbitrary* (any colour of the object-colour solid equally likely: density ``1/vol``). Given
-    the response ``c``, the posterior probability of "natural" is
+    *atypical* (any colour of the object-colour solid: density ``1/vol``). Given the response ``c``,
+    the posterior probability of "natural" is
 
-    ``w = σ(log odds + log p(c | natural) − log p(c | arbitrary))``
+    ``w = σ(log odds + log p(c | natural) − log p(c | atypical))``
 
     with ``log p(c | natural) ≈ −E(x̂) − ½ log det(2π ΦᵀΣΦ + σ²I)`` — the Laplace approximation
     of the box-truncated Gaussian evidence, ``x̂`` the MAP reflectance of :func:`map_reflectance`
-    and ``E`` its prior energy — and ``log p(c | arbitrary) = −log vol(source solid)``. The
-    estimate is the posterior mean of the mixture, ``w · t_nat + (1 − w) · t_arb``:
+    and ``E`` its prior energy — and ``log p(c | atypical) = −log vol(source solid)``. The
+    estimate is ``w · t_nat + (1 − w) · t_arb``:
 
     - ``t_nat``, the natural branch's estimate: the regression chosen by cross-validation on the
       training set only (linear matrix or root-polynomial, :func:`select_regression`), moved onto
       the MMV in linearised CIELAB when it lies outside (:func:`project_to_mmv`);
-    - ``t_arb``: the volume centroid of the MMV (:func:`mmv_centroids`), the posterior mean when
-      every colour of the MMV is equally likely.
+    - ``t_arb = λ · Ψᵀx̂ + (1 − λ) · t_cen``, the atypical branch: a convex combination of the MAP
+      estimate and the volume centroid of the MMV (:func:`mmv_centroids`, the posterior mean when
+      every colour of the MMV is equally likely). Neither is better everywhere (on atypical test
+      spectra MAP wins with one camera, the centroid with stacked ones), so ``λ`` ∈ {0, 0.1, …, 1}
+      is chosen by cross-validation on atypical spectra made from the training set only
+      (:func:`learn_mix`: contrast-stretched training spectra, 300 by default, scored with the whole
+      estimator refitted on the other folds). Chosen λ (400–700 nm, D65, rawtoaces 190): 0.9 Nikon
+      5100, 0.6 Canon EOS 5D Mark II, 0.8 the two, 0.5 Nikon 5100 + Sigma SD Merrill, 0.5 all three.
 
-    Both lie in the MMV, hence so does the estimate. The centroid (the costly part: tens of ms per
-    colour) is computed only where its weight ``1 − w`` reaches 1 % — below that it moves the
-    estimate by less than 1 % of the distance between the branches. Measured (400–700 nm / 10 nm,
-    D65, rawtoaces 190 training, test spectra within 0.02 of a training one removed): the centroid
-    is blended in for 9.5 % of the built-in natural spectra with Nikon 5100 or Canon EOS 5D Mark II
-    alone (4 of 42) and 2.4 % with the two together (1 of 42) — ``tests/test_correct.py`` keeps
-    these at ≤ 10 % and ≤ 3 % — and for 8.7–9.1 % (one camera) and 2.4–3.2 % (two or three
-    cameras) of the 774 natural spectra of ``zonotope evaluate --data ../shared/data``. ``x̂`` and
-    the MMV test of ``t_nat`` take a closed form for most natural responses
-    (:func:`zonotope.prior.interior_solution`; only 21 % / 7 % of the built-in natural responses
-    need any solver), so natural images cost little more than the regression. Fit + apply on 10⁴
-    natural responses (``benchmarks/bench_correct.py --fit-apply 10000``, median of 5, 2 shared
-    cores): 5.9 s with Nikon 5100 (MAP 4.9 s, root-polynomial 2.4 ms), 2.05 s with Nikon 5100 + Sony
-    ILCE-7M3 (MAP 1.87 s).
+    All three points lie in the MMV, hence so does the estimate. The centroid (the costly part: 5–30
+    ms per colour) is computed only where its weight ``(1 − w)(1 − λ)`` reaches 1 %
+    (:data:`zonotope._tol.CENTROID_MIN_WEIGHT`; the atypical branch as a whole only where
+    ``1 − w`` does) — below that it moves the estimate by less than 1 % of the distance between
+    the branches. Measured (400–700 nm / 10 nm, D65, rawtoaces 190 training, test spectra within
+    0.02 of a training one removed): on the 42 built-in natural spectra the gate opens (``w < 0.99``)
+    for 9.5 % with Nikon 5100 alone and 2.4 % with Nikon 5100 + Canon EOS 5D Mark II, and a centroid
+    is computed for 2.4 % (1 of 42) and 0 % — ``tests/test_correct.py`` keeps these at ≤ 10 % / ≤ 3 %
+    and ≤ 3 %; on the 565–574 natural spectra of ``benchmarks/bench_estimators.py`` (built-ins and
+    150-spectrum subsets of ``../shared/data``) the gate opens for 8.7–9.1 % (one camera) and
+    2.4–3.2 % (two or three), a centroid is computed for 1.2–4.5 % and 1.7–3.0 %. ``x̂`` and the
+    MMV test of ``t_nat`` take a closed form for most natural responses
+    (:func:`zonotope.prior.interior_solution`; 14 % / 5 % of the built-in natural responses need
+    any solver): ``params["closed_form"]`` computes every such estimate in one vectorised pass, so
+    natural images cost little more than the regression. Fit + apply on 10⁴
+    natural responses (``benchmarks/bench_correct.py --fit-apply 10000``, median of 3, 2 shared
+    cores): 6.2 s with Nikon 5100 (MAP 1.14 s: 5.5×; root-polynomial 1.6 ms), 6.1 s with Nikon 5100
+    + Sony ILCE-7M3 (MAP 1.02 s: 6.0×); most of it is the fit (:func:`learn_mix`: 300 MMV centroids
+    and 10 refits), 3–5 % of these responses need a solver.
 
     Uncertainty (:meth:`Corrector.with_uncertainty`): a 95 % credible radius in ΔE00 per estimate,
     from the same mixture — ``r² = w r_nat² + (1 − w) r_arb² + w (1 − w) ΔE00(t_nat, t_arb)²``, with
     ``r_nat`` the 95th percentile of the regression's held-out ΔE00 in cross-validation and
     ``r_arb`` the MMV's: the radius of the ball of the MMV's volume in linearised CIELAB (95 % of a
-    uniform ball lies within 0.983 of its radius), as the largest ΔE00 from the centroid to that
+    uniform ball lies within 0.983 of its radius), as the largest ΔE00 from ``t_arb`` to that
     ball's axis points. Where ``w ≥ 0.99`` the MMV is not computed and ``r = √w · r_nat``: the map
     separates the responses the natural model explains from those it does not, within them it is
-    nearly constant. Its coverage (how often the true colour lies within ``r``) is measured in the
-    README.
+    nearly constant. The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
+    held-out spectra and ``r_arb`` is a ball of the MMV's size, not a bound (the MMV itself is the
+    100 % region, noise-free). Measured coverage (``benchmarks/bench_estimators.py``): 86–100 % on
+    natural sets except SFU Krinov (51–86 %, its errors exceed the training CV's); on atypical sets
+    37–94 %, because the atypical spectra the gate takes for natural (``w ≥ 0.99``: 5–57 % of them)
+    get the natural radius and are covered only 10–60 % of the time, the others 57–96 %.
 
     Parameters
     ----------
     problem : CorrectionProblem
+    config : PriorConfig, optional
+        The options below as one checked object; keywords override its fields (or replace it:
+        ``fit_Prior(problem, noise=0.01)`` is ``fit_Prior(problem, PriorConfig(noise=0.01))``).
     degree
         Root-polynomial degree of the regression candidate.
     shrinkage
@@ -419,16 +437,29 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         ``"cv"`` (default): chosen by cross-validation; or ``"Cheung 2004"`` / ``"Finlayson 2015"``.
     folds
         Cross-validation folds.
+    mix
+        ``"cv"`` (default): the MAP weight ``λ`` of the atypical branch chosen by :func:`learn_mix`;
+        or a fixed λ in [0, 1] (0: the MMV centroid alone, the previous default).
+    augment
+        Number of contrast-stretched training spectra that :func:`learn_mix` scores λ on.
     executor
-        Where the MMV chunks run (:func:`zonotope.parallel.executor`); None: this process.
+        Where the MMV chunks run (:func:`zonotope.parallel.executor`, or a
+        ``concurrent.futures`` pool); None: this process. Results are identical either way.
 
     Returns
     -------
     Corrector
-        ``params`` holds the prior, the regression, the cross-validation scores, ``log_volume``,
-        ``r_nat``, the ``weights`` function and ``needs_solver`` (which responses leave the closed
-        forms: :func:`zonotope.image.correct_image` groups only those); ``with_uncertainty`` gives
+        ``params`` holds the prior, the regression, the cross-validation scores, ``mix`` (λ) and
+        ``mix_cv`` (its scores), ``log_volume``, ``r_nat``, the ``weights`` function,
+        ``closed_form`` (estimates and solver rows in one pass), ``needs_solver`` (which responses
+        leave the closed forms: :func:`zonotope.image.correct_image` groups only those),
+        ``centroid_rows`` (which compute an MMV centroid) and ``config``; ``with_uncertainty`` gives
         credible radii.
+
+    Raises
+    ------
+    OptionError
+        An option out of range or unknown (:class:`PriorConfig`).
     """
     cfg = with_options(PriorConfig, config, options, where="fit_Prior")
     degree, shrinkage, odds, noise, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
@@ -484,6 +515,11 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         t_map = np.clip(x, 0.0, 1.0) @ problem.Psi
         out = np.where((w >= GATE_SURE)[:, None], t, wa * t + (1.0 - wa) * t_map)
         return out, slow
+
+    def centroid_rows(c):
+        """Rows whose estimate computes an MMV centroid (:func:`needs_centroid` of their gate weight)."""
+        c = np.atleast_2d(np.asarray(c, dtype=np.float64))
+        return needs_centroid(weights(c, map_reflectance(problem, c, prior, noise=noise)))
 
     def needs_solver(c):
         """Rows whose estimate needs a bounded least-squares solve or an MMV centroid (the others
@@ -546,6 +582,7 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
             "weights": weights,
             "needs_solver": needs_solver,
             "closed_form": closed_form,
+            "centroid_rows": centroid_rows,
             "odds": odds,
             "noise": noise,
             "config": cfg,

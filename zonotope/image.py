@@ -91,23 +91,30 @@ def correct_image(
     quantum
         Pixels whose responses round to the same multiples of ``quantum`` form one group,
         corrected once at the response of its first pixel (0: exact deduplication only). For
-        estimators with closed-form rows (``"Prior"``: ``params["needs_solver"]``) only the pixels
+        estimators with closed-form rows (``"Prior"``: ``params["closed_form"]``, which returns the
+        closed-form estimates and the rows that need a solver in one vectorised pass) only the pixels
         that need a solver are grouped — each with the responses within ``quantum`` of a leader
         response in every channel (greedy leader clustering, so the noise cloud of one surface is
         not cut into up to 2ᵏ grid cells) — and the others are corrected exactly, pixel by pixel:
         noisy photos (as many distinct colours as pixels) cost little more than the regression plus
         one solve per cluster. Use a ``quantum`` of about 2–4σ on noisy images. Measured on a 1 MP
-        two-camera Munsell mosaic with σ = 0.005 (``benchmarks/bench_correct.py --noise 0.005``):
-        10.5 % of the pixels grouped; ``quantum=0.02``: 45 CPU-s, ΔE00 from the exact per-pixel
-        estimates mean 0.09 / max 8.6; ``quantum=0.01``: 194 CPU-s, mean 0.012 / max 4.7 (the
-        largest departures sit on the centroid branch, whose exact estimate follows the noise).
+        two-camera Munsell mosaic with σ = 0.005 (``benchmarks/bench_correct.py --noise 0.005
+        --quantum 0.02``, Nikon 5100 + Sony ILCE-7M3, 2 shared cores): 5.8 % of the pixels need a
+        solver; fit 5.3 CPU-s + correct_image 19.5 CPU-s, 35.6 s wall at load ≈ 6
+        (the previous version, one pass for the solver rows and another for the estimates, the
+        regression as transfer base: 10.5 % of the pixels, correct_image 32.4 CPU-s, 87 s wall at
+        load ≈ 8); ΔE00 from the exact per-pixel estimates on 3,000 pixels: mean 0.022, p99 0.99,
+        max 2.4 (previously 0.090 / 3.3 / 8.6).
     base
         A cheap estimator used to carry each group's result to its pixels:
         ``out = est(c₀) + base(c) − base(c₀)`` (``c₀`` the group's representative response), which
         removes the first-order error of grouping and allows a coarse ``quantum`` on images with
-        smooth shading. ``"auto"``: the estimator's own regression (``params["regression"]``) or a
-        root-polynomial fit; ``None``: no transfer (``out = est(c₀)``). Regression estimators are
-        applied to every pixel directly (they are cheap), with no grouping.
+        smooth shading. ``"auto"``: the estimator's own closed-form part where it has one
+        (``params["closed_form"]``: for ``"Prior"`` it follows the gate and the MAP estimate of every
+        pixel, so only the centroid and the bounded solves are carried over), else its regression
+        (``params["regression"]``) or a root-polynomial fit; ``None``: no transfer
+        (``out = est(c₀)``). Regression estimators are applied to every pixel directly (they are
+        cheap), with no grouping.
     batch_size
         Distinct colours corrected per call of the estimator.
     cache_dir
