@@ -116,3 +116,21 @@ def test_3d_figures_have_axis_labels(tmp_path):
         np.testing.assert_allclose(line.GetPoint(1), problem.Psi.sum(0), rtol=1e-6)
         p.close()
         assert (tmp_path / f"{names}.png").stat().st_size > 10_000
+
+
+def test_batch_commands_print_plain_progress_when_piped(tmp_path, capsys):
+    """``zonotope correct`` / ``survey`` drew only rich bars, which print nothing live when stderr is
+    not a terminal (piped into a file, as under pytest): now plain timed lines."""
+    import numpy as np
+    import tifffile
+
+    images = tmp_path / "in"
+    images.mkdir()
+    for name in ("a", "b"):
+        tifffile.imwrite(images / f"{name}.tif", np.full((3, 4, 3), 0.3, np.float32), photometric="rgb")
+    argv = ["correct", str(images), "-o", str(tmp_path / "out"), "--camera", "Nikon 5100 (NPL)"]
+    assert main([*argv, "--method", "matrix", "--scheduler", "serial"]) == 0
+    err = capsys.readouterr().err
+    assert "s] correcting (serial): 2/2" in err and "━" not in err
+    assert main([*argv, "--method", "matrix", "--scheduler", "serial", "-q"]) == 0  # quiet: no lines
+    assert "s] correcting" not in capsys.readouterr().err

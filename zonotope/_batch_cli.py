@@ -93,9 +93,32 @@ def add_commands(sub) -> None:
     p.set_defaults(func=_survey)
 
 
-def _bar(console, quiet: bool, description: str):
+#: Seconds between two plain progress lines when stderr is not a terminal (piped into a file or a pager).
+PLAIN_PROGRESS_EVERY = 10.0
+
+
+def _bar(console, quiet: bool, description: str, *, every: float = PLAIN_PROGRESS_EVERY):
+    """A (context, callback) pair: rich's live bar on a terminal; otherwise (piped, where rich draws
+    nothing until the end) a plain line on stderr at the start, at most every ``every`` seconds, and
+    when the count completes, so a long run piped into a file shows that it is alive."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    if not quiet and not console.is_terminal:
+        import contextlib
+        import sys
+        import time
+
+        t0 = time.monotonic()
+        state = {"at": -float("inf")}
+
+        def plain(stage: str, done: int, total: int) -> None:
+            now = time.monotonic()
+            if now - state["at"] >= every or (total and done >= total):
+                state["at"] = now
+                count = f"{done}/{total}" if total else f"{done}"
+                print(f"[{now - t0:7.1f} s] {description}: {count}", file=sys.stderr, flush=True)
+
+        return contextlib.nullcontext(), plain
     bar = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
