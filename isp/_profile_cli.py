@@ -13,6 +13,16 @@ from pathlib import Path
 __all__ = ["add_command"]
 
 
+def _status(console, message: str):
+    """Rich's spinner on a terminal; piped (where the spinner prints nothing), the message as a line."""
+    import contextlib
+
+    if console.is_terminal:
+        return console.status(message)
+    console.print(message)
+    return contextlib.nullcontext()
+
+
 def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -53,7 +63,7 @@ def _profile(args: argparse.Namespace) -> int:
     lut_config = None
     if args.lut:
         lut_config = LUTConfig(size=args.lut_size, space=args.lut_space, headroom=args.headroom)
-    with console.status(f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
+    with _status(console, f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
         fit = fit_dcp(args.camera, config)
     write_dcp(out, fit.profile, overwrite=args.overwrite)
     console.print(
@@ -63,7 +73,7 @@ def _profile(args: argparse.Namespace) -> int:
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
-        with console.status(f"sampling a {args.lut_size}³ LUT…"):
+        with _status(console, f"sampling a {args.lut_size}³ LUT…"):
             lut = correction_LUT(mc, lut_config)
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
