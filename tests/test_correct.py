@@ -452,3 +452,25 @@ def test_sharpened_reflectances_are_steeper_versions_of_the_training_set(problem
         sharpened_reflectances(R, -1)
     with pytest.raises(SpectralDataError, match="reflectances"):
         sharpened_reflectances(np.empty((0, 31)), 3)
+
+
+def test_prior_closed_form_rows_equal_the_solver_path_with_noise(problem2, checker):
+    """``closed_form`` (one vectorised pass) gives, on every row it does not flag, the estimate of the
+    full solver path (``with_uncertainty`` solves every row: MAP, projection, centroid where needed)."""
+    rng = np.random.default_rng(2)
+    A, _ = atypical_reflectances(GRID, 8, seed=9)
+    X = np.vstack([checker, A])
+    C = problem2.source_of(X) + rng.normal(0.0, 0.003, (X.shape[0], problem2.k))
+    for lam in (0.5, 1.0):  # λ = 1: no centroid, the gated MAP blend is a closed form too
+        est = fit_correction(problem2, method="Prior", noise=0.003, mix=lam)
+        w = est.params["weights"](C, map_reflectance(problem2, C, est.params["prior"], noise=0.003))
+        fast_est, slow = est.params["closed_form"](C)
+        assert 0 < slow.sum() < slow.size
+        full, _ = est.with_uncertainty(C)
+        np.testing.assert_allclose(fast_est[~slow], full[~slow], atol=1e-12)
+        np.testing.assert_allclose(est(C), full, atol=1e-12)
+        # centroids are computed only where their weight (1 − w)(1 − λ) reaches 1 %
+        rows = est.params["centroid_rows"](C)
+        np.testing.assert_array_equal(rows, (w < 0.99) & ((1 - w) * (1 - lam) >= 0.01))
+        if lam == 1.0:
+            assert not rows.any() and (~slow & (w < 0.99)).any()  # blended rows without a solver
