@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -158,24 +159,31 @@ def main() -> None:
     for label, n, kw in (
         ("simplex refinement (previous engine), lockstep chunks of 256, 1 core", n1, dict(oracle="fast")),
         ("walk, 1 core", n1, dict()),
+        ("walk, 2 threads (ThreadPoolExecutor; the kernel releases the GIL), chunks of 64", N, dict(where=2)),
         ("walk, local Dask cluster of 2", N, dict(where="local:2")),
     ):
         where = kw.pop("where", "serial")
-        t = time.perf_counter()
-        with executor(where) as ex:  # the cluster's start-up is part of the measured time
-            zonotope.mismatch.metamer_mismatch_batch(
-                mm.Phi, mm.Psi, C[:n], eps=1e-3, outer=False, executor=ex, **kw
-            )
-        dt = time.perf_counter() - t
+        t, tc = time.perf_counter(), time.process_time()
+        if isinstance(where, int):
+            with ThreadPoolExecutor(where) as ex:
+                zonotope.mismatch.metamer_mismatch_batch(
+                    mm.Phi, mm.Psi, C[:n], eps=1e-3, outer=False, executor=ex, chunk=64
+                )
+        else:
+            with executor(where) as ex:  # the cluster's start-up is part of the measured time
+                zonotope.mismatch.metamer_mismatch_batch(
+                    mm.Phi, mm.Psi, C[:n], eps=1e-3, outer=False, executor=ex, **kw
+                )
+        dt, dc = time.perf_counter() - t, time.process_time() - tc
         rate[label] = dt / n
         print(
-            f"batch centroids, {label}: {n} responses (10 nm, ε=1e-3) in {dt:.1f} s → "
-            f"{dt / n * 1e4:.1f} s per 10⁴ ({dt / n * 1e3:.2f} ms each)"
+            f"batch centroids, {label}: {n} responses (10 nm, ε=1e-3) in {dt:.1f} s wall, "
+            f"{dc:.1f} s CPU of this process → {dt / n * 1e4:.1f} s per 10⁴ ({dt / n * 1e3:.2f} ms each)"
         )
-    per = rate["walk, local Dask cluster of 2"]
+    per = min(rate[k] for k in rate if "2" in k)
     print(
         f"Centroid correction of a 1 MP image with 10⁵ distinct colours (one MMV per distinct colour, "
-        f"2 processes, from the rate above): ≈ {per * 1e5:.0f} s"
+        f"2 workers, the faster rate above): ≈ {per * 1e5:.0f} s"
     )
     # channelwise / joint volume ratio
     grid = np.arange(400.0, 681.0, 10.0)
