@@ -134,3 +134,11 @@ def test_batch_commands_print_plain_progress_when_piped(tmp_path, capsys):
     assert "s] correcting (serial): 2/2" in err and "━" not in err
     assert main([*argv, "--method", "matrix", "--scheduler", "serial", "-q"]) == 0  # quiet: no lines
     assert "s] correcting" not in capsys.readouterr().err
+
+
+def test_survey_size_is_checked_before_any_progress(capsys):
+    assert main(["survey", "--cameras", "Nikon 5100 (NPL)", "--size", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [
+        "zonotope: error: --size 3: sets of 1…1 cameras (the number of cameras loaded)."
+    ]

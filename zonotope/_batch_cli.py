@@ -247,6 +247,10 @@ def _survey(args: argparse.Namespace) -> int:
         console.print(f"[yellow]skipped:[/] {s}")
     from itertools import combinations
 
+    if not 1 <= args.size <= len(cams):  # before any bar or worker starts
+        raise ZonotopeError(
+            f"--size {args.size}: sets of 1…{len(cams)} cameras (the number of cameras loaded)."
+        )
     want = set(args.containing or ())
     n_sets = (
         sum(1 for s in combinations(cams, args.size) if not want or want & set(s))
