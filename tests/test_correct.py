@@ -206,6 +206,7 @@ def test_prior_estimator_natural_vs_atypical(problem2, checker):
     assert low.any()
     lam = prior_est.params["mix"]
     assert lam in MIX_GRID and set(prior_est.params["mix_cv"]["scores"]) == set(MIX_GRID)
+    assert prior_est.params["radius_scale"] == max(1.0, prior_est.params["mix_cv"]["radius_scale"]) >= 1.0
     t_map = map_reflectance(problem2, CA[low], prior_est.params["prior"]) @ problem2.Psi
     expected = lam * t_map + (1 - lam) * mmv_centroids(problem2, CA[low]) if lam < 0.99 else t_map
     np.testing.assert_allclose(est[low], expected, atol=1e-12)
@@ -422,6 +423,7 @@ def test_prior_config_checked_and_equal_to_keywords(problem, checker):
     np.testing.assert_array_equal(by_config(C), by_keywords(C))
     assert isinstance(by_keywords.params["config"], PriorConfig)
     assert by_keywords.params["mix"] == 0.5 and by_keywords.params["mix_cv"] is None
+    assert by_keywords.params["radius_scale"] == 1.0  # calibrated only together with λ
     for bad, match in (
         ({"odds": 0}, "odds"),
         ({"mix": 1.5}, "mix"),
