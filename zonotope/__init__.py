@@ -157,6 +157,7 @@ _EXPORTS = {
         "CORRECTION_METHODS",
         "CorrectionProblem",
         "Corrector",
+        "PriorConfig",
         "check_reflectances",
         "correction_problem",
         "fit_Centroid",

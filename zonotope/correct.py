@@ -65,7 +65,7 @@ import numpy as np
 
 from ._correction_problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
 from ._mmv_estimators import (
-    PriorConfig,  # noqa: F401 - importable from here; re-exported once zonotope/__init__ lists it
+    PriorConfig,
     fit_Centroid,
     fit_MAP,
     fit_Prior,
@@ -80,6 +80,7 @@ __all__ = [
     "CORRECTION_METHODS",
     "CorrectionProblem",
     "Corrector",
+    "PriorConfig",
     "check_reflectances",
     "correct",
     "correction_problem",
