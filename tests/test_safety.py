@@ -8,6 +8,7 @@ input in one line, batches in bounded memory. Plus hypothesis fuzzing of the spe
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import signal
@@ -511,8 +512,21 @@ def test_correct_image_cache_path_problems(tmp_path):
 # ---------------------------------------------------------------------------------------------
 
 
+CAM = "Nikon 5100 (NPL)"
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
 def _lut():
     return zonotope.correction_LUT(lambda c: c, size=3, space="XYZ")
+
+
+@functools.cache
+def _problem():
+    return zonotope.correction_problem(CAM, shape=GRID)
+
+
+def _matrix():
+    return zonotope.fit_correction(_problem(), method="matrix")
 
 
 BAD_CALLS = {
@@ -536,6 +550,23 @@ BAD_CALLS = {
     "correction_LUT(not callable)": (lambda: zonotope.correction_LUT(3, size=3), "callable"),
     "apply_correction_LUT(str)": (lambda: zonotope.apply_correction_LUT(_lut(), "abc"), "rgb"),
     "apply_correction_LUT(2 channels)": (lambda: zonotope.apply_correction_LUT(_lut(), [[1, 2]]), "rgb"),
+    "fit_correction(text training)": (
+        lambda: zonotope.fit_correction(CAM, method="matrix", shape=GRID, training=[["a"]]),
+        "training: expected an array",
+    ),
+    "fit_correction(problem + training)": (  # was silently ignored
+        lambda: zonotope.fit_correction(_problem(), method="matrix", training="CIE 1995 TCS"),
+        "training given with a CorrectionProblem",
+    ),
+    "correct_image(str)": (lambda: zonotope.correct_image("abc", _matrix()), "image: expected an array"),
+    "correct_image(ragged)": (
+        lambda: zonotope.correct_image([[1, 2, 3], [1, 2]], _matrix()),
+        "image: expected an array",
+    ),
+    "correct_image(quantum < 0)": (
+        lambda: zonotope.correct_image(np.zeros((2, 2, 3)), _matrix(), quantum=-1),
+        "quantum=-1",
+    ),
 }
 
 

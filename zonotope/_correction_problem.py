@@ -164,7 +164,7 @@ def correction_problem(
         R = spectra.resample(train_curve, w).T
         tr_name = getattr(train_curve, "name", str(training))
     else:
-        R = np.asarray(training, dtype=np.float64)
+        R = spectra.float_array(training, "training")
         tr_name = "array"
         if R.ndim != 2 or R.shape[1] != w.size:
             raise SpectralDataError(

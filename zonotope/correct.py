@@ -64,6 +64,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ._correction_problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
+from ._errors import OptionError
 from ._mmv_estimators import (
     PriorConfig,
     fit_Centroid,
@@ -168,10 +169,10 @@ def fit_correction(
     cameras_or_problem,
     *,
     method: str = "Prior",
-    target="CIE 2015 2°",
-    illuminant="D65",
+    target=None,
+    illuminant=None,
     shape=None,
-    training="rawtoaces 190",
+    training=None,
     **options,
 ) -> Corrector:
     """Fit an estimator (see :data:`CORRECTION_METHODS` and the module notes on which to use).
@@ -184,6 +185,10 @@ def fit_correction(
     method
         Key of :data:`CORRECTION_METHODS` (case and punctuation ignored) or an alias such as
         ``"root-polynomial"``, ``"least squares"``, ``"idt"``.
+    target, illuminant, shape, training
+        Passed to :func:`correction_problem` when cameras are given (defaults ``"CIE 2015 2°"``,
+        ``"D65"``, the cameras' common grid, ``"rawtoaces 190"``). A :class:`CorrectionProblem`
+        already holds them, so giving them with one is an error rather than silently ignored.
     **options
         Passed to the fitting function (e.g. ``degree=3``, ``noise=0.01``).
 
@@ -191,15 +196,22 @@ def fit_correction(
     ------
     UnknownMethodError
         Unknown method (the message lists the valid ones).
+    OptionError
+        ``target``, ``illuminant``, ``shape`` or ``training`` given with a :class:`CorrectionProblem`.
     """
     name = CORRECTION_METHODS.resolve(method)
-    problem = (
-        cameras_or_problem
-        if isinstance(cameras_or_problem, CorrectionProblem)
-        else correction_problem(
-            cameras_or_problem, target=target, illuminant=illuminant, shape=shape, training=training
-        )
-    )
+    setup = {"target": target, "illuminant": illuminant, "shape": shape, "training": training}
+    if isinstance(cameras_or_problem, CorrectionProblem):
+        given = [key for key, value in setup.items() if value is not None]
+        if given:
+            raise OptionError(
+                f"fit_correction: {', '.join(given)} given with a CorrectionProblem, which already holds "
+                "them; pass them to correction_problem(...) instead, or pass the cameras here."
+            )
+        problem = cameras_or_problem
+    else:
+        given = {key: value for key, value in setup.items() if value is not None}
+        problem = correction_problem(cameras_or_problem, **given)  # its defaults for the rest
     return CORRECTION_METHODS[name](problem, **options)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from ._errors import OptionError, SpectralDataError
 from ._progress import ProgressCallback
 from .correct import CORRECTION_METHODS, Corrector, fit_correction
+from .spectra import float_array
 
 __all__ = ["correct_image"]
 
@@ -134,7 +135,10 @@ def correct_image(
     Raises
     ------
     SpectralDataError
-        Wrong channel count or a non-positive ``batch_size``.
+        ``image`` is not an array of numbers, has the wrong channel count, or ``batch_size`` is not
+        positive.
+    OptionError
+        ``quantum`` is negative or not finite.
 
     Examples
     --------
@@ -150,7 +154,7 @@ def correct_image(
         else fit_correction(cameras_or_corrector, method=method, **options)
     )
     k, m = corrector.problem.k, corrector.problem.m
-    img = np.asarray(image, dtype=np.float64)
+    img = float_array(image, "image")
     if img.shape[-1:] != (k,):
         raise SpectralDataError(
             f"image: last axis must hold the {k} stacked channels of {list(corrector.problem.sources)}; "
@@ -158,6 +162,8 @@ def correct_image(
         )
     if batch_size < 1:
         raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
+    if not (np.isfinite(quantum) and quantum >= 0):
+        raise OptionError(f"quantum={quantum!r}: give a grouping step >= 0 in response units (0: exact).")
     if cache_dir and Path(cache_dir).exists() and not Path(cache_dir).is_dir():
         from ._io import OutputExistsError
 
