@@ -63,9 +63,7 @@ def main() -> None:
     ap.add_argument("--noise", type=float, default=0.0, help="Gaussian response noise σ (white = 1)")
     ap.add_argument("--fit-apply", type=int, default=0, help="time fit + apply on N responses instead")
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument(
-        "--workers", type=int, default=0, help="MMV centroids in N threads (0: here)"
-    )
+    ap.add_argument("--workers", type=int, default=0, help="MMV centroids in N threads (0: here)")
     args = ap.parse_args()
     if args.fit_apply:
         fit_apply(args.fit_apply, args.repeats)

@@ -288,4 +288,3 @@ def sharpened_reflectances(reflectances, n: int, *, seed: int = 0) -> np.ndarray
     lo = rng.uniform(0.0, 0.1, (n, 1))
     hi = rng.uniform(0.6, 1.0, (n, 1))
     return np.clip(lo + (hi - lo) * _logistic(s[:, None] * (z - z0[:, None])), 0.0, 1.0)
-
