@@ -563,6 +563,14 @@ BAD_CALLS = {
         lambda: zonotope.correct_image([[1, 2, 3], [1, 2]], _matrix()),
         "image: expected an array",
     ),
+    "Zonotope(str)": (lambda: zonotope.Zonotope("abc"), "generators: expected an array"),
+    "Zonotope(ragged)": (lambda: zonotope.Zonotope([[1, 2, 3], [1, 2]]), "generators: expected an array"),
+    "Zonotope.contains(str)": (lambda: zonotope.Zonotope(np.eye(3)).contains("abc"), "points: expected"),
+    "Polytope(ragged)": (lambda: zonotope.Polytope([[1, 2, 3], [1, 2]]), "points: expected an array"),
+    "mmv_contains(str)": (
+        lambda: zonotope.mmv_contains(np.eye(3), np.eye(3), "ab", [0.1, 0.1, 0.1]),
+        "responses: expected an array",
+    ),
     "correct_image(quantum < 0)": (
         lambda: zonotope.correct_image(np.zeros((2, 2, 3)), _matrix(), quantum=-1),
         "quantum=-1",

@@ -64,3 +64,15 @@ class UnknownMethodError(ZonotopeError, ValueError):
         self.argument = argument
         self.value = value
         self.valid = valid
+
+
+def float_array(x, name: str, error: type[Exception] = SpectralDataError, *, copy: bool = False):
+    """``np.asarray(x, float64)`` (``np.array`` with ``copy=True``), or ``error`` naming ``name`` when
+    ``x`` is not an array of numbers (text, ragged nested lists) instead of numpy's raw
+    ``ValueError``/``TypeError``."""
+    import numpy as np
+
+    try:
+        return np.array(x, dtype=np.float64) if copy else np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{name}: expected an array of numbers; got {type(x).__name__} ({exc}).") from None

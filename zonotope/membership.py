@@ -29,7 +29,7 @@ from itertools import combinations
 
 import numpy as np
 
-from ._errors import GeometryError
+from ._errors import GeometryError, float_array
 from ._tol import HYPERPLANE_RANK, PHASE1, TOL
 
 __all__ = ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"]
@@ -50,7 +50,7 @@ def joint_halfspaces(generators, *, max_terms: int = 2_000_000) -> tuple[np.ndar
         Unit normals, both signs (rows may repeat when generators are degenerate).
     b : ndarray of shape (m,)
     """
-    G = np.asarray(generators, dtype=np.float64)
+    G = float_array(generators, "generators", GeometryError)
     if G.ndim != 2 or not np.all(np.isfinite(G)):
         raise GeometryError(f"generators must be a finite (n, d) array; got shape {G.shape}.")
     n, d = G.shape
@@ -106,12 +106,12 @@ def mmv_contains(
     Equivalent to "the LP max 0 s.t. Φᵀx = c, Ψᵀx = y, 0 ≤ x ≤ 1 is feasible" (the HiGHS twin in
     the tests), for all pairs at once.
     """
-    Phi = np.asarray(Phi, dtype=np.float64)
-    Psi = np.asarray(Psi, dtype=np.float64)
+    Phi = float_array(Phi, "Phi", GeometryError)
+    Psi = float_array(Psi, "Psi", GeometryError)
     if Phi.ndim != 2 or Psi.ndim != 2 or Phi.shape[0] != Psi.shape[0]:
         raise GeometryError(f"Phi (n, k) and Psi (n, m) need the same n; got {Phi.shape} and {Psi.shape}.")
-    c = np.asarray(responses, dtype=np.float64)
-    y = np.asarray(targets, dtype=np.float64)
+    c = float_array(responses, "responses", GeometryError)
+    y = float_array(targets, "targets", GeometryError)
     if c.shape[-1:] != (Phi.shape[1],) or y.shape[-1:] != (Psi.shape[1],) or c.shape[:-1] != y.shape[:-1]:
         raise GeometryError(
             f"responses (..., {Phi.shape[1]}) and targets (..., {Psi.shape[1]}) must share "
@@ -137,8 +137,8 @@ def _pairs(Phi, Psi, responses, targets):
         raise GeometryError(f"Phi (n, k) and Psi (n, m) need the same n; got {Phi.shape} and {Psi.shape}.")
     if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(Psi))):
         raise GeometryError("Phi or Psi contains NaN or inf; check the spectral data.")
-    c = np.asarray(responses, dtype=np.float64)
-    y = np.asarray(targets, dtype=np.float64)
+    c = float_array(responses, "responses", GeometryError)
+    y = float_array(targets, "targets", GeometryError)
     k, m = Phi.shape[1], Psi.shape[1]
     if c.shape[-1:] != (k,) or y.shape[-1:] != (m,) or c.shape[:-1] != y.shape[:-1]:
         raise GeometryError(

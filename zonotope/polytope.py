@@ -26,7 +26,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ._errors import GeometryError
+from ._errors import GeometryError, float_array
 from ._tol import AFFINE, ANGLE, COLLINEAR, SINGULAR
 
 __all__ = ["Polytope"]
@@ -123,13 +123,13 @@ class Polytope:
         if points is None and halfspaces is None:
             raise GeometryError("Polytope needs points (N, m) and/or halfspaces (A, b).")
         if halfspaces is not None:
-            A, b = (np.asarray(a, dtype=np.float64) for a in halfspaces)
+            A, b = (float_array(a, "halfspaces", GeometryError) for a in halfspaces)
             if points is not None:
                 other = Polytope(points, atol=atol)
                 A2, b2 = other.halfspaces
                 A, b = np.concatenate([A, A2]), np.concatenate([b, b2])
             points = _vertices_from_halfspaces(A, b, atol)
-        P = np.array(points, dtype=np.float64)
+        P = float_array(points, "points", GeometryError, copy=True)
         if P.ndim != 2:
             raise GeometryError(f"points must have shape (N, m); got {P.shape}.")
         if not np.all(np.isfinite(P)):
@@ -191,7 +191,7 @@ class Polytope:
         ``volume`` and ``centroid``, when given, are the solid's (the walk sums the same
         tetrahedra of the same triangles) and are not summed again.
         """
-        P = np.array(points, dtype=np.float64)
+        P = float_array(points, "points", GeometryError, copy=True)
         S = np.asarray(triangles, dtype=np.intp)
         obj = _Triangulated.__new__(_Triangulated)
         obj.ambient_dim = P.shape[1]
@@ -433,7 +433,7 @@ class Polytope:
         return out.reshape(P.shape[:-1])
 
     def _check_points(self, points) -> np.ndarray:
-        P = np.asarray(points, dtype=np.float64)
+        P = float_array(points, "points", GeometryError)
         if P.shape[-1:] != (self.ambient_dim,):
             raise GeometryError(f"points must have shape (..., {self.ambient_dim}); got {P.shape}.")
         if not np.all(np.isfinite(P)):

@@ -34,7 +34,7 @@ from itertools import combinations
 import numpy as np
 
 from . import _zonohedron as _zh
-from ._errors import GeometryError
+from ._errors import GeometryError, float_array
 from ._lp import distance_to_zonotope
 from ._tol import MAGNITUDE_MAX, MAGNITUDE_MIN, TOL, Tolerances
 
@@ -127,7 +127,7 @@ class Zonotope:
     def __init__(self, generators, *, offset=None, tol: Tolerances = TOL) -> None:
         wavelengths = getattr(generators, "wavelengths", None)
         values = getattr(generators, "values", generators)
-        G = np.array(values, dtype=np.float64)
+        G = float_array(values, "generators", GeometryError, copy=True)
         if G.ndim == 1:
             G = G[:, None]
         if G.ndim != 2 or G.shape[0] < 1 or G.shape[1] < 1:
@@ -150,7 +150,11 @@ class Zonotope:
                 f"generators of magnitude {peak:.3g} in {k} dimensions: the volume (up to "
                 f"(Σ‖g‖)^{k}) would overflow float64. Rescale them, e.g. generators(..., normalise=1)."
             )
-        off = np.zeros(k) if offset is None else np.array(offset, dtype=np.float64).reshape(-1)
+        off = (
+            np.zeros(k)
+            if offset is None
+            else float_array(offset, "offset", GeometryError, copy=True).reshape(-1)
+        )
         if off.shape != (k,) or not np.all(np.isfinite(off)):
             raise GeometryError(f"offset must be a finite vector of length {k}; got {offset!r}.")
         G.flags.writeable = False
@@ -226,7 +230,7 @@ class Zonotope:
             ``value`` (...,). For directions normal to a face the point is one of its vertices
             (wavelengths with ``u · g = 0`` get reflectance 0).
         """
-        u = np.asarray(directions, dtype=np.float64)
+        u = float_array(directions, "directions", GeometryError)
         if u.shape[-1:] != (self.ambient_dim,):
             raise GeometryError(f"directions must have shape (..., {self.ambient_dim}); got {u.shape}.")
         x = (u @ self.generators.T > 0).astype(np.float64)
@@ -415,7 +419,7 @@ class Zonotope:
         facet is tested: same answer, cheaper for a few thousand points). Other
         solids solve one HiGHS LP per point for the ∞-norm distance.
         """
-        P = np.asarray(points, dtype=np.float64)
+        P = float_array(points, "points", GeometryError)
         if P.shape[-1:] != (self.ambient_dim,):
             raise GeometryError(f"points must have shape (..., {self.ambient_dim}); got {P.shape}.")
         if not np.all(np.isfinite(P)):
@@ -436,7 +440,7 @@ class Zonotope:
 
     def contains_reference(self, points, atol: float | None = None) -> np.ndarray:
         """Slow twin of :meth:`contains` for 3-D: every facet for every point (tests use it)."""
-        P = np.asarray(points, dtype=np.float64)
+        P = float_array(points, "points", GeometryError)
         atol = self.tol.contains * self.scale if atol is None else float(atol)
         A, b = self.halfspaces
         flat = P.reshape(-1, 3)

@@ -41,6 +41,7 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError
+from ._errors import float_array as float_array  # used as spectra.float_array by other modules
 from ._tol import GRID, NEGATIVE_NOISE
 
 __all__ = [
@@ -130,15 +131,6 @@ def _as_curve(obj: CurveLike, what: str, lookup: Callable[[str], Curve] | None =
         f"{what}: expected a colour SpectralDistribution / MultiSpectralDistributions, a built-in "
         f"name or a (wavelengths, values) tuple, got {type(obj).__name__}."
     )
-
-
-def float_array(x, name: str, error: type[Exception] = SpectralDataError) -> np.ndarray:
-    """``np.asarray(x, float64)``, or ``error`` naming ``name`` when ``x`` is not an array of numbers
-    (text, ragged nested lists) instead of numpy's raw ``ValueError``/``TypeError``."""
-    try:
-        return np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise error(f"{name}: expected an array of numbers; got {type(x).__name__} ({exc}).") from None
 
 
 def _arrays(curve: Curve) -> tuple[np.ndarray, np.ndarray]:
