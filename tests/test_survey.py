@@ -51,6 +51,11 @@ def test_load_cameras(gauss_camera):
     assert list(cams) == ["Gauss_RGB"] and len(skipped) == 1 and "notes.json" in skipped[0]
     named, _ = load_cameras("Nikon 5100 (NPL), Canon EOS 5D Mark II")
     assert list(named) == ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"]
+    # a file given by name gets the same name as in a folder (no "_380_780_5" grid suffix)
+    suffixed = gauss_camera.parent / "suffixed" / "Gauss_RGB_380_780_5.csv"
+    suffixed.parent.mkdir(exist_ok=True)
+    suffixed.write_text(gauss_camera.read_text())
+    assert list(load_cameras(str(suffixed))[0]) == list(load_cameras(suffixed.parent)[0]) == ["Gauss_RGB"]
     empty = gauss_camera.parent / "empty"
     empty.mkdir(exist_ok=True)
     with pytest.raises(SpectralDataError, match="no camera file"):

@@ -73,6 +73,13 @@ class SurveyRow:
         return d
 
 
+def _file_camera_name(path: Path) -> str:
+    """A camera file's name in a survey: its stem without a ``_380_780_5`` grid suffix or ``_ssf``."""
+    import re
+
+    return re.sub(r"_\d+_\d+_\d+$", "", path.stem).removesuffix("_ssf")
+
+
 def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[str]]:
     """Cameras by name: a folder (every camera file below it), or names / files.
 
@@ -82,7 +89,8 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
         A folder: every ``.json`` / ``.csv`` file below it that :func:`zonotope.spectra.read_camera`
         reads (others, e.g. ``aliases.json`` or curves with negative lobes, are skipped); one file
         per camera name (the file stem without a ``_380_780_5`` grid suffix; JSON preferred).
-        Otherwise built-in camera names or camera files (a comma-separated string also works).
+        Otherwise built-in camera names or camera files (a comma-separated string also works),
+        a file named as in a folder.
 
     Returns
     -------
@@ -90,8 +98,6 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
     skipped : list of str
         Files of a folder that were not cameras, with the reason.
     """
-    import re
-
     from . import spectra
 
     skipped: list[str] = []
@@ -101,7 +107,7 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
         for f in files:
             if f.suffix.lower() not in (".json", ".csv") or not f.is_file():
                 continue
-            name = re.sub(r"_\d+_\d+_\d+$", "", f.stem).removesuffix("_ssf")
+            name = _file_camera_name(f)
             if name in cams:
                 continue
             try:
@@ -122,7 +128,7 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
             skipped += skip
             continue
         curve = load_camera(n)
-        cams[Path(n).stem if Path(n).is_file() else curve.name] = curve
+        cams[_file_camera_name(Path(n)) if Path(n).is_file() else curve.name] = curve
     return cams, skipped
 
 
