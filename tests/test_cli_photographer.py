@@ -132,8 +132,38 @@ def test_batch_commands_print_plain_progress_when_piped(tmp_path, capsys):
     assert main([*argv, "--method", "matrix", "--scheduler", "serial"]) == 0
     err = capsys.readouterr().err
     assert "s] correcting (serial): 2/2" in err and "━" not in err
+    assert err.index("fitting matrix for Nikon 5100 (NPL)…") < err.index("correcting")  # said before the fit
     assert main([*argv, "--method", "matrix", "--scheduler", "serial", "-q"]) == 0  # quiet: no lines
-    assert "s] correcting" not in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "s] correcting" not in err and "fitting" not in err
+
+
+def test_correct_rerun_with_every_output_present_skips_the_fit(tmp_path, capsys, monkeypatch):
+    """A resumed ``zonotope correct`` whose outputs all exist used to refit the estimator (minutes for
+    Prior) only to skip every file; now it fits nothing and reports them as done."""
+    import numpy as np
+    import tifffile
+
+    from zonotope import correct
+
+    images = tmp_path / "in"
+    images.mkdir()
+    tifffile.imwrite(images / "a.tif", np.full((3, 4, 3), 0.3, np.float32), photometric="rgb")
+    argv = ["correct", str(images), "-o", str(tmp_path / "out"), "--camera", "Nikon 5100 (NPL)"]
+    argv += ["--method", "matrix", "--scheduler", "serial"]
+    assert main(argv) == 0
+    first = (tmp_path / "out" / "a_XYZ.tif").read_bytes()
+    fits = []
+    real = correct.fit_correction
+    monkeypatch.setattr(correct, "fit_correction", lambda *a, **k: fits.append(1) or real(*a, **k))
+    capsys.readouterr()
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert fits == [] and "fitting" not in err and "0 corrected, 1 already done, 0 failed" in err
+    assert (tmp_path / "out" / "a_XYZ.tif").read_bytes() == first
+    (tmp_path / "out" / "a_XYZ.tif").unlink()  # one missing output: fitted again and written
+    assert main(argv) == 0
+    assert fits == [1] and (tmp_path / "out" / "a_XYZ.tif").read_bytes() == first
 
 
 def test_survey_size_is_checked_before_any_progress(capsys):

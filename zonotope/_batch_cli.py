@@ -186,15 +186,19 @@ def _correct(args: argparse.Namespace) -> int:
     out_dir = Path(args.output)
     if out_dir.exists() and not out_dir.is_dir():
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
-    corrector = fit_correction(
-        args.camera,
-        method=args.method,
-        target=args.target,
-        illuminant=args.illuminant,
-        training=args.training,
-    )
-    out_dir.mkdir(parents=True, exist_ok=True)
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
+    corrector = None  # a rerun with every output present (all 'done') needs no fit
+    if not all(Path(t.output).exists() for t in tasks):
+        if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
+            console.print(f"fitting {args.method} for {' + '.join(args.camera)}…")
+        corrector = fit_correction(
+            args.camera,
+            method=args.method,
+            target=args.target,
+            illuminant=args.illuminant,
+            training=args.training,
+        )
+    out_dir.mkdir(parents=True, exist_ok=True)
     where = resolve_scheduler(args.scheduler, tasks=len(tasks))
     bar, callback = _bar(console, args.quiet, f"correcting ({where})")
     with bar:
