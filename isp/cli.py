@@ -296,14 +296,22 @@ def _info(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
+    from ._errors import RawFormatError
     from .raw import read_raw
     from .whitebalance import describe_white_balance
 
-    raw = read_raw(args.input, metadata_only=args.metadata_only)
+    try:
+        raw = read_raw(args.input, metadata_only=args.metadata_only)
+    except RawFormatError as error:
+        if args.metadata_only:
+            raise
+        raise RawFormatError(f"{error} On the command line: isp info --metadata-only FILE.") from error
     p = raw.profile
     table = Table(title=str(args.input), show_header=False)
+    # DNG Model tags often repeat the make ("Canon" + "Canon EOS Kiss X4"): print it once
+    model = raw.model if raw.make and raw.model.startswith(raw.make) else f"{raw.make} {raw.model}"
     rows = {
-        "make / model": f"{raw.make} {raw.model}".strip() or "(not recorded)",
+        "make / model": model.strip() or "(not recorded)",
         "size (H × W)": f"{raw.shape[0]} × {raw.shape[1]}",
         "CFA": raw.cfa,
         "black level": str(raw.black_level.ravel().tolist()),

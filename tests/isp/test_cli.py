@@ -83,6 +83,17 @@ def test_python_m_isp_info(dng_350d):
     assert "350D" in res.stdout and "0.6018" in res.stdout
 
 
+def test_info_prints_the_make_once_and_names_the_cli_option(dng_550d, dng_350d, capsys):
+    """The 550D DNG's Model tag repeats its Make ('Canon' + 'Canon EOS Kiss X4'), which printed as
+    'Canon Canon EOS Kiss X4'; a file without pixel data pointed at a Python call, not the option."""
+    assert main(["info", str(dng_550d)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "│ Canon EOS Kiss X4 │" in out and "Canon Canon" not in out
+    assert main(["info", str(dng_350d)]) == 2
+    err = capsys.readouterr().err
+    assert "no pixel data" in err and "isp info --metadata-only" in err
+
+
 # ---------------------------------------------------------------------------------------------
 # --correction metamer, on a simulated DNG of a camera whose sensitivities are known
 # ---------------------------------------------------------------------------------------------
