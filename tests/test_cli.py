@@ -17,6 +17,22 @@ def test_summary_still_works(capsys):
     assert "Nikon 5100" in capsys.readouterr().out
 
 
+def test_summary_sets_table_says_how_it_is_ordered(capsys):
+    """The sets table is ordered by size first (a 3-camera set with the highest Vora value comes
+    last), so its title must not claim one ranking by Vora value."""
+    import re
+
+    cams = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]
+    argv = ["summary", *(a for c in cams for a in ("--camera", c)), "--start", "400", "--end", "680"]
+    assert main([*argv, "--interval", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "Camera sets by size, each size ranked by Vora value" in out
+    rows = [(int(c), float(v)) for c, v in re.findall(r"│\s*(\d)\s*│\s*(0\.\d{4})\s*│\s*$", out, re.M)]
+    assert [c for c, _ in rows] == [6, 6, 6, 9]
+    pairs = [v for c, v in rows if c == 6]
+    assert pairs == sorted(pairs, reverse=True) and rows[-1][1] > max(pairs)
+
+
 def test_evaluate_command(tmp_path, capsys):
     md = tmp_path / "table.md"
     assert (

@@ -61,7 +61,7 @@ def _summary(args: argparse.Namespace) -> int:
         )
     console.print(table)
     if len(cameras) > 1:
-        sets = Table(title="Camera sets ranked by Vora value (channels stacked)")
+        sets = Table(title="Camera sets by size, each size ranked by Vora value (channels stacked)")
         for col in ("cameras", "channels", "Vora"):
             sets.add_column(col)
         for size in range(2, len(cameras) + 1):
