@@ -17,6 +17,15 @@ def test_summary_still_works(capsys):
     assert "Nikon 5100" in capsys.readouterr().out
 
 
+def test_help_lists_every_command_one_per_line(capsys):
+    """``zonotope --help`` described four of the six commands, run together into one paragraph."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    for command in ("summary", "list", "evaluate", "report", "correct", "survey"):
+        assert any(line.startswith(f"- ``zonotope {command}") for line in out.splitlines()), command
+
+
 def test_summary_sets_table_says_how_it_is_ordered(capsys):
     """The sets table is ordered by size first (a 3-camera set with the highest Vora value comes
     last), so its title must not claim one ranking by Vora value."""

@@ -4,7 +4,9 @@
 - ``zonotope list [cameras|observers|illuminants|reflectances]`` (or ``zonotope cameras``): the built-in
   curves;
 - ``zonotope evaluate``: ΔE00 of every colour-correction estimator on natural and atypical sets;
-- ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set.
+- ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set;
+- ``zonotope correct``: colour-correct folders of N-band float TIFFs to XYZ (serial or Dask);
+- ``zonotope survey``: rank camera sets by MMV volume, Vora value and regression ΔE00 (serial or Dask).
 """
 
 from __future__ import annotations
@@ -266,7 +268,9 @@ def _grid_options(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="zonotope", description=__doc__)
+    parser = argparse.ArgumentParser(  # one command per line, as in the docstring
+        prog="zonotope", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser(
