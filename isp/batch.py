@@ -84,11 +84,10 @@ def develop_folder(args: argparse.Namespace) -> int:
     (listed, and in the manifest), 2 for bad options.
     """
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from zonotope.parallel import FileTask, resolve_scheduler, run_files
 
-    from .cli import _metamer
+    from .cli import _metamer, _progress
 
     console = Console(stderr=True)
     out_dir = Path(args.output)
@@ -118,14 +117,7 @@ def develop_folder(args: argparse.Namespace) -> int:
     values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
     where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        disable=args.quiet,
-    ) as bar:
+    with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
         task = bar.add_task(f"developing ({where})", total=len(tasks))
         rows = run_files(
             tasks,

@@ -78,6 +78,17 @@ def test_folder_serial_resume_and_bad_file(dng_folder, singles, tmp_path):
     assert main(["develop", str(tmp_path / "nothing_here"), "-o", str(out), "-q"]) == 2
 
 
+def test_folder_progress_is_plain_lines_when_piped(dng_folder, tmp_path, capsys):
+    """A folder batch drew rich's bar even when stderr was a log file (only its last frame landed
+    there, as 'developing ━━━ 3/3'); now plain timed lines, as the single-file command prints."""
+    raws = tmp_path / "raws"
+    raws.mkdir()
+    (raws / "shot0.dng").write_bytes((dng_folder / "shot0.dng").read_bytes())
+    assert main(["develop", str(raws), "-o", str(tmp_path / "dev"), "--scheduler", "serial"]) == 0
+    err = capsys.readouterr().err
+    assert "s] developing (serial)" in err and "developing (serial): 1/1" in err and "━" not in err
+
+
 @pytest.mark.slow
 def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_path, dask_cluster):
     from isp.batch import _develop_one, raw_files
