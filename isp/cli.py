@@ -171,8 +171,10 @@ def _develop(args: argparse.Namespace) -> int:
         return develop_folder(args)
     from ._errors import PipelineError
     from ._tol import NEUTRAL_MISMATCH
-    from .io import _is_our_output
+    from .io import IMAGE_FORMATS, _is_our_output
 
+    if out.suffix.lower() not in IMAGE_FORMATS:  # before the development, not when writing it
+        raise PipelineError(f"{out}: unknown image format {out.suffix!r}; use one of {list(IMAGE_FORMATS)}.")
     if out.exists() and (not args.overwrite or (src.exists() and out.resolve() == src.resolve())):
         # checked before the long work (a metamer fit takes minutes), not only when writing
         raise PipelineError(f"{out} exists; pass --overwrite or choose another name (never the input).")

@@ -83,6 +83,14 @@ def test_python_m_isp_info(dng_350d):
     assert "350D" in res.stdout and "0.6018" in res.stdout
 
 
+def test_unknown_output_format_is_refused_before_developing(dng_550d, tmp_path, capsys):
+    """``-o x.jpg`` was refused only after the whole development (minutes with a metamer fit)."""
+    assert main(["develop", str(dng_550d), "-o", str(tmp_path / "x.jpg")]) == 2
+    err = capsys.readouterr().err
+    assert "unknown image format '.jpg'" in err and "linearise" not in err  # no stage ran
+    assert not list(tmp_path.iterdir())
+
+
 def test_info_prints_the_make_once_and_names_the_cli_option(dng_550d, dng_350d, capsys):
     """The 550D DNG's Model tag repeats its Make ('Canon' + 'Canon EOS Kiss X4'), which printed as
     'Canon Canon EOS Kiss X4'; a file without pixel data pointed at a Python call, not the option."""
