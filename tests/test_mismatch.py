@@ -474,3 +474,23 @@ def test_walk_matches_highs_on_random_generators(n, seed, delta):
     U = rng.normal(size=(15, 3))
     h, _, _ = HighsOracle(Phi, Psi, c, delta).support(U)
     np.testing.assert_allclose((U @ Y.T).max(axis=1), h, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("delta", [0.0, 0.01])
+def test_walk_batch_equals_one_walk_per_response(nikon10, delta):
+    """walk_mmv_batch (one compiled call for all responses) gives bit for bit the volumes, centroids,
+    statuses and moves of walk_mmv response by response, declined and infeasible responses included."""
+    from zonotope._mmv_walk import walk_mmv, walk_mmv_batch
+
+    Phi, Psi, R = nikon10
+    grey = np.full(31, 0.5) @ Phi
+    C = np.vstack([R[:12] @ Phi, np.zeros(3), Phi.sum(axis=0) * 1.1, grey])
+    vols, cens, status, moves = walk_mmv_batch(Phi, Psi, C, delta)
+    for p, c in enumerate(C):
+        _, vol, cen, st, mv = walk_mmv(Phi, Psi, c, delta)
+        assert (status[p], moves[p]) == (st, mv)
+        assert vols[p] == vol and np.array_equal(cens[p], cen)
+    assert (status[:12] == 0).all() and status[13] == 1
+    if delta == 0.0:  # black is a degenerate vertex; with a tolerance it has a 3-D MMV
+        assert status[12] in (2, 4)
+    assert (walk_mmv_batch(Phi, np.hstack([Psi, Psi[:, :1]]), C[:3])[2] == 6).all()

@@ -30,7 +30,13 @@ _OK, _INFEASIBLE, _ART, _LIMIT, _DEGEN, _FLAT, _COLLIDE, _VLIMIT, _ADJ = 0, 1, 2
 def _inverse(F, B, Minv):
     """Minv ← inverse of the k×k matrix whose column i is F[B[i]]; False when singular."""
     k = B.shape[0]
-    M = np.empty((k, 2 * k))
+    return _inverse_ws(F, B, Minv, np.empty((k, 2 * k)))
+
+
+@njit(cache=True, error_model="numpy")
+def _inverse_ws(F, B, Minv, M):
+    """:func:`_inverse` with the k × 2k work array ``M`` given (no allocation in the walk's loop)."""
+    k = B.shape[0]
     for r in range(k):
         for i in range(k):
             M[r, i] = F[B[i], r]
@@ -71,8 +77,14 @@ def _inverse(F, B, Minv):
 @njit(cache=True, error_model="numpy")
 def _basic_values(F, lo, hi, c, B, up, isb, Minv, xB):
     """Set xB to the values of the basic variables (nonbasic ones at their bounds)."""
+    _basic_values_ws(F, lo, hi, c, B, up, isb, Minv, xB, np.empty(c.shape[0]))
+
+
+@njit(cache=True, error_model="numpy")
+def _basic_values_ws(F, lo, hi, c, B, up, isb, Minv, xB, rhs):
+    """:func:`_basic_values` with the work array ``rhs`` (k,) given."""
     N, k = F.shape
-    rhs = c.copy()
+    rhs[:] = c
     for j in range(N):
         if not isb[j]:
             v = hi[j] if up[j] else lo[j]
@@ -205,17 +217,27 @@ def _hull2(px, py, n, hull, tmp):
         hull[h] = p
         h += 1
         q = 0 if p != 0 else 1
+        xp = px[p]
+        yp = py[p]
+        qx = px[q] - xp
+        qy = py[q] - yp
         for r in range(n):
             if r == p or r == q:
                 continue
-            cr = (px[q] - px[p]) * (py[r] - py[p]) - (py[q] - py[p]) * (px[r] - px[p])
+            rx = px[r] - xp
+            ry = py[r] - yp
+            cr = qx * ry - qy * rx
             if cr < -eps:
                 q = r
+                qx = rx
+                qy = ry
             elif cr <= eps:
-                dq = (px[q] - px[p]) ** 2 + (py[q] - py[p]) ** 2
-                dr = (px[r] - px[p]) ** 2 + (py[r] - py[p]) ** 2
+                dq = qx**2 + qy**2
+                dr = rx**2 + ry**2
                 if dr > dq:
                     q = r
+                    qx = rx
+                    qy = ry
         p = q
         if p == start:
             return h
@@ -281,13 +303,15 @@ def _tput(tkeys, tvals, key, val):
 
 
 @njit(cache=True, error_model="numpy")
-def _same_state(Bs, Ups, v, B, up):
+def _same_state(Bs, Ups, v, B, up, j, upj, leave, upl):
+    """Is stored state v the basis B with ``up`` changed at j (to upj) and at ``leave`` (to upl, if ≥ 0)?"""
     k = B.shape[0]
     for i in range(k):
         if Bs[v, i] != B[i]:
             return False
-    for j in range(up.shape[0]):
-        if Ups[v, j] != up[j]:
+    for t in range(up.shape[0]):
+        x = upj if t == j else (upl if t == leave else up[t])
+        if Ups[v, t] != x:
             return False
     return True
 
@@ -398,7 +422,6 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     py = np.empty(N)
     hull = np.empty(2 * N + 2, dtype=np.int64)
     tmp = np.empty(2 * N + 2, dtype=np.int64)
-    nup = np.empty(N, dtype=np.bool_)
     w = np.empty(3)
     e = np.empty(3)
     b1 = np.empty(3)
@@ -406,6 +429,8 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     rp = np.empty(3)
     rn = np.empty(3)
     nB = np.empty(k, dtype=np.int64)
+    Mw = np.empty((k, 2 * k))
+    rhs = np.empty(k)
     nbr = np.empty((cap, N), dtype=np.int64)
     deg = np.zeros(cap, dtype=np.int64)
     v = 0
@@ -415,9 +440,9 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         isb[:] = False
         for i in range(k):
             isb[B[i]] = True
-        if not _inverse(F, B, Minv):
+        if not _inverse_ws(F, B, Minv, Mw):
             return empty, 0.0, zc, _DEGEN, moves, notri
-        _basic_values(F, lo, hi, c, B, up, isb, Minv, xB)
+        _basic_values_ws(F, lo, hi, c, B, up, isb, Minv, xB, rhs)
         for i in range(k):
             b = B[i]
             eta = DEGENERATE * (hi[b] - lo[b])
@@ -450,14 +475,23 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
                     s += G[B[i], q] * Minv[i, r]
                 M2[q, r] = s
         cnt = 0
+        m00, m01, m02 = M2[0, 0], M2[0, min(1, k - 1)], M2[0, min(2, k - 1)]
+        m10, m11, m12 = M2[1, 0], M2[1, min(1, k - 1)], M2[1, min(2, k - 1)]
+        m20, m21, m22 = M2[2, 0], M2[2, min(1, k - 1)], M2[2, min(2, k - 1)]
         for j in range(N):
             if isb[j] or not (hi[j] > lo[j]):
                 continue
-            for q in range(3):
-                s = G[j, q]
-                for r in range(k):
-                    s -= M2[q, r] * F[j, r]
-                e[q] = s
+            if k == 3:  # unrolled, the same operations in the same order as the general loop
+                f0, f1, f2 = F[j, 0], F[j, 1], F[j, 2]
+                e[0] = G[j, 0] - m00 * f0 - m01 * f1 - m02 * f2
+                e[1] = G[j, 1] - m10 * f0 - m11 * f1 - m12 * f2
+                e[2] = G[j, 2] - m20 * f0 - m21 * f1 - m22 * f2
+            else:
+                for q in range(3):
+                    s = G[j, q]
+                    for r in range(k):
+                        s -= M2[q, r] * F[j, r]
+                    e[q] = s
             ne = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
             if ne <= zeta:
                 continue
@@ -495,10 +529,10 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         span = 0.0
         for t in range(cnt):
             span = max(span, abs(px[t]), abs(py[t]))
+        tie = PARALLEL_EDGES * span
         for g in range(h):
             a = hull[g]
             for t in range(cnt):
-                tie = PARALLEL_EDGES * span
                 if t != a and abs(px[t] - px[a]) <= tie and abs(py[t] - py[a]) <= tie:
                     return empty, 0.0, zc, _FLAT, moves, notri
         for g in range(h):
@@ -540,27 +574,30 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             moves += 1
             key_of = keys[v]
             nB[:] = B
-            nup[:] = up
+            # the new state is ``up`` changed at j (to upj) and at ``leave`` (to upl, when ≥ 0);
+            # it is written out only for a new vertex
             flip_len = hi[j] - lo[j]
+            leave = -1
+            upl = False
             if flip_len < tmax:
-                nup[j] = not nup[j]
+                upj = not up[j]
                 key_of ^= zu[j]
             else:
                 leave = B[rr]
                 to_up = sgn * alphas[a, rr] < 0.0
-                nup[leave] = to_up
+                upl = to_up
                 if to_up:
                     key_of ^= zu[leave]
                 key_of ^= zb[leave] ^ zb[j]
                 if up[j]:
                     key_of ^= zu[j]
-                nup[j] = False
+                upj = False
                 nB[rr] = j
                 _isort(nB)
             nkey = key_of
             u = _tget(tkeys, tvals, nkey)
             if u >= 0:
-                if not _same_state(Bs, Ups, u, nB, nup):
+                if not _same_state(Bs, Ups, u, nB, up, j, upj, leave, upl):
                     return empty, 0.0, zc, _COLLIDE, moves, notri
                 nbr[v, g] = u
                 continue
@@ -596,7 +633,10 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
                 dg2[:nv] = deg[:nv]
                 deg = dg2
             Bs[nv] = nB
-            Ups[nv] = nup
+            Ups[nv] = up
+            Ups[nv, j] = upj
+            if leave >= 0:
+                Ups[nv, leave] = upl
             for q in range(3):
                 Ms[nv, q] = rp[q] / nrp + rn[q] / nrn
                 Ds[nv, q] = -A[a, q] / na[a]
@@ -620,6 +660,24 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
     if st != _OK:
         return empty, 0.0, zc, st, moves, notri
     return Y[:nv].copy(), vol, cen, _OK, moves, tris[:nt].copy()
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def walk_batch(F, G, lo, hi, C, max_vertices, zb, zu):
+    """:func:`walk` for each row of C (P, k) in one call: volumes (P,), centroids (P, 3), statuses and
+    moves (P,) (what a batch of centroids needs; the vertex lists and triangles are dropped)."""
+    P = C.shape[0]
+    vols = np.zeros(P)
+    cens = np.zeros((P, 3))
+    status = np.empty(P, dtype=np.int64)
+    moves = np.empty(P, dtype=np.int64)
+    for p in range(P):
+        _, vol, cen, st, mv, _ = walk(F, G, lo, hi, C[p], max_vertices, zb, zu)
+        vols[p] = vol
+        cens[p] = cen
+        status[p] = st
+        moves[p] = mv
+    return vols, cens, status, moves
 
 
 @njit(

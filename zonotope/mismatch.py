@@ -765,15 +765,14 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
     asked = oracle
     if oracle == "walk" and m == 3:
         # exact vertex walks: volume and centroid from the traced faces, no hull needed
-        from ._mmv_walk import walk_mmv
+        from ._mmv_walk import walk_mmv_batch
         from ._oracle import _as_delta
 
-        d = _as_delta(delta, Phi.shape[1])
-        for r, c in enumerate(part):
-            _, vol, cen, status, moves = walk_mmv(Phi, Psi, c, d)
-            if status == 0:
-                walked[r] = True
-                cents[r], bounds[r], dims[r], calls = cen, vol, 3, calls + moves
+        # one compiled call for the chunk (the same walk as walk_mmv, per response)
+        vols, cens, status, moves = walk_mmv_batch(Phi, Psi, part, _as_delta(delta, Phi.shape[1]))
+        walked[:] = status == 0
+        cents[walked], bounds[walked], dims[walked] = cens[walked], vols[walked, None], 3
+        calls += int(moves[walked].sum())
         oracle = "fast"  # for the responses the walk declined
     if oracle == "fast":
         # the feasible responses in lockstep, sharing one multi-response simplex oracle
