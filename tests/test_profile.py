@@ -14,6 +14,7 @@ import zonotope
 from zonotope import ZonotopeError
 from zonotope.correct import fit_correction
 from zonotope.profile import (
+    apply_correction_LUT,
     correction_LUT,
     load_correction,
     save_correction,
@@ -63,6 +64,22 @@ def test_linear_lut_of_a_matrix_is_exact():
     c = np.random.default_rng(0).uniform(0, 1, (300, 3))
     w = M(np.ones(3))
     np.testing.assert_allclose(lut.apply(c), M(c) / w[1], atol=1e-9)
+
+
+@pytest.mark.parametrize(("size", "headroom"), [(17, 16.0), (33, 16.0), (33, 4.0), (65, 16.0)])
+def test_lut_puts_the_white_on_a_lattice_node(size, headroom):
+    """A LUT of a non-linear estimator gives the estimator's own white at (1, 1, 1): with the old
+    fixed toe 2⁻⁸ the white fell between nodes (33 nodes: y = 0.667 between nodes 21 and 22) and
+    c² came out 9 % dark, Prior 3.2 ΔE00 off (the photographer's review of `isp profile --lut`)."""
+    from zonotope.profile import shaper_encode, white_node_toe
+
+    toe = white_node_toe(headroom, size)
+    y = float(shaper_encode(1.0, headroom=headroom, shaper="log2", toe=toe)) * (size - 1)
+    assert abs(y - round(y)) < 1e-9 and 0.5 < toe / 2.0**-8 < 2
+    white = np.array([0.95, 1.0, 1.09])
+    lut = correction_LUT(lambda c: np.asarray(c) ** 2 * white, size=size, space="XYZ", headroom=headroom)
+    # only the 1-D shaper's linear interpolation (4096 entries) is left: ~1e-6
+    np.testing.assert_allclose(apply_correction_LUT(lut, np.ones((1, 3)))[0], white, atol=2e-6)
 
 
 def test_cube_applied_by_opencolorio_matches_estimator(tmp_path, rootpoly, natural_responses):

@@ -13,9 +13,12 @@ Domain and shaper (documented so nothing is clipped silently):
 * domain ``[0, headroom]`` per channel (default ``headroom = 16``: four stops above the white
   for highlights and specular reflections). Negative inputs (noise, demosaicing overshoot) clamp to
   0 and inputs above ``headroom`` clamp to it — the only clipping, stated in the file's comments;
-* shaper ``"log2"`` (default): ``y = log2(1 + x / ε) / log2(1 + headroom / ε)``, ``ε = 2⁻⁸``
-  (lattice nodes spaced evenly in stops down to ≈ 8 stops below the white, linear below);
-  ``"linear"``: ``y = x / headroom`` (exact for the matrix part, coarse in the shadows);
+* shaper ``"log2"`` (default): ``y = log2(1 + x / τ) / log2(1 + headroom / τ)``, ``τ ≈ 2⁻⁸``
+  (lattice nodes spaced evenly in stops down to ≈ 8 stops below the white, linear below), τ
+  adjusted (:func:`white_node_toe`) so that the white (1, 1, 1) is a lattice node and comes out
+  exactly as the estimator maps it; ``"linear"``: ``y = x / headroom`` (exact for the matrix part,
+  coarse in the shadows; the white is a node when ``(size − 1) / headroom`` is an integer, as for
+  33 nodes and headroom 16);
 * the estimator sees a response brighter than the white (max channel > 1) at the exposure that
   brings it to the white's level and is scaled back (exposure-linear above the white, as
   :class:`isp.MetamerCorrection` does); responses outside the camera's object-colour solid go to
@@ -39,6 +42,7 @@ well under a second).
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -67,7 +71,8 @@ __all__ = [
 LUT_SPACES: dict[str, str | None] = {"XYZ": None, "sRGB": "sRGB", "ACES2065-1": "ACES2065-1"}
 #: Shaper names of :func:`correction_LUT`.
 LUT_SHAPERS = ("log2", "linear")
-_EPS = 2.0**-8
+#: The log2 shaper's linear toe τ: nodes evenly spaced in stops down to ≈ 8 stops below the white.
+_TOE = 2.0**-8
 
 
 class SavedCorrectionNotFoundError(ZonotopeError, FileNotFoundError):
@@ -85,20 +90,47 @@ def _space(name: str) -> str:
     raise ZonotopeError(f"space={name!r}: choose one of {list(LUT_SPACES)} (linear RGB or XYZ).")
 
 
-def shaper_encode(x, *, headroom: float, shaper: str) -> np.ndarray:
+def shaper_encode(x, *, headroom: float, shaper: str, toe: float = _TOE) -> np.ndarray:
     """The shaper ``[0, headroom] → [0, 1]`` of :func:`correction_LUT` (see module notes)."""
     x = np.clip(np.asarray(x, dtype=np.float64), 0.0, headroom)
     if shaper == "linear":
         return x / headroom
-    return np.log2(1.0 + x / _EPS) / np.log2(1.0 + headroom / _EPS)
+    return np.log2(1.0 + x / toe) / np.log2(1.0 + headroom / toe)
 
 
-def shaper_decode(y, *, headroom: float, shaper: str) -> np.ndarray:
+def shaper_decode(y, *, headroom: float, shaper: str, toe: float = _TOE) -> np.ndarray:
     """Inverse of :func:`shaper_encode`."""
     y = np.asarray(y, dtype=np.float64)
     if shaper == "linear":
         return y * headroom
-    return _EPS * (np.exp2(y * np.log2(1.0 + headroom / _EPS)) - 1.0)
+    return toe * (np.exp2(y * np.log2(1.0 + headroom / toe)) - 1.0)
+
+
+def white_node_toe(headroom: float, size: int) -> float:
+    """The log2 shaper's toe τ nearest 2⁻⁸ that puts the white (x = 1) exactly on a lattice node.
+
+    Between nodes the 3-D LUT interpolates linearly in shaper space, which is exact only for
+    estimators linear in that space; with τ = 2⁻⁸, 33 nodes and headroom 16 the white fell between
+    nodes 21 and 22, and Prior's white came out 3.2 ΔE00 off. ``y(1) = log2(1 + 1/τ) / log2(1 +
+    headroom/τ)`` falls monotonically from 1 (τ → 0) to 1/headroom (τ → ∞), so τ solves
+    ``y(1) = j / (size − 1)`` for the node ``j`` nearest the white's position at 2⁻⁸. Returns 2⁻⁸
+    when no node between 1/headroom and 1 can be reached (``headroom = 1``: the white is the last
+    node already).
+    """
+    from scipy.optimize import brentq
+
+    def y_white(toe: float) -> float:
+        return float(np.log2(1.0 + 1.0 / toe) / np.log2(1.0 + headroom / toe))
+
+    if headroom <= 1 or size < 3:
+        return _TOE
+    lo, hi = _TOE * 2.0**-30, _TOE * 2.0**30  # headroom 16: y(1) = 0.905 … 1/16 + 1e-7
+    at = y_white(_TOE) * (size - 1)
+    for j in sorted({round(at), math.floor(at), math.ceil(at)}, key=lambda j: abs(j - at)):
+        target = j / (size - 1)
+        if y_white(hi) < target < y_white(lo):
+            return float(brentq(lambda t, y=target: y_white(t) - y, lo, hi))
+    return _TOE
 
 
 def _exposure_safe(fn: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], np.ndarray]:
@@ -244,7 +276,8 @@ def correction_LUT(
             w / w[1], colour.xy_to_XYZ(cs.whitepoint), transform="Bradford"
         )
         M = cs.matrix_XYZ_to_RGB @ cat / w[1]
-    nodes = shaper_decode(np.linspace(0.0, 1.0, size), headroom=headroom, shaper=shaper)
+    toe = white_node_toe(headroom, size)  # the white on a lattice node (log2 shaper)
+    nodes = shaper_decode(np.linspace(0.0, 1.0, size), headroom=headroom, shaper=shaper, toe=toe)
     grid = np.stack(np.meshgrid(nodes, nodes, nodes, indexing="ij"), axis=-1).reshape(-1, 3)
     out = np.empty_like(grid)
     for i in range(0, grid.shape[0], batch):
@@ -253,11 +286,11 @@ def correction_LUT(
         raise ZonotopeError("the estimator returned NaN or inf on some lattice nodes; it cannot be sampled.")
     table = (out @ M.T).reshape(size, size, size, 3)
     x = np.linspace(0.0, headroom, shaper_size)
-    shaper_table = np.repeat(shaper_encode(x, headroom=headroom, shaper=shaper)[:, None], 3, axis=1)
+    shaper_table = np.repeat(shaper_encode(x, headroom=headroom, shaper=shaper, toe=toe)[:, None], 3, axis=1)
     comments = [
         f"zonotope: white-balanced camera RGB (white = 1) -> linear {sp}",
         f"input domain [0, {headroom:g}] per channel; below 0 and above {headroom:g} clamp",
-        f"shaper {shaper}" + (" (eps 2^-8)" if shaper == "log2" else ""),
+        f"shaper {shaper}" + (f" (toe {toe:.9g}: the white is a lattice node)" if shaper == "log2" else ""),
     ]
     return colour.LUTSequence(
         colour.LUT3x1D(shaper_table, name=f"{name} shaper", domain=np.array([[0.0] * 3, [headroom] * 3])),
