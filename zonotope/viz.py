@@ -68,7 +68,7 @@ def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X"
             # vtkOrientationMarkerWidget::ExecuteCameraUpdateEvent → vtkRenderer::GetActiveCamera
             # (gdb backtrace); the grid below still names the axes of every panel
             plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
-        plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey")
+        plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey", fmt="%.2f")
     if filename is not None:
         from ._io import atomic_path
 
