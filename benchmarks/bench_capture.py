@@ -9,6 +9,14 @@ splat; held-out PSNR per channel; pose error.
     python benchmarks/bench_capture.py --size ci --steps 300
     python benchmarks/bench_capture.py --size ci --texture coarse --no-noise --true-poses   # colour alone
     python benchmarks/bench_capture.py --size benchmark --steps 3000 --work /tmp/bench_capture
+    python benchmarks/bench_capture.py --cost [--quick] [--size benchmark] --work /tmp/cost   # cost only
+
+``--cost`` measures each step (simulate, RAW read, poses, training per step once compiled, render per view
+once compiled, correct) in a fresh process with its peak RSS, at three pixel sizes (camera scale), three
+view counts and, in one process, the training step at three buffer sizes (random centres, uniform size),
+and prints the log-log growth exponents; ``--size benchmark`` adds the 3 × (16 + 4) ~480 × 360 capture
+(true poses given as a COLMAP model: pycolmap's exhaustive matching there takes ~20 min on 2 cores;
+``--benchmark-colmap`` runs it). Rows already measured in ``--work`` are reused.
 
 Goals of issue 9: three cameras ≤ 0.5 × the mean ΔE00 of the best single camera's DNG-matrix development,
 held-out PSNR ≥ 35 dB at the benchmark size. The script prints whether they are met, over all pixels
