@@ -82,6 +82,12 @@ def test_lut_puts_the_white_on_a_lattice_node(size, headroom):
     np.testing.assert_allclose(apply_correction_LUT(lut, np.ones((1, 3)))[0], white, atol=2e-6)
 
 
+def test_lut_reports_progress():
+    calls = []
+    correction_LUT(lambda c: c, size=5, space="XYZ", batch=40, progress=lambda *a: calls.append(a))
+    assert calls[-1] == ("LUT nodes", 125, 125) and [c[1] for c in calls] == [40, 80, 120, 125]
+
+
 def test_cube_applied_by_opencolorio_matches_estimator(tmp_path, rootpoly, natural_responses):
     ocio = pytest.importorskip("PyOpenColorIO")
     lut = correction_LUT(rootpoly, size=33, space="sRGB")

@@ -53,6 +53,7 @@ import numpy as np
 
 from ._errors import SpectralDataError, ZonotopeError
 from ._io import atomic_path
+from ._progress import ProgressCallback
 from .spectra import float_array
 
 __all__ = [
@@ -231,6 +232,8 @@ class LUTConfig:
 def correction_LUT(
     XYZ_from_balanced: Callable[[np.ndarray], np.ndarray],
     config: LUTConfig | None = None,
+    *,
+    progress: ProgressCallback | None = None,
     **options,
 ) -> colour.LUTSequence:
     """Sample an estimator into a shaper + 3-D LUT (see the module notes for domain and shaper).
@@ -243,6 +246,9 @@ def correction_LUT(
     config
         The options (:class:`LUTConfig`: size, space, headroom, shaper, shaper_size, white_XYZ,
         batch, name); default all defaults.
+    progress
+        Called as ``progress("LUT nodes", done, size³)`` after each batch of lattice nodes
+        (:class:`~zonotope.ProgressCallback`; a 33³ Prior LUT takes minutes).
     **options
         Fields of :class:`LUTConfig` as keywords (override those of ``config``), e.g. ``size=17``.
 
@@ -282,6 +288,8 @@ def correction_LUT(
     out = np.empty_like(grid)
     for i in range(0, grid.shape[0], batch):
         out[i : i + batch] = f(grid[i : i + batch])
+        if progress is not None:
+            progress("LUT nodes", min(i + batch, grid.shape[0]), grid.shape[0])
     if not np.all(np.isfinite(out)):
         raise ZonotopeError("the estimator returned NaN or inf on some lattice nodes; it cannot be sampled.")
     table = (out @ M.T).reshape(size, size, size, 3)
