@@ -14,7 +14,12 @@ Rows: exact MMV (10 nm, 5 nm) and certified ε = 1e-3 (10 nm). Then the batched 
 ε = 1e-3 of the target scale, what the Centroid estimator uses) on 1 core and on a local Dask
 cluster of 2, and the channelwise / joint volume ratio for Nikon 5100 + Sigma SD Merrill.
 
-    .venv/bin/python benchmarks/bench_mismatch.py [--repeats 5] [--quick] [--batch N]
+``--walk-baseline REV`` (e.g. ``1c0528d``, the kernel before the batch kernel) only times the walk
+of batched centroids against the kernel of that git revision, loaded from ``git show`` into this
+process: the previous path (one ``walk_mmv`` per response) vs ``walk_mmv_batch`` (one compiled call
+per chunk), on 1 core and on 2 threads, with a bit-for-bit comparison of volumes and centroids.
+
+    .venv/bin/python benchmarks/bench_mismatch.py [--repeats 5] [--quick] [--batch N] [--walk-baseline REV]
 """
 
 from __future__ import annotations
@@ -106,13 +111,88 @@ def row(step, patches, mode, repeats, base_repeats):
     )
 
 
+def walk_baseline(rev, N, repeats):
+    """Batched centroid walks: the kernel of git revision ``rev`` (per-response calls) vs this tree's."""
+    import importlib.util
+    import pathlib
+    import subprocess
+    import sys
+    import tempfile
+
+    import zonotope._mmv_walk as W
+    from zonotope._mmv_walk import walk_mmv_batch
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    cmd = ["git", "show", f"{rev}:zonotope/_mmv_walk_kernel.py"]
+    src = subprocess.run(cmd, cwd=root, capture_output=True, text=True, check=True).stdout
+    src = src.replace("from ._tol", "from zonotope._tol")
+    path = pathlib.Path(tempfile.mkdtemp()) / "_baseline_walk_kernel.py"
+    path.write_text(src)
+    spec = importlib.util.spec_from_file_location("_baseline_walk_kernel", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+
+    mm = MetamerMismatch(NIKON, shape=np.arange(400.0, 701.0, 10.0))
+    rng = np.random.default_rng(0)
+    X = np.clip(rng.random((N, 31)) @ np.triu(np.ones((31, 31))) / 31 * rng.random((N, 1)) * 2, 0, 1)
+    C = mm.source_of(X)
+    Phi, Psi, d = mm.Phi, mm.Psi, np.zeros(mm.k)
+
+    def old(part):  # the previous _batch_chunk loop: one walk_mmv per response (its input set-up
+        # included), baseline kernel
+        out = []
+        for c in part:
+            F, G, lo, hi, zb, zu = W._inputs(Phi, Psi, d)
+            out.append(mod.walk(F, G, lo, hi, np.ascontiguousarray(c), 200_000, zb, zu)[1:3])
+        return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+    def new(part):
+        vol, cen, _, _ = walk_mmv_batch(Phi, Psi, part, d)
+        return vol, cen
+
+    def threaded(fn):
+        parts = [C[s : s + 64] for s in range(0, N, 64)]
+        with ThreadPoolExecutor(2) as ex:
+            res = list(ex.map(fn, parts))
+        return np.concatenate([r[0] for r in res]), np.concatenate([r[1] for r in res])
+
+    old(C[:2]), new(C[:2])  # compile / load both kernels
+    ov, oc = old(C)
+    nv, nc = new(C)
+    same = np.array_equal(ov, nv) and np.array_equal(oc, nc)
+    print(f"{N} responses (10 nm, Nikon 5100 → LMS): volumes and centroids bit-identical: {same}")
+    for label, fo, fn in (
+        ("1 core", lambda: old(C), lambda: new(C)),
+        ("2 threads (ThreadPoolExecutor, chunks of 64)", lambda: threaded(old), lambda: threaded(new)),
+    ):
+        cpu, wall = {"old": [], "new": []}, {"old": [], "new": []}
+        for _ in range(repeats):  # interleaved, medians
+            for name, fnc in (("old", fo), ("new", fn)):
+                _, tc, tw = timed(fnc, 1)
+                cpu[name] += tc
+                wall[name] += tw
+        mc = {k: statistics.median(v) / N * 1e3 for k, v in cpu.items()}
+        mw = {k: statistics.median(v) / N * 1e3 for k, v in wall.items()}
+        print(
+            f"walk of batched centroids, {label}: CPU {mc['old']:.3f} → {mc['new']:.3f} ms per response "
+            f"(×{mc['new'] / mc['old']:.3f}), wall {mw['old']:.3f} → {mw['new']:.3f} ms "
+            f"(×{mw['new'] / mw['old']:.3f}); 10⁴ responses: {mw['old'] * 10:.1f} → {mw['new'] * 10:.1f} s "
+            f"wall, {mc['old'] * 10:.1f} → {mc['new'] * 10:.1f} CPU-s [baseline {rev}, medians of {repeats}]"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="fewer patches and a short batch")
     ap.add_argument("--batch", type=int, default=None, help="responses in the 2-process batch timing")
+    ap.add_argument("--walk-baseline", default=None, metavar="REV", help="only the batch-walk comparison")
     args = ap.parse_args()
     r = args.repeats
+    if args.walk_baseline:
+        walk_baseline(args.walk_baseline, args.batch or 1000, r)
+        return
     p10 = [1, 12] if args.quick else [1, 5, 12, 18]
     p5 = [5] if args.quick else [5, 12]
     rows = [

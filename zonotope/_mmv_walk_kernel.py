@@ -442,22 +442,31 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
             isb[B[i]] = True
         if not _inverse_ws(F, B, Minv, Mw):
             return empty, 0.0, zc, _DEGEN, moves, notri
-        _basic_values_ws(F, lo, hi, c, B, up, isb, Minv, xB, rhs)
+        # basic values (as _basic_values) and the non-basic part of the vertex in one pass
+        rhs[:] = c
+        y0 = 0.0
+        y1 = 0.0
+        y2 = 0.0
+        for j in range(N):
+            if isb[j]:
+                continue
+            x = hi[j] if up[j] else lo[j]
+            if x != 0.0:
+                for r in range(k):
+                    rhs[r] -= x * F[j, r]
+            y0 += x * G[j, 0]
+            y1 += x * G[j, 1]
+            y2 += x * G[j, 2]
+        for i in range(k):
+            s = 0.0
+            for r in range(k):
+                s += Minv[i, r] * rhs[r]
+            xB[i] = s
         for i in range(k):
             b = B[i]
             eta = DEGENERATE * (hi[b] - lo[b])
             if not (xB[i] > lo[b] + eta and xB[i] < hi[b] - eta):
                 return empty, 0.0, zc, _DEGEN, moves, notri
-        y0 = 0.0
-        y1 = 0.0
-        y2 = 0.0
-        for j in range(N):  # one pass, each coordinate summed in the same order as before
-            if isb[j]:
-                continue
-            x = hi[j] if up[j] else lo[j]
-            y0 += x * G[j, 0]
-            y1 += x * G[j, 1]
-            y2 += x * G[j, 2]
         for i in range(k):
             y0 += xB[i] * G[B[i], 0]
             y1 += xB[i] * G[B[i], 1]
@@ -530,11 +539,15 @@ def walk(F, G, lo, hi, c, max_vertices, zb, zu):
         for t in range(cnt):
             span = max(span, abs(px[t]), abs(py[t]))
         tie = PARALLEL_EDGES * span
+        close = 0
         for g in range(h):
             a = hull[g]
-            for t in range(cnt):
-                if t != a and abs(px[t] - px[a]) <= tie and abs(py[t] - py[a]) <= tie:
-                    return empty, 0.0, zc, _FLAT, moves, notri
+            xa = px[a]
+            ya = py[a]
+            for t in range(cnt):  # branch-free count (vectorises); a itself is always close
+                close += (abs(px[t] - xa) <= tie) & (abs(py[t] - ya) <= tie)
+        if close != h:
+            return empty, 0.0, zc, _FLAT, moves, notri
         for g in range(h):
             a = hull[g]
             ap = hull[(g - 1) % h]
