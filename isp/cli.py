@@ -183,6 +183,11 @@ def _develop(args: argparse.Namespace) -> int:
             f"{out} exists and was not written by isp; --overwrite replaces only isp outputs."
         )
     tonemap = None if args.tonemap.lower() == "none" else args.tonemap
+    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+
+    DEMOSAIC_METHODS.resolve(args.demosaic, argument="--demosaic")  # unknown names: before any work
+    if tonemap is not None:
+        TONEMAP_METHODS.resolve(tonemap, argument="--tonemap")
     options = {}
     if args.exposure is not None:
         if tonemap is None or tonemap.lower() != "clip":

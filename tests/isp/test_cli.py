@@ -91,6 +91,18 @@ def test_unknown_output_format_is_refused_before_developing(dng_550d, tmp_path, 
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("option", ["--demosaic", "--tonemap"])
+def test_unknown_method_names_are_refused_before_reading(tmp_path, capsys, option):
+    """An unknown --demosaic/--tonemap name was refused only when the pipeline was built, after
+    the metamer fit (minutes); now before any file is read (this input does not even exist)."""
+    assert (
+        main(["develop", str(tmp_path / "missing.dng"), "-o", str(tmp_path / "x.tif"), option, "bogus"]) == 2
+    )
+    err = " ".join(capsys.readouterr().err.split())
+    assert option in err and "bogus" in err and "missing.dng" not in err
+    assert not list(tmp_path.iterdir())
+
+
 def test_info_prints_the_make_once_and_names_the_cli_option(dng_550d, dng_350d, capsys):
     """The 550D DNG's Model tag repeats its Make ('Canon' + 'Canon EOS Kiss X4'), which printed as
     'Canon Canon EOS Kiss X4'; a file without pixel data pointed at a Python call, not the option."""
