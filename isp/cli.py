@@ -286,7 +286,7 @@ def _develop(args: argparse.Namespace) -> int:
         how = (
             f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
             if metamer is not None
-            else "DNG ColorMatrix"
+            else ("DNG ColorMatrix" if raw.is_dng else "LibRaw's built-in camera matrix")
         )
         if getattr(args, "profile", None):
             how = f"camera profile {args.profile}"
