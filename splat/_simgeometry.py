@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
+
 if TYPE_CHECKING:
     from .simcapture import SimScene
 
@@ -116,7 +118,7 @@ def _radial_warp(uv: np.ndarray, a: float) -> np.ndarray:
     the far floor's cells (seen foreshortened at a grazing angle) several pixels wide."""
     r = np.hypot(uv[:, 0], uv[:, 1])
     with np.errstate(invalid="ignore", divide="ignore"):
-        f = np.where(r > 1e-12, a * np.log1p(r / a) / r, 1.0)
+        f = np.where(r > WARP_RADIUS_MIN, a * np.log1p(r / a) / r, 1.0)
     return uv * f[:, None]
 
 
@@ -210,7 +212,7 @@ def _surface(kind: str, q, p: np.ndarray):
         return n, np.stack([np.arctan2(n[:, 1], n[:, 0]) * r, np.arcsin(np.clip(n[:, 2], -1, 1)) * r], 1)
     cx, cy, r, hgt = q[:4]
     rad = np.hypot(p[:, 0] - cx, p[:, 1] - cy)
-    cap = (p[:, 2] > hgt - 1e-7) & (rad < r * (1 - 1e-7))
+    cap = (p[:, 2] > hgt - RAY_SURFACE) & (rad < r * (1 - RAY_SURFACE))
     n = np.where(
         cap[:, None], [0.0, 0.0, 1.0], np.stack([(p[:, 0] - cx) / r, (p[:, 1] - cy) / r, np.zeros(M)], 1)
     )
@@ -239,7 +241,7 @@ def shade(scene: SimScene, o: np.ndarray, d: np.ndarray):
         if not len(sel):
             continue
         t = _ray_t(kind, q, o, d[sel])
-        better = (t > 1e-9) & (t < t_best[sel])
+        better = (t > RAY_T_MIN) & (t < t_best[sel])
         t_best[sel[better]] = t[better]
         surf[sel[better]] = sid
     hit_p = o + np.where(np.isfinite(t_best), t_best, 0.0)[:, None] * d

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import DataFormatError, SplatError
+from ._tol import QUATERNION_NORM_MAX, QUATERNION_NORM_MIN
 
 __all__ = [
     "CAMERA_MODELS",
@@ -444,7 +445,7 @@ def _check_model(m: ColmapModel, folder: Path) -> None:
             raise DataFormatError(
                 f"{folder}: image {im.id} ({im.name!r}) has a non-finite pose qvec={q} tvec={t}."
             )
-        if not 1e-6 < np.linalg.norm(q) < 1e6:
+        if not QUATERNION_NORM_MIN < np.linalg.norm(q) < QUATERNION_NORM_MAX:
             raise DataFormatError(
                 f"{folder}: image {im.id} ({im.name!r}) has qvec={q}, not a rotation (norm 0 or huge)."
             )

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._errors import DataFormatError, SplatError
+from ._tol import ROTATION_ATOL
 from .camera import Camera, qvec_to_rotmat, rotmat_to_qvec
 from .colmap import ColmapCamera, ColmapImage, ColmapModel
 
@@ -59,7 +60,8 @@ class View:
         what = f"view {self.name!r}"
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
             raise SplatError(f"{what}: the pose holds NaN or inf (R={R.tolist()}, t={t.tolist()}).")
-        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-3) or np.linalg.det(R) < 0:
+        orthonormal = R.shape == (3, 3) and np.allclose(R.T @ R, np.eye(3), atol=ROTATION_ATOL)
+        if not orthonormal or np.linalg.det(R) < 0:
             raise SplatError(
                 f"{what}: R={R.tolist()} is not a rotation (zero or degenerate pose); give "
                 "an orthonormal world-to-camera rotation with determinant +1."

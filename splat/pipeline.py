@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from ._errors import SplatError
+from ._tol import FEASIBLE_DISTANCE
 from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
 
 if TYPE_CHECKING:
@@ -736,7 +737,7 @@ def choose_delta(
     return {
         "delta": delta,
         "sampled": len(pick),
-        "outside": float(np.mean(d > 1e-9)),
+        "outside": float(np.mean(d > FEASIBLE_DISTANCE)),
         "beyond_delta": float(np.mean(d > delta)),
         "max_distance": float(d.max()) if d.size else 0.0,
         "rule": f"{percentile:g}th percentile of the distances of {len(pick)} sampled responses to the "

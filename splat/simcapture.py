@@ -39,6 +39,7 @@ import numpy as np
 
 from ._errors import SplatError
 from ._simgeometry import CARD, CHART, shade
+from ._tol import GRID_NM, PURE_WEIGHT
 
 __all__ = ["SimCamera", "SimCaptureConfig", "SimScene", "SimView", "build_scene", "write_synthetic_capture"]
 
@@ -339,7 +340,7 @@ class SimScene:
 def _resample(msds, grid: np.ndarray) -> np.ndarray:
     w = np.asarray(msds.wavelengths, dtype=np.float64)
     v = np.asarray(msds.values, dtype=np.float64).reshape(len(w), -1)
-    if grid[0] < w[0] - 1e-9 or grid[-1] > w[-1] + 1e-9:
+    if grid[0] < w[0] - GRID_NM or grid[-1] > w[-1] + GRID_NM:
         raise SplatError(
             f"reflectance set {msds.name!r} covers {w[0]:g}–{w[-1]:g} nm, not the grid "
             f"{grid[0]:g}–{grid[-1]:g} nm; choose another set."
@@ -553,7 +554,7 @@ def _color_matrices(scene: SimScene, ci: int):
 def _white_box(idx: np.ndarray, wts: np.ndarray):
     """The largest pixel box [x0, y0, x1, y1) grown from the white card's centre with every sample ray on
     the card, or None where the card is not seen whole."""
-    pure = (idx[..., 0] == 0) & (wts[..., 0] > 0.999) & (wts[..., 1] == 0) & (wts[..., 2] == 0)
+    pure = (idx[..., 0] == 0) & (wts[..., 0] > PURE_WEIGHT) & (wts[..., 1] == 0) & (wts[..., 2] == 0)
     full = np.all(pure, axis=2)
     ys, xs = np.nonzero(full)
     if not len(ys):

@@ -43,23 +43,26 @@ __all__ = [
 _FIELDS = ("means", "quats", "log_scales", "opacity_logits", "colour_params")
 
 
-def rawnerf_loss(pred: jax.Array, target: jax.Array, weight: jax.Array, *, eps: float = 1e-3) -> jax.Array:
+def rawnerf_loss(pred: jax.Array, target: jax.Array, weight: jax.Array, *, offset: float = 1e-3) -> jax.Array:
     """RawNeRF's relative L2 on clipped predictions, weighted per pixel and channel.
 
-    ``Σ w ((min(ŷ, 1) − y) / (sg(min(ŷ, 1)) + eps))² / Σ w`` with ``sg`` the stop-gradient
+    ``Σ w ((min(ŷ, 1) − y) / (sg(min(ŷ, 1)) + offset))² / Σ w`` with ``sg`` the stop-gradient
     (Mildenhall et al. 2022, eq. 9; clipping as in multinerf).
 
     Parameters
     ----------
     pred, target, weight : array_like of shape (..., k)
         Prediction ŷ, RAW measurement y, and weight (e.g. the Bayer mask × the channels measured).
+    offset
+        RawNeRF's ε in the denominator (white = 1 units): errors in the darkest tones (below ~1e-3
+        of the white) are weighted as absolute, not relative, errors.
 
     Returns
     -------
     Array of shape ()
     """
     clipped = jnp.minimum(pred, 1.0)
-    scale = 1.0 / (jax.lax.stop_gradient(clipped) + eps)
+    scale = 1.0 / (jax.lax.stop_gradient(clipped) + offset)
     return jnp.sum(weight * ((clipped - target) * scale) ** 2) / jnp.maximum(jnp.sum(weight), 1e-12)
 
 

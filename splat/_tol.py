@@ -1,0 +1,60 @@
+"""The numerical thresholds of ``splat``, each with the reason for its value (as ``zonotope/_tol.py``).
+
+``splat`` uses only public ``zonotope`` names, so its own decisions live here. Scene-design constants
+of the simulator (cell border widths, the white card's reflectance), optimiser hyper-parameters
+(Adam's ε) and defaults of public parameters (``rawnerf_loss(offset=1e-3)``,
+``choose_delta(floor=1e-3)``) are documented where they are used, not here.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FEASIBLE_DISTANCE",
+    "GRID_NM",
+    "PURE_WEIGHT",
+    "QUATERNION_NORM_MAX",
+    "QUATERNION_NORM_MIN",
+    "RAY_SURFACE",
+    "RAY_T_MIN",
+    "ROTATION_ATOL",
+    "WARP_RADIUS_MIN",
+]
+
+#: A rendered response counts as outside the object-colour solid (``choose_delta``'s "outside"
+#: share) when its L∞ distance exceeds this, in white = 1 units: the LP distance of a feasible
+#: response is 0 up to HiGHS's feasibility tolerance (~1e-9), so only real infeasibility counts.
+FEASIBLE_DISTANCE = 1e-9
+
+#: Wavelength comparisons (nm) between a reflectance set's range and the common grid: grids are
+#: built by ``np.arange`` on nm values, whose rounding is ~1e-13 nm; 1e-9 nm accepts that and no
+#: real gap.
+GRID_NM = 1e-9
+
+#: A supersampled pixel is "pure" (one surface only) when its first sample weight exceeds this: the
+#: simulator's weights are 1 up to the float32 sums of 2×2 samples (~1e-7); 0.999 rejects any pixel
+#: with a visible second surface.
+PURE_WEIGHT = 0.999
+
+#: A COLMAP ``qvec`` is a rotation only if its norm lies in this range: COLMAP writes unit quaternions
+#: with 17 digits; a norm near 0 (a zeroed pose) or huge (corrupt binary data) has no rotation.
+QUATERNION_NORM_MIN = 1e-6
+#: See :data:`QUATERNION_NORM_MIN`.
+QUATERNION_NORM_MAX = 1e6
+
+#: Ray casting in the simulator: a ray hits a cylinder's cap when it is within this fraction of the
+#: height/radius of the cap's plane and rim (float64 intersections of a 5 m scene are good to
+#: ~1e-15 relative; 1e-7 absorbs the float32 scene parameters).
+RAY_SURFACE = 1e-7
+
+#: Smallest ray parameter counted as a hit (m): excludes the camera's own origin and self-hits from
+#: rounding (~1e-15 m), far below any real distance in the scene.
+RAY_T_MIN = 1e-9
+
+#: ``transforms.json`` rotations are accepted when ``RᵀR = I`` to this (absolute): nerfstudio and
+#: instant-ngp write 6–8 significant digits, so products carry ~1e-6 errors; 1e-3 still refuses
+#: scaled, sheared or zeroed matrices.
+ROTATION_ATOL = 1e-3
+
+#: The floor's radial warp ``r → a·log(1 + r/a)/r`` uses its limit 1 below this radius (m): the
+#: quotient is exact to rounding from 1e-12 m, and the scene's finest detail is ~1 mm.
+WARP_RADIUS_MIN = 1e-12
