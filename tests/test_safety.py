@@ -567,6 +567,18 @@ BAD_CALLS = {
     "Zonotope(ragged)": (lambda: zonotope.Zonotope([[1, 2, 3], [1, 2]]), "generators: expected an array"),
     "Zonotope.contains(str)": (lambda: zonotope.Zonotope(np.eye(3)).contains("abc"), "points: expected"),
     "Polytope(ragged)": (lambda: zonotope.Polytope([[1, 2, 3], [1, 2]]), "points: expected an array"),
+    "metamer_mismatch(ragged Phi)": (
+        lambda: zonotope.metamer_mismatch([[1, 2], [1]], np.eye(2), [0.5, 0.5]),
+        "Phi: expected an array",
+    ),
+    "metamer_mismatch(str response)": (
+        lambda: zonotope.metamer_mismatch(np.eye(3), np.eye(3), "ab"),
+        "response: expected an array",
+    ),
+    "metamer_mismatch_batch(str)": (
+        lambda: zonotope.metamer_mismatch_batch(np.eye(3), np.eye(3), "ab"),
+        "responses: expected an array",
+    ),
     "mmv_contains(str)": (
         lambda: zonotope.mmv_contains(np.eye(3), np.eye(3), "ab", [0.1, 0.1, 0.1]),
         "responses: expected an array",

@@ -77,7 +77,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ._config import check_bool, check_count, check_nonnegative, with_options
-from ._errors import GeometryError, InfeasibleResponseError, OptionError
+from ._errors import GeometryError, InfeasibleResponseError, OptionError, float_array
 from ._mmv_refine import Refinement, refine, refine_many
 from ._mmv_walk import WalkOracle
 from ._oracle import HighsOracle, Infeasible, SimplexOracle
@@ -189,8 +189,8 @@ class MMVBatch:
 
 
 def _check_generators(Phi, Psi) -> tuple[np.ndarray, np.ndarray]:
-    Phi = np.asarray(getattr(Phi, "values", Phi), dtype=np.float64)
-    Psi = np.asarray(getattr(Psi, "values", Psi), dtype=np.float64)
+    Phi = float_array(getattr(Phi, "values", Phi), "Phi", GeometryError)
+    Psi = float_array(getattr(Psi, "values", Psi), "Psi", GeometryError)
     if Phi.ndim != 2 or Psi.ndim != 2 or Phi.shape[0] != Psi.shape[0]:
         raise GeometryError(
             f"Phi and Psi must be (n, k) and (n, m) on one wavelength grid; got {Phi.shape} and "
@@ -203,7 +203,7 @@ def _check_generators(Phi, Psi) -> tuple[np.ndarray, np.ndarray]:
 
 def _check_arrays(Phi, Psi, response) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     Phi, Psi = _check_generators(Phi, Psi)
-    c = np.asarray(response, dtype=np.float64)
+    c = float_array(response, "response", GeometryError)
     if c.shape != (Phi.shape[1],):
         raise GeometryError(
             f"response must have shape ({Phi.shape[1]},) (one per source channel); got {c.shape}."
@@ -712,7 +712,7 @@ def metamer_mismatch_batch(
     )
     Phi, Psi = _check_generators(Phi, Psi)
     k, m = Phi.shape[1], Psi.shape[1]
-    C = np.asarray(responses, dtype=np.float64)
+    C = float_array(responses, "responses", GeometryError)
     if C.shape[-1:] != (k,):
         raise GeometryError(f"responses must have shape (..., {k}); got {C.shape}.")
     if isinstance(delta, tuple) and len(delta) != k:
