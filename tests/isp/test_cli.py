@@ -146,6 +146,7 @@ def _patch_Lab(tif, simulated):
     return colour.XYZ_to_Lab(np.array(means), D65_xy), colour.XYZ_to_Lab(ref, D65_xy)
 
 
+@pytest.mark.slow  # 32 s on a quiet 2-core machine: a metamer fit and a full development
 def test_develop_metamer_close_to_truth_and_dng(simulated, tmp_path, capsys):
     src = simulated[0]
     dng, metamer = tmp_path / "dng.tif", tmp_path / "metamer.tif"

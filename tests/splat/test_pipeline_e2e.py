@@ -25,6 +25,10 @@ def _digest(folder):
     return h.hexdigest()
 
 
+#: Every test here uses the module's simulated capture + `splat run` (50 s on a quiet 2-core machine).
+pytestmark = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def ci_run(tmp_path_factory):
     from splat.cli import main
