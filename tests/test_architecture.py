@@ -190,8 +190,6 @@ def test_isp_reexports_every_public_name(module):
 MANY_PARAMETERS_ALLOWED = {
     "splat.training.train": "already takes splat.TrainConfig; the other 9 are its inputs (capture, "
     "images, weights, bounds, points, colours) and runtime objects (resume, callback, reference_views)",
-    "zonotope._mmv_estimators.learn_mix": "engineer B's, new this round (11 parameters); pending its "
-    "config dataclass (remove this entry when it lands)",
 }
 
 
@@ -237,8 +235,7 @@ def test_no_public_function_has_more_than_8_parameters():
     many = {name: _n_parameters(fn) for name, fn in functions.items() if _n_parameters(fn) > 8}
     unexplained = {n: k for n, k in many.items() if n not in MANY_PARAMETERS_ALLOWED}
     assert not unexplained, f"take a config dataclass (or allow-list with a reason): {unexplained}"
-    pending = {"zonotope._mmv_estimators.learn_mix"}  # may land any time: not an error once it does
-    stale = [n for n in MANY_PARAMETERS_ALLOWED if n not in pending and n not in many]
+    stale = [n for n in MANY_PARAMETERS_ALLOWED if n not in many]
     assert not stale, f"no longer over 8 parameters: remove from MANY_PARAMETERS_ALLOWED: {stale}"
 
 

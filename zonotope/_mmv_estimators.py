@@ -242,20 +242,14 @@ MIX_GRID: tuple[float, ...] = tuple(np.round(np.linspace(0.0, 1.0, 11), 2))
 def learn_mix(
     problem: CorrectionProblem,
     regression: str,
+    config: PriorConfig | None = None,
     *,
-    degree: int = 2,
-    shrinkage: float = 0.01,
-    noise: float = 0.0,
-    odds: float = 100.0,
-    eps: float = 1e-3,
-    folds: int = 10,
-    augment: int = 300,
     seed: int = 0,
     r_nat: float | None = None,
-    executor=None,
 ) -> tuple[float, dict]:
     """Weight ``λ`` of the MAP estimate in the atypical branch of :func:`fit_Prior`, by cross-validation
-    on atypical spectra made from the training set only.
+    on atypical spectra made from the training set only (options: ``config``, a :class:`PriorConfig`:
+    degree, shrinkage, noise, odds, eps, folds, augment, executor; default all defaults).
 
     Each training fold gives ``augment / folds`` contrast-stretched spectra
     (``zonotope.atypical.sharpened_reflectances``: saturated, band- and step-like versions of its
@@ -276,8 +270,11 @@ def learn_mix(
     """
     from .atypical import sharpened_reflectances
 
+    cfg = PriorConfig() if config is None else config
+    degree, shrinkage, noise, odds, eps = cfg.degree, cfg.shrinkage, cfg.noise, cfg.odds, cfg.eps
+    augment, executor = cfg.augment, cfg.executor
     R = problem.training
-    folds = int(max(2, min(folds, R.shape[0])))
+    folds = int(max(2, min(cfg.folds, R.shape[0])))
     perm = np.random.default_rng(seed).permutation(R.shape[0])
     parts = np.array_split(perm, folds)
     rng = np.random.default_rng(seed + 2)
@@ -509,19 +506,7 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         reg = _fit_regression(problem, name, degree=degree, noise=noise)
     r_nat = float(np.percentile(cv["errors"], 95))
     if cfg.mix == "cv":
-        lam, mix_cv = learn_mix(
-            problem,
-            reg.method,
-            degree=degree,
-            shrinkage=shrinkage,
-            noise=noise,
-            odds=odds,
-            eps=eps,
-            folds=cfg.folds,
-            augment=cfg.augment,
-            r_nat=r_nat,
-            executor=executor,
-        )
+        lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat)
         radius_scale = mix_cv["radius_scale"]
     else:
         lam, mix_cv, radius_scale = float(cfg.mix), None, 1.0
