@@ -23,22 +23,6 @@ def _status(console, message: str):
     return contextlib.nullcontext()
 
 
-def _lut_progress(console):
-    """``ProgressCallback`` printing ``LUT nodes: done/total`` at most every 10 s when piped; on a
-    terminal the spinner of :func:`_status` shows the work is going on."""
-    import time
-
-    t0, last = time.monotonic(), [-1e9]
-
-    def progress(stage: str, done: int, total: int) -> None:
-        now = time.monotonic()
-        if not console.is_terminal and (done == total or now - last[0] >= 10.0):
-            last[0] = now
-            console.print(f"[{now - t0:7.1f} s] {stage}: {done}/{total}", highlight=False)
-
-    return progress
-
-
 def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -89,8 +73,13 @@ def _profile(args: argparse.Namespace) -> int:
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
-        with _status(console, f"sampling a {args.lut_size}³ LUT…"):
-            lut = correction_LUT(mc, lut_config, progress=_lut_progress(console))
+        from .cli import _progress  # rich's bar on a terminal, plain timed lines when piped
+
+        with _progress(console, quiet=False) as bar:
+            task = bar.add_task(f"sampling a {args.lut_size}³ LUT", total=args.lut_size**3)
+            lut = correction_LUT(
+                mc, lut_config, progress=lambda _, done, total: bar.update(task, completed=done, total=total)
+            )
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
             f"3-D LUT written to {args.lut} (white-balanced camera RGB under "
