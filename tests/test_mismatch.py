@@ -494,3 +494,22 @@ def test_walk_batch_equals_one_walk_per_response(nikon10, delta):
     if delta == 0.0:  # black is a degenerate vertex; with a tolerance it has a 3-D MMV
         assert status[12] in (2, 4)
     assert (walk_mmv_batch(Phi, np.hstack([Psi, Psi[:, :1]]), C[:3])[2] == 6).all()
+
+
+def test_walk_thinner_than_the_tolerance_falls_back_to_refinement():
+    """A noisy two-camera response outside the solid (``on_infeasible="nearest"``): the walk succeeds
+    but its MMV is a sliver thinner than the exact-mode tolerance. Building its Polytope raised a
+    GeometryError, which failed `zonotope correct` on a noisy photo from disk; it now falls back to
+    facet refinement and agrees with both twins."""
+    from zonotope.correct import correction_problem
+
+    pb = correction_problem(["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"])
+    c = np.array([0.01374851, 0.0323294, 0.01707671, 0.01653207, 0.02726163, 0.03161358])
+    walk, fast, highs = (
+        metamer_mismatch(pb.Phi, pb.Psi, c, oracle=o, on_infeasible="nearest")
+        for o in ("walk", "fast", "highs")
+    )
+    assert walk.affine_dim == fast.affine_dim == highs.affine_dim == 2
+    for twin in (fast, highs):
+        np.testing.assert_allclose(np.sort(walk.vertices, 0), np.sort(twin.vertices, 0), atol=1e-12)
+        np.testing.assert_allclose(walk.centroid, twin.centroid, atol=1e-12)

@@ -256,16 +256,22 @@ def _refinement(
     tol, thr = _tolerances(Psi, eps)
     orc = _oracle_for(Phi, Psi, c, delta, oracle, on_infeasible)
     if isinstance(orc, WalkOracle) and orc.status == 0:
-        return _walked(orc, tol), thr, tol
+        walked = _walked(orc, tol)
+        if walked is not None:
+            return walked, thr, tol
+        # the walk's MMV is thinner than tol (a noisy response near the solid's boundary): refine
     return refine(orc, Psi.shape[1], threshold=thr, atol=tol, max_rounds=max_rounds), thr, tol
 
 
-def _walked(orc: WalkOracle, atol: float) -> Refinement:
-    """The exact MMV found by the walk, as a converged :class:`Refinement` (outer = inner)."""
+def _walked(orc: WalkOracle, atol: float) -> Refinement | None:
+    """The exact MMV found by the walk, as a converged :class:`Refinement` (outer = inner); None
+    when its vertices are flat at ``atol`` (then facet refinement handles the lower dimension)."""
     tri = orc.triangles
     inner = Polytope._from_triangulation(
         orc.vertices, tri[:, :3], tri[:, 3], atol=atol, volume=orc.volume, centroid=orc.centroid
     )
+    if inner is None:
+        return None
     o, B = inner.affine_hull
     m = orc.vertices.shape[1]
     return Refinement(inner, np.zeros((0, m)), np.zeros(0), o, B, orc.moves, 0, 0.0, True, exact=True)

@@ -181,7 +181,7 @@ class Polytope:
     @classmethod
     def _from_triangulation(
         cls, points, triangles, faces, *, atol: float | None = None, volume=None, centroid=None
-    ) -> Polytope:
+    ) -> Polytope | None:
         """A 3-D solid whose boundary is already known, without Qhull (the exact MMV walk).
 
         ``points (V, 3)`` are all vertices; ``triangles (T, 3)`` index them, counter-clockwise seen
@@ -189,7 +189,8 @@ class Polytope:
         to. Each facet's plane comes from its summed triangle areas (Newell's normal), so the
         triangles of one facet share it exactly and merge as Qhull's coplanar ones do.
         ``volume`` and ``centroid``, when given, are the solid's (the walk sums the same
-        tetrahedra of the same triangles) and are not summed again.
+        tetrahedra of the same triangles) and are not summed again. Returns None when the points
+        are not full-dimensional at ``atol`` (a sliver thinner than the tolerance).
         """
         P = float_array(points, "points", GeometryError, copy=True)
         S = np.asarray(triangles, dtype=np.intp)
@@ -200,7 +201,7 @@ class Polytope:
         obj._o, obj._B = _affine_hull(P, obj.atol)
         obj.affine_dim = obj._B.shape[1]
         if obj.affine_dim != 3 or obj.ambient_dim != 3:
-            raise GeometryError("_from_triangulation needs a full-dimensional 3-D point set.")
+            return None  # flat at atol: the caller builds it another way
         Z = (P - obj._o) @ obj._B
         if _det3(obj._B[None])[0] < 0:  # the SVD frame is a reflection: keep triangles outward
             S = S[:, ::-1]
