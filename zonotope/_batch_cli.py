@@ -48,6 +48,14 @@ def add_commands(sub) -> None:
         default=2e-3,
         help="responses equal after rounding to this are corrected once (0: exact)",
     )
+    p.add_argument(
+        "--noise",
+        type=float,
+        default=0.0,
+        help="σ of the images' responses (white = 1), e.g. 0.005; the estimator's noise model "
+        "(Centroid: δ = 3σ). Give it for real photos: without it noisy responses outside the "
+        "solid are taken as exact (default 0)",
+    )
     _scheduler_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=_correct)
@@ -176,7 +184,7 @@ def _correct(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ._errors import ZonotopeError
-    from .correct import fit_correction
+    from .correct import CORRECTION_METHODS, fit_correction
     from .parallel import FileTask, resolve_scheduler, run_files
 
     console = Console(stderr=True)
@@ -191,12 +199,19 @@ def _correct(args: argparse.Namespace) -> int:
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
             console.print(f"fitting {args.method} for {' + '.join(args.camera)}…")
+        props = CORRECTION_METHODS.properties(args.method)
+        noise = {}  # the options zonotope evaluate gives each estimator for a noise σ
+        if args.noise > 0 and props["centroid"]:
+            noise = {"delta": 3 * args.noise}
+        elif args.noise > 0 and props["noise"]:
+            noise = {"noise": args.noise}
         corrector = fit_correction(
             args.camera,
             method=args.method,
             target=args.target,
             illuminant=args.illuminant,
             training=args.training,
+            **noise,
         )
     out_dir.mkdir(parents=True, exist_ok=True)
     where = resolve_scheduler(args.scheduler, tasks=len(tasks))
