@@ -60,7 +60,30 @@ def _axis_names(problem) -> tuple[str, str, str]:
     return ("L", "M", "S") if any(k in target for k in ("stockman", "lms", "cone")) else ("X", "Y", "Z")
 
 
-def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X", "Y", "Z")):
+#: Grid tick labels: two decimals, and ``z`` prints a value that rounds to zero as 0.00, never -0.00
+#: (the solid's lower bounds are -1e-16 after floating-point sums).
+_TICK_FORMAT = "{:z.2f}"
+#: After the camera fits the grid's box, step back so that the labels outside the box's corners and
+#: the title fit too (0.82: the lowest tick labels of the solid were still cut at 1.0; looked at).
+_FRAME_ZOOM = 0.82
+
+
+def _finish(
+    plotter,
+    filename,
+    *,
+    axes: bool = True,
+    names: Sequence[str] = ("X", "Y", "Z"),
+    title: str | None = None,
+    bounds=None,
+):
+    """Title, labelled grid and a camera that frames the grid with its labels, then save.
+
+    ``bounds`` (xmin, xmax, ymin, ymax, zmin, zmax) is the box the grid spans and the camera frames
+    (default: everything drawn); the camera keeps the view direction already set.
+    """
+    if title:
+        _title(plotter, title)
     if axes:  # a labelled orientation widget and a grid with the channel names and their scale
         x, y, z = names
         if tuple(plotter.shape) == (1, 1):
@@ -68,12 +91,41 @@ def _finish(plotter, filename, *, axes: bool = True, names: Sequence[str] = ("X"
             # vtkOrientationMarkerWidget::ExecuteCameraUpdateEvent → vtkRenderer::GetActiveCamera
             # (gdb backtrace); the grid below still names the axes of every panel
             plotter.add_axes(xlabel=x, ylabel=y, zlabel=z)
-        plotter.show_grid(xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey", fmt="%.2f")
+        plotter.show_grid(
+            xtitle=x, ytitle=y, ztitle=z, font_size=12, color="grey", fmt=_TICK_FORMAT, bounds=bounds
+        )
+    if axes or bounds is not None:
+        # VTK fits the box's bounding sphere to the view angle: the box's corners, and so the tick
+        # labels and axis titles next to them, stay inside the picture (the fixed camera distance
+        # used before cut the X and Y labels off)
+        plotter.reset_camera(bounds=bounds)
+        plotter.camera.zoom(_FRAME_ZOOM)
     if filename is not None:
         from ._io import atomic_path
 
         atomic_path(filename, lambda tmp: plotter.screenshot(str(tmp)))
     return plotter
+
+
+def _title(plotter, text: str) -> None:
+    """``text`` centred at the top of the active panel, its font shrunk until it fits the panel's width."""
+    actor = plotter.add_text(
+        text, position=(0.5, 0.985), viewport=True, font_size=10, color="black", name="title"
+    )
+    prop = actor.GetTextProperty()
+    prop.SetJustificationToCentered()
+    prop.SetVerticalJustificationToTop()
+    width = plotter.renderer.GetSize()[0]
+    box = np.zeros(4)
+    while True:
+        actor.GetBoundingBox(plotter.renderer, box)
+        if box[1] - box[0] <= 0.96 * width or prop.GetFontSize() <= 8:
+            break
+        prop.SetFontSize(prop.GetFontSize() - 1)
+
+
+def _names(problem) -> str:
+    return " + ".join(problem.sources)
 
 
 def _srgb(problem, target: np.ndarray) -> np.ndarray:
@@ -104,6 +156,7 @@ def plot_object_colour_solid(
     opacity: float = 1.0,
     locus: bool = True,
     show_edges: bool = False,
+    title: str | None = None,
 ):
     """The object-colour solid of the target (all colours of reflectances in [0, 1]).
 
@@ -118,6 +171,8 @@ def plot_object_colour_solid(
         Mesh style.
     locus
         Also draw the spectral locus (:func:`plot_spectral_locus`).
+    title
+        Shown above the picture; default names the target and the illuminant, ``""`` shows none.
 
     Returns
     -------
@@ -135,16 +190,21 @@ def plot_object_colour_solid(
         smooth_shading=False,
     )
     if locus:
-        plot_spectral_locus(problem, plotter=p)
+        plot_spectral_locus(problem, plotter=p, title="")
     _camera(p, problem)
-    return _finish(p, filename, names=_axis_names(problem))
+    if title is None:
+        title = f"Object-colour solid: {problem.target} under {problem.illuminant}"
+    return _finish(p, filename, names=_axis_names(problem), title=title)
 
 
-def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 0.6):
+def plot_spectral_locus(
+    problem, *, plotter=None, filename=None, scale: float = 0.6, title: str | None = None
+):
     """The spectral locus: the direction of each monochromatic light, as a curve on a cone.
 
     Each wavelength's generator ``ψ_λ`` is scaled to ``scale × |white| / |ψ_λ|`` so that the curve
-    traces the cone of spectral directions in which the solid's edges lie.
+    traces the cone of spectral directions in which the solid's edges lie. ``title`` is shown above
+    the picture (default names the target; ``""`` shows none).
     """
     pv = _pv()
     p = _plotter(plotter)
@@ -159,7 +219,8 @@ def plot_spectral_locus(problem, *, plotter=None, filename=None, scale: float = 
     rays.lines = np.hstack([[2, 0, i] for i in range(1, rays.n_points)])
     p.add_mesh(rays, color="grey", opacity=0.4, line_width=1)
     _camera(p, problem)
-    return _finish(p, filename, names=_axis_names(problem))
+    title = f"Spectral locus: {problem.target}" if title is None else title
+    return _finish(p, filename, names=_axis_names(problem), title=title)
 
 
 def mmv_polytope(problem, response, *, eps: float = 1e-3):
@@ -188,6 +249,8 @@ def plot_mmv(
     solid_opacity: float = 0.12,
     truth=None,
     estimates: dict | None = None,
+    title: str | None = None,
+    bounds=None,
 ):
     """An MMV (opaque, sRGB-coloured) inside the translucent object-colour solid.
 
@@ -199,6 +262,11 @@ def plot_mmv(
         True target colour, drawn as a white sphere.
     estimates : dict of str → array_like of shape (3,), optional
         Estimates drawn as labelled points.
+    title : str, optional
+        Shown above the picture; default names the cameras and the target, ``""`` shows none.
+    bounds : array_like of shape (6,), optional
+        (xmin, xmax, ymin, ymax, zmin, zmax) of the box that the grid labels and the view frames;
+        default the MMV's bounding box (with the truth and estimates), widened by a third of its size.
     """
     from .solid import Zonotope
 
@@ -214,10 +282,27 @@ def plot_mmv(
         p.add_point_labels(
             np.asarray(point, float)[None], [name], point_size=10, font_size=12, render_points_as_spheres=True
         )
+    if bounds is None:
+        bounds = _mmv_box(problem, [mmv], [truth, *(estimates or {}).values()])
     p.camera.focal_point = tuple(mmv.centroid)
     p.camera.position = tuple(np.asarray(mmv.centroid) + scale * np.array([0.9, -0.5, 0.6]))
     p.camera.up = (0, 0, 1)
-    return _finish(p, filename, names=_axis_names(problem))
+    if title is None:
+        title = f"MMV: {_names(problem)} to {problem.target}"
+    return _finish(p, filename, names=_axis_names(problem), title=title, bounds=bounds)
+
+
+def _mmv_box(problem, mmvs, points=()) -> tuple[float, ...]:
+    """Bounding box of MMVs (and points), widened by a third of its size, within the solid's box."""
+    pts = [np.asarray(m.vertices, float) for m in mmvs]
+    pts += [np.asarray(q, float).reshape(1, 3) for q in points if q is not None]
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    pad = (hi - lo).max() / 3
+    Psi = np.asarray(problem.Psi, float)
+    lo = np.maximum(lo - pad, np.minimum(Psi, 0).sum(axis=0))
+    hi = np.minimum(hi + pad, np.maximum(Psi, 0).sum(axis=0))
+    return tuple(float(v) for pair in zip(lo, hi, strict=True) for v in pair)
 
 
 def plot_grey_mmvs(
@@ -227,8 +312,13 @@ def plot_grey_mmvs(
     plotter=None,
     filename=None,
     solid_opacity: float = 0.1,
+    title: str | None = None,
 ):
-    """MMVs of the greys ``c = level × (1, …, 1)`` along the achromatic axis (thesis fig. 4.2)."""
+    """MMVs of the greys ``c = level × (1, …, 1)`` along the achromatic axis (thesis fig. 4.2).
+
+    ``title`` is shown above the picture (default names the cameras, the target and the levels;
+    ``""`` shows none).
+    """
     from .solid import Zonotope
 
     pv = _pv()
@@ -239,7 +329,10 @@ def plot_grey_mmvs(
         p.add_mesh(_mesh(problem, mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
     p.add_mesh(pv.Line((0, 0, 0), tuple(problem.Psi.sum(axis=0))), color="black", line_width=2)
     _camera(p, problem)
-    return _finish(p, filename, names=_axis_names(problem))
+    if title is None:
+        shown = ", ".join(f"{float(v):g}" for v in levels)
+        title = f"Grey MMVs ({shown}): {_names(problem)} to {problem.target}"
+    return _finish(p, filename, names=_axis_names(problem), title=title)
 
 
 def plot_mmv_comparison(
@@ -259,13 +352,17 @@ def plot_mmv_comparison(
     reflectance : array_like of shape (n,)
     titles : sequence of str, optional
         One per panel (default the camera names).
+
+    Every panel frames and labels the same box (all panels' MMVs and the truth), so sizes compare.
     """
     p = _plotter(None, shape=(1, len(problems)), window_size=window_size)
     x = np.asarray(reflectance, dtype=np.float64)
+    mmvs = [mmv_polytope(pb, x @ pb.Phi) for pb in problems]
+    box = _mmv_box(problems[0], mmvs, [x @ pb.Psi for pb in problems])
     for i, pb in enumerate(problems):
         p.subplot(0, i)
-        plot_mmv(pb, x @ pb.Phi, plotter=p, truth=x @ pb.Psi)
-        p.add_text(titles[i] if titles else " + ".join(pb.sources), font_size=11)
+        title = titles[i] if titles else _names(pb)
+        plot_mmv(pb, x @ pb.Phi, plotter=p, truth=x @ pb.Psi, title=title, bounds=box)
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
     return _finish(p, filename, axes=False)  # every panel already has its labelled grid (plot_mmv)
