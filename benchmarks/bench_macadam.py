@@ -13,8 +13,6 @@ Run: ``python benchmarks/bench_macadam.py [--repeats 5]`` (prints a table; media
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import colour
 import numpy as np
@@ -23,14 +21,10 @@ from colour.notation.datasets.munsell import MUNSELL_COLOURS_REAL
 from zonotope import Zonotope
 from zonotope.macadam import _solid_cached, invert, is_object_colour, object_colour_solid
 
-
-def median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _timing import median_time
+except ImportError:
+    from benchmarks._timing import median_time
 
 
 def main() -> None:

@@ -11,8 +11,6 @@ distance to the MMV, 0 inside). Nikon 5100 â†’ Stockman & Sharpe LMS, D65, 400â€
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import colour
 import numpy as np
@@ -21,14 +19,10 @@ from scipy.optimize import linprog
 import zonotope
 from zonotope.membership import joint_halfspaces, mmv_contains, mmv_distance
 
-
-def median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _timing import median_time
+except ImportError:
+    from benchmarks._timing import median_time
 
 
 def main() -> None:

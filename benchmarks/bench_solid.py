@@ -12,22 +12,16 @@ Run: ``python benchmarks/bench_solid.py`` (prints a table; medians of ``--repeat
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import colour
 import numpy as np
 
 from zonotope import Zonotope, generators
 
-
-def median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _timing import median_time
+except ImportError:
+    from benchmarks._timing import median_time
 
 
 def clear_colour_caches():

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import time
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
@@ -41,15 +40,10 @@ from splat import (
     train,
 )
 
-
-def median_time(fn, repeats: int) -> float:
-    jax.block_until_ready(fn())  # compile
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _timing import median_time
+except ImportError:
+    from benchmarks._timing import median_time
 
 
 def random_gaussians(G: int, N: int, seed: int = 0):
@@ -90,7 +84,9 @@ def step_times(args, console: Console) -> None:
 
             f = jax.jit(jax.value_and_grad(loss))
             reps = args.repeats if method == "tiled" or not args.quick else 1
-            ms[method] = 1e3 * median_time(lambda f=f, g=g: f(g), reps)
+            ms[method] = 1e3 * median_time(
+                lambda f=f, g=g: f(g), reps, warmup=True, sync=jax.block_until_ready
+            )
         tiled = render(g, cam, config=cfg)
         ref = render(g, cam, method="reference", config=cfg)
         err = float(jnp.max(jnp.abs(tiled.image - ref.image)))
