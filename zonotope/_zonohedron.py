@@ -137,13 +137,14 @@ def reduce_with_groups(G: np.ndarray, offset: np.ndarray, tol: Tolerances):
     return merged, off, group, flipped
 
 
-def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3:
+def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, coplanar: float) -> Facets3:
     """Angular sweep: for each generator h_i, sort the others by angle in the plane ⊥ h_i.
 
     For the pair (i, j) the facet normal is n = h_i × h_j and sign(n · h_k) is the side of
     the line through h_j's projection, so the positive set is a half-turn of the sorted
     angles: prefix sums give every facet's base point in O(p² log p) total. All p sweeps
-    run at once on one (p, p) angle matrix; searches use per-row offsets.
+    run at once on one (p, p) angle matrix; searches use per-row offsets. ``coplanar`` is the
+    angle (rad, ``Tolerances.coplanar``) within which a generator lies in the plane of a pair.
     """
     p = H.shape[0]
     m = p - 1
@@ -160,9 +161,9 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     ang[np.arange(p), np.arange(p)] = np.inf  # self sorts last and is cut off
     # Rounding of the row angles: the projection of h_k onto h_i⊥ has length |h_k|·s_ik
     # (s_ik = sin of their angle) and an absolute error of a few ε·|h_k|, so θ_k in row i is
-    # only good to ≈ ε / s_ik. For nearly parallel generators (s ≈ 1e-6) that exceeds ``tol``:
+    # only good to ≈ ε / s_ik. For nearly parallel generators (s ≈ 1e-6) that exceeds ``coplanar``:
     # the old fixed window missed exactly coplanar triples (14 vertices instead of 12). A
-    # generator counts as coplanar when its angle is within ``tol`` *or within rounding*.
+    # generator counts as coplanar when its angle is within ``coplanar`` *or within rounding*.
     s = np.hypot(P1, P2) / np.linalg.norm(H, axis=1)[None, :]
     s[np.arange(p), np.arange(p)] = np.inf
     noise = ANGLE_ROUNDING / s  # (p, p): rounding of θ_k in row i
@@ -181,8 +182,8 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     jj = order[ii, tt]
     th = a_s[ii, tt]
     base_row = ii * m
-    # per-pair window: tol plus the rounding of θ_j and of the noisiest angle of the row
-    win = tol + noise[ii, jj] + row_noise[ii]
+    # per-pair window: coplanar plus the rounding of θ_j and of the noisiest angle of the row
+    win = coplanar + noise[ii, jj] + row_noise[ii]
     lo = np.searchsorted(flat_as, th + win + big * ii, "right") - base_row
     x = th + np.pi - win
     wrap = x > np.pi
@@ -192,7 +193,7 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     Kp = cumr[ii, hi1] + cumr[ii, hi2] - cumr[ii, lo]
     n = np.cross(H[ii], H[jj])
     volume = float(np.einsum("ij,ij->", n, 2.0 * Bp - T)) / 3.0
-    # generators coplanar with (i, j): angle within tol of θ_j or θ_j + π (mod 2π). Cheap
+    # generators coplanar with (i, j): angle within coplanar of θ_j or θ_j + π (mod 2π). Cheap
     # test first (neighbours in sorted order), exact windows only for the flagged pairs.
     # Both neighbours wrap around the row: θ = π and θ' = −π are one direction (the last angle's
     # next neighbour is the first one + 2π; missing it dropped a zonogon, found by hypothesis).
@@ -205,7 +206,7 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     keep = np.ones(ii.size, dtype=bool)
     deg = np.nonzero(flag)[0]
     if deg.size:
-        planes = _coplanar_classes(deg, ii, jj, th, flat_as, order.ravel(), win, tol, noise)
+        planes = _coplanar_classes(deg, ii, jj, th, flat_as, order.ravel(), win, coplanar, noise)
         if planes:
             pid = ii * p + jj
             inside = np.concatenate([np.array([a * p + b for a, b in combinations(S, 2)]) for S in planes])
@@ -234,11 +235,11 @@ def facets(H: np.ndarray, off: np.ndarray, r: np.ndarray, tol: float) -> Facets3
     )
 
 
-def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, win, tol, noise) -> list[list[int]]:
+def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, win, coplanar, noise) -> list[list[int]]:
     """Coplanar generator sets (≥ 3) from the flagged pairs, with one decision per triple.
 
     A plane's generator set is decided once, in the sweep of its smallest generator i: with j
-    the smallest other member, S = {i} ∪ {k : angle of k within ``tol`` of θ_j modulo π, plus
+    the smallest other member, S = {i} ∪ {k : angle of k within ``coplanar`` of θ_j modulo π, plus
     the rounding ``noise[i, j] + noise[i, k]`` of the two angles}. Candidates come from the
     per-pair windows ``win`` (≥ every such bound in the row). The
     sweeps of the other members are not asked: their angle tests can disagree with row i's near
@@ -260,8 +261,8 @@ def _coplanar_classes(deg, ii, jj, th, flat_as, g_flat, win, tol, noise) -> list
         pos = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt) + np.repeat(a, cnt)
         e = np.repeat(np.arange(deg.size), cnt)
         k = g_flat[pos]
-        # the decision for this triple: tol plus the rounding of both row angles
-        ok = np.abs(flat_as[pos] - thd[e] - c) <= tol + noise[ti[e], tj[e]] + noise[ti[e], k]
+        # the decision for this triple: coplanar plus the rounding of both row angles
+        ok = np.abs(flat_as[pos] - thd[e] - c) <= coplanar + noise[ti[e], tj[e]] + noise[ti[e], k]
         di.append(e[ok])
         dk.append(k[ok])
     if not di:

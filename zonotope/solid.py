@@ -264,7 +264,7 @@ class Zonotope:
                 f"have rank {self.affine_dim}; they differ only at the scale of that tolerance. Rescale "
                 "the generators or pass Zonotope(..., tol=Tolerances(parallel=<smaller>))."
             )
-        return _zh.facets(H, off, self._keys_r, self.tol.coplanar)
+        return _zh.facets(H, off, self._keys_r, coplanar=self.tol.coplanar)
 
     @cached_property
     def halfspaces(self) -> tuple[np.ndarray, np.ndarray]:
