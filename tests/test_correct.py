@@ -20,7 +20,7 @@ from zonotope.correct import (
     root_polynomial_terms,
 )
 from zonotope.image import correct_image
-from zonotope.prior import ReflectancePrior, fiber_lsq, map_reflectance, project_to_mmv
+from zonotope.prior import ReflectancePrior, fiber_lsq, interior_solution, map_reflectance, project_to_mmv
 
 GRID = np.arange(400.0, 701.0, 10.0)
 
@@ -201,14 +201,28 @@ def test_prior_estimator_natural_vs_atypical(problem2, checker):
     for c, t in zip(CA, est):
         assert in_mmv(problem2, c, t, tol=1e-4)
     # improbable under the natural model → the atypical branch alone: λ · MAP + (1 − λ) · MMV centroid,
-    # λ learnt by cross-validation on contrast-stretched training spectra
+    # λ = b λ_in + (1 − b) λ_bd, b = exp(−(E(x̂) − E(x₀))) the prior density ratio of the bounded MAP
+    # reflectance x̂ to the unbounded one x₀ (1 where x̂ is interior), (λ_in, λ_bd) learnt by
+    # cross-validation on contrast-stretched training spectra
     low = wA <= 1e-4
     assert low.any()
     lam = prior_est.params["mix"]
-    assert lam in MIX_GRID and set(prior_est.params["mix_cv"]["scores"]) == set(MIX_GRID)
+    cv = prior_est.params["mix_cv"]
+    scores = cv["scores"]
+    assert set(scores) == {(a, b) for a in MIX_GRID for b in MIX_GRID}
+    assert scores[cv["best"]] == min(scores.values()) and cv["one"][0] == cv["one"][1]
+    assert scores[cv["one"]] == min(s for (a, b), s in scores.items() if a == b)
+    assert lam == (cv["best"] if cv["gain"] > cv["se"] else cv["one"])  # one-standard-error rule
     assert prior_est.params["radius_scale"] == max(1.0, prior_est.params["mix_cv"]["radius_scale"]) >= 1.0
-    t_map = map_reflectance(problem2, CA[low], prior_est.params["prior"]) @ problem2.Psi
-    expected = lam * t_map + (1 - lam) * mmv_centroids(problem2, CA[low]) if lam < 0.99 else t_map
+    prior = prior_est.params["prior"]
+    x0, interior = interior_solution(prior, problem2.Phi, CA[low])
+    x = map_reflectance(problem2, CA[low], prior)
+    assert (prior.energy(x) >= prior.energy(x0) - 1e-9).all() and not interior.all()
+    b = np.where(interior, 1.0, np.exp(-(prior.energy(x) - prior.energy(x0))))
+    lam_rows = (b * lam[0] + (1 - b) * lam[1])[:, None]
+    t_map = x @ problem2.Psi
+    blend = lam_rows * t_map + (1 - lam_rows) * mmv_centroids(problem2, CA[low])
+    expected = np.where(lam_rows < 0.99, blend, t_map)
     np.testing.assert_allclose(est[low], expected, atol=1e-12)
 
 
@@ -281,7 +295,6 @@ def test_projection_matches_polytope_project(problem, checker):
 
 def test_interior_solution_is_the_bounded_solution(problem, checker):
     """Where the unconstrained MAP lies in [0, 1]ⁿ it equals the BVLS solution (independent solver)."""
-    from zonotope.prior import interior_solution
 
     prior = ReflectancePrior.fit(problem.training)
     A, _ = atypical_reflectances(GRID, 12, seed=3)
@@ -422,12 +435,15 @@ def test_prior_config_checked_and_equal_to_keywords(problem, checker):
     by_keywords = fit_correction(problem, method="Prior", mix=0.5, odds=10.0)
     np.testing.assert_array_equal(by_config(C), by_keywords(C))
     assert isinstance(by_keywords.params["config"], PriorConfig)
-    assert by_keywords.params["mix"] == 0.5 and by_keywords.params["mix_cv"] is None
+    assert by_keywords.params["mix"] == (0.5, 0.5) and by_keywords.params["mix_cv"] is None
     assert by_keywords.params["radius_scale"] == 1.0  # calibrated only together with λ
+    assert fit_correction(problem, method="Prior", mix=(1.0, 0.25)).params["mix"] == (1.0, 0.25)
     for bad, match in (
         ({"odds": 0}, "odds"),
         ({"mix": 1.5}, "mix"),
         ({"mix": "sometimes"}, "mix"),
+        ({"mix": (0.5, 1.2)}, "mix"),
+        ({"mix": (0.5, 0.5, 0.5)}, "mix"),
         ({"folds": 1}, "folds"),
         ({"shrinkage": -0.1}, "shrinkage"),
         ({"noise": float("nan")}, "noise"),
@@ -463,7 +479,7 @@ def test_prior_closed_form_rows_equal_the_solver_path_with_noise(problem2, check
     A, _ = atypical_reflectances(GRID, 8, seed=9)
     X = np.vstack([checker, A])
     C = problem2.source_of(X) + rng.normal(0.0, 0.003, (X.shape[0], problem2.k))
-    for lam in (0.5, 1.0):  # λ = 1: no centroid, the gated MAP blend is a closed form too
+    for lam in (0.5, 1.0, (1.0, 0.3)):  # λ = 1: no centroid, the gated MAP blend is a closed form too
         est = fit_correction(problem2, method="Prior", noise=0.003, mix=lam)
         w = est.params["weights"](C, map_reflectance(problem2, C, est.params["prior"], noise=0.003))
         fast_est, slow = est.params["closed_form"](C)
@@ -473,6 +489,15 @@ def test_prior_closed_form_rows_equal_the_solver_path_with_noise(problem2, check
         np.testing.assert_allclose(est(C), full, atol=1e-12)
         # centroids are computed only where their weight (1 − w)(1 − λ) reaches 1 %
         rows = est.params["centroid_rows"](C)
-        np.testing.assert_array_equal(rows, (w < 0.99) & ((1 - w) * (1 - lam) >= 0.01))
+        prior = est.params["prior"]
+        x0, interior = interior_solution(prior, problem2.Phi, C, noise=0.003)
+        x = map_reflectance(problem2, C, prior, noise=0.003)
+        # posterior energies (prior + noise likelihood) of the bounded and the unbounded mode
+        U, U0 = (prior.energy(z) + 0.5 * np.sum((z @ problem2.Phi - C) ** 2, -1) / 0.003**2 for z in (x, x0))
+        assert (U >= U0 - 1e-9).all()  # the bounded mode cannot beat the unbounded one
+        b = np.where(interior, 1.0, np.exp(-np.maximum(U - U0, 0.0)))
+        lam_in, lam_bd = np.broadcast_to(lam, 2)
+        lam_rows = b * lam_in + (1 - b) * lam_bd  # 1: λ_in (interior MAP), → λ_bd as the bounds cost more
+        np.testing.assert_array_equal(rows, (w < 0.99) & ((1 - w) * (1 - lam_rows) >= 0.01))
         if lam == 1.0:
             assert not rows.any() and (~slow & (w < 0.99)).any()  # blended rows without a solver

@@ -229,6 +229,24 @@ def _gate(problem: CorrectionProblem, prior: ReflectancePrior, *, noise: float, 
     return weights
 
 
+def _fit_map(problem: CorrectionProblem, prior: ReflectancePrior, c, *, noise: float):
+    """MAP reflectances ``x̂ (N, n)`` of responses ``c (N, k)`` and the weight ``b (N,)`` of their
+    interior case: ``b = exp(−(U(x̂) − U(x₀)))``, ``U`` the posterior energy (prior energy plus
+    ``‖Φᵀx − c‖² / 2σ²`` with noise) and ``x₀`` the minimiser without the bounds
+    (:func:`zonotope.prior.interior_solution`). ``b`` is the ratio of the Gaussian posterior density
+    at the bounded mode to that at the unbounded one: 1 where ``x̂`` is interior, falling towards 0
+    the more the [0, 1] bounds cost the Gaussian model; continuous in ``c``."""
+    x0, interior = interior_solution(prior, problem.Phi, c, noise=noise)
+    x = map_reflectance(problem, c, prior, noise=noise)
+
+    def energy(z):
+        U = prior.energy(z)
+        return U + 0.5 * np.sum((z @ problem.Phi - c) ** 2, axis=-1) / noise**2 if noise > 0 else U
+
+    b = np.where(interior, 1.0, np.exp(-np.maximum(energy(x) - energy(x0), 0.0)))
+    return x, b
+
+
 def _fit_regression(problem: CorrectionProblem, name: str, *, degree: int, noise: float) -> Corrector:
     if name == "Cheung 2004":
         return fit_Cheung2004(problem, noise=noise)
@@ -246,27 +264,37 @@ def learn_mix(
     *,
     seed: int = 0,
     r_nat: float | None = None,
-) -> tuple[float, dict]:
-    """Weight ``λ`` of the MAP estimate in the atypical branch of :func:`fit_Prior`, by cross-validation
-    on atypical spectra made from the training set only (options: ``config``, a :class:`PriorConfig`:
-    degree, shrinkage, noise, odds, eps, folds, augment, executor; default all defaults).
+) -> tuple[tuple[float, float], dict]:
+    """Weights ``(λ_in, λ_bd)`` of the MAP estimate in the atypical branch of :func:`fit_Prior`, by
+    cross-validation on atypical spectra made from the training set only (options: ``config``, a
+    :class:`PriorConfig`: degree, shrinkage, noise, odds, eps, folds, augment, executor; default all
+    defaults).
 
-    Each training fold gives ``augment / folds`` contrast-stretched spectra
-    (``zonotope.atypical.sharpened_reflectances``: saturated, band- and step-like versions of its
-    natural spectra); the regression and the prior are refitted on the other folds, the whole
-    ``"Prior"`` estimate ``w · t_nat + (1 − w) · (λ t_MAP + (1 − λ) t_centroid)`` is formed for each
-    λ of :data:`MIX_GRID` and the λ with the lowest mean ΔE00 on those held-out spectra wins. No test
-    data are involved; the two atypical test generators of ``zonotope evaluate`` are not used.
+    The MAP weight of a response is ``λ = b λ_in + (1 − b) λ_bd``, ``b`` the weight of its interior
+    case (1 where the natural prior's most probable reflectance needs no bound, smaller the more the
+    [0, 1] bounds cost the Gaussian; :func:`_fit_map`). Each training fold gives ``augment / folds``
+    contrast-stretched spectra (``zonotope.atypical.sharpened_reflectances``: saturated, band- and
+    step-like versions of its natural spectra); the regression and the prior are refitted on the
+    other folds, the whole ``"Prior"`` estimate ``w · t_nat + (1 − w) · (λ t_MAP + (1 − λ) t_centroid)``
+    is formed for each pair of :data:`MIX_GRID` × :data:`MIX_GRID`. The pair with the lowest mean
+    ΔE00 on those held-out spectra wins if it beats the best single λ (``λ_in = λ_bd``) by more than
+    the standard error of their paired difference (the one-standard-error rule); otherwise that
+    single λ is used (the simpler model). No test data are involved; the two atypical test generators of
+    ``zonotope evaluate`` are not used.
 
     With ``r_nat`` (the natural branch's 95 % radius) it also calibrates the scale ``s ≥ 1`` of the
     atypical branch's credible radius (split conformal, see :func:`fit_Prior`).
 
     Returns
     -------
-    lam : float
+    lam : tuple of float
+        ``(λ_in, λ_bd)``.
     cv : dict
-        ``"scores"``: mean held-out ΔE00 per λ; ``"n"``: number of augmented spectra;
-        ``"radius_scale"``: ``s`` (1 without ``r_nat``).
+        ``"scores"``: mean held-out ΔE00 per ``(λ_in, λ_bd)``; ``"n"``: number of augmented spectra;
+        ``"interior"``: mean of their ``b``; ``"best"``: the best pair, ``"one"``: the best single λ
+        (as a pair), ``"gain"``: the mean paired improvement of ``best`` over ``one``, ``"se"``: its
+        standard error; ``"radius_scale"``: ``s``
+        (1 without ``r_nat``).
     """
     from .atypical import sharpened_reflectances
 
@@ -279,7 +307,7 @@ def learn_mix(
     parts = np.array_split(perm, folds)
     rng = np.random.default_rng(seed + 2)
     log_vol = _log_volume(problem.Phi)
-    C_all, T_all, nat_all, map_all, w_all = [], [], [], [], []
+    C_all, T_all, nat_all, map_all, w_all, in_all = [], [], [], [], [], []
     for i, f in enumerate(parts):
         X = sharpened_reflectances(R[f], -(-augment // folds), seed=seed + 17 * i)
         if X.shape[0] == 0:
@@ -290,7 +318,8 @@ def learn_mix(
         C = problem.source_of(X)
         if noise > 0:
             C = C + rng.normal(0.0, noise, C.shape)
-        x = map_reflectance(sub, C, prior, noise=noise)
+        x, b_fold = _fit_map(sub, prior, C, noise=noise)
+        in_all.append(b_fold)
         C_all.append(C)
         T_all.append(problem.target_of(X))
         nat_all.append(project_to_mmv(sub, C, reg(C), prior=prior, noise=noise)[0])
@@ -298,13 +327,36 @@ def learn_mix(
         w_all.append(_gate(sub, prior, noise=noise, odds=odds, log_vol=log_vol)(C, x))
     C, T = np.concatenate(C_all), np.concatenate(T_all)
     t_nat, t_map, w = np.concatenate(nat_all), np.concatenate(map_all), np.concatenate(w_all)[:, None]
+    b_in = np.concatenate(in_all)
     t_cen, vol = mmv_centroids(problem, C, eps=eps, delta=3.0 * noise, executor=executor, volumes=True)
-    scores = {
-        lam: float(np.mean(problem.delta_E(w * t_nat + (1 - w) * (lam * t_map + (1 - lam) * t_cen), T)))
-        for lam in MIX_GRID
+
+    def blend(pair):
+        lam_rows = (b_in * pair[0] + (1 - b_in) * pair[1])[:, None]
+        return lam_rows * t_map + (1 - lam_rows) * t_cen
+
+    errors = {
+        (float(a), float(c)): problem.delta_E(w * t_nat + (1 - w) * blend((a, c)), T)
+        for a in MIX_GRID
+        for c in MIX_GRID
     }
-    lam = min(scores, key=scores.get)
-    cv = {"scores": scores, "n": int(C.shape[0]), "radius_scale": 1.0}
+    scores = {pair: float(np.mean(e)) for pair, e in errors.items()}
+    best = min(scores, key=scores.get)
+    one = min((p for p in scores if p[0] == p[1]), key=scores.get)
+    # one-standard-error rule: the second λ is kept only where it lowers the held-out error by more
+    # than the standard error of the paired difference (else one λ for every response, the simpler model)
+    gain = errors[one] - errors[best]
+    se = float(np.std(gain, ddof=1) / np.sqrt(gain.size)) if gain.size > 1 else 0.0
+    lam = best if float(np.mean(gain)) > se else one
+    cv = {
+        "scores": scores,
+        "n": int(C.shape[0]),
+        "interior": float(np.mean(b_in)),
+        "best": best,
+        "one": one,
+        "gain": float(np.mean(gain)),
+        "se": se,
+        "radius_scale": 1.0,
+    }
     arb = w[:, 0] < GATE_SURE
     if r_nat is not None and arb.any():
         # split-conformal scale of the atypical radius: the smallest s for which 95 % of the held-out
@@ -312,7 +364,7 @@ def learn_mix(
         # only widen the radius (measured: with stacked cameras the augmented spectra are easier than
         # atypical test spectra, and s < 1 lowered their coverage from 93–96 % to 82–87 %)
         wa = np.where(w[arb, 0] > GATE_NONE, w[arb, 0], 0.0)
-        t_arb = lam * t_map[arb] + (1 - lam) * t_cen[arb]
+        t_arb = blend(lam)[arb]
         est = wa[:, None] * t_nat[arb] + (1 - wa[:, None]) * t_arb
         r_arb = _mmv_radius(problem, t_cen[arb], t_arb, vol[arb])
         err, gap = problem.delta_E(est, T[arb]), problem.delta_E(t_nat[arb], t_arb)
@@ -350,7 +402,7 @@ class PriorConfig:
     eps: float = 1e-3
     regression: str = "cv"
     folds: int = 10
-    mix: float | str = "cv"
+    mix: float | tuple[float, float] | str = "cv"
     augment: int = 300
     executor: object = None
 
@@ -373,11 +425,19 @@ class PriorConfig:
             raise OptionError(
                 f"{name}.regression={self.regression!r}: give 'cv', 'Cheung 2004' or 'Finlayson 2015'."
             )
-        if self.mix != "cv":
-            mix = check_nonnegative(name, "mix", self.mix) if not isinstance(self.mix, str) else -1.0
-            if not 0.0 <= mix <= 1.0:
-                raise OptionError(f"{name}.mix={self.mix!r}: give 'cv' or a weight in [0, 1].")
-            object.__setattr__(self, "mix", mix)
+        if not (isinstance(self.mix, str) and self.mix == "cv"):
+            pair = isinstance(self.mix, tuple | list) and len(self.mix) == 2
+            values = self.mix if pair else (self.mix,)
+            try:
+                mix = tuple(check_nonnegative(name, "mix", v) for v in values)
+            except OptionError:
+                mix = (-1.0,)
+            if not all(0.0 <= v <= 1.0 for v in mix):
+                raise OptionError(
+                    f"{name}.mix={self.mix!r}: give 'cv', a weight in [0, 1] or a pair of them "
+                    "(interior MAP, bound-active MAP)."
+                )
+            object.__setattr__(self, "mix", mix if pair else mix[0])
 
 
 def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **options) -> Corrector:
@@ -400,11 +460,18 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     - ``t_arb = λ · Ψᵀx̂ + (1 − λ) · t_cen``, the atypical branch: a convex combination of the MAP
       estimate and the volume centroid of the MMV (:func:`mmv_centroids`, the posterior mean when
       every colour of the MMV is equally likely). Neither is better everywhere (on atypical test
-      spectra MAP wins with one camera, the centroid with stacked ones), so ``λ`` ∈ {0, 0.1, …, 1}
-      is chosen by cross-validation on atypical spectra made from the training set only
-      (:func:`learn_mix`: contrast-stretched training spectra, 300 by default, scored with the whole
-      estimator refitted on the other folds). Chosen λ (400–700 nm, D65, rawtoaces 190): 0.9 Nikon
-      5100, 0.6 Canon EOS 5D Mark II, 0.8 the two, 0.5 Nikon 5100 + Sigma SD Merrill, 0.5 all three.
+      spectra MAP wins with one camera, the centroid with stacked ones). The MAP may be a sounder
+      summary where the natural Gaussian explains the response without the physical bounds (its
+      unbounded mode is a reflectance, :func:`zonotope.prior.interior_solution`) than where the
+      bounds push ``x̂`` onto the box's boundary (the Gaussian and [0, 1]ⁿ disagree), so
+      ``λ = b λ_in + (1 − b) λ_bd`` with ``b = exp(−(U(x̂) − U(x₀)))`` the ratio of the Gaussian
+      posterior density at the bounded mode ``x̂`` to that at the unbounded one ``x₀`` (1 when no
+      bound is active; continuous in the response, so is the estimate). ``λ_in`` and
+      ``λ_bd`` ∈ {0, 0.1, …, 1} are chosen by cross-validation on atypical spectra made from the
+      training set only (:func:`learn_mix`: contrast-stretched training spectra, 300 by default,
+      scored with the whole estimator refitted on the other folds). Chosen ``(λ_in, λ_bd)``
+      (400–700 nm, D65, rawtoaces 190; 400–680 nm with the Sigma): see ``params["mix"]`` and
+      ``benchmarks/bench_estimators.py``.
 
     All three points lie in the MMV, hence so does the estimate. The centroid (the costly part: 2–4 CPU-ms
     per colour at 10 nm with one or two cameras, measured on 200 atypical and 100 natural
@@ -414,18 +481,19 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     the branches. Measured (400–700 nm / 10 nm, D65, rawtoaces 190 training, test spectra within
     0.02 of a training one removed): on the 42 built-in natural spectra the gate opens (``w < 0.99``)
     for 9.5 % with Nikon 5100 alone and 2.4 % with Nikon 5100 + Canon EOS 5D Mark II, and a centroid
-    is computed for 2.4 % (1 of 42) and 0 % — ``tests/test_correct.py`` keeps these at ≤ 10 % / ≤ 3 %
-    and ≤ 3 %; on the 565–574 natural spectra of ``benchmarks/bench_estimators.py`` (built-ins and
-    150-spectrum subsets of ``../shared/data``) the gate opens for 8.7–9.1 % (one camera) and
-    2.4–3.2 % (two or three), a centroid is computed for 1.2–4.5 % and 1.7–3.0 %. ``x̂`` and the
-    MMV test of ``t_nat`` take a closed form for most natural responses
-    (:func:`zonotope.prior.interior_solution`; 14 % / 5 % of the built-in natural responses need
-    any solver): ``params["closed_form"]`` computes every such estimate in one vectorised pass, so
-    natural images cost little more than the regression. Fit + apply on 10⁴
+    is computed for 0 % and 0 % (``λ_in = 1``: an interior MAP needs no centroid) —
+    ``tests/test_correct.py`` keeps these at ≤ 10 % / ≤ 3 % and ≤ 3 %; on the 565–574 natural spectra
+    of ``benchmarks/bench_estimators.py`` (built-ins and 150-spectrum subsets of ``../shared/data``)
+    the gate opens for 8.7–9.1 % (one camera) and 2.4–3.2 % (two or three), a centroid is computed
+    for 0–0.2 % (one camera, Nikon + Canon) and 2.7–3.0 % (with the Sigma); on the 200 atypical
+    spectra for 21–26 %, 58 % and 81–92 %. ``x̂`` and the MMV test of ``t_nat`` take a closed form
+    for most natural responses (:func:`zonotope.prior.interior_solution`; 12 % / 5 % of the built-in
+    natural responses need any solver): ``params["closed_form"]`` computes every such estimate in
+    one vectorised pass, so natural images cost little more than the regression. Fit + apply on 10⁴
     natural responses (``benchmarks/bench_correct.py --fit-apply 10000``, median of 3, 2 shared
-    cores): 6.2 s with Nikon 5100 (MAP 1.14 s: 5.5×; root-polynomial 1.6 ms), 6.1 s with Nikon 5100
-    + Sony ILCE-7M3 (MAP 1.02 s: 6.0×); most of it is the fit (:func:`learn_mix`: 300 MMV centroids
-    and 10 refits), 3–5 % of these responses need a solver.
+    cores, load ≈ 6): 3.8 s with Nikon 5100 (MAP 1.17 s: 3.2×; root-polynomial 1.8 ms), 4.0 s with
+    Nikon 5100 + Sony ILCE-7M3 (MAP 0.72 s: 5.6×); most of it is the fit (:func:`learn_mix`: 300 MMV
+    centroids and 10 refits), 3–5 % of these responses need a solver.
 
     Uncertainty (:meth:`Corrector.with_uncertainty`): a 95 % credible radius in ΔE00 per estimate,
     from the same mixture — ``r² = w r_nat² + (1 − w) r_arb² + w (1 − w) ΔE00(t_nat, t_arb)²``, with
@@ -468,8 +536,9 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     folds
         Cross-validation folds.
     mix
-        ``"cv"`` (default): the MAP weight ``λ`` of the atypical branch chosen by :func:`learn_mix`;
-        or a fixed λ in [0, 1] (0: the MMV centroid alone, the previous default).
+        ``"cv"`` (default): the MAP weights ``(λ_in, λ_bd)`` of the atypical branch chosen by
+        :func:`learn_mix`; or a fixed λ in [0, 1] for both (0: the MMV centroid alone), or a pair
+        ``(λ_in, λ_bd)``.
     augment
         Number of contrast-stretched training spectra that :func:`learn_mix` scores λ on.
     executor
@@ -479,12 +548,12 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     Returns
     -------
     Corrector
-        ``params`` holds the prior, the regression, the cross-validation scores, ``mix`` (λ) and
-        ``mix_cv`` (its scores), ``log_volume``, ``r_nat``, ``radius_scale`` (s), the ``weights`` function,
-        ``closed_form`` (estimates and solver rows in one pass), ``needs_solver`` (which responses
-        leave the closed forms: :func:`zonotope.image.correct_image` groups only those),
-        ``centroid_rows`` (which compute an MMV centroid) and ``config``; ``with_uncertainty`` gives
-        credible radii.
+        ``params`` holds the prior, the regression, the cross-validation scores, ``mix``
+        (``(λ_in, λ_bd)``) and ``mix_cv`` (its scores), ``log_volume``, ``r_nat``, ``radius_scale``
+        (s), the ``weights`` function, ``closed_form`` (estimates and solver rows in one pass),
+        ``needs_solver`` (which responses leave the closed forms: :func:`zonotope.image.correct_image`
+        groups only those), ``centroid_rows`` (which compute an MMV centroid) and ``config``;
+        ``with_uncertainty`` gives credible radii.
 
     Raises
     ------
@@ -509,17 +578,22 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat)
         radius_scale = mix_cv["radius_scale"]
     else:
-        lam, mix_cv, radius_scale = float(cfg.mix), None, 1.0
+        pair = cfg.mix if isinstance(cfg.mix, tuple) else (cfg.mix, cfg.mix)
+        lam, mix_cv, radius_scale = (float(pair[0]), float(pair[1])), None, 1.0
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
     log_vol = _log_volume(problem.Phi)
     weights = _gate(problem, prior, noise=noise, odds=odds, log_vol=log_vol)
     PhiPsi = np.hstack([problem.Phi, problem.Psi])
     sigma = np.concatenate([np.full(problem.k, float(noise)), np.zeros(problem.m)])
 
-    def needs_centroid(w):
+    def lam_of(b):
+        """λ per row, ``b λ_in + (1 − b) λ_bd``, ``b`` the weight of the interior case (:func:`_fit_map`)."""
+        return b * lam[0] + (1.0 - b) * lam[1]
+
+    def needs_centroid(w, b):
         """Rows whose MMV centroid enters the estimate with a weight ``(1 − w)(1 − λ)`` of at least
         CENTROID_MIN_WEIGHT (below it, leaving it out moves the estimate by < 1 % of the gap)."""
-        return (w < GATE_SURE) & ((1.0 - w) * (1.0 - lam) >= CENTROID_MIN_WEIGHT)
+        return (w < GATE_SURE) & ((1.0 - w) * (1.0 - lam_of(b)) >= CENTROID_MIN_WEIGHT)
 
     def closed_form(c):
         """Estimates of every row that needs no solver, and which rows need one (a bounded least
@@ -530,7 +604,7 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         w = weights(c, x)
         t = reg(c)
         _, witness = interior_solution(prior, PhiPsi, np.hstack([c, t]), noise=sigma)
-        slow = ~interior | needs_centroid(w) | ((w > GATE_NONE) & ~witness)
+        slow = ~interior | needs_centroid(w, 1.0) | ((w > GATE_NONE) & ~witness)  # interior: b = 1
         wa = np.where(w > GATE_NONE, w, 0.0)[:, None]
         t_map = np.clip(x, 0.0, 1.0) @ problem.Psi
         out = np.where((w >= GATE_SURE)[:, None], t, wa * t + (1.0 - wa) * t_map)
@@ -539,7 +613,8 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     def centroid_rows(c):
         """Rows whose estimate computes an MMV centroid (:func:`needs_centroid` of their gate weight)."""
         c = np.atleast_2d(np.asarray(c, dtype=np.float64))
-        return needs_centroid(weights(c, map_reflectance(problem, c, prior, noise=noise)))
+        x, b = _fit_map(problem, prior, c, noise=noise)
+        return needs_centroid(weights(c, x), b)
 
     def needs_solver(c):
         """Rows whose estimate needs a bounded least-squares solve or an MMV centroid (the others
@@ -547,7 +622,7 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         return closed_form(c)[1]
 
     def solve(c, with_radius: bool):
-        x = map_reflectance(problem, c, prior, noise=noise)
+        x, b = _fit_map(problem, prior, c, noise=noise)
         w = weights(c, x)
         out = reg(c)
         nat = w > GATE_NONE
@@ -558,14 +633,15 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         arb = w < GATE_SURE  # an atypical weight under 1 % moves the estimate by < 1 % of the gap
         if arb.any():
             t_arb = x[arb] @ problem.Psi
-            cen = needs_centroid(w[arb])
+            cen = needs_centroid(w[arb], b[arb])
+            lam_arb = lam_of(b[arb])[:, None]
             mmv = np.ones_like(cen) if with_radius else cen  # radii need every MMV's volume
             if mmv.any():
                 t_cen, vol = mmv_centroids(
                     problem, c[arb][mmv], eps=eps, delta=3.0 * noise, executor=executor, volumes=True
                 )
                 use = cen[mmv]
-                t_arb[cen] = lam * t_arb[cen] + (1.0 - lam) * t_cen[use]
+                t_arb[cen] = lam_arb[cen] * t_arb[cen] + (1.0 - lam_arb[cen]) * t_cen[use]
             wa = np.where(nat[arb], w[arb], 0.0)[:, None]  # w ≤ GATE_NONE: the atypical branch alone
             out[arb] = wa * out[arb] + (1.0 - wa) * t_arb
             if with_radius:

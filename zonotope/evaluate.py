@@ -476,13 +476,14 @@ def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: 
     return out.centroids, out.volumes
 
 
-def _outside_solid(problem: CorrectionProblem, C: np.ndarray, tol: float = 1e-6) -> np.ndarray:
-    """Which responses (N, k) no reflectance in [0, 1] can produce."""
+def _outside_solid(problem: CorrectionProblem, C: np.ndarray, atol: float = 1e-6) -> np.ndarray:
+    """Which responses (N, k) no reflectance in [0, 1] can produce: the nearest producible response
+    is farther than ``atol`` (an absolute slack in response units, white = 1) in some channel."""
     from .prior import fiber_lsq
 
     n = problem.Phi.shape[0]
     x = fiber_lsq(problem.Phi, C, np.eye(n), np.full(n, 0.5))
-    return np.abs(x @ problem.Phi - C).max(axis=1) > tol
+    return np.abs(x @ problem.Phi - C).max(axis=1) > atol
 
 
 @dataclass(frozen=True, eq=False)
