@@ -22,7 +22,7 @@ import importlib
 _EXPORTS = {
     "_errors": ["DataFormatError", "SplatError", "SplatMethodError"],
     "gaussians": ["Gaussians", "init_gaussians", "inverse_softplus", "quat_to_rotmat"],
-    "camera": ["Camera", "look_at", "qvec_to_rotmat", "rotmat_to_qvec"],
+    "camera": ["Camera", "look_at", "pose_corrected", "qvec_to_rotmat", "rotmat_to_qvec", "so3_exp"],
     "rendering": [
         "RENDER_METHODS",
         "Projected",

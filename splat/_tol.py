@@ -17,6 +17,7 @@ __all__ = [
     "RAY_SURFACE",
     "RAY_T_MIN",
     "ROTATION_ATOL",
+    "SO3_TAYLOR_THETA2",
     "WARP_RADIUS_MIN",
 ]
 
@@ -54,6 +55,12 @@ RAY_T_MIN = 1e-9
 #: instant-ngp write 6–8 significant digits, so products carry ~1e-6 errors; 1e-3 still refuses
 #: scaled, sheared or zeroed matrices.
 ROTATION_ATOL = 1e-3
+
+#: ``so3_exp`` takes ``sin θ / θ`` and ``(1 − cos θ) / θ²`` from their Taylor series (to θ⁴) when
+#: ``θ² < this`` (rad²): the first omitted terms are θ⁶/5040 and θ⁶/40320 < 2e-16, so the series is
+#: exact to float64 rounding there, while the closed forms lose ~ε/θ² to cancellation (1e-12 at the
+#: switch), and neither branch divides by 0 at ω = 0.
+SO3_TAYLOR_THETA2 = 1e-4
 
 #: The floor's radial warp ``r → a·log(1 + r/a)/r`` uses its limit 1 below this radius (m): the
 #: quotient is exact to rounding from 1e-12 m, and the scene's finest detail is ~1 mm.

@@ -9,8 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._errors import SplatError
+from ._tol import SO3_TAYLOR_THETA2
 
-__all__ = ["Camera", "look_at", "qvec_to_rotmat", "rotmat_to_qvec"]
+__all__ = ["Camera", "look_at", "pose_corrected", "qvec_to_rotmat", "rotmat_to_qvec", "so3_exp"]
 
 
 @jax.tree_util.register_dataclass
@@ -134,3 +135,66 @@ def rotmat_to_qvec(R) -> np.ndarray:
     vals, vecs = np.linalg.eigh(K)
     q = vecs[[3, 0, 1, 2], np.argmax(vals)]
     return -q if q[0] < 0 else q
+
+
+def so3_exp(omega) -> jax.Array:
+    """Rotation matrices ``exp([ω]×)`` of axis-angle vectors (Rodrigues' formula), differentiable at 0.
+
+    ``R = I + A [ω]× + B [ω]×²`` with ``A = sin θ / θ``, ``B = (1 − cos θ) / θ²``, ``θ = |ω|``; below
+    ``θ² = 1e-4`` (``splat._tol.SO3_TAYLOR_THETA2``) both come from their Taylor series (to θ⁴, exact
+    to rounding), so neither the value nor the gradient has a 0/0 at ω = 0.
+
+    Parameters
+    ----------
+    omega : array_like of shape (..., 3)
+        Rotation axis times angle (radians).
+
+    Returns
+    -------
+    Array of shape (..., 3, 3)
+    """
+    return _so3_exp(jnp.asarray(omega))
+
+
+@jax.jit
+def _so3_exp(omega: jax.Array) -> jax.Array:  # one compilation per shape, not one per operation
+    x, y, z = omega[..., 0], omega[..., 1], omega[..., 2]
+    th2 = x * x + y * y + z * z
+    small = th2 < SO3_TAYLOR_THETA2
+    th = jnp.sqrt(jnp.where(small, 1.0, th2))
+    A = jnp.where(small, 1 - th2 / 6 * (1 - th2 / 20), jnp.sin(th) / th)
+    B = jnp.where(small, 0.5 - th2 / 24 * (1 - th2 / 30), (1 - jnp.cos(th)) / jnp.where(small, 1.0, th2))
+    zero = jnp.zeros_like(x)
+    K = jnp.stack(
+        [jnp.stack([zero, -z, y], -1), jnp.stack([z, zero, -x], -1), jnp.stack([-y, x, zero], -1)], -2
+    )
+    eye = jnp.eye(3, dtype=omega.dtype)
+    return eye + A[..., None, None] * K + B[..., None, None] * (K @ K)
+
+
+def pose_corrected(camera: Camera, correction) -> Camera:
+    """The camera with a small rigid correction of its world-to-camera pose, applied in camera coordinates.
+
+    ``x_cam' = exp([ω]×) x_cam + τ``, i.e. ``R' = exp([ω]×) R`` and ``t' = exp([ω]×) t + τ``: ``ω``
+    turns the camera about its own centre (so a rotation does not move the centre, which keeps the
+    rotation and translation parts apart), and the centre moves by ``−R'ᵀ τ``. Differentiable in
+    ``correction`` (this is how :func:`splat.train` refines poses).
+
+    Parameters
+    ----------
+    camera : Camera
+    correction : array_like of shape (6,)
+        ``(ω, τ)``: axis-angle rotation (radians) and translation (world units, camera axes).
+
+    Returns
+    -------
+    Camera
+        Same intrinsics and image size; ``pose_corrected(camera, 0)`` has exactly the same pose.
+    """
+    xi = jnp.asarray(correction, camera.R.dtype)
+    if xi.shape != (6,):
+        raise SplatError(f"correction: expected a 6-vector (ω, τ), got shape {xi.shape}.")
+    dR = so3_exp(xi[:3])
+    return Camera(
+        dR @ camera.R, dR @ camera.t + xi[3:], camera.focal, camera.principal, camera.width, camera.height
+    )

@@ -55,6 +55,12 @@ def _parser() -> argparse.ArgumentParser:
             action="store_true",
             help="learn a per-view exposure correction (one view per camera fixed); default: trust EXIF",
         )
+        s.add_argument(
+            "--refine-poses",
+            action="store_true",
+            help="learn a pose correction per training view with the Gaussians (two views fixed); "
+            "default: keep the recovered poses",
+        )
     return p
 
 
@@ -83,6 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             threads=args.threads,
             seed=args.seed,
             refine_exposure=args.refine_exposure,
+            refine_poses=args.refine_poses,
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
@@ -137,6 +144,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"train: {t['steps']} steps, {t['gaussians']} Gaussians, {t['seconds']:.0f} s "
             f"on {device.platform} ({device.device_kind})"
         )
+        if "pose_correction_size" in t:
+            c = t["pose_correction_size"]
+            print(
+                f"train: pose corrections {c['rotation_deg_mean']:.3f}° (max {c['rotation_deg_max']:.3f}°), "
+                f"{c['translation_mean']:.4f} (max {c['translation_max']:.4f}) for a scene extent "
+                f"{c['scene_extent']:.2f}; reference views {', '.join(t['pose_reference_views'])}"
+            )
     if "render" in results:
         print(f"render: {len(results['render'])} views")
     if "correct" in results:

@@ -89,6 +89,11 @@ class PipelineConfig:
         EXIF exposure); the factors go to ``train/summary.json``. Off by default: on the simulated
         capture, whose EXIF is exact, a 300-step model drifted 4–10 % away from it (the corrections
         absorb model error), so turn it on only for EXIF that is known to be unreliable.
+    refine_poses : bool
+        Learn a rigid pose correction per training view jointly with the Gaussians (two reference views,
+        the farthest apart, keep the recovered poses; see :func:`splat.train`); the corrections go to
+        ``train/summary.json`` and the render step uses them for the training views. Held-out views keep
+        their recovered poses (they are never fitted, so nothing refines them).
     """
 
     steps: int = 3000
@@ -103,6 +108,7 @@ class PipelineConfig:
     min_registered: float = 0.5
     densify_until: int | None = None
     refine_exposure: bool = False
+    refine_poses: bool = False
 
     def __post_init__(self):
         positive = {"steps": self.steps, "capacity": self.capacity}
@@ -464,6 +470,7 @@ def train_config(config: PipelineConfig, checkpoint: Path | None = None):
         # filling the buffer early took three-camera flat ΔE00 at 1000 steps from 2.43 to 2.01
         densify_fraction=0.3,
         refine_exposure=config.refine_exposure,
+        refine_poses=config.refine_poses,
     )
 
 
@@ -520,13 +527,15 @@ def train_step_(
     )
     seconds = time.perf_counter() - t0
     # residual noise per channel (raw units at exposure 1) on up to 6 training views → δ of correct
+    from .camera import pose_corrected
     from .outputs import render_views
 
     alive = jnp.asarray(res.alive)
     sq, cnt = np.zeros(N), np.zeros(N)
     for i in np.linspace(0, len(padded) - 1, min(6, len(padded))).astype(int):
         v = padded[i]
-        pred = render_views(res.gaussians, [v.camera], mask=alive)[0] * v.exposure * res.exposure_factors[i]
+        cam = pose_corrected(v.camera, res.pose_corrections[i]) if tc.refine_poses else v.camera
+        pred = render_views(res.gaussians, [cam], mask=alive)[0] * v.exposure * res.exposure_factors[i]
         w = weights[i] * (pred < 1)
         e = v.exposure * res.exposure_factors[i]
         sq += np.sum(w * ((pred - images[i]) / e) ** 2, axis=(0, 1))
@@ -551,8 +560,62 @@ def train_step_(
         "exposure_factors": {v.name: float(f) for v, f in zip(views, res.exposure_factors)},
         "backend": jax.default_backend(),
     }
+    if tc.refine_poses:
+        summary.update(
+            _pose_summary(train_cap, res.pose_corrections, float(np.linalg.norm(bounds[1] - bounds[0])))
+        )
     _write_json(done, summary)
     return summary
+
+
+def _pose_summary(capture, corrections: np.ndarray, extent: float) -> dict:
+    """The learned pose corrections for ``train/summary.json``: per view ``(ω, τ)`` (radians, scene
+    units; :func:`splat.camera.pose_corrected`), the reference views, and the size of the corrections."""
+    from .training import _pose_reference_views, stack_cameras
+
+    names = [v.name for v in capture.views]
+    refs = _pose_reference_views(stack_cameras(v.camera for v in capture.views))
+    rot = np.degrees(np.linalg.norm(corrections[:, :3], axis=1))
+    trans = np.linalg.norm(corrections[:, 3:], axis=1)
+    return {
+        "pose_corrections": {n: [float(x) for x in c] for n, c in zip(names, corrections)},
+        "pose_reference_views": [names[i] for i in refs],
+        "pose_correction_size": {
+            "rotation_deg_mean": float(rot.mean()),
+            "rotation_deg_max": float(rot.max()),
+            "translation_mean": float(trans.mean()),
+            "translation_max": float(trans.max()),
+            "scene_extent": extent,
+        },
+    }
+
+
+def pose_corrections_of(out: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The training views' learned pose corrections (name → ``(ω, τ)``, shape (6,)) from
+    ``OUT/train/summary.json``; empty when the model was trained without ``refine_poses``."""
+    path = Path(out) / "train" / "summary.json"
+    if not path.is_file():
+        return {}
+    doc = json.loads(path.read_text()).get("pose_corrections", {})
+    return {k: np.asarray(v, float) for k, v in doc.items()}
+
+
+def refined_views(views, out: str | os.PathLike) -> list:
+    """``views`` (:class:`splat.data.View`) with the learned pose correction applied to each training
+    view (:func:`pose_corrections_of`); the others (held-out views) unchanged."""
+    import dataclasses
+
+    from .camera import Camera, pose_corrected
+
+    corr = pose_corrections_of(out)
+    outv = []
+    for v in views:
+        if v.name in corr:
+            c = pose_corrected(v.camera, np.asarray(corr[v.name], np.float32))
+            cam = Camera(np.asarray(c.R), np.asarray(c.t), c.focal, c.principal, c.width, c.height)
+            v = dataclasses.replace(v, camera=cam)
+        outv.append(v)
+    return outv
 
 
 def load_gaussians(out: str | os.PathLike):
@@ -624,11 +687,12 @@ def render_step(
     out = _check_out(spec, Path(out))
     _, cap = _load_model_capture(spec, out)
     g, alive = load_gaussians(out)
+    views = refined_views(cap.views, out)  # training views with their learned pose corrections, if any
     folder = config.camera or spec.cameras[0].folder
     k = spec.camera_index(folder)
     hold = set(spec.holdout)
-    todo = [(v.name, v.camera, v.camera_id, "holdout") for v in cap.views if v.name in hold]
-    mine = [v for v in cap.views if v.camera_id == k + 1 and v.name not in hold]
+    todo = [(v.name, v.camera, v.camera_id, "holdout") for v in views if v.name in hold]
+    mine = [v for v in views if v.camera_id == k + 1 and v.name not in hold]
     chosen = mine if config.all_views else ([] if todo else mine[:1])
     todo += [(v.name, v.camera, v.camera_id, "view") for v in chosen]
     if config.novel:

@@ -16,7 +16,8 @@ demosaicing nor the splat's blur at edges enters and the estimate measures colou
 
 plus the held-out render PSNR per channel (render × exposure against the view's RAW mosaic on its valid
 pixels; peak 1 = saturation) and the pose error of the recovered cameras against the true ones after a
-similarity alignment (Umeyama 1991) of the camera centres.
+similarity alignment (Umeyama 1991) of the camera centres (with ``--refine-poses``, also of the
+training views as recovered and as refined by training, ``pose_training_views``).
 """
 
 from __future__ import annotations
@@ -41,6 +42,27 @@ def similarity(X, Y):
     R = U @ D @ Vt
     s = np.trace(np.diag(S) @ D) / (X - mx).var(0).sum()
     return s, R, my - s * R @ mx
+
+
+def _pose_error(est: dict, tru: dict, names: list) -> dict:
+    """Centre and rotation error of the views ``names`` (name → :class:`splat.data.View` in ``est`` and
+    ``tru``) after a similarity alignment of their centres (:func:`similarity`)."""
+    X = np.array([np.asarray(est[k].camera.centre, float) for k in names])
+    Y = np.array([np.asarray(tru[k].camera.centre, float) for k in names])
+    s, R, t = similarity(X, Y)
+    err = np.linalg.norm(s * X @ R.T + t - Y, axis=1)
+    ang = []
+    for k in names:
+        Re = np.asarray(est[k].camera.R, float) @ R.T  # world_true → cam, estimated
+        Rt = np.asarray(tru[k].camera.R, float)
+        cosang = (np.trace(Re @ Rt.T) - 1) / 2
+        ang.append(float(np.degrees(np.arccos(np.clip(cosang, -1, 1)))))
+    return {
+        "centre_error_mean": float(err.mean()),
+        "centre_error_max": float(err.max()),
+        "scene_extent": float(np.linalg.norm(Y.max(0) - Y.min(0))),
+        "rotation_error_deg_mean": float(np.mean(ang)),
+    }
 
 
 def raw_balanced(view, scale) -> np.ndarray:
@@ -227,24 +249,17 @@ def score(
         tru = {v.name: v for v in capture_from_colmap(read_colmap(truth)).views}
         common = sorted(set(est) & set(tru))
         if len(common) >= 3:
-            X = np.array([np.asarray(est[k].camera.centre, float) for k in common])
-            Y = np.array([np.asarray(tru[k].camera.centre, float) for k in common])
-            s, R, t = similarity(X, Y)
-            err = np.linalg.norm(s * X @ R.T + t - Y, axis=1)
-            ang = []
-            for k in common:
-                Re = np.asarray(est[k].camera.R, float) @ R.T  # world_true → cam, estimated
-                Rt = np.asarray(tru[k].camera.R, float)
-                cosang = (np.trace(Re @ Rt.T) - 1) / 2
-                ang.append(float(np.degrees(np.arccos(np.clip(cosang, -1, 1)))))
-            extent = float(np.linalg.norm(Y.max(0) - Y.min(0)))
-            result["pose"] = {
-                "registered": len(common),
-                "of": len(tru),
-                "centre_error_mean": float(err.mean()),
-                "centre_error_max": float(err.max()),
-                "scene_extent": extent,
-                "rotation_error_deg_mean": float(np.mean(ang)),
+            result["pose"] = dict(registered=len(common), of=len(tru), **_pose_error(est, tru, common))
+        # with --refine-poses: the training views' poses as recovered and as refined by training
+        from .pipeline import refined_views
+
+        refined = {v.name: v for v in refined_views(list(est.values()), out)}
+        trained = [k for k in common if refined[k].camera is not est[k].camera]
+        if len(trained) >= 3:
+            result["pose_training_views"] = {
+                "views": len(trained),
+                "recovered": _pose_error(est, tru, trained),
+                "refined": _pose_error(refined, tru, trained),
             }
     p = out / "score.json"
     p.write_text(json.dumps(result, indent=1))

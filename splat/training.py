@@ -22,7 +22,7 @@ import numpy as np
 import optax
 
 from ._errors import SplatError
-from .camera import Camera
+from .camera import Camera, pose_corrected
 from .data import Capture
 from .gaussians import Gaussians, init_gaussians
 from .rendering import RenderConfig, render
@@ -107,6 +107,14 @@ class TrainConfig:
         first view of each camera id in ``reference_views`` held fixed (see :func:`train`).
     lr_exposure : float
         Learning rate of the log-exposure corrections.
+    refine_poses : bool
+        Learn a rigid correction of each view's pose (axis-angle rotation and translation, initialised
+        at 0, applied in camera coordinates by :func:`splat.camera.pose_corrected`), jointly with the
+        Gaussians by the same loss, with two reference views held fixed (see :func:`train`).
+    lr_pose_rot : float
+        Learning rate of the rotation corrections, in radians.
+    lr_pose_trans : float
+        Learning rate of the translation corrections, as a fraction of the scene extent.
     """
 
     steps: int = 3000
@@ -131,10 +139,17 @@ class TrainConfig:
     init_scale: str = "knn"
     refine_exposure: bool = False
     lr_exposure: float = 1e-2
+    refine_poses: bool = False
+    lr_pose_rot: float = 2e-4
+    lr_pose_trans: float = 2e-4
 
     def __post_init__(self):
         if self.init_scale not in ("knn", "uniform"):
             raise SplatError(f"TrainConfig.init_scale={self.init_scale!r}: choose 'knn' or 'uniform'.")
+        for name in ("lr_pose_rot", "lr_pose_trans"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not np.isfinite(v) or v < 0:
+                raise SplatError(f"TrainConfig.{name}={v!r}: must be a finite number ≥ 0 (default 2e-4).")
 
 
 class TrainState(NamedTuple):
@@ -149,19 +164,23 @@ class TrainState(NamedTuple):
     key: jax.Array
     log_exposure: jax.Array | None = None  # [V] learned log-exposure corrections (refine_exposure)
     exposure_opt: optax.OptState | None = None
+    pose_delta: jax.Array | None = None  # [V, 6] learned pose corrections (ω, τ) (refine_poses)
+    pose_opt: optax.OptState | None = None
 
 
 class TrainResult(NamedTuple):
     """Trained ``gaussians``, their ``alive`` mask (G,), the final ``state``, a ``history`` dict of
     per-step ``loss``, ``n_alive`` and ``n_dropped`` arrays, and ``exposure_factors`` (V,): each view's
     learned exposure correction (the view's exposure is ``EXIF × factor``; all 1 without
-    ``refine_exposure``)."""
+    ``refine_exposure``), and ``pose_corrections`` (V, 6): each view's learned pose correction ``(ω, τ)``
+    (the view's camera is ``pose_corrected(camera, pose_corrections[v])``; all 0 without ``refine_poses``)."""
 
     gaussians: Gaussians
     alive: np.ndarray
     state: TrainState
     history: dict[str, np.ndarray]
     exposure_factors: np.ndarray | None = None
+    pose_corrections: np.ndarray | None = None
 
 
 def stack_cameras(cameras) -> Camera:
@@ -177,6 +196,16 @@ def stack_cameras(cameras) -> Camera:
 
 def _exposure_optimiser(config: TrainConfig) -> optax.GradientTransformation:
     return optax.adam(optax.exponential_decay(config.lr_exposure, config.steps, config.lr_final), eps=1e-15)
+
+
+def _pose_optimiser(config: TrainConfig, extent: float) -> optax.GradientTransformation:
+    """Adam on the (V, 6) pose corrections: radians for ω, ``lr_pose_trans · extent`` for τ."""
+    rates = np.array([config.lr_pose_rot] * 3 + [config.lr_pose_trans * extent] * 3, np.float32)
+    return optax.chain(
+        optax.scale_by_adam(eps=1e-15),
+        optax.scale_by_learning_rate(optax.exponential_decay(1.0, config.steps, config.lr_final)),
+        optax.stateless(lambda updates, params=None: jax.tree.map(lambda u: u * rates, updates)),
+    )
 
 
 def _optimiser(config: TrainConfig, extent: float) -> optax.GradientTransformation:
@@ -219,8 +248,8 @@ def init_state(
     n_init : int, optional
         Initially alive Gaussians (default: half the capacity, or all the points).
     n_views : int, optional
-        Number of views; needed with ``config.refine_exposure`` (their log-exposure corrections start
-        at 0).
+        Number of views; needed with ``config.refine_exposure`` or ``config.refine_poses`` (their
+        log-exposure and pose corrections start at 0).
     """
     G = config.capacity
     bounds = np.asarray(bounds, float)
@@ -247,12 +276,16 @@ def init_state(
     params = init_gaussians(full, col, scales=scale, opacity=0.1, key=jax.random.key(config.seed))
     alive = jnp.arange(G) < n_init
     opt = _optimiser(config, extent)
-    log_e = exp_opt = None
+    log_e = exp_opt = pose = pose_opt = None
+    for flag in ("refine_exposure", "refine_poses"):
+        if getattr(config, flag) and (not isinstance(n_views, int | np.integer) or n_views < 1):
+            raise SplatError(f"n_views={n_views!r}: {flag} needs the number of views (≥ 1).")
     if config.refine_exposure:
-        if not isinstance(n_views, int | np.integer) or n_views < 1:
-            raise SplatError(f"n_views={n_views!r}: refine_exposure needs the number of views (≥ 1).")
         log_e = jnp.zeros(int(n_views))
         exp_opt = _exposure_optimiser(config).init(log_e)
+    if config.refine_poses:
+        pose = jnp.zeros((int(n_views), 6))
+        pose_opt = _pose_optimiser(config, extent).init(pose)
     return TrainState(
         params,
         opt.init(params),
@@ -263,6 +296,8 @@ def init_state(
         jax.random.key(config.seed + 1),
         log_e,
         exp_opt,
+        pose,
+        pose_opt,
     )
 
 
@@ -279,6 +314,7 @@ def train_step(
     extent: float,
     view=None,
     exposure_mask=None,
+    pose_mask=None,
 ):
     """One Adam step on one view; returns the new state (step not incremented), loss and drops.
 
@@ -297,16 +333,21 @@ def train_step(
         exposure used is ``exposure · exp(log_exposure[view])``).
     exposure_mask : Array of shape (V,), optional
         1 for views whose log-exposure may change, 0 for the fixed reference views.
+    pose_mask : Array of shape (V,), optional
+        1 for views whose pose may change, 0 for the fixed reference views (with ``state.pose_delta``:
+        the camera rendered is ``pose_corrected(camera, pose_delta[view])``).
     """
     refine = state.log_exposure is not None
+    refine_pose = state.pose_delta is not None
 
-    def loss_fn(params, log_e):
-        out = render(params, camera, method=config.method, config=config.render, mask=state.alive)
+    def loss_fn(params, log_e, pose):
+        cam = pose_corrected(camera, pose[view]) if refine_pose else camera
+        out = render(params, cam, method=config.method, config=config.render, mask=state.alive)
         e = exposure * jnp.exp(log_e[view]) if refine else exposure
         return rawnerf_loss(e * out.image, image, weight * channel_mask), out.n_dropped
 
-    (loss, dropped), (grads, g_exp) = jax.value_and_grad(loss_fn, argnums=(0, 1), has_aux=True)(
-        state.params, state.log_exposure
+    (loss, dropped), (grads, g_exp, g_pose) = jax.value_and_grad(loss_fn, argnums=(0, 1, 2), has_aux=True)(
+        state.params, state.log_exposure, state.pose_delta
     )
     updates, opt_state = _optimiser(config, extent).update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)
@@ -320,6 +361,13 @@ def train_step(
         if exposure_mask is not None:
             upd = upd * exposure_mask  # the reference views stay exactly at their EXIF exposure
         new = {"log_exposure": state.log_exposure + upd, "exposure_opt": exp_opt}
+    if refine_pose:
+        if pose_mask is not None:
+            g_pose = g_pose * pose_mask[:, None]
+        upd, pose_opt = _pose_optimiser(config, extent).update(g_pose, state.pose_opt, state.pose_delta)
+        if pose_mask is not None:
+            upd = upd * pose_mask[:, None]  # the reference views keep their given poses exactly
+        new.update(pose_delta=state.pose_delta + upd, pose_opt=pose_opt)
     return (
         state._replace(
             params=params,
@@ -400,6 +448,13 @@ def save_checkpoint(state: TrainState, path: str | Path) -> Path:
         )
     )
     arrays = {f"leaf_{i:04d}": np.asarray(x) for i, x in enumerate(leaves)}
+    # pose corrections under their own names: checkpoints written before they existed still load
+    arrays.update(
+        {
+            f"pose_{i:04d}": np.asarray(x)
+            for i, x in enumerate(jax.tree.leaves((state.pose_delta, state.pose_opt)))
+        }
+    )
     key = np.asarray(jax.random.key_data(state.key))
 
     # written to a temporary sibling, synced, then renamed: a kill mid-save leaves the previous
@@ -412,7 +467,13 @@ def save_checkpoint(state: TrainState, path: str | Path) -> Path:
 
 
 def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
-    """Load a checkpoint into the structure of ``like`` (a fresh state from :func:`init_state`)."""
+    """Load a checkpoint into the structure of ``like`` (a fresh state from :func:`init_state`).
+
+    A checkpoint without pose corrections (written without ``refine_poses``, or before they existed)
+    loads into a state that refines poses with the corrections of ``like`` (zero); one with pose
+    corrections does not load into a state without them (the Gaussians were fitted to the corrected
+    poses).
+    """
     like_tree = (
         like.params,
         like.opt_state,
@@ -438,8 +499,24 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
                     "is expected (capacity or channels changed?)."
                 )
         step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
+        pose_leaves, pose_def = jax.tree.flatten((like.pose_delta, like.pose_opt))
+        stored_pose = sorted(k for k in f.files if k.startswith("pose_"))
+        if stored_pose and not pose_leaves:
+            raise SplatError(
+                f"checkpoint {path} holds pose corrections but this configuration does not refine poses; "
+                "resume it with refine_poses=True (--refine-poses)."
+            )
+        if stored_pose:
+            got = [jnp.asarray(f[k]) for k in stored_pose]
+            if len(got) != len(pose_leaves) or any(a.shape != np.shape(b) for a, b in zip(got, pose_leaves)):
+                raise SplatError(
+                    f"checkpoint {path} holds pose corrections for a different number of views; expected "
+                    f"{np.shape(like.pose_delta)}."
+                )
+            pose_leaves = got
     params, opt_state, alive, ga, gc, log_e, e_opt = jax.tree.unflatten(treedef, new)
-    return TrainState(params, opt_state, alive, ga, gc, step, key, log_e, e_opt)
+    pose, pose_opt = jax.tree.unflatten(pose_def, pose_leaves)
+    return TrainState(params, opt_state, alive, ga, gc, step, key, log_e, e_opt, pose, pose_opt)
 
 
 def train(
@@ -454,6 +531,7 @@ def train(
     resume: str | Path | None = None,
     callback=None,
     reference_views=None,
+    pose_reference_views=None,
 ) -> TrainResult:
     """Fit N-channel Gaussians to the RAW views of a multi-camera capture.
 
@@ -462,6 +540,17 @@ def train(
     so a common factor on all views of one camera is not identifiable from the images: one reference view
     per camera id keeps ``ε = 0`` (by default the view whose EXIF exposure is the median of that camera's
     views), which ties the scale to EXIF as the white → 1 scale assumes.
+
+    With ``config.refine_poses`` each view also gets a learned rigid correction ``ξ_v = (ω, τ)`` of its
+    world-to-camera pose (:func:`splat.camera.pose_corrected`), starting at 0 and learnt by the same loss.
+    Moving the whole scene and every camera by one similarity (7 degrees of freedom: rotation,
+    translation, scale) leaves every image unchanged, so the poses are only identifiable up to it: two
+    reference views keep their given poses exactly — one fixes the rotation and translation, the second
+    the scale through the distance between the two centres. By default they are the two views whose
+    centres lie farthest apart (the longest baseline determines the scale best). Only views that are
+    trained on are corrected: a held-out view's pose cannot be refined from images it is never fitted
+    to, so it keeps its given pose, which stays consistent with the scene because the reference views
+    keep the given poses' frame.
 
     Parameters
     ----------
@@ -484,6 +573,9 @@ def train(
     reference_views : sequence of int, optional
         Views whose exposure stays fixed when ``config.refine_exposure`` (default: one per camera id,
         see above). Every camera id needs at least one.
+    pose_reference_views : sequence of int, optional
+        Views whose pose stays fixed when ``config.refine_poses`` (default: the two views farthest apart,
+        see above); at least two distinct views (all of them when there are fewer than two).
 
     Returns
     -------
@@ -534,6 +626,19 @@ def train(
                 "exposure scale would be unidentifiable. Give one view of every camera."
             )
         exposure_mask = jnp.ones(V).at[jnp.asarray(ref)].set(0.0)
+    pose_mask = None
+    if config.refine_poses:
+        pref = (
+            _pose_reference_views(cams)
+            if pose_reference_views is None
+            else [int(i) for i in pose_reference_views]
+        )
+        if any(not 0 <= i < V for i in pref) or len(set(pref)) < min(2, V):
+            raise SplatError(
+                f"pose_reference_views={pref}: need at least {min(2, V)} distinct view indices in [0, {V}) "
+                "(one fixed view leaves the scene's scale free, none also its rotation and translation)."
+            )
+        pose_mask = jnp.ones(V).at[jnp.asarray(pref)].set(0.0)
     if resume is not None:
         state = load_checkpoint(resume, state)
 
@@ -556,6 +661,7 @@ def train(
             extent=extent,
             view=jnp.asarray(v, jnp.int32),
             exposure_mask=exposure_mask,
+            pose_mask=pose_mask,
         )
         state = state._replace(step=step + 1)
         if config.densify_from <= step + 1 < config.densify_until and (step + 1) % config.densify_every == 0:
@@ -569,7 +675,19 @@ def train(
             save_checkpoint(state, config.checkpoint)
     history = {k: np.asarray(jnp.stack(v)) if v else np.zeros(0) for k, v in hist.items()}
     factors = np.ones(V) if state.log_exposure is None else np.exp(np.asarray(state.log_exposure, float))
-    return TrainResult(state.params, np.asarray(state.alive), state, history, factors)
+    poses = np.zeros((V, 6)) if state.pose_delta is None else np.asarray(state.pose_delta, float)
+    return TrainResult(state.params, np.asarray(state.alive), state, history, factors, poses)
+
+
+def _pose_reference_views(cams: Camera) -> list[int]:
+    """The two views whose camera centres lie farthest apart (the first view alone if there is one)."""
+    R, t = np.asarray(cams.R, float), np.asarray(cams.t, float)
+    c = -np.einsum("vji,vj->vi", R, t)  # centres −Rᵀ t
+    if len(c) < 2:
+        return [0]
+    d = np.linalg.norm(c[:, None] - c[None], axis=-1)
+    i, j = np.unravel_index(np.argmax(d), d.shape)
+    return sorted({int(i), int(j)})
 
 
 def _reference_views(capture: Capture) -> list[int]:
