@@ -8,6 +8,8 @@ splat; held-out PSNR per channel; pose error.
 
     python benchmarks/bench_capture.py --size ci --steps 300
     python benchmarks/bench_capture.py --size ci --texture coarse --no-noise --true-poses   # colour alone
+    python benchmarks/bench_capture.py --size ci --texture coarse --no-noise --steps 1000 --capacity 4096 \
+        --flat-only --refine-poses                          # pycolmap's poses refined in training
     python benchmarks/bench_capture.py --size benchmark --steps 3000 --work /tmp/bench_capture
     python benchmarks/bench_capture.py --cost [--quick] [--size benchmark] --work /tmp/cost   # cost only
 
@@ -41,7 +43,8 @@ import numpy as np
 STEP_CODE = (
     "import sys; from splat.pipeline import run, PipelineConfig; "
     "cfg = PipelineConfig(steps=int(sys.argv[3]), capacity=int(sys.argv[4]), quantum=float(sys.argv[5]), "
-    "threads=int(sys.argv[6])); run(sys.argv[1], sys.argv[2], config=cfg, steps=(sys.argv[7],))"
+    "threads=int(sys.argv[6]), refine_poses=sys.argv[8] == '1'); "
+    "run(sys.argv[1], sys.argv[2], config=cfg, steps=(sys.argv[7],))"
 )
 
 
@@ -61,6 +64,7 @@ def _step(capture: Path, out: Path, step: str, args) -> tuple[float, float]:
             str(args.quantum),
             str(args.threads),
             step,
+            "1" if args.refine_poses else "0",
         ],
         env=env,
         stdout=subprocess.DEVNULL,
@@ -303,6 +307,7 @@ def main(argv=None) -> int:
     ap.add_argument("--texture", choices=("fine", "coarse"), default="fine")
     ap.add_argument("--no-noise", action="store_true", help="noise-free simulated capture")
     ap.add_argument("--true-poses", action="store_true", help="give the true poses as a COLMAP model")
+    ap.add_argument("--refine-poses", action="store_true", help="train with splat's --refine-poses")
     ap.add_argument(
         "--flat-only",
         action="store_true",
@@ -383,6 +388,14 @@ def main(argv=None) -> int:
             f"\npose error: {p['registered']}/{p['of']} registered, centre error mean "
             f"{p['centre_error_mean']:.4f} (max {p['centre_error_max']:.4f}) for a scene extent "
             f"{p['scene_extent']:.2f}; rotation error mean {p['rotation_error_deg_mean']:.3f}°"
+        )
+    if "pose_training_views" in sc:
+        p = sc["pose_training_views"]
+        a, b = p["recovered"], p["refined"]
+        print(
+            f"training views ({p['views']}): centre error mean {a['centre_error_mean']:.4f} → "
+            f"{b['centre_error_mean']:.4f}, rotation error mean {a['rotation_error_deg_mean']:.3f}° → "
+            f"{b['rotation_error_deg_mean']:.3f}° (recovered → refined by --refine-poses)"
         )
     allk = [k for k in keys if k.count("+") == len(sc_cams(dE)) - 1 and not k.startswith(("dng", "raw"))]
     for what, table in (("all pixels", dE), ("flat pixels", fE)):
