@@ -469,9 +469,14 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
       bound is active; continuous in the response, so is the estimate). ``λ_in`` and
       ``λ_bd`` ∈ {0, 0.1, …, 1} are chosen by cross-validation on atypical spectra made from the
       training set only (:func:`learn_mix`: contrast-stretched training spectra, 300 by default,
-      scored with the whole estimator refitted on the other folds). Chosen ``(λ_in, λ_bd)``
-      (400–700 nm, D65, rawtoaces 190; 400–680 nm with the Sigma): see ``params["mix"]`` and
-      ``benchmarks/bench_estimators.py``.
+      scored with the whole estimator refitted on the other folds); the pair is kept only where it
+      beats the best single λ by more than the standard error of the paired difference (the
+      one-standard-error rule), else one λ serves both cases. Chosen (400–700 nm, D65, rawtoaces 190;
+      400–680 nm with the Sigma): one λ, 0.9 Nikon 5100, 0.6 Canon EOS 5D Mark II, 0.8 the two (the
+      best pairs gained 0.001–0.004 ΔE00 ± 0.003–0.004); ``(λ_in, λ_bd)`` = (0.7, 0.2) Nikon 5100 +
+      Sigma SD Merrill (gain 0.019 ± 0.013 over λ = 0.5) and (0.7, 0.3) all three (0.007 ± 0.004
+      over 0.5): with the Sigma's channels the MAP whose Gaussian mode the bounds cut off is the
+      weaker summary.
 
     All three points lie in the MMV, hence so does the estimate. The centroid (the costly part: 2–4 CPU-ms
     per colour at 10 nm with one or two cameras, measured on 200 atypical and 100 natural
@@ -481,18 +486,18 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     the branches. Measured (400–700 nm / 10 nm, D65, rawtoaces 190 training, test spectra within
     0.02 of a training one removed): on the 42 built-in natural spectra the gate opens (``w < 0.99``)
     for 9.5 % with Nikon 5100 alone and 2.4 % with Nikon 5100 + Canon EOS 5D Mark II, and a centroid
-    is computed for 0 % and 0 % (``λ_in = 1``: an interior MAP needs no centroid) —
-    ``tests/test_correct.py`` keeps these at ≤ 10 % / ≤ 3 % and ≤ 3 %; on the 565–574 natural spectra
-    of ``benchmarks/bench_estimators.py`` (built-ins and 150-spectrum subsets of ``../shared/data``)
-    the gate opens for 8.7–9.1 % (one camera) and 2.4–3.2 % (two or three), a centroid is computed
-    for 0–0.2 % (one camera, Nikon + Canon) and 2.7–3.0 % (with the Sigma); on the 200 atypical
-    spectra for 21–26 %, 58 % and 81–92 %. ``x̂`` and the MMV test of ``t_nat`` take a closed form
-    for most natural responses (:func:`zonotope.prior.interior_solution`; 12 % / 5 % of the built-in
-    natural responses need any solver): ``params["closed_form"]`` computes every such estimate in
-    one vectorised pass, so natural images cost little more than the regression. Fit + apply on 10⁴
+    is computed for 2.4 % (1 of 42) and 0 % — ``tests/test_correct.py`` keeps these at ≤ 10 % / ≤ 3 %
+    and ≤ 3 %; on the 565–574 natural spectra of ``benchmarks/bench_estimators.py`` (built-ins and
+    150-spectrum subsets of ``../shared/data``) the gate opens for 8.7–9.1 % (one camera) and
+    2.4–3.2 % (two or three), a centroid is computed for 1.2–4.5 % and 1.7–3.0 %; on its 200
+    atypical spectra for 32–41 % (one camera) and 79–92 % (two or three). ``x̂`` and the MMV test
+    of ``t_nat`` take a closed form for most natural responses
+    (:func:`zonotope.prior.interior_solution`; 14 % / 5 % of the built-in natural responses need
+    any solver): ``params["closed_form"]`` computes every such estimate in one vectorised pass, so
+    natural images cost little more than the regression. Fit + apply on 10⁴
     natural responses (``benchmarks/bench_correct.py --fit-apply 10000``, median of 3, 2 shared
-    cores, load ≈ 6): 3.8 s with Nikon 5100 (MAP 1.17 s: 3.2×; root-polynomial 1.8 ms), 4.0 s with
-    Nikon 5100 + Sony ILCE-7M3 (MAP 0.72 s: 5.6×); most of it is the fit (:func:`learn_mix`: 300 MMV
+    cores, load ≈ 6–7): 4.0 s with Nikon 5100 (MAP 0.84 s: 4.8×; root-polynomial 1.6 ms), 4.1 s with
+    Nikon 5100 + Sony ILCE-7M3 (MAP 0.73 s: 5.6×); most of it is the fit (:func:`learn_mix`: 300 MMV
     centroids and 10 refits), 3–5 % of these responses need a solver.
 
     Uncertainty (:meth:`Corrector.with_uncertainty`): a 95 % credible radius in ΔE00 per estimate,
@@ -502,15 +507,15 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     (95 % of a uniform ball lies within 0.983 of its radius), as the largest ΔE00 from ``t_arb`` to
     that ball's axis points, and ``s ≥ 1`` a split-conformal scale from :func:`learn_mix` (the
     smallest that covers 95 % of the held-out contrast-stretched spectra reaching the atypical
-    branch; measured 2.04 Nikon 5100, 1.09 Canon EOS 5D Mark II, 1.26 Nikon + Sigma, 1.0 Nikon +
+    branch; measured 2.04 Nikon 5100, 1.09 Canon EOS 5D Mark II, 1.21 Nikon + Sigma, 1.0 Nikon +
     Canon and all three, where it would have been < 1). Where ``w ≥ 0.99`` the MMV is not computed
     and ``r = √w · r_nat``. The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
     held-out spectra and ``r_MMV`` is a ball of the MMV's size, not a bound (the MMV itself is the
     100 % region, noise-free). Measured coverage (``benchmarks/bench_estimators.py``): 86–100 % on
     natural sets except SFU Krinov (51–86 %, its errors exceed the training CV's); on atypical sets
-    43–94 %, because the atypical spectra the gate takes for natural (``w ≥ 0.99``: 5–57 % of them)
+    43–95 %, because the atypical spectra the gate takes for natural (``w ≥ 0.99``: 5–57 % of them)
     get the natural radius and are covered only 10–60 % of the time; the others are covered
-    70–96 % (57–96 % with ``s = 1``).
+    70–97 % (57–96 % with ``s = 1``, previous round).
 
     Parameters
     ----------
