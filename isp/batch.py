@@ -87,35 +87,36 @@ def develop_folder(args: argparse.Namespace) -> int:
 
     from zonotope.parallel import FileTask, resolve_scheduler, run_files
 
-    from .cli import _metamer, _progress
+    from .cli import _fail, _metamer, _progress
 
     console = Console(stderr=True)
     out_dir = Path(args.output)
     if out_dir.exists() and not out_dir.is_dir():
-        console.print(f"[red]error:[/] -o {out_dir}: with an input folder the output must be a folder.")
-        return 2
+        return _fail(f"-o {out_dir}: with an input folder the output must be a folder.")
     files = raw_files(args.input)
     if not files:
-        console.print(f"[red]error:[/] no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {args.input}.")
-        return 2
+        return _fail(f"no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {args.input}.")
     if out_dir.resolve() == Path(args.input).resolve():
-        console.print(
-            "[red]error:[/] -o must be another folder than the input folder (inputs are never touched)."
-        )
-        return 2
+        return _fail("-o must be another folder than the input folder (inputs are never touched).")
     if getattr(args, "overwrite", False):
-        console.print(
-            "[red]error:[/] --overwrite does not apply to folders: a rerun keeps finished "
+        return _fail(
+            "--overwrite does not apply to folders: a rerun keeps finished "
             "outputs (delete them to develop again)."
         )
-        return 2
+    tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
+    taken: dict[str, Path] = {}
+    for f in files:  # IMG_0001.CR2 next to IMG_0001.dng: refused before the fit or any folder is made
+        if f.stem in taken:
+            return _fail(
+                f"{taken[f.stem]} and {f} would both be developed to {out_dir / (f.stem + '.tif')}; "
+                "move one of them to another folder."
+            )
+        taken[f.stem] = f
     fitted, error = _metamer(args)  # fitted once, sent to every worker once
     if error:
-        console.print(f"[red]error:[/] {error}")
-        return 2
+        return _fail(error)
     out_dir.mkdir(parents=True, exist_ok=True)
     values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
-    tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
     where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))
     with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
         task = bar.add_task(f"developing ({where})", total=len(tasks))
@@ -130,10 +131,11 @@ def develop_folder(args: argparse.Namespace) -> int:
     failed = [r for r in rows if r["status"] == "failed"]
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
     for r in failed:
-        console.print(f"[red]failed:[/] {r['input']}: {r['error']}")
+        console.print(f"[red]failed:[/] {r['input']}: {r['error']}", soft_wrap=True)
     if not args.quiet or failed:
         console.print(
             f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
-            f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})"
+            f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})",
+            soft_wrap=True,
         )
     return 1 if failed else 0

@@ -191,17 +191,15 @@ def _develop(args: argparse.Namespace) -> int:
     options = {}
     if args.exposure is not None:
         if tonemap is None or tonemap.lower() != "clip":
-            console.print(
-                "[red]error:[/] --exposure applies to --tonemap clip only "
+            return _fail(
+                "--exposure applies to --tonemap clip only "
                 "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
             )
-            return 2
         options = {"exposure": args.exposure}
     fitted = getattr(args, "fitted_metamer", None)  # a folder batch fits once for every file
     metamer, error = (fitted, None) if fitted is not None else _metamer(args)
     if error:
-        console.print(f"[red]error:[/] {error}")
-        return 2
+        return _fail(error)
     correction = metamer if metamer is not None else args.correction
     pipeline = default_pipeline(
         demosaic=args.demosaic,
@@ -215,13 +213,11 @@ def _develop(args: argparse.Namespace) -> int:
 
         pipeline, error = profile_pipeline(pipeline, args)
         if error:
-            console.print(f"[red]error:[/] {error}")
-            return 2
+            return _fail(error)
     if args.save_stages:
         stage_dir = Path(args.save_stages)
         if stage_dir.exists() and any(stage_dir.iterdir()) and not args.overwrite:
-            console.print(f"[red]error:[/] {stage_dir} is not empty; use --overwrite or another folder.")
-            return 2
+            return _fail(f"--save-stages {stage_dir} is not empty; use --overwrite or another folder.")
     with _progress(console, args.quiet) as progress:
         task = progress.add_task(f"reading {src.name}", total=len(pipeline) + 2)
         raw = read_raw(src)
@@ -236,7 +232,8 @@ def _develop(args: argparse.Namespace) -> int:
                     f"[yellow]warning:[/] the file's AsShotNeutral differs by "
                     f"{100 * mismatch:.0f} % from the white of {args.camera!r} under "
                     f"{args.illuminant or 'D65'}: the light was not that illuminant (set "
-                    "--illuminant) or the sensitivities are not this camera's."
+                    "--illuminant) or the sensitivities are not this camera's.",
+                    soft_wrap=True,
                 )
 
             colour_task = []
@@ -280,7 +277,8 @@ def _develop(args: argparse.Namespace) -> int:
         console.print(
             f"[yellow]note:[/] {metamer.fallbacks} colour(s) had no {metamer.method} estimate "
             "(response on or outside the camera's object-colour solid); root-polynomial "
-            "regression used for them."
+            "regression used for them.",
+            soft_wrap=True,
         )
     if not args.quiet:
         how = (
@@ -293,7 +291,8 @@ def _develop(args: argparse.Namespace) -> int:
         turned = "" if raw.orientation == 1 else f", Orientation {raw.orientation} applied"
         console.print(
             f"{src} → {out} ({dev.image.shape[1]}×{dev.image.shape[0]}{turned}, "
-            f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})"
+            f"{' → '.join(pipeline.names)}; {how}; white balance: {wb})",
+            soft_wrap=True,  # one line however narrow the terminal (or 80 columns when piped)
         )
     return 0
 
@@ -461,16 +460,38 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _fail(message: str) -> int:
+    """Bad options: ``isp: error: …`` as one line on stderr (as :func:`main` prints project errors), 2."""
+    print("isp: error: " + " ".join(str(message).split()), file=sys.stderr)
+    return 2
+
+
+def _stdout_gone() -> int:
+    """Exit status after the reader of stdout closed it (``isp info F | head``): 128 + SIGPIPE, quietly."""
+    import os
+    import signal
+
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+    except (OSError, ValueError, AttributeError):  # stdout without a file descriptor (captured)
+        pass
+    return 128 + signal.SIGPIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``isp`` command; returns the exit status (2 for bad input)."""
     from zonotope import ZonotopeError
 
     args = _parser().parse_args(argv)
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
     except KeyboardInterrupt:
         print("isp: interrupted (no output was written or replaced)", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        return _stdout_gone()
     except (ZonotopeError, OSError, ValueError) as exc:  # one line, no traceback
         print("isp: error: " + " ".join(str(exc).split()), file=sys.stderr)
         return 2

@@ -185,7 +185,7 @@ def _correct(args: argparse.Namespace) -> int:
 
     from ._errors import ZonotopeError
     from .correct import CORRECTION_METHODS, fit_correction
-    from .parallel import FileTask, resolve_scheduler, run_files
+    from .parallel import FileTask, _check_tasks, resolve_scheduler, run_files
 
     console = Console(stderr=True)
     if not (np.isfinite(args.quantum) and args.quantum >= 0):
@@ -195,6 +195,7 @@ def _correct(args: argparse.Namespace) -> int:
     if out_dir.exists() and not out_dir.is_dir():
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
+    _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
     corrector = None  # a rerun with every output present (all 'done') needs no fit
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
@@ -227,11 +228,12 @@ def _correct(args: argparse.Namespace) -> int:
         )
     failed = [r for r in rows if r["status"] == "failed"]
     for r in failed:
-        console.print(f"[red]failed:[/] {r['input']}: {r['error']}")
+        console.print(f"[red]failed:[/] {r['input']}: {r['error']}", soft_wrap=True)
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
     console.print(
         f"{counts['ok']} corrected, {counts['done']} already done, {counts['failed']} failed → "
-        f"{out_dir} (manifest: {out_dir / 'manifest.csv'})"
+        f"{out_dir} (manifest: {out_dir / 'manifest.csv'})",
+        soft_wrap=True,
     )
     return 1 if failed else 0
 
@@ -263,7 +265,7 @@ def _survey(args: argparse.Namespace) -> int:
         [c for spec in args.cameras for c in ([spec] if Path(spec).is_dir() else spec.split(","))]
     )
     for s in skipped:
-        console.print(f"[yellow]skipped:[/] {s}")
+        console.print(f"[yellow]skipped:[/] {s}", soft_wrap=True)
     from itertools import combinations
 
     if not 1 <= args.size <= len(cams):  # before any bar or worker starts
@@ -328,7 +330,7 @@ def _survey(args: argparse.Namespace) -> int:
                 )
     for r in rows:
         if r.error:
-            console.print(f"[red]failed:[/] {' + '.join(r.cameras)}: {r.error}")
+            console.print(f"[red]failed:[/] {' + '.join(r.cameras)}: {r.error}", soft_wrap=True)
     if args.output:
         console.print(f"wrote {write_table(rows, args.output)}")
     return 1 if any(r.error for r in rows) else 0

@@ -361,6 +361,51 @@ def _check_numbers(args: argparse.Namespace) -> None:
         raise bad("--noise", noise, "the response noise σ must be finite and ≥ 0")
 
 
+def _check_data(args: argparse.Namespace) -> None:
+    """``--data`` must be a folder that holds at least one of the real sets evaluate/report read.
+
+    A wrong path used to be ignored: the run went on with the built-in sets only and said nothing.
+    """
+    folder = getattr(args, "data", None)
+    if folder is None:
+        return
+    from pathlib import Path
+
+    import numpy as np
+
+    from ._errors import SpectralDataError
+    from .evaluate import natural_test_sets
+
+    if not Path(folder).is_dir():
+        raise SpectralDataError(
+            f"--data {folder!r}: no such folder; give a folder laid out like ../shared/data "
+            "(Munsell, SFU 1995, CIE 224 reflectances) or leave --data out."
+        )
+    grid = np.arange(400.0, 701.0, 10.0)
+    if len(natural_test_sets(grid, data_dir=folder, size=1)) == len(natural_test_sets(grid, size=1)):
+        raise SpectralDataError(
+            f"--data {folder!r} holds none of the real reflectance sets (Munsell matte, SFU 1995, "
+            "CIE 224 CES) in the layout of ../shared/data; point it at that folder or leave --data out."
+        )
+
+
+def _stdout_gone() -> int:
+    """Exit status after the reader of stdout closed it: 128 + SIGPIPE, nothing printed.
+
+    Standard output is pointed at ``os.devnull`` so that the interpreter's final flush cannot raise
+    (and print a traceback) again.
+    """
+    import os
+    import signal
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout without a file descriptor (captured)
+        pass
+    return 128 + signal.SIGPIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``zonotope`` command."""
     from ._errors import ZonotopeError
@@ -368,10 +413,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         _check_numbers(args)
-        return args.func(args)
+        _check_data(args)
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return status
     except KeyboardInterrupt:
         print("zonotope: interrupted (no output was written or replaced)", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (zonotope list | head): stop quietly, as Unix tools do
+        return _stdout_gone()
     except OSError as error:  # unreadable input, unwritable output folder, disk full: one line
         if isinstance(error, ZonotopeError):
             print(f"zonotope: error: {error}", file=sys.stderr)

@@ -449,6 +449,31 @@ def _write_manifest(path: Path, rows: list[dict]) -> None:
     os.replace(tmp, path)
 
 
+def _check_tasks(tasks: list[FileTask]) -> None:
+    """Refuse a layout where two inputs share an output or an output is an input (before any work).
+
+    Raises
+    ------
+    ParallelError
+        Naming the two inputs (or the output) concerned.
+    """
+    first: dict[Path, str] = {}
+    for t in tasks:
+        out = Path(t.output).resolve()
+        if out in first:
+            if Path(first[out]).resolve() == Path(t.input).resolve():
+                raise ParallelError(f"input {t.input} is given more than once; give each file once.")
+            raise ParallelError(
+                f"inputs {first[out]} and {t.input} would both be written to {t.output}; "
+                "rename one of them or give them separately to different output folders."
+            )
+        first[out] = str(t.input)
+    ins = {Path(t.input).resolve() for t in tasks}
+    clash = [str(t.output) for t in tasks if Path(t.output).resolve() in ins]
+    if clash:
+        raise ParallelError(f"output {clash[0]} is one of the inputs; choose another output folder.")
+
+
 def run_files(
     tasks: Iterable[FileTask],
     work: Callable[[str, str, Any], None],
@@ -494,13 +519,7 @@ def run_files(
     import time
 
     tasks = list(tasks)
-    outs = [Path(t.output).resolve() for t in tasks]
-    ins = {Path(t.input).resolve() for t in tasks}
-    if len(set(outs)) != len(outs):
-        raise ParallelError("two inputs map to one output name; rename one of them or use another layout.")
-    clash = [str(o) for o in outs if o in ins]
-    if clash:
-        raise ParallelError(f"output {clash[0]} is one of the inputs; choose another output folder.")
+    _check_tasks(tasks)
     manifest = Path(manifest)
     rows: list[dict] = []
     todo: list[int] = []

@@ -1,0 +1,103 @@
+"""Command-line paths found broken in the user-path review: each test failed on the code before its fix.
+
+- a reader that closes the pipe early (``zonotope list illuminants | head -1``) made ``zonotope``
+  print "zonotope: error: Broken pipe" and exit 2 (now: quiet, 128 + SIGPIPE, as Unix tools; rich
+  tables, as ``isp info`` prints, already stopped quietly with status 1);
+- ``--data`` naming a missing or unrelated folder was ignored: the evaluation ran on the built-in
+  sets only and said nothing;
+- ``zonotope correct`` refused two inputs with one output name only after fitting the estimator
+  (35 s for Prior on two cameras), without naming them;
+- ``isp develop`` printed some bad-option errors through rich, wrapped over several lines at 80
+  columns and without the ``isp: error:`` prefix; a folder holding IMG_0001.dng and IMG_0001.CRW
+  was refused without naming the files, after creating the output folder.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+CAMERAS = ["--camera", "Nikon 5100 (NPL)", "--camera", "Canon EOS 5D Mark II"]
+
+
+def _closed_pipe_run(argv: list[str]) -> subprocess.CompletedProcess:
+    """Run ``python -m argv`` with its stdout a pipe whose reading end is closed before it writes."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    proc.stdout.close()  # the reader is gone long before the interpreter has imported anything
+    _, err = proc.communicate(timeout=300)
+    return subprocess.CompletedProcess(argv, proc.returncode, "", err)
+
+
+def test_zonotope_output_into_a_closed_pipe_is_quiet():
+    r = _closed_pipe_run(["zonotope", "list", "illuminants"])
+    assert r.stderr == "" and r.returncode == 128 + signal.SIGPIPE, (r.returncode, r.stderr)
+
+
+@pytest.mark.parametrize("kind", ["missing", "unrelated"])
+def test_data_folder_that_holds_no_sets_is_refused(kind, tmp_path, capsys):
+    from zonotope.cli import main
+
+    folder = tmp_path / "nope" if kind == "missing" else tmp_path  # tmp_path: a folder, no data sets
+    argv = ["--camera", "Nikon 5100 (NPL)", "--data", str(folder), "--method", "matrix", "--atypical", "0"]
+    assert main(["evaluate", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith(f"zonotope: error: --data {str(folder)!r}"), err
+    assert ("no such folder" if kind == "missing" else "holds none") in err
+    out = tmp_path / "report"
+    assert main(["report", "--camera", "Nikon 5100 (NPL)", "--data", str(folder), "-o", str(out)]) == 2
+    assert "--data" in capsys.readouterr().err and not out.exists()
+
+
+def test_correct_refuses_clashing_outputs_before_the_fit(tmp_path, capsys):
+    import tifffile
+
+    from zonotope.cli import main
+
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        tifffile.imwrite(tmp_path / sub / "x.tif", np.full((2, 3, 6), 0.3, np.float32))
+    out = tmp_path / "out"
+    assert main(["correct", str(tmp_path / "a"), str(tmp_path / "b"), "-o", str(out), *CAMERAS]) == 2
+    err = capsys.readouterr().err
+    assert "fitting" not in err and not out.exists(), err  # refused before the estimator is fitted
+    assert str(tmp_path / "a" / "x.tif") in err and str(tmp_path / "b" / "x.tif") in err, err
+    same = str(tmp_path / "a" / "x.tif")
+    assert main(["correct", same, same, "-o", str(out), *CAMERAS]) == 2
+    err = capsys.readouterr().err
+    assert "given more than once" in err and "fitting" not in err and not out.exists(), err
+
+
+@pytest.mark.parametrize(
+    ("options", "start"),
+    [
+        (["--exposure", "2"], "isp: error: --exposure applies to --tonemap clip only"),
+        (["--correction", "metamer"], "isp: error: --correction metamer needs --camera"),
+    ],
+)
+def test_isp_option_errors_are_one_line(options, start, tmp_path, capsys):
+    from isp.cli import main
+
+    argv = ["develop", str(tmp_path / "photo.dng"), "-o", str(tmp_path / "photo.tif"), *options]
+    assert main(argv) == 2  # refused before the file is read: it need not exist
+    err = capsys.readouterr().err
+    assert err.endswith("\n") and err.count("\n") == 1 and err.startswith(start), repr(err)
+
+
+def test_isp_folder_with_one_stem_twice_names_both_files(tmp_path, capsys):
+    from isp.cli import main
+
+    raws = tmp_path / "raws"
+    raws.mkdir()
+    for name in ("IMG_0001.dng", "IMG_0001.CRW"):  # refused before any file is read
+        (raws / name).write_bytes(b"\x00" * 16)
+    out = tmp_path / "developed"
+    assert main(["develop", str(raws), "-o", str(out), "--scheduler", "serial"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("isp: error: "), repr(err)
+    assert "IMG_0001.dng" in err and "IMG_0001.CRW" in err and not out.exists(), err
