@@ -24,8 +24,10 @@ Which estimator when
     by Bayes' rule, how much of each conditional estimate to take: the projected regression for
     natural; for atypical a mix ``λ · MAP + (1 − λ) · MMV centroid`` whose ``λ`` is chosen by
     cross-validation on contrast-stretched training spectra (MAP is the better guess with one
-    camera, the centroid with stacked ones). It behaves like regression on natural colours and
-    like the better of MAP and centroid on atypical ones. Options: :class:`PriorConfig` or keywords.
+    camera, the centroid with stacked ones; a second λ for MAP reflectances that the [0, 1] bounds
+    cut off is kept where it beats one λ by more than a standard error). It behaves like
+    regression on natural colours and like the better of MAP and centroid on atypical ones.
+    Options: :class:`PriorConfig` or keywords.
     See :func:`fit_Prior`.
 
 Module layout
