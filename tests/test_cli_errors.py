@@ -6,7 +6,8 @@
 - ``--data`` naming a missing or unrelated folder was ignored: the evaluation ran on the built-in
   sets only and said nothing;
 - ``zonotope correct`` refused two inputs with one output name only after fitting the estimator
-  (35 s for Prior on two cameras), without naming them;
+  (35 s for Prior on two cameras), without naming them, and read integer TIFFs (16-bit counts) as
+  responses with the white at 1: a value of 1000 came out as XYZ ≈ 1000;
 - ``isp develop`` printed some bad-option errors through rich, wrapped over several lines at 80
   columns and without the ``isp: error:`` prefix; a folder holding IMG_0001.dng and IMG_0001.CRW
   was refused without naming the files, after creating the output folder.
@@ -61,7 +62,9 @@ def test_correct_refuses_clashing_outputs_before_the_fit(tmp_path, capsys):
 
     for sub in ("a", "b"):
         (tmp_path / sub).mkdir()
-        tifffile.imwrite(tmp_path / sub / "x.tif", np.full((2, 3, 6), 0.3, np.float32))
+        tifffile.imwrite(
+            tmp_path / sub / "x.tif", np.full((2, 3, 6), 0.3, np.float32), photometric="minisblack"
+        )
     out = tmp_path / "out"
     assert main(["correct", str(tmp_path / "a"), str(tmp_path / "b"), "-o", str(out), *CAMERAS]) == 2
     err = capsys.readouterr().err
@@ -101,3 +104,20 @@ def test_isp_folder_with_one_stem_twice_names_both_files(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("isp: error: "), repr(err)
     assert "IMG_0001.dng" in err and "IMG_0001.CRW" in err and not out.exists(), err
+
+
+def test_correct_refuses_integer_tiffs(tmp_path, capsys):
+    import tifffile
+
+    from zonotope.cli import main
+
+    src = tmp_path / "in"
+    src.mkdir()
+    tifffile.imwrite(src / "counts.tif", np.full((4, 4, 6), 1000, np.uint16), photometric="minisblack")
+    tifffile.imwrite(src / "float.tif", np.full((4, 4, 6), 0.3, np.float32), photometric="minisblack")
+    out = tmp_path / "out"
+    argv = ["correct", str(src), "-o", str(out), *CAMERAS, "--method", "matrix", "--scheduler", "serial"]
+    assert main(argv) == 1  # the bad file is reported, the good one corrected
+    err = capsys.readouterr().err
+    assert "counts.tif: uint16 pixels" in err and "float" in err, err
+    assert not (out / "counts_XYZ.tif").exists() and (out / "float_XYZ.tif").exists()

@@ -165,9 +165,15 @@ def correct_file(src: str, tmp_out: str, options) -> None:
 
     corrector, quantum = options
     try:
-        img = np.asarray(tifffile.imread(src), dtype=np.float64)
+        raw = tifffile.imread(src)
     except (OSError, ValueError, tifffile.TiffFileError) as error:
         raise ZonotopeError(f"{src}: not a readable TIFF ({error}).") from error
+    if not np.issubdtype(raw.dtype, np.floating):  # 16-bit counts were read as responses of ~1000 × white
+        raise ZonotopeError(
+            f"{src}: {raw.dtype} pixels; zonotope correct reads float TIFFs of responses with the white "
+            "at 1 per channel (divide by the white's value and save as float32)."
+        )
+    img = np.asarray(raw, dtype=np.float64)
     k = corrector.problem.Phi.shape[1]
     if img.ndim != 3 or img.shape[-1] != k:
         raise ZonotopeError(
