@@ -19,7 +19,7 @@ def _status(console, message: str):
 
     if console.is_terminal:
         return console.status(message)
-    console.print(message)
+    console.print(message, soft_wrap=True)
     return contextlib.nullcontext()
 
 
@@ -43,6 +43,10 @@ def _profile(args: argparse.Namespace) -> int:
     if args.lut and Path(args.lut).suffix.lower() not in (".cube", ".csp"):
         raise ZonotopeError(f"--lut {args.lut}: use a .cube (Resolve) or .csp (Cinespace) file.")
     dims = None if args.matrix_only else (args.hue_sat_size[0], args.hue_sat_size[1], 1)
+    if dims is not None and (dims[0] < 1 or dims[1] < 2):  # named as on the command line, not ProfileConfig
+        raise ZonotopeError(
+            f"--hue-sat-size {dims[0]} {dims[1]}: need hues ≥ 1 and saturations ≥ 2 (default 90 30)."
+        )
     look = None if args.matrix_only or args.no_look_table else tuple(args.look_table_size)
     if look is not None and (look[0] < 1 or look[1] < 2 or look[2] < 1):
         raise ZonotopeError(
@@ -62,14 +66,22 @@ def _profile(args: argparse.Namespace) -> int:
     )
     lut_config = None
     if args.lut:
-        lut_config = LUTConfig(size=args.lut_size, space=args.lut_space, headroom=args.headroom)
+        try:
+            lut_config = LUTConfig(size=args.lut_size, space=args.lut_space, headroom=args.headroom)
+        except ZonotopeError as error:  # LUTConfig names its fields (size=, headroom=): add the option
+            option = {"size": "--lut-size", "headroom": "--headroom"}.get(str(error).split("=")[0], "--lut")
+            raise type(error)(f"{option}: {error}") from error
+    import zonotope
+
+    zonotope.load_camera(args.camera)  # an unknown name or a bad file: refused before "fitting …"
     with _status(console, f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
         fit = fit_dcp(args.camera, config)
     write_dcp(out, fit.profile, overwrite=args.overwrite)
     console.print(
         f"camera profile written to {out} (UniqueCameraModel {fit.profile.unique_camera_model!r}, "
         f"{'matrices only' if dims is None else f'HueSatMap {dims[0]}×{dims[1]}'}"
-        f"{'' if look is None else f', LookTable {look[0]}×{look[1]}×{look[2]}'})"
+        f"{'' if look is None else f', LookTable {look[0]}×{look[1]}×{look[2]}'})",
+        soft_wrap=True,
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
@@ -83,7 +95,8 @@ def _profile(args: argparse.Namespace) -> int:
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
             f"3-D LUT written to {args.lut} (white-balanced camera RGB under "
-            f"{fit.illuminants[-1]} → linear {args.lut_space}, input 0…{args.headroom:g})"
+            f"{fit.illuminants[-1]} → linear {args.lut_space}, input 0…{args.headroom:g})",
+            soft_wrap=True,
         )
     if args.save_correction:
         save_correction(args.save_correction, mc.corrector, overwrite=args.overwrite)

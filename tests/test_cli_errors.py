@@ -121,3 +121,23 @@ def test_correct_refuses_integer_tiffs(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "counts.tif: uint16 pixels" in err and "float" in err, err
     assert not (out / "counts_XYZ.tif").exists() and (out / "float_XYZ.tif").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "start"),
+    [
+        (["--camera", "No Such Camera"], "isp: error: unknown camera 'No Such Camera'"),
+        (["--camera", "Nikon 5100 (NPL)", "--hue-sat-size", "0", "5"], "isp: error: --hue-sat-size 0 5: "),
+        (["--camera", "Nikon 5100 (NPL)", "--lut", "x.cube", "--lut-size", "1"], "isp: error: --lut-size: "),
+        (["--camera", "Nikon 5100 (NPL)", "--lut", "x.cube", "--headroom", "0"], "isp: error: --headroom: "),
+    ],
+)
+def test_isp_profile_errors_name_the_option_before_fitting(options, start, tmp_path, capsys):
+    """Were ``ProfileConfig.dims=(0, 5, 1)``, ``size=1`` (the API's names), and an unknown camera was
+    reported after 'fitting Prior for No Such Camera under A and D65…'."""
+    from isp.cli import main
+
+    assert main(["profile", "-o", str(tmp_path / "p.dcp"), *options]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(start) and err.count("\n") == 1 and "fitting" not in err, repr(err)
+    assert list(tmp_path.iterdir()) == []
