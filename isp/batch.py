@@ -112,12 +112,12 @@ def develop_folder(args: argparse.Namespace) -> int:
                 "move one of them to another folder."
             )
         taken[f.stem] = f
+    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))  # before any work
     fitted, error = _metamer(args)  # fitted once, sent to every worker once
     if error:
         return _fail(error)
     out_dir.mkdir(parents=True, exist_ok=True)
     values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
-    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))
     with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
         task = bar.add_task(f"developing ({where})", total=len(tasks))
         rows = run_files(

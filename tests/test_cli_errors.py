@@ -141,3 +141,31 @@ def test_isp_profile_errors_name_the_option_before_fitting(options, start, tmp_p
     err = capsys.readouterr().err
     assert err.startswith(start) and err.count("\n") == 1 and "fitting" not in err, repr(err)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["zonotope", "isp"])
+def test_bad_scheduler_is_refused_before_any_work_and_says_where_it_came_from(
+    command, tmp_path, capsys, monkeypatch
+):
+    """A bad ``ZONOTOPE_SCHEDULER`` was reported as "scheduler 'bogus' is neither …" (not naming the
+    variable the user may have forgotten), by ``zonotope correct`` after the fit and by ``isp develop``
+    after creating the output folder."""
+    import tifffile
+
+    src = tmp_path / "in"
+    src.mkdir()
+    out = tmp_path / "out"
+    monkeypatch.setenv("ZONOTOPE_SCHEDULER", "bogus")
+    if command == "zonotope":
+        from zonotope.cli import main
+
+        tifffile.imwrite(src / "a.tif", np.full((2, 3, 6), 0.3, np.float32), photometric="minisblack")
+        assert main(["correct", str(src), "-o", str(out), *CAMERAS]) == 2
+    else:
+        from isp.cli import main
+
+        (src / "a.dng").write_bytes(b"\x00" * 16)  # never read: refused first
+        assert main(["develop", str(src), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "ZONOTOPE_SCHEDULER='bogus' (environment variable)" in err and "fitting" not in err, err
+    assert not out.exists()

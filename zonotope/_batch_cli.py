@@ -202,6 +202,7 @@ def _correct(args: argparse.Namespace) -> int:
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
+    where = resolve_scheduler(args.scheduler, tasks=len(tasks))  # a bad --scheduler, also before the fit
     corrector = None  # a rerun with every output present (all 'done') needs no fit
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
@@ -221,7 +222,6 @@ def _correct(args: argparse.Namespace) -> int:
             **noise,
         )
     out_dir.mkdir(parents=True, exist_ok=True)
-    where = resolve_scheduler(args.scheduler, tasks=len(tasks))
     bar, callback = _bar(console, args.quiet, f"correcting ({where})")
     with bar:
         rows = run_files(

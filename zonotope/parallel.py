@@ -254,6 +254,7 @@ def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None,
     min_tasks : int
         Batches with fewer tasks run serially when no scheduler is named.
     """
+    from_env = scheduler is None and bool(os.environ.get(ENV_VAR))
     if scheduler is None:
         scheduler = os.environ.get(ENV_VAR) or None
     cores = os.cpu_count() or 1
@@ -261,6 +262,16 @@ def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None,
         if tasks is None or tasks < max(min_tasks, 2) or cores < 2 or not dask_available():
             return "serial"
         return f"local:{min(cores, tasks)}"
+    try:
+        return _parse_scheduler(scheduler, cores)
+    except ParallelError as error:  # the user may not remember having set it: say where it came from
+        if from_env:
+            raise ParallelError(f"{ENV_VAR}={scheduler!r} (environment variable): {error}") from error
+        raise
+
+
+def _parse_scheduler(scheduler, cores: int) -> str:
+    """An explicit scheduler string → ``"serial"``, ``"local:N"`` or an address / scheduler file."""
     if not isinstance(scheduler, str) or not scheduler.strip():
         raise ParallelError(
             f"scheduler must be 'serial', 'local', 'local:N', an address such as "
