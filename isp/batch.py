@@ -85,7 +85,7 @@ def develop_folder(args: argparse.Namespace) -> int:
     """
     from rich.console import Console
 
-    from zonotope.parallel import FileTask, resolve_scheduler, run_files
+    from zonotope.parallel import FileTask, check_settings, resolve_scheduler, run_files
 
     from .cli import _fail, _metamer, _progress
 
@@ -113,6 +113,10 @@ def develop_folder(args: argparse.Namespace) -> int:
             )
         taken[f.stem] = f
     where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))  # before any work
+    # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
+    ignore = {"func", "fitted_metamer", "scheduler", "quiet", "input", "output", "overwrite", "command"}
+    settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
+    check_settings(out_dir / "manifest.csv", settings)
     fitted, error = _metamer(args)  # fitted once, sent to every worker once
     if error:
         return _fail(error)
@@ -127,6 +131,7 @@ def develop_folder(args: argparse.Namespace) -> int:
             manifest=out_dir / "manifest.csv",
             scheduler=where,
             progress=lambda stage, done, total: bar.update(task, completed=done),
+            settings=settings,
         )
     failed = [r for r in rows if r["status"] == "failed"]
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}

@@ -169,3 +169,36 @@ def test_bad_scheduler_is_refused_before_any_work_and_says_where_it_came_from(
     err = capsys.readouterr().err
     assert "ZONOTOPE_SCHEDULER='bogus' (environment variable)" in err and "fitting" not in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["zonotope", "isp"])
+def test_rerun_into_a_folder_with_other_settings_is_refused(command, tmp_path, capsys):
+    """A rerun skips the outputs that exist: with other options it silently kept the old outputs
+    (``zonotope correct`` with another --method, ``isp develop`` with another --demosaic)."""
+    import tifffile
+
+    src = tmp_path / "in"
+    src.mkdir()
+    out = tmp_path / "out"
+    if command == "zonotope":
+        from zonotope.cli import main
+
+        tifffile.imwrite(src / "a.tif", np.full((2, 3, 6), 0.3, np.float32), photometric="minisblack")
+        first = ["correct", str(src), "-o", str(out), *CAMERAS, "--scheduler", "serial", "-q"]
+        assert main([*first, "--method", "matrix"]) == 0
+        assert main([*first, "--method", "Cheung 2004"]) == 0  # an alias of the same method: resumes
+        capsys.readouterr()
+        assert main([*first, "--method", "Finlayson 2015"]) == 2
+        expected = "method: 'Cheung 2004' then, 'Finlayson 2015' now"
+    else:
+        from isp.cli import main
+
+        (src / "a.dng").write_bytes(b"\x00" * 16)  # fails (reported in the manifest), quickly
+        first = ["develop", str(src), "-o", str(out), "--scheduler", "serial", "-q"]
+        assert main(first) == 1
+        assert main(first) == 1  # same settings: resumes (and reports the bad file again)
+        capsys.readouterr()
+        assert main([*first, "--demosaic", "Menon 2007"]) == 2
+        expected = "demosaic: 'Malvar 2004' then, 'Menon 2007' now"
+    err = capsys.readouterr().err
+    assert expected in err and "fitting" not in err and err.count("\n") == 1, err

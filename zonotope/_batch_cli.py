@@ -191,7 +191,7 @@ def _correct(args: argparse.Namespace) -> int:
 
     from ._errors import ZonotopeError
     from .correct import CORRECTION_METHODS, fit_correction
-    from .parallel import FileTask, _check_tasks, resolve_scheduler, run_files
+    from .parallel import FileTask, _check_tasks, check_settings, resolve_scheduler, run_files
 
     console = Console(stderr=True)
     if not (np.isfinite(args.quantum) and args.quantum >= 0):
@@ -203,6 +203,16 @@ def _correct(args: argparse.Namespace) -> int:
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
     where = resolve_scheduler(args.scheduler, tasks=len(tasks))  # a bad --scheduler, also before the fit
+    settings = {  # what the outputs depend on: a rerun into this folder must ask for the same
+        "cameras": list(args.camera),
+        "method": CORRECTION_METHODS.resolve(args.method, argument="--method"),
+        "illuminant": args.illuminant,
+        "training": args.training,
+        "target": args.target,
+        "quantum": args.quantum,
+        "noise": args.noise,
+    }
+    check_settings(out_dir / "manifest.csv", settings)
     corrector = None  # a rerun with every output present (all 'done') needs no fit
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
@@ -231,6 +241,7 @@ def _correct(args: argparse.Namespace) -> int:
             manifest=out_dir / "manifest.csv",
             scheduler=where,
             progress=callback,
+            settings=settings,
         )
     failed = [r for r in rows if r["status"] == "failed"]
     for r in failed:

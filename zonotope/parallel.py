@@ -34,7 +34,7 @@ import logging
 import os
 import re
 import traceback
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import Executor as _Executor
 from concurrent.futures import Future
 from contextlib import contextmanager
@@ -54,6 +54,7 @@ __all__ = [
     "ParallelError",
     "SerialExecutor",
     "TaskFailure",
+    "check_settings",
     "dask_available",
     "executor",
     "resolve_scheduler",
@@ -485,6 +486,58 @@ def _check_tasks(tasks: list[FileTask]) -> None:
         raise ParallelError(f"output {clash[0]} is one of the inputs; choose another output folder.")
 
 
+def _settings_path(manifest: str | os.PathLike) -> Path:
+    manifest = Path(manifest)
+    return manifest.with_name(manifest.stem + ".settings.json")
+
+
+def _settings_json(settings: Mapping[str, Any]) -> dict:
+    import json
+
+    return json.loads(json.dumps(dict(settings), sort_keys=True, default=str))
+
+
+def check_settings(manifest: str | os.PathLike, settings: Mapping[str, Any]) -> None:
+    """Refuse to resume a folder batch that was started with other settings.
+
+    A rerun skips the outputs that exist, so one made with other options (another estimator,
+    demosaicing, white balance, ...) would silently stay among the new ones. :func:`run_files`
+    keeps a batch's ``settings`` beside its manifest (``manifest.csv`` → ``manifest.settings.json``);
+    call this before long work (a fit) to refuse early.
+
+    Parameters
+    ----------
+    manifest : path
+        The batch's manifest path.
+    settings : mapping
+        The options that change the outputs (JSON-serialisable; others are stored as text).
+
+    Raises
+    ------
+    ParallelError
+        The folder holds a batch with other settings; names the first differences.
+    """
+    import json
+
+    path = _settings_path(manifest)
+    if not path.is_file():
+        return
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError) as error:
+        raise ParallelError(
+            f"{path}: unreadable batch settings ({error}); delete it to start over."
+        ) from error
+    new = _settings_json(settings)
+    if old != new:
+        diff = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
+        shown = "; ".join(f"{k}: {old.get(k)!r} then, {new.get(k)!r} now" for k in diff[:3])
+        raise ParallelError(
+            f"{path.parent} holds outputs of a batch with other settings ({shown}); a rerun only "
+            "resumes the same batch: choose another output folder, or delete this one to start over."
+        )
+
+
 def run_files(
     tasks: Iterable[FileTask],
     work: Callable[[str, str, Any], None],
@@ -494,6 +547,7 @@ def run_files(
     scheduler: str | None = None,
     min_tasks: int = 2,
     progress: ProgressCallback | None = None,
+    settings: Mapping[str, Any] | None = None,
 ) -> list[dict]:
     """Make one output file per input file, on the chosen executor; resumable, with a manifest.
 
@@ -514,6 +568,9 @@ def run_files(
     progress : callable, optional
         ``progress("files", done, total)`` over the files that had to be made
         (:class:`~zonotope.ProgressCallback`).
+    settings : mapping, optional
+        The options that change the outputs: kept beside the manifest, and a rerun into the same
+        folder with other settings is refused (:func:`check_settings`).
 
     Returns
     -------
@@ -532,6 +589,15 @@ def run_files(
     tasks = list(tasks)
     _check_tasks(tasks)
     manifest = Path(manifest)
+    if settings is not None:
+        import json
+
+        from ._io import atomic_write_bytes
+
+        check_settings(manifest, settings)
+        if not _settings_path(manifest).is_file():
+            text = json.dumps(_settings_json(settings), sort_keys=True, indent=1, ensure_ascii=False)
+            atomic_write_bytes(_settings_path(manifest), (text + "\n").encode())
     rows: list[dict] = []
     todo: list[int] = []
     for i, t in enumerate(tasks):

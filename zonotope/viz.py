@@ -250,7 +250,6 @@ def plot_mmv(
     truth=None,
     estimates: dict | None = None,
     title: str | None = None,
-    bounds=None,
 ):
     """An MMV (opaque, sRGB-coloured) inside the translucent object-colour solid.
 
@@ -264,10 +263,36 @@ def plot_mmv(
         Estimates drawn as labelled points.
     title : str, optional
         Shown above the picture; default names the cameras and the target, ``""`` shows none.
-    bounds : array_like of shape (6,), optional
-        (xmin, xmax, ymin, ymax, zmin, zmax) of the box that the grid labels and the view frames;
-        default the MMV's bounding box (with the truth and estimates), widened by a third of its size.
+
+    The grid labels and the view frame the MMV's bounding box (with the truth and estimates),
+    widened by a third of its size.
     """
+    return _plot_mmv(
+        problem,
+        response,
+        plotter=plotter,
+        filename=filename,
+        solid_opacity=solid_opacity,
+        truth=truth,
+        estimates=estimates,
+        title=title,
+    )
+
+
+def _plot_mmv(
+    problem,
+    response,
+    *,
+    plotter,
+    filename,
+    solid_opacity=0.12,
+    truth=None,
+    estimates=None,
+    title,
+    bounds=None,
+):
+    """:func:`plot_mmv`; ``bounds`` (xmin, xmax, ..., zmax) is the box to label and frame (default the
+    MMV's, see :func:`_mmv_box`): the panels of :func:`plot_mmv_comparison` share one."""
     from .solid import Zonotope
 
     pv = _pv()
@@ -362,7 +387,7 @@ def plot_mmv_comparison(
     for i, pb in enumerate(problems):
         p.subplot(0, i)
         title = titles[i] if titles else _names(pb)
-        plot_mmv(pb, x @ pb.Phi, plotter=p, truth=x @ pb.Psi, title=title, bounds=box)
+        _plot_mmv(pb, x @ pb.Phi, plotter=p, filename=None, truth=x @ pb.Psi, title=title, bounds=box)
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
     return _finish(p, filename, axes=False)  # every panel already has its labelled grid (plot_mmv)
