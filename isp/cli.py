@@ -225,6 +225,9 @@ def _develop(args: argparse.Namespace) -> int:
             raw = raw.crop(*args.crop)
         wb = describe_white_balance(raw, args.wb)
         progress.advance(task)
+        other = _profile_camera_mismatch(getattr(args, "profile", None), raw)
+        if other:
+            console.print(f"[yellow]warning:[/] {other}", soft_wrap=True)
         if metamer is not None:
             mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
             if mismatch > NEUTRAL_MISMATCH:
@@ -458,6 +461,34 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--metadata-only", action="store_true", help="accept files without pixel data")
     i.set_defaults(func=_info)
     return parser
+
+
+def _profile_camera_mismatch(profile, raw) -> str | None:
+    """A warning when ``--profile FILE`` was made for another camera than the RAW file's, else None.
+
+    Raw developers offer a DCP only for the camera named by its UniqueCameraModel; ``--profile``
+    applies any file, so a Nikon profile on a Canon file would go unnoticed. Names are compared
+    without case and spacing, and one may contain the other ("Canon EOS 550D" in "Canon Canon EOS
+    550D"); files without a recorded model (non-DNG RAW) are not checked.
+    """
+    if not profile or str(profile).lower() == "embedded":
+        return None
+    from .dcp import read_dcp
+
+    made_for = read_dcp(profile).unique_camera_model
+    tags = getattr(raw, "tags", None) or {}
+    model = str(tags.get("UniqueCameraModel", "") or "") or f"{raw.make} {raw.model}".strip()
+
+    def norm(name: str) -> str:
+        return "".join(name.lower().split())
+
+    a, b = norm(made_for), norm(model)
+    if not a or not b or a in b or b in a:
+        return None
+    return (
+        f"{profile} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from "
+        f"{model!r}: the colours are right only for that camera."
+    )
 
 
 def _fail(message: str) -> int:

@@ -202,3 +202,31 @@ def test_rerun_into_a_folder_with_other_settings_is_refused(command, tmp_path, c
         expected = "demosaic: 'Malvar 2004' then, 'Menon 2007' now"
     err = capsys.readouterr().err
     assert expected in err and "fitting" not in err and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize(("made_for", "warned"), [("Nikon D5100", True), ("canon eos  kiss x4", False)])
+def test_isp_develop_warns_when_the_profile_is_for_another_camera(
+    made_for, warned, shared_data, tmp_path, capsys
+):
+    """``--profile FILE`` applied a Nikon profile to a Canon DNG without a word."""
+    from isp import read_raw
+    from isp.cli import main
+    from isp.dcp import DCPProfile, write_dcp
+
+    dng = shared_data / "raw_samples" / "tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng"
+    if not dng.is_file():
+        pytest.skip(f"{dng} not present")
+    raw = read_raw(dng)
+    dcp = write_dcp(
+        tmp_path / "p.dcp",
+        DCPProfile(raw.profile.color_matrix_1, calibration_illuminant_1=21, unique_camera_model=made_for),
+    )
+    out = tmp_path / "x.tif"
+    assert (
+        main(["develop", str(dng), "-o", str(out), "--profile", str(dcp), "--crop", "0", "0", "64", "64"])
+        == 0
+    )
+    err = capsys.readouterr().err
+    expected = f"warning: {dcp} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from"
+    assert (expected in err) == warned, err
+    assert out.exists()
