@@ -23,6 +23,29 @@ def _status(console, message: str):
     return contextlib.nullcontext()
 
 
+def _written_by_isp_profile(path: Path) -> bool:
+    """Whether ``path`` is a DCP, LUT or saved correction that ``isp profile`` wrote (what --overwrite may
+    replace): our DCPs carry the TIFF Software tag "zonotope profile", our LUTs a "zonotope:" comment,
+    our saved corrections the zonotope-correction format header."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".dcp":
+            return b"zonotope profile\x00" in path.read_bytes()
+        if suffix in (".cube", ".csp"):
+            with open(path, "rb") as fh:
+                return b"zonotope:" in fh.read(4096)
+        if suffix == ".npz":
+            import json
+
+            import numpy as np
+
+            with np.load(path, allow_pickle=False) as z:
+                return str(json.loads(str(z["meta"])).get("format", "")).startswith("zonotope-correction/")
+    except (OSError, ValueError, KeyError, AttributeError):
+        return False
+    return False
+
+
 def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -37,11 +60,18 @@ def _profile(args: argparse.Namespace) -> int:
     targets = [out] + [Path(p) for p in (args.lut, args.save_correction) if p]
     if out.suffix.lower() != ".dcp":
         raise ZonotopeError(f"-o {out}: a camera profile is written as a .dcp file.")
+    if args.lut and Path(args.lut).suffix.lower() not in (".cube", ".csp"):
+        raise ZonotopeError(f"--lut {args.lut}: use a .cube (Resolve) or .csp (Cinespace) file.")
+    if args.save_correction and Path(args.save_correction).suffix.lower() != ".npz":  # before the fit
+        raise ZonotopeError(f"--save-correction {args.save_correction}: a saved correction is a .npz file.")
     for p in targets:
         if p.exists() and not args.overwrite:
             raise ZonotopeError(f"{p} exists; use --overwrite or another name.")
-    if args.lut and Path(args.lut).suffix.lower() not in (".cube", ".csp"):
-        raise ZonotopeError(f"--lut {args.lut}: use a .cube (Resolve) or .csp (Cinespace) file.")
+        if p.exists() and not _written_by_isp_profile(p):  # a third-party DCP, the user's own LUT, ...
+            raise ZonotopeError(
+                f"{p} exists and was not written by isp profile; --overwrite replaces only this "
+                "command's outputs: choose another name."
+            )
     dims = None if args.matrix_only else (args.hue_sat_size[0], args.hue_sat_size[1], 1)
     if dims is not None and (dims[0] < 1 or dims[1] < 2):  # named as on the command line, not ProfileConfig
         raise ZonotopeError(

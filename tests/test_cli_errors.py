@@ -230,3 +230,30 @@ def test_isp_develop_warns_when_the_profile_is_for_another_camera(
     expected = f"warning: {dcp} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from"
     assert (expected in err) == warned, err
     assert out.exists()
+
+
+def test_isp_profile_overwrite_replaces_only_its_own_outputs(tmp_path, capsys):
+    """``isp profile --overwrite`` replaced any existing file: a third-party DCP, the user's own
+    .cube; a --save-correction without .npz was refused only after the fit, with the DCP written."""
+    from isp.cli import main
+    from isp.dcp import DCPProfile, write_dcp
+
+    theirs = tmp_path / "theirs.dcp"  # a DCP from elsewhere (no isp Software tag): as RawTherapee's
+    theirs.write_bytes(b"IIRC" + b"\x00" * 60)
+    own_lut = tmp_path / "grade.cube"
+    own_lut.write_text("TITLE my grade\nLUT_3D_SIZE 2\n")
+    before = {p.name: p.read_bytes() for p in (theirs, own_lut)}
+    cam = ["--camera", "Nikon 5100 (NPL)", "--matrix-only", "--overwrite"]
+    assert main(["profile", *cam, "-o", str(theirs)]) == 2
+    assert "theirs.dcp exists and was not written by isp profile" in capsys.readouterr().err
+    assert main(["profile", *cam, "-o", str(tmp_path / "new.dcp"), "--lut", str(own_lut)]) == 2
+    assert "grade.cube exists and was not written by isp profile" in capsys.readouterr().err
+    assert main(["profile", *cam, "-o", str(tmp_path / "new.dcp"), "--save-correction", "c.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("isp: error: --save-correction c.json") and "fitting" not in err, err
+    assert {p.name: p.read_bytes() for p in (theirs, own_lut)} == before
+    assert not (tmp_path / "new.dcp").exists()
+    ours = write_dcp(tmp_path / "ours.dcp", DCPProfile(np.eye(3), calibration_illuminant_1=21))
+    from isp._profile_cli import _written_by_isp_profile
+
+    assert _written_by_isp_profile(ours) and not _written_by_isp_profile(theirs)
