@@ -304,13 +304,8 @@ def _plot_mmv(
     if truth is not None:
         p.add_mesh(pv.Sphere(radius=0.008 * scale, center=np.asarray(truth, float)), color="white")
     for name, point in (estimates or {}).items():
-        p.add_point_labels(  # always visible: an estimate inside the opaque MMV (the centroid) was hidden
-            np.asarray(point, float)[None],
-            [name],
-            point_size=10,
-            font_size=12,
-            render_points_as_spheres=True,
-            always_visible=True,
+        p.add_point_labels(
+            np.asarray(point, float)[None], [name], point_size=10, font_size=12, render_points_as_spheres=True
         )
     if bounds is None:
         bounds = _mmv_box(problem, [mmv], [truth, *(estimates or {}).values()])
