@@ -244,8 +244,6 @@ def test_evaluate_test_set_percent_data_refused(tmp_path, capsys):
             "0",
             "--size",
             "5",
-            "--data",
-            str(tmp_path),
         ]
     )
     err = capsys.readouterr().err
@@ -614,11 +612,14 @@ def test_survey_table_formats_and_outputs_are_checked_before_the_work(tmp_path, 
     other = tmp_path / "notes.csv"
     other.write_text("my,own\n1,2\n")
     t0 = time.perf_counter()
-    assert zonotope_main([*base, "-o", str(other)]) == 2  # never replaces a file it did not write
+    assert zonotope_main([*base, "-o", str(other), "--force"]) == 2  # never a file it did not write
     assert time.perf_counter() - t0 < 5 and other.read_text() == "my,own\n1,2\n"
     err = capsys.readouterr().err
     assert "not an output of this command" in err and "Traceback" not in err
     table = tmp_path / "t.csv"
     assert zonotope_main([*base, "-o", str(table)]) == 0
-    assert zonotope_main([*base, "-o", str(table)]) == 0  # a previous table is replaced
+    before = table.read_text()
+    assert zonotope_main([*base, "-o", str(table)]) == 2  # a previous table only with --force
+    assert table.read_text() == before and "--force" in capsys.readouterr().err
+    assert zonotope_main([*base, "-o", str(table), "--force"]) == 0  # a previous table is replaced
     assert table.read_text().startswith("rank,cameras,")

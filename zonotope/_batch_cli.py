@@ -89,6 +89,9 @@ def add_commands(sub) -> None:
     p.add_argument(
         "-o", "--output", help="write the ranked table here (.csv; .parquet if pyarrow is installed)"
     )
+    p.add_argument(
+        "--force", action="store_true", help="replace an -o table written by an earlier 'zonotope survey'"
+    )
     p.add_argument("--top", type=int, default=20, help="rows to print (default 20)")
     p.add_argument(
         "--partners",
@@ -269,9 +272,9 @@ def _survey(args: argparse.Namespace) -> int:
         if Path(args.output).suffix.lower() not in TABLE_SUFFIXES:
             raise ZonotopeError(f"-o {args.output}: write the table as {' or '.join(TABLE_SUFFIXES)}.")
         inputs = [p for spec in args.cameras for p in ([spec] if Path(spec).is_dir() else spec.split(","))]
-        check_output(
+        check_output(  # an earlier survey's table only with --force (it may have taken hours)
             args.output,
-            overwrite=True,
+            overwrite=args.force,
             signature=TABLE_HEADER,
             inputs=[p for p in inputs if Path(p).exists()],
             what="-o",
