@@ -192,7 +192,8 @@ def read_dng_tags(path: str | os.PathLike) -> dict[str, object]:
             return out
     except RawFormatError:
         raise
-    except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError) as exc:
+    except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError, TypeError) as exc:
+        # TypeError: a damaged tag whose value is a tuple where a number belongs (found by fuzzing)
         raise RawFormatError(f"{path}: cannot read DNG tags ({type(exc).__name__}: {exc}).") from exc
 
 

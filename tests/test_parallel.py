@@ -137,7 +137,7 @@ def test_run_files_serial_resume_and_manifest(tmp_path):
             manifest=manifest,
             scheduler="serial",
         )
-    with pytest.raises(ParallelError, match="in00.bin and .*in01.bin would both be written to x.txt"):
+    with pytest.raises(ParallelError, match=r"in00\.bin and .*in01\.bin would both be written to x\.txt"):
         run_files(
             [FileTask(tasks[0].input, "x.txt"), FileTask(tasks[1].input, "x.txt")],
             slow_digest,

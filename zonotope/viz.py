@@ -66,6 +66,8 @@ _TICK_FORMAT = "{:z.2f}"
 #: After the camera fits the grid's box, step back so that the labels outside the box's corners and
 #: the title fit too (0.82: the lowest tick labels of the solid were still cut at 1.0; looked at).
 _FRAME_ZOOM = 0.82
+#: Largest title width, as a share of its panel's width (a 2 % margin each side); longer titles shrink.
+_TITLE_WIDTH = 0.96
 
 
 def _finish(
@@ -119,7 +121,7 @@ def _title(plotter, text: str) -> None:
     box = np.zeros(4)
     while True:
         actor.GetBoundingBox(plotter.renderer, box)
-        if box[1] - box[0] <= 0.96 * width or prop.GetFontSize() <= 8:
+        if box[1] - box[0] <= _TITLE_WIDTH * width or prop.GetFontSize() <= 8:
             break
         prop.SetFontSize(prop.GetFontSize() - 1)
 

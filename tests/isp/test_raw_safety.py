@@ -107,6 +107,17 @@ def _fuzz(src: Path, data, tmp: Path) -> None:
         np.testing.assert_array_equal(raw.mosaic, ref)
 
 
+def test_damaged_photometric_tag_is_a_format_error(sim_dng, tmp_path):
+    """The fuzz test below found it: byte 74 of this DNG set to 0 gives PhotometricInterpretation a
+    tuple value, and int() raised a raw TypeError out of read_dng_tags."""
+    b = bytearray(sim_dng.read_bytes())
+    b[74] = 0
+    bad = tmp_path / "bad.dng"
+    bad.write_bytes(bytes(b))
+    with pytest.raises(RawFormatError, match="bad.dng"):  # a project error naming the file
+        read_raw(bad)
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_fuzz_simulated_dng(sim_dng, tmp_path, data):
