@@ -255,6 +255,9 @@ def plot_mmv(
 ):
     """An MMV (opaque, sRGB-coloured) inside the translucent object-colour solid.
 
+    The grid labels and the view frame the MMV's bounding box (with the truth and estimates),
+    widened by a third of its size.
+
     Parameters
     ----------
     problem : zonotope.correct.CorrectionProblem
@@ -265,9 +268,6 @@ def plot_mmv(
         Estimates drawn as labelled points.
     title : str, optional
         Shown above the picture; default names the cameras and the target, ``""`` shows none.
-
-    The grid labels and the view frame the MMV's bounding box (with the truth and estimates),
-    widened by a third of its size.
     """
     return _plot_mmv(
         problem,
@@ -378,9 +378,8 @@ def plot_mmv_comparison(
         Same target and grid, different sources.
     reflectance : array_like of shape (n,)
     titles : sequence of str, optional
-        One per panel (default the camera names).
-
-    Every panel frames and labels the same box (all panels' MMVs and the truth), so sizes compare.
+        One per panel (default the camera names); every panel frames and labels the same box (all
+        panels' MMVs and the truth), so sizes compare.
     """
     p = _plotter(None, shape=(1, len(problems)), window_size=window_size)
     x = np.asarray(reflectance, dtype=np.float64)
