@@ -77,7 +77,13 @@ class TrainConfig:
         Learning rate of the centres, as a fraction of the scene extent.
     lr_log_scales, lr_quats, lr_opacity, lr_colours : float
     lr_final : float
-        Final / initial learning rate (the exponential decay over ``steps``).
+        Final / initial learning rate (the exponential decay over ``steps``; it sets the decay of the
+        exposure and pose corrections too). 0.3 (was 0.05): with 0.05 the rates fall too low to finish
+        fitting the training views (a 3× colour rate alone recovers part of the gain). On the CI-size
+        coarse noise-free capture with true poses (600 steps, capacity 4096, same cost per step) it took
+        the flat-pixel response error on the training views from 5.8 % to 3.6 % and on held-out views
+        from 6.5 % to 4.3 % (no decay, 1.0: 4.3 % and 4.8 %); at 1000 steps 3.4 → 2.8 % and
+        4.1 → 3.6 %, and three-camera flat-pixel ΔE00 (Prior, held-out views) 1.99 → 1.68.
     capacity : int
         Size of the Gaussian buffer (static); densification fills free slots up to it.
     densify_every, densify_from, densify_until : int
@@ -127,7 +133,7 @@ class TrainConfig:
     lr_quats: float = 5e-3
     lr_opacity: float = 5e-2
     lr_colours: float = 1e-2
-    lr_final: float = 0.05
+    lr_final: float = 0.3
     capacity: int = 1024
     densify_every: int = 100
     densify_from: int = 200
