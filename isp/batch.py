@@ -85,7 +85,7 @@ def develop_folder(args: argparse.Namespace) -> int:
     """
     from rich.console import Console
 
-    from zonotope.parallel import FileTask, check_settings, resolve_scheduler, run_files
+    from zonotope.parallel import FILE_MIN_TASKS, FileTask, check_settings, resolve_scheduler, run_files
 
     from .cli import _fail, _metamer, _progress
 
@@ -112,7 +112,8 @@ def develop_folder(args: argparse.Namespace) -> int:
                 "move one of them to another folder."
             )
         taken[f.stem] = f
-    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks))  # before any work
+    # before any work; a cluster only for FILE_MIN_TASKS files or more
+    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
     # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
     ignore = {"func", "fitted_metamer", "scheduler", "quiet", "input", "output", "overwrite", "command"}
     settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}

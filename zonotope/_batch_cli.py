@@ -194,7 +194,7 @@ def _correct(args: argparse.Namespace) -> int:
 
     from ._errors import ZonotopeError
     from .correct import CORRECTION_METHODS, fit_correction
-    from .parallel import FileTask, _check_tasks, check_settings, resolve_scheduler, run_files
+    from .parallel import FILE_MIN_TASKS, FileTask, _check_tasks, check_settings, resolve_scheduler, run_files
 
     console = Console(stderr=True)
     if not (np.isfinite(args.quantum) and args.quantum >= 0):
@@ -205,7 +205,8 @@ def _correct(args: argparse.Namespace) -> int:
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
-    where = resolve_scheduler(args.scheduler, tasks=len(tasks))  # a bad --scheduler, also before the fit
+    # a bad --scheduler is refused before the fit; a cluster only for FILE_MIN_TASKS files or more
+    where = resolve_scheduler(args.scheduler, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
     settings = {  # what the outputs depend on: a rerun into this folder must ask for the same
         "cameras": list(args.camera),
         "method": CORRECTION_METHODS.resolve(args.method, argument="--method"),

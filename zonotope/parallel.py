@@ -47,6 +47,7 @@ from ._progress import ProgressCallback
 
 __all__ = [
     "ENV_VAR",
+    "FILE_MIN_TASKS",
     "MANIFEST_COLUMNS",
     "DaskExecutor",
     "Executor",
@@ -241,6 +242,11 @@ class DaskExecutor(Executor):
 
 def _call(fn, item, *shared):
     return fn(item, *shared)
+
+
+#: Smallest folder batch that starts a local cluster by default: starting one costs seconds, and on a
+#: loaded 2-core machine 3 RAW files took 7.3 s serial against 15.6 s on a 2-worker local cluster.
+FILE_MIN_TASKS = 8
 
 
 def resolve_scheduler(scheduler: str | None = None, *, tasks: int | None = None, min_tasks: int = 2) -> str:
@@ -545,7 +551,7 @@ def run_files(
     *,
     manifest: str | os.PathLike,
     scheduler: str | None = None,
-    min_tasks: int = 2,
+    min_tasks: int = FILE_MIN_TASKS,
     progress: ProgressCallback | None = None,
     settings: Mapping[str, Any] | None = None,
 ) -> list[dict]:
@@ -564,7 +570,8 @@ def run_files(
     manifest : path
         CSV rewritten atomically as the batch goes (columns :data:`MANIFEST_COLUMNS`).
     scheduler, min_tasks
-        Where to run (see :func:`executor`).
+        Where to run (see :func:`executor`). With no scheduler, a local cluster is started only for
+        ``min_tasks`` files or more (default :data:`FILE_MIN_TASKS`).
     progress : callable, optional
         ``progress("files", done, total)`` over the files that had to be made
         (:class:`~zonotope.ProgressCallback`).
