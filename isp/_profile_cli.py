@@ -82,6 +82,11 @@ def _profile(args: argparse.Namespace) -> int:
         raise ZonotopeError(
             f"--look-table-size {' '.join(map(str, look))}: need hues ≥ 1, saturations ≥ 2, values ≥ 1."
         )
+    if len({str(i).upper().replace(" ", "") for i in args.illuminants}) < 2:
+        raise ZonotopeError(
+            f"--illuminants {' '.join(args.illuminants)}: give two different calibration illuminants "
+            "(a DCP interpolates between them by colour temperature), e.g. --illuminants A D65."
+        )
     # both configs are checked before the (long) fit starts
     config = ProfileConfig(
         method=args.method,

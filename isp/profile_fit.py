@@ -453,8 +453,12 @@ class ProfileConfig:
         ills = (self.illuminants,) if isinstance(self.illuminants, str) else tuple(self.illuminants)
         if len(ills) != 2:
             raise PipelineError(f"{owner}.illuminants={ills}: give exactly two calibration illuminants.")
-        for i in ills:
-            _light_source(i)
+        codes = [_light_source(i) for i in ills]
+        if codes[0] == codes[1]:
+            raise PipelineError(
+                f"{owner}.illuminants={ills}: give two different calibration illuminants (a DCP interpolates "
+                "between them by colour temperature), e.g. ('A', 'D65')."
+            )
         object.__setattr__(self, "illuminants", ills)
         object.__setattr__(self, "dims", _dims(owner, "dims", self.dims))
         object.__setattr__(self, "look_table_dims", _dims(owner, "look_table_dims", self.look_table_dims))

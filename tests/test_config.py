@@ -218,6 +218,7 @@ def test_metamer_config_refuses_bad_values(options, match):
     [
         ({"illuminants": ("D65",)}, "exactly two"),
         ({"illuminants": ("A", "moonlight")}, "moonlight"),
+        ({"illuminants": ("D65", "D65")}, "two different"),
         ({"dims": (90, 1, 1)}, r"dims=\(90, 1, 1\)"),
         ({"dims": (90, 30)}, "dims"),
         ({"dims": "90x30"}, "dims"),
