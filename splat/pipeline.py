@@ -94,6 +94,10 @@ class PipelineConfig:
         the farthest apart, keep the recovered poses; see :func:`splat.train`); the corrections go to
         ``train/summary.json`` and the render step uses them for the training views. Held-out views keep
         their recovered poses (they are never fitted, so nothing refines them).
+        Off by default: on the CI-size coarse noise-free capture with pycolmap's poses (1000 steps,
+        capacity 4096) it changed the three-camera flat-pixel ΔE00 on held-out views by −0.04 and +0.02
+        (two seeds, whose own spread is 0.18) and the training views' rotation error 0.51° → 0.40–0.43°
+        (centres 0.0134 → 0.0140 in a 5.9 m arc): no measurable gain at that training length.
     """
 
     steps: int = 3000
