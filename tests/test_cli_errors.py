@@ -130,7 +130,10 @@ def test_correct_refuses_integer_tiffs(tmp_path, capsys):
         (["--camera", "Nikon 5100 (NPL)", "--hue-sat-size", "0", "5"], "isp: error: --hue-sat-size 0 5: "),
         (["--camera", "Nikon 5100 (NPL)", "--lut", "x.cube", "--lut-size", "1"], "isp: error: --lut-size: "),
         (["--camera", "Nikon 5100 (NPL)", "--lut", "x.cube", "--headroom", "0"], "isp: error: --headroom: "),
-        (["--camera", "Nikon 5100 (NPL)", "--illuminants", "D65", "d65"], "isp: error: --illuminants D65 d65: "),
+        (
+            ["--camera", "Nikon 5100 (NPL)", "--illuminants", "D65", "d65"],
+            "isp: error: --illuminants D65 d65: ",
+        ),
     ],
 )
 def test_isp_profile_errors_name_the_option_before_fitting(options, start, tmp_path, capsys):

@@ -114,7 +114,7 @@ def test_damaged_photometric_tag_is_a_format_error(sim_dng, tmp_path):
     b[74] = 0
     bad = tmp_path / "bad.dng"
     bad.write_bytes(bytes(b))
-    with pytest.raises(RawFormatError, match="bad.dng"):  # a project error naming the file
+    with pytest.raises(RawFormatError, match=r"bad\.dng"):  # a project error naming the file
         read_raw(bad)
 
 
