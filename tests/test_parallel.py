@@ -125,6 +125,30 @@ def test_small_folder_batch_runs_in_this_process(tmp_path, monkeypatch):
     assert {r["worker"] for r in rows} == {f"{socket.gethostname()}:{os.getpid()}"}
 
 
+def test_batch_removes_the_writer_temporaries_of_a_killed_attempt(tmp_path):
+    """A worker killed inside the atomic write of its ``.part`` file leaves the writer's own temporary
+    (``..shot2.<hex>.part.tif.<pid>.tmp-….tif``); the batch removes it with the ``.part`` files
+    (seen once in the killed-worker test of tests/isp/test_batch.py). Other files stay."""
+    tasks = _inputs(tmp_path / "in", 2)
+    out = Path(tasks[0].output).parent
+    out.mkdir(parents=True, exist_ok=True)
+    stem = Path(tasks[0].output).stem
+    leftovers = [
+        out / f"..{stem}.6f412c87b1fb.part.txt.99999999.tmp-mz612eem.txt",  # a file temporary
+        out / f"..{stem}.0123456789ab.part.txt.99999998.partial-x1",  # a folder temporary
+        out / f".{stem}.abcdefabcdef.part.txt",
+    ]
+    leftovers[0].write_text("half")
+    leftovers[1].mkdir()
+    leftovers[2].write_text("half")
+    keep = [out / "notes.txt", out / "..other.6f412c87b1fb.part.txt.99999999.tmp-mz612eem.txt"]
+    for k in keep:
+        k.write_text("mine")
+    run_files(tasks, slow_digest, 0.0, manifest=out / "manifest.csv", scheduler="serial")
+    assert not any(p.exists() for p in leftovers)
+    assert all(k.read_text() == "mine" for k in keep)
+
+
 def test_run_files_serial_resume_and_manifest(tmp_path):
     tasks = _inputs(tmp_path / "in", 5, bad=(2,))
     before = {t.input: Path(t.input).read_bytes() for t in tasks}

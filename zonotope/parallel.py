@@ -33,6 +33,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import shutil
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import Executor as _Executor
@@ -652,7 +653,11 @@ def run_files(
 
 
 def _remove_temporaries(tasks: list[FileTask]) -> None:
-    """Remove the temporaries of attempts whose worker died while writing (only this batch's)."""
+    """Remove the temporaries of attempts whose worker died while writing (only this batch's): the
+    ``.part`` files, and the atomic writers' own temporaries of a ``.part`` file (a worker killed
+    inside ``zonotope._io``'s write of it leaves ``..stem.<hex>.part.tif.<pid>.tmp-….tif``)."""
+    from ._io import _TMP
+
     names: dict[Path, set[str]] = {}
     for t in tasks:
         out = Path(t.output)
@@ -662,6 +667,11 @@ def _remove_temporaries(tasks: list[FileTask]) -> None:
         if not folder.is_dir():
             continue
         for entry in folder.iterdir():
-            m = pattern.match(entry.name)
-            if m and m.group(1) in stems and entry.is_file():
+            inner = _TMP.match(entry.name)
+            m = pattern.match(inner.group("name") if inner else entry.name)
+            if not (m and m.group(1) in stems):
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
                 entry.unlink(missing_ok=True)
