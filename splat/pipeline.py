@@ -565,25 +565,22 @@ def train_step_(
         "backend": jax.default_backend(),
     }
     if tc.refine_poses:
-        summary.update(
-            _pose_summary(train_cap, res.pose_corrections, float(np.linalg.norm(bounds[1] - bounds[0])))
-        )
+        summary.update(_pose_summary(train_cap, res, float(np.linalg.norm(bounds[1] - bounds[0]))))
     _write_json(done, summary)
     return summary
 
 
-def _pose_summary(capture, corrections: np.ndarray, extent: float) -> dict:
-    """The learned pose corrections for ``train/summary.json``: per view ``(ω, τ)`` (radians, scene
-    units; :func:`splat.camera.pose_corrected`), the reference views, and the size of the corrections."""
-    from .training import _pose_reference_views, stack_cameras
-
+def _pose_summary(capture, res, extent: float) -> dict:
+    """The learned pose corrections of a :class:`splat.training.TrainResult` for ``train/summary.json``:
+    per view ``(ω, τ)`` (radians, scene units; :func:`splat.camera.pose_corrected`), the reference views
+    training held fixed, and the size of the corrections."""
     names = [v.name for v in capture.views]
-    refs = _pose_reference_views(stack_cameras(v.camera for v in capture.views))
+    corrections = res.pose_corrections
     rot = np.degrees(np.linalg.norm(corrections[:, :3], axis=1))
     trans = np.linalg.norm(corrections[:, 3:], axis=1)
     return {
         "pose_corrections": {n: [float(x) for x in c] for n, c in zip(names, corrections)},
-        "pose_reference_views": [names[i] for i in refs],
+        "pose_reference_views": [names[i] for i in res.pose_reference_views],
         "pose_correction_size": {
             "rotation_deg_mean": float(rot.mean()),
             "rotation_deg_max": float(rot.max()),

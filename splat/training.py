@@ -183,7 +183,8 @@ class TrainResult(NamedTuple):
     per-step ``loss``, ``n_alive`` and ``n_dropped`` arrays, and ``exposure_factors`` (V,): each view's
     learned exposure correction (the view's exposure is ``EXIF × factor``; all 1 without
     ``refine_exposure``), and ``pose_corrections`` (V, 6): each view's learned pose correction ``(ω, τ)``
-    (the view's camera is ``pose_corrected(camera, pose_corrections[v])``; all 0 without ``refine_poses``)."""
+    (the view's camera is ``pose_corrected(camera, pose_corrections[v])``; all 0 without ``refine_poses``),
+    and ``pose_reference_views``: the views whose poses were held fixed (empty without ``refine_poses``)."""
 
     gaussians: Gaussians
     alive: np.ndarray
@@ -191,6 +192,7 @@ class TrainResult(NamedTuple):
     history: dict[str, np.ndarray]
     exposure_factors: np.ndarray | None = None
     pose_corrections: np.ndarray | None = None
+    pose_reference_views: tuple[int, ...] = ()
 
 
 def stack_cameras(cameras) -> Camera:
@@ -637,7 +639,7 @@ def train(
                 "exposure scale would be unidentifiable. Give one view of every camera."
             )
         exposure_mask = jnp.ones(V).at[jnp.asarray(ref)].set(0.0)
-    pose_mask = None
+    pose_mask, pref = None, []
     if config.refine_poses:
         pref = (
             _pose_reference_views(cams)
@@ -687,7 +689,7 @@ def train(
     history = {k: np.asarray(jnp.stack(v)) if v else np.zeros(0) for k, v in hist.items()}
     factors = np.ones(V) if state.log_exposure is None else np.exp(np.asarray(state.log_exposure, float))
     poses = np.zeros((V, 6)) if state.pose_delta is None else np.asarray(state.pose_delta, float)
-    return TrainResult(state.params, np.asarray(state.alive), state, history, factors, poses)
+    return TrainResult(state.params, np.asarray(state.alive), state, history, factors, poses, tuple(pref))
 
 
 def _pose_reference_views(cams: Camera) -> list[int]:

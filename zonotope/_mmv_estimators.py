@@ -14,7 +14,7 @@ from ._correction_problem import CorrectionProblem, Corrector
 from ._errors import OptionError, SpectralDataError
 from ._regressions import fit_Cheung2004, fit_Finlayson2015
 from ._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE
-from .prior import ReflectancePrior, interior_solution, map_reflectance, project_to_mmv
+from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
 
 __all__ = [
     "CENTROID_MIN_WEIGHT",
@@ -237,7 +237,7 @@ def _fit_map(problem: CorrectionProblem, prior: ReflectancePrior, c, *, noise: f
     at the bounded mode to that at the unbounded one: 1 where ``x̂`` is interior, falling towards 0
     the more the [0, 1] bounds cost the Gaussian model; continuous in ``c``."""
     x0, interior = interior_solution(prior, problem.Phi, c, noise=noise)
-    x = map_reflectance(problem, c, prior, noise=noise)
+    x = _bounded_map(problem, c, prior, x0, interior, noise=noise)  # map_reflectance, closed form reused
 
     def energy(z):
         U = prior.energy(z)

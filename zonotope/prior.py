@@ -173,7 +173,14 @@ def map_reflectance(problem, responses, prior: ReflectancePrior, *, noise: float
     ndarray of shape (N, n)
     """
     C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
-    x, interior = interior_solution(prior, problem.Phi, C, noise=noise)
+    x0, interior = interior_solution(prior, problem.Phi, C, noise=noise)
+    return _bounded_map(problem, C, prior, x0, interior, noise=noise)
+
+
+def _bounded_map(problem, C, prior: ReflectancePrior, x0, interior, *, noise: float = 0.0) -> np.ndarray:
+    """:func:`map_reflectance` of the responses ``C (N, k)`` from their closed-form solution ``x0`` and
+    its ``interior`` flags (:func:`interior_solution`, not modified): only the other rows are solved."""
+    x = np.array(x0, dtype=np.float64)
     rest = ~interior
     if rest.any():
         x[rest] = fiber_lsq(problem.Phi, C[rest], prior.root, prior.root @ prior.mean, noise=noise)
