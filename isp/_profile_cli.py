@@ -82,23 +82,23 @@ def _profile(args: argparse.Namespace) -> int:
         raise ZonotopeError(
             f"--look-table-size {' '.join(map(str, look))}: need hues ≥ 1, saturations ≥ 2, values ≥ 1."
         )
-    if len({str(i).upper().replace(" ", "") for i in args.illuminants}) < 2:
-        raise ZonotopeError(
-            f"--illuminants {' '.join(args.illuminants)}: give two different calibration illuminants "
-            "(a DCP interpolates between them by colour temperature), e.g. --illuminants A D65."
-        )
     # both configs are checked before the (long) fit starts
-    config = ProfileConfig(
-        method=args.method,
-        illuminants=tuple(args.illuminants),
-        training=args.training,
-        dims=dims,
-        look_table_dims=look,
-        unique_camera_model=args.unique_camera_model,
-        profile_name=args.profile_name,
-        copyright=args.copyright or "",
-        embed_policy=args.embed_policy,
-    )
+    try:
+        config = ProfileConfig(
+            method=args.method,
+            illuminants=tuple(args.illuminants),
+            training=args.training,
+            dims=dims,
+            look_table_dims=look,
+            unique_camera_model=args.unique_camera_model,
+            profile_name=args.profile_name,
+            copyright=args.copyright or "",
+            embed_policy=args.embed_policy,
+        )
+    except ZonotopeError as error:  # ProfileConfig names its field: say which option it came from
+        if not str(error).startswith("ProfileConfig.illuminants="):
+            raise
+        raise type(error)(f"--illuminants {' '.join(args.illuminants)}: {error}") from error
     lut_config = None
     if args.lut:
         try:
