@@ -828,13 +828,78 @@ def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> di
     return tol
 
 
+def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.ndarray) -> dict:
+    """The noise levels of the fused correction (:mod:`splat.fusion`), cached in ``OUT/correct/fusion.json``
+    (so resumed runs and scoring use the same): ``render_sigma``, the render's error after anchoring
+    (:func:`splat.fusion.render_noise` over every rendered view that has a RAW file), and per such view
+    ``own_sigma``, its sensor noise per channel (:func:`splat.fusion.sensor_noise`, at least
+    :data:`splat.fusion.OWN_NOISE_FLOOR`). Empty ``views`` when no rendered view has a RAW file."""
+    from .fusion import OWN_NOISE_FLOOR, measured, render_noise, sensor_noise
+
+    path = out / "correct" / "fusion.json"
+    if path.is_file():
+        return json.loads(path.read_text())
+    n = len(spec.cameras)
+    pairs, views = [], {}
+    for name, info in index.items():
+        v = raws.get(name)
+        if v is None or v.exif is None:
+            continue
+        k = v.camera
+        ws = scale[3 * k : 3 * k + 3]
+        img = _read_tiff(out / "render" / info["dir"] / "render.tiff") / scale
+        pairs.append((img[..., 3 * k : 3 * k + 3], measured(v, ws)))
+        views[name] = {"camera": k, "own_sigma": np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR).tolist()}
+    doc = {
+        "render_sigma": render_noise(pairs) if pairs else None,
+        "own_noise_floor": OWN_NOISE_FLOOR,
+        "channels": 3 * n,
+        "views": views,
+        "rule": "own channels: the RAW file's robust sensor noise (at least own_noise_floor); other "
+        "channels: the render's leave-one-channel-out error after anchoring, pooled over views and cameras",
+    }
+    _write_json(path, doc)
+    return doc
+
+
+def fused_view(fusion: dict, name: str, render: np.ndarray, view: RawView, scale: np.ndarray, cameras):
+    """Fused responses of a view with a RAW file restricted to ``cameras`` (which must include the view's
+    own) and their per-channel noise: (responses (H, W, 3·len(cameras)), σ (3·len(cameras),))."""
+    from .fusion import anchor, measured
+
+    k = view.camera
+    if k not in cameras:
+        raise SplatError(f"{name}: its camera is not among the cameras {cameras} to fuse.")
+    idx = [3 * c + j for c in cameras for j in range(3)]
+    pos = 3 * list(cameras).index(k)
+    own = slice(pos, pos + 3)
+    valid = np.asarray(view.weight).sum(-1) > 0  # the pixel's own site is neither saturated nor dead
+    fused = anchor(render[..., idx], measured(view, scale[3 * k : 3 * k + 3]), own, valid)
+    sigma = np.full(len(idx), fusion["render_sigma"], float)
+    sigma[own] = fusion["views"][name]["own_sigma"]
+    return fused, sigma
+
+
 def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
     """A fitted estimator with the noise tolerance δ: Prior gets ``noise=δ/3`` (δ in its MMV branch),
     Centroid ``delta=δ``; regressions are trained on noisy replicas (σ = δ/3)."""
+    return _fit_on(correction_problem_of(spec, cameras), method, delta)
+
+
+def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise):
+    """An estimator for fused responses with per-channel noise ``noise`` (σ per channel of ``cameras``):
+    fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
+    (:func:`splat.fusion.whitened`, δ = 3σ_ref); returns it and the scale to apply to responses."""
+    from .fusion import whitened
+
+    problem, scale, ref = whitened(correction_problem_of(spec, cameras), noise)
+    return _fit_on(problem, method, 3 * ref), scale
+
+
+def _fit_on(problem, method: str, delta: float):
     sigma = delta / 3
     from zonotope.correct import CORRECTION_METHODS, fit_correction
 
-    problem = correction_problem_of(spec, cameras)
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
     opts = {
         "Prior": {"noise": sigma},
@@ -877,8 +942,9 @@ def correct_step(
     dict
         The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
     """
-    from isp.stages import demosaic
     from zonotope.image import correct_image
+
+    from .fusion import measured
 
     spec = read_capture(capture)
     out = _check_out(spec, Path(out))
@@ -898,6 +964,8 @@ def correct_step(
     profiles = {}
     for v in raws.values():
         profiles.setdefault(v.camera, (v.profile, v.neutral))
+    fusion = fusion_of(spec, out, index, raws, scale)
+    fitted: dict = {}
     for i, (name, info) in enumerate(index.items()):
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
@@ -919,13 +987,22 @@ def correct_step(
             _write_tiff(f, X)
             _write_png8(o / f"dng_{spec.cameras[k].folder}_sRGB.png", xyz_to_srgb(X, wXYZ))
         r = raws.get(name)
+        if name in fusion["views"] and not (o / f"{mname}_fused_XYZ.tiff").is_file():
+            fused, sigma = fused_view(fusion, name, img, r, scale, list(range(n)))
+            key = tuple(np.round(sigma, 6))
+            if key not in fitted:
+                fitted[key] = fit_fused_corrector(spec, list(range(n)), config.method, sigma)
+            cor, w = fitted[key]
+            # whitened units: no channel is quantised more coarsely than config.quantum
+            XYZ = correct_image(fused * w, cor, quantum=config.quantum)
+            _write_tiff(o / f"{mname}_fused_XYZ.tiff", XYZ)
+            rgb = xyz_to_srgb(XYZ, wXYZ)
+            from isp import write_image
+
+            write_image(o / f"{mname}_fused_sRGB.tiff", rgb, overwrite=True)
+            _write_png8(o / f"{mname}_fused_sRGB.png", rgb)
         if r is not None and r.profile is not None and not (o / "raw_dng_XYZ.tiff").is_file():
-            lin = (
-                r.values.astype(np.float64)
-                if r.full_colour
-                else demosaic(r.values.sum(-1), cfa=_cfa_of(r), method="Malvar 2004")
-            )
-            bal = np.maximum(lin, 0) / r.exif / white["scale"][r.camera]
+            bal = np.maximum(measured(r, white["scale"][r.camera]), 0)
             X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
             _write_tiff(o / "raw_dng_XYZ.tiff", X)
             _write_png8(o / "raw_dng_sRGB.png", xyz_to_srgb(X, wXYZ))
@@ -936,6 +1013,11 @@ def correct_step(
         "delta": tol["delta"],
         "noise": tol,
         "training_residual": noise_sigma(out, scale),
+        "fusion": {
+            "render_sigma": fusion["render_sigma"],
+            "views": len(fusion["views"]),
+            "files": f"{mname}_fused_XYZ.tiff / _sRGB.tiff / .png next to {mname}_XYZ.tiff",
+        },
         "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
         "white_XYZ": np.asarray(wXYZ).tolist(),
         "views": list(index),

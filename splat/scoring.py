@@ -9,6 +9,10 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
   they are) corrected by ``<method>`` with that camera alone — the single-camera metamer correction;
 - ``<method>:<cams>`` the splat's render of the view through the channels of ``<cams>`` (one camera,
   pairs, all), corrected by Prior and Centroid with the pipeline's δ;
+- ``<method>-fused:<cams>`` the same view fused with its own RAW file (:mod:`splat.fusion`: the render
+  anchored to the photograph, the measured channels in place of the rendered ones, per-channel noise),
+  for the subsets of two or more cameras that include the view's own — what the correct step writes as
+  ``<method>_fused_*`` for every photographed view;
 
 each over all pixels and (``flat_delta_E00``) over the *flat* pixels only: those whose true XYZ is
 constant over their 5 × 5 neighbourhood (every channel's range ≤ 1 % of max(Y, 0.02)), where neither
@@ -66,18 +70,10 @@ def _pose_error(est: dict, tru: dict, names: list) -> dict:
 
 
 def raw_balanced(view, scale) -> np.ndarray:
-    """A RAW view on the white → 1 scale at exposure 1: demosaiced by isp (Malvar 2004; a full-colour
-    file as it is), divided by its EXIF exposure and the camera's white ``scale`` (3,)."""
-    from isp.stages import demosaic
+    """A RAW view on the white → 1 scale at exposure 1 (:func:`splat.fusion.measured`)."""
+    from .fusion import measured
 
-    from .pipeline import _cfa_of
-
-    lin = (
-        view.values.astype(np.float64)
-        if view.full_colour
-        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method="Malvar 2004")
-    )
-    return lin / view.exif / np.asarray(scale, float)
+    return measured(view, scale)
 
 
 def _dE(problem, est, ref):
@@ -116,6 +112,7 @@ def score(
     raw_methods=("Prior",),
     flat_only: bool = False,
     quantum: float = 2e-3,
+    fused: bool = True,
 ) -> dict:
     """Score ``OUT`` against ``CAPTURE/truth`` and write ``OUT/score.json``.
 
@@ -137,6 +134,10 @@ def score(
         the flat pixels of a coarse texture share few colours.
     quantum : float
         Colour deduplication step of :func:`zonotope.image.correct_image`.
+    fused : bool
+        Also score the held-out views fused with their own RAW files (:mod:`splat.fusion`, rows
+        ``"<method>-fused:<cameras>"`` for every subset of two or more cameras that includes the view's
+        own), as the correct step writes them for every rendered view with a RAW file.
 
     Returns
     -------
@@ -149,7 +150,16 @@ def score(
     from .capture import load_views, read_capture
     from .colmap import read_colmap
     from .data import capture_from_colmap
-    from .pipeline import _stem, delta_of, dng_matrix_XYZ, fit_corrector, white_of
+    from .pipeline import (
+        _stem,
+        delta_of,
+        dng_matrix_XYZ,
+        fit_corrector,
+        fit_fused_corrector,
+        fused_view,
+        fusion_of,
+        white_of,
+    )
 
     spec = read_capture(capture)
     out = Path(out)
@@ -172,6 +182,8 @@ def score(
     corr = {(m, s): fit_corrector(spec, list(s), m, delta) for m in methods for s in subsets}
     raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
+    fusion = fusion_of(spec, out, index, raws, scale) if fused else {"views": {}}
+    fused_corr: dict = {}
     n_flat = []
 
     def add(label, est, ref, flat):
@@ -215,6 +227,18 @@ def score(
             est = unpick(correct_image(pick(c[..., idx], fl), cor, quantum=quantum))
             label = f"{cor.method}:{'+'.join(spec.cameras[k].folder for k in s)}"
             add(label, est, r, fl)
+        if name in fusion["views"]:  # the photographed view fused with the render (splat.fusion)
+            for m in methods:
+                for sub in subsets:
+                    if cam not in sub or len(sub) < 2:
+                        continue
+                    f, sigma = fused_view(fusion, name, render / scale, raws[name], scale, list(sub))
+                    key = (m, sub, tuple(np.round(sigma, 6)))
+                    if key not in fused_corr:
+                        fused_corr[key] = fit_fused_corrector(spec, list(sub), m, sigma)
+                    cor, w = fused_corr[key]
+                    est = unpick(correct_image(pick(f[::stride, ::stride] * w, fl), cor, quantum=quantum))
+                    add(f"{cor.method}-fused:{'+'.join(spec.cameras[k].folder for k in sub)}", est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
         w = v.weight > 0

@@ -1,0 +1,188 @@
+"""A photographed view fused with the splat's render: measured channels where the camera measured them.
+
+For a view whose RAW file exists (every photograph the user took, held out from training or not), the
+camera's own channels are *measured*; only the other cameras' channels must come from the splat. The
+correct step therefore corrects such views from fused responses rather than from the render alone:
+
+1. **Anchoring** (:func:`anchor`): the render of every channel is scaled, per pixel, by the ratio of
+   the measured to the rendered sum of the view's own channels (the Brovey transform of
+   pan-sharpening, Gillespie et al. 1987), and the own channels are replaced by the measured ones
+   (demosaiced by isp, :func:`measured`). A render's error that is common to all channels (opacity,
+   coverage, shading — on the simulated capture more than half of it) cancels, and edges follow the
+   photograph.
+2. **Per-channel noise**: the own channels carry the sensor's noise (:func:`sensor_noise`, a robust
+   estimate from the mosaic itself), the others the render's error after anchoring
+   (:func:`render_noise`, estimated on the views' own channels, which are measured). The estimator is
+   fitted on the channel-whitened problem (:func:`whitened`: channel ``k`` scaled by ``σ_ref/σ_k``),
+   so that its single noise level ``σ_ref`` means ``σ_k`` in each channel — the MMV's tolerance too
+   (``δ_k = 3σ_k``). The measured channels then constrain the estimate tightly and the rendered ones
+   softly, instead of all channels alike.
+
+Views without a RAW file (novel views) keep the render-only correction.
+
+Measured (``benchmarks/bench_capture.py``, CI-size coarse noise-free capture, true poses, 2000 steps,
+capacity 4096, flat pixels of the six held-out views, three cameras with Prior): render only 1.64 ΔE00;
+anchored, one noise level 1.31; anchored and whitened 0.82–0.94 depending on the noise levels (see the
+README's capture section for the rule used and its figures on other runs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ._errors import SplatError
+
+__all__ = ["anchor", "measured", "render_noise", "sensor_noise", "whitened"]
+
+#: Added to both sums of :func:`anchor`'s ratio (white = 1 units): keeps the ratio finite where the
+#: own channels are black in the render or the photograph (the chart's black patch is ≈ 0.03), and
+#: ≪ any lit surface's sum of three channels (≥ 0.05 on the simulated capture).
+ANCHOR_EPS = 1e-3
+
+#: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the
+#: correction's 10 nm grid, the white scale's estimate, 14-bit rounding) when the sensor noise itself
+#: is ~0 (a noise-free simulation). On the simulated capture 0.002 gave 0.82 ΔE00 where 0.001 gave
+#: 0.99 and 0.0005 0.92 (render σ 0.02; held-out views, the run of :mod:`splat.fusion`'s figures).
+OWN_NOISE_FLOOR = 2e-3
+
+
+def measured(view, white_scale) -> np.ndarray:
+    """A RAW view's own channels on the white → 1 scale at exposure 1: demosaiced by isp (Malvar 2004;
+    a full-colour file as it is), divided by its EXIF exposure and the camera's white scale (3,)."""
+    from isp.stages import demosaic
+
+    from .pipeline import _cfa_of
+
+    if view.exif is None:
+        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
+    lin = (
+        view.values.astype(np.float64)
+        if view.full_colour
+        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method="Malvar 2004")
+    )
+    return lin / view.exif / np.asarray(white_scale, float)
+
+
+def _robust_sigma(x: np.ndarray) -> float:
+    """1.4826 · median absolute deviation (σ of a normal sample, unmoved by a minority of outliers)."""
+    x = np.asarray(x, float).ravel()
+    if x.size == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def sensor_noise(view, white_scale) -> np.ndarray:
+    """Noise σ of each of a RAW view's channels (3,), white → 1 units at exposure 1, from the file.
+
+    Differences of horizontally and vertically adjacent sites of the same colour (two sites apart on a
+    Bayer mosaic, adjacent on a full-colour sensor) carry twice the noise variance and, away from edges,
+    little of the scene; their robust σ (:func:`_robust_sigma`, which discards the edges as outliers)
+    divided by √2 estimates the noise at the typical signal level. Valid sites only (weight > 0).
+    """
+    vals = np.asarray(view.values, float)
+    w = np.asarray(view.weight) > 0
+    step = 1 if view.full_colour else 2
+    out = np.zeros(3)
+    for j in range(3):
+        diffs = []
+        for axis in (0, 1):
+            a = np.take(vals[..., j], range(step, vals.shape[axis]), axis=axis)
+            b = np.take(vals[..., j], range(vals.shape[axis] - step), axis=axis)
+            ok = np.take(w[..., j], range(step, vals.shape[axis]), axis=axis) & np.take(
+                w[..., j], range(vals.shape[axis] - step), axis=axis
+            )
+            diffs.append((a - b)[ok])
+        out[j] = _robust_sigma(np.concatenate(diffs)) / np.sqrt(2)
+    return out / view.exif / np.asarray(white_scale, float)
+
+
+def anchor(render: np.ndarray, own_measured: np.ndarray, own: slice, valid: np.ndarray | None = None):
+    """Anchor a view's render to its photograph (the Brovey transform): every channel times the ratio
+    of the measured to the rendered sum of the own channels, the own channels replaced by the measured.
+
+    Parameters
+    ----------
+    render : ndarray of shape (H, W, k)
+        The splat's render of the view (white → 1, exposure 1).
+    own_measured : ndarray of shape (H, W, 3)
+        The view's own channels as measured (:func:`measured`).
+    own : slice
+        Where the own channels sit among the ``k``.
+    valid : ndarray of shape (H, W), bool, optional
+        Pixels whose photograph is usable (not saturated, not dead); the others keep the render.
+
+    Returns
+    -------
+    ndarray of shape (H, W, k)
+        Non-negative fused responses.
+    """
+    r = np.maximum(np.asarray(render, float), 0.0)
+    m = np.maximum(np.asarray(own_measured, float), 0.0)
+    if r.shape[:2] != m.shape[:2] or m.shape[-1] != 3 or r[..., own].shape[-1] != 3:
+        raise SplatError(
+            f"anchor: render {r.shape} and measured {m.shape} do not match (own channels {own})."
+        )
+    ratio = (m.sum(-1, keepdims=True) + ANCHOR_EPS) / (r[..., own].sum(-1, keepdims=True) + ANCHOR_EPS)
+    fused = r * ratio
+    fused[..., own] = m
+    if valid is not None:
+        fused = np.where(np.asarray(valid, bool)[..., None], fused, r)
+    return fused
+
+
+def render_noise(pairs) -> float:
+    """σ of the render's error after anchoring, white → 1, from views whose own channels are measured.
+
+    For each pair ``(render_own, measured_own)`` (H, W, 3) and each own channel ``j``, the render is
+    anchored on the *other two* own channels only and its prediction of channel ``j`` compared with the
+    measurement (leave one channel out: the anchoring has not seen the channel it predicts, as with
+    another camera's channels). The result is the root mean square over channels and views of the
+    robust σ of these residuals.
+
+    One σ for every rendered channel: per camera, the estimate is too optimistic for a sensor whose
+    three channels are nearly proportional (the Sigma's: 0.001–0.004, against 0.012–0.018 for its
+    true error in the other cameras' channels on the simulated capture), so the cameras are pooled.
+    """
+    sig = []
+    for r_own, m_own in pairs:
+        r_own = np.maximum(np.asarray(r_own, float), 0.0)
+        m_own = np.maximum(np.asarray(m_own, float), 0.0)
+        for j in range(3):
+            o = [i for i in range(3) if i != j]
+            ratio = (m_own[..., o].sum(-1) + ANCHOR_EPS) / (r_own[..., o].sum(-1) + ANCHOR_EPS)
+            sig.append(_robust_sigma(ratio * r_own[..., j] - m_own[..., j]))
+    if not sig:
+        raise SplatError("render_noise: no measured view to estimate the render's error from.")
+    return float(np.sqrt(np.mean(np.square(sig))))
+
+
+def whitened(problem, noise):
+    """The channel-whitened problem: ``Φ`` with channel ``k`` scaled by ``σ_ref / σ_k``.
+
+    An estimator fitted on it with noise ``σ_ref`` (the median of ``noise``) and applied to responses
+    scaled the same way treats channel ``k`` as having noise ``σ_k`` (the least-squares parts exactly;
+    the MMV's max-norm tolerance ``δ = 3σ_ref`` becomes ``3σ_k`` per channel). The noise-free MMV does
+    not change: scaling a channel scales a response and its generator alike. The whitened ``Φ`` no
+    longer maps white to 1 in every channel; nothing outside this round trip should use it.
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+    noise : array_like of shape (k,)
+        Positive σ per channel (white = 1 units of ``problem``).
+
+    Returns
+    -------
+    problem : CorrectionProblem
+    scale : ndarray of shape (k,)
+        Multiply responses by it before the estimator.
+    sigma_ref : float
+    """
+    s = np.asarray(noise, float)
+    if s.shape != (problem.k,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
+        raise SplatError(f"whitened: noise must be {problem.k} positive numbers, got {noise!r}.")
+    ref = float(np.median(s))
+    scale = ref / s
+    return dataclasses.replace(problem, Phi=problem.Phi * scale), scale, ref
