@@ -43,6 +43,7 @@ __all__ = [
     "DNGProfile",
     "camera_neutral_to_xy",
     "matrix_interpolated",
+    "noise_profile",
     "read_dng_tags",
     "write_dng",
     "xy_to_CCT_DNG",
@@ -81,6 +82,7 @@ DNG_TAGS: dict[str, int] = {
     "ActiveArea": 50829,
     "ForwardMatrix1": 50964,
     "ForwardMatrix2": 50965,
+    "NoiseProfile": 51041,
     "ExposureTime": 33434,
     "FNumber": 33437,
     "ISOSpeedRatings": 34855,
@@ -195,6 +197,57 @@ def read_dng_tags(path: str | os.PathLike) -> dict[str, object]:
     except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError, TypeError) as exc:
         # TypeError: a damaged tag whose value is a tuple where a number belongs (found by fuzzing)
         raise RawFormatError(f"{path}: cannot read DNG tags ({type(exc).__name__}: {exc}).") from exc
+
+
+def noise_profile(tags: dict, path: str | os.PathLike | None = None, planes: int = 3) -> np.ndarray | None:
+    """The DNG NoiseProfile (tag 51041, DNG 1.3+) of :func:`read_dng_tags` output, one row per colour.
+
+    The tag models the noise of the linear signal ``x ∈ [0, 1]`` (0 at BlackLevel, 1 at WhiteLevel)
+    before demosaicing: standard deviation ``sqrt(S·x + O)``, with one ``(S, O)`` pair per colour
+    plane (CFA colours in CFAPlaneColor order, R, G, B here) or a single pair for all of them. The
+    DNG SDK (``dng_noise_function::IsValid``) requires ``S > 0`` and ``O ≥ 0``.
+
+    Parameters
+    ----------
+    tags : dict
+        :func:`read_dng_tags` output (or :attr:`isp.RawImage.tags`).
+    path : path, optional
+        The file, named in the error message.
+    planes : int
+        Colour planes of the image (3 for the Bayer and LinearRaw files isp reads).
+
+    Returns
+    -------
+    ndarray of shape (planes, 2) or None
+        Rows ``(S, O)``; a single pair repeated for every plane. None when the file has no NoiseProfile.
+
+    Raises
+    ------
+    RawFormatError
+        A malformed tag: a count other than 2 or ``2 · planes``, a non-finite value, ``S ≤ 0`` or
+        ``O < 0`` (the message names the file and the tag, and how to remove it).
+    """
+    value = tags.get("NoiseProfile")
+    if value is None:
+        return None
+    where = f"{path}: " if path is not None else ""
+    fix = "the file is damaged or was written wrongly; remove the tag (exiftool -NoiseProfile= FILE)."
+    try:
+        v = np.asarray(value, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise RawFormatError(f"{where}NoiseProfile (tag 51041) is not numeric ({value!r}); {fix}") from None
+    if v.size not in (2, 2 * planes):
+        raise RawFormatError(
+            f"{where}NoiseProfile (tag 51041) has {v.size} values; expected 2 (one (S, O) pair for all "
+            f"colours) or {2 * planes} (one per colour plane); {fix}"
+        )
+    pairs = v.reshape(-1, 2)
+    if not np.all(np.isfinite(pairs)) or np.any(pairs[:, 0] <= 0) or np.any(pairs[:, 1] < 0):
+        raise RawFormatError(
+            f"{where}NoiseProfile (tag 51041) = {v.tolist()}: every pair (S, O) must be finite with S > 0 "
+            f"and O ≥ 0 (noise variance S·x + O); {fix}"
+        )
+    return np.broadcast_to(pairs, (planes, 2)).copy()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -542,6 +595,10 @@ class DNGMetadata:
     orientation : int
         TIFF/EXIF Orientation (274) of the picture: 1 = as stored, 3 = rotate 180°, 6 = rotate 90°
         clockwise to view, 8 = 90° counter-clockwise; 2, 4, 5, 7 add a mirror.
+    noise_profile : array_like of shape (2,) or (3, 2), optional
+        DNG NoiseProfile (tag 51041, DOUBLE): the noise variance ``S·x + O`` of the linear signal
+        ``x ∈ [0, 1]`` (black → white level), one ``(S, O)`` pair for all colours or one per colour
+        (R, G, B); ``S > 0``, ``O ≥ 0`` as the DNG SDK requires. Read back by :func:`noise_profile`.
 
     Raises
     ------
@@ -566,6 +623,7 @@ class DNGMetadata:
     iso: int | None = None
     f_number: float | None = None
     orientation: int = 1
+    noise_profile: object = None
 
     def __post_init__(self):
         from ._errors import PipelineError
@@ -618,6 +676,21 @@ class DNGMetadata:
         for name in ("make", "model"):
             if not isinstance(getattr(self, name), str):
                 fail(name, getattr(self, name), "give a string")
+        if self.noise_profile is not None:
+            P = np.asarray(self.noise_profile, dtype=np.float64) if _numeric(self.noise_profile) else None
+            if (
+                P is None
+                or P.shape not in ((2,), (1, 2), (3, 2))
+                or not np.all(np.isfinite(P))
+                or np.any(P.reshape(-1, 2)[:, 0] <= 0)
+                or np.any(P.reshape(-1, 2)[:, 1] < 0)
+            ):
+                fail(
+                    "noise_profile",
+                    self.noise_profile,
+                    "give one (S, O) pair or 3 (R, G, B), finite, with S > 0 and O ≥ 0 (variance S·x + O)",
+                )
+            object.__setattr__(self, "noise_profile", P.reshape(-1, 2))
 
 
 def _integral(value) -> bool:
@@ -753,6 +826,8 @@ def write_dng(
         tags.append((33437, 5, 1, _rational(d.f_number), True))
     if d.iso is not None:
         tags.append((34855, "H", 1, int(d.iso), True))
+    if d.noise_profile is not None:
+        tags.append((51041, 12, d.noise_profile.size, tuple(float(x) for x in d.noise_profile.ravel()), True))
     from zonotope import atomic_path
 
     def write(tmp: Path) -> None:

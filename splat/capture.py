@@ -322,6 +322,10 @@ class RawView:
     full_colour : bool
     n_saturated, n_dead : int
         Pixels given zero weight.
+    noise_profile : ndarray of shape (3, 2) or None
+        The file's DNG NoiseProfile as rows ``(S, O)`` for R, G, B: the noise variance of
+        :attr:`values` is ``S·x + O`` at value ``x`` (a single pair in the file is repeated). None when
+        the file has none.
     """
 
     name: str
@@ -334,6 +338,7 @@ class RawView:
     full_colour: bool
     n_saturated: int = 0
     n_dead: int = 0
+    noise_profile: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -424,14 +429,15 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
     -------
     values, weight : ndarray of shape (H, W, 3), float32
     info : dict
-        ``profile``, ``neutral``, ``full_colour``, ``n_saturated``, ``n_dead``, ``cfa``.
+        ``profile``, ``neutral``, ``full_colour``, ``n_saturated``, ``n_dead``, ``cfa``,
+        ``noise_profile`` (:attr:`RawView.noise_profile`).
 
     Raises
     ------
     CaptureError
-        An unreadable file (the message says which and why).
+        An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
     """
-    from isp import DNGProfile, RawFormatError, read_raw
+    from isp import DNGProfile, RawFormatError, noise_profile, read_raw
     from isp.stages import cfa_masks
 
     path = Path(path)
@@ -454,6 +460,7 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
             profile = None
         neutral = np.asarray(tags.get("AsShotNeutral", np.ones(3)), float)
         full, cfa = True, None
+        levels = (float(np.mean(lin[1])), lin[2], float(np.mean(black)), white)
     else:
         try:
             raw = read_raw(path)
@@ -473,6 +480,14 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
         saturated = (raw_dn >= white)[..., None] & measured
         dead = ((raw_dn <= 0) & (black_px > 0))[..., None] & measured
         profile, neutral, full = raw.profile, raw.as_shot_neutral, False
+        tags = raw.tags
+        levels = (float(np.mean(raw.black_level)), float(raw.white_level), float(np.mean(black)), white)
+    try:
+        noise = noise_profile(tags, path)
+    except RawFormatError as e:
+        raise CaptureError(str(e)) from e
+    if noise is not None and levels[:2] != levels[2:]:
+        noise = _relevel_noise(noise, *levels)
     weight = measured & ~saturated & ~dead
     values = np.where(measured, np.clip(values, -0.05, 1.0), 0.0)
     info = dict(
@@ -482,8 +497,19 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
         cfa=cfa,
         n_saturated=int(np.any(saturated, -1).sum()),
         n_dead=int(np.any(dead, -1).sum()),
+        noise_profile=noise,
     )
     return values.astype(np.float32), weight.astype(np.float32), info
+
+
+def _relevel_noise(P: np.ndarray, black: float, white: float, new_black: float, new_white: float):
+    """A NoiseProfile ``(S, O)`` rows of the file's levels re-expressed for other black/white levels
+    (the capture file's overrides): the variance in DN, ``span²·(S·(DN − black)/span + O)``, divided
+    by the new span² at ``DN = new_black + x·new_span``; ``O`` floored at 0 (the DNG range)."""
+    span, new = white - black, new_white - new_black
+    S = P[:, 0] * span / new
+    O = (P[:, 0] * span * (new_black - black) + P[:, 1] * span**2) / new**2
+    return np.stack([S, np.maximum(O, 0.0)], axis=1)
 
 
 def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
@@ -526,6 +552,7 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
                 info["full_colour"],
                 info["n_saturated"],
                 info["n_dead"],
+                info["noise_profile"],
             )
         )
         if progress is not None:
@@ -563,6 +590,7 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
             v.full_colour,
             v.n_saturated,
             v.n_dead,
+            v.noise_profile,
         )
         for v in views
     ]

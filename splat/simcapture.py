@@ -537,6 +537,20 @@ def _raw_values(scene: SimScene, view: SimView, responses: np.ndarray, rng) -> n
     return np.clip(np.round(dn), 0, cam.white_level).astype(np.uint16)
 
 
+def _noise_profile(cam: SimCamera, view: SimView) -> tuple[float, float]:
+    """The exact DNG NoiseProfile ``(S, O)`` of :func:`_raw_values`' noise (one pair for every colour).
+
+    In units of the linear signal ``x = (DN − black) / (white − black)``: shot noise
+    ``Var(Poisson(x·well) / well) = x / well`` (``well = full_well · 100 / ISO``), so ``S = 1 / well``;
+    read noise and the rounding to DN (uniform, 1/12 DN²), ``O = (read_noise² + 1/12) / span²``.
+    Clipping at 0 and at the white level lowers the noise within a few σ of black (cameras without a
+    black offset) and at saturation.
+    """
+    well = cam.full_well * 100.0 / view.iso
+    span = cam.white_level - cam.black_level
+    return 1.0 / well, (cam.read_noise**2 + 1.0 / 12.0) / span**2
+
+
 def _color_matrices(scene: SimScene, ci: int):
     import zonotope
     from isp.simulate import fit_color_matrix, spectral_setup
@@ -701,6 +715,9 @@ def write_synthetic_capture(
                     exposure_time=v.exposure_time,
                     iso=v.iso,
                     f_number=v.f_number,
+                    # noise-free files carry no NoiseProfile: the DNG SDK requires S > 0, and the
+                    # rounding alone is not sensor noise (readers then estimate it from the image)
+                    noise_profile=_noise_profile(cam, v) if config.noise else None,
                 )
                 if v.holdout:
                     XYZ = (
