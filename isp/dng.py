@@ -210,7 +210,7 @@ def noise_profile(tags: dict, path: str | os.PathLike | None = None, planes: int
     Parameters
     ----------
     tags : dict
-        :func:`read_dng_tags` output (or :attr:`isp.RawImage.tags`).
+        :func:`read_dng_tags` output (or ``RawImage.tags``).
     path : path, optional
         The file, named in the error message.
     planes : int

@@ -76,7 +76,7 @@ def _robust_sigma(x: np.ndarray) -> float:
 def sensor_noise(view, white_scale) -> np.ndarray:
     """Noise σ of each of a RAW view's channels (3,), white → 1 units at exposure 1, from the file.
 
-    With a noise model in the file (the DNG NoiseProfile, :attr:`splat.capture.RawView.noise_profile`:
+    With a noise model in the file (the DNG NoiseProfile, ``RawView.noise_profile``:
     variance ``S_j·x + O_j`` of the linear value ``x``), ``σ_j = sqrt(S_j·x_j + O_j)`` at ``x_j``, the
     median of channel ``j``'s valid site values (weight > 0; the typical signal level): the sensor's
     own noise, whatever the scene. On the simulated capture it is the realised noise within a few per
