@@ -668,6 +668,32 @@ def _novel_cameras(views, n: int):
     return out
 
 
+def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int) -> np.ndarray:
+    """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
+    splat's depth (:func:`splat.reproject.reprojected`): values (H, W, 3n) at exposure 1 (0 where no
+    photograph of that camera sees the pixel) and the number of photographs that see it (H, W, n)."""
+    from .fusion import measured
+    from .reproject import depth_map, reprojected
+
+    def depth(v_name, c):  # the cache also holds each photograph, demosaiced, at exposure 1
+        if v_name not in depths:
+            r = raws.get(v_name)
+            photo = measured(r, np.ones(3)) if r is not None and r.exif is not None else None
+            depths[v_name] = (*depth_map(g, c, mask=alive), photo)
+        return depths[v_name]
+
+    d, a, _ = depth(name, cam)
+    values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
+    count = np.zeros((cam.height, cam.width, n), np.float32)
+    for k in range(n):
+        mine = [v for v in views if v.name != name and v.name in raws and raws[v.name].camera == k]
+        sources = [(v.camera, *depth(v.name, v.camera)[::2]) for v in mine]
+        sources = [s for s in sources if s[2] is not None]
+        if sources:
+            values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)
+    return values, count
+
+
 def render_step(
     capture: str | os.PathLike,
     out: str | os.PathLike,
@@ -675,7 +701,10 @@ def render_step(
     config: PipelineConfig = PipelineConfig(),
     progress: ProgressCallback | None = None,
 ) -> dict:
-    """Render held-out views, views of the chosen camera and novel views (N channels, exposure 1).
+    """Render held-out views, views of the chosen camera and novel views (N channels, exposure 1); for
+    the views with a RAW file also every camera's other photographs reprojected into them through the
+    splat's depth (``reprojected.tiff``, 0 where none sees a pixel, and ``reprojected_count.tiff``, how
+    many see it; :mod:`splat.reproject`).
 
     Returns
     -------
@@ -698,6 +727,9 @@ def render_step(
     todo += [(v.name, v.camera, v.camera_id, "view") for v in chosen]
     if config.novel:
         todo += [(n, c, cid, "novel") for n, c, cid in _novel_cameras(mine, config.novel)]
+    raws = {v.name: v for v in load_views(spec)}
+    n = len(spec.cameras)
+    depths: dict = {}  # view name → (depth, alpha, photograph), computed once
     index = {}
     for i, (name, cam, cid, kind) in enumerate(todo):
         d = out / "render" / _stem(name)
@@ -708,6 +740,10 @@ def render_step(
             for cid2, part in split_cameras(img, cap).items():
                 _write_tiff(d / f"camera_{spec.cameras[cid2 - 1].folder}.tiff", part)
             _write_png8(files["pca"], pca_false_colour(img))
+        if name in raws and not (d / "reprojected_count.tiff").is_file():
+            rep, count = _reprojected_view(name, cam, views, raws, g, alive, depths, n)
+            _write_tiff(d / "reprojected.tiff", rep)
+            _write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
         index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": _stem(name)}
         if progress is not None:
             progress("render", i + 1, len(todo))
@@ -829,55 +865,130 @@ def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> di
 
 
 def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.ndarray) -> dict:
-    """The noise levels of the fused correction (:mod:`splat.fusion`), cached in ``OUT/correct/fusion.json``
-    (so resumed runs and scoring use the same): ``render_sigma``, the render's error after anchoring
-    (:func:`splat.fusion.render_noise` over every rendered view that has a RAW file), and per such view
-    ``own_sigma``, its sensor noise per channel (:func:`splat.fusion.sensor_noise`, at least
-    :data:`splat.fusion.OWN_NOISE_FLOOR`). Empty ``views`` when no rendered view has a RAW file."""
-    from .fusion import OWN_NOISE_FLOOR, measured, render_noise, sensor_noise
+    """The noise levels of the fused correction (:mod:`splat.fusion`), in ``OUT/correct/fusion.json``.
+
+    Cached, so that resumed runs and scoring use the same; white → 1 units:
+
+    - ``render_sigma``: the render's error after anchoring (:func:`splat.fusion.render_noise` over every
+      rendered view that has a RAW file);
+    - ``reprojected_sigma``: per camera, the error of its photographs reprojected into another of its
+      views (``render/<view>/reprojected.tiff``) against that view's own measurement — robust σ pooled
+      over the camera's rendered views, at least :data:`splat.fusion.OWN_NOISE_FLOOR` (it includes the
+      target's own noise, so it errs high); a camera without such a view gets the largest of the others;
+    - per view with a RAW file, ``own_sigma``: its sensor noise per channel
+      (:func:`splat.fusion.sensor_noise`, at least :data:`splat.fusion.OWN_NOISE_FLOOR`).
+
+    Empty ``views`` when no rendered view has a RAW file.
+    """
+    from .fusion import OWN_NOISE_FLOOR, _robust_sigma, measured, render_noise, sensor_noise
 
     path = out / "correct" / "fusion.json"
     if path.is_file():
         return json.loads(path.read_text())
     n = len(spec.cameras)
-    pairs, views = [], {}
+    pairs, views, resid = [], {}, {}
     for name, info in index.items():
         v = raws.get(name)
         if v is None or v.exif is None:
             continue
         k = v.camera
         ws = scale[3 * k : 3 * k + 3]
-        img = _read_tiff(out / "render" / info["dir"] / "render.tiff") / scale
-        pairs.append((img[..., 3 * k : 3 * k + 3], measured(v, ws)))
+        d = out / "render" / info["dir"]
+        img = _read_tiff(d / "render.tiff") / scale
+        m = measured(v, ws)
+        pairs.append((img[..., 3 * k : 3 * k + 3], m))
         views[name] = {"camera": k, "own_sigma": np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR).tolist()}
+        if (d / "reprojected_count.tiff").is_file():
+            seen = _read_tiff(d / "reprojected_count.tiff")[..., k] > 0
+            rep = _read_tiff(d / "reprojected.tiff")[..., 3 * k : 3 * k + 3] / ws
+            resid.setdefault(k, []).append((rep - np.maximum(m, 0))[seen].ravel())
+    rep_sigma = {k: max(_robust_sigma(np.concatenate(r)), OWN_NOISE_FLOOR) for k, r in resid.items()}
+    worst = max(rep_sigma.values(), default=None)
     doc = {
         "render_sigma": render_noise(pairs) if pairs else None,
+        "reprojected_sigma": [rep_sigma.get(k, worst) for k in range(n)] if rep_sigma else None,
         "own_noise_floor": OWN_NOISE_FLOOR,
         "channels": 3 * n,
         "views": views,
-        "rule": "own channels: the RAW file's robust sensor noise (at least own_noise_floor); other "
-        "channels: the render's leave-one-channel-out error after anchoring, pooled over views and cameras",
+        "rule": "own channels: the RAW file's sensor noise (at least own_noise_floor); reprojected "
+        "photographs: their error against each camera's own measured views; rendered channels: the "
+        "render's leave-one-channel-out error after anchoring, pooled over views and cameras",
     }
     _write_json(path, doc)
     return doc
 
 
-def fused_view(fusion: dict, name: str, render: np.ndarray, view: RawView, scale: np.ndarray, cameras):
-    """Fused responses of a view with a RAW file restricted to ``cameras`` (which must include the view's
-    own) and their per-channel noise: (responses (H, W, 3·len(cameras)), σ (3·len(cameras),))."""
+def fused_view(
+    fusion: dict, name: str, render: np.ndarray, view: RawView, scale: np.ndarray, cameras, reprojected=None
+):
+    """Fused responses of a view with a RAW file, restricted to ``cameras`` (which must include the
+    view's own), and their per-channel noise.
+
+    The own channels are measured; another camera's channels are its photographs reprojected into the
+    view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n), all
+    cameras, as the render step writes them), else the render anchored to the photograph.
+
+    Returns
+    -------
+    fused : ndarray of shape (H, W, 3·len(cameras))
+    code : ndarray of shape (H, W), int
+        Bit ``i`` set where ``cameras[i]`` (not the own) is reprojected rather than rendered.
+    sigma : dict
+        ``code`` → σ per channel (3·len(cameras),).
+    """
     from .fusion import anchor, measured
 
     k = view.camera
+    cameras = list(cameras)
     if k not in cameras:
         raise SplatError(f"{name}: its camera is not among the cameras {cameras} to fuse.")
     idx = [3 * c + j for c in cameras for j in range(3)]
-    pos = 3 * list(cameras).index(k)
+    pos = 3 * cameras.index(k)
     own = slice(pos, pos + 3)
     valid = np.asarray(view.weight).sum(-1) > 0  # the pixel's own site is neither saturated nor dead
     fused = anchor(render[..., idx], measured(view, scale[3 * k : 3 * k + 3]), own, valid)
-    sigma = np.full(len(idx), fusion["render_sigma"], float)
-    sigma[own] = fusion["views"][name]["own_sigma"]
-    return fused, sigma
+    code = np.zeros(fused.shape[:2], int)
+    if reprojected is not None and fusion.get("reprojected_sigma") is not None:
+        values, count = reprojected
+        for i, c in enumerate(cameras):
+            if c == k:
+                continue
+            seen = count[..., c] > 0
+            fused[..., 3 * i : 3 * i + 3] = np.where(
+                seen[..., None], np.maximum(values[..., 3 * c : 3 * c + 3], 0), fused[..., 3 * i : 3 * i + 3]
+            )
+            code |= seen.astype(int) << i
+    sigma = {}
+    for cd in np.unique(code):
+        s_ = np.full(len(idx), fusion["render_sigma"], float)
+        for i, c in enumerate(cameras):
+            if cd >> i & 1:
+                s_[3 * i : 3 * i + 3] = fusion["reprojected_sigma"][c]
+        s_[own] = fusion["views"][name]["own_sigma"]
+        sigma[int(cd)] = s_
+    return fused, code, sigma
+
+
+def _reprojected_of(d: Path, scale: np.ndarray):
+    """A rendered view's reprojected photographs (white → 1) and counts, or None (not written)."""
+    if not (d / "reprojected_count.tiff").is_file():
+        return None
+    return _read_tiff(d / "reprojected.tiff") / scale, _read_tiff(d / "reprojected_count.tiff")
+
+
+def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
+    """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
+    ``(corrector, scale)`` (:func:`fit_fused_corrector`, cached by the caller); returns XYZ (..., 3)."""
+    from zonotope.image import correct_image
+
+    out = np.zeros((*fused.shape[:-1], 3))
+    for cd, s_ in sigma.items():
+        sel = code == cd
+        if sel.any():
+            cor, w = fit(s_)
+            # whitened units: no channel is quantised more coarsely than ``quantum``
+            out[sel] = correct_image((fused[sel] * w)[:, None], cor, quantum=quantum)[:, 0]
+    return out
 
 
 def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
@@ -988,13 +1099,17 @@ def correct_step(
             _write_png8(o / f"dng_{spec.cameras[k].folder}_sRGB.png", xyz_to_srgb(X, wXYZ))
         r = raws.get(name)
         if name in fusion["views"] and not (o / f"{mname}_fused_XYZ.tiff").is_file():
-            fused, sigma = fused_view(fusion, name, img, r, scale, list(range(n)))
-            key = tuple(np.round(sigma, 6))
-            if key not in fitted:
-                fitted[key] = fit_fused_corrector(spec, list(range(n)), config.method, sigma)
-            cor, w = fitted[key]
-            # whitened units: no channel is quantised more coarsely than config.quantum
-            XYZ = correct_image(fused * w, cor, quantum=config.quantum)
+            fused, code, sigma = fused_view(
+                fusion, name, img, r, scale, list(range(n)), _reprojected_of(d, scale)
+            )
+
+            def fit(s_):
+                key = tuple(np.round(s_, 6))
+                if key not in fitted:
+                    fitted[key] = fit_fused_corrector(spec, list(range(n)), config.method, s_)
+                return fitted[key]
+
+            XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
             _write_tiff(o / f"{mname}_fused_XYZ.tiff", XYZ)
             rgb = xyz_to_srgb(XYZ, wXYZ)
             from isp import write_image

@@ -145,13 +145,16 @@ def score(
     """
     import tifffile
 
+    from zonotope.correct import CORRECTION_METHODS
     from zonotope.image import correct_image
 
     from .capture import load_views, read_capture
     from .colmap import read_colmap
     from .data import capture_from_colmap
     from .pipeline import (
+        _reprojected_of,
         _stem,
+        correct_fused,
         delta_of,
         dng_matrix_XYZ,
         fit_corrector,
@@ -228,17 +231,28 @@ def score(
             label = f"{cor.method}:{'+'.join(spec.cameras[k].folder for k in s)}"
             add(label, est, r, fl)
         if name in fusion["views"]:  # the photographed view fused with the render (splat.fusion)
+            rep = _reprojected_of(out / "render" / _stem(name), scale)
             for m in methods:
                 for sub in subsets:
                     if cam not in sub or len(sub) < 2:
                         continue
-                    f, sigma = fused_view(fusion, name, render / scale, raws[name], scale, list(sub))
-                    key = (m, sub, tuple(np.round(sigma, 6)))
-                    if key not in fused_corr:
-                        fused_corr[key] = fit_fused_corrector(spec, list(sub), m, sigma)
-                    cor, w = fused_corr[key]
-                    est = unpick(correct_image(pick(f[::stride, ::stride] * w, fl), cor, quantum=quantum))
-                    add(f"{cor.method}-fused:{'+'.join(spec.cameras[k].folder for k in sub)}", est, r, fl)
+                    f, code, sigma = fused_view(
+                        fusion, name, render / scale, raws[name], scale, list(sub), rep
+                    )
+                    f, code = f[::stride, ::stride], code[::stride, ::stride]
+
+                    def fit(s_, m=m, sub=sub):
+                        key = (m, sub, tuple(np.round(s_, 6)))
+                        if key not in fused_corr:
+                            fused_corr[key] = fit_fused_corrector(spec, list(sub), m, s_)
+                        return fused_corr[key]
+
+                    if flat_only:
+                        est = correct_fused(f[fl], code[fl], sigma, fit, quantum)
+                    else:
+                        est = correct_fused(f, code, sigma, fit, quantum)
+                    cams = "+".join(spec.cameras[k].folder for k in sub)
+                    add(f"{CORRECTION_METHODS.resolve(m)}-fused:{cams}", est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
         w = v.weight > 0

@@ -513,10 +513,12 @@ def test_fused_view(sim, cameras):
     render = rng.uniform(0.05, 1.0, (H, W, 9)) * (1 + np.arange(9))  # channels told apart
     scale = sim["scale"]
     doc = {"render_sigma": 0.017, "views": {view.name: {"camera": 2, "own_sigma": [0.003, 0.004, 0.005]}}}
-    fused, sigma = fused_view(doc, view.name, render, view, scale, cameras)
+    fused, code, sigmas = fused_view(doc, view.name, render, view, scale, cameras)
 
     n = len(cameras)
     pos = 3 * cameras.index(2)
+    assert code.shape == (H, W) and not code.any() and list(sigmas) == [0]  # nothing reprojected
+    sigma = sigmas[0]
     assert fused.shape == (H, W, 3 * n) and sigma.shape == (3 * n,)
     want_sigma = [0.017] * (3 * n)
     want_sigma[pos : pos + 3] = [0.003, 0.004, 0.005]
@@ -533,6 +535,40 @@ def test_fused_view(sim, cameras):
             sub[valid], (render[..., 3 * k : 3 * k + 3] * ratio[..., None])[valid], rtol=1e-12
         )
         assert np.array_equal(sub[~valid], render[..., 3 * k : 3 * k + 3][~valid])
+
+
+def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
+    """Another camera's channels are its reprojected photographs where any sees the pixel (count > 0),
+    the anchored render elsewhere; each pattern of the two gets its own σ (reprojected_sigma there)."""
+    from splat.pipeline import fused_view
+
+    view = next(v for v in sim["views"] if v.camera == 2)
+    H, W = view.shape
+    rng = np.random.default_rng(5)
+    render = rng.uniform(0.05, 1.0, (H, W, 9))
+    values = rng.uniform(0.05, 1.0, (H, W, 9))
+    count = np.zeros((H, W, 3))
+    count[: H // 2, :, 0] = 3  # camera 0 seen in the top half
+    count[:, : W // 3, 1] = 1  # camera 1 in the left third
+    count[..., 2] = 5  # the own camera's reprojection is never used for its own channels
+    doc = {
+        "render_sigma": 0.017,
+        "reprojected_sigma": [0.004, 0.002, 0.006],
+        "views": {view.name: {"camera": 2, "own_sigma": [0.003] * 3}},
+    }
+    cams = [1, 2, 0]
+    fused, code, sigmas = fused_view(doc, view.name, render, view, sim["scale"], cams, (values, count))
+    plain, *_ = fused_view(doc, view.name, render, view, sim["scale"], cams)
+    seen0, seen1 = count[..., 0] > 0, count[..., 1] > 0
+    np.testing.assert_array_equal(code, (seen1 << 0) | (seen0 << 2))  # bit i: cams[i]
+    np.testing.assert_array_equal(fused[..., 6:9][seen0], values[..., 0:3][seen0])
+    np.testing.assert_array_equal(fused[..., 6:9][~seen0], plain[..., 6:9][~seen0])
+    np.testing.assert_array_equal(fused[..., 0:3][seen1], values[..., 3:6][seen1])
+    np.testing.assert_array_equal(fused[..., 3:6], plain[..., 3:6])  # own: measured, never reprojected
+    assert sorted(sigmas) == [0, 1, 4, 5]
+    np.testing.assert_array_equal(sigmas[5], [0.002] * 3 + [0.003] * 3 + [0.004] * 3)
+    np.testing.assert_array_equal(sigmas[0], [0.017] * 3 + [0.003] * 3 + [0.017] * 3)
+    np.testing.assert_array_equal(sigmas[4], [0.017] * 3 + [0.003] * 3 + [0.004] * 3)
 
 
 def test_fused_view_refuses_a_subset_without_the_view_camera(sim):
