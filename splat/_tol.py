@@ -9,8 +9,10 @@ of the simulator (cell border widths, the white card's reflectance), optimiser h
 from __future__ import annotations
 
 __all__ = [
+    "ANCHOR_EPS",
     "FEASIBLE_DISTANCE",
     "GRID_NM",
+    "OWN_NOISE_FLOOR",
     "PURE_WEIGHT",
     "QUATERNION_NORM_MAX",
     "QUATERNION_NORM_MIN",
@@ -65,3 +67,16 @@ SO3_TAYLOR_THETA2 = 1e-4
 #: The floor's radial warp ``r → a·log(1 + r/a)/r`` uses its limit 1 below this radius (m): the
 #: quotient is exact to rounding from 1e-12 m, and the scene's finest detail is ~1 mm.
 WARP_RADIUS_MIN = 1e-12
+
+#: Added to both sums of :func:`splat.fusion.anchor`'s ratio (white = 1 units): keeps the ratio
+#: finite where the own channels are black in the render or the photograph (the chart's black patch is
+#: ≈ 0.03), and ≪ any lit surface's sum of three channels (≥ 0.05 on the simulated capture).
+ANCHOR_EPS = 1e-3
+
+#: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the
+#: correction's 10 nm grid, the white scale's estimate, 14-bit rounding) when the sensor noise itself
+#: is ~0 (a noise-free simulation). Chosen on one training run of the simulated capture (2000 steps;
+#: three cameras, anchored renders, flat pixels of the held-out views): with one σ = 0.02 for every
+#: rendered channel, 0.002 gave 0.82 ΔE00 and 0.0005 0.92; with per-camera render σ, 0.002 gave 0.94
+#: and 0.001 0.99. Other runs were scored with it fixed (README, capture section).
+OWN_NOISE_FLOOR = 2e-3

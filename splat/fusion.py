@@ -33,19 +33,9 @@ import dataclasses
 import numpy as np
 
 from ._errors import SplatError
+from ._tol import ANCHOR_EPS, OWN_NOISE_FLOOR  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
 
 __all__ = ["anchor", "measured", "render_noise", "sensor_noise", "whitened"]
-
-#: Added to both sums of :func:`anchor`'s ratio (white = 1 units): keeps the ratio finite where the
-#: own channels are black in the render or the photograph (the chart's black patch is ≈ 0.03), and
-#: ≪ any lit surface's sum of three channels (≥ 0.05 on the simulated capture).
-ANCHOR_EPS = 1e-3
-
-#: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the
-#: correction's 10 nm grid, the white scale's estimate, 14-bit rounding) when the sensor noise itself
-#: is ~0 (a noise-free simulation). On the simulated capture 0.002 gave 0.82 ΔE00 where 0.001 gave
-#: 0.99 and 0.0005 0.92 (render σ 0.02; held-out views, the run of :mod:`splat.fusion`'s figures).
-OWN_NOISE_FLOOR = 2e-3
 
 
 def measured(view, white_scale) -> np.ndarray:

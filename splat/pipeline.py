@@ -11,10 +11,14 @@ poses      ``previews/<folder>/<stem>.png`` (8-bit, developed by :mod:`isp`), ``
            model with image names ``<folder>/<file>``), ``poses/summary.json``
 train      ``train/checkpoint.npz`` (resumable), ``train/model.npz``, ``train/summary.json``
 render     ``render/<folder>/<stem>/`` ``render.tiff`` (float32, H × W × k, exposure 1),
-           ``camera_<folder>.tiff`` per camera, ``pca.png``
+           ``camera_<folder>.tiff`` per camera, ``pca.png``; for views with a RAW file also
+           ``reprojected.tiff`` + ``reprojected_count.tiff`` (the photographs reprojected into the view)
 correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XYZ, white Y = 1),
            ``<method>_sRGB.tiff`` (16-bit) + ``.png``, ``dng_<folder>_sRGB.png`` (each camera's own
-           DNG-matrix development of the view), ``correct/summary.json``
+           DNG-matrix development of the view), ``correct/summary.json``; for views with a RAW file
+           also ``<method>_fused_XYZ.tiff`` / ``_sRGB.tiff`` / ``.png`` (:mod:`splat.fusion`: the view's
+           own channels and the other cameras' reprojected photographs — the better estimate wherever
+           the view was photographed), ``correct/fusion.json`` (their noise levels)
 report     ``report.html``
 =========  ==========================================================================================
 
@@ -878,6 +882,8 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
     - per view with a RAW file, ``own_sigma``: its sensor noise per channel
       (:func:`splat.fusion.sensor_noise`, at least :data:`splat.fusion.OWN_NOISE_FLOOR`).
 
+    Each to two significant digits (:func:`_two_digits`).
+
     Empty ``views`` when no rendered view has a RAW file.
     """
     from .fusion import OWN_NOISE_FLOOR, _robust_sigma, measured, render_noise, sensor_noise
@@ -897,15 +903,18 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
         img = _read_tiff(d / "render.tiff") / scale
         m = measured(v, ws)
         pairs.append((img[..., 3 * k : 3 * k + 3], m))
-        views[name] = {"camera": k, "own_sigma": np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR).tolist()}
+        own = np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR)
+        views[name] = {"camera": k, "own_sigma": [_two_digits(x) for x in own]}
         if (d / "reprojected_count.tiff").is_file():
             seen = _read_tiff(d / "reprojected_count.tiff")[..., k] > 0
             rep = _read_tiff(d / "reprojected.tiff")[..., 3 * k : 3 * k + 3] / ws
             resid.setdefault(k, []).append((rep - np.maximum(m, 0))[seen].ravel())
-    rep_sigma = {k: max(_robust_sigma(np.concatenate(r)), OWN_NOISE_FLOOR) for k, r in resid.items()}
+    rep_sigma = {
+        k: _two_digits(max(_robust_sigma(np.concatenate(r)), OWN_NOISE_FLOOR)) for k, r in resid.items()
+    }
     worst = max(rep_sigma.values(), default=None)
     doc = {
-        "render_sigma": render_noise(pairs) if pairs else None,
+        "render_sigma": _two_digits(render_noise(pairs)) if pairs else None,
         "reprojected_sigma": [rep_sigma.get(k, worst) for k in range(n)] if rep_sigma else None,
         "own_noise_floor": OWN_NOISE_FLOOR,
         "channels": 3 * n,
@@ -916,6 +925,12 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
     }
     _write_json(path, doc)
     return doc
+
+
+def _two_digits(x: float) -> float:
+    """``x`` to two significant digits: the noise estimates are no better, and views whose noise agrees
+    to that share one fitted estimator (each fit costs seconds)."""
+    return float(f"{float(x):.2g}")
 
 
 def fused_view(

@@ -9,8 +9,9 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
   they are) corrected by ``<method>`` with that camera alone — the single-camera metamer correction;
 - ``<method>:<cams>`` the splat's render of the view through the channels of ``<cams>`` (one camera,
   pairs, all), corrected by Prior and Centroid with the pipeline's δ;
-- ``<method>-fused:<cams>`` the same view fused with its own RAW file (:mod:`splat.fusion`: the render
-  anchored to the photograph, the measured channels in place of the rendered ones, per-channel noise),
+- ``<method>-fused:<cams>`` the same view fused with its own RAW file (:mod:`splat.fusion`: its
+  measured channels, the other cameras' photographs reprojected into it (:mod:`splat.reproject`) where
+  they see the pixel, else the render anchored to the photograph; per-channel noise),
   for the subsets of two or more cameras that include the view's own — what the correct step writes as
   ``<method>_fused_*`` for every photographed view;
 
@@ -112,7 +113,6 @@ def score(
     raw_methods=("Prior",),
     flat_only: bool = False,
     quantum: float = 2e-3,
-    fused: bool = True,
 ) -> dict:
     """Score ``OUT`` against ``CAPTURE/truth`` and write ``OUT/score.json``.
 
@@ -134,10 +134,6 @@ def score(
         the flat pixels of a coarse texture share few colours.
     quantum : float
         Colour deduplication step of :func:`zonotope.image.correct_image`.
-    fused : bool
-        Also score the held-out views fused with their own RAW files (:mod:`splat.fusion`, rows
-        ``"<method>-fused:<cameras>"`` for every subset of two or more cameras that includes the view's
-        own), as the correct step writes them for every rendered view with a RAW file.
 
     Returns
     -------
@@ -185,7 +181,7 @@ def score(
     corr = {(m, s): fit_corrector(spec, list(s), m, delta) for m in methods for s in subsets}
     raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
-    fusion = fusion_of(spec, out, index, raws, scale) if fused else {"views": {}}
+    fusion = fusion_of(spec, out, index, raws, scale)
     fused_corr: dict = {}
     n_flat = []
 
