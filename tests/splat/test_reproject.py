@@ -234,6 +234,23 @@ def test_occluder_in_source_depth(k):
     assert (np.abs(values - truth) / truth)[valid].max() < TEX_RTOL
 
 
+@pytest.mark.parametrize(
+    "factor", [1 - 1.1 * DEPTH_RTOL, 1 - 0.9 * DEPTH_RTOL, 1 + 0.9 * DEPTH_RTOL, 1 + 1.1 * DEPTH_RTOL]
+)
+@pytest.mark.parametrize("k", [0, 2])
+def test_depth_tolerance_is_relative(k, factor):
+    """The source's depth map scaled by a factor: the point is seen while |factor − 1| ≤ DEPTH_RTOL (a
+    tolerance relative to the point's depth in the source, either side), not beyond."""
+    src = SOURCES[k]
+    d, a, X = _depth_alpha(TARGET)
+    sd, photo = _photo(src)
+    _, valid = reproject(TARGET, d, a, src, sd * factor, photo)
+    _, col, row = _project(src, X)
+    inside = _inside(src, col, row, 1e-6)
+    assert inside.sum() > 200
+    assert (valid[inside] == (abs(factor - 1) <= DEPTH_RTOL)).all()
+
+
 def test_points_behind_source_invalid():
     """A source looking straight up, away from the plane, sees every plane point mirrored through its
     centre (camera z = −1.5, projecting inside its image) and is handed a depth map that agrees with that
@@ -330,7 +347,7 @@ def test_reprojected_errors():
     with pytest.raises(SplatError, match=re.escape("(120, 159)") + ".*" + re.escape("(120, 160)")):
         reproject(TARGET, d, a, src, sd, photo[:, 1:])
     with pytest.raises(SplatError, match="target depth"):
-        reproject(TARGET, d[1:], a[1:], src, sd, photo)
+        reproject(TARGET, d[1:], a, src, sd, photo)
 
 
 @pytest.mark.xfail(
