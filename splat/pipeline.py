@@ -677,21 +677,23 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int) ->
     splat's depth (:func:`splat.reproject.reprojected`): values (H, W, 3n) at exposure 1 (0 where no
     photograph of that camera sees the pixel) and the number of photographs that see it (H, W, n)."""
     from .fusion import measured
-    from .reproject import depth_map, reprojected
+    from .reproject import MIN_ALPHA, depth_map, reprojected
 
     def depth(v_name, c):  # the cache also holds each photograph, demosaiced, at exposure 1
         if v_name not in depths:
             r = raws.get(v_name)
             photo = measured(r, np.ones(3)) if r is not None and r.exif is not None else None
-            depths[v_name] = (*depth_map(g, c, mask=alive), photo)
+            dep, alpha = depth_map(g, c, mask=alive)
+            # as a source, a pixel without a reliable depth vouches for nothing (0 never agrees)
+            depths[v_name] = (dep, alpha, photo, np.where(alpha >= MIN_ALPHA, dep, 0.0))
         return depths[v_name]
 
-    d, a, _ = depth(name, cam)
+    d, a, *_ = depth(name, cam)
     values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
     count = np.zeros((cam.height, cam.width, n), np.float32)
     for k in range(n):
         mine = [v for v in views if v.name != name and v.name in raws and raws[v.name].camera == k]
-        sources = [(v.camera, *depth(v.name, v.camera)[::2]) for v in mine]
+        sources = [(v.camera, depth(v.name, v.camera)[3], depth(v.name, v.camera)[2]) for v in mine]
         sources = [s for s in sources if s[2] is not None]
         if sources:
             values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)

@@ -30,8 +30,9 @@ __all__ = ["DEPTH_RTOL", "MIN_ALPHA", "depth_map", "reproject", "reprojected"]
 #: occluder in front is ≥ 10 % nearer.
 DEPTH_RTOL = 0.03
 
-#: Pixels whose splat opacity is below this have no reliable depth (background, holes); they are not
-#: reprojected, and a source pixel below it does not vouch for visibility.
+#: Pixels whose splat opacity is below this have no reliable depth (background, holes): a target pixel
+#: below it is not reprojected, and a source whose depth is given as 0 there (as the pipeline does,
+#: ``np.where(alpha >= MIN_ALPHA, depth, 0)``) does not vouch for visibility.
 MIN_ALPHA = 0.9
 
 
@@ -85,6 +86,8 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
 
     src = np.asarray(source_image, np.float64)
     sd = np.asarray(source_depth, np.float64)
+    if src.ndim != 3:
+        raise SplatError(f"reproject: the source image must be (Hs, Ws, c), got shape {src.shape}.")
     if src.shape[:2] != sd.shape or sd.shape != (source.height, source.width):
         raise SplatError(
             f"reproject: source image {src.shape[:2]} and depth {sd.shape} must both be the source "
@@ -93,10 +96,15 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
     d = np.asarray(target_depth, np.float64)
     if d.shape != (target.height, target.width):
         raise SplatError(f"reproject: target depth {d.shape} is not the target's size.")
+    if np.shape(target_alpha) != d.shape:
+        raise SplatError(
+            f"reproject: target alpha {np.shape(target_alpha)} is not the target's size {d.shape}."
+        )
     x, y = _pixel_rays(target)
-    pc = np.stack([x * d, y * d, d], -1)
-    world = (pc - np.asarray(target.t, np.float64)) @ np.asarray(target.R, np.float64)  # Rᵀ(x − t)
-    ps = world @ np.asarray(source.R, np.float64).T + np.asarray(source.t, np.float64)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf depths: not valid below
+        pc = np.stack([x * d, y * d, d], -1)
+        world = (pc - np.asarray(target.t, np.float64)) @ np.asarray(target.R, np.float64)  # Rᵀ(x − t)
+        ps = world @ np.asarray(source.R, np.float64).T + np.asarray(source.t, np.float64)
     zs = ps[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         fx, fy = (float(v) for v in np.asarray(source.focal, np.float64))
@@ -142,6 +150,11 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
         stack.append(np.where(ok[..., None], vals, np.nan))
     if not stack:
         raise SplatError("reprojected: no source photograph given.")
+    if len({v.shape for v in stack}) > 1:
+        raise SplatError(
+            "reprojected: the source images differ in size or channel count: "
+            f"{[v.shape[-1] for v in stack]} channels."
+        )
     stack = np.stack(stack)
     count = np.isfinite(stack[..., 0]).sum(0)
     with warnings.catch_warnings():

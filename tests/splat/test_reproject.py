@@ -351,11 +351,6 @@ def test_reprojected_errors():
         reproject(TARGET, d[1:], a, src, sd, photo)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=ValueError,
-    reason="reprojected stacks sources of different channel counts without a check: numpy's raw ValueError",
-)
 def test_reprojected_mixed_channel_counts_is_a_splat_error():
     d, a, _ = _depth_alpha(TARGET)
     (s0, s1) = SOURCES[:2]
@@ -365,12 +360,6 @@ def test_reprojected_mixed_channel_counts_is_a_splat_error():
         reprojected(TARGET, d, a, [(s0, d0, p0), (s1, d1, p1[..., :1])])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=ValueError,
-    reason="reproject does not check target_alpha's shape: numpy's raw broadcast ValueError (and a (W,) "
-    "alpha is broadcast over the rows silently)",
-)
 def test_reproject_target_alpha_shape_is_a_splat_error():
     d, _, _ = _depth_alpha(TARGET)
     src = SOURCES[0]
@@ -378,12 +367,6 @@ def test_reproject_target_alpha_shape_is_a_splat_error():
         reproject(TARGET, d, np.ones((TARGET.height, TARGET.width + 1)), src, *_photo(src))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=RuntimeError,
-    reason="a 2-D source image (no channel axis) reaches scipy's map_coordinates one column at a time: "
-    "raw RuntimeError 'invalid shape for coordinate array'",
-)
 def test_reproject_two_dimensional_source_image_is_a_splat_error():
     d, a, _ = _depth_alpha(TARGET)
     src = SOURCES[0]
