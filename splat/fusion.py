@@ -1,29 +1,31 @@
-"""A photographed view fused with the splat's render: measured channels where the camera measured them.
+"""A photographed view fused with the splat: measured channels where a camera measured them.
 
 For a view whose RAW file exists (every photograph the user took, held out from training or not), the
-camera's own channels are *measured*; only the other cameras' channels must come from the splat. The
-correct step therefore corrects such views from fused responses rather than from the render alone:
+camera's own channels are *measured*; only the other cameras' channels must come from elsewhere. The
+correct step therefore also corrects such views from fused responses (``pipeline.fused_view``):
 
-1. **Anchoring** (:func:`anchor`): the render of every channel is scaled, per pixel, by the ratio of
-   the measured to the rendered sum of the view's own channels (the Brovey transform of
-   pan-sharpening, Gillespie et al. 1987), and the own channels are replaced by the measured ones
-   (demosaiced by isp, :func:`measured`). A render's error that is common to all channels (opacity,
-   coverage, shading — on the simulated capture more than half of it) cancels, and edges follow the
-   photograph.
-2. **Per-channel noise**: the own channels carry the sensor's noise (:func:`sensor_noise`, a robust
-   estimate from the mosaic itself), the others the render's error after anchoring
-   (:func:`render_noise`, estimated on the views' own channels, which are measured). The estimator is
-   fitted on the channel-whitened problem (:func:`whitened`: channel ``k`` scaled by ``σ_ref/σ_k``),
-   so that its single noise level ``σ_ref`` means ``σ_k`` in each channel — the MMV's tolerance too
-   (``δ_k = 3σ_k``). The measured channels then constrain the estimate tightly and the rendered ones
-   softly, instead of all channels alike.
+1. **Own channels**: the photograph, demosaiced by isp (:func:`measured`); where the camera's other
+   photographs see the pixel, the inverse-variance mean with them (reprojected through the splat's
+   depth, :mod:`splat.reproject`), which averages sensor noise.
+2. **Another camera's channels**: its photographs reprojected into the view where any sees the pixel
+   (the median over them); elsewhere the splat's render **anchored** to the photograph
+   (:func:`anchor`): every channel scaled, per pixel, by the ratio of the measured to the rendered sum
+   of the own channels (the Brovey transform of pan-sharpening, Gillespie et al. 1987), so a render
+   error common to all channels (opacity, coverage, shading) cancels.
+3. **Per-channel noise**: the own channels carry the sensor's noise (:func:`sensor_noise`: the file's
+   DNG NoiseProfile at the channel's median signal; without one, a robust estimate from the mosaic,
+   an upper bound on textured scenes), reprojected channels their camera's reprojection error, rendered
+   ones the render's error after anchoring (:func:`render_noise`). The estimator is fitted on the
+   channel-whitened problem (:func:`whitened`: channel ``k`` scaled by ``σ_ref/σ_k``), so that its single
+   noise level means ``σ_k`` in each channel — the MMV's tolerance too (``δ_k = 3σ_k``): measured
+   channels constrain the estimate tightly and rendered ones softly, instead of all alike.
 
 Views without a RAW file (novel views) keep the render-only correction.
 
-Measured (``benchmarks/bench_capture.py``, CI-size coarse noise-free capture, true poses, 2000 steps,
-capacity 4096, flat pixels of the six held-out views, three cameras with Prior): render only 1.64 ΔE00;
-anchored, one noise level 1.31; anchored and whitened 0.82–0.94 depending on the noise levels (see the
-README's capture section for the rule used and its figures on other runs).
+Measured (``benchmarks/bench_capture.py``, CI-size coarse capture, true poses, flat pixels of the six
+held-out views, three cameras with Prior; the README's capture section has the tables): noise-free,
+render only 1.64–1.65 ΔE00, anchored render 0.76–0.83, with reprojected photographs 0.62–0.66 (the
+best single camera's DNG development 1.13); with sensor noise, render only 1.86, fused 1.42 (DNG 1.99).
 """
 
 from __future__ import annotations

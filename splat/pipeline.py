@@ -879,8 +879,9 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
       rendered view that has a RAW file);
     - ``reprojected_sigma``: per camera, the error of its photographs reprojected into another of its
       views (``render/<view>/reprojected.tiff``) against that view's own measurement — robust σ pooled
-      over the camera's rendered views, at least :data:`splat.fusion.OWN_NOISE_FLOOR` (it includes the
-      target's own noise, so it errs high); a camera without such a view gets the largest of the others;
+      over the camera's rendered views, less (in variance) the median sensor noise of those views, which
+      the residual also carries; at least :data:`splat.fusion.OWN_NOISE_FLOOR`; a camera without such a
+      view gets the largest of the others;
     - per view with a RAW file, ``own_sigma``: its sensor noise per channel
       (:func:`splat.fusion.sensor_noise`, at least :data:`splat.fusion.OWN_NOISE_FLOOR`).
 
@@ -911,8 +912,15 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
             seen = _read_tiff(d / "reprojected_count.tiff")[..., k] > 0
             rep = _read_tiff(d / "reprojected.tiff")[..., 3 * k : 3 * k + 3] / ws
             resid.setdefault(k, []).append((rep - np.maximum(m, 0))[seen].ravel())
+    own_var = {}
+    for info in views.values():
+        own_var.setdefault(info["camera"], []).append(np.square(info["own_sigma"]).mean())
+    # the residual carries the target's own noise too: remove its (median) variance
     rep_sigma = {
-        k: _two_digits(max(_robust_sigma(np.concatenate(r)), OWN_NOISE_FLOOR)) for k, r in resid.items()
+        k: _two_digits(
+            np.sqrt(max(_robust_sigma(np.concatenate(r)) ** 2 - np.median(own_var[k]), OWN_NOISE_FLOOR**2))
+        )
+        for k, r in resid.items()
     }
     worst = max(rep_sigma.values(), default=None)
     doc = {
@@ -941,15 +949,18 @@ def fused_view(
     """Fused responses of a view with a RAW file, restricted to ``cameras`` (which must include the
     view's own), and their per-channel noise.
 
-    The own channels are measured; another camera's channels are its photographs reprojected into the
-    view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n), all
-    cameras, as the render step writes them), else the render anchored to the photograph.
+    The own channels are measured (where the camera's other photographs see the pixel, the
+    inverse-variance mean of the measurement and their reprojection: noise is averaged, a noise-free
+    photograph keeps most of its weight); another camera's channels are its photographs reprojected into
+    the view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n),
+    all cameras, as the render step writes them), else the render anchored to the photograph.
 
     Returns
     -------
     fused : ndarray of shape (H, W, 3·len(cameras))
     code : ndarray of shape (H, W), int
-        Bit ``i`` set where ``cameras[i]`` (not the own) is reprojected rather than rendered.
+        Bit ``i`` set where ``cameras[i]``'s reprojected photographs enter (for the view's own camera:
+        are averaged with its measurement).
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
@@ -967,10 +978,17 @@ def fused_view(
     code = np.zeros(fused.shape[:2], int)
     if reprojected is not None and fusion.get("reprojected_sigma") is not None:
         values, count = reprojected
+        m_own = fused[..., own].copy()
+        s_own = np.asarray(fusion["views"][name]["own_sigma"], float)
+        s_rep = float(fusion["reprojected_sigma"][k])
         for i, c in enumerate(cameras):
-            if c == k:
-                continue
             seen = count[..., c] > 0
+            if c == k:  # inverse-variance mean of the measurement and the camera's other photographs
+                wm, wr = 1 / s_own**2, 1 / s_rep**2
+                comb = (wm * m_own + wr * np.maximum(values[..., 3 * c : 3 * c + 3], 0)) / (wm + wr)
+                fused[..., own] = np.where(seen[..., None] & valid[..., None], comb, m_own)
+                code |= (seen & valid).astype(int) << i
+                continue
             fused[..., 3 * i : 3 * i + 3] = np.where(
                 seen[..., None], np.maximum(values[..., 3 * c : 3 * c + 3], 0), fused[..., 3 * i : 3 * i + 3]
             )
@@ -982,6 +1000,9 @@ def fused_view(
             if cd >> i & 1:
                 s_[3 * i : 3 * i + 3] = fusion["reprojected_sigma"][c]
         s_[own] = fusion["views"][name]["own_sigma"]
+        if cd >> (pos // 3) & 1:
+            so = np.asarray(fusion["views"][name]["own_sigma"], float)
+            s_[own] = 1 / np.sqrt(1 / so**2 + 1 / float(fusion["reprojected_sigma"][k]) ** 2)
         sigma[int(cd)] = s_
     return fused, code, sigma
 

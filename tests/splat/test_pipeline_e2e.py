@@ -82,6 +82,15 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     assert tifffile.imread(d / "Prior_XYZ.tiff").dtype == np.float32
     for f in ("raw_dng_sRGB.png", "dng_nikon_sRGB.png", "dng_sigma_sRGB.png", "dng_canon_sRGB.png"):
         assert (d / f).is_file()
+    # a photographed view: also corrected from its own RAW and the other photographs reprojected into it
+    assert tifffile.imread(d / "Prior_fused_sRGB.tiff").shape == (96, 128, 3)
+    rep = tifffile.imread(out / "render" / "nikon" / "DSC_0002" / "reprojected.tiff")
+    count = tifffile.imread(out / "render" / "nikon" / "DSC_0002" / "reprojected_count.tiff")
+    assert rep.shape == (96, 128, 9) and count.shape == (96, 128, 3)
+    assert (count[..., 1:] > 0).mean() > 0.3  # the other cameras' photographs see much of the view
+    fusion = json.loads((out / "correct" / "fusion.json").read_text())
+    assert set(fusion["views"]) == set(held) and fusion["render_sigma"] > 0
+    assert all(s > 0 for s in fusion["reprojected_sigma"])
     html = (out / "report.html").read_text()
     assert "correct/nikon/DSC_0002/Prior_sRGB.png" in html and name in html
     corr = json.loads((out / "correct" / "summary.json").read_text())
@@ -112,6 +121,8 @@ def test_scores_against_truth(ci_run):
         "dng:canon",
         "Prior:nikon+sigma+canon",
         "Centroid:nikon+sigma+canon",
+        "Prior-fused:nikon+sigma+canon",
+        "Centroid-fused:nikon+sigma+canon",
     } <= set(dE)
     # 130 training steps cannot reproduce this textured scene (ΔE00 ≈ 30 through the splat at this
     # size): the bound only catches unit or white-scale blunders, the benchmark measures accuracy
