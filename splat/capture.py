@@ -680,6 +680,11 @@ def brightest_neutral(
 def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     """Per camera, the divisor that puts raw responses (exposure 1) on the white → 1 scale.
 
+    With ``[white] method = "patch"`` the camera that photographed the patch gets its white per channel
+    from the patch (mean ÷ reflectance ÷ exposure); the others ``k · n``, ``n`` their SSF's white and
+    ``k`` the patch's level carried over by the ratio of the cameras' brightest-neutral levels. Without
+    a patch every camera gets ``k · n`` with ``k`` its brightest-neutral level.
+
     Returns
     -------
     dict
@@ -708,10 +713,16 @@ def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
                 "(saturated or too small); choose a larger, unsaturated patch."
             )
         mean = (val * wt).sum(0) / wt.sum(0)
-        k_patch = float(np.mean(mean / (spec.white.reflectance * v.exif * whites[k0])))
+        patch = mean / (spec.white.reflectance * v.exif)  # the patch camera's white, per channel
+        k_patch = float(np.mean(patch / whites[k0]))
         ks = [k_patch * levels[k] / levels[k0] for k in range(len(spec.cameras))]
+    scale = [ks[k] * whites[k] for k in range(len(ks))]
+    if spec.white.method == "patch":
+        # measured per channel rather than through the SSF's white (which carries the SSF's calibration
+        # error: 0.7 % in the simulated Canon's red, worth 0.09 ΔE00 of the fused three-camera estimate)
+        scale[k0] = patch
     return {
-        "scale": [ks[k] * whites[k] for k in range(len(ks))],
+        "scale": scale,
         "method": spec.white.method,
         "levels": levels,
         "whites": whites,

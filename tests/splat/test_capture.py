@@ -170,8 +170,9 @@ def test_unknown_ssf(tmp_path):
         read_capture(tmp_path).load_ssf(0)
 
 
-def _white_scene(tmp_path, level, *, n=2, box=None, reflectance=1.0):
-    """Views with a flat neutral patch at ``level`` × white (raw, exposure 1) and darker coloured noise."""
+def _white_scene(tmp_path, level, *, n=2, box=None, reflectance=1.0, tilt=1.0):
+    """Views with a flat neutral patch at ``level`` × white (raw, exposure 1) and darker coloured noise;
+    ``tilt`` (3,) makes the sensor's real white differ from its SSF's."""
     (tmp_path / "a").mkdir()
     _toml(tmp_path, '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n')
     import zonotope
@@ -182,8 +183,8 @@ def _white_scene(tmp_path, level, *, n=2, box=None, reflectance=1.0):
     rng = np.random.default_rng(1)
     for k in range(n):
         e = [0.5, 1.0, 2.0][k]
-        rgb = rng.uniform(0.05, 0.4, (32, 40, 3)) * white * level * e
-        rgb[4:12, 4:14] = level * e * white
+        rgb = rng.uniform(0.05, 0.4, (32, 40, 3)) * white * level * e * tilt
+        rgb[4:12, 4:14] = level * e * white * tilt
         from isp.stages import mosaic
 
         dn = np.round(256 + mosaic(rgb, cfa="RGGB") * (4095 - 256))
@@ -205,6 +206,16 @@ def test_brightest_neutral_finds_the_white_level(tmp_path):
     s = white_scale(spec, views)
     # relative exposure 1 ↔ absolute 0.75: the white's raw level there is 0.3 × 0.75 (DN rounding ≤ 1e-3)
     assert s["scale"][0] == pytest.approx(0.3 * 0.75 * white, rel=3e-3)
+
+
+def test_patch_camera_white_is_measured_per_channel(tmp_path):
+    """The patch camera's white comes from the patch per channel, not from its SSF's white: a camera
+    whose real white is 1 % off its SSF's in red and blue is put on the real white → 1 scale."""
+    tilt = np.array([1.01, 1.0, 0.99])
+    white = _white_scene(tmp_path, 0.3, box=(4, 4, 14, 12), reflectance=0.5, tilt=tilt)
+    spec = read_capture(tmp_path)
+    s = white_scale(spec, load_views(spec))
+    np.testing.assert_allclose(s["scale"][0], 2 * 0.3 * 0.75 * white * tilt, rtol=3e-3)
 
 
 def test_patch_scale_with_reflectance(tmp_path):
