@@ -539,18 +539,20 @@ def test_fused_view(sim, cameras):
 
 def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     """Another camera's channels are its reprojected photographs where any sees the pixel (count > 0),
-    the anchored render elsewhere; each pattern of the two gets its own σ (reprojected_sigma there)."""
+    the anchored render elsewhere; the own channels are the inverse-variance mean of the measurement and
+    the own camera's reprojected photographs where those see it; each pattern gets its own σ."""
     from splat.pipeline import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 2)
     H, W = view.shape
+    valid = np.asarray(view.weight).sum(-1) > 0
     rng = np.random.default_rng(5)
     render = rng.uniform(0.05, 1.0, (H, W, 9))
     values = rng.uniform(0.05, 1.0, (H, W, 9))
     count = np.zeros((H, W, 3))
     count[: H // 2, :, 0] = 3  # camera 0 seen in the top half
     count[:, : W // 3, 1] = 1  # camera 1 in the left third
-    count[..., 2] = 5  # the own camera's reprojection is never used for its own channels
+    count[:, W // 2 :, 2] = 5  # the own camera's other photographs in the right half
     doc = {
         "render_sigma": 0.017,
         "reprojected_sigma": [0.004, 0.002, 0.006],
@@ -560,13 +562,20 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     fused, code, sigmas = fused_view(doc, view.name, render, view, sim["scale"], cams, (values, count))
     plain, *_ = fused_view(doc, view.name, render, view, sim["scale"], cams)
     seen0, seen1 = count[..., 0] > 0, count[..., 1] > 0
-    np.testing.assert_array_equal(code, (seen1 << 0) | (seen0 << 2))  # bit i: cams[i]
+    own = (count[..., 2] > 0) & valid
+    np.testing.assert_array_equal(code, (seen1 << 0) | (own << 1) | (seen0 << 2))  # bit i: cams[i]
     np.testing.assert_array_equal(fused[..., 6:9][seen0], values[..., 0:3][seen0])
     np.testing.assert_array_equal(fused[..., 6:9][~seen0], plain[..., 6:9][~seen0])
     np.testing.assert_array_equal(fused[..., 0:3][seen1], values[..., 3:6][seen1])
-    np.testing.assert_array_equal(fused[..., 3:6], plain[..., 3:6])  # own: measured, never reprojected
-    assert sorted(sigmas) == [0, 1, 4, 5]
+    # weights 1/0.003² : 1/0.006² = 4 : 1 between the measurement and the reprojection
+    np.testing.assert_allclose(
+        fused[..., 3:6][own], (0.8 * plain[..., 3:6] + 0.2 * values[..., 6:9])[own], rtol=1e-12
+    )
+    np.testing.assert_array_equal(fused[..., 3:6][~own], plain[..., 3:6][~own])
+    assert sorted(sigmas) == sorted({int(c) for c in np.unique(code)})
+    both = 1 / np.sqrt(1 / 0.003**2 + 1 / 0.006**2)
     np.testing.assert_array_equal(sigmas[5], [0.002] * 3 + [0.003] * 3 + [0.004] * 3)
+    np.testing.assert_allclose(sigmas[6], [0.017] * 3 + [both] * 3 + [0.004] * 3, rtol=1e-12)
     np.testing.assert_array_equal(sigmas[0], [0.017] * 3 + [0.003] * 3 + [0.017] * 3)
     np.testing.assert_array_equal(sigmas[4], [0.017] * 3 + [0.003] * 3 + [0.004] * 3)
 
