@@ -155,6 +155,7 @@ def score(
         dng_matrix_XYZ,
         fit_corrector,
         fit_fused_corrector,
+        fused_mix,
         fused_view,
         fusion_of,
         white_of,
@@ -237,10 +238,14 @@ def score(
                     )
                     f, code = f[::stride, ::stride], code[::stride, ::stride]
 
+                    if (m, sub) not in fused_corr:
+                        fused_corr[(m, sub)] = fused_mix(spec, list(sub), m, fusion["render_sigma"])
+
                     def fit(s_, m=m, sub=sub):
                         key = (m, sub, tuple(np.round(s_, 6)))
                         if key not in fused_corr:
-                            fused_corr[key] = fit_fused_corrector(spec, list(sub), m, s_)
+                            mix = fused_corr[(m, sub)]
+                            fused_corr[key] = fit_fused_corrector(spec, list(sub), m, s_, mix=mix)
                         return fused_corr[key]
 
                     if flat_only:
