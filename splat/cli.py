@@ -159,6 +159,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"correct: {c['method']}, δ = {c['delta']:.4f} (95th percentile of the rendered "
             "responses' distances to the object-colour solid)"
         )
+        f = c.get("fusion") or {}
+        if f.get("views"):
+            print(
+                f"correct: {f['views']} photographed views also fused with their RAW files and the other "
+                f"photographs reprojected into them ({f['files']}; render σ {f['render_sigma']:.3f})"
+            )
     if "report" in results:
         print(f"report: {results['report']}")
     return 0
