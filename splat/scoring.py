@@ -239,7 +239,7 @@ def score(
                     f, code = f[::stride, ::stride], code[::stride, ::stride]
 
                     if (m, sub) not in fused_corr:
-                        fused_corr[(m, sub)] = fused_mix(spec, list(sub), m, fusion["render_sigma"])
+                        fused_corr[(m, sub)] = fused_mix(m)
 
                     def fit(s_, m=m, sub=sub):
                         key = (m, sub, tuple(np.round(s_, 6)))
