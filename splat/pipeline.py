@@ -672,7 +672,7 @@ def _novel_cameras(views, n: int):
     return out
 
 
-def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int) -> np.ndarray:
+def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
     """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
     splat's depth (:func:`splat.reproject.reprojected`): values (H, W, 3n) at exposure 1 (0 where no
     photograph of that camera sees the pixel) and the number of photographs that see it (H, W, n)."""
@@ -692,9 +692,12 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int) ->
     values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
     count = np.zeros((cam.height, cam.width, n), np.float32)
     for k in range(n):
-        mine = [v for v in views if v.name != name and v.name in raws and raws[v.name].camera == k]
-        sources = [(v.camera, depth(v.name, v.camera)[3], depth(v.name, v.camera)[2]) for v in mine]
-        sources = [s for s in sources if s[2] is not None]
+        sources = []
+        for v in views:
+            r = raws.get(v.name)
+            if v.name != name and r is not None and r.camera == k and r.exif is not None:
+                _, _, photo, seen_depth = depth(v.name, v.camera)
+                sources.append((v.camera, seen_depth, photo))
         if sources:
             values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)
     return values, count
@@ -1007,6 +1010,31 @@ def fused_view(
     return fused, code, sigma
 
 
+def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):
+    """``fit(σ) → (corrector, scale)`` for :func:`correct_fused`: :func:`fit_fused_corrector` with
+    :func:`fused_mix`, once per distinct noise pattern (cached)."""
+    mix = fused_mix(method)
+    cache: dict = {}
+
+    def fit(sigma):
+        key = tuple(np.round(sigma, 6))
+        if key not in cache:
+            cache[key] = fit_fused_corrector(spec, list(cameras), method, sigma, mix=mix)
+        return cache[key]
+
+    return fit
+
+
+def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
+    """``<stem>_XYZ.tiff`` (float32), ``<stem>_sRGB.tiff`` (16-bit) and ``<stem>_sRGB.png`` of a view."""
+    from isp import write_image
+
+    _write_tiff(o / f"{stem}_XYZ.tiff", XYZ)
+    rgb = xyz_to_srgb(XYZ, white_XYZ)
+    write_image(o / f"{stem}_sRGB.tiff", rgb, overwrite=True)
+    _write_png8(o / f"{stem}_sRGB.png", rgb)
+
+
 def _reprojected_of(d: Path, scale: np.ndarray):
     """A rendered view's reprojected photographs (white → 1) and counts, or None (not written)."""
     if not (d / "reprojected_count.tiff").is_file():
@@ -1016,7 +1044,7 @@ def _reprojected_of(d: Path, scale: np.ndarray):
 
 def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
-    ``(corrector, scale)`` (:func:`fit_fused_corrector`, cached by the caller); returns XYZ (..., 3)."""
+    ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
     from zonotope.image import correct_image
 
     out = np.zeros((*fused.shape[:-1], 3))
@@ -1131,19 +1159,14 @@ def correct_step(
     for v in raws.values():
         profiles.setdefault(v.camera, (v.profile, v.neutral))
     fusion = fusion_of(spec, out, index, raws, scale)
-    fitted: dict = {}
+    fit = fused_fitter(spec, list(range(n)), config.method)
     for i, (name, info) in enumerate(index.items()):
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
         img = _read_tiff(d / "render.tiff") / scale
         if not (o / f"{mname}_XYZ.tiff").is_file():
             XYZ = correct_image(np.maximum(img, 0), corrector, quantum=config.quantum)
-            _write_tiff(o / f"{mname}_XYZ.tiff", XYZ)
-            rgb = xyz_to_srgb(XYZ, wXYZ)
-            from isp import write_image
-
-            write_image(o / f"{mname}_sRGB.tiff", rgb, overwrite=True)
-            _write_png8(o / f"{mname}_sRGB.png", rgb)
+            _write_corrected(o, mname, XYZ, wXYZ)
         for k in range(n):
             prof, neutral = profiles[k]
             f = o / f"dng_{spec.cameras[k].folder}_XYZ.tiff"
@@ -1157,25 +1180,8 @@ def correct_step(
             fused, code, sigma = fused_view(
                 fusion, name, img, r, scale, list(range(n)), _reprojected_of(d, scale)
             )
-
-            if "mix" not in fitted:
-                fitted["mix"] = fused_mix(config.method)
-
-            def fit(s_):
-                key = tuple(np.round(s_, 6))
-                if key not in fitted:
-                    fitted[key] = fit_fused_corrector(
-                        spec, list(range(n)), config.method, s_, mix=fitted["mix"]
-                    )
-                return fitted[key]
-
             XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
-            _write_tiff(o / f"{mname}_fused_XYZ.tiff", XYZ)
-            rgb = xyz_to_srgb(XYZ, wXYZ)
-            from isp import write_image
-
-            write_image(o / f"{mname}_fused_sRGB.tiff", rgb, overwrite=True)
-            _write_png8(o / f"{mname}_fused_sRGB.png", rgb)
+            _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
         if r is not None and r.profile is not None and not (o / "raw_dng_XYZ.tiff").is_file():
             bal = np.maximum(measured(r, white["scale"][r.camera]), 0)
             X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)

@@ -154,8 +154,7 @@ def score(
         delta_of,
         dng_matrix_XYZ,
         fit_corrector,
-        fit_fused_corrector,
-        fused_mix,
+        fused_fitter,
         fused_view,
         fusion_of,
         white_of,
@@ -183,7 +182,7 @@ def score(
     raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
     fusion = fusion_of(spec, out, index, raws, scale)
-    fused_corr: dict = {}
+    fitters: dict = {}  # (method, cameras) → splat.pipeline.fused_fitter
     n_flat = []
 
     def add(label, est, ref, flat):
@@ -229,30 +228,18 @@ def score(
             add(label, est, r, fl)
         if name in fusion["views"]:  # the photographed view fused with the render (splat.fusion)
             rep = _reprojected_of(out / "render" / _stem(name), scale)
-            for m in methods:
-                for sub in subsets:
-                    if cam not in sub or len(sub) < 2:
-                        continue
-                    f, code, sigma = fused_view(
-                        fusion, name, render / scale, raws[name], scale, list(sub), rep
-                    )
-                    f, code = f[::stride, ::stride], code[::stride, ::stride]
-
-                    if (m, sub) not in fused_corr:
-                        fused_corr[(m, sub)] = fused_mix(m)
-
-                    def fit(s_, m=m, sub=sub):
-                        key = (m, sub, tuple(np.round(s_, 6)))
-                        if key not in fused_corr:
-                            mix = fused_corr[(m, sub)]
-                            fused_corr[key] = fit_fused_corrector(spec, list(sub), m, s_, mix=mix)
-                        return fused_corr[key]
-
-                    if flat_only:
-                        est = correct_fused(f[fl], code[fl], sigma, fit, quantum)
-                    else:
-                        est = correct_fused(f, code, sigma, fit, quantum)
-                    cams = "+".join(spec.cameras[k].folder for k in sub)
+            for sub in subsets:
+                if cam not in sub or len(sub) < 2:
+                    continue
+                f, code, sigma = fused_view(fusion, name, render / scale, raws[name], scale, list(sub), rep)
+                f, code = f[::stride, ::stride], code[::stride, ::stride]
+                if flat_only:
+                    f, code = f[fl], code[fl]
+                cams = "+".join(spec.cameras[k].folder for k in sub)
+                for m in methods:
+                    if (m, sub) not in fitters:
+                        fitters[(m, sub)] = fused_fitter(spec, list(sub), m)
+                    est = correct_fused(f, code, sigma, fitters[(m, sub)], quantum)
                     add(f"{CORRECTION_METHODS.resolve(m)}-fused:{cams}", est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
