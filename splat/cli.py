@@ -165,6 +165,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"correct: {f['views']} photographed views also fused with their RAW files and the other "
                 f"photographs reprojected into them ({f['files']}; render σ {f['render_sigma']:.3f})"
             )
+        if f.get("novel"):
+            print(
+                f"correct: {f['novel']} novel views also corrected from the photographs reprojected into them"
+            )
     if "report" in results:
         print(f"report: {results['report']}")
     return 0

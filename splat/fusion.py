@@ -35,14 +35,29 @@ import dataclasses
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, OWN_NOISE_FLOOR  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
+from ._tol import ANCHOR_EPS, OWN_NOISE_FLOOR, SMOOTH_RTOL  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
 
-__all__ = ["anchor", "measured", "render_noise", "sensor_noise", "whitened"]
+__all__ = [
+    "anchor",
+    "measured",
+    "render_noise",
+    "reprojection_noise",
+    "sensor_noise",
+    "site_noise",
+    "smooth",
+    "whitened",
+]
 
 
-def measured(view, white_scale) -> np.ndarray:
-    """A RAW view's own channels on the white → 1 scale at exposure 1: demosaiced by isp (Malvar 2004;
-    a full-colour file as it is), divided by its EXIF exposure and the camera's white scale (3,)."""
+def measured(view, white_scale, *, method: str = "Malvar 2004") -> np.ndarray:
+    """A RAW view's own channels on the white → 1 scale at exposure 1: demosaiced by isp (``method``,
+    any of :func:`isp.stages.demosaic`'s; a full-colour file as it is), divided by its EXIF exposure and
+    the camera's white scale (3,).
+
+    Malvar 2004 suits the view's own flat regions; a photograph *reprojected* into another view is read
+    there at points that can lie within a pixel or two of an edge of its own (a flat patch of the target
+    can be a few source pixels wide), where Malvar's gradient correction overshoots: the pipeline
+    demosaics sources with ``"bilinear"`` (a convex combination of measured sites, no overshoot)."""
     from isp.stages import demosaic
 
     from .pipeline import _cfa_of
@@ -52,9 +67,35 @@ def measured(view, white_scale) -> np.ndarray:
     lin = (
         view.values.astype(np.float64)
         if view.full_colour
-        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method="Malvar 2004")
+        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method=method)
     )
     return lin / view.exif / np.asarray(white_scale, float)
+
+
+def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL) -> np.ndarray:
+    """Pixels where a view's render is smooth: every channel's range over the 5 × 5 neighbourhood is at
+    most ``rtol`` × the pixel's mean over channels (at least 0.02; borders extended).
+
+    Parameters
+    ----------
+    render : ndarray of shape (H, W, k)
+        The view's render, white → 1.
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+    """
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    r = np.asarray(render, float)
+    if r.ndim != 3:
+        raise SplatError(f"smooth: the render must be (H, W, k), got shape {r.shape}.")
+    lim = rtol * np.maximum(r.mean(-1), 0.02)
+    ok = np.ones(r.shape[:2], bool)
+    for c in range(r.shape[-1]):
+        x = r[..., c]
+        ok &= maximum_filter(x, 5, mode="nearest") - minimum_filter(x, 5, mode="nearest") <= lim
+    return ok
 
 
 def _robust_sigma(x: np.ndarray) -> float:
@@ -111,6 +152,49 @@ def sensor_noise(view, white_scale) -> np.ndarray:
             diffs.append((a - b)[ok])
         out[j] = _robust_sigma(np.concatenate(diffs)) / np.sqrt(2)
     return out / view.exif / np.asarray(white_scale, float)
+
+
+def site_noise(view, white_scale) -> np.ndarray:
+    """Noise σ of every site of a RAW view (H, W, 3), white → 1 units at exposure 1: with the file's
+    noise model (DNG NoiseProfile) ``sqrt(S_j·x + O_j)`` at each site's own value ``x``, else
+    :func:`sensor_noise`'s image estimate everywhere; divided by the exposure and the white scale."""
+    if view.exif is None:
+        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
+    if view.noise_profile is None:
+        return np.broadcast_to(sensor_noise(view, white_scale), np.shape(view.values)).copy()
+    P = np.asarray(view.noise_profile, float)
+    x = np.maximum(np.asarray(view.values, float), 0.0)
+    return np.sqrt(P[:, 0] * x + P[:, 1]) / view.exif / np.asarray(white_scale, float)
+
+
+def reprojection_noise(residual, site_sigma) -> float:
+    """σ of reprojected photographs from their residuals against measured sites of known noise.
+
+    A residual ``r_i`` (reprojected value − the site's measured value) has variance ``σ_i² + σ²``:
+    ``σ_i`` the site's own noise (:func:`site_noise`), ``σ`` the reprojection's. Returns the ``σ ≥ 0``
+    for which ``r_i / sqrt(σ_i² + σ²)`` has robust standard deviation 1 (:func:`_robust_sigma`;
+    bisection), 0 when the sites' own noise already explains the spread. Heteroscedastic sites (dark and
+    bright, short and long exposures) are weighed by their own noise, as a single pooled σ cannot.
+    """
+    r = np.asarray(residual, float).ravel()
+    s = np.asarray(site_sigma, float).ravel()
+    if r.shape != s.shape or not np.all(np.isfinite(r)) or not np.all(np.isfinite(s)) or (s < 0).any():
+        raise SplatError(
+            f"reprojection_noise: residuals {r.shape} and site σ {s.shape} must match, finite, σ ≥ 0."
+        )
+    if r.size == 0:
+        return 0.0
+
+    def spread(sigma):
+        return _robust_sigma(r / np.sqrt(s**2 + sigma**2 + 1e-300))
+
+    if spread(0.0) <= 1.0:
+        return 0.0
+    lo, hi = 0.0, max(_robust_sigma(r), 1e-12) * 2
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if spread(mid) > 1.0 else (lo, mid)
+    return 0.5 * (lo + hi)
 
 
 def anchor(render: np.ndarray, own_measured: np.ndarray, own: slice, valid: np.ndarray | None = None):

@@ -14,6 +14,10 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
   they see the pixel, else the render anchored to the photograph; per-channel noise),
   for the subsets of two or more cameras that include the view's own — what the correct step writes as
   ``<method>_fused_*`` for every photographed view;
+- ``<method>-photographed:<cams>`` the same view as if it had no photograph (a novel view): the
+  photographs of ``<cams>`` reprojected into it where they see the pixel (its own RAW file is never a
+  source), else the render (``pipeline.photographed_view``) — what the correct step writes as
+  ``<method>_fused_*`` for every novel view;
 
 each over all pixels and (``flat_delta_E00``) over the *flat* pixels only: those whose true XYZ is
 constant over their 5 × 5 neighbourhood (every channel's range ≤ 1 % of max(Y, 0.02)), where neither
@@ -157,6 +161,7 @@ def score(
         fused_fitter,
         fused_view,
         fusion_of,
+        photographed_view,
         white_of,
     )
 
@@ -241,6 +246,19 @@ def score(
                         fitters[(m, sub)] = fused_fitter(spec, list(sub), m)
                     est = correct_fused(f, code, sigma, fitters[(m, sub)], quantum)
                     add(f"{CORRECTION_METHODS.resolve(m)}-fused:{cams}", est, r, fl)
+        rep = _reprojected_of(out / "render" / _stem(name), scale)
+        if rep is not None and fusion["reprojected_sigma"] is not None:  # as if the view had no photograph
+            for sub in subsets:
+                f, code, sigma = photographed_view(fusion, render / scale, rep, list(sub))
+                f, code = f[::stride, ::stride], code[::stride, ::stride]
+                if flat_only:
+                    f, code = f[fl], code[fl]
+                cams = "+".join(spec.cameras[k].folder for k in sub)
+                for m in methods:
+                    if (m, sub) not in fitters:
+                        fitters[(m, sub)] = fused_fitter(spec, list(sub), m)
+                    est = correct_fused(f, code, sigma, fitters[(m, sub)], quantum)
+                    add(f"{CORRECTION_METHODS.resolve(m)}-photographed:{cams}", est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
         w = v.weight > 0

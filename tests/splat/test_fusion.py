@@ -349,6 +349,27 @@ def test_measured_bayer_of_a_flat_scene_is_flat():
     np.testing.assert_allclose(got, np.broadcast_to(colour / 2.0 / WHITE, got.shape), rtol=1e-6)
 
 
+@pytest.mark.parametrize("cfa", ["RGGB", "GBRG"])
+def test_measured_bilinear_never_overshoots_an_edge_malvar_does(cfa):
+    """A photograph reprojected elsewhere is read next to its own edges: the bilinear demosaic the
+    pipeline uses for sources is a convex combination of measured sites, so every value lies within
+    the range of its channel's sites; Malvar's gradient correction leaves that range at a step edge
+    (which is why sources are not demosaiced with it)."""
+    H = W = 16
+    mask = _cfa_mask(H, W, cfa)
+    left, right = np.array([0.8, 0.1, 0.6]), np.array([0.05, 0.7, 0.15])
+    scene = np.where((np.arange(W) < 7)[None, :, None], left, right) * np.ones((H, 1, 1))
+    view = _view(scene * mask, mask, full_colour=False, exif=1.0)
+    lo, hi = np.minimum(left, right) / WHITE, np.maximum(left, right) / WHITE
+    bil = measured(view, WHITE, method="bilinear")
+    assert (bil >= lo - 1e-7).all() and (bil <= hi + 1e-7).all()
+    mal = measured(view, WHITE)  # the default, for a view's own channels
+    assert ((mal < lo - 1e-3) | (mal > hi + 1e-3)).any()
+    # far from the edge both are exact
+    np.testing.assert_allclose(bil[:, :3], np.broadcast_to(left / WHITE, (H, 3, 3)), rtol=1e-6)
+    np.testing.assert_allclose(mal[:, 12:], np.broadcast_to(right / WHITE, (H, 4, 3)), rtol=1e-6)
+
+
 def test_measured_without_exposure_raises():
     with pytest.raises(splat.SplatError, match=r"cam/IMG_0001\.dng.*exposure"):
         measured(_view(np.ones((4, 4, 3)), np.ones((4, 4, 3)), full_colour=True, exif=None), WHITE)
@@ -589,6 +610,58 @@ def test_fused_view_refuses_a_subset_without_the_view_camera(sim):
     with pytest.raises(splat.SplatError) as e:
         fused_view(doc, view.name, render, view, sim["scale"], [0, 2])
     assert view.name in str(e.value) and "[0, 2]" in str(e.value)
+
+
+# ------------------------------------------------------------------------------- photographed_view
+
+_PHOTO_DOC = {"render_sigma": 0.017, "reprojected_sigma": [0.004, 0.002, 0.006], "views": {}}
+
+
+@pytest.mark.parametrize("cameras", [[0, 1, 2], [2, 0], [1]])
+def test_photographed_view(cameras, monkeypatch):
+    """A view without a photograph: a camera's channels are its reprojected photographs where any sees
+    the pixel; elsewhere its render scaled by Σ reprojected / Σ rendered over the cameras seen there
+    (so a render off by a per-pixel factor f is recovered exactly with ε = 0), or the render itself
+    where no camera's photographs see the pixel; σ per pattern: reprojected σ or the render's."""
+    from splat import fusion
+    from splat.pipeline import photographed_view
+
+    monkeypatch.setattr(fusion, "ANCHOR_EPS", 0.0)
+    H, W = 24, 30
+    rng = np.random.default_rng(21)
+    truth = rng.uniform(0.05, 1.0, (H, W, 9))
+    f = rng.uniform(0.5, 2.0, (H, W, 1))
+    render = truth * f  # a common (opacity, shading) error
+    count = np.zeros((H, W, 3))
+    count[: H // 2, :, 0] = 2
+    count[:, : W // 3, 1] = 1
+    count[H // 3 :, W // 2 :, 2] = 4
+    values = np.where(np.repeat(count > 0, 3, -1), truth, 0.0)  # 0 where unseen, as written to disk
+    fused, code, sigmas = photographed_view(_PHOTO_DOC, render, (values, count), cameras)
+    idx = [3 * c + j for c in cameras for j in range(3)]
+    seen = np.stack([count[..., c] > 0 for c in cameras], -1)
+    np.testing.assert_array_equal(code, (seen * (1 << np.arange(len(cameras)))).sum(-1))
+    anyseen = seen.any(-1)
+    np.testing.assert_allclose(fused[anyseen], truth[..., idx][anyseen], rtol=1e-12)
+    np.testing.assert_array_equal(fused[~anyseen], render[..., idx][~anyseen])
+    assert anyseen.any() and (~anyseen).any()
+    assert sorted(sigmas) == sorted(int(c) for c in np.unique(code))
+    for cd, s_ in sigmas.items():
+        want = [_PHOTO_DOC["reprojected_sigma"][c] if cd >> i & 1 else 0.017 for i, c in enumerate(cameras)]
+        np.testing.assert_array_equal(s_, np.repeat(want, 3))
+
+
+def test_photographed_view_clips_negative_values():
+    from splat.pipeline import photographed_view
+
+    render = np.full((4, 5, 9), -0.01)
+    render[..., 3:] = 0.3
+    values = np.full((4, 5, 9), -0.02)
+    count = np.ones((4, 5, 3))
+    count[..., 0] = 0
+    fused, code, _ = photographed_view(_PHOTO_DOC, render, (values, count), [0, 1, 2])
+    assert (fused >= 0).all() and (code == 6).all()
+    assert (fused[..., 3:] == 0).all() and (fused[..., :3] == 0).all()
 
 
 # --------------------------------------------------------------------------------------- fusion_of

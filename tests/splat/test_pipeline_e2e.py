@@ -50,6 +50,8 @@ def ci_run(tmp_path_factory):
         "0.02",
         "--threads",
         "2",
+        "--novel",
+        "1",
     ]
     status = main(["run", *args])
     return cap, out, before, status, args
@@ -93,9 +95,17 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     fusion = json.loads((out / "correct" / "fusion.json").read_text())
     assert set(fusion["views"]) == set(held) and fusion["render_sigma"] > 0
     assert all(s > 0 for s in fusion["reprojected_sigma"])
+    # novel views (no RAW file): also corrected from the photographs reprojected into them
+    novel = [v for v in index.values() if v["kind"] == "novel"]
+    assert len(novel) >= 2
+    for v in novel:
+        nc = tifffile.imread(out / "render" / v["dir"] / "reprojected_count.tiff")
+        assert nc.shape[-1] == 3 and (nc > 0).any(axis=(0, 1)).all()  # every camera's photographs enter
+        assert tifffile.imread(out / "correct" / v["dir"] / "Prior_fused_sRGB.tiff").shape[-1] == 3
     html = (out / "report.html").read_text()
     assert "correct/nikon/DSC_0002/Prior_sRGB.png" in html and name in html
     corr = json.loads((out / "correct" / "summary.json").read_text())
+    assert corr["fusion"]["views"] == len(held) and corr["fusion"]["novel"] == len(novel)
     tol = corr["noise"]  # δ: 95th percentile of the responses' distances to the object-colour solid
     assert corr["delta"] == tol["delta"] > 0 and tol["beyond_delta"] <= 0.06
     assert not list(out.rglob("*.tmp*"))  # atomic writes leave no temporary files
@@ -125,6 +135,8 @@ def test_scores_against_truth(ci_run):
         "Centroid:nikon+sigma+canon",
         "Prior-fused:nikon+sigma+canon",
         "Centroid-fused:nikon+sigma+canon",
+        "Prior-photographed:nikon+sigma+canon",
+        "Centroid-photographed:nikon+sigma+canon",
     } <= set(dE)
     # 130 training steps cannot reproduce this textured scene (ΔE00 ≈ 30 through the splat at this
     # size): the bound only catches unit or white-scale blunders, the benchmark measures accuracy
