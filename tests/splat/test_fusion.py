@@ -703,3 +703,365 @@ def test_fusion_of(sim, tmp_path):
         (tmp_path / "a" / "correct" / "fusion.json").read_text()
     )
     assert fusion_of(spec, tmp_path / "a", {}, {}, scale)["render_sigma"] == a["render_sigma"]
+
+
+# ------------------------------------------------------------------------------------------- smooth
+
+
+def _smooth_by_hand(img, rtol):
+    """The smooth mask pixel by pixel in plain Python: the 5 × 5 window clipped to the image (the same
+    ranges as extending the borders), every channel's max − min against rtol × max(mean, 0.02)."""
+    H, W, k = img.shape
+    out = np.zeros((H, W), bool)
+    for y in range(H):
+        for x in range(W):
+            rows = range(max(y - 2, 0), min(y + 3, H))
+            cols = range(max(x - 2, 0), min(x + 3, W))
+            lim = rtol * max(sum(float(img[y, x, c]) for c in range(k)) / k, 0.02)
+            ok = True
+            for c in range(k):
+                win = [float(img[i, j, c]) for i in rows for j in cols]
+                ok = ok and max(win) - min(win) <= lim
+            out[y, x] = ok
+    return out
+
+
+@pytest.mark.parametrize("k", [1, 3, 9])
+def test_smooth_of_a_constant_image_is_everywhere(k):
+    img = np.broadcast_to(np.linspace(0.1, 0.9, k), (11, 13, k))
+    assert fusion.smooth(img).all()
+    assert fusion.smooth(img, rtol=0.0).all()  # not even rounding: max − min is exactly 0
+    assert fusion.smooth(np.zeros((4, 5, k))).all()  # black: the 0.02 floor, 0 ≤ 0
+
+
+@pytest.mark.parametrize("edge", [1, 2, 7, 12, 15])
+@pytest.mark.parametrize("channel", [None, 0, 2])
+def test_smooth_excludes_exactly_the_band_around_a_step_edge(edge, channel):
+    """A vertical step between columns edge − 1 and edge (in every channel, or in one channel alone):
+    a 5 × 5 window at column x spans x − 2 … x + 2, so it straddles the step for edge − 2 ≤ x ≤ edge + 1
+    (within 2 columns of the step) and nowhere else; the jump (0.3) is 20 × the tolerance there."""
+    H, W = 9, 16
+    left, right = np.array([0.3, 0.4, 0.5]), np.array([0.6, 0.7, 0.8])
+    if channel is not None:  # only one channel steps
+        right = left.copy()
+        right[channel] += 0.3
+    img = np.where((np.arange(W) < edge)[None, :, None], left, right) * np.ones((H, 1, 1))
+    got = fusion.smooth(img)
+    band = [x for x in range(W) if edge - 2 <= x <= edge + 1]
+    assert len(band) == 4 - (edge < 2) - (edge > W - 2)  # columns −1 and W do not exist
+    want = np.ones((H, W), bool)
+    want[:, band] = False
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got, _smooth_by_hand(img, fusion.SMOOTH_RTOL))
+
+
+def _roughening(k, rtol, seed, H=14, W=24):
+    """Channels at different levels (0.2 … 0.8: the mean over channels, not their sum nor one channel,
+    sets the limit), each times 1 + a_x·u with u ~ U(0, 1) and a roughness a_x rising from 0 to 2·rtol
+    across the columns: smooth on the left, not on the right."""
+    rng = np.random.default_rng(seed)
+    levels = np.linspace(0.2, 0.8, k)
+    amp = np.linspace(0.0, 2 * rtol, W)[None, :, None]
+    return levels * (1 + amp * rng.uniform(0, 1, (H, W, k)))
+
+
+@pytest.mark.parametrize("k, rtol", [(3, 0.03), (6, 0.03), (3, 0.1)])
+def test_smooth_matches_the_rule_by_hand(k, rtol):
+    """Against the rule in plain Python, on images that are smooth on one side and not on the other,
+    with a dark patch (mean 0.005, below the 0.02 floor) where the relative variation is too large but
+    the absolute one is below rtol × 0.02."""
+    img = _roughening(k, rtol, 30 + k)
+    img[4:9, 14:20] *= 0.01  # dark
+    want = _smooth_by_hand(img, rtol)
+    assert 0.2 < want.mean() < 0.8
+    assert want[6, 16:18].all()  # the dark patch's inside: smooth by the floor only
+    np.testing.assert_array_equal(fusion.smooth(img, rtol=rtol), want)
+
+
+@pytest.mark.parametrize("factor", [0.25, 3.0, 16.0])
+def test_smooth_is_unchanged_by_a_common_factor(factor):
+    """The tolerance is relative: scaling the image scales both sides of ``max − min ≤ rtol · mean``,
+    so the mask is unchanged wherever the mean stays above the 0.02 floor (here ≥ 0.1 before and after;
+    rounding could flip only a pixel within 1e-16 of the limit)."""
+    img = _roughening(3, fusion.SMOOTH_RTOL, 31, H=20, W=40)
+    mask = fusion.smooth(img)
+    assert 0.2 < mask.mean() < 0.8
+    np.testing.assert_array_equal(fusion.smooth(img * factor), mask)
+
+
+def test_smooth_floor_makes_dark_images_smooth():
+    """Below a mean of 0.02 the limit is rtol × 0.02 = 6e-4 in absolute terms: a dark image varying by
+    5e-4 (50 % of its mean) is smooth, one varying by 7e-4 is not; the first ×100 (same relative
+    variation, mean 0.1) is not smooth anywhere."""
+    rng = np.random.default_rng(32)
+    pattern = rng.uniform(0, 1, (12, 12, 3))
+    pattern[0, 0], pattern[0, 1] = 0.0, 1.0  # the full range in every 5 × 5 window of the top rows
+    dark = 0.001 + 5e-4 * pattern
+    assert fusion.smooth(dark).all()
+    assert not fusion.smooth(0.001 + 7e-4 * pattern)[:2, :3].any()
+    assert not fusion.smooth(dark * 100).any()
+
+
+@pytest.mark.parametrize("shape", [(8, 8), (8,), (2, 8, 8, 3)])
+def test_smooth_refuses_a_render_that_is_not_h_w_k(shape):
+    with pytest.raises(splat.SplatError, match=r"smooth: the render must be \(H, W, k\)") as e:
+        fusion.smooth(np.ones(shape))
+    assert str(shape) in str(e.value)
+
+
+# --------------------------------------------------------------------------------------- site_noise
+
+#: A DNG NoiseProfile (rows S, O for R, G, B): variance S·x + O of the linear value x.
+_PROFILE = np.array([[2e-4, 1e-6], [1e-4, 4e-6], [3e-4, 2e-6]])
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", "GBRG", None])
+def test_site_noise_with_a_noise_profile(pattern):
+    """sqrt(S_j·max(x, 0) + O_j) / exposure / white at every site, computed in plain Python; negative
+    values (read noise below black) count as 0 (S·x + O < 0 for the most negative ones here)."""
+    H, W, exif = 6, 8, 1.7
+    rng = np.random.default_rng(33)
+    mask = _cfa_mask(H, W, pattern)
+    values = rng.uniform(-0.05, 0.9, (H, W, 3)) * mask
+    view = dataclasses.replace(
+        _view(values, mask, full_colour=pattern is None, exif=exif), noise_profile=_PROFILE
+    )
+    got = fusion.site_noise(view, WHITE)
+    assert got.shape == (H, W, 3)
+    v32 = values.astype(np.float32)
+    for y in range(H):
+        for x in range(W):
+            for j in range(3):
+                S, O = float(_PROFILE[j, 0]), float(_PROFILE[j, 1])
+                want = math.sqrt(S * max(float(v32[y, x, j]), 0.0) + O) / exif / float(WHITE[j])
+                assert got[y, x, j] == pytest.approx(want, rel=1e-12)
+    assert (values < -0.02).any()  # S·x + O < 0 there, a NaN without the clipping
+
+
+def test_site_noise_without_a_profile_is_sensor_noise_everywhere():
+    mask = _cfa_mask(64, 64, "RGGB")
+    rng = np.random.default_rng(34)
+    values = (_scene(64, 64) + rng.normal(0.0, 0.01, (64, 64, 3))) * mask
+    view = _view(values, mask, full_colour=False, exif=3.0)
+    assert view.noise_profile is None
+    got = fusion.site_noise(view, WHITE)
+    want = sensor_noise(view, WHITE)
+    assert got.shape == (64, 64, 3) and got.flags.writeable
+    assert np.all(want > 0)
+    np.testing.assert_array_equal(got, np.broadcast_to(want, (64, 64, 3)))
+
+
+@pytest.mark.parametrize("profile", [None, _PROFILE])
+def test_site_noise_without_exposure_names_the_view(profile):
+    mask = _cfa_mask(8, 8, "RGGB")
+    view = dataclasses.replace(
+        _view(mask * 0.5, mask, full_colour=False, exif=None, name="left/DSC_0042.NEF"), noise_profile=profile
+    )
+    with pytest.raises(splat.SplatError, match=r"left/DSC_0042\.NEF: no exposure"):
+        fusion.site_noise(view, WHITE)
+
+
+# ------------------------------------------------------------------------------- reprojection_noise
+
+#: A residual's quantile: the normal-consistent MAD is median |z| / Φ⁻¹(3/4).
+_Q75 = norm.ppf(0.75)
+
+
+def _heteroscedastic(sigma, n=200_000, seed=40):
+    """Site σ s_i ~ U(0.001, 0.02) and residuals r_i ~ N(0, s_i² + σ²)."""
+    rng = np.random.default_rng(seed)
+    s = rng.uniform(0.001, 0.02, n)
+    return rng.normal(0.0, np.sqrt(s**2 + sigma**2)), s
+
+
+def _population_sigma(s, sigma, contamination=0.0, factor=1.0):
+    """The σ' the estimator converges to when each residual is N(0, s_i² + σ²), a fraction
+    ``contamination`` of them times ``factor``: the root of median |r_i / sqrt(s_i² + σ'²)| = Φ⁻¹(3/4)
+    over the population, i.e. mean_i [(1 − ε)(2Φ(m_i) − 1) + ε(2Φ(m_i / f) − 1)] = 1/2 with
+    m_i = Φ⁻¹(3/4) · sqrt((s_i² + σ'²) / (s_i² + σ²))."""
+    from scipy.optimize import brentq
+
+    def excess(sp):
+        m = _Q75 * np.sqrt((s**2 + sp**2) / (s**2 + sigma**2))
+        cdf = (1 - contamination) * (2 * norm.cdf(m) - 1) + contamination * (2 * norm.cdf(m / factor) - 1)
+        return float(np.mean(cdf)) - 0.5
+
+    return brentq(excess, 0.0, 1.0, xtol=1e-12)
+
+
+def _relative_se(s, sigma, n):
+    """Relative standard error of the estimate of σ from n residuals (derivation: next test)."""
+    return 1.1664 / (math.sqrt(n) * sigma**2 * np.mean(1 / (s**2 + sigma**2)))
+
+
+@pytest.mark.parametrize("sigma", [0.001, 0.005, 0.02])
+def test_reprojection_noise_recovers_sigma_under_heteroscedastic_site_noise(sigma):
+    """At the true σ the normalised residuals z_i = r_i / sqrt(s_i² + σ²) are exactly N(0, 1), so the
+    estimator is unbiased up to the sampling error of the MAD. That error: 1.4826 · MAD of n normal
+    values has relative standard deviation 1.1664 / √n (asymptotic variance 1.3605 / n, efficiency 37 %);
+    and d log median|z| / dσ = −σ · mean_i 1 / (s_i² + σ²) (differentiate the population median), so
+    the relative standard error of σ̂ is 1.1664 / (√n · σ² · mean_i 1 / (s_i² + σ²)): 6.8 %, 0.88 %,
+    0.34 % for σ = 0.001, 0.005, 0.02 at n = 200 000 (a σ well below most s_i is hard to see). The test
+    allows 4 standard errors."""
+    r, s = _heteroscedastic(sigma)
+    se = _relative_se(s, sigma, r.size)
+    assert se < 0.07
+    got = fusion.reprojection_noise(r, s)
+    assert abs(got / sigma - 1) < 4 * se, (got, sigma, se)
+    # the population root is σ itself (the estimator is consistent)
+    assert _population_sigma(s, sigma) == pytest.approx(sigma, rel=1e-6)
+
+
+def test_reprojection_noise_without_reprojection_error_is_about_zero():
+    """σ = 0: the spread at σ' = 0 is 1 up to sampling; where it exceeds 1, σ̂² ≈ 2 · δ / mean(1 / s²)
+    for a log-MAD excess δ (standard error 1.1664 / √n): at 4 standard errors σ̂ < 6.5e-4, ≪ the
+    median site σ (≈ 0.0105)."""
+    r, s = _heteroscedastic(0.0, seed=41)
+    bound = math.sqrt(2 * 4 * 1.1664 / math.sqrt(r.size) / np.mean(1 / s**2))
+    assert bound < 0.07 * np.median(s)
+    got = fusion.reprojection_noise(r, s)
+    assert 0.0 <= got <= bound
+    # no noise at all: exactly 0
+    assert fusion.reprojection_noise(np.zeros(100), np.full(100, 0.01)) == 0.0
+    assert fusion.reprojection_noise(np.zeros(100), np.zeros(100)) == 0.0
+
+
+@pytest.mark.parametrize("sigma", [0.001, 0.005])
+def test_reprojection_noise_beats_the_pooled_rule(sigma):
+    """The rule it replaces: the robust σ of all residuals pooled, squared, less the mean site variance.
+    With heteroscedastic sites the pooled residuals are a scale mixture, heavy-tailed, whose MAD is
+    below its root mean square: (1.4826 · MAD)² < mean s_i² here, so the pooled rule returns 0 for a
+    reprojection error of 0.001 or 0.005 — the population prediction says so too, it is a bias, not
+    noise — while the weighted estimate is within 4 standard errors (previous test) of σ: 27 % and
+    3.5 %, against the pooled rule's 100 %."""
+    r, s = _heteroscedastic(sigma)
+    pooled = fusion._robust_sigma(r) ** 2 - np.mean(s**2)
+    old = math.sqrt(max(pooled, 0.0))
+    # population: the MAD of the mixture solves mean_i (2Φ(m / sqrt(s_i² + σ²)) − 1) = 1/2
+    from scipy.optimize import brentq
+
+    m = brentq(lambda m: float(np.mean(2 * norm.cdf(m / np.sqrt(s**2 + sigma**2)) - 1)) - 0.5, 1e-6, 1.0)
+    assert (m / _Q75) ** 2 - np.mean(s**2) < 0 and pooled < 0
+    new = fusion.reprojection_noise(r, s)
+    assert old == 0.0 and abs(new / sigma - 1) < 4 * _relative_se(s, sigma, r.size) < 0.3
+
+
+@pytest.mark.parametrize("sigma, shift", [(0.005, 0.19), (0.02, 0.075)])
+def test_reprojection_noise_shrugs_off_outliers(sigma, shift):
+    """5 % of the residuals ×20 (misregistered sites): the robust σ moves only by the shift of the
+    median of |z|, which the population prediction gives (+19 % for σ = 0.005, +7.5 % for 0.02, the
+    larger the site noise relative to σ, the larger); the estimate matches it within 4 standard
+    errors (3.5 %, 1.3 %), where the root-mean-square rule (mean r_i² − s_i²) grows 11- and 5-fold."""
+    r, s = _heteroscedastic(sigma)
+    bad = np.random.default_rng(42).uniform(size=r.size) < 0.05
+    r2 = np.where(bad, 20 * r, r)
+    pred = _population_sigma(s, sigma, contamination=0.05, factor=20.0)
+    assert pred / sigma - 1 == pytest.approx(shift, abs=0.01)
+    got = fusion.reprojection_noise(r2, s)
+    assert got == pytest.approx(pred, rel=4 * _relative_se(s, sigma, r.size))
+    assert got < (1 + shift + 0.05) * sigma
+    rms = math.sqrt(max(np.mean(r2**2 - s**2), 0.0))
+    assert rms > 5 * sigma
+
+
+@pytest.mark.parametrize(
+    "residual, site_sigma",
+    [
+        (np.zeros(5), np.full(4, 0.01)),  # sizes differ
+        (np.zeros((2, 3)), np.full((2, 2), 0.01)),
+        ([0.1, float("nan"), 0.0], [0.01] * 3),
+        ([0.1, 0.2, 0.0], [0.01, float("nan"), 0.01]),
+        ([0.1, float("inf"), 0.0], [0.01] * 3),
+        ([0.1, 0.2, 0.0], [0.01, -0.01, 0.01]),  # negative σ
+    ],
+)
+def test_reprojection_noise_refuses_bad_input(residual, site_sigma):
+    with pytest.raises(splat.SplatError, match=r"reprojection_noise: residuals .* must match, finite, σ ≥ 0"):
+        fusion.reprojection_noise(residual, site_sigma)
+
+
+def test_reprojection_noise_of_nothing_is_zero():
+    assert fusion.reprojection_noise([], []) == 0.0
+    assert fusion.reprojection_noise(np.zeros((0, 3)), np.zeros((0, 3))) == 0.0
+
+
+# ----------------------------------------------------------------------- fusion_of: reprojected σ
+
+
+def test_fusion_of_recovers_each_cameras_reprojection_sigma(sim, tmp_path):
+    """Three cameras (RGGB, GBRG, full colour), two views each at different exposures, of a scene of
+    16-px blocks, dark (0.02–0.06) and light (0.6–0.9) in a checkerboard: every channel jumps by ≥ 0.5
+    between neighbours. The mosaics carry sensor noise of the views' own NoiseProfile (variance S·x + O;
+    white → 1, σ ≈ 0.0016 on the dark blocks and 0.0056 on the light ones at the first exposure: as
+    large as the reprojection error, and heteroscedastic within a view, so one σ per view would not do);
+    the renders are the exact scene; the reprojected photographs are the scene misregistered by 2 px (a
+    large error within 2 px of every edge, where the render is not smooth) plus N(0, σ_c²) with
+    σ_c = 0.004, 0.008 and 0.001, and no photograph sees the left 8 columns (0 there).
+
+    The residuals that count (smooth, seen, measured sites) are then exactly N(0, σ_c²) minus the
+    site noise, so the estimate is σ_c within its sampling error: for the ~10 000 sites of a Bayer
+    camera, 1.1664 / (√n σ² mean 1 / (s² + σ²)) ≈ 2 % at σ = 0.004 and 1.3 % at 0.008 (see the
+    reprojection_noise tests); the 15 % allowed is ≥ 5 standard errors plus the rounding to two digits.
+    The third camera's 0.001 (an estimate ≤ 0.0013 at 3 standard errors) is below OWN_NOISE_FLOOR and
+    gets the floor. Without the site noise removed, or with one σ per view (its sensor noise at the
+    median signal) in place of each site's, the first two would be ≥ 25 % off; with the unseen or the
+    edge pixels counted, far more."""
+    from splat.fusion import OWN_NOISE_FLOOR
+    from splat.pipeline import _write_tiff, fusion_of
+
+    spec = sim["clean_spec"]
+    assert len(spec.cameras) == 3
+    H = W = 96
+    rng = np.random.default_rng(50)
+    # the scene, white → 1, per camera: a checkerboard of dark and light 16-px blocks
+    by, bx = np.arange(H) // 16, np.arange(W) // 16
+    light = ((by[:, None] + bx[None, :]) % 2).astype(bool)
+    dark_v = rng.uniform(0.02, 0.06, (6, 6, 9))
+    light_v = rng.uniform(0.6, 0.9, (6, 6, 9))
+    scene = np.where(light[..., None], light_v[by][:, bx], dark_v[by][:, bx])
+    yy, xx = np.maximum(np.arange(H) - 2, 0), np.maximum(np.arange(W) - 2, 0)
+    misregistered = scene[yy][:, xx]
+    scale = np.array([0.45, 0.6, 0.5, 0.7, 0.55, 0.4, 0.5, 0.5, 0.65])
+    sigma_c = [0.004, 0.008, 0.001]
+    cams = [("RGGB", 2.0), ("GBRG", 0.5), (None, 1.2)]
+    # NoiseProfiles in the files' own units (x = T·g, g = exposure × white scale), such that on the
+    # white → 1 scale the site variance is f_j² (1.5e-4·T + 1e-6) at the camera's first exposure, the
+    # channels differing by f = 1, 1.3, 0.8
+    f = np.array([1.0, 1.3, 0.8])
+    count = np.ones((H, W, 3))
+    count[:, :8] = 0
+    index, raws = {}, {}
+    for k, (pattern, exif) in enumerate(cams):
+        ws = scale[3 * k : 3 * k + 3]
+        g = exif * ws
+        P = np.stack([1.5e-4 * f**2 * g, 1e-6 * f**2 * g**2], -1)
+        mask = _cfa_mask(H, W, pattern)
+        for i in range(2):
+            e = exif * (1 + 0.5 * i)  # the views' exposures differ
+            x = scene[..., 3 * k : 3 * k + 3] * e * ws  # the file's linear values, noise-free
+            noisy = x + rng.normal(0.0, 1.0, x.shape) * np.sqrt(P[:, 0] * x + P[:, 1])
+            name = f"cam{k}/IMG_{i}.dng"
+            view = dataclasses.replace(
+                _view(noisy * mask, mask, full_colour=pattern is None, exif=e, name=name, camera=k),
+                noise_profile=P,
+            )
+            raws[name] = view
+            d = tmp_path / "render" / name.replace("/", "_")
+            rep = misregistered + rng.normal(0.0, 1.0, (H, W, 9)) * np.repeat(sigma_c, 3)
+            rep[:, :8] = 0.0  # unseen
+            _write_tiff(d / "render.tiff", scene * scale)
+            _write_tiff(d / "reprojected.tiff", rep * scale)
+            _write_tiff(d / "reprojected_count.tiff", count)
+            index[name] = {"dir": d.name}
+        # the site noise as designed, on the first view's measured sites
+        s0 = (
+            fusion.site_noise(raws[f"cam{k}/IMG_0.dng"], ws)[mask > 0]
+            / np.broadcast_to(f, mask.shape)[mask > 0]
+        )
+        assert 0.0015 < s0.min() and s0.max() < 0.013 and np.percentile(s0, 80) / np.percentile(s0, 20) > 3
+    doc = fusion_of(spec, tmp_path, index, raws, scale)
+    got = doc["reprojected_sigma"]
+    assert got[0] == pytest.approx(sigma_c[0], rel=0.15), got
+    assert got[1] == pytest.approx(sigma_c[1], rel=0.15), got
+    assert got[2] == OWN_NOISE_FLOOR
+    assert all(g == float(f"{g:.2g}") for g in got)  # two significant digits
