@@ -182,12 +182,13 @@ def reprojection_noise(residual, site_sigma) -> float:
     bisection), 0 when the sites' own noise already explains the spread. Heteroscedastic sites (dark and
     bright, short and long exposures) are weighed by their own noise, as a single pooled σ cannot.
     """
-    r = np.asarray(residual, float).ravel()
-    s = np.asarray(site_sigma, float).ravel()
+    r = np.asarray(residual, float)
+    s = np.asarray(site_sigma, float)
     if r.shape != s.shape or not np.all(np.isfinite(r)) or not np.all(np.isfinite(s)) or (s < 0).any():
         raise SplatError(
             f"reprojection_noise: residuals {r.shape} and site σ {s.shape} must match, finite, σ ≥ 0."
         )
+    r, s = r.ravel(), s.ravel()
     if r.size == 0:
         return 0.0
 

@@ -931,7 +931,7 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
             sites = (np.asarray(v.weight) > 0) & (seen & smooth(img))[..., None]
             r = (rep - np.asarray(v.values, float) / v.exif / ws)[sites]
             resid.setdefault(k, []).append((r, site_noise(v, ws)[sites]))
-    rep = {
+    rep_sigma = {
         k: _two_digits(
             max(
                 reprojection_noise(np.concatenate([a for a, _ in r]), np.concatenate([b for _, b in r])),
@@ -940,10 +940,10 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
         )
         for k, r in resid.items()
     }
-    worst = max(rep.values(), default=None)
+    worst = max(rep_sigma.values(), default=None)
     doc = {
         "render_sigma": _two_digits(render_noise(pairs)) if pairs else None,
-        "reprojected_sigma": [rep.get(k, worst) for k in range(n)] if rep else None,
+        "reprojected_sigma": [rep_sigma.get(k, worst) for k in range(n)] if rep_sigma else None,
         "own_noise_floor": OWN_NOISE_FLOOR,
         "channels": 3 * n,
         "views": views,
@@ -1047,7 +1047,8 @@ def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
     Returns
     -------
     fused, code, sigma
-        As :func:`fused_view`; bit ``i`` of ``code`` set where ``cameras[i]``'s photographs enter.
+        As :func:`fused_view`; bit ``i`` of ``code`` set where ``cameras[i]``'s photographs enter; σ is
+        the camera's ``reprojected_sigma`` there, ``render_sigma`` elsewhere.
     """
     from .fusion import ANCHOR_EPS
 

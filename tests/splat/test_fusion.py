@@ -969,6 +969,7 @@ def test_reprojection_noise_shrugs_off_outliers(sigma, shift):
     [
         (np.zeros(5), np.full(4, 0.01)),  # sizes differ
         (np.zeros((2, 3)), np.full((2, 2), 0.01)),
+        (np.zeros((2, 3)), np.full((3, 2), 0.01)),  # same size, transposed: not paired silently
         ([0.1, float("nan"), 0.0], [0.01] * 3),
         ([0.1, 0.2, 0.0], [0.01, float("nan"), 0.01]),
         ([0.1, float("inf"), 0.0], [0.01] * 3),
