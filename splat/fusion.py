@@ -46,6 +46,7 @@ from ._tol import ANCHOR_EPS, OWN_NOISE_FLOOR, SMOOTH_RTOL  # noqa: F401  (OWN_N
 __all__ = [
     "anchor",
     "measured",
+    "photo_variance",
     "render_noise",
     "reprojection_noise",
     "sensor_noise",
@@ -173,6 +174,21 @@ def site_noise(view, white_scale) -> np.ndarray:
     return np.sqrt(P[:, 0] * x + P[:, 1]) / view.exif / np.asarray(white_scale, float)
 
 
+def photo_variance(view, photo) -> np.ndarray:
+    """Noise variance of a RAW view's demosaiced photograph ``photo`` (H, W, 3) at exposure 1 (white
+    scale 1, as :func:`measured` with ``white_scale = 1``): with the file's noise model (DNG
+    NoiseProfile) ``(S_j·x + O_j) / e²`` at each pixel's own linear value ``x = photo · e`` (``e`` the
+    exposure; interpolated pixels are taken as measured ones, an upper bound), else
+    :func:`sensor_noise`'s image estimate squared everywhere."""
+    if view.exif is None:
+        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
+    photo = np.asarray(photo, float)
+    if view.noise_profile is None:
+        return np.broadcast_to(sensor_noise(view, np.ones(3)) ** 2, photo.shape).copy()
+    P = np.asarray(view.noise_profile, float)
+    return (P[:, 0] * np.maximum(photo * view.exif, 0.0) + P[:, 1]) / view.exif**2
+
+
 def reprojection_noise(residual, site_sigma) -> float:
     """σ of reprojected photographs from their residuals against measured sites of known noise.
 
@@ -193,7 +209,7 @@ def reprojection_noise(residual, site_sigma) -> float:
         return 0.0
 
     def spread(sigma):
-        return _robust_sigma(r / np.sqrt(s**2 + sigma**2 + 1e-300))
+        return _robust_sigma(r / np.sqrt(np.maximum(s**2 + sigma**2, np.finfo(float).tiny)))
 
     if spread(0.0) <= 1.0:
         return 0.0

@@ -674,9 +674,10 @@ def _novel_cameras(views, n: int):
 
 def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
     """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
-    splat's depth (:func:`splat.reproject.reprojected`): values (H, W, 3n) at exposure 1 (0 where no
-    photograph of that camera sees the pixel) and the number of photographs that see it (H, W, n)."""
-    from .fusion import measured
+    splat's depth (:func:`splat.reproject.reprojected`, with each photograph's noise variance
+    :func:`splat.fusion.photo_variance`): values (H, W, 3n) at exposure 1 (0 where no photograph of that
+    camera sees the pixel) and the number of photographs that see it (H, W, n)."""
+    from .fusion import measured, photo_variance
     from .reproject import MIN_ALPHA, depth_map, reprojected
 
     def depth(v_name, c):  # the cache also holds each photograph, demosaiced, at exposure 1
@@ -687,9 +688,10 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
             # 1.392 → 1.368 noisy)
             ok = r is not None and r.exif is not None
             photo = measured(r, np.ones(3), method="bilinear") if ok else None
+            var = photo_variance(r, photo) if ok else None
             dep, alpha = depth_map(g, c, mask=alive)
             # as a source, a pixel without a reliable depth vouches for nothing (0 never agrees)
-            depths[v_name] = (dep, alpha, photo, np.where(alpha >= MIN_ALPHA, dep, 0.0))
+            depths[v_name] = (dep, alpha, photo, np.where(alpha >= MIN_ALPHA, dep, 0.0), var)
         return depths[v_name]
 
     d, a, *_ = depth(name, cam)
@@ -700,8 +702,8 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
         for v in views:
             r = raws.get(v.name)
             if v.name != name and r is not None and r.camera == k and r.exif is not None:
-                _, _, photo, seen_depth = depth(v.name, v.camera)
-                sources.append((v.camera, seen_depth, photo))
+                _, _, photo, seen_depth, var = depth(v.name, v.camera)
+                sources.append((v.camera, seen_depth, photo, var))
         if sources:
             values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)
     return values, count
@@ -742,7 +744,7 @@ def render_step(
         todo += [(n, c, cid, "novel") for n, c, cid in _novel_cameras(mine, config.novel)]
     raws = {v.name: v for v in load_views(spec)}
     n = len(spec.cameras)
-    depths: dict = {}  # view name → (depth, alpha, photograph), computed once
+    depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
     index = {}
     for i, (name, cam, cid, kind) in enumerate(todo):
         d = out / "render" / _stem(name)

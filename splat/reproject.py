@@ -22,7 +22,7 @@ import numpy as np
 
 from ._errors import SplatError
 
-__all__ = ["DEPTH_RTOL", "MIN_ALPHA", "depth_map", "reproject", "reprojected"]
+__all__ = ["DEPTH_RTOL", "MIN_ALPHA", "TRIM_RTOL", "TRIM_SIGMA", "depth_map", "reproject", "reprojected"]
 
 #: A source photograph sees a target pixel's 3-D point when the point's depth in the source and the
 #: splat's depth at the projected pixel agree within this fraction: the splat's depth of one surface is
@@ -40,6 +40,16 @@ DEPTH_RTOL = 0.03
 #: flat held-out pixels, 0.460 → 0.396 ΔE00 (seed 0), 0.459 → 0.405 (seed 1), 0.493 → 0.469 (2000
 #: steps), 1.368 → 1.298 (shot + read noise); 0.3 was no better on any of them.
 MIN_ALPHA = 0.5
+
+#: With the sources' noise variances given, :func:`reprojected` averages (inverse-variance weights) the
+#: sources within ``TRIM_SIGMA`` of their own σ plus ``TRIM_RTOL`` of the median from the median: the
+#: mean of Gaussian noise is the efficient estimate (the median wastes a third of the samples' worth),
+#: and the band drops what the median guarded against — a source read across an edge or a missed
+#: occlusion, off by far more than its noise. Three cameras fused, CI coarse capture with shot and read
+#: noise, flat held-out pixels: median 1.086 ΔE00, plain mean 1.191, inverse-variance mean 1.125, this
+#: band 0.992 (2σ + 0.5 %: 1.011); noise-free, 0.339 either way.
+TRIM_SIGMA = 3.0
+TRIM_RTOL = 0.01
 
 
 def depth_map(gaussians, camera, *, mask=None) -> tuple[np.ndarray, np.ndarray]:
@@ -135,13 +145,17 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
 
 
 def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray, np.ndarray]:
-    """The median over several source photographs of their reprojected values, and how many see each pixel.
+    """Several source photographs reprojected into a target view and combined, and how many see each
+    pixel.
 
     Parameters
     ----------
     target : splat.Camera
     target_depth, target_alpha : ndarray of shape (H, W)
-    sources : iterable of (Camera, depth (Hs, Ws), image (Hs, Ws, c))
+    sources : iterable of (Camera, depth (Hs, Ws), image (Hs, Ws, c)) or (…, variance (Hs, Ws, c))
+        With a per-pixel noise variance for every source, the sources that see a pixel are combined by
+        their inverse-variance mean over those within ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of
+        the median (the median where none is); without, by the median.
 
     Returns
     -------
@@ -150,10 +164,25 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
     count : ndarray of shape (H, W), int
         Sources that see each pixel.
     """
-    stack = []
-    for cam, depth, image in sources:
+    stack, var = [], []
+    for src in sources:
+        cam, depth, image, *rest = src
+        if len(rest) > 1:
+            raise SplatError("reprojected: a source is (camera, depth, image[, variance]).")
+        image = np.asarray(image, np.float64)
+        c = image.shape[-1]
+        if rest:  # reprojected together with the image: one interpolation, the same pixels
+            v = np.asarray(rest[0], np.float64)
+            if v.shape != image.shape or not np.all(np.isfinite(v)) or (v < 0).any():
+                raise SplatError(
+                    f"reprojected: a source's variance {v.shape} must be finite, ≥ 0 and the shape of its "
+                    f"image {image.shape}."
+                )
+            image = np.concatenate([image, v], axis=-1)
         vals, ok = reproject(target, target_depth, target_alpha, cam, depth, image)
-        stack.append(np.where(ok[..., None], vals, np.nan))
+        stack.append(np.where(ok[..., None], vals[..., :c], np.nan))
+        if rest:
+            var.append(np.where(ok[..., None], vals[..., c:], np.nan))
     if not stack:
         raise SplatError("reprojected: no source photograph given.")
     if len({v.shape for v in stack}) > 1:
@@ -161,9 +190,19 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
             "reprojected: the source images differ in size or channel count: "
             f"{[v.shape[-1] for v in stack]} channels."
         )
+    if var and len(var) != len(stack):
+        raise SplatError("reprojected: give a variance for every source or for none.")
     stack = np.stack(stack)
     count = np.isfinite(stack[..., 0]).sum(0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN pixels: no source sees them
         med = np.nanmedian(stack, axis=0)
+    if var:
+        z = np.nan_to_num(stack)
+        var = np.nan_to_num(np.stack(var), nan=np.inf)
+        keep = np.isfinite(stack) & (np.abs(z - med) <= TRIM_SIGMA * np.sqrt(var) + TRIM_RTOL * np.abs(med))
+        w = np.where(keep, 1.0 / np.maximum(var, 1e-30), 0.0)
+        wsum = w.sum(0)
+        mean = (z * w).sum(0) / np.where(wsum > 0, wsum, 1.0)
+        med = np.where(wsum > 0, mean, med)
     return np.where(count[..., None] > 0, med, 0.0), count

@@ -861,6 +861,30 @@ def test_site_noise_without_exposure_names_the_view(profile):
         fusion.site_noise(view, WHITE)
 
 
+# ----------------------------------------------------------------------------------- photo_variance
+
+
+def test_photo_variance_with_a_noise_profile():
+    """(S_j·max(x·e, 0) + O_j) / e² at each pixel of the photograph (exposure e), by hand."""
+    mask = _cfa_mask(6, 8, "RGGB")
+    view = dataclasses.replace(_view(mask * 0.4, mask, full_colour=False, exif=2.5), noise_profile=_PROFILE)
+    photo = np.random.default_rng(35).uniform(-0.02, 0.5, (6, 8, 3))
+    got = fusion.photo_variance(view, photo)
+    for y, x, j in np.ndindex(6, 8, 3):
+        S, O = _PROFILE[j]
+        assert got[y, x, j] == pytest.approx((S * max(photo[y, x, j] * 2.5, 0.0) + O) / 2.5**2, rel=1e-12)
+
+
+def test_photo_variance_without_a_profile_and_without_exposure():
+    mask = _cfa_mask(64, 64, "RGGB")
+    values = (_scene(64, 64) + np.random.default_rng(36).normal(0.0, 0.01, (64, 64, 3))) * mask
+    view = _view(values, mask, full_colour=False, exif=3.0)
+    got = fusion.photo_variance(view, np.ones((64, 64, 3)))
+    np.testing.assert_array_equal(got, np.broadcast_to(sensor_noise(view, np.ones(3)) ** 2, (64, 64, 3)))
+    with pytest.raises(splat.SplatError, match="no exposure"):
+        fusion.photo_variance(dataclasses.replace(view, exif=None), np.ones((64, 64, 3)))
+
+
 # ------------------------------------------------------------------------------- reprojection_noise
 
 #: A residual's quantile: the normal-consistent MAD is median |z| / Φ⁻¹(3/4).

@@ -519,3 +519,52 @@ def test_depth_map_reproject_round_trip_with_renders():
     err = np.abs(values - truth)[valid & interior]
     assert err.max() < 0.03, err.max()
     assert np.ptp(truth[valid & interior], 0).min() > 0.2  # while the colours vary 7× more than that
+
+
+# ------------------------------------------------------------- reprojected: with the sources' noise
+
+
+def test_reprojected_with_variances_is_a_trimmed_inverse_variance_mean():
+    """Three sources of constant colours 0.5, 0.51 and 10.5 (variances 1e-4, 4e-4, 1e-4; the last a
+    gross outlier): where all three see a pixel the median is 0.51 and the band 3σ + 1 % of it keeps
+    the first two, whose inverse-variance mean is 0.5 + 0.01 · 2500 / 12500 = 0.502 exactly; where only
+    the first and the outlier see, neither is within its band of their median 5.5, which is returned;
+    where one source sees, its value; without variances, the median (as before)."""
+    from splat.reproject import TRIM_RTOL, TRIM_SIGMA
+
+    assert (TRIM_SIGMA, TRIM_RTOL) == (3.0, 0.01)  # the closed forms below assume these
+    d, a, _ = _depth_alpha(TARGET)
+    level, var = (0.5, 0.51, 10.5), (1e-4, 4e-4, 1e-4)
+    sources, oks = [], []
+    for src, c, v in zip(SOURCES, level, var):
+        sd, photo = _photo(src)
+        img = np.full(photo.shape, c)
+        sources.append((src, sd, img, np.full(photo.shape, v)))
+        oks.append(reproject(TARGET, d, a, src, sd, img)[1])
+    values, count = reprojected(TARGET, d, a, sources)
+    s0, s1, s2 = oks
+    want = np.zeros(d.shape)
+    want[s0 & ~s1 & ~s2], want[s1 & ~s0 & ~s2], want[s2 & ~s0 & ~s1] = 0.5, 0.51, 10.5
+    want[s0 & s1] = 0.502
+    want[s0 & s2 & ~s1] = 5.5
+    want[s1 & s2 & ~s0] = 5.505
+    for sel in (s0 & s1 & s2, s0 & s2 & ~s1, s0 & ~s1 & ~s2, s2 & ~s0 & ~s1):
+        assert sel.sum() > 100  # these cases occur (the middle source sees only where both others do)
+    np.testing.assert_allclose(values[..., 0], want, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(count, s0.astype(int) + s1 + s2)
+    plain, _ = reprojected(TARGET, d, a, [s[:3] for s in sources])
+    np.testing.assert_allclose(plain[s0 & s1 & s2, 0], 0.51, rtol=0, atol=1e-12)
+
+
+def test_reprojected_variance_errors():
+    d, a, _ = _depth_alpha(TARGET)
+    src = SOURCES[0]
+    sd, photo = _photo(src)
+    good = np.full(photo.shape, 1e-4)
+    for bad in (good[:, 1:], np.full(photo.shape, -1e-4), np.full(photo.shape, np.nan)):
+        with pytest.raises(SplatError, match="variance"):
+            reprojected(TARGET, d, a, [(src, sd, photo, bad)])
+    with pytest.raises(SplatError, match="every source or for none"):
+        reprojected(TARGET, d, a, [(src, sd, photo, good), (src, sd, photo)])
+    with pytest.raises(SplatError, match=r"camera, depth, image\[, variance\]"):
+        reprojected(TARGET, d, a, [(src, sd, photo, good, good)])
