@@ -8,9 +8,10 @@ correct step therefore also corrects such views from fused responses (``pipeline
    photographs see the pixel, the inverse-variance mean with them (reprojected through the splat's
    depth, :mod:`splat.reproject`), which averages sensor noise.
 2. **Another camera's channels**: its photographs reprojected into the view where any sees the pixel
-   (the median over them); elsewhere the splat's render **anchored** to the photograph
-   (:func:`anchor`): every channel scaled, per pixel, by the ratio of the measured to the rendered sum
-   of the own channels (the Brovey transform of pan-sharpening, Gillespie et al. 1987), so a render
+   (combined, :func:`splat.reproject.reprojected`); elsewhere the splat's render **anchored** to the
+   photograph (:func:`anchor`): every channel scaled, per pixel, by the ratio of the measured to the
+   rendered sum of the own channels (the Brovey transform of pan-sharpening, Gillespie et al. 1987), so
+   a render
    error common to all channels (opacity, coverage, shading) cancels.
 3. **Per-channel noise**: the own channels carry the sensor's noise (:func:`sensor_noise`: the file's
    DNG NoiseProfile at the channel's median signal; without one, a robust estimate from the mosaic,
@@ -30,8 +31,8 @@ Measured (``benchmarks/bench_capture.py``, CI-size coarse capture, true poses, f
 held-out views, three cameras with Prior; the README's capture section has the tables): see
 ``README.md`` ("Photographed views"); in short, noise-free, render only 1.63–1.66 ΔE00, fused 0.34
 after 1000 steps (two seeds; 0.45 after 2000) against 0.87 for the best camera's own DNG development
-(same white); as novel views (the view's own RAW unused) 0.41–0.43 (0.55); with sensor noise, render
-only 1.85, fused 1.09, as novel views 1.20 (DNG 1.96).
+(same white); as novel views (the view's own RAW unused) 0.42–0.43 (0.56); with sensor noise, render
+only 1.85, fused 0.99, as novel views 1.09 (DNG 1.96).
 """
 
 from __future__ import annotations

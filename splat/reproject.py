@@ -5,10 +5,11 @@ channels is 0.013–0.021 (white = 1) at held-out views. Its *geometry* is good 
 photographs themselves from one view to another: each pixel of the target view is lifted to 3-D with the
 splat's depth (:func:`depth_map`), projected into a source photograph, and the source's demosaiced value
 read there (bilinear) when the source sees that point (its own splat depth agrees within
-:data:`DEPTH_RTOL`). The median over a camera's photographs that see the point is that camera's
-reprojected response (:func:`reprojected`): 0.004–0.016 on the same pixels, measured values rather than
-a model of them. Pixels that no photograph of a camera sees keep the render for that camera
-(:mod:`splat.fusion`).
+:data:`DEPTH_RTOL`). The photographs of a camera that see the point are combined into that camera's
+reprojected response (:func:`reprojected`: their median, or with each one's noise variance, their
+inverse-variance mean within :data:`TRIM_SIGMA` σ + :data:`TRIM_RTOL` of the median): 0.004–0.016 on the
+same pixels (the median of Malvar-demosaiced sources), measured values rather than a model of them.
+Pixels that no photograph of a camera sees keep the render for that camera (:mod:`splat.fusion`).
 
 The scene must be Lambertian for this to hold (a glossy highlight moves with the view); the render's
 view-independent colours assume the same.
