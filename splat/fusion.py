@@ -11,8 +11,7 @@ correct step therefore also corrects such views from fused responses (``pipeline
    (combined, :func:`splat.reproject.reprojected`); elsewhere the splat's render **anchored** to the
    photograph (:func:`anchor`): every channel scaled, per pixel, by the ratio of the measured to the
    rendered sum of the own channels (the Brovey transform of pan-sharpening, Gillespie et al. 1987), so
-   a render
-   error common to all channels (opacity, coverage, shading) cancels.
+   a render error common to all channels (opacity, coverage, shading) cancels.
 3. **Per-channel noise**: the own channels carry the sensor's noise (:func:`sensor_noise`: the file's
    DNG NoiseProfile at the channel's median signal; without one, a robust estimate from the mosaic,
    an upper bound on textured scenes), reprojected channels their camera's reprojection error
