@@ -87,8 +87,10 @@ OWN_NOISE_FLOOR = 2e-3
 #: (at least 0.02, white = 1). The reprojected photographs' σ is estimated at smooth pixels only
 #: (``pipeline.fusion_of``): there a photograph is read away from its own edges, where a fraction of a
 #: pixel of misregistration or the demosaicing's blur would stand in for its error. Over all pixels
-#: the estimate was 2–5 × larger (noise-free CI coarse capture: 0.0058–0.0095 against the floor 0.002)
-#: and, used as the weight, cost 0.34 → 0.44 ΔE00 on the flat held-out pixels (three cameras fused,
-#: seed 1). The render is smooth and noise-free, so the test needs no truth and is unmoved by sensor
-#: noise; 0.03 and 0.01 gave the same σ.
-SMOOTH_RTOL = 0.03
+#: the estimate is 4–10 × larger (CI coarse capture with noise: 0.0093–0.0106 against 0.0019–0.0027)
+#: and, as the weight, cost 0.34 → 0.44 ΔE00 on the flat held-out pixels (noise-free, seed 1). The
+#: render is smooth and noise-free, so the test needs no truth and is unmoved by sensor noise. The σ
+#: hardly depends on the value (noisy capture: 0.0021–0.0026 per camera at 0.03, 0.0019–0.0027 at 0.1,
+#: 0.0021–0.0030 at 0.3; noise-free ≤ 0.0002 at all three), but its support does: a splat's render is
+#: blotchy, and 0.03 left 30–111 residuals per camera, 0.1 leaves 1 300–3 400.
+SMOOTH_RTOL = 0.1

@@ -31,7 +31,7 @@ held-out views, three cameras with Prior; the README's capture section has the t
 ``README.md`` ("Photographed views"); in short, noise-free, render only 1.63–1.66 ΔE00, fused 0.34
 after 1000 steps (two seeds; 0.45 after 2000) against 0.87 for the best camera's own DNG development
 (same white); as novel views (the view's own RAW unused) 0.42–0.43 (0.56); with sensor noise, render
-only 1.85, fused 0.99, as novel views 1.09 (DNG 1.96).
+only 1.85, fused 0.97, as novel views 1.06 (DNG 1.96).
 """
 
 from __future__ import annotations
