@@ -167,11 +167,8 @@ def site_noise(view, white_scale) -> np.ndarray:
     :func:`sensor_noise`'s image estimate everywhere; divided by the exposure and the white scale."""
     if view.exif is None:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
-    if view.noise_profile is None:
-        return np.broadcast_to(sensor_noise(view, white_scale), np.shape(view.values)).copy()
-    P = np.asarray(view.noise_profile, float)
-    x = np.maximum(np.asarray(view.values, float), 0.0)
-    return np.sqrt(P[:, 0] * x + P[:, 1]) / view.exif / np.asarray(white_scale, float)
+    var = photo_variance(view, np.asarray(view.values, float) / view.exif)
+    return np.sqrt(var) / np.asarray(white_scale, float)
 
 
 def photo_variance(view, photo) -> np.ndarray:

@@ -1017,18 +1017,24 @@ def fused_view(
                 seen[..., None], np.maximum(values[..., 3 * c : 3 * c + 3], 0), fused[..., 3 * i : 3 * i + 3]
             )
             code |= seen.astype(int) << i
+    sigma = _sigma_by_code(fusion, code, cameras)
+    so = np.asarray(fusion["views"][name]["own_sigma"], float)
+    for cd, s_ in sigma.items():  # the own channels: measured, or averaged with their reprojection
+        s_[own] = 1 / np.sqrt(1 / so**2 + 1 / float(rep_sigma[k]) ** 2) if cd >> (pos // 3) & 1 else so
+    return fused, code, sigma
+
+
+def _sigma_by_code(fusion: dict, code: np.ndarray, cameras: list) -> dict:
+    """σ per channel of ``cameras`` for each pattern in ``code``: a camera's ``reprojected_sigma`` where
+    its bit is set, ``render_sigma`` elsewhere."""
     sigma = {}
     for cd in np.unique(code):
-        s_ = np.full(len(idx), fusion["render_sigma"], float)
+        s_ = np.full(3 * len(cameras), fusion["render_sigma"], float)
         for i, c in enumerate(cameras):
             if cd >> i & 1:
-                s_[3 * i : 3 * i + 3] = rep_sigma[c]
-        s_[own] = fusion["views"][name]["own_sigma"]
-        if cd >> (pos // 3) & 1:
-            so = np.asarray(fusion["views"][name]["own_sigma"], float)
-            s_[own] = 1 / np.sqrt(1 / so**2 + 1 / float(rep_sigma[k]) ** 2)
+                s_[3 * i : 3 * i + 3] = fusion["reprojected_sigma"][c]
         sigma[int(cd)] = s_
-    return fused, code, sigma
+    return sigma
 
 
 def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
@@ -1069,14 +1075,7 @@ def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
     den = np.where(chan, render, 0).sum(-1) + ANCHOR_EPS
     ratio = np.divide(num, den, out=np.ones_like(num), where=chan.any(-1) & (den > 0))
     fused = np.where(chan, values, render * ratio[..., None])
-    sigma = {}
-    for cd in np.unique(code):
-        s_ = np.full(len(idx), fusion["render_sigma"], float)
-        for i, c in enumerate(cameras):
-            if cd >> i & 1:
-                s_[3 * i : 3 * i + 3] = fusion["reprojected_sigma"][c]
-        sigma[int(cd)] = s_
-    return fused, code, sigma
+    return fused, code, _sigma_by_code(fusion, code, cameras)
 
 
 def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):

@@ -231,34 +231,24 @@ def score(
             est = unpick(correct_image(pick(c[..., idx], fl), cor, quantum=quantum))
             label = f"{cor.method}:{'+'.join(spec.cameras[k].folder for k in s)}"
             add(label, est, r, fl)
-        if name in fusion["views"]:  # the photographed view fused with the render (splat.fusion)
-            rep = _reprojected_of(out / "render" / _stem(name), scale)
-            for sub in subsets:
-                if cam not in sub or len(sub) < 2:
-                    continue
-                f, code, sigma = fused_view(fusion, name, render / scale, raws[name], scale, list(sub), rep)
-                f, code = f[::stride, ::stride], code[::stride, ::stride]
-                if flat_only:
-                    f, code = f[fl], code[fl]
-                cams = "+".join(spec.cameras[k].folder for k in sub)
-                for m in methods:
-                    if (m, sub) not in fitters:
-                        fitters[(m, sub)] = fused_fitter(spec, list(sub), m)
-                    est = correct_fused(f, code, sigma, fitters[(m, sub)], quantum)
-                    add(f"{CORRECTION_METHODS.resolve(m)}-fused:{cams}", est, r, fl)
         rep = _reprojected_of(out / "render" / _stem(name), scale)
-        if rep is not None and fusion["reprojected_sigma"] is not None:  # as if the view had no photograph
-            for sub in subsets:
-                f, code, sigma = photographed_view(fusion, render / scale, rep, list(sub))
+        for sub in subsets:
+            views = []
+            if name in fusion["views"] and cam in sub and len(sub) > 1:  # its RAW, the others reprojected
+                f = fused_view(fusion, name, render / scale, raws[name], scale, list(sub), rep)
+                views.append(("fused", f))
+            if rep is not None and fusion["reprojected_sigma"] is not None:  # as if it had no photograph
+                views.append(("photographed", photographed_view(fusion, render / scale, rep, list(sub))))
+            cams = "+".join(spec.cameras[k].folder for k in sub)
+            for kind, (f, code, sigma) in views:
                 f, code = f[::stride, ::stride], code[::stride, ::stride]
                 if flat_only:
                     f, code = f[fl], code[fl]
-                cams = "+".join(spec.cameras[k].folder for k in sub)
                 for m in methods:
                     if (m, sub) not in fitters:
                         fitters[(m, sub)] = fused_fitter(spec, list(sub), m)
                     est = correct_fused(f, code, sigma, fitters[(m, sub)], quantum)
-                    add(f"{CORRECTION_METHODS.resolve(m)}-photographed:{cams}", est, r, fl)
+                    add(f"{CORRECTION_METHODS.resolve(m)}-{kind}:{cams}", est, r, fl)
         v = raws[name]
         pred = render[..., 3 * cam : 3 * cam + 3] * v.exif
         w = v.weight > 0
