@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: zonotope's modules by layer (0 = lowest). A new module must be placed here.
 LAYERS: dict[int, set[str]] = {
     0: {"_errors", "_tol", "_registry", "_io", "_progress", "_config", "parallel", "_cubemap"},
-    1: {"spectra", "_loading", "_generators"},
+    1: {"spectra", "_loading", "_generators", "_bvls"},
     2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "_mmv_walk_kernel", "membership"},
     3: {"_oracle", "_mmv_refine", "_mmv_walk", "mismatch"},
     4: {"prior", "atypical", "_correction_problem", "_regressions", "_mmv_estimators", "correct"},
