@@ -324,6 +324,14 @@ def test_bad_shapes_and_values_are_geometry_errors(M, r, match):
         box_lsq(M, r)
 
 
+def test_fiber_lsq_mismatched_shapes_are_geometry_errors(real):
+    prior, Phi = real["prior"], real["Phi"]
+    with pytest.raises(GeometryError, match=r"one response column per column of Phi"):
+        fiber_lsq(Phi, np.ones((2, Phi.shape[1] + 1)), prior.root, prior.root @ prior.mean, noise=0.01)
+    with pytest.raises(GeometryError, match=r"one A column per wavelength"):
+        fiber_lsq(Phi, np.ones((2, Phi.shape[1])), prior.root[:, 1:], prior.root @ prior.mean, noise=0.01)
+
+
 @pytest.mark.parametrize("cap", [-1, 2.5])
 def test_bad_iteration_cap_is_a_geometry_error(cap):
     with pytest.raises(GeometryError, match=r"max_iter"):

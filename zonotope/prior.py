@@ -19,7 +19,7 @@ from functools import cached_property
 import numpy as np
 
 from ._bvls import box_lsq
-from ._errors import SpectralDataError
+from ._errors import GeometryError, SpectralDataError
 from ._tol import INTERIOR_SLACK, METRIC_JITTER, PROJECTION_TIE
 
 __all__ = ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"]
@@ -102,6 +102,11 @@ def fiber_lsq(Phi, responses, A, b, *, noise: float = 0.0, weight: float = 1e5) 
     C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
     N, n = C.shape[0], Phi.shape[0]
     A = np.asarray(A, dtype=np.float64)
+    if C.ndim != 2 or Phi.ndim != 2 or C.shape[1] != Phi.shape[1] or A.ndim not in (2, 3) or A.shape[-1] != n:
+        raise GeometryError(
+            f"fiber_lsq: responses {C.shape}, Phi {Phi.shape} and A {A.shape} must be (N, k), (n, k) and "
+            "(p, n) or (N, p, n): one response column per column of Phi, one A column per wavelength."
+        )
     b = np.broadcast_to(np.asarray(b, dtype=np.float64), (N, A.shape[-2]))
     if noise > 0:
         s = np.full(N if A.ndim == 3 else 1, 1.0 / noise)
