@@ -674,11 +674,12 @@ def _novel_cameras(views, n: int):
 
 def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
     """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
-    splat's depth (:func:`splat.reproject.reprojected`, with each photograph's noise variance
+    splat's depth, moved to where the photographs agree (:func:`splat.reproject.consistent_depth`)
+    (:func:`splat.reproject.reprojected`, with each photograph's noise variance
     :func:`splat.fusion.photo_variance`): values (H, W, 3n) at exposure 1 (0 where no photograph of that
     camera sees the pixel) and the number of photographs that see it (H, W, n)."""
     from .fusion import measured, photo_variance
-    from .reproject import MIN_ALPHA, depth_map, reprojected
+    from .reproject import MIN_ALPHA, consistent_depth, depth_map, reprojected
 
     def depth(v_name, c):  # the cache also holds each photograph, demosaiced, at exposure 1
         if v_name not in depths:
@@ -695,15 +696,19 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
         return depths[v_name]
 
     d, a, *_ = depth(name, cam)
-    values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
-    count = np.zeros((cam.height, cam.width, n), np.float32)
+    groups = []  # each camera's photographs (but the view's own), as reprojection sources
     for k in range(n):
-        sources = []
+        groups.append([])
         for v in views:
             r = raws.get(v.name)
             if v.name != name and r is not None and r.camera == k and r.exif is not None:
                 _, _, photo, seen_depth, var = depth(v.name, v.camera)
-                sources.append((v.camera, seen_depth, photo, var))
+                groups[k].append((v.camera, seen_depth, photo, var))
+    if any(len(g) >= 2 for g in groups):  # the splat's depth moved to where the photographs agree
+        d, _ = consistent_depth(cam, d, a, groups)
+    values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
+    count = np.zeros((cam.height, cam.width, n), np.float32)
+    for k, sources in enumerate(groups):
         if sources:
             values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)
     return values, count

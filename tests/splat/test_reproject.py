@@ -22,7 +22,16 @@ from hypothesis import strategies as st
 from splat import SplatError
 from splat.camera import Camera, look_at
 from splat.gaussians import init_gaussians
-from splat.reproject import DEPTH_RTOL, MIN_ALPHA, depth_map, reproject, reprojected
+from splat.reproject import (
+    DEPTH_RTOL,
+    MIN_ALPHA,
+    SWEEP_RANGE,
+    SWEEP_STEPS,
+    consistent_depth,
+    depth_map,
+    reproject,
+    reprojected,
+)
 
 # ------------------------------------------------------------------------------------ closed forms
 
@@ -568,3 +577,108 @@ def test_reprojected_variance_errors():
         reprojected(TARGET, d, a, [(src, sd, photo, good), (src, sd, photo)])
     with pytest.raises(SplatError, match=r"camera, depth, image\[, variance\]"):
         reprojected(TARGET, d, a, [(src, sd, photo, good, good)])
+
+
+# ------------------------------------------------------ consistent_depth: the photographs' plane sweep
+
+
+def _fine_texture(X) -> np.ndarray:
+    """A world texture with ~0.5 m detail (≈ 20 source pixels a period), values 0.5–2.5: a depth off by
+    one sweep step (1 %, ≈ 3.5 cm here) misregisters the sources by ~0.3 rad of its phase."""
+    x, y = X[..., 0], X[..., 1]
+    return np.stack([1.5 + np.sin(12 * x) * np.cos(10 * y), 1.5 + np.cos(11 * x + 7 * y)], -1)
+
+
+def _fine_sources(texture=_fine_texture):
+    """The three sources' closed-form depth maps and photographs of the finely textured plane."""
+    out = []
+    for src in SOURCES:
+        sd, a, Xs = _depth_alpha(src)
+        assert a.all()
+        out.append((src, sd, texture(Xs)))
+    return out
+
+
+#: The sweep's scales: exp(k · STEP), k = −6 … 6.
+STEP = np.log1p(SWEEP_RANGE) / (SWEEP_STEPS // 2)
+
+
+def _pairs_see(d, a, sources):
+    """Target pixels that at least two sources see through the depth d."""
+    return sum(reproject(TARGET, d, a, *s)[1].astype(int) for s in sources) >= 2
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(-2, 2), st.floats(-0.4, 0.4))
+def test_consistent_depth_undoes_a_depth_error(k, frac):
+    """The target's depth off by a factor exp((k + frac) · STEP) (≤ 2.4 %, so that the sources still see
+    the wrongly lifted points: DEPTH_RTOL is 3 %): the sweep returns the plane's closed-form depth to
+    within half a step wherever two sources see the pixel (interior of the 5 × 5 window), and the
+    reprojected texture is then right to the half step's misregistration."""
+    assert abs(np.exp(2.4 * STEP) - 1) < DEPTH_RTOL
+    d, a, X = _depth_alpha(TARGET)
+    sources = _fine_sources()
+    wrong = d * np.exp((k + frac) * STEP)
+    got, scale = consistent_depth(TARGET, wrong, a, [sources])
+    inner = _pairs_see(d, a, sources) & _pairs_see(wrong, a, sources)
+    inner[:2], inner[-2:], inner[:, :2], inner[:, -2:] = False, False, False, False
+    assert inner.sum() > 500
+    ratio = got[inner] / d[inner]
+    assert np.mean(np.abs(np.log(ratio)) <= 0.5 * STEP + 1e-12) > 0.97, np.percentile(
+        np.abs(np.log(ratio)), 95
+    )
+    np.testing.assert_allclose(got, wrong * scale, rtol=1e-15)
+    # the scales are the sweep's grid values
+    np.testing.assert_allclose(np.round(np.log(scale) / STEP), np.log(scale) / STEP, atol=1e-9)
+    before, _ = reprojected(TARGET, wrong, a, sources)
+    after, _ = reprojected(TARGET, got, a, sources)
+    truth = _fine_texture(X)
+    err_before = np.abs(before - truth)[inner].mean()
+    err_after = np.abs(after - truth)[inner].mean()
+    if k != 0:
+        assert err_after < 0.5 * err_before, (err_after, err_before)
+
+
+def test_consistent_depth_keeps_an_exact_depth_and_textureless_planes():
+    """With the plane's exact depth every pixel keeps it (scale 1: the sources agree best there and the
+    prior favours it); with a constant texture the sources agree at every scale, and the prior keeps the
+    given depth bit for bit, even a wrong one (a textureless patch cannot tell, and needs no better)."""
+    d, a, _ = _depth_alpha(TARGET)
+    got, scale = consistent_depth(TARGET, d, a, [_fine_sources()])
+    assert np.mean(scale == 1.0) > 0.99
+    flat = _fine_sources(lambda X: np.full((*X.shape[:-1], 2), 0.7))
+    wrong = d * 1.02  # within DEPTH_RTOL: the sources see the points it lifts, so it is judged
+    got, scale = consistent_depth(TARGET, wrong, a, [flat])
+    assert _pairs_see(wrong, a, flat).mean() > 0.5
+    np.testing.assert_array_equal(scale, 1.0)
+    np.testing.assert_array_equal(got, wrong)
+
+
+def test_consistent_depth_needs_two_photographs_of_a_group():
+    """A pixel that no two photographs of one group see at its given depth keeps it, even where a
+    different scale would bring a second one into view (one source per group is no comparison: two
+    groups of one source each are an error, as is nothing to compare at all)."""
+    d, a, _ = _depth_alpha(TARGET)
+    sources = _fine_sources()
+    pair = sources[:2]
+    wrong = d * 1.02
+    _, scale = consistent_depth(TARGET, wrong, a, [pair, sources[2:]])
+    nobody = ~_pairs_see(wrong, a, pair)  # at the given depth: not judged, so not moved
+    assert nobody.sum() > 50 and (scale[nobody] == 1.0).all()
+    assert (scale[~nobody] != 1.0).mean() > 0.9  # the others are
+    for groups in ([sources[:1], sources[1:2]], [], [[]]):
+        with pytest.raises(SplatError, match="two photographs"):
+            consistent_depth(TARGET, d, a, groups)
+    with pytest.raises(SplatError, match="list of groups"):
+        consistent_depth(TARGET, d, a, sources)  # the sources themselves, not grouped
+    for bad in (
+        {"window": 4},
+        {"window": 0},
+        {"prior": -1.0},
+        {"steps": 0},
+        {"steps": 12},
+        {"span": 1.5},
+        {"span": 0.0},
+    ):
+        with pytest.raises(SplatError, match="consistent_depth"):
+            consistent_depth(TARGET, d, a, [sources], **bad)
