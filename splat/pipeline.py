@@ -674,10 +674,11 @@ def _novel_cameras(views, n: int):
 
 def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
     """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
-    splat's depth, moved to where the photographs agree (:func:`splat.reproject.consistent_depth`)
-    (:func:`splat.reproject.reprojected`, with each photograph's noise variance
-    :func:`splat.fusion.photo_variance`): values (H, W, 3n) at exposure 1 (0 where no photograph of that
-    camera sees the pixel) and the number of photographs that see it (H, W, n)."""
+    splat's depth, moved along each ray to where the photographs agree
+    (:func:`splat.reproject.consistent_depth`), and combined by :func:`splat.reproject.reprojected`
+    with each photograph's noise variance (:func:`splat.fusion.photo_variance`): values (H, W, 3n) at
+    exposure 1 (0 where no photograph of that camera sees the pixel) and the number of photographs that
+    see it (H, W, n)."""
     from .fusion import measured, photo_variance
     from .reproject import MIN_ALPHA, consistent_depth, depth_map, reprojected
 
