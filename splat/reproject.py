@@ -330,13 +330,14 @@ def consistent_depth(
     u = np.linspace(-np.log1p(span), np.log1p(span), int(steps))
     cost = np.full((u.size, *d.shape), np.inf)
     for i, ui in enumerate(u):
+        trial = d * np.exp(ui)
         total, n = np.zeros(d.shape), np.zeros(d.shape)
         for g in groups:
             if len(g) < 2:
                 continue
             stack = []
             for src in g:
-                vals, ok = reproject(target, d * np.exp(ui), target_alpha, src[0], src[1], src[2])
+                vals, ok = reproject(target, trial, target_alpha, src[0], src[1], src[2])
                 stack.append(np.where(ok[..., None], vals, np.nan))
             stack = np.stack(stack)
             seen = np.isfinite(stack[..., 0]).sum(0)
