@@ -60,6 +60,27 @@ def test_atomic_write_permissions_follow_umask(tmp_path):
     assert (tmp_path / "rep" / MARKER).read_text() == "test\n"
 
 
+@pytest.mark.parametrize("exchange", [True, False])
+def test_atomic_dir_replaces_a_folder_by_exchange_or_two_renames(tmp_path, monkeypatch, exchange):
+    """An existing report folder is replaced whole (the old files gone, no temporary left), by the atomic
+    exchange where the OS has it (Linux here: asserted) and by the two-rename fallback elsewhere."""
+    import zonotope._io as io
+
+    if exchange:
+        a, b = tmp_path / "a", tmp_path / "b"
+        a.mkdir(), b.mkdir(), (a / "x").write_text("A")
+        assert io._exchange(a, b) and (b / "x").read_text() == "A" and not any(a.iterdir())
+        a.rmdir(), (b / "x").unlink(), b.rmdir()
+    else:
+        monkeypatch.setattr(io, "_exchange", lambda a, b: False)
+    dest = tmp_path / "rep"
+    for version in ("one", "two"):
+        with atomic_dir(dest, signature="test", overwrite=True) as d:
+            (d / f"{version}.html").write_text(version)
+    assert sorted(p.name for p in dest.iterdir()) == sorted([MARKER, "two.html"])
+    assert leftovers(tmp_path, {"rep"}) == []
+
+
 def test_keyboard_interrupt_leaves_no_temporary_and_keeps_the_old_file(tmp_path):
     dest = tmp_path / "out.txt"
     dest.write_text("good")

@@ -266,6 +266,20 @@ def atomic_write_text(dest: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(dest, text.encode("utf-8"))
 
 
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two existing paths atomically (Linux ``renameat2`` with ``RENAME_EXCHANGE``, glibc ≥ 2.28);
+    False, with nothing changed, where that call or flag is not available."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        renameat2 = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2  # <fcntl.h>, <linux/fs.h>
+    return renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0
+
+
 def _fsync_dir(folder: Path) -> None:
     with contextlib.suppress(OSError):
         fd = os.open(folder, os.O_RDONLY)
@@ -289,9 +303,11 @@ def atomic_dir(dest: str | os.PathLike, *, signature: str, overwrite: bool = Fal
 
     The folder gets a :data:`MARKER` file whose first line is ``signature``, so that a later
     ``overwrite`` of the same command recognises it. An existing ``dest`` is replaced only if
-    :func:`check_output` allows it (call that first, before the long work, too); the old folder is
-    renamed aside, the new one renamed in, then the old one removed, so an interruption leaves one of
-    the two complete. On any exception the temporary folder is removed.
+    :func:`check_output` allows it (call that first, before the long work, too): the two folders are
+    swapped in one atomic step (Linux ``renameat2(RENAME_EXCHANGE)``) and the old one, now at the
+    temporary name, removed, so ``dest`` is always one complete folder. Where the exchange is not
+    available (another OS or file system) the old folder is renamed aside and the new one renamed in: a
+    kill between those two renames leaves no ``dest``. On any exception the temporary folder is removed.
     """
     dest = Path(dest)
     _make_parent(dest)
@@ -304,11 +320,14 @@ def atomic_dir(dest: str | os.PathLike, *, signature: str, overwrite: bool = Fal
         _fsync_tree(tmp)
         check_output(dest, overwrite=overwrite, signature=signature)  # may have appeared meanwhile
         if dest.exists():
-            old = Path(tempfile.mkdtemp(prefix=_temp_name(dest, "partial"), dir=dest.parent))
-            old.rmdir()
-            os.rename(dest, old)
-            os.rename(tmp, dest)
-            shutil.rmtree(old, ignore_errors=True)
+            if _exchange(tmp, dest):  # tmp now holds the old folder
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                old = Path(tempfile.mkdtemp(prefix=_temp_name(dest, "partial"), dir=dest.parent))
+                old.rmdir()
+                os.rename(dest, old)
+                os.rename(tmp, dest)
+                shutil.rmtree(old, ignore_errors=True)
         else:
             os.rename(tmp, dest)
         _fsync_dir(dest.parent)
