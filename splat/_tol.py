@@ -12,6 +12,9 @@ __all__ = [
     "ANCHOR_EPS",
     "FEASIBLE_DISTANCE",
     "GRID_NM",
+    "GUIDE_RADIUS",
+    "GUIDE_RANGE",
+    "GUIDE_RELIABILITY",
     "OWN_NOISE_FLOOR",
     "PURE_WEIGHT",
     "QUATERNION_NORM_MAX",
@@ -94,3 +97,17 @@ OWN_NOISE_FLOOR = 2e-3
 #: 0.0021–0.0030 at 0.3; noise-free ≤ 0.0002 at all three), but its support does: a splat's render is
 #: blotchy, and 0.03 left 30–111 residuals per camera, 0.1 leaves 1 300–3 400.
 SMOOTH_RTOL = 0.1
+
+#: The joint bilateral filter that re-reads reprojected photographs guided by the view's own photograph
+#: (:func:`splat.fusion.guided`): window radius (px), range σ (relative to the guide's level) and
+#: reliability scale (the reprojection's relative 3 × 3 range). Chosen on one model (CI coarse capture,
+#: noise-free, 1000 steps, seed 0; three cameras with Prior, held-out views, stride 2) among
+#: (2, 0.05, 0 = no reliability term), (2, 0.05, 0.1), (3, 0.03, 0.1), (2, 0.1, 0.1), (1, 0.05, 0.1),
+#: (3, 0.02, 0.03), (3, 0.05, 0.03), (3, 0.05, 0.01), (4, 0.03, 0.02): flat pixels 0.320 → 0.285–0.362,
+#: all pixels 5.74 → 5.08–5.50; (2, 0.1, 0.1) had the lowest all-pixel error (5.08; flat 0.300). The
+#: README's capture section has the checks on other models and scenes.
+GUIDE_RADIUS = 2
+#: See :data:`GUIDE_RADIUS`.
+GUIDE_RANGE = 0.1
+#: See :data:`GUIDE_RADIUS`.
+GUIDE_RELIABILITY = 0.1

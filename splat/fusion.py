@@ -41,10 +41,18 @@ import dataclasses
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, OWN_NOISE_FLOOR, SMOOTH_RTOL  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
+from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
+    ANCHOR_EPS,
+    GUIDE_RADIUS,
+    GUIDE_RANGE,
+    GUIDE_RELIABILITY,
+    OWN_NOISE_FLOOR,
+    SMOOTH_RTOL,
+)
 
 __all__ = [
     "anchor",
+    "guided",
     "measured",
     "photo_variance",
     "render_noise",
@@ -103,6 +111,102 @@ def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL) -> np.ndarray:
         x = r[..., c]
         ok &= maximum_filter(x, 5, mode="nearest") - minimum_filter(x, 5, mode="nearest") <= lim
     return ok
+
+
+def guided(
+    values: np.ndarray,
+    seen: np.ndarray,
+    guide: np.ndarray,
+    *,
+    radius: int = GUIDE_RADIUS,
+    range_sigma: float = GUIDE_RANGE,
+    reliability: float = GUIDE_RELIABILITY,
+) -> np.ndarray:
+    """One camera's reprojected channels re-read where the view's own photograph says they belong: a
+    joint (cross) bilateral filter (Petschnigg et al. 2004; Kopf et al. 2007) guided by the photograph.
+
+    A photograph reprojected into a view is resampled from another viewpoint and resolution through an
+    estimated depth: near the view's edges it mixes the two surfaces, misplaced by a fraction of a
+    pixel, and everywhere it carries its sensor noise. The view's own photograph is sharp and in place.
+    Each pixel ``p`` where the camera's photographs are seen takes the weighted mean of the reprojected
+    values ``O(q)`` over the ``(2 radius + 1)²`` window, with weights
+
+    ``w(p, q) = seen(q) · exp(−R(q) / reliability) · exp(−‖G(q) − G(p)‖² / (2 range_sigma² ℓ(p)²))
+    · exp(−‖q − p‖² / (2 (radius / 1.5)²))``
+
+    ``G`` the guide, ``ℓ(p) = max(mean G(p), 0.02)`` its level (the range kernel is relative, as the
+    camera's response is), ``R(q)`` the largest range of a reprojected channel over ``q``'s 3 × 3
+    neighbourhood relative to ``max(mean O(q), 0.02)`` (a pixel on an edge of the *reprojection* vouches
+    for little). So a pixel reads the reprojection from neighbours that look like it in its own
+    photograph and lie inside a surface of the reprojection; on a flat surface this is a local mean,
+    which averages the reprojection's noise. Unseen pixels are returned as they are.
+
+    Parameters
+    ----------
+    values : ndarray of shape (H, W, 3)
+        One camera's reprojected channels (white → 1).
+    seen : ndarray of shape (H, W), bool
+        Where any of the camera's photographs sees the pixel.
+    guide : ndarray of shape (H, W, c)
+        The view's own photograph (:func:`measured`, white → 1).
+    radius, range_sigma, reliability
+        See :data:`splat._tol.GUIDE_RADIUS` (and the two after it) for how they were chosen.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+    """
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    O = np.asarray(values, float)
+    G = np.asarray(guide, float)
+    seen = np.asarray(seen, bool)
+    H, W = seen.shape
+    if O.shape != (H, W, 3) or G.ndim != 3 or G.shape[:2] != (H, W):
+        raise SplatError(
+            f"guided: values {O.shape}, seen {seen.shape} and guide {G.shape} must be (H, W, 3), (H, W) "
+            "and (H, W, c) of one view."
+        )
+    if int(radius) != radius or radius < 1 or not range_sigma > 0 or not reliability > 0:
+        raise SplatError(
+            f"guided: radius must be an integer ≥ 1 and range_sigma, reliability > 0; got {radius}, "
+            f"{range_sigma}, {reliability}."
+        )
+    if not (np.all(np.isfinite(O)) and np.all(np.isfinite(G))):
+        raise SplatError("guided: values and guide must be finite.")
+    r = int(radius)
+    span = np.zeros((H, W))
+    for j in range(3):
+        span = np.maximum(
+            span, maximum_filter(O[..., j], 3, mode="nearest") - minimum_filter(O[..., j], 3, mode="nearest")
+        )
+    # log-weights, shifted by each pixel's largest before exp: a weight far below 1e-308 (a reliability
+    # term of a large jump) would otherwise be subnormal, and the weighted mean would lose its digits
+    log_rel = np.where(seen, -span / np.maximum(O.mean(-1), 0.02) / reliability, -np.inf)
+    level = np.maximum(G.mean(-1), 0.02)
+    pad = ((r, r), (r, r), (0, 0))
+    Gp, Op = np.pad(G, pad, mode="edge"), np.pad(O, pad, mode="edge")
+    Rp = np.pad(log_rel, r, constant_values=-np.inf)  # no neighbour outside the image
+    windows = [
+        (slice(r + dy, r + dy + H), slice(r + dx, r + dx + W), dy * dy + dx * dx)
+        for dy in range(-r, r + 1)
+        for dx in range(-r, r + 1)
+    ]
+    logw = [
+        Rp[qy, qx]
+        - (((Gp[qy, qx] - G) / level[..., None]) ** 2).sum(-1) / (2 * range_sigma**2)
+        - d / (2 * (r / 1.5) ** 2)
+        for qy, qx, d in windows
+    ]
+    top = np.max(logw, axis=0)
+    ok = seen & np.isfinite(top)  # some neighbour was seen
+    top = np.where(ok, top, 0.0)
+    num, den = np.zeros_like(O), np.zeros((H, W))
+    for (qy, qx, _), lw in zip(windows, logw, strict=True):
+        w = np.exp(lw - top)
+        num += w[..., None] * Op[qy, qx]
+        den += w
+    return np.where(ok[..., None], num / np.where(ok, den, 1.0)[..., None], O)
 
 
 def _robust_sigma(x: np.ndarray) -> float:

@@ -982,7 +982,10 @@ def fused_view(
     inverse-variance mean of the measurement and their reprojection: noise is averaged, a noise-free
     photograph keeps most of its weight); another camera's channels are its photographs reprojected into
     the view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n),
-    all cameras, as the render step writes them), else the render anchored to the photograph.
+    all cameras, as the render step writes them), else the render anchored to the photograph. Every
+    camera's reprojection (the view's own camera's too) is first re-read by
+    :func:`splat.fusion.guided`, guided by the view's photograph. Its σ stays the unfiltered
+    reprojection's (``fusion_of``): an upper bound, as the filter averages noise.
 
     Returns
     -------
@@ -993,7 +996,7 @@ def fused_view(
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
-    from .fusion import anchor, measured
+    from .fusion import anchor, guided, measured
 
     k = view.camera
     cameras = list(cameras)
@@ -1003,7 +1006,8 @@ def fused_view(
     pos = 3 * cameras.index(k)
     own = slice(pos, pos + 3)
     valid = np.asarray(view.weight).sum(-1) > 0  # the pixel's own site is neither saturated nor dead
-    fused = anchor(render[..., idx], measured(view, scale[3 * k : 3 * k + 3]), own, valid)
+    photo = measured(view, scale[3 * k : 3 * k + 3])
+    fused = anchor(render[..., idx], photo, own, valid)
     code = np.zeros(fused.shape[:2], int)
     rep_sigma = fusion.get("reprojected_sigma")
     if reprojected is not None and rep_sigma is not None:
@@ -1011,6 +1015,11 @@ def fused_view(
         m_own = fused[..., own].copy()
         s_own = np.asarray(fusion["views"][name]["own_sigma"], float)
         s_rep = float(rep_sigma[k])
+        values = np.array(values, float)
+        for c in cameras:  # each camera's reprojection re-read where the view's photograph puts it
+            block = slice(3 * c, 3 * c + 3)
+            if (count[..., c] > 0).any():
+                values[..., block] = guided(values[..., block], count[..., c] > 0, photo)
         for i, c in enumerate(cameras):
             seen = count[..., c] > 0
             if c == k:  # inverse-variance mean of the measurement and the camera's other photographs

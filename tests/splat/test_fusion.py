@@ -559,9 +559,11 @@ def test_fused_view(sim, cameras):
 
 
 def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
-    """Another camera's channels are its reprojected photographs where any sees the pixel (count > 0),
-    the anchored render elsewhere; the own channels are the inverse-variance mean of the measurement and
-    the own camera's reprojected photographs where those see it; each pattern gets its own σ."""
+    """Another camera's channels are its reprojected photographs (re-read by ``guided`` with the view's
+    photograph as the guide) where any sees the pixel (count > 0), the anchored render elsewhere; the
+    own channels are the inverse-variance mean of the measurement and the own camera's reprojected
+    photographs (re-read alike) where those see it; each pattern gets its own σ."""
+    from splat.fusion import guided
     from splat.pipeline import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 2)
@@ -584,14 +586,15 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     plain, *_ = fused_view(doc, view.name, render, view, sim["scale"], cams)
     seen0, seen1 = count[..., 0] > 0, count[..., 1] > 0
     own = (count[..., 2] > 0) & valid
+    photo = measured(view, sim["scale"][6:9])
+    g = [guided(values[..., 3 * c : 3 * c + 3], count[..., c] > 0, photo) for c in range(3)]
+    assert not np.allclose(g[0][seen0], values[..., 0:3][seen0])  # the filter did something
     np.testing.assert_array_equal(code, (seen1 << 0) | (own << 1) | (seen0 << 2))  # bit i: cams[i]
-    np.testing.assert_array_equal(fused[..., 6:9][seen0], values[..., 0:3][seen0])
+    np.testing.assert_array_equal(fused[..., 6:9][seen0], g[0][seen0])
     np.testing.assert_array_equal(fused[..., 6:9][~seen0], plain[..., 6:9][~seen0])
-    np.testing.assert_array_equal(fused[..., 0:3][seen1], values[..., 3:6][seen1])
+    np.testing.assert_array_equal(fused[..., 0:3][seen1], g[1][seen1])
     # weights 1/0.003² : 1/0.006² = 4 : 1 between the measurement and the reprojection
-    np.testing.assert_allclose(
-        fused[..., 3:6][own], (0.8 * plain[..., 3:6] + 0.2 * values[..., 6:9])[own], rtol=1e-12
-    )
+    np.testing.assert_allclose(fused[..., 3:6][own], (0.8 * plain[..., 3:6] + 0.2 * g[2])[own], rtol=1e-12)
     np.testing.assert_array_equal(fused[..., 3:6][~own], plain[..., 3:6][~own])
     assert sorted(sigmas) == sorted({int(c) for c in np.unique(code)})
     both = 1 / np.sqrt(1 / 0.003**2 + 1 / 0.006**2)
@@ -1097,3 +1100,148 @@ def test_fusion_of_recovers_each_cameras_reprojection_sigma(sim, tmp_path):
     for k, (pattern, _) in enumerate(cams):
         on = (_cfa_mask(H, W, pattern) > 0) & ((count[..., k] > 0) & fusion.smooth(scene))[..., None]
         assert doc["reprojected_sites"][k] == 2 * on.sum() > 1000
+
+
+# ------------------------------------------------------------------------------------------- guided
+
+
+def _guided_by_hand(O, seen, G, r, sr, tau):
+    """:func:`splat.fusion.guided`'s formula pixel by pixel in plain Python: the window clipped to the
+    image for the reliability's 3 × 3 range (= extending the borders), the guide and values of the
+    (2r + 1)² window with borders extended, neighbours outside the image or unseen weighing 0; the
+    weights as logarithms, divided by the largest before the mean (as the weights of a ratio may be)."""
+    H, W, _ = O.shape
+
+    def clip(y, x):
+        return min(max(y, 0), H - 1), min(max(x, 0), W - 1)
+
+    log_rel = np.full((H, W), -math.inf)
+    for y in range(H):
+        for x in range(W):
+            if not seen[y, x]:
+                continue
+            span = 0.0
+            for c in range(3):
+                vals = [
+                    O[yy, xx, c]
+                    for yy in range(max(y - 1, 0), min(y + 2, H))
+                    for xx in range(max(x - 1, 0), min(x + 2, W))
+                ]
+                span = max(span, max(vals) - min(vals))
+            log_rel[y, x] = -span / max(sum(O[y, x]) / 3, 0.02) / tau
+    out = O.copy()
+    for y in range(H):
+        for x in range(W):
+            if not seen[y, x]:
+                continue
+            lev = max(sum(G[y, x]) / len(G[y, x]), 0.02)
+            terms = []
+            for dy in range(-r, r + 1):
+                for dx in range(-r, r + 1):
+                    yy, xx = y + dy, x + dx
+                    if not (0 <= yy < H and 0 <= xx < W) or not seen[yy, xx]:
+                        continue
+                    d2 = sum(((G[yy, xx, c] - G[y, x, c]) / lev) ** 2 for c in range(G.shape[-1]))
+                    lw = log_rel[yy, xx] - d2 / (2 * sr**2) - (dy * dy + dx * dx) / (2 * (r / 1.5) ** 2)
+                    terms.append((lw, O[yy, xx]))
+            top = max(lw for lw, _ in terms)
+            w = [math.exp(lw - top) for lw, _ in terms]
+            out[y, x] = sum(wi * o for wi, (_, o) in zip(w, terms, strict=True)) / sum(w)
+    return out
+
+
+@pytest.mark.parametrize("seed, r, sr, tau", [(0, 2, 0.1, 0.1), (1, 1, 0.05, 0.3), (2, 3, 0.3, 0.05)])
+def test_guided_matches_its_formula_by_hand(seed, r, sr, tau):
+    """Random values, a random guide and a random seen mask (borders, unseen neighbours and all)."""
+    rng = np.random.default_rng(seed)
+    H, W = 9, 11
+    O = rng.uniform(0.0, 1.0, (H, W, 3))
+    G = rng.uniform(0.0, 1.0, (H, W, 3)) * rng.uniform(0.2, 1.0, (H, W, 1))
+    seen = rng.random((H, W)) < 0.7
+    np.testing.assert_allclose(
+        fusion.guided(O, seen, G, radius=r, range_sigma=sr, reliability=tau),
+        _guided_by_hand(O, seen, G, r, sr, tau),
+        rtol=1e-12,
+        atol=1e-15,
+    )
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    value=st.lists(st.floats(0.0, 2.0), min_size=3, max_size=3),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_guided_keeps_a_constant_reprojection_and_leaves_unseen_pixels(value, seed):
+    """A weighted mean of equal values is that value, whatever the guide; unseen pixels, whatever
+    they hold, neither change nor enter their neighbours' means."""
+    rng = np.random.default_rng(seed)
+    H, W = 8, 10
+    seen = rng.random((H, W)) < 0.6
+    O = np.where(seen[..., None], np.asarray(value), rng.uniform(0, 50, (H, W, 3)))
+    G = rng.uniform(0.0, 1.0, (H, W, 3))
+    out = fusion.guided(O, seen, G)
+    np.testing.assert_array_equal(out[~seen], O[~seen])
+    # the reliability of a seen pixel next to an unseen one sees the garbage (its range is large), but
+    # the mean stays the constant: only weights change
+    np.testing.assert_allclose(
+        out[seen], np.broadcast_to(np.asarray(value), out[seen].shape), rtol=1e-12, atol=1e-300
+    )
+
+
+def test_guided_puts_a_misregistered_edge_where_the_photograph_has_it():
+    """Two surfaces meeting at column 12; the photograph (guide) has the edge there, the reprojection
+    has it one pixel late (column 12 still shows the left surface) and blurs it over column 13. After
+    the filter every pixel two or more columns from the edge keeps its value to 1e-12, and the
+    misplaced columns take their own surface's value to < 2 % of the jump (before: 100 % and 50 %)."""
+    H, W = 10, 24
+    a, b = np.array([0.2, 0.3, 0.1]), np.array([0.6, 0.4, 0.7])
+    A, B = np.array([0.25, 0.15, 0.5]), np.array([0.7, 0.8, 0.3])
+    cols = np.arange(W)
+    G = np.where((cols >= 12)[None, :, None], b, a) * np.ones((H, W, 1))
+    truth = np.where((cols >= 12)[None, :, None], B, A) * np.ones((H, W, 1))
+    O = np.where((cols >= 13)[None, :, None], B, A) * np.ones((H, W, 1))
+    O[:, 13] = 0.5 * (A + B)
+    seen = np.ones((H, W), bool)
+    out = fusion.guided(O, seen, G)
+    jump = np.abs(B - A).max()
+    before = np.abs(O - truth).max(-1) / jump
+    after = np.abs(out - truth).max(-1) / jump
+    assert before[:, 12].min() == 1.0 and before[:, 13].min() == 0.5
+    assert after[:, 11:15].max() < 0.02
+    far = (cols <= 9) | (cols >= 16)
+    np.testing.assert_allclose(out[:, far], truth[:, far], rtol=1e-12)
+
+
+def test_guided_averages_noise_on_a_flat_surface():
+    """A flat surface, reprojection = value + N(0, 0.01²), a noise-free guide: the output's σ is the
+    weighted mean's, σ·sqrt(Σw²)/Σw for the spatial weights alone (the reliability term only changes
+    the weights mildly at this noise), i.e. less than half the input's, and its mean unbiased."""
+    rng = np.random.default_rng(3)
+    H = W = 120
+    O = 0.5 + rng.normal(0.0, 0.01, (H, W, 3))
+    out = fusion.guided(O, np.ones((H, W), bool), np.full((H, W, 3), 0.4))
+    inner = out[4:-4, 4:-4]
+    d = np.arange(-2, 3)
+    w = np.exp(-(d[:, None] ** 2 + d[None, :] ** 2) / (2 * (2 / 1.5) ** 2))
+    ideal = 0.01 * np.sqrt((w**2).sum()) / w.sum()
+    assert ideal < 0.5 * 0.01
+    assert np.std(inner) == pytest.approx(ideal, rel=0.25)
+    assert abs(np.mean(inner) - 0.5) < 5 * ideal / np.sqrt(inner.size / 25)
+
+
+@pytest.mark.parametrize(
+    "args, kwargs",
+    [
+        ((np.zeros((4, 5, 2)), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 6), bool), np.zeros((4, 5, 3))), {}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 5), bool), np.zeros((4, 5))), {}),
+        ((np.full((4, 5, 3), np.nan), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {"radius": 0}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {"radius": 1.5}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {"range_sigma": 0}),
+        ((np.zeros((4, 5, 3)), np.ones((4, 5), bool), np.zeros((4, 5, 3))), {"reliability": np.nan}),
+    ],
+)
+def test_guided_refuses_bad_input(args, kwargs):
+    with pytest.raises(splat.SplatError, match="guided"):
+        fusion.guided(*args, **kwargs)
