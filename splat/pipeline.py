@@ -1054,7 +1054,8 @@ def _sigma_by_code(fusion: dict, code: np.ndarray, cameras: list) -> dict:
 
 def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
     """Responses of a view from the photographs alone, for a view without a RAW file (a novel view):
-    each camera's channels are its photographs reprojected into the view where any sees the pixel; where
+    each camera's channels are its photographs reprojected into the view where any sees the pixel
+    (re-read by :func:`splat.fusion.guided`, guided by the mean of the cameras' channel triples); where
     none of a camera's does, its rendered channels anchored (Brovey, :func:`splat.fusion.anchor`'s rule)
     to the sum of the channels that were reprojected there, or the render itself where no photograph
     sees the pixel.
@@ -1075,7 +1076,7 @@ def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
         As :func:`fused_view`; bit ``i`` of ``code`` set where ``cameras[i]``'s photographs enter; σ is
         the camera's ``reprojected_sigma`` there, ``render_sigma`` elsewhere.
     """
-    from .fusion import ANCHOR_EPS
+    from .fusion import ANCHOR_EPS, guided
 
     cameras = list(cameras)
     values, count = reprojected
@@ -1085,11 +1086,20 @@ def photographed_view(fusion: dict, render: np.ndarray, reprojected, cameras):
     seen = np.stack([count[..., c] > 0 for c in cameras], -1)  # (H, W, m)
     code = (seen.astype(int) << np.arange(len(cameras))).sum(-1)
     chan = np.repeat(seen, 3, -1)
-    # Brovey per pixel over the channels that were reprojected there; 1 where none was
-    num = np.where(chan, values, 0).sum(-1) + ANCHOR_EPS
-    den = np.where(chan, render, 0).sum(-1) + ANCHOR_EPS
-    ratio = np.divide(num, den, out=np.ones_like(num), where=chan.any(-1) & (den > 0))
-    fused = np.where(chan, values, render * ratio[..., None])
+
+    def assemble(values):  # Brovey per pixel over the channels reprojected there; 1 where none was
+        num = np.where(chan, values, 0).sum(-1) + ANCHOR_EPS
+        den = np.where(chan, render, 0).sum(-1) + ANCHOR_EPS
+        ratio = np.divide(num, den, out=np.ones_like(num), where=chan.any(-1) & (den > 0))
+        return np.where(chan, values, render * ratio[..., None])
+
+    # No photograph of the view itself to guide splat.fusion.guided: the guide is the mean of the
+    # cameras' channel triples (a picture of the view from all photographs, its noise averaged)
+    guide = assemble(values).reshape(*values.shape[:2], len(cameras), 3).mean(-2)
+    for i in range(len(cameras)):
+        if seen[..., i].any():
+            values[..., 3 * i : 3 * i + 3] = guided(values[..., 3 * i : 3 * i + 3], seen[..., i], guide)
+    fused = assemble(values)
     return fused, code, _sigma_by_code(fusion, code, cameras)
 
 

@@ -625,11 +625,15 @@ def test_photographed_view(cameras, monkeypatch):
     """A view without a photograph: a camera's channels are its reprojected photographs where any sees
     the pixel; elsewhere its render scaled by Σ reprojected / Σ rendered over the cameras seen there
     (so a render off by a per-pixel factor f is recovered exactly with ε = 0), or the render itself
-    where no camera's photographs see the pixel; σ per pattern: reprojected σ or the render's."""
+    where no camera's photographs see the pixel; σ per pattern: reprojected σ or the render's. The
+    reprojected values are first re-read by ``guided`` (here the identity, then the real filter, guided
+    by the mean of the cameras' triples of the first result)."""
     from splat import fusion
     from splat.pipeline import photographed_view
 
+    guided = fusion.guided
     monkeypatch.setattr(fusion, "ANCHOR_EPS", 0.0)
+    monkeypatch.setattr(fusion, "guided", lambda values, seen, guide: values)
     H, W = 24, 30
     rng = np.random.default_rng(21)
     truth = rng.uniform(0.05, 1.0, (H, W, 9))
@@ -652,6 +656,17 @@ def test_photographed_view(cameras, monkeypatch):
     for cd, s_ in sigmas.items():
         want = [_PHOTO_DOC["reprojected_sigma"][c] if cd >> i & 1 else 0.017 for i, c in enumerate(cameras)]
         np.testing.assert_array_equal(s_, np.repeat(want, 3))
+    # the real filter: each camera's seen channels are guided(values, seen, guide)
+    monkeypatch.setattr(fusion, "guided", guided)
+    filtered, code2, _ = photographed_view(_PHOTO_DOC, render, (values, count), cameras)
+    np.testing.assert_array_equal(code2, code)
+    guide = fused.reshape(H, W, len(cameras), 3).mean(-2)
+    for i, c in enumerate(cameras):
+        want = guided(values[..., 3 * c : 3 * c + 3], seen[..., i], guide)
+        np.testing.assert_allclose(
+            filtered[seen[..., i]][:, 3 * i : 3 * i + 3], want[seen[..., i]], rtol=1e-12
+        )
+        assert not np.allclose(want[seen[..., i]], values[..., 3 * c : 3 * c + 3][seen[..., i]])
 
 
 def test_photographed_view_clips_negative_values():
