@@ -20,8 +20,16 @@ channels, whitened by per-channel noise (σ_ref = ``--noise``, default 0.005), t
 objective, and responses the closed form does NOT cover (the only ones that reach the solver);
 median of ``--repeats`` runs each, and the largest difference between the two answers.
 
+``--prior-fit N``: ``fit_correction(method="Prior")`` as ``splat correct`` calls it
+(``splat.pipeline.fit_fused_corrector``: three cameras' 9 channels, 400–680 nm, rawtoaces 190, whitened
+by N seeded per-channel noise patterns as ``splat.fusion.whitened`` does, ``noise = σ_ref``, ``mix = 1``),
+N patterns in a row from cold caches, against the reference twin ``zonotope._mmv_estimators.
+_fit_Prior_reference`` (the implementation before: BLAS threads as configured, the log volume computed
+per whitened Φ), interleaved in one process, median of ``--repeats``; and the largest difference.
+
 Run: ``python benchmarks/bench_correct.py [--size 1000] [--tile 25] [--vignette] [--noise 0.005]``
 or ``python benchmarks/bench_correct.py --fit-apply 10000`` or ``... --bvls 2000 --noise 0.005``
+or ``... --prior-fit 6``
 """
 
 from __future__ import annotations
@@ -79,7 +87,11 @@ def main() -> None:
     ap.add_argument(
         "--bvls", type=int, default=0, help="time fiber_lsq against scipy's per-row BVLS on N rows"
     )
+    ap.add_argument("--prior-fit", type=int, default=0, help="time Prior's fit on N whitened noise patterns")
     args = ap.parse_args()
+    if args.prior_fit:
+        prior_fit(args.prior_fit, args.noise or 0.005, args.repeats)
+        return
     if args.fit_apply:
         fit_apply(args.fit_apply, args.repeats)
         return
@@ -266,6 +278,86 @@ def bvls(n_rows: int, noise: float, repeats: int) -> None:
     print(
         f"  ratio {t_old / t_new:.1f}×; max |Δx| = {np.abs(x_new - x_old).max():.2e}; rows left to the "
         f"primal phase {int(after_first.sum())}, to scipy {int(fallback.sum())}"
+    )
+
+
+def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
+    """fit_Prior against its reference twin on ``n_patterns`` whitened 9-channel problems in a row."""
+    import dataclasses
+    import statistics
+
+    from threadpoolctl import threadpool_info
+
+    import zonotope._mmv_estimators as mmv
+
+    shape = np.arange(400.0, 681.0, 10.0)  # correction_problem_of of the simulated capture: its grid,
+    cams = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]  # cameras, training
+    problem = correction_problem(cams, shape=shape, training="rawtoaces 190")
+    rng = np.random.default_rng(3)
+    problems = []
+    for _ in range(n_patterns):  # splat.fusion.whitened: channel k scaled by σ_ref / σ_k
+        sigma = noise * rng.uniform(0.5, 2.0, problem.k)
+        ref = float(np.median(sigma))
+        problems.append((dataclasses.replace(problem, Phi=problem.Phi * (ref / sigma)), ref, ref / sigma))
+    opts = {"mix": 1.0}  # splat.pipeline.fused_mix("Prior")
+
+    def run(fit):
+        mmv._clear_log_volume_caches()  # a fresh `splat correct` process
+        return [fit(pb, noise=ref, **opts) for pb, ref, _ in problems]
+
+    def one_thread_reference(pb, **kw):
+        with mmv._one_blas_thread():
+            return mmv._fit_Prior_reference(pb, **kw)
+
+    variants = {
+        "reference (before)": mmv._fit_Prior_reference,
+        "reference, one BLAS thread": one_thread_reference,
+        "fit_Prior (now)": mmv.fit_Prior,
+    }
+    times = {name: [] for name in variants}
+    first = {name: [] for name in variants}
+    for _ in range(repeats):  # interleaved: the load drifts alike for all
+        for name, fit in variants.items():
+            mmv._clear_log_volume_caches()
+            t0 = time.perf_counter()
+            fit(problems[0][0], noise=problems[0][1], **opts)
+            first[name].append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            run(fit)
+            times[name].append(time.perf_counter() - t0)
+    new, old = run(mmv.fit_Prior), run(mmv._fit_Prior_reference)
+    C = problem.training @ problem.Phi
+    C = np.vstack([C, 1.3 * C + 0.01, rng.uniform(0.0, 1.0, (200, problem.k))])  # some off the solid
+    d_pred = d_logvol = 0.0
+    same = True
+    for (_, _, scale), a, b in zip(problems, new, old):
+        pa, pr = a(C * scale), b(C * scale)
+        d_pred = max(d_pred, float(np.max(np.abs(pa - pr) / np.maximum(np.abs(pr), 1e-300))))
+        d_logvol = max(d_logvol, abs(a.params["log_volume"] - b.params["log_volume"]))
+        same &= (
+            a.params["regression"].method == b.params["regression"].method
+            and a.params["mix"] == b.params["mix"]
+            and a.params["cv_scores"] == b.params["cv_scores"]
+            and a.params["r_nat"] == b.params["r_nat"]
+        )
+    blas = ", ".join(f"{i['internal_api']} {i['num_threads']} threads" for i in threadpool_info())
+    print(
+        f"Prior fit as splat.pipeline.fit_fused_corrector calls it ({' + '.join(cams)}, "
+        f"{problem.k} channels, "
+        f"{shape.size} bands, {n_patterns} whitened noise patterns, σ ≈ {noise:g}, mix = 1); {blas}; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; median of {repeats}, interleaved:"
+    )
+    base = statistics.median(times["reference (before)"])
+    base1 = statistics.median(first["reference (before)"])
+    for name in variants:
+        t, t1 = statistics.median(times[name]), statistics.median(first[name])
+        print(
+            f"  {name:28s} {n_patterns} patterns {t:7.3f} s ({base / t:5.1f}×)   "
+            f"first pattern alone {t1:6.3f} s ({base1 / t1:4.1f}×)"
+        )
+    print(
+        f"  now vs reference: predictions on {len(C)} responses max relative difference {d_pred:.1e}, "
+        f"log volume max |Δ| {d_logvol:.1e}; regression, mix, CV scores and r_nat identical: {same}"
     )
 
 

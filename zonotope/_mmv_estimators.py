@@ -32,29 +32,82 @@ __all__ = [
 ]
 
 
-_LOG_VOLUMES: dict[bytes, float] = {}  # Φ bytes → log volume (6-channel solids take seconds)
+_LOG_VOLUMES: dict[tuple, list] = {}  # (shape, max_terms, seed) → [(Φ / column max, Φ, log volume), ...]
+_LOG_VOLUMES_REFERENCE: dict[bytes, float] = {}  # Φ bytes → log volume (the reference twin's memo)
+_SUBSETS: dict[tuple, np.ndarray] = {}  # (n, k, seed) → the sampled k-subsets of _log_volume_uncached
+_LOG_FLOOR = math.log(1e-300)  # the log volume of a degenerate solid (volumes are clamped to 1e-300)
 
 
 def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -> float:
     """Log k-volume of the source object-colour solid (exact, or sampled for large C(n, k));
-    memoised per Φ in this process."""
-    key = np.ascontiguousarray(Phi, dtype=np.float64).tobytes() + repr((Phi.shape, max_terms, seed)).encode()
-    if key not in _LOG_VOLUMES:
-        if len(_LOG_VOLUMES) > 64:
+    memoised in this process per Φ *up to a scaling of its channels*.
+
+    Scaling channel ``j`` of Φ by ``s_j`` (``Φ diag(s)``, e.g. :func:`splat.fusion.whitened`) scales
+    every k × k minor by ``∏ s_j``, hence the exact volume (a sum of minors) and the sampled estimate
+    (a mean of minors over k-subsets that depend on ``n``, ``k`` and ``seed`` only) alike:
+    ``log vol(Φ diag(s)) = log vol(Φ) + Σ log |s_j|``. So a Φ that equals a memoised one up to
+    channel scaling (compared with each channel divided by its largest |entry|, within 1e-14) takes
+    the memoised value plus the log ratio of the channels' largest entries, without recomputing; this
+    differs from a direct computation (:func:`_log_volume_reference`) by rounding only (< 1e-13
+    measured, ``tests/test_prior_fit_speed.py``). An identical Φ gets the memoised value itself.
+    """
+    Phi = np.ascontiguousarray(Phi, dtype=np.float64)
+    top = np.max(np.abs(Phi), axis=0) if Phi.size else np.zeros(0)
+    if Phi.ndim != 2 or not np.all(np.isfinite(top)) or not np.all(top > 0):  # no scaling to factor out
+        return _log_volume_reference(Phi, max_terms=max_terms, seed=seed)
+    unit = Phi / top
+    entries = _LOG_VOLUMES.setdefault((Phi.shape, max_terms, seed), [])
+    for unit_0, Phi_0, log_vol in entries:
+        if np.array_equal(Phi_0, Phi):
+            return log_vol
+        if np.allclose(unit_0, unit, rtol=0.0, atol=1e-14):
+            top_0 = np.max(np.abs(Phi_0), axis=0)
+            return max(log_vol + float(np.sum(np.log(top) - np.log(top_0))), _LOG_FLOOR)
+    log_vol = _log_volume_uncached(Phi, max_terms=max_terms, seed=seed)
+    if log_vol > _LOG_FLOOR + 1.0:  # a clamped (degenerate) volume does not scale: never reused
+        if sum(len(v) for v in _LOG_VOLUMES.values()) >= 64:
             _LOG_VOLUMES.clear()
-        _LOG_VOLUMES[key] = _log_volume_uncached(Phi, max_terms=max_terms, seed=seed)
-    return _LOG_VOLUMES[key]
+            entries = _LOG_VOLUMES.setdefault((Phi.shape, max_terms, seed), [])
+        entries.append((unit, Phi.copy(), log_vol))
+    return log_vol
+
+
+def _log_volume_reference(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -> float:
+    """Reference twin of :func:`_log_volume`: computed for every distinct Φ (memoised per exact Φ)."""
+    key = np.ascontiguousarray(Phi, dtype=np.float64).tobytes() + repr((Phi.shape, max_terms, seed)).encode()
+    if key not in _LOG_VOLUMES_REFERENCE:
+        if len(_LOG_VOLUMES_REFERENCE) > 64:
+            _LOG_VOLUMES_REFERENCE.clear()
+        _LOG_VOLUMES_REFERENCE[key] = _log_volume_uncached(Phi, max_terms=max_terms, seed=seed)
+    return _LOG_VOLUMES_REFERENCE[key]
+
+
+def _clear_log_volume_caches() -> None:
+    """Forget every memoised log volume and sampled subset (benchmarks time a cold process with it)."""
+    _LOG_VOLUMES.clear()
+    _LOG_VOLUMES_REFERENCE.clear()
+    _SUBSETS.clear()
+
+
+def _subsets(n: int, k: int, seed: int) -> np.ndarray:
+    """The 200 000 seeded random k-subsets of ``range(n)`` that the sampled volume averages over,
+    ``(200000, k)``; they depend on ``n``, ``k`` and ``seed`` only (memoised, as uint8 when n ≤ 256)."""
+    key = (n, k, seed)
+    if key not in _SUBSETS:
+        rng = np.random.default_rng(seed)
+        idx = np.argsort(rng.random((200_000, n)), axis=1)[:, :k]
+        _SUBSETS.clear()  # one entry: a process samples one source solid's shape
+        _SUBSETS[key] = idx.astype(np.uint8) if n <= 256 else idx
+    return _SUBSETS[key]
 
 
 def _log_volume_uncached(Phi: np.ndarray, *, max_terms: int, seed: int) -> float:
-    from .solid import Zonotope
-
-    Z = Zonotope(Phi)
     n, k = Phi.shape
     if k == 3 or math.comb(n, k) <= max_terms:
-        return float(np.log(max(Z.volume, 1e-300)))
-    rng = np.random.default_rng(seed)  # unbiased estimate: C(n, k) × mean |det| of random k-subsets
-    idx = np.argsort(rng.random((200_000, n)), axis=1)[:, :k]
+        from .solid import Zonotope
+
+        return float(np.log(max(Zonotope(Phi).volume, 1e-300)))
+    idx = _subsets(n, k, seed)  # unbiased estimate: C(n, k) × mean |det| of random k-subsets
     dets = np.abs(np.linalg.det(Phi[idx]))
     return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), 1e-300)))
 
@@ -264,6 +317,7 @@ def learn_mix(
     *,
     seed: int = 0,
     r_nat: float | None = None,
+    log_volume: float | None = None,
 ) -> tuple[tuple[float, float], dict]:
     """Weights ``(λ_in, λ_bd)`` of the MAP estimate in the atypical branch of :func:`fit_Prior`, by
     cross-validation on atypical spectra made from the training set only (options: ``config``, a
@@ -283,7 +337,9 @@ def learn_mix(
     ``zonotope evaluate`` are not used.
 
     With ``r_nat`` (the natural branch's 95 % radius) it also calibrates the scale ``s ≥ 1`` of the
-    atypical branch's credible radius (split conformal, see :func:`fit_Prior`).
+    atypical branch's credible radius (split conformal, see :func:`fit_Prior`). ``log_volume``: the
+    log volume of the source solid when already known (:func:`fit_Prior` passes its own), else
+    computed.
 
     Returns
     -------
@@ -306,7 +362,7 @@ def learn_mix(
     perm = np.random.default_rng(seed).permutation(R.shape[0])
     parts = np.array_split(perm, folds)
     rng = np.random.default_rng(seed + 2)
-    log_vol = _log_volume(problem.Phi)
+    log_vol = _log_volume(problem.Phi) if log_volume is None else float(log_volume)
     C_all, T_all, nat_all, map_all, w_all, in_all = [], [], [], [], [], []
     for i, f in enumerate(parts):
         X = sharpened_reflectances(R[f], -(-augment // folds), seed=seed + 17 * i)
@@ -564,8 +620,41 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     ------
     OptionError
         An option out of range or unknown (:class:`PriorConfig`).
+
+    Notes
+    -----
+    The fit runs its BLAS calls on one thread (:func:`_one_blas_thread`): its matrices are small
+    (≤ a few thousand × 45), and on a loaded machine OpenBLAS threads that wait for a busy core made
+    each normal-equation product of the cross-validation take 30–60 ms instead of 0.2 ms; the results
+    are bit-identical. The source solid's log volume is memoised up to channel scaling
+    (:func:`_log_volume`), so the channel-whitened problems of :func:`splat.fusion.whitened` share it.
+    :func:`_fit_Prior_reference` is the implementation without both (same results:
+    ``tests/test_prior_fit_speed.py``; ``benchmarks/bench_correct.py --prior-fit``).
     """
     cfg = with_options(PriorConfig, config, options, where="fit_Prior")
+    with _one_blas_thread():
+        return _fit_Prior(problem, cfg, log_volume=_log_volume)
+
+
+def _fit_Prior_reference(
+    problem: CorrectionProblem, config: PriorConfig | None = None, **options
+) -> Corrector:
+    """Reference twin of :func:`fit_Prior`, same signature and results: BLAS threads as configured and
+    the log volume computed for every distinct Φ (:func:`_log_volume_reference`)."""
+    cfg = with_options(PriorConfig, config, options, where="fit_Prior")
+    return _fit_Prior(problem, cfg, log_volume=_log_volume_reference)
+
+
+def _one_blas_thread():
+    """Context in which BLAS (OpenBLAS, MKL, …) uses one thread; restored on exit. Process-wide while
+    it lasts (threadpoolctl), which only changes the speed of BLAS calls elsewhere, not their results."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> Corrector:
+    """:func:`fit_Prior` with checked options ``cfg`` and the log-volume function ``log_volume``."""
     degree, shrinkage, odds, noise, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
     executor = cfg.executor
     reg, cv = select_regression(problem, degree=degree, noise=noise, folds=cfg.folds)
@@ -579,14 +668,14 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
             )
         reg = _fit_regression(problem, name, degree=degree, noise=noise)
     r_nat = float(np.percentile(cv["errors"], 95))
+    log_vol = log_volume(problem.Phi)
     if cfg.mix == "cv":
-        lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat)
+        lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
         radius_scale = mix_cv["radius_scale"]
     else:
         pair = cfg.mix if isinstance(cfg.mix, tuple) else (cfg.mix, cfg.mix)
         lam, mix_cv, radius_scale = (float(pair[0]), float(pair[1])), None, 1.0
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
-    log_vol = _log_volume(problem.Phi)
     weights = _gate(problem, prior, noise=noise, odds=odds, log_vol=log_vol)
     PhiPsi = np.hstack([problem.Phi, problem.Psi])
     sigma = np.concatenate([np.full(problem.k, float(noise)), np.zeros(problem.m)])
