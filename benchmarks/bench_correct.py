@@ -21,8 +21,10 @@ objective, and responses the closed form does NOT cover (the only ones that reac
 median of ``--repeats`` runs each, and the largest difference between the two answers.
 
 ``--prior-fit N``: ``fit_correction(method="Prior")`` as ``splat correct`` calls it
-(``splat.pipeline.fit_fused_corrector``: three cameras' 9 channels, 400–680 nm, rawtoaces 190, whitened
-by N seeded per-channel noise patterns as ``splat.fusion.whitened`` does, ``noise = σ_ref``, ``mix = 1``),
+(``splat.pipeline.fit_fused_corrector``: the simulated capture's three cameras' 9 channels, 400–680 nm,
+CIE 1931 2° target, rawtoaces 190 — checked equal to ``correction_problem_of`` of the simulated capture —
+whitened by N seeded per-channel noise patterns as ``splat.fusion.whitened`` does, ``noise = σ_ref``,
+``mix = 1``),
 N patterns in a row from cold caches, against the reference twin ``zonotope._mmv_estimators.
 _fit_Prior_reference`` (the implementation before: BLAS threads as configured, the log volume computed
 per whitened Φ), interleaved in one process, median of ``--repeats``; and the largest difference.
@@ -292,7 +294,18 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
 
     shape = np.arange(400.0, 681.0, 10.0)  # correction_problem_of of the simulated capture: its grid,
     cams = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]  # cameras, training
-    problem = correction_problem(cams, shape=shape, training="rawtoaces 190")
+    problem = correction_problem(
+        cams, shape=shape, training="rawtoaces 190", target="CIE 1931 2 Degree Standard Observer"
+    )
+    with tempfile.TemporaryDirectory() as tmp:  # the pipeline's problem of the simulated capture
+        from splat.capture import read_capture
+        from splat.pipeline import correction_problem_of
+        from splat.simcapture import write_synthetic_capture
+
+        spec = read_capture(write_synthetic_capture(Path(tmp) / "capture"))
+        piped = correction_problem_of(spec, [0, 1, 2])
+    fields = ("Phi", "Psi", "training", "white_XYZ", "XYZ_from_target")
+    same_problem = all(np.array_equal(getattr(problem, f), getattr(piped, f)) for f in fields)
     rng = np.random.default_rng(3)
     problems = []
     for _ in range(n_patterns):  # splat.fusion.whitened: channel k scaled by σ_ref / σ_k
@@ -345,7 +358,8 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
         f"Prior fit as splat.pipeline.fit_fused_corrector calls it ({' + '.join(cams)}, "
         f"{problem.k} channels, "
         f"{shape.size} bands, {n_patterns} whitened noise patterns, σ ≈ {noise:g}, mix = 1); {blas}; "
-        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; median of {repeats}, interleaved:"
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; median of {repeats}, interleaved "
+        f"(the problem equals correction_problem_of of the simulated capture: {same_problem}):"
     )
     base = statistics.median(times["reference (before)"])
     base1 = statistics.median(first["reference (before)"])

@@ -21,6 +21,7 @@ from zonotope.solid import Zonotope
 
 BANDS = np.arange(400.0, 681.0, 10.0)  # the grid of splat's simulated capture (the Sigma's range)
 CAMERAS = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]
+TARGET = "CIE 1931 2 Degree Standard Observer"  # as splat.pipeline.correction_problem_of
 
 
 @pytest.fixture(autouse=True)
@@ -68,7 +69,7 @@ def test_volume_scales_by_the_product_of_channel_scales(k):
 def test_sampled_log_volume_of_a_scaled_source_equals_the_direct_estimate():
     """9 channels, 29 bands: C(29, 9) > max_terms, the seeded sampled estimate; its subsets do not
     depend on Φ, so it scales exactly like the volume and the memo matches a direct computation."""
-    problem = correction_problem(CAMERAS, shape=BANDS, training="rawtoaces 190")
+    problem = correction_problem(CAMERAS, shape=BANDS, training="rawtoaces 190", target=TARGET)
     n, k = problem.Phi.shape
     assert math.comb(n, k) > 2_000_000
     base = mmv._log_volume(problem.Phi)
@@ -142,7 +143,7 @@ def responses(problem, scale, seed):
 def test_whitened_nine_channel_fits_equal_the_reference():
     """As splat.pipeline.fit_fused_corrector fits them: noise σ_ref, mix 1, one pattern after the
     other (the second takes the log volume memoised from the first)."""
-    problem = correction_problem(CAMERAS, shape=BANDS, training="rawtoaces 190")
+    problem = correction_problem(CAMERAS, shape=BANDS, training="rawtoaces 190", target=TARGET)
     rng = np.random.default_rng(11)
     for _ in range(2):
         pb, ref_sigma, scale = whitened(problem, 0.005 * rng.uniform(0.5, 2.0, problem.k))
@@ -155,7 +156,7 @@ def test_whitened_nine_channel_fits_equal_the_reference():
 def test_cross_validated_mix_fit_equals_the_reference():
     """The default options (regression and λ by cross-validation, learn_mix's MMV centroids), two
     cameras whitened, noise-free."""
-    problem = correction_problem(CAMERAS[::2], shape=BANDS, training="rawtoaces 190")
+    problem = correction_problem(CAMERAS[::2], shape=BANDS, training="rawtoaces 190", target=TARGET)
     pb, _, scale = whitened(problem, np.linspace(0.5, 2.0, problem.k))
     fast = mmv.fit_Prior(pb, augment=60)
     ref = mmv._fit_Prior_reference(pb, augment=60)
@@ -165,6 +166,6 @@ def test_cross_validated_mix_fit_equals_the_reference():
 
 def test_blas_threads_are_restored_after_a_fit():
     before = [(i["filepath"], i["num_threads"]) for i in threadpool_info()]
-    problem = correction_problem(CAMERAS[:1], shape=BANDS, training="rawtoaces 190")
+    problem = correction_problem(CAMERAS[:1], shape=BANDS, training="rawtoaces 190", target=TARGET)
     mmv.fit_Prior(problem, mix=1.0)
     assert [(i["filepath"], i["num_threads"]) for i in threadpool_info()] == before
