@@ -52,8 +52,8 @@ def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -
     measured, ``tests/test_prior_fit_speed.py``). An identical Φ gets the memoised value itself.
     """
     Phi = np.ascontiguousarray(Phi, dtype=np.float64)
-    top = np.max(np.abs(Phi), axis=0) if Phi.size else np.zeros(0)
-    if Phi.ndim != 2 or not np.all(np.isfinite(top)) or not np.all(top > 0):  # no scaling to factor out
+    top = np.max(np.abs(Phi), axis=0) if Phi.ndim == 2 and Phi.size else np.zeros(1)
+    if not np.all(np.isfinite(top)) or not np.all(top > 0):  # no channel scaling to factor out
         return _log_volume_reference(Phi, max_terms=max_terms, seed=seed)
     unit = Phi / top
     entries = _LOG_VOLUMES.setdefault((Phi.shape, max_terms, seed), [])
