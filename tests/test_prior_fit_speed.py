@@ -169,3 +169,27 @@ def test_blas_threads_are_restored_after_a_fit():
     problem = correction_problem(CAMERAS[:1], shape=BANDS, training="rawtoaces 190", target=TARGET)
     mmv.fit_Prior(problem, mix=1.0)
     assert [(i["filepath"], i["num_threads"]) for i in threadpool_info()] == before
+
+
+def test_blas_limit_of_overlapping_fits_is_restored_by_the_last_to_leave():
+    """Two fits in two threads whose limits overlap and end out of order (A in, B in, A out, B out):
+    BLAS stays at one thread until both have left, then has its original threads back (a plain
+    ``threadpool_limits`` per fit would have B restore A's "1" for good)."""
+    from threadpoolctl import threadpool_limits
+
+    from zonotope._mmv_estimators import _one_blas_thread
+
+    def blas_threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    with threadpool_limits(limits=2, user_api="blas"):  # a known original, > 1
+        original = blas_threads()
+        assert original and all(n == 2 for n in original)
+        a, b = _one_blas_thread(), _one_blas_thread()
+        a.__enter__()
+        b.__enter__()
+        assert all(n == 1 for n in blas_threads())
+        a.__exit__(None, None, None)
+        assert all(n == 1 for n in blas_threads())  # B still fitting
+        b.__exit__(None, None, None)
+        assert blas_threads() == original

@@ -3,8 +3,10 @@ MMV centroid, projected regression, constrained MAP and the Bayes-gated ``"Prior
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -645,12 +647,32 @@ def _fit_Prior_reference(
     return _fit_Prior(problem, cfg, log_volume=_log_volume_reference)
 
 
+_BLAS_LOCK = threading.Lock()
+_BLAS_STATE: dict = {"depth": 0, "limiter": None}
+
+
+@contextlib.contextmanager
 def _one_blas_thread():
     """Context in which BLAS (OpenBLAS, MKL, …) uses one thread; restored on exit. Process-wide while
-    it lasts (threadpoolctl), which only changes the speed of BLAS calls elsewhere, not their results."""
+    it lasts (threadpoolctl), which only changes the speed of BLAS calls elsewhere, not their results.
+
+    Fits running at once in several threads share one limit: the first to enter sets it, the last to
+    leave restores the original (nested ``threadpool_limits`` contexts leaving out of order would
+    restore each other's "1" and leave BLAS single-threaded for good)."""
     from threadpoolctl import threadpool_limits
 
-    return threadpool_limits(limits=1, user_api="blas")
+    with _BLAS_LOCK:
+        if _BLAS_STATE["depth"] == 0:
+            _BLAS_STATE["limiter"] = threadpool_limits(limits=1, user_api="blas")
+        _BLAS_STATE["depth"] += 1
+    try:
+        yield
+    finally:
+        with _BLAS_LOCK:
+            _BLAS_STATE["depth"] -= 1
+            if _BLAS_STATE["depth"] == 0:
+                _BLAS_STATE["limiter"].restore_original_limits()
+                _BLAS_STATE["limiter"] = None
 
 
 def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> Corrector:
