@@ -8,7 +8,10 @@ correct step therefore also corrects such views from fused responses (``pipeline
    photographs see the pixel, the inverse-variance mean with them (reprojected through the splat's
    depth, :mod:`splat.reproject`), which averages sensor noise.
 2. **Another camera's channels**: its photographs reprojected into the view where any sees the pixel
-   (combined, :func:`splat.reproject.reprojected`); elsewhere the splat's render **anchored** to the
+   (combined, :func:`splat.reproject.reprojected`), then re-read by :func:`guided`, a joint bilateral
+   filter guided by the view's own photograph (at an edge a pixel reads the reprojection from
+   neighbours that look like it in its photograph; on a surface it averages the reprojection's noise;
+   the own camera's reprojection alike); elsewhere the splat's render **anchored** to the
    photograph (:func:`anchor`): every channel scaled, per pixel, by the ratio of the measured to the
    rendered sum of the own channels (the Brovey transform of pan-sharpening, Gillespie et al. 1987), so
    a render error common to all channels (opacity, coverage, shading) cancels.
@@ -24,14 +27,15 @@ correct step therefore also corrects such views from fused responses (``pipeline
 
 Views without a RAW file (novel views) are corrected the same way from the photographs reprojected into
 them (``pipeline.photographed_view``: every camera's channels reprojected where its photographs see the
-pixel; elsewhere the render anchored to the channels that were).
+pixel, re-read by :func:`guided` with the mean of the cameras' channel triples as the guide; elsewhere
+the render anchored to the channels that were).
 
 Measured (``benchmarks/bench_capture.py``, CI-size coarse capture, true poses, flat pixels of the six
-held-out views, three cameras with Prior; the README's capture section has the tables): see
-``README.md`` ("Photographed views"); in short, noise-free, render only 1.63–1.66 ΔE00, fused 0.34
-after 1000 steps (two seeds; 0.45 after 2000) against 0.87 for the best camera's own DNG development
-(same white); as novel views (the view's own RAW unused) 0.42–0.43 (0.56); with sensor noise, render
-only 1.85, fused 0.97, as novel views 1.06 (DNG 1.96).
+held-out views, three cameras with Prior; the README's capture section has the tables): noise-free,
+render only 1.63–1.66 ΔE00, fused 0.30–0.32 after 1000 steps (two seeds) against 0.87 for the best
+camera's own DNG development (same white); as novel views (the view's own RAW unused) 0.36–0.37; with
+sensor noise, render only 1.5–1.85, fused 0.63–0.81 and as novel views 0.65–0.85 on three scenes (their
+DNG developments 1.77–1.96).
 """
 
 from __future__ import annotations
@@ -139,7 +143,11 @@ def guided(
     neighbourhood relative to ``max(mean O(q), 0.02)`` (a pixel on an edge of the *reprojection* vouches
     for little). So a pixel reads the reprojection from neighbours that look like it in its own
     photograph and lie inside a surface of the reprojection; on a flat surface this is a local mean,
-    which averages the reprojection's noise. Unseen pixels are returned as they are.
+    which averages the reprojection's noise. Unseen pixels are returned as they are; the ranges ``R``
+    see them with the values given (0 as the render step writes them), so a pixel at the border of
+    what the photographs see vouches for little too. Neighbours outside the image weigh nothing, and
+    the weights are formed as logarithms shifted by each pixel's largest, so that a weight far below
+    the smallest float does not lose the mean its digits.
 
     Parameters
     ----------
@@ -150,7 +158,7 @@ def guided(
     guide : ndarray of shape (H, W, c)
         The view's own photograph (:func:`measured`, white → 1).
     radius, range_sigma, reliability
-        See :data:`splat._tol.GUIDE_RADIUS` (and the two after it) for how they were chosen.
+        See ``splat._tol.GUIDE_RADIUS`` (and the two after it) for how they were chosen.
 
     Returns
     -------

@@ -15,7 +15,7 @@ from ._config import check_count, check_nonnegative, with_options
 from ._correction_problem import CorrectionProblem, Corrector
 from ._errors import OptionError, SpectralDataError
 from ._regressions import fit_Cheung2004, fit_Finlayson2015
-from ._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE
+from ._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
 from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
 
 __all__ = [
@@ -37,7 +37,7 @@ __all__ = [
 _LOG_VOLUMES: dict[tuple, list] = {}  # (shape, max_terms, seed) → [(Φ / column max, Φ, log volume), ...]
 _LOG_VOLUMES_REFERENCE: dict[bytes, float] = {}  # Φ bytes → log volume (the reference twin's memo)
 _SUBSETS: dict[tuple, np.ndarray] = {}  # (n, k, seed) → the sampled k-subsets of _log_volume_uncached
-_LOG_FLOOR = math.log(1e-300)  # the log volume of a degenerate solid (volumes are clamped to 1e-300)
+_LOG_FLOOR = math.log(VOLUME_FLOOR)  # the log volume of a degenerate solid (volumes are clamped)
 
 
 def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -> float:
@@ -48,7 +48,7 @@ def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -
     every k × k minor by ``∏ s_j``, hence the exact volume (a sum of minors) and the sampled estimate
     (a mean of minors over k-subsets that depend on ``n``, ``k`` and ``seed`` only) alike:
     ``log vol(Φ diag(s)) = log vol(Φ) + Σ log |s_j|``. So a Φ that equals a memoised one up to
-    channel scaling (compared with each channel divided by its largest |entry|, within 1e-14) takes
+    channel scaling (compared with each channel divided by its largest |entry|, within ``SCALED_SAME``) takes
     the memoised value plus the log ratio of the channels' largest entries, without recomputing; this
     differs from a direct computation (:func:`_log_volume_reference`) by rounding only (< 1e-13
     measured, ``tests/test_prior_fit_speed.py``). An identical Φ gets the memoised value itself.
@@ -62,7 +62,7 @@ def _log_volume(Phi: np.ndarray, *, max_terms: int = 2_000_000, seed: int = 0) -
     for unit_0, Phi_0, log_vol in entries:
         if np.array_equal(Phi_0, Phi):
             return log_vol
-        if np.allclose(unit_0, unit, rtol=0.0, atol=1e-14):
+        if np.allclose(unit_0, unit, rtol=0.0, atol=SCALED_SAME):
             top_0 = np.max(np.abs(Phi_0), axis=0)
             return max(log_vol + float(np.sum(np.log(top) - np.log(top_0))), _LOG_FLOOR)
     log_vol = _log_volume_uncached(Phi, max_terms=max_terms, seed=seed)
@@ -108,10 +108,10 @@ def _log_volume_uncached(Phi: np.ndarray, *, max_terms: int, seed: int) -> float
     if k == 3 or math.comb(n, k) <= max_terms:
         from .solid import Zonotope
 
-        return float(np.log(max(Zonotope(Phi).volume, 1e-300)))
+        return float(np.log(max(Zonotope(Phi).volume, VOLUME_FLOOR)))
     idx = _subsets(n, k, seed)  # unbiased estimate: C(n, k) × mean |det| of random k-subsets
     dets = np.abs(np.linalg.det(Phi[idx]))
-    return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), 1e-300)))
+    return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), VOLUME_FLOOR)))
 
 
 def mmv_centroids(

@@ -453,6 +453,19 @@ GP_JITTER = 1e-9
 #: logits); 1e-3 is below the noise of reflectance measurements.
 SHARPEN_CLIP = 1e-3
 
+#: The source solid's volume in Prior's evidence is clamped to this (``log`` = −690.8) so that a
+#: degenerate solid (zero volume: fewer independent wavelengths than channels) has a finite log volume;
+#: real solids are far above it (the simulated capture's 9-channel solid: log volume ≈ −18, its
+#: channel-whitened versions within ±20 of that). A clamped log volume is not reused
+#: under channel scaling (:func:`zonotope._mmv_estimators._log_volume`): it does not scale.
+VOLUME_FLOOR = 1e-300
+
+#: Two source solids' Φ are "the same up to channel scaling" (Prior reuses the log volume,
+#: :func:`zonotope._mmv_estimators._log_volume`) when, each channel divided by its largest |entry|,
+#: they agree to this (absolute): a scaled copy agrees to a few ulp (~1e-16); distinct cameras or
+#: grids differ by ≥ 1e-4.
+SCALED_SAME = 1e-14
+
 __all__ += [
     "BVLS_CONDITION",
     "BVLS_FALLBACK",
@@ -467,5 +480,7 @@ __all__ += [
     "METRIC_JITTER",
     "PROJECTION_TIE",
     "REPORT_MMV_EPS",
+    "SCALED_SAME",
     "SHARPEN_CLIP",
+    "VOLUME_FLOOR",
 ]
