@@ -146,8 +146,8 @@ def guided(
     which averages the reprojection's noise. Unseen pixels are returned as they are; the ranges ``R``
     see them with the values given (0 as the render step writes them), so a pixel at the border of
     what the photographs see vouches for little too. Neighbours outside the image weigh nothing, and
-    the weights are formed as logarithms shifted by each pixel's largest, so that a weight far below
-    the smallest float does not lose the mean its digits.
+    the weights are summed as logarithms with a running maximum per pixel (online log-sum-exp), so that
+    a weight far below the smallest float does not lose the mean its digits.
 
     Parameters
     ----------
@@ -188,33 +188,38 @@ def guided(
         span = np.maximum(
             span, maximum_filter(O[..., j], 3, mode="nearest") - minimum_filter(O[..., j], 3, mode="nearest")
         )
-    # log-weights, shifted by each pixel's largest before exp: a weight far below 1e-308 (a reliability
-    # term of a large jump) would otherwise be subnormal, and the weighted mean would lose its digits
+    # log-weights, accumulated with a running per-pixel maximum (the online log-sum-exp): a weight far
+    # below 1e-308 (a reliability term of a large jump) would otherwise be subnormal and the weighted
+    # mean would lose its digits. In strips of rows, so the temporaries stay small on large photographs.
     log_rel = np.where(seen, -span / np.maximum(O.mean(-1), 0.02) / reliability, -np.inf)
     level = np.maximum(G.mean(-1), 0.02)
     pad = ((r, r), (r, r), (0, 0))
     Gp, Op = np.pad(G, pad, mode="edge"), np.pad(O, pad, mode="edge")
     Rp = np.pad(log_rel, r, constant_values=-np.inf)  # no neighbour outside the image
-    windows = [
-        (slice(r + dy, r + dy + H), slice(r + dx, r + dx + W), dy * dy + dx * dx)
-        for dy in range(-r, r + 1)
-        for dx in range(-r, r + 1)
-    ]
-    logw = [
-        Rp[qy, qx]
-        - (((Gp[qy, qx] - G) / level[..., None]) ** 2).sum(-1) / (2 * range_sigma**2)
-        - d / (2 * (r / 1.5) ** 2)
-        for qy, qx, d in windows
-    ]
-    top = np.max(logw, axis=0)
-    ok = seen & np.isfinite(top)  # some neighbour was seen
-    top = np.where(ok, top, 0.0)
-    num, den = np.zeros_like(O), np.zeros((H, W))
-    for (qy, qx, _), lw in zip(windows, logw, strict=True):
-        w = np.exp(lw - top)
-        num += w[..., None] * Op[qy, qx]
-        den += w
-    return np.where(ok[..., None], num / np.where(ok, den, 1.0)[..., None], O)
+    out = O.copy()
+    for y0 in range(0, H, _GUIDED_ROWS):
+        y1 = min(y0 + _GUIDED_ROWS, H)
+        Gc, lev = G[y0:y1], level[y0:y1, :, None]
+        top = np.full((y1 - y0, W), -np.inf)
+        num, den = np.zeros((y1 - y0, W, 3)), np.zeros((y1 - y0, W))
+        for dy in range(-r, r + 1):
+            for dx in range(-r, r + 1):
+                qy, qx = slice(r + y0 + dy, r + y1 + dy), slice(r + dx, r + dx + W)
+                d2 = (((Gp[qy, qx] - Gc) / lev) ** 2).sum(-1)
+                lw = Rp[qy, qx] - d2 / (2 * range_sigma**2) - (dy * dy + dx * dx) / (2 * (r / 1.5) ** 2)
+                new_top = np.maximum(top, lw)
+                ref = np.where(np.isfinite(new_top), new_top, 0.0)
+                old = np.exp(np.where(np.isfinite(top), top - ref, -np.inf))  # rescale what was summed
+                w = np.exp(np.where(np.isfinite(lw), lw - ref, -np.inf))
+                num = num * old[..., None] + w[..., None] * Op[qy, qx]
+                den = den * old + w
+                top = new_top
+        ok = seen[y0:y1] & (den > 0)  # some neighbour was seen (the pixel itself, when seen)
+        out[y0:y1] = np.where(ok[..., None], num / np.where(ok, den, 1.0)[..., None], O[y0:y1])
+    return out
+
+
+_GUIDED_ROWS = 64  # rows per strip of :func:`guided` (memory only; results do not depend on it)
 
 
 def _robust_sigma(x: np.ndarray) -> float:
