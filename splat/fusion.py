@@ -57,6 +57,7 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
 __all__ = [
     "anchor",
     "guided",
+    "guided_demosaic",
     "measured",
     "photo_variance",
     "render_noise",
@@ -188,10 +189,20 @@ def guided(
         span = np.maximum(
             span, maximum_filter(O[..., j], 3, mode="nearest") - minimum_filter(O[..., j], 3, mode="nearest")
         )
-    # log-weights, accumulated with a running per-pixel maximum (the online log-sum-exp): a weight far
-    # below 1e-308 (a reliability term of a large jump) would otherwise be subnormal and the weighted
-    # mean would lose its digits. In strips of rows, so the temporaries stay small on large photographs.
     log_rel = np.where(seen, -span / np.maximum(O.mean(-1), 0.02) / reliability, -np.inf)
+    return _bilateral(O, log_rel, G, r, range_sigma, at=seen)
+
+
+def _bilateral(O, log_rel, G, r: int, range_sigma: float, *, at):
+    """The joint bilateral weighted mean of ``O`` (H, W, m) at the pixels ``at`` (others keep ``O``):
+    neighbour ``q`` of ``p`` weighs ``exp(log_rel(q) − ‖G(q) − G(p)‖² / (2 range_sigma² ℓ(p)²) −
+    ‖q − p‖² / (2 (r / 1.5)²))``, ``log_rel = −∞`` for a neighbour that may not enter; a pixel with no
+    such neighbour keeps ``O``.
+
+    The log-weights are accumulated with a running per-pixel maximum (the online log-sum-exp): a weight
+    far below 1e-308 would otherwise be subnormal and the weighted mean would lose its digits. In strips
+    of rows, so the temporaries stay small on large photographs."""
+    H, W, m = O.shape
     level = np.maximum(G.mean(-1), 0.02)
     pad = ((r, r), (r, r), (0, 0))
     Gp, Op = np.pad(G, pad, mode="edge"), np.pad(O, pad, mode="edge")
@@ -201,7 +212,7 @@ def guided(
         y1 = min(y0 + _GUIDED_ROWS, H)
         Gc, lev = G[y0:y1], level[y0:y1, :, None]
         top = np.full((y1 - y0, W), -np.inf)
-        num, den = np.zeros((y1 - y0, W, 3)), np.zeros((y1 - y0, W))
+        num, den = np.zeros((y1 - y0, W, m)), np.zeros((y1 - y0, W))
         for dy in range(-r, r + 1):
             for dx in range(-r, r + 1):
                 qy, qx = slice(r + y0 + dy, r + y1 + dy), slice(r + dx, r + dx + W)
@@ -214,9 +225,66 @@ def guided(
                 num = num * old[..., None] + w[..., None] * Op[qy, qx]
                 den = den * old + w
                 top = new_top
-        ok = seen[y0:y1] & (den > 0)  # some neighbour was seen (the pixel itself, when seen)
+        ok = at[y0:y1] & (den > 0)  # some neighbour may enter (the pixel itself, where it may)
         out[y0:y1] = np.where(ok[..., None], num / np.where(ok, den, 1.0)[..., None], O[y0:y1])
     return out
+
+
+def guided_demosaic(
+    view, white_scale, guide, *, radius: int = GUIDE_RADIUS, range_sigma: float = GUIDE_RANGE
+):
+    """A Bayer view's own channels, demosaiced with the other cameras' help: each channel's measured
+    sites as they are (white → 1, exposure 1, as :func:`measured`); at the other pixels the joint
+    bilateral mean (:func:`guided`'s weights without the reliability term) of the channel's usable sites
+    (neither saturated nor dead) in the ``(2 radius + 1)²`` window, guided by ``guide`` — in
+    ``pipeline.fused_view``, the other cameras' reprojected photographs (re-read by :func:`guided`) next
+    to the view's own Malvar demosaicing. A site across an edge in the guide weighs little, so an edge
+    that the other cameras see is not blurred into the interpolated channels, as it is by a
+    demosaicing that sees one mosaic only. Pixels without a usable site of the channel in the window
+    keep :func:`measured` (Malvar 2004). A full-colour view is returned as :func:`measured` gives it.
+
+    Parameters
+    ----------
+    view : RawView
+    white_scale : array_like of shape (3,)
+    guide : ndarray of shape (H, W, c)
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3)
+    """
+    own = measured(view, white_scale)
+    G = np.asarray(guide, float)
+    if G.ndim != 3 or G.shape[:2] != own.shape[:2] or not np.all(np.isfinite(G)):
+        raise SplatError(
+            f"guided_demosaic: the guide must be finite (H, W, c) of the view's size {own.shape[:2]}, "
+            f"got {G.shape}."
+        )
+    if view.full_colour:
+        return own
+    mosaic = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
+    sites = np.asarray(view.weight) > 0
+    out = own.copy()
+    for j in range(3):
+        est = _bilateral(
+            mosaic[..., j : j + 1],
+            np.where(sites[..., j], 0.0, -np.inf),
+            G,
+            int(radius),
+            range_sigma,
+            at=np.ones(sites.shape[:2], bool),
+        )[..., 0]
+        # a pixel whose window holds no usable site of the channel: _bilateral left the mosaic's 0
+        none = ~_bilateral_support(sites[..., j], int(radius))
+        out[..., j] = np.where(sites[..., j], mosaic[..., j], np.where(none, own[..., j], est))
+    return out
+
+
+def _bilateral_support(sites: np.ndarray, r: int) -> np.ndarray:
+    """Pixels with at least one of ``sites`` in their ``(2r + 1)²`` window."""
+    from scipy.ndimage import maximum_filter
+
+    return maximum_filter(sites.astype(np.uint8), 2 * r + 1, mode="constant") > 0
 
 
 _GUIDED_ROWS = 64  # rows per strip of :func:`guided` (memory only; results do not depend on it)

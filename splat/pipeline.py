@@ -996,7 +996,7 @@ def fused_view(
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
-    from .fusion import anchor, guided, measured
+    from .fusion import anchor, guided, guided_demosaic, measured
 
     k = view.camera
     cameras = list(cameras)
@@ -1006,20 +1006,41 @@ def fused_view(
     pos = 3 * cameras.index(k)
     own = slice(pos, pos + 3)
     valid = np.asarray(view.weight).sum(-1) > 0  # the pixel's own site is neither saturated nor dead
-    photo = measured(view, scale[3 * k : 3 * k + 3])
-    fused = anchor(render[..., idx], photo, own, valid)
-    code = np.zeros(fused.shape[:2], int)
+    ws = scale[3 * k : 3 * k + 3]
+    photo = measured(view, ws)
     rep_sigma = fusion.get("reprojected_sigma")
-    if reprojected is not None and rep_sigma is not None:
-        values, count = reprojected
+    use = reprojected is not None and rep_sigma is not None
+    own_photo = photo
+    if use:
+        raw_values, count = reprojected
+        raw_values = np.asarray(raw_values, float)
+
+        def reread(guide):  # each camera's reprojection re-read where the view's photograph puts it
+            out = raw_values.copy()
+            for c in cameras:
+                if (count[..., c] > 0).any():
+                    out[..., 3 * c : 3 * c + 3] = guided(
+                        raw_values[..., 3 * c : 3 * c + 3], count[..., c] > 0, guide
+                    )
+            return out
+
+        values = reread(photo)
+        others = [c for c in cameras if c != k and (count[..., c] > 0).any()]
+        if others and not view.full_colour:
+            # the own mosaic demosaiced with the other cameras' help, then the reprojections re-read
+            # with that sharper photograph as the guide
+            seen = np.stack([count[..., c] > 0 for c in others])
+            trip = np.stack([values[..., 3 * c : 3 * c + 3] for c in others])
+            n_seen = seen.sum(0)[..., None]
+            mean = np.where(n_seen > 0, (trip * seen[..., None]).sum(0) / np.maximum(n_seen, 1), photo)
+            own_photo = guided_demosaic(view, ws, np.concatenate([mean, photo], -1))
+            values = reread(own_photo)
+    fused = anchor(render[..., idx], own_photo, own, valid)
+    code = np.zeros(fused.shape[:2], int)
+    if use:
         m_own = fused[..., own].copy()
         s_own = np.asarray(fusion["views"][name]["own_sigma"], float)
         s_rep = float(rep_sigma[k])
-        values = np.array(values, float)
-        for c in cameras:  # each camera's reprojection re-read where the view's photograph puts it
-            block = slice(3 * c, 3 * c + 3)
-            if (count[..., c] > 0).any():
-                values[..., block] = guided(values[..., block], count[..., c] > 0, photo)
         for i, c in enumerate(cameras):
             seen = count[..., c] > 0
             if c == k:  # inverse-variance mean of the measurement and the camera's other photographs

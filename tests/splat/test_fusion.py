@@ -559,14 +559,18 @@ def test_fused_view(sim, cameras):
 
 
 def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
-    """Another camera's channels are its reprojected photographs (re-read by ``guided`` with the view's
-    photograph as the guide) where any sees the pixel (count > 0), the anchored render elsewhere; the
-    own channels are the inverse-variance mean of the measurement and the own camera's reprojected
-    photographs (re-read alike) where those see it; each pattern gets its own σ."""
-    from splat.fusion import guided
+    """Another camera's channels are its reprojected photographs where any sees the pixel (count > 0),
+    the render anchored to the own channels elsewhere; the own channels are the view's mosaic
+    demosaiced with the other cameras' help (``guided_demosaic``, guided by the mean of the other
+    cameras' reprojections re-read by ``guided`` with the view's Malvar photograph, next to that
+    photograph), averaged by inverse variance with the own camera's reprojected photographs where those
+    see it; every reprojection is finally re-read by ``guided`` with the demosaiced photograph as the
+    guide; each pattern gets its own σ."""
+    from splat.fusion import anchor, guided, guided_demosaic
     from splat.pipeline import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 2)
+    assert not view.full_colour
     H, W = view.shape
     valid = np.asarray(view.weight).sum(-1) > 0
     rng = np.random.default_rng(5)
@@ -583,19 +587,27 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     }
     cams = [1, 2, 0]
     fused, code, sigmas = fused_view(doc, view.name, render, view, sim["scale"], cams, (values, count))
-    plain, *_ = fused_view(doc, view.name, render, view, sim["scale"], cams)
-    seen0, seen1 = count[..., 0] > 0, count[..., 1] > 0
-    own = (count[..., 2] > 0) & valid
+    seen = [count[..., c] > 0 for c in range(3)]
+    seen0, seen1 = seen[0], seen[1]
+    own = seen[2] & valid
     photo = measured(view, sim["scale"][6:9])
-    g = [guided(values[..., 3 * c : 3 * c + 3], count[..., c] > 0, photo) for c in range(3)]
+    first = [guided(values[..., 3 * c : 3 * c + 3], seen[c], photo) for c in range(3)]
+    n = (seen0.astype(int) + seen1)[..., None]
+    mean = np.where(
+        n > 0, (first[0] * seen0[..., None] + first[1] * seen1[..., None]) / np.maximum(n, 1), photo
+    )
+    own_photo = guided_demosaic(view, sim["scale"][6:9], np.concatenate([mean, photo], -1))
+    assert not np.allclose(own_photo, photo)  # the other cameras changed the demosaicing
+    g = [guided(values[..., 3 * c : 3 * c + 3], seen[c], own_photo) for c in range(3)]
     assert not np.allclose(g[0][seen0], values[..., 0:3][seen0])  # the filter did something
+    anchored = anchor(render[..., [3, 4, 5, 6, 7, 8, 0, 1, 2]], own_photo, slice(3, 6), valid)
     np.testing.assert_array_equal(code, (seen1 << 0) | (own << 1) | (seen0 << 2))  # bit i: cams[i]
     np.testing.assert_array_equal(fused[..., 6:9][seen0], g[0][seen0])
-    np.testing.assert_array_equal(fused[..., 6:9][~seen0], plain[..., 6:9][~seen0])
+    np.testing.assert_array_equal(fused[..., 6:9][~seen0], anchored[..., 6:9][~seen0])
     np.testing.assert_array_equal(fused[..., 0:3][seen1], g[1][seen1])
     # weights 1/0.003² : 1/0.006² = 4 : 1 between the measurement and the reprojection
-    np.testing.assert_allclose(fused[..., 3:6][own], (0.8 * plain[..., 3:6] + 0.2 * g[2])[own], rtol=1e-12)
-    np.testing.assert_array_equal(fused[..., 3:6][~own], plain[..., 3:6][~own])
+    np.testing.assert_allclose(fused[..., 3:6][own], (0.8 * anchored[..., 3:6] + 0.2 * g[2])[own], rtol=1e-12)
+    np.testing.assert_array_equal(fused[..., 3:6][~own], anchored[..., 3:6][~own])
     assert sorted(sigmas) == sorted({int(c) for c in np.unique(code)})
     both = 1 / np.sqrt(1 / 0.003**2 + 1 / 0.006**2)
     np.testing.assert_array_equal(sigmas[5], [0.002] * 3 + [0.003] * 3 + [0.004] * 3)
@@ -1276,3 +1288,72 @@ def test_guided_averages_noise_on_a_flat_surface():
 def test_guided_refuses_bad_input(args, kwargs):
     with pytest.raises(splat.SplatError, match="guided"):
         fusion.guided(*args, **kwargs)
+
+
+# -------------------------------------------------------------------------------------- guided_demosaic
+
+
+def _two_surfaces(H, W, edge):
+    """A scene (white → 1) of two surfaces meeting at column ``edge``, very different in every channel."""
+    a, b = np.array([0.05, 0.08, 0.04]), np.array([0.7, 0.6, 0.8])
+    return np.where((np.arange(W) >= edge)[None, :, None], b, a) * np.ones((H, W, 1))
+
+
+def _stored(view, scene, white):
+    """The scene as the view's sites hold it (float32 values, white → 1, exposure 1): each pixel the
+    value of a usable site of the same channel on the same surface."""
+    site = np.asarray(view.values, float) / view.exif / white
+    out = np.empty_like(scene)
+    for j in range(3):
+        ok = np.asarray(view.weight)[..., j] > 0
+        for value in np.unique(scene[..., j]):
+            on = scene[..., j] == value
+            out[on, j] = site[on & ok, j][0]
+    return out
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", "GBRG"])
+def test_guided_demosaic_keeps_the_sites_and_recovers_an_edge_the_guide_shows(pattern):
+    """A Bayer mosaic (exposure 2.5, a white scale) of two surfaces; the guide is the scene itself (as
+    the other cameras would show it): the measured sites come back exactly, and every interpolated
+    pixel is its own surface's value to 1e-12 relative (a site across the edge weighs exp(−40) or less
+    relative to one on its own side), while Malvar's demosaicing (``measured``) is off by ≥ 5 % of
+    the jump next to the edge."""
+    H, W, exif = 12, 16, 2.5
+    scene = _two_surfaces(H, W, 7)
+    mask = _cfa_mask(H, W, pattern)
+    view = _view(scene * exif * WHITE * mask, mask, full_colour=False, exif=exif)
+    out = fusion.guided_demosaic(view, WHITE, scene)
+    sites = mask > 0
+    np.testing.assert_array_equal(out[sites], (np.asarray(view.values, float) / exif / WHITE)[sites])
+    np.testing.assert_allclose(out, _stored(view, scene, WHITE), rtol=1e-12)
+    malvar = measured(view, WHITE)
+    assert np.abs(malvar - scene).max() > 0.05 * np.abs(scene[0, -1] - scene[0, 0]).max()
+
+
+def test_guided_demosaic_leaves_full_colour_views_and_lone_pixels_to_measured():
+    """A full-colour view is ``measured``'s; a pixel whose window has no usable site of a channel (a
+    block of dead red sites, weight 0) keeps ``measured``'s (Malvar) value for that channel."""
+    H, W = 16, 16
+    scene = _two_surfaces(H, W, 9)
+    full = _view(scene * WHITE, np.ones((H, W, 3)), full_colour=True, exif=1.0)
+    np.testing.assert_array_equal(fusion.guided_demosaic(full, WHITE, scene), measured(full, WHITE))
+    mask = _cfa_mask(H, W, "RGGB")
+    weight = mask.copy()
+    weight[2:14, 2:14, 0] = 0.0  # red sites dead in a block: pixels 7..8 see no usable red site
+    view = _view(scene * WHITE * mask, weight, full_colour=False, exif=1.0)
+    out = fusion.guided_demosaic(view, WHITE, scene)
+    stored = _stored(view, scene, WHITE)
+    lone = np.zeros((H, W), bool)
+    lone[6:10, 6:10] = True  # window 2 px: rows/cols 6..9 reach only dead red sites (2..13)
+    np.testing.assert_array_equal(out[lone, 0], measured(view, WHITE)[lone, 0])
+    np.testing.assert_allclose(out[~lone, 1:], stored[~lone, 1:], rtol=1e-12)
+    assert not np.allclose(out[lone, 0], stored[lone, 0])  # Malvar there, from far-away sites
+
+
+def test_guided_demosaic_refuses_a_bad_guide():
+    mask = _cfa_mask(6, 8, "RGGB")
+    view = _view(0.5 * mask, mask, full_colour=False)
+    for guide in (np.ones((6, 7, 3)), np.ones((6, 8)), np.full((6, 8, 3), np.nan)):
+        with pytest.raises(splat.SplatError, match="guided_demosaic"):
+            fusion.guided_demosaic(view, WHITE, guide)
