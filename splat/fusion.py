@@ -4,9 +4,11 @@ For a view whose RAW file exists (every photograph the user took, held out from 
 camera's own channels are *measured*; only the other cameras' channels must come from elsewhere. The
 correct step therefore also corrects such views from fused responses (``pipeline.fused_view``):
 
-1. **Own channels**: the photograph, demosaiced by isp (:func:`measured`); where the camera's other
-   photographs see the pixel, the inverse-variance mean with them (reprojected through the splat's
-   depth, :mod:`splat.reproject`), which averages sensor noise.
+1. **Own channels**: the photograph, demosaiced by isp (:func:`measured`) or, for a Bayer view that
+   other cameras' photographs see, demosaiced with their help (:func:`guided_demosaic`: each missing
+   channel from the channel's own sites that look alike in the other cameras' photographs); where the
+   camera's other photographs see the pixel, the inverse-variance mean with them (reprojected through
+   the splat's depth, :mod:`splat.reproject`), which averages sensor noise.
 2. **Another camera's channels**: its photographs reprojected into the view where any sees the pixel
    (combined, :func:`splat.reproject.reprojected`), then re-read by :func:`guided`, a joint bilateral
    filter guided by the view's own photograph (at an edge a pixel reads the reprojection from
