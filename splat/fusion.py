@@ -267,26 +267,16 @@ def guided_demosaic(
     mosaic = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
     sites = np.asarray(view.weight) > 0
     out = own.copy()
-    for j in range(3):
-        est = _bilateral(
-            mosaic[..., j : j + 1],
+    for j in range(3):  # sites keep their value; a pixel with no usable site in its window keeps Malvar's
+        out[..., j] = _bilateral(
+            np.where(sites[..., j], mosaic[..., j], own[..., j])[..., None],
             np.where(sites[..., j], 0.0, -np.inf),
             G,
             int(radius),
             range_sigma,
-            at=np.ones(sites.shape[:2], bool),
+            at=~sites[..., j],
         )[..., 0]
-        # a pixel whose window holds no usable site of the channel: _bilateral left the mosaic's 0
-        none = ~_bilateral_support(sites[..., j], int(radius))
-        out[..., j] = np.where(sites[..., j], mosaic[..., j], np.where(none, own[..., j], est))
     return out
-
-
-def _bilateral_support(sites: np.ndarray, r: int) -> np.ndarray:
-    """Pixels with at least one of ``sites`` in their ``(2r + 1)²`` window."""
-    from scipy.ndimage import maximum_filter
-
-    return maximum_filter(sites.astype(np.uint8), 2 * r + 1, mode="constant") > 0
 
 
 _GUIDED_ROWS = 64  # rows per strip of :func:`guided` (memory only; results do not depend on it)

@@ -27,6 +27,7 @@ Ground truth (``truth/``) is never read here; :mod:`splat.scoring` does that.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import os
@@ -1015,26 +1016,21 @@ def fused_view(
         raw_values, count = reprojected
         raw_values = np.asarray(raw_values, float)
 
-        def reread(guide):  # each camera's reprojection re-read where the view's photograph puts it
-            out = raw_values.copy()
-            for c in cameras:
-                if (count[..., c] > 0).any():
-                    out[..., 3 * c : 3 * c + 3] = guided(
-                        raw_values[..., 3 * c : 3 * c + 3], count[..., c] > 0, guide
-                    )
-            return out
+        seen_by = {c: count[..., c] > 0 for c in cameras if (count[..., c] > 0).any()}
 
-        values = reread(photo)
-        others = [c for c in cameras if c != k and (count[..., c] > 0).any()]
-        if others and not view.full_colour:
-            # the own mosaic demosaiced with the other cameras' help, then the reprojections re-read
-            # with that sharper photograph as the guide
-            seen = np.stack([count[..., c] > 0 for c in others])
-            trip = np.stack([values[..., 3 * c : 3 * c + 3] for c in others])
+        def reread(c, guide):  # camera c's reprojection re-read where the view's photograph puts it
+            return guided(raw_values[..., 3 * c : 3 * c + 3], seen_by[c], guide)
+
+        others = [c for c in seen_by if c != k]
+        if others and not view.full_colour:  # the own mosaic demosaiced with the other cameras' help
+            seen = np.stack([seen_by[c] for c in others])
+            trip = np.stack([reread(c, photo) for c in others])
             n_seen = seen.sum(0)[..., None]
             mean = np.where(n_seen > 0, (trip * seen[..., None]).sum(0) / np.maximum(n_seen, 1), photo)
             own_photo = guided_demosaic(view, ws, np.concatenate([mean, photo], -1))
-            values = reread(own_photo)
+        values = raw_values.copy()  # re-read with the sharpest photograph of the view as the guide
+        for c in seen_by:
+            values[..., 3 * c : 3 * c + 3] = reread(c, own_photo)
     fused = anchor(render[..., idx], own_photo, own, valid)
     code = np.zeros(fused.shape[:2], int)
     if use:
@@ -1129,14 +1125,13 @@ def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):
     :func:`fused_mix`, once per distinct noise pattern (cached)."""
     mix = fused_mix(method)
     cache: dict = {}
-    problem: list = []  # the unwhitened problem, built once (0.04–0.15 s each, ~50 noise patterns a run)
+    # the unwhitened problem, built once when first needed (0.04–0.15 s each, ~50 noise patterns a run)
+    problem = functools.cache(lambda: correction_problem_of(spec, list(cameras)))
 
     def fit(sigma):
         key = tuple(np.round(sigma, 6))
         if key not in cache:
-            if not problem:
-                problem.append(correction_problem_of(spec, list(cameras)))
-            cache[key] = fit_fused_corrector(spec, list(cameras), method, sigma, mix=mix, problem=problem[0])
+            cache[key] = fit_fused_corrector(spec, list(cameras), method, sigma, mix=mix, problem=problem())
         return cache[key]
 
     return fit
