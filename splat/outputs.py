@@ -15,7 +15,7 @@ __all__ = ["correct_image", "pca_false_colour", "psnr", "render_views", "split_c
 
 
 def render_views(
-    gaussians: Gaussians, cameras, *, mask=None, method: str = "tiled", config: RenderConfig | None = None
+    gaussians: Gaussians, cameras, *, mask=None, method: str = "auto", config: RenderConfig | None = None
 ) -> np.ndarray:
     """Multispectral renders of several views, shape (V, H, W, k) (one image size).
 

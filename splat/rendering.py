@@ -1,6 +1,6 @@
 """Differentiable N-channel Gaussian splatting: 3DGS projection and front-to-back compositing.
 
-One entry point, :func:`render`, over two back-ends with the same inputs and outputs:
+One entry point, :func:`render`, over three back-ends with the same inputs and outputs:
 
 - ``"reference"`` — every Gaussian is tested at every pixel, in depth order, with a chunked
   ``lax.scan`` (exact, O(pixels × Gaussians); the slow twin used by the tests);
@@ -8,7 +8,12 @@ One entry point, :func:`render`, over two back-ends with the same inputs and out
   and each tile composites at most ``tile_capacity`` of them (static shapes for JAX); Gaussians beyond
   the capacity are dropped and *counted* in :attr:`RenderOutput.n_dropped`. When nothing is dropped the
   two back-ends agree up to floating-point rounding (and ``transmittance_min`` times the largest
-  colour, where early termination stops at different chunk boundaries).
+  colour, where early termination stops at different chunk boundaries);
+- ``"cpu"`` — the same tiles and per-pixel termination as ``"tiled"`` without a capacity (nothing is
+  dropped), composited and differentiated by hand in numba kernels (:mod:`splat._raster_kernel`) called
+  from JAX through ``pure_callback`` with a custom VJP; the projection stays in JAX. On the CPU it is
+  many times faster than ``"tiled"`` (``benchmarks/bench_splat.py``); on a GPU use ``"tiled"``, which
+  stays on the device (``"auto"``, the training default, picks by JAX's default backend).
 
 The footprint of a Gaussian is cut off sharply where its Mahalanobis distance exceeds
 ``sigma_cutoff`` (3σ by default) and where its alpha falls below ``alpha_min`` (1/255), in both
@@ -23,6 +28,7 @@ Zwicker, M., Pfister, H., van Baar, J., Gross, M. (2002). EWA splatting. IEEE TV
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from functools import partial
 from typing import NamedTuple
@@ -42,8 +48,10 @@ __all__ = [
     "Projected",
     "RenderConfig",
     "RenderOutput",
+    "default_method",
     "project",
     "render",
+    "render_cpu",
     "render_reference",
     "render_tiled",
 ]
@@ -376,18 +384,157 @@ def render_tiled(
     return RenderOutput(untile(C), untile(1 - T), n_dropped, jnp.max(counts).astype(jnp.int32))
 
 
+# ------------------------------------------------------------------------------------------------
+# "cpu": numba compositing with a hand-written backward pass (gsplat's split of the work)
+# ------------------------------------------------------------------------------------------------
+# numba's default (workqueue) threading layer runs one parallel kernel at a time
+_KERNEL_LOCK = threading.Lock()
+
+
+def _host_bins(means2d, aux, H, W, s):
+    from . import _raster_kernel as kern
+
+    valid = aux[:, 3] > 0
+    order = np.argsort(np.where(valid, aux[:, 2], np.inf), kind="stable")  # as jnp.argsort (stable)
+    return kern.bin_tiles(means2d, np.ascontiguousarray(aux[:, :2]), order, int(valid.sum()), H, W, s)
+
+
+def _as(dtype, *xs):
+    """The callback's operands as contiguous arrays of the traced ``dtype``; refuses operands that JAX
+    narrowed on the way (float64 traced under ``with jax.enable_x64():``, whose setting is per thread,
+    arrives as float32 when the callback runs on another thread: digits would be lost silently)."""
+    for x in xs:
+        if np.asarray(x).dtype.itemsize < np.dtype(dtype).itemsize:
+            raise SplatError(
+                f"the 'cpu' render back-end received {np.asarray(x).dtype} operands for a {dtype} render: "
+                "the `jax.enable_x64` context manager does not reach JAX's callback thread; turn float64 "
+                "on globally (jax.config.update('jax_enable_x64', True)) or use method='tiled'."
+            )
+    return [np.ascontiguousarray(x, dtype=dtype) for x in xs]
+
+
+def _host_forward(means2d, conics, opac, colours, aux, *, H, W, config, dtype):
+    from . import _raster_kernel as kern
+
+    means2d, conics, opac, colours, aux = _as(dtype, means2d, conics, opac, colours, aux)
+    with _KERNEL_LOCK:
+        offsets, ids, max_per_tile = _host_bins(means2d, aux, H, W, config.tile_size)
+        C, T, n_done = kern.forward(
+            means2d, conics, opac, colours, offsets, ids, H, W, config.tile_size,
+            np.float32(config.sigma_cutoff**2), np.float32(config.alpha_min), np.float32(config.alpha_max),
+            np.float32(config.transmittance_min), config.chunk,
+        )  # fmt: skip
+    return C, T, n_done, np.int32(max_per_tile)
+
+
+def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H, W, config, dtype):
+    from . import _raster_kernel as kern
+
+    arrays = _as(dtype, means2d, conics, opac, colours, aux, T, gC, gT)
+    means2d, conics, opac, colours, aux, T, gC, gT = arrays
+    with _KERNEL_LOCK:
+        offsets, ids, _ = _host_bins(means2d, aux, H, W, config.tile_size)
+        d = kern.backward(
+            means2d, conics, opac, colours, offsets, ids, T, np.ascontiguousarray(n_done), gC, gT,
+            H, W, config.tile_size, np.float32(config.sigma_cutoff**2), np.float32(config.alpha_min),
+            np.float32(config.alpha_max),
+        )  # fmt: skip
+    return (d[:, 0:2].astype(dtype), d[:, 2:5].astype(dtype), d[:, 5].astype(dtype), d[:, 6:].astype(dtype))
+
+
+@partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2))
+def _rasterize(H, W, config, means2d, conics, opac, colours, aux):
+    return _rasterize_fwd(H, W, config, means2d, conics, opac, colours, aux)[0]
+
+
+def _rasterize_fwd(H, W, config, means2d, conics, opac, colours, aux):
+    k, dtype = colours.shape[1], colours.dtype
+    shapes = (
+        jax.ShapeDtypeStruct((H, W, k), dtype),
+        jax.ShapeDtypeStruct((H, W), dtype),
+        jax.ShapeDtypeStruct((H, W), jnp.int32),
+        jax.ShapeDtypeStruct((), jnp.int32),
+    )
+    C, T, n_done, max_per_tile = jax.pure_callback(
+        partial(_host_forward, H=H, W=W, config=config, dtype=np.dtype(dtype)),
+        shapes,
+        means2d,
+        conics,
+        opac,
+        colours,
+        aux,
+        vmap_method="sequential",
+    )
+    return (C, T, max_per_tile), (means2d, conics, opac, colours, aux, T, n_done)
+
+
+def _rasterize_bwd(H, W, config, res, cotangents):
+    gC, gT, _ = cotangents
+    means2d, conics, opac, colours, aux, T, n_done = res
+    shapes = tuple(jax.ShapeDtypeStruct(x.shape, colours.dtype) for x in (means2d, conics, opac, colours))
+    grads = jax.pure_callback(
+        partial(_host_backward, H=H, W=W, config=config, dtype=np.dtype(colours.dtype)),
+        shapes,
+        means2d,
+        conics,
+        opac,
+        colours,
+        aux,
+        T,
+        n_done,
+        gC,
+        gT,
+        vmap_method="sequential",
+    )
+    return (*grads, jnp.zeros_like(aux))
+
+
+_rasterize.defvjp(_rasterize_fwd, _rasterize_bwd)
+
+
+@partial(jax.jit, static_argnames=("config",))
+def render_cpu(
+    gaussians: Gaussians,
+    camera: Camera,
+    *,
+    config: RenderConfig = RenderConfig(),
+    mask: jax.Array | None = None,
+) -> RenderOutput:
+    """CPU back-end: the tiled back-end's tiles and termination, no capacity, numba kernels.
+
+    Same parameters and result as :func:`render`; ``n_dropped`` is always 0 (``tile_capacity`` is not
+    used). The projection is JAX's (so gradients reach poses and 3-D parameters as in the other
+    back-ends); compositing and its exact backward pass run on the host (:mod:`splat._raster_kernel`).
+    """
+    pj = project(gaussians, camera, config=config, mask=mask)
+    aux = jax.lax.stop_gradient(
+        jnp.concatenate([pj.extents, pj.depths[:, None], pj.valid[:, None].astype(pj.extents.dtype)], -1)
+    )
+    C, T, max_per_tile = _rasterize(
+        camera.height, camera.width, config, pj.means2d, pj.conics, pj.opacities, pj.colours, aux
+    )
+    image = C + config.background * T[..., None]
+    return RenderOutput(image, 1 - T, jnp.zeros((), jnp.int32), max_per_tile)
+
+
+def default_method() -> str:
+    """The back-end ``method="auto"`` picks: ``"cpu"`` when JAX computes on the CPU, else ``"tiled"``."""
+    return "cpu" if jax.default_backend() == "cpu" else "tiled"
+
+
 #: Rendering back-ends by name (``render(..., method=name)``); ``"reference"`` is the dense
 #: reference twin of the tiled renderer.
 RENDER_METHODS: MethodRegistry = MethodRegistry("render", error=SplatMethodError)
 RENDER_METHODS.register("tiled", render_tiled, reference_twin="reference")
 RENDER_METHODS.register("reference", render_reference, reference_twin=None)
+RENDER_METHODS.register("cpu", render_cpu, reference_twin="tiled")
 
 
 def render(
     gaussians: Gaussians,
     camera: Camera,
     *,
-    method: str = "tiled",
+    method: str = "auto",
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
 ) -> RenderOutput:
@@ -399,8 +546,9 @@ def render(
         G Gaussians with k channels.
     camera : Camera
         The view (its ``width`` and ``height`` are static: a new size compiles anew).
-    method : {"tiled", "reference"}
-        Back-end, see :data:`RENDER_METHODS`.
+    method : {"auto", "cpu", "tiled", "reference"}
+        Back-end, see :data:`RENDER_METHODS`; ``"auto"`` is :func:`default_method` (``"cpu"`` when JAX
+        computes on the CPU, ``"tiled"`` on a GPU).
     config : RenderConfig
         Projection, cut-off and tiling options.
     mask : array_like of bool, shape (G,), optional
@@ -426,5 +574,7 @@ def render(
     >>> out.image.shape, int(out.n_dropped)
     ((16, 16, 5), 0)
     """
+    if isinstance(method, str) and method.lower() == "auto":
+        method = default_method()
     fn = RENDER_METHODS[method]
     return fn(gaussians, camera, config=config, mask=mask)

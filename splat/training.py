@@ -96,7 +96,8 @@ class TrainConfig:
     prune_opacity : float
         Alive Gaussians below this opacity are freed.
     method : str
-        Render back-end during training.
+        Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
+        on a GPU; :func:`splat.rendering.default_method`).
     render : RenderConfig
     checkpoint : path or None
         Where to save a checkpoint (``.npz``) every ``checkpoint_every`` steps and at the end.
@@ -141,7 +142,7 @@ class TrainConfig:
     densify_fraction: float = 0.05
     split_scale: float = 0.02
     prune_opacity: float = 0.005
-    method: str = "tiled"
+    method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
     checkpoint_every: int = 500

@@ -1,4 +1,5 @@
-"""splat.rendering: tiled back-end vs the exact reference, gradients, analytic footprint."""
+"""splat.rendering: tiled back-end vs the exact reference, the numba ``cpu`` back-end vs the tiled one
+(values and gradients), finite differences, analytic footprint."""
 
 from __future__ import annotations
 
@@ -22,8 +23,8 @@ from splat import (
 def test_tiled_matches_reference_when_nothing_is_dropped(small_scene):
     g, cam = small_scene
     cfg = RenderConfig(tile_size=8, tile_capacity=128)
-    tiled = render(g, cam, config=cfg)
-    assert int(render(g, cam).n_dropped) == 0  # the default 16-pixel tiles too
+    tiled = render(g, cam, method="tiled", config=cfg)
+    assert int(render(g, cam, method="tiled").n_dropped) == 0  # the default 16-pixel tiles too
     ref = render(g, cam, method="reference", config=cfg)
     assert int(tiled.n_dropped) == 0
     assert int(tiled.max_per_tile) <= 128
@@ -35,17 +36,32 @@ def test_tiled_matches_reference_when_nothing_is_dropped(small_scene):
 
 def test_tiled_reports_what_it_drops(small_scene):
     g, cam = small_scene
-    full = render(g, cam, config=RenderConfig(tile_size=8, tile_capacity=128))
+    full = render(g, cam, method="tiled", config=RenderConfig(tile_size=8, tile_capacity=128))
     cap = int(full.max_per_tile) - 5
-    small = render(g, cam, config=RenderConfig(tile_size=8, tile_capacity=cap))
+    small = render(g, cam, method="tiled", config=RenderConfig(tile_size=8, tile_capacity=cap))
     assert int(small.max_per_tile) == int(full.max_per_tile)
     assert int(small.n_dropped) >= 5
-    exact = render(g, cam, config=RenderConfig(tile_size=8, tile_capacity=int(full.max_per_tile)))
+    enough = RenderConfig(tile_size=8, tile_capacity=int(full.max_per_tile))
+    exact = render(g, cam, method="tiled", config=enough)
     assert int(exact.n_dropped) == 0
+    # the cpu back-end has no capacity: at the capacity that drops, it still equals the full render
+    cpu = render(g, cam, method="cpu", config=RenderConfig(tile_size=8, tile_capacity=cap))
+    assert int(cpu.n_dropped) == 0 and int(cpu.max_per_tile) == int(full.max_per_tile)
+    np.testing.assert_allclose(cpu.image, full.image, atol=1e-6)
 
 
-@pytest.mark.parametrize("method", ["reference", "tiled"])
-def test_gradients_pass_finite_differences_in_float64(method, make_gaussians):
+@pytest.fixture
+def x64_everywhere():
+    """float64 in every thread (the ``jax.enable_x64`` context manager does not reach the thread on
+    which JAX runs the cpu back-end's host callback)."""
+    before = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", True)
+    yield
+    jax.config.update("jax_enable_x64", before)
+
+
+@pytest.mark.parametrize("method", ["reference", "tiled", "cpu"])
+def test_gradients_pass_finite_differences_in_float64(method, make_gaussians, x64_everywhere):
     with jax.enable_x64(True):
         g = make_gaussians(G=8, N=2, seed=3, spread=0.5, dtype=jnp.float64)
         cam = look_at((0.2, -3.0, 0.3), (0, 0, 0), width=10, height=8, fov_deg=40, dtype=jnp.float64)
@@ -76,7 +92,8 @@ def test_single_gaussian_renders_its_analytic_footprint():
     expected = alpha[..., None] * np.asarray(g.colours)[0]
     np.testing.assert_allclose(out.image, expected, atol=2e-6)
     np.testing.assert_allclose(out.alpha, alpha, atol=2e-6)
-    np.testing.assert_allclose(render(g, cam, config=cfg).image, expected, atol=2e-6)
+    for method in ("tiled", "cpu"):
+        np.testing.assert_allclose(render(g, cam, method=method, config=cfg).image, expected, atol=2e-6)
     pj = project(g, cam, config=cfg)
     np.testing.assert_allclose(pj.radii, 3 * np.sqrt(var), rtol=1e-5)
     np.testing.assert_allclose(pj.means2d, [[12, 12]], atol=1e-4)
@@ -88,7 +105,7 @@ def test_front_gaussian_hides_the_back_one_whatever_the_buffer_order():
     g = init_gaussians(means, colours, scales=0.3, opacity=0.99)
     flipped = init_gaussians(means[::-1], colours[::-1], scales=0.3, opacity=0.99)
     cam = look_at((0, -4, 0), (0, 0, 0), width=16, height=16)
-    for method in ("reference", "tiled"):
+    for method in ("reference", "tiled", "cpu"):
         image = np.asarray(render(g, cam, method=method).image)
         c = image[8, 8]
         assert c[1] > 0.8 and c[0] < 0.1 * c[1]
@@ -98,15 +115,17 @@ def test_front_gaussian_hides_the_back_one_whatever_the_buffer_order():
 def test_mask_and_culling(small_scene):
     g, cam = small_scene
     G = g.n
-    for method in ("reference", "tiled"):
+    for method in ("reference", "tiled", "cpu"):
         out = render(g, cam, method=method, mask=jnp.zeros(G, bool))
         np.testing.assert_allclose(out.image, 0.0)
         np.testing.assert_allclose(out.alpha, 0.0)
     # masked Gaussians receive exactly zero gradient
     mask = jnp.arange(G) < G // 2
-    grad = jax.grad(lambda p: render(p, cam, mask=mask).image.sum())(g)
-    assert np.all(np.asarray(grad.colour_params)[G // 2 :] == 0)
-    assert np.any(np.asarray(grad.colour_params)[: G // 2] != 0)
+    for method in ("tiled", "cpu"):
+        grad = jax.grad(lambda p, m=method: render(p, cam, method=m, mask=mask).image.sum())(g)
+        for leaf in jax.tree.leaves(grad):
+            assert np.all(np.asarray(leaf)[G // 2 :] == 0)
+        assert np.any(np.asarray(grad.colour_params)[: G // 2] != 0)
     # behind the camera, or NaN: ignored, not propagated
     behind = Gaussians(g.means.at[:, 1].set(-10.0), g.quats, g.log_scales, g.opacity_logits, g.colour_params)
     assert float(render(behind, cam).alpha.max()) == 0.0
@@ -134,3 +153,81 @@ def test_one_channel_and_errors():
         init_gaussians(jnp.zeros((2, 3)), jnp.ones((3, 1)))
     with pytest.raises(SplatError):
         init_gaussians(jnp.zeros((2, 3)), jnp.ones((2, 1)), opacity=1.0)
+
+
+CPU_CASES = [
+    RenderConfig(),
+    RenderConfig(tile_size=8, transmittance_min=0.0),
+    RenderConfig(tile_size=4, transmittance_min=0.3, chunk=4, background=0.2),  # termination matters
+    RenderConfig(tile_size=16, alpha_max=0.5, alpha_min=0.05, sigma_cutoff=2.0),  # clipped alphas
+]
+
+
+@pytest.mark.parametrize("cfg", CPU_CASES)
+def test_cpu_backend_equals_tiled_values_and_gradients(cfg, make_gaussians):
+    """The numba back-end composites the same tiles with the same per-chunk termination as "tiled":
+    images, alphas and every parameter's gradient (through its hand-written backward pass) agree to
+    float32 rounding when the tiled back-end drops nothing."""
+    g = make_gaussians(G=150, N=5, seed=7, spread=0.9)
+    aniso = np.random.default_rng(2).normal(0, 0.4, g.log_scales.shape)  # so that rotations matter
+    g = Gaussians(g.means, g.quats, g.log_scales + aniso, g.opacity_logits, g.colour_params)
+    cam = look_at((0.3, -3.2, 0.6), (0, 0, 0), width=37, height=29, fov_deg=55)
+    tiled_cfg = RenderConfig(**{**cfg.__dict__, "tile_capacity": 512})
+    a = render(g, cam, method="tiled", config=tiled_cfg)
+    b = render(g, cam, method="cpu", config=cfg)
+    assert int(a.n_dropped) == 0 and int(b.max_per_tile) == int(a.max_per_tile)
+    np.testing.assert_allclose(b.image, a.image, atol=1e-6)
+    np.testing.assert_allclose(b.alpha, a.alpha, atol=1e-6)
+    assert float(a.image.max()) > 0.1
+    rng = np.random.default_rng(1)
+    wi = jnp.asarray(rng.normal(size=a.image.shape), jnp.float32)
+    wa = jnp.asarray(rng.normal(size=a.alpha.shape), jnp.float32)
+
+    def loss(params, method, c):
+        out = render(params, cam, method=method, config=c)
+        return jnp.sum(out.image * wi) + jnp.sum(out.alpha * wa)
+
+    ga = jax.tree.leaves(jax.grad(loss)(g, "tiled", tiled_cfg))
+    gb = jax.tree.leaves(jax.grad(loss)(g, "cpu", cfg))
+    for x, y in zip(ga, gb):
+        x, y = np.asarray(x), np.asarray(y)
+        assert np.abs(x).max() > 0
+        np.testing.assert_allclose(y, x, atol=2e-5 * np.abs(x).max(), rtol=0)
+
+
+def test_cpu_backend_under_jit_vmap_and_threads(small_scene):
+    """The host kernels run inside jit, under vmap (one view after another) and from several threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from splat.training import stack_cameras
+
+    g, cam = small_scene
+    cams = [cam, look_at((-0.4, -3.5, 0.5), (0, 0, 0), width=28, height=20, fov_deg=50)]
+    one = [np.asarray(render(g, c, method="cpu").image) for c in cams]
+    batched = jax.vmap(lambda c: render(g, c, method="cpu").image)(stack_cameras(cams))
+    np.testing.assert_allclose(batched, np.stack(one), atol=0)
+    with ThreadPoolExecutor(4) as ex:
+        again = list(ex.map(lambda c: np.asarray(render(g, c, method="cpu").image), cams * 4))
+    for i, x in enumerate(again):
+        np.testing.assert_array_equal(x, one[i % 2])
+
+
+def test_cpu_backend_refuses_operands_narrowed_by_jax():
+    """Float64 traced but float32 received (``jax.enable_x64`` as a context manager, callback on another
+    thread): an error that says what to do, not a float64 result computed from float32 digits."""
+    from splat.rendering import _host_forward
+
+    f32 = np.zeros((3, 2), np.float32)
+    with pytest.raises(SplatError, match="jax_enable_x64"):
+        _host_forward(
+            f32, f32, f32[:, 0], f32, np.zeros((3, 4)), H=4, W=4, config=RenderConfig(), dtype=np.float64
+        )
+
+
+def test_auto_picks_the_cpu_backend_on_the_cpu(small_scene):
+    from splat.rendering import default_method
+
+    g, cam = small_scene
+    expected = "cpu" if jax.default_backend() == "cpu" else "tiled"
+    assert default_method() == expected
+    np.testing.assert_array_equal(render(g, cam).image, render(g, cam, method=expected).image)

@@ -1,0 +1,217 @@
+"""numba kernels of the ``"cpu"`` rendering back-end (:func:`splat.rendering.render_cpu`).
+
+Front-to-back compositing of depth-sorted, tile-binned 2-D Gaussians and its exact backward pass, the
+split that gsplat's CUDA rasteriser makes (projection differentiated by JAX, rasterisation by hand):
+
+- :func:`bin_tiles` lists, for each 16-pixel tile, the valid Gaussians whose cut-off box overlaps it, in
+  depth order — the same overlap test, in the same float32 arithmetic, as :func:`render_tiled`, but with
+  no capacity: nothing is dropped;
+- :func:`forward` composites each pixel (``C = Σ c_i α_i T_i``, ``T_{i+1} = T_i (1 − α_i)``) and keeps
+  its final transmittance and the number of list entries it went through;
+- :func:`backward` walks each pixel's list back to front, recovering ``T_i = T_{i+1} / (1 − α_i)``, and
+  returns ∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C and ∂L/∂T.
+
+Per-pixel termination follows the tiled back-end: a pixel stops at a chunk boundary of its tile's list
+(every ``chunk`` entries) once ``T ≤ transmittance_min``. The tiles run in parallel (``prange``); the
+backward pass accumulates each block of tiles into its own float64 buffer and sums the blocks in a fixed
+order, so gradients are deterministic whatever the number of threads.
+
+Imported on first use (numba costs ~1 s to import); compiled once and cached on disk where the package
+directory is writable.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+#: Tiles are split into this many blocks for the backward pass (one float64 gradient buffer each).
+N_BLOCKS = 16
+
+
+@njit(inline="always")
+def _visit_tiles(g, means2d, extents, s, nx, ny, counts, ids, fill, do_fill):
+    """Count (``do_fill`` False) or list Gaussian g in every tile whose pixel centres its box overlaps."""
+    half, last = np.float32(0.5), np.float32(s - 1)
+    mx, my = means2d[g, 0], means2d[g, 1]
+    ex, ey = extents[g, 0], extents[g, 1]
+    # a range one tile wider than the exact one; the float32 test below decides, as render_tiled does
+    tx0 = max(math.floor((mx - ex - half - last) / s) - 1, 0)
+    tx1 = min(math.floor((mx + ex - half) / s) + 1, nx - 1)
+    ty0 = max(math.floor((my - ey - half - last) / s) - 1, 0)
+    ty1 = min(math.floor((my + ey - half) / s) + 1, ny - 1)
+    for ty in range(ty0, ty1 + 1):
+        y0 = np.float32(ty * s) + half
+        if not (my + ey >= y0 and my - ey <= y0 + last):
+            continue
+        for tx in range(tx0, tx1 + 1):
+            x0 = np.float32(tx * s) + half
+            if mx + ex >= x0 and mx - ex <= x0 + last:
+                t = ty * nx + tx
+                if do_fill:
+                    ids[fill[t]] = g
+                    fill[t] += 1
+                else:
+                    counts[t + 1] += 1
+
+
+@njit(cache=True)
+def bin_tiles(means2d, extents, order, n_valid, H, W, s):
+    """Tile lists: ``(offsets (n_tiles + 1,), ids (n_hits,), max_per_tile)``.
+
+    ``order`` holds the valid Gaussians' indices in depth order (its first ``n_valid`` entries). A
+    Gaussian hits tile ``(ty, tx)`` when its box ``means2d ± extents`` overlaps the tile's pixel
+    centres ``[tx·s + 0.5, tx·s + s − 0.5]`` (and likewise in y), as in ``render_tiled``.
+    """
+    ny = (H + s - 1) // s
+    nx = (W + s - 1) // s
+    nt = ny * nx
+    counts = np.zeros(nt + 1, np.int64)
+    ids = np.empty(0, np.int32)
+    for r in range(n_valid):
+        _visit_tiles(order[r], means2d, extents, s, nx, ny, counts, ids, counts, False)
+    max_per_tile = 0
+    for t in range(nt):
+        max_per_tile = max(max_per_tile, counts[t + 1])
+        counts[t + 1] += counts[t]
+    ids = np.empty(counts[nt], np.int32)
+    fill = counts[:nt].copy()
+    for r in range(n_valid):
+        _visit_tiles(order[r], means2d, extents, s, nx, ny, counts, ids, fill, True)
+    return counts, ids, max_per_tile
+
+
+@njit(inline="always")
+def _alpha(px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max):
+    """(alpha, dx, dy, clipped, exp(−q/2)) of Gaussian g at pixel centre (px, py); alpha 0 outside the
+    cut-off and below ``alpha_min``; ``clipped`` where ``alpha_max`` bounds it (no gradient there)."""
+    dx = px - means2d[g, 0]
+    dy = py - means2d[g, 1]
+    a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
+    q = a * dx * dx + 2 * b * dx * dy + c * dy * dy
+    if q > cut2:
+        return 0.0, dx, dy, False, 0.0
+    gauss = math.exp(-0.5 * q)
+    alpha = opac[g] * gauss
+    clipped = False
+    if alpha > alpha_max:
+        alpha = alpha_max * 1.0
+        clipped = True
+    if alpha < alpha_min:
+        return 0.0, dx, dy, False, gauss
+    return alpha, dx, dy, clipped, gauss
+
+
+@njit(parallel=True, cache=True)
+def forward(means2d, conics, opac, colours, offsets, ids, H, W, s, cut2, alpha_min, alpha_max, tmin, chunk):
+    """Composite every pixel: colour ``C`` (H, W, k), final transmittance ``T`` (H, W) and the number
+    of list entries each pixel went through, ``n_done`` (H, W)."""
+    k = colours.shape[1]
+    nx = (W + s - 1) // s
+    nt = offsets.shape[0] - 1
+    C = np.zeros((H, W, k), colours.dtype)
+    T = np.ones((H, W), colours.dtype)
+    n_done = np.zeros((H, W), np.int32)
+    for t in prange(nt):
+        ty, tx = t // nx, t % nx
+        lo, hi = offsets[t], offsets[t + 1]
+        acc = np.empty(k, colours.dtype)
+        for oy in range(s):
+            y = ty * s + oy
+            if y >= H:
+                break
+            py = np.float32(y) + np.float32(0.5)
+            for ox in range(s):
+                x = tx * s + ox
+                if x >= W:
+                    break
+                px = np.float32(x) + np.float32(0.5)
+                Tp = T[y, x]  # 1
+                acc[:] = 0
+                n = 0
+                for r in range(lo, hi):
+                    if tmin > 0 and (r - lo) % chunk == 0 and Tp <= tmin:
+                        break
+                    n += 1
+                    g = ids[r]
+                    alpha, _, _, _, _ = _alpha(px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max)
+                    if alpha == 0:
+                        continue
+                    w = alpha * Tp
+                    for j in range(k):
+                        acc[j] += colours[g, j] * w
+                    Tp = Tp * (1 - alpha)
+                for j in range(k):
+                    C[y, x, j] = acc[j]
+                T[y, x] = Tp
+                n_done[y, x] = n
+    return C, T, n_done
+
+
+@njit(parallel=True, cache=True)
+def backward(
+    means2d, conics, opac, colours, offsets, ids, T, n_done, gC, gT, H, W, s, cut2, alpha_min, alpha_max
+):
+    """∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C (H, W, k) and ∂L/∂T (H, W).
+
+    For pixel p and its i-th Gaussian, with ``S_i = Σ_{j>i} c_j α_j T_j`` and ``T_f`` the final
+    transmittance: ``∂C/∂c_i = α_i T_i``, ``∂C/∂α_i = c_i T_i − S_i / (1 − α_i)``,
+    ``∂T_f/∂α_i = −T_f / (1 − α_i)``; ``α = min(α_max, o·exp(−q/2))`` with
+    ``q = a dx² + 2b dx dy + c dy²`` and ``d = p − mean``.
+    """
+    G, k = colours.shape
+    nx = (W + s - 1) // s
+    nt = offsets.shape[0] - 1
+    per = (nt + N_BLOCKS - 1) // N_BLOCKS
+    buf = np.zeros((N_BLOCKS, G, 6 + k))  # dmx, dmy, da, db, dc, do, dcolours
+    for blk in prange(N_BLOCKS):
+        out = buf[blk]
+        for t in range(blk * per, min(nt, (blk + 1) * per)):
+            ty, tx = t // nx, t % nx
+            lo = offsets[t]
+            for oy in range(s):
+                y = ty * s + oy
+                if y >= H:
+                    break
+                py = np.float32(y) + np.float32(0.5)
+                for ox in range(s):
+                    x = tx * s + ox
+                    if x >= W:
+                        break
+                    px = np.float32(x) + np.float32(0.5)
+                    Tf = T[y, x]
+                    gTf = gT[y, x]
+                    Tn = Tf  # T_{i+1}
+                    acc = 0.0  # g · S_i
+                    for r in range(lo + n_done[y, x] - 1, lo - 1, -1):
+                        g = ids[r]
+                        alpha, dx, dy, clipped, gauss = _alpha(
+                            px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max
+                        )
+                        if alpha == 0:
+                            continue
+                        om = 1 - alpha
+                        Ti = Tn / om
+                        gc_dot = 0.0
+                        for j in range(k):
+                            gc_dot += gC[y, x, j] * colours[g, j]
+                            out[g, 6 + j] += gC[y, x, j] * alpha * Ti
+                        d_alpha = gc_dot * Ti - (acc + gTf * Tf) / om
+                        acc += gc_dot * alpha * Ti
+                        Tn = Ti
+                        if clipped:
+                            continue
+                        out[g, 5] += d_alpha * gauss
+                        dq = -0.5 * alpha * d_alpha
+                        a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
+                        out[g, 0] -= dq * 2.0 * (a * dx + b * dy)
+                        out[g, 1] -= dq * 2.0 * (b * dx + c * dy)
+                        out[g, 2] += dq * dx * dx
+                        out[g, 3] += dq * 2.0 * dx * dy
+                        out[g, 4] += dq * dy * dy
+    total = np.zeros((G, 6 + k))
+    for blk in range(N_BLOCKS):
+        total += buf[blk]
+    return total
