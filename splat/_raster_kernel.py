@@ -8,8 +8,13 @@ split that gsplat's CUDA rasteriser makes (projection differentiated by JAX, ras
   no capacity: nothing is dropped;
 - :func:`forward` composites each pixel (``C = Σ c_i α_i T_i``, ``T_{i+1} = T_i (1 − α_i)``) and keeps
   its final transmittance and the number of list entries it went through;
-- :func:`backward` walks each pixel's list back to front, recovering ``T_i = T_{i+1} / (1 − α_i)``, and
-  returns ∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C and ∂L/∂T.
+- :func:`backward` walks each tile's list back to front, recovering ``T_i = T_{i+1} / (1 − α_i)`` per
+  pixel, and returns ∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C and ∂L/∂T.
+
+Both visit a tile Gaussian by Gaussian (in depth order, or its reverse) and each Gaussian only over the
+pixels of its cut-off box: most Gaussians listed for a 16 × 16 tile cover a few of its pixels, so this
+does a fraction of the pixel × list work of a pixel-by-pixel walk (3DGS' CUDA kernels, one thread per
+pixel, test every listed Gaussian at every pixel).
 
 Per-pixel termination follows the tiled back-end: a pixel stops at a chunk boundary of its tile's list
 (every ``chunk`` entries) once ``T ≤ transmittance_min``. The tiles run in parallel (``prange``); the
@@ -32,16 +37,22 @@ N_BLOCKS = 16
 
 
 @njit(inline="always")
+def _floor(v):
+    """floor(v) as an int, with v first clipped to ±1e9 (a huge box must not overflow the int)."""
+    return math.floor(min(max(v, -1e9), 1e9))
+
+
+@njit(inline="always")
 def _visit_tiles(g, means2d, extents, s, nx, ny, counts, ids, fill, do_fill):
     """Count (``do_fill`` False) or list Gaussian g in every tile whose pixel centres its box overlaps."""
     half, last = np.float32(0.5), np.float32(s - 1)
     mx, my = means2d[g, 0], means2d[g, 1]
     ex, ey = extents[g, 0], extents[g, 1]
     # a range one tile wider than the exact one; the float32 test below decides, as render_tiled does
-    tx0 = max(math.floor((mx - ex - half - last) / s) - 1, 0)
-    tx1 = min(math.floor((mx + ex - half) / s) + 1, nx - 1)
-    ty0 = max(math.floor((my - ey - half - last) / s) - 1, 0)
-    ty1 = min(math.floor((my + ey - half) / s) + 1, ny - 1)
+    tx0 = max(_floor((mx - ex - half - last) / s) - 1, 0)
+    tx1 = min(_floor((mx + ex - half) / s) + 1, nx - 1)
+    ty0 = max(_floor((my - ey - half - last) / s) - 1, 0)
+    ty1 = min(_floor((my + ey - half) / s) + 1, ny - 1)
     for ty in range(ty0, ty1 + 1):
         y0 = np.float32(ty * s) + half
         if not (my + ey >= y0 and my - ey <= y0 + last):
@@ -104,10 +115,30 @@ def _alpha(px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max):
     return alpha, dx, dy, clipped, gauss
 
 
+@njit(inline="always")
+def _box(g, means2d, extents, x0, y0, s, W, H):
+    """Pixel offsets ``(ox0, ox1, oy0, oy1)`` (inclusive) of the tile at pixel ``(x0, y0)`` whose centres
+    may lie in Gaussian g's cut-off ellipse: its bounding box ``means2d ± extents``, one pixel wider
+    (rounding), clipped to the tile and the image. Outside it ``q > cut²`` and alpha is 0."""
+    mx, my = means2d[g, 0], means2d[g, 1]
+    ex, ey = extents[g, 0], extents[g, 1]
+    ox0 = max(_floor(mx - ex - 0.5) - x0, 0)
+    ox1 = min(_floor(mx + ex - 0.5) + 1 - x0, s - 1, W - 1 - x0)
+    oy0 = max(_floor(my - ey - 0.5) - y0, 0)
+    oy1 = min(_floor(my + ey - 0.5) + 1 - y0, s - 1, H - 1 - y0)
+    return ox0, ox1, oy0, oy1
+
+
 @njit(parallel=True, cache=True)
-def forward(means2d, conics, opac, colours, offsets, ids, H, W, s, cut2, alpha_min, alpha_max, tmin, chunk):
+def forward(
+    means2d, conics, opac, colours, extents, offsets, ids, H, W, s, cut2, alpha_min, alpha_max, tmin, chunk
+):
     """Composite every pixel: colour ``C`` (H, W, k), final transmittance ``T`` (H, W) and the number
-    of list entries each pixel went through, ``n_done`` (H, W)."""
+    of list entries each pixel went through, ``n_done`` (H, W).
+
+    Gaussian by Gaussian in the tile's depth order, each over the pixels of its cut-off box only (each
+    pixel still sees its Gaussians in depth order). At every ``chunk``-th entry, pixels whose
+    transmittance has fallen to ``tmin`` stop (``tmin`` 0: none do)."""
     k = colours.shape[1]
     nx = (W + s - 1) // s
     nt = offsets.shape[0] - 1
@@ -116,50 +147,60 @@ def forward(means2d, conics, opac, colours, offsets, ids, H, W, s, cut2, alpha_m
     n_done = np.zeros((H, W), np.int32)
     for t in prange(nt):
         ty, tx = t // nx, t % nx
+        x0, y0 = tx * s, ty * s
         lo, hi = offsets[t], offsets[t + 1]
-        acc = np.empty(k, colours.dtype)
-        for oy in range(s):
-            y = ty * s + oy
-            if y >= H:
-                break
-            py = np.float32(y) + np.float32(0.5)
-            for ox in range(s):
-                x = tx * s + ox
-                if x >= W:
+        Tl = np.ones((s, s))
+        Cl = np.zeros((s, s, k))
+        nd = np.full((s, s), hi - lo, np.int32)
+        live = np.zeros((s, s), np.bool_)
+        live[: min(s, H - y0), : min(s, W - x0)] = True
+        n_live = min(s, H - y0) * min(s, W - x0)
+        for r in range(lo, hi):
+            if tmin > 0 and (r - lo) % chunk == 0:
+                for oy in range(s):
+                    for ox in range(s):
+                        if live[oy, ox] and Tl[oy, ox] <= tmin:
+                            live[oy, ox] = False
+                            nd[oy, ox] = r - lo
+                            n_live -= 1
+                if n_live == 0:
                     break
-                px = np.float32(x) + np.float32(0.5)
-                Tp = T[y, x]  # 1
-                acc[:] = 0
-                n = 0
-                for r in range(lo, hi):
-                    if tmin > 0 and (r - lo) % chunk == 0 and Tp <= tmin:
-                        break
-                    n += 1
-                    g = ids[r]
+            g = ids[r]
+            ox0, ox1, oy0, oy1 = _box(g, means2d, extents, x0, y0, s, W, H)
+            for oy in range(oy0, oy1 + 1):
+                py = np.float32(y0 + oy) + np.float32(0.5)
+                for ox in range(ox0, ox1 + 1):
+                    if not live[oy, ox]:
+                        continue
+                    px = np.float32(x0 + ox) + np.float32(0.5)
                     alpha, _, _, _, _ = _alpha(px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max)
                     if alpha == 0:
                         continue
-                    w = alpha * Tp
+                    w = alpha * Tl[oy, ox]
                     for j in range(k):
-                        acc[j] += colours[g, j] * w
-                    Tp = Tp * (1 - alpha)
+                        Cl[oy, ox, j] += colours[g, j] * w
+                    Tl[oy, ox] *= 1 - alpha
+        for oy in range(min(s, H - y0)):
+            for ox in range(min(s, W - x0)):
+                T[y0 + oy, x0 + ox] = Tl[oy, ox]
+                n_done[y0 + oy, x0 + ox] = nd[oy, ox]
                 for j in range(k):
-                    C[y, x, j] = acc[j]
-                T[y, x] = Tp
-                n_done[y, x] = n
+                    C[y0 + oy, x0 + ox, j] = Cl[oy, ox, j]
     return C, T, n_done
 
 
 @njit(parallel=True, cache=True)
 def backward(
-    means2d, conics, opac, colours, offsets, ids, T, n_done, gC, gT, H, W, s, cut2, alpha_min, alpha_max
-):
+    means2d, conics, opac, colours, extents, offsets, ids, T, n_done, gC, gT, H, W, s, cut2, alpha_min,
+    alpha_max,
+):  # fmt: skip
     """∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C (H, W, k) and ∂L/∂T (H, W).
 
     For pixel p and its i-th Gaussian, with ``S_i = Σ_{j>i} c_j α_j T_j`` and ``T_f`` the final
     transmittance: ``∂C/∂c_i = α_i T_i``, ``∂C/∂α_i = c_i T_i − S_i / (1 − α_i)``,
     ``∂T_f/∂α_i = −T_f / (1 − α_i)``; ``α = min(α_max, o·exp(−q/2))`` with
-    ``q = a dx² + 2b dx dy + c dy²`` and ``d = p − mean``.
+    ``q = a dx² + 2b dx dy + c dy²`` and ``d = p − mean``. Each tile's list is walked back to front,
+    ``T_i = T_{i+1} / (1 − α_i)`` recovered per pixel, each Gaussian over its cut-off box only.
     """
     G, k = colours.shape
     nx = (W + s - 1) // s
@@ -168,49 +209,62 @@ def backward(
     buf = np.zeros((N_BLOCKS, G, 6 + k))  # dmx, dmy, da, db, dc, do, dcolours
     for blk in prange(N_BLOCKS):
         out = buf[blk]
+        d = np.zeros(6 + k)
         for t in range(blk * per, min(nt, (blk + 1) * per)):
             ty, tx = t // nx, t % nx
+            x0, y0 = tx * s, ty * s
             lo = offsets[t]
-            for oy in range(s):
-                y = ty * s + oy
-                if y >= H:
-                    break
-                py = np.float32(y) + np.float32(0.5)
-                for ox in range(s):
-                    x = tx * s + ox
-                    if x >= W:
-                        break
-                    px = np.float32(x) + np.float32(0.5)
-                    Tf = T[y, x]
-                    gTf = gT[y, x]
-                    Tn = Tf  # T_{i+1}
-                    acc = 0.0  # g · S_i
-                    for r in range(lo + n_done[y, x] - 1, lo - 1, -1):
-                        g = ids[r]
+            hy, wx = min(s, H - y0), min(s, W - x0)
+            Tn = np.empty((s, s))  # T_{i+1} per pixel
+            acc = np.zeros((s, s))  # g · S_i per pixel
+            nd = np.zeros((s, s), np.int32)
+            last = 0
+            for oy in range(hy):
+                for ox in range(wx):
+                    Tn[oy, ox] = T[y0 + oy, x0 + ox]
+                    nd[oy, ox] = n_done[y0 + oy, x0 + ox]
+                    last = max(last, nd[oy, ox])
+            for r in range(lo + last - 1, lo - 1, -1):
+                g = ids[r]
+                ox0, ox1, oy0, oy1 = _box(g, means2d, extents, x0, y0, s, W, H)
+                d[:] = 0
+                hit = False
+                a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
+                for oy in range(oy0, oy1 + 1):
+                    y = y0 + oy
+                    py = np.float32(y) + np.float32(0.5)
+                    for ox in range(ox0, ox1 + 1):
+                        if r - lo >= nd[oy, ox]:
+                            continue
+                        x = x0 + ox
+                        px = np.float32(x) + np.float32(0.5)
                         alpha, dx, dy, clipped, gauss = _alpha(
                             px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max
                         )
                         if alpha == 0:
                             continue
+                        hit = True
                         om = 1 - alpha
-                        Ti = Tn / om
+                        Ti = Tn[oy, ox] / om
                         gc_dot = 0.0
                         for j in range(k):
                             gc_dot += gC[y, x, j] * colours[g, j]
-                            out[g, 6 + j] += gC[y, x, j] * alpha * Ti
-                        d_alpha = gc_dot * Ti - (acc + gTf * Tf) / om
-                        acc += gc_dot * alpha * Ti
-                        Tn = Ti
+                            d[6 + j] += gC[y, x, j] * alpha * Ti
+                        d_alpha = gc_dot * Ti - (acc[oy, ox] + gT[y, x] * T[y, x]) / om
+                        acc[oy, ox] += gc_dot * alpha * Ti
+                        Tn[oy, ox] = Ti
                         if clipped:
                             continue
-                        out[g, 5] += d_alpha * gauss
+                        d[5] += d_alpha * gauss
                         dq = -0.5 * alpha * d_alpha
-                        a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
-                        out[g, 0] -= dq * 2.0 * (a * dx + b * dy)
-                        out[g, 1] -= dq * 2.0 * (b * dx + c * dy)
-                        out[g, 2] += dq * dx * dx
-                        out[g, 3] += dq * 2.0 * dx * dy
-                        out[g, 4] += dq * dy * dy
+                        d[0] -= dq * 2.0 * (a * dx + b * dy)
+                        d[1] -= dq * 2.0 * (b * dx + c * dy)
+                        d[2] += dq * dx * dx
+                        d[3] += dq * 2.0 * dx * dy
+                        d[4] += dq * dy * dy
+                if hit:
+                    for j in range(6 + k):
+                        out[g, j] += d[j]
     total = np.zeros((G, 6 + k))
     for blk in range(N_BLOCKS):
         total += buf[blk]

@@ -392,11 +392,18 @@ _KERNEL_LOCK = threading.Lock()
 
 
 def _host_bins(means2d, aux, H, W, s):
+    """Contiguous extents and the tile lists of :func:`splat._raster_kernel.bin_tiles`."""
     from . import _raster_kernel as kern
 
+    extents = np.ascontiguousarray(aux[:, :2])
     valid = aux[:, 3] > 0
     order = np.argsort(np.where(valid, aux[:, 2], np.inf), kind="stable")  # as jnp.argsort (stable)
-    return kern.bin_tiles(means2d, np.ascontiguousarray(aux[:, :2]), order, int(valid.sum()), H, W, s)
+    return (extents, *kern.bin_tiles(means2d, extents, order, int(valid.sum()), H, W, s))
+
+
+def _cutoffs(config: RenderConfig) -> tuple:
+    """``(cut², alpha_min, alpha_max)`` as the kernels take them (float32, as the JAX back-ends)."""
+    return tuple(np.float32(v) for v in (config.sigma_cutoff**2, config.alpha_min, config.alpha_max))
 
 
 def _as(dtype, *xs):
@@ -417,13 +424,12 @@ def _host_forward(means2d, conics, opac, colours, aux, *, H, W, config, dtype):
     from . import _raster_kernel as kern
 
     means2d, conics, opac, colours, aux = _as(dtype, means2d, conics, opac, colours, aux)
+    s = config.tile_size
     with _KERNEL_LOCK:
-        offsets, ids, max_per_tile = _host_bins(means2d, aux, H, W, config.tile_size)
-        C, T, n_done = kern.forward(
-            means2d, conics, opac, colours, offsets, ids, H, W, config.tile_size,
-            np.float32(config.sigma_cutoff**2), np.float32(config.alpha_min), np.float32(config.alpha_max),
-            np.float32(config.transmittance_min), config.chunk,
-        )  # fmt: skip
+        extents, offsets, ids, max_per_tile = _host_bins(means2d, aux, H, W, s)
+        tmin = np.float32(config.transmittance_min)
+        gaussians = (means2d, conics, opac, colours, extents)
+        C, T, n_done = kern.forward(*gaussians, offsets, ids, H, W, s, *_cutoffs(config), tmin, config.chunk)
     return C, T, n_done, np.int32(max_per_tile)
 
 
@@ -432,13 +438,12 @@ def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H,
 
     arrays = _as(dtype, means2d, conics, opac, colours, aux, T, gC, gT)
     means2d, conics, opac, colours, aux, T, gC, gT = arrays
+    n_done = np.ascontiguousarray(n_done)
+    s = config.tile_size
     with _KERNEL_LOCK:
-        offsets, ids, _ = _host_bins(means2d, aux, H, W, config.tile_size)
-        d = kern.backward(
-            means2d, conics, opac, colours, offsets, ids, T, np.ascontiguousarray(n_done), gC, gT,
-            H, W, config.tile_size, np.float32(config.sigma_cutoff**2), np.float32(config.alpha_min),
-            np.float32(config.alpha_max),
-        )  # fmt: skip
+        extents, offsets, ids, _ = _host_bins(means2d, aux, H, W, s)
+        gaussians = (means2d, conics, opac, colours, extents)
+        d = kern.backward(*gaussians, offsets, ids, T, n_done, gC, gT, H, W, s, *_cutoffs(config))
     return (d[:, 0:2].astype(dtype), d[:, 2:5].astype(dtype), d[:, 5].astype(dtype), d[:, 6:].astype(dtype))
 
 
