@@ -5,7 +5,8 @@ of them per pixel behind a Bayer mosaic). One set of 3-D Gaussians with N = all 
 is fitted to all the images, then renders pixel-aligned N-channel images from any view, ready for
 :mod:`zonotope` (metamer mismatch, colour correction).
 
-- model and renderer: :class:`Gaussians`, :func:`render` (``method="tiled"`` or ``"reference"``);
+- model and renderer: :class:`Gaussians`, :func:`render` (``method="auto"``: ``"cpu"``, numba kernels
+  on the CPU, or ``"tiled"``, pure JAX, on a GPU; ``"reference"``, the dense twin);
 - data: :func:`read_colmap` / :func:`write_colmap`, :func:`read_transforms` /
   :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`;
 - training: :func:`train` with :class:`TrainConfig`; outputs: :func:`render_views`,
@@ -29,7 +30,9 @@ _EXPORTS = {
         "RenderConfig",
         "RenderOutput",
         "project",
+        "default_method",
         "render",
+        "render_cpu",
         "render_reference",
         "render_tiled",
     ],
