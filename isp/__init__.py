@@ -117,6 +117,7 @@ _LAZY = {
         "SensorConfig",
         "SpectralSetup",
         "chart_image",
+        "default_training",
         "fit_color_matrix",
         "simulate_capture",
         "simulate_dng",

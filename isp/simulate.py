@@ -34,6 +34,7 @@ __all__ = [
     "SensorConfig",
     "SpectralSetup",
     "chart_image",
+    "default_training",
     "fit_color_matrix",
     "simulate_capture",
     "simulate_dng",
@@ -161,6 +162,12 @@ def true_XYZ(reflectances, setup: SpectralSetup) -> np.ndarray:
     return _reflectance_array(reflectances, setup.wavelengths.size) @ setup.observer
 
 
+def default_training(setup: SpectralSetup) -> np.ndarray:
+    """The ColorChecker's 24 reflectances (``"ColorChecker N Ohta"``) on the setup's grid, shape (24, n):
+    the ColorMatrix training set of images whose own colours cannot determine one."""
+    return zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), setup.wavelengths).T
+
+
 def fit_color_matrix(setup: SpectralSetup, training) -> np.ndarray:
     """Least-squares XYZ → camera matrix (DNG ColorMatrix convention) with the white held exactly.
 
@@ -183,6 +190,13 @@ def fit_color_matrix(setup: SpectralSetup, training) -> np.ndarray:
     """
     R = _reflectance_array(training, setup.wavelengths.size, "training")
     X = R @ setup.observer  # (N, 3)
+    rank = np.linalg.matrix_rank(X) if X.size else 0
+    if rank < 3:  # the bordered system is singular: M is not determined (LAPACK may or may not notice)
+        raise PipelineError(
+            f"fit_color_matrix: the {len(R)} training reflectance(s) span only {rank} of the 3 XYZ "
+            "dimensions, which cannot determine a 3 × 3 ColorMatrix; give at least 3 colours of "
+            "different chromaticity (e.g. a ColorChecker)."
+        )
     C = R @ setup.camera  # (N, 3)
     xw = setup.observer.sum(0)
     cw = setup.camera.sum(0)
@@ -339,7 +353,9 @@ def simulate_capture(
     sensor : SensorConfig, optional
         Exposure, CFA, black/white level and noise; default ``SensorConfig()``.
     training : array_like of shape (N, n), optional
-        Reflectances for the ColorMatrix fit; default the image's distinct pixels.
+        Reflectances for the ColorMatrix fit; default the image's distinct pixels, or
+        :func:`default_training` (the ColorChecker) when their XYZ span fewer than 3 dimensions (a flat
+        or single-hue image cannot determine a 3 × 3 matrix).
     seed
         Random seed (None: fresh randomness).
     **options
@@ -379,6 +395,8 @@ def simulate_capture(
         dn = dn + rng.normal(0.0, read_noise, size=dn.shape)
     mosaic = np.clip(np.round(dn), 0, white_level).astype(np.uint16)
     train = np.unique(R.reshape(-1, R.shape[-1]), axis=0) if training is None else training
+    if training is None and np.linalg.matrix_rank(train @ setup.observer) < 3:
+        train = default_training(setup)  # e.g. a flat grey image: its own colours cannot fit a matrix
     M = fit_color_matrix(setup, train)
     return Capture(
         mosaic=mosaic,

@@ -204,3 +204,20 @@ def test_sensor_config_equals_keywords(setup):
     assert (a.cfa, a.exposure) == ("GRBG", 0.6)
     with pytest.raises(isp.PipelineError, match=r"unknown option.*read_nosie"):
         simulate_capture(img, setup, read_nosie=1.0)
+
+
+def test_color_matrix_needs_three_dimensions_of_training_colours(setup):
+    """One reflectance (or several of one chromaticity) cannot determine a 3 × 3 ColorMatrix: a clear
+    error from fit_color_matrix, whatever LAPACK makes of the singular system; simulate_capture of a
+    flat image fits on the ColorChecker instead (the same matrix as asking for it)."""
+    from isp.simulate import default_training, fit_color_matrix
+
+    grey = np.full((1, setup.wavelengths.size), 0.4)
+    for training in (grey, np.vstack([grey, 0.5 * grey, 0.25 * grey])):
+        with pytest.raises(isp.PipelineError, match="span only 1 of the 3"):
+            fit_color_matrix(setup, training)
+    img = np.full((8, 8, setup.wavelengths.size), 0.4)
+    flat = simulate_capture(img, setup, seed=1)
+    chart = simulate_capture(img, setup, seed=1, training=default_training(setup))
+    np.testing.assert_array_equal(flat.color_matrix, chart.color_matrix)
+    np.testing.assert_allclose(flat.color_matrix @ setup.observer.sum(0), setup.camera.sum(0), rtol=1e-10)
