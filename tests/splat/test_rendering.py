@@ -231,3 +231,18 @@ def test_auto_picks_the_cpu_backend_on_the_cpu(small_scene):
     expected = "cpu" if jax.default_backend() == "cpu" else "tiled"
     assert default_method() == expected
     np.testing.assert_array_equal(render(g, cam).image, render(g, cam, method=expected).image)
+
+
+def test_cpu_backend_bins_a_huge_gaussian_into_every_tile(x64_everywhere):
+    """A Gaussian whose cut-off box is wider than an int64 can count (its pixel bounds are clipped
+    before the int conversion in the kernels) still covers every tile, as in the tiled back-end."""
+    with jax.enable_x64(True):
+        g = init_gaussians(
+            jnp.zeros((1, 3)), jnp.asarray([[0.3, 0.6]]), scales=1e20, opacity=0.8, dtype=jnp.float64
+        )
+        cam = look_at((0, -3, 0), (0, 0, 0), width=40, height=24, dtype=jnp.float64)
+        assert float(project(g, cam).extents.min()) > 1e19  # > 2**63
+        a = render(g, cam, method="tiled")
+        b = render(g, cam, method="cpu")
+    np.testing.assert_allclose(b.image, a.image, atol=1e-12)
+    np.testing.assert_allclose(b.image[..., 1], 0.8 * 0.6, rtol=1e-9)  # flat at this scale
