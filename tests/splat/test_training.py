@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -172,3 +174,53 @@ def test_exposure_refinement_recovers_wrong_exif(tmp_path):
         train(cap, sc.images, sc.weights, config=cfg, bounds=sc.bounds, reference_views=refs[:2])
     with pytest.raises(SplatError, match="n_views"):
         init_state(cfg, bounds=sc.bounds, n_channels=9)
+
+
+def test_centre_rate_decays_to_its_own_final_value():
+    """After ``steps`` Adam steps of a constant gradient every update is ±rate · final, with the centres'
+    final ratio ``lr_means_final`` and the other fields' ``lr_final``."""
+    from splat.training import _optimiser
+
+    g = init_state(TrainConfig(capacity=4), bounds=np.array([[0.0, 0, 0], [1, 1, 1]]), n_channels=3).params
+    grads = jax.tree.map(jnp.ones_like, g)
+    for final, expect in ((0.03, 0.03), (None, 0.3)):
+        cfg = TrainConfig(steps=10, lr_final=0.3, lr_means_final=final)
+        opt = _optimiser(cfg, extent=2.0)
+        state = opt.init(g)
+        for _ in range(11):  # the 11th update uses the rate at count = steps
+            upd, state = opt.update(grads, state, g)
+        np.testing.assert_allclose(np.asarray(upd.means), -cfg.lr_means * 2.0 * expect, rtol=1e-5)
+        np.testing.assert_allclose(np.asarray(upd.colour_params), -cfg.lr_colours * 0.3, rtol=1e-5)
+
+
+def test_recycling_frees_the_faintest_gaussians_of_a_full_buffer():
+    from splat.training import _densify
+
+    cfg = TrainConfig(capacity=8, densify_fraction=0.25, prune_opacity=0.005, split_scale=1.0)
+    st = init_state(cfg, bounds=np.array([[0.0, 0, 0], [1, 1, 1]]), n_channels=3)
+    p = st.params
+    opacity = np.array([0.9, 0.02, 0.9, 0.04, 0.9, 0.9, 0.01, 0.9])
+    p = type(p)(
+        **{
+            **{k: getattr(p, k) for k in ("means", "quats", "log_scales", "colour_params")},
+            "opacity_logits": jnp.asarray(np.log(opacity / (1 - opacity)), jnp.float32),
+            "log_scales": jnp.full((8, 3), np.log(0.01), jnp.float32),
+        }
+    )
+    grad = np.array([0.0, 0, 5, 0, 3, 0, 0, 1])
+    st = st._replace(params=p, alive=jnp.ones(8, bool), grad_accum=jnp.asarray(grad), grad_count=jnp.ones(8))
+    unchanged = _densify(st, cfg, extent=1.0)  # full buffer, no recycling: nothing to add
+    np.testing.assert_array_equal(np.asarray(unchanged.params.means), np.asarray(p.means))
+    out = _densify(st, dataclasses.replace(cfg, recycle_opacity=0.05), extent=1.0)
+    # 0.25 · 8 = 2 new Gaussians: the two faintest (slots 6 and 1) become clones of the two with the
+    # largest positional gradient (slots 2 and 4); slot 3 (0.04) stays
+    assert np.asarray(out.alive).all()
+    m = np.asarray(out.params.means)
+    np.testing.assert_array_equal(m[[1, 6]], np.asarray(p.means)[[2, 4]])
+    np.testing.assert_array_equal(m[3], np.asarray(p.means)[3])
+
+
+@pytest.mark.parametrize("bad", [{"lr_means_final": 0.0}, {"lr_means_final": 2.0}, {"recycle_opacity": 1.0}])
+def test_rate_and_recycling_options_are_checked(bad):
+    with pytest.raises(SplatError, match=next(iter(bad))):
+        TrainConfig(**bad)
