@@ -104,7 +104,11 @@ class TrainConfig:
         Alive Gaussians below this opacity are freed.
     recycle_opacity : float
         When the buffer is full, a densification also frees the faintest alive Gaussians below this
-        opacity (as many as it would add) for the split/clone copies (0: never).
+        opacity (as many as it would add) for the split/clone copies (0: never). 0.05 (new): a full
+        buffer otherwise only changes where pruning (``prune_opacity``) frees a slot, while a fifth of
+        the benchmark model's Gaussians sat below 5 % opacity. Benchmark capture (3000 steps, 32 768
+        Gaussians): held-out PSNR 30.0 → 30.6 dB, training views 36.0 → 36.6 dB; CI-size captures
+        (1000 steps, capacity 4096) +0.05 and +0.1 dB.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -153,7 +157,7 @@ class TrainConfig:
     densify_fraction: float = 0.05
     split_scale: float = 0.02
     prune_opacity: float = 0.005
-    recycle_opacity: float = 0.0
+    recycle_opacity: float = 0.05
     method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None

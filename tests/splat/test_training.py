@@ -196,16 +196,16 @@ def test_centre_rate_decays_to_its_own_final_value():
 def test_recycling_frees_the_faintest_gaussians_of_a_full_buffer():
     from splat.training import _densify
 
-    cfg = TrainConfig(capacity=8, densify_fraction=0.25, prune_opacity=0.005, split_scale=1.0)
+    cfg = TrainConfig(
+        capacity=8, densify_fraction=0.25, prune_opacity=0.005, split_scale=1.0, recycle_opacity=0.0
+    )
     st = init_state(cfg, bounds=np.array([[0.0, 0, 0], [1, 1, 1]]), n_channels=3)
     p = st.params
     opacity = np.array([0.9, 0.02, 0.9, 0.04, 0.9, 0.9, 0.01, 0.9])
-    p = type(p)(
-        **{
-            **{k: getattr(p, k) for k in ("means", "quats", "log_scales", "colour_params")},
-            "opacity_logits": jnp.asarray(np.log(opacity / (1 - opacity)), jnp.float32),
-            "log_scales": jnp.full((8, 3), np.log(0.01), jnp.float32),
-        }
+    p = dataclasses.replace(
+        p,
+        opacity_logits=jnp.asarray(np.log(opacity / (1 - opacity)), jnp.float32),
+        log_scales=jnp.full((8, 3), np.log(0.01), jnp.float32),
     )
     grad = np.array([0.0, 0, 5, 0, 3, 0, 0, 1])
     st = st._replace(params=p, alive=jnp.ones(8, bool), grad_accum=jnp.asarray(grad), grad_count=jnp.ones(8))
