@@ -165,6 +165,18 @@ def test_scores_against_truth(ci_run):
     # is mostly the simulated shot/read noise of single pixels (a 3 × 3 box filter on both halves it)
     assert max(dE[f"dng:{c}"]["mean"] for c in ("nikon", "sigma", "canon")) < 25
     assert min(s["psnr_db"].values()) > 12
+    # normalised to the median exposure: each held-out view's PSNR + 20 log10(its relative exposure), so
+    # per camera the two means differ by 20 × the mean log10 exposure of that camera's held-out views
+    from splat.capture import load_views, read_capture
+
+    spec = read_capture(cap)
+    exif = {v.name: v.exif for v in load_views(spec) if v.name in s["held_out_views"]}
+    assert len(exif) == 6
+    for k, p in s["psnr_exposure_normalised_db"].items():
+        folder = k.split(":")[0]
+        shift = 20 * np.mean([np.log10(e) for n, e in exif.items() if n.startswith(folder + "/")])
+        assert p - s["psnr_db"][k] == pytest.approx(shift, abs=1e-9)
+    assert len({round(p - s["psnr_db"][k], 6) for k, p in s["psnr_exposure_normalised_db"].items()}) > 1
     pose = s["pose"]
     assert pose["registered"] >= 12 and pose["centre_error_mean"] < 0.05 * pose["scene_extent"]
 
