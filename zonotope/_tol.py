@@ -160,9 +160,11 @@ ANGLE = 1e-9
 #: ≈ 1e-12 of the scale.
 CERTIFY = 1e-9
 
-#: ``on_infeasible="nearest"``: the tolerance δ that makes an infeasible response feasible is its LP
-#: distance to the solid times ``1 + FEASIBLE_REL`` plus ``FEASIBLE_ABS × scale``. HiGHS reports the
-#: distance to its primal feasibility tolerance (1e-7), so a smaller margin leaves the LP infeasible.
+#: ``on_infeasible="nearest"``: the tolerance δ that makes an infeasible response feasible is its
+#: distance to the solid times ``1 + FEASIBLE_REL`` plus ``FEASIBLE_ABS × scale``. The distance is the
+#: one the LP's reflectance (clipped to [0, 1]) attains, not HiGHS' reported optimum, which may fall
+#: short by its primal feasibility tolerance (≈ 1e-7, absolute) — more than this margin, which only
+#: has to cover the round-off of re-solving at δ.
 FEASIBLE_REL = 1e-7
 
 #: See :data:`FEASIBLE_REL` (absolute part, relative to the source scale: a response exactly on
