@@ -26,6 +26,13 @@ correct step therefore also corrects such views from fused responses (``pipeline
    channel-whitened problem (:func:`whitened`: channel ``k`` scaled by ``σ_ref/σ_k``), so that its single
    noise level means ``σ_k`` in each channel — the MMV's tolerance too (``δ_k = 3σ_k``): measured
    channels constrain the estimate tightly and rendered ones softly, instead of all alike.
+4. **Textured pixels** (:func:`textured`: the photograph's sites of one channel vary over the 5 × 5
+   neighbourhood by more than half their level) take none of the above: there a reprojection misplaced
+   by a fraction of a pixel, or a channel demosaiced across a 1–2 px border, is off by the step itself,
+   not by its σ, and six such channels outvote the three measured ones (the borders are painted over).
+   Their responses are the render anchored to the pixel's own *site* — the one measured channel of a
+   Bayer pixel, the three of a full-colour one (:func:`anchor` with the mosaic's sites as ``valid``) —
+   with the sensor's σ on that channel and the render's on all others.
 
 Views without a RAW file (novel views) are corrected the same way from the photographs reprojected into
 them (``pipeline.photographed_view``: every camera's channels reprojected where its photographs see the
@@ -37,7 +44,9 @@ held-out views, three cameras with Prior; the README's capture section has the t
 render only 1.63–1.66 ΔE00, fused 0.30–0.32 after 1000 steps (two seeds) against 0.87 for the best
 camera's own DNG development (same white); as novel views (the view's own RAW unused) 0.36–0.37; with
 sensor noise, render only 1.5–1.85, fused 0.63–0.81 and as novel views 0.65–0.85 on three scenes (their
-DNG developments 1.77–1.96).
+DNG developments 1.77–1.96). Over all pixels of the benchmark capture's held-out views (three cameras,
+Prior), the texture test took the fused estimate from 8.08 to 3.92 ΔE00 (flat pixels 0.68 → 0.72), the
+best camera's DNG development 8.33 (:data:`splat._tol.TEXTURE_RTOL`).
 """
 
 from __future__ import annotations
@@ -54,6 +63,7 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
     GUIDE_RELIABILITY,
     OWN_NOISE_FLOOR,
     SMOOTH_RTOL,
+    TEXTURE_RTOL,
 )
 
 __all__ = [
@@ -67,6 +77,7 @@ __all__ = [
     "sensor_noise",
     "site_noise",
     "smooth",
+    "textured",
     "whitened",
 ]
 
@@ -94,14 +105,18 @@ def measured(view, white_scale, *, method: str = "Malvar 2004") -> np.ndarray:
     return lin / view.exif / np.asarray(white_scale, float)
 
 
-def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL) -> np.ndarray:
-    """Pixels where a view's render is smooth: every channel's range over the 5 × 5 neighbourhood is at
-    most ``rtol`` × the pixel's mean over channels (at least 0.02; borders extended).
+def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL, size: int = 5) -> np.ndarray:
+    """Pixels where a view's render is smooth: every channel's range over the ``size × size``
+    neighbourhood is at most ``rtol`` × the pixel's mean over channels (at least 0.02; borders
+    extended).
 
     Parameters
     ----------
     render : ndarray of shape (H, W, k)
-        The view's render, white → 1.
+        The view's render, white → 1 (or any picture of the view on that scale).
+    rtol : float
+    size : int
+        Odd window width (px).
 
     Returns
     -------
@@ -112,11 +127,13 @@ def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL) -> np.ndarray:
     r = np.asarray(render, float)
     if r.ndim != 3:
         raise SplatError(f"smooth: the render must be (H, W, k), got shape {r.shape}.")
+    if not (isinstance(size, (int, np.integer)) and size >= 1 and size % 2 == 1):
+        raise SplatError(f"smooth: size must be an odd number of pixels ≥ 1, got {size!r}.")
     lim = rtol * np.maximum(r.mean(-1), 0.02)
     ok = np.ones(r.shape[:2], bool)
     for c in range(r.shape[-1]):
         x = r[..., c]
-        ok &= maximum_filter(x, 5, mode="nearest") - minimum_filter(x, 5, mode="nearest") <= lim
+        ok &= maximum_filter(x, size, mode="nearest") - minimum_filter(x, size, mode="nearest") <= lim
     return ok
 
 
@@ -403,11 +420,14 @@ def anchor(render: np.ndarray, own_measured: np.ndarray, own: slice, valid: np.n
     render : ndarray of shape (H, W, k)
         The splat's render of the view (white → 1, exposure 1).
     own_measured : ndarray of shape (H, W, 3)
-        The view's own channels as measured (:func:`measured`).
+        The view's own channels as measured (:func:`measured`, or the RAW sites themselves).
     own : slice
         Where the own channels sit among the ``k``.
-    valid : ndarray of shape (H, W), bool, optional
-        Pixels whose photograph is usable (not saturated, not dead); the others keep the render.
+    valid : ndarray of shape (H, W) or (H, W, 3), bool, optional
+        Pixels whose photograph is usable (not saturated, not dead); the others keep the render. Per
+        channel (``(H, W, 3)``, e.g. a mosaic's sites, ``RawView.weight > 0``): the ratio is taken over
+        the channels measured at the pixel, only those are replaced, the other own channels are the
+        render times the ratio; a pixel without any keeps the render.
 
     Returns
     -------
@@ -420,12 +440,57 @@ def anchor(render: np.ndarray, own_measured: np.ndarray, own: slice, valid: np.n
         raise SplatError(
             f"anchor: render {r.shape} and measured {m.shape} do not match (own channels {own})."
         )
-    ratio = (m.sum(-1, keepdims=True) + ANCHOR_EPS) / (r[..., own].sum(-1, keepdims=True) + ANCHOR_EPS)
+    if valid is None:
+        v = np.ones(m.shape, bool)
+    else:
+        v = np.asarray(valid, bool)
+        if v.shape == m.shape[:2]:
+            v = np.repeat(v[..., None], 3, -1)
+        elif v.shape != m.shape:
+            raise SplatError(f"anchor: valid must be (H, W) or (H, W, 3) as {m.shape}, got {v.shape}.")
+    ratio = ((m * v).sum(-1, keepdims=True) + ANCHOR_EPS) / (
+        (r[..., own] * v).sum(-1, keepdims=True) + ANCHOR_EPS
+    )
     fused = r * ratio
-    fused[..., own] = m
-    if valid is not None:
-        fused = np.where(np.asarray(valid, bool)[..., None], fused, r)
-    return fused
+    fused[..., own] = np.where(v, m, fused[..., own])
+    return np.where(v.any(-1, keepdims=True), fused, r)
+
+
+def textured(view, white_scale, *, rtol: float = TEXTURE_RTOL) -> np.ndarray:
+    """Pixels where a RAW view's photograph is textured: in some channel, the measured sites within the
+    pixel's 5 × 5 neighbourhood span more than ``rtol`` × their largest value (at least 0.02).
+
+    Sites of one channel only are compared (two pixels apart on a Bayer mosaic), so no demosaicing
+    enters and the test needs no truth; saturated and dead sites (weight 0) are left out. On the scale of
+    :func:`measured` (white → 1 at exposure 1; borders extended). See :data:`splat._tol.TEXTURE_RTOL`.
+
+    Parameters
+    ----------
+    view : splat.capture.RawView
+    white_scale : array_like of shape (3,)
+    rtol : float
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+    """
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    if view.exif is None:
+        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
+    if not rtol > 0:
+        raise SplatError(f"textured: rtol must be positive, got {rtol!r}.")
+    m = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
+    w = np.asarray(view.weight) > 0
+    out = np.zeros(m.shape[:2], bool)
+    for j in range(3):
+        if not w[..., j].any():
+            continue
+        hi = maximum_filter(np.where(w[..., j], m[..., j], -np.inf), 5, mode="nearest")
+        lo = minimum_filter(np.where(w[..., j], m[..., j], np.inf), 5, mode="nearest")
+        seen = np.isfinite(hi)  # some site of the channel in the window
+        out |= seen & (np.where(seen, hi - lo, 0) > rtol * np.maximum(np.where(seen, hi, 0), 0.02))
+    return out
 
 
 def render_noise(pairs) -> float:

@@ -190,6 +190,58 @@ def test_anchor_refuses_shapes_that_do_not_match(rshape, mshape, own, names):
         assert n in msg
 
 
+def _site_anchor_by_hand(render, meas, own, sites):
+    """Brovey over the channels measured at each pixel, in plain Python."""
+    H, W, k = render.shape
+    lo, hi = own.start, own.stop
+    out = np.empty_like(render)
+    for y in range(H):
+        for x in range(W):
+            r, m, v = render[y, x], meas[y, x], sites[y, x]
+            if not any(v):
+                out[y, x] = r
+                continue
+            num = sum(m[j] for j in range(3) if v[j]) + ANCHOR_EPS
+            den = sum(r[lo + j] for j in range(3) if v[j]) + ANCHOR_EPS
+            out[y, x] = [m[c - lo] if lo <= c < hi and v[c - lo] else r[c] * num / den for c in range(k)]
+    return out
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", "GBRG", None])
+def test_anchor_to_the_sites_of_a_mosaic_matches_the_formula_by_hand(pattern):
+    """Per-channel ``valid`` (a mosaic's sites): the ratio over the channels measured at the pixel, only
+    they replaced; the other own channels scaled like every other channel; no site: the render."""
+    rng = np.random.default_rng(11)
+    H, W = 6, 8
+    render = rng.uniform(0.05, 1.0, (H, W, 9))
+    meas = rng.uniform(0.05, 1.0, (H, W, 3))
+    sites = _cfa_mask(H, W, pattern) > 0
+    sites[2, 3] = False  # a dead site: the pixel keeps the render
+    got = anchor(render, meas, slice(3, 6), sites)
+    np.testing.assert_allclose(got, _site_anchor_by_hand(render, meas, slice(3, 6), sites), rtol=1e-13)
+    assert np.array_equal(got[2, 3], render[2, 3])
+    assert np.array_equal(got[..., 3:6][sites], meas[sites])
+    # every channel valid is the (H, W) mask, and no mask
+    full = np.ones((H, W, 3), bool)
+    assert np.array_equal(anchor(render, meas, slice(3, 6), full), anchor(render, meas, slice(3, 6)))
+
+
+def test_anchor_to_one_site_undoes_a_common_factor(monkeypatch):
+    """One measured channel is enough to undo a factor common to all channels (ε = 0)."""
+    monkeypatch.setattr(fusion, "ANCHOR_EPS", 0.0)
+    rng = np.random.default_rng(4)
+    truth = rng.uniform(0.05, 1.0, (7, 9, 6))
+    f = rng.uniform(0.2, 5.0, (7, 9, 1))
+    sites = _cfa_mask(7, 9, "GRBG") > 0
+    got = anchor(truth * f, truth[..., 0:3] * sites, slice(0, 3), sites)
+    np.testing.assert_allclose(got, truth, rtol=1e-13)
+
+
+def test_anchor_refuses_a_valid_mask_of_another_shape():
+    with pytest.raises(splat.SplatError, match=r"anchor: valid must be \(H, W\) or \(H, W, 3\)"):
+        anchor(np.ones((4, 5, 6)), np.ones((4, 5, 3)), slice(0, 3), np.ones((4, 5, 2), bool))
+
+
 # ------------------------------------------------------------------------------------ sensor_noise
 
 #: A piecewise-constant scene of four rectangles (one vertical and one horizontal edge); every
@@ -534,7 +586,7 @@ def test_fused_view(sim, cameras):
     render = rng.uniform(0.05, 1.0, (H, W, 9)) * (1 + np.arange(9))  # channels told apart
     scale = sim["scale"]
     doc = {"render_sigma": 0.017, "views": {view.name: {"camera": 2, "own_sigma": [0.003, 0.004, 0.005]}}}
-    fused, code, sigmas = fused_view(doc, view.name, render, view, scale, cameras)
+    fused, code, sigmas = fused_view(doc, view.name, render, view, scale, cameras, texture_rtol=np.inf)
 
     n = len(cameras)
     pos = 3 * cameras.index(2)
@@ -586,7 +638,9 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
         "views": {view.name: {"camera": 2, "own_sigma": [0.003] * 3}},
     }
     cams = [1, 2, 0]
-    fused, code, sigmas = fused_view(doc, view.name, render, view, sim["scale"], cams, (values, count))
+    fused, code, sigmas = fused_view(
+        doc, view.name, render, view, sim["scale"], cams, (values, count), texture_rtol=np.inf
+    )
     seen = [count[..., c] > 0 for c in range(3)]
     seen0, seen1 = seen[0], seen[1]
     own = seen[2] & valid
@@ -656,7 +710,8 @@ def test_photographed_view(cameras, monkeypatch):
     count[:, : W // 3, 1] = 1
     count[H // 3 :, W // 2 :, 2] = 4
     values = np.where(np.repeat(count > 0, 3, -1), truth, 0.0)  # 0 where unseen, as written to disk
-    fused, code, sigmas = photographed_view(_PHOTO_DOC, render, (values, count), cameras)
+    args = (_PHOTO_DOC, render, (values, count), cameras)
+    fused, code, sigmas = photographed_view(*args, texture_rtol=np.inf)
     idx = [3 * c + j for c in cameras for j in range(3)]
     seen = np.stack([count[..., c] > 0 for c in cameras], -1)
     np.testing.assert_array_equal(code, (seen * (1 << np.arange(len(cameras)))).sum(-1))
@@ -670,7 +725,7 @@ def test_photographed_view(cameras, monkeypatch):
         np.testing.assert_array_equal(s_, np.repeat(want, 3))
     # the real filter: each camera's seen channels are guided(values, seen, guide)
     monkeypatch.setattr(fusion, "guided", guided)
-    filtered, code2, _ = photographed_view(_PHOTO_DOC, render, (values, count), cameras)
+    filtered, code2, _ = photographed_view(*args, texture_rtol=np.inf)
     np.testing.assert_array_equal(code2, code)
     guide = fused.reshape(H, W, len(cameras), 3).mean(-2)
     for i, c in enumerate(cameras):
@@ -679,6 +734,42 @@ def test_photographed_view(cameras, monkeypatch):
             filtered[seen[..., i]][:, 3 * i : 3 * i + 3], want[seen[..., i]], rtol=1e-12
         )
         assert not np.allclose(want[seen[..., i]], values[..., 3 * c : 3 * c + 3][seen[..., i]])
+
+
+@pytest.mark.parametrize("rtol", [0.2, fusion.TEXTURE_RTOL, 1.0])
+def test_photographed_view_takes_the_render_where_the_photographs_are_textured(rtol):
+    """Where the picture assembled from the photographs (the guide of ``guided``) is not
+    ``fusion.smooth`` over 3 × 3 at ``texture_rtol``: the render and code 0 (σ the render's);
+    elsewhere exactly the result without the test; the default is ``TEXTURE_RTOL``."""
+    from splat.pipeline import photographed_view
+
+    H, W = 24, 30
+    rng = np.random.default_rng(8)
+    truth = np.broadcast_to(rng.uniform(0.2, 0.8, 9), (H, W, 9)).copy()
+    truth[6:14, 16:26] *= rng.uniform(0.2, 1.8, (8, 10, 1))  # a textured block
+    render = truth * rng.uniform(0.9, 1.1, (H, W, 1))
+    count = np.ones((H, W, 3))
+    count[:, : W // 4, 2] = 0
+    values = np.where(np.repeat(count > 0, 3, -1), truth, 0.0)
+    args = (_PHOTO_DOC, render, (values, count), [0, 1, 2])
+    off, code, _ = photographed_view(*args, texture_rtol=np.inf)
+    got, code_t, sig_t = photographed_view(*args, texture_rtol=rtol)
+    seen = np.stack([count[..., c] > 0 for c in range(3)], -1)
+    chan = np.repeat(seen, 3, -1)
+    ratio = (np.where(chan, values, 0).sum(-1) + ANCHOR_EPS) / (
+        np.where(chan, render, 0).sum(-1) + ANCHOR_EPS
+    )
+    tex = ~fusion.smooth(
+        np.where(chan, values, render * ratio[..., None]).reshape(H, W, 3, 3).mean(-2), rtol=rtol, size=3
+    )
+    assert tex[10, 20] and not tex[0, 0] and tex.mean() < 0.5
+    np.testing.assert_array_equal(got[tex], render[tex])
+    np.testing.assert_array_equal(got[~tex], off[~tex])
+    np.testing.assert_array_equal(code_t, np.where(tex, 0, code))
+    assert sorted(sig_t) == sorted(int(c) for c in np.unique(code_t))
+    np.testing.assert_array_equal(sig_t[0], np.full(9, 0.017))
+    if rtol == fusion.TEXTURE_RTOL:
+        assert np.array_equal(photographed_view(*args)[0], got)
 
 
 def test_photographed_view_clips_negative_values():
@@ -783,6 +874,24 @@ def test_smooth_excludes_exactly_the_band_around_a_step_edge(edge, channel):
     want[:, band] = False
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(got, _smooth_by_hand(img, fusion.SMOOTH_RTOL))
+
+
+@pytest.mark.parametrize("size", [1, 3, 7])
+@pytest.mark.parametrize("edge", [1, 5, 12])
+def test_smooth_of_another_size_excludes_its_band(size, edge):
+    """A ``size``-wide window at column x spans x − h … x + h (h = size // 2): it straddles the step
+    between columns edge − 1 and edge for edge − h ≤ x ≤ edge + h − 1, and nowhere else."""
+    H, W, h = 9, 16, size // 2
+    img = np.where((np.arange(W) < edge)[None, :, None], 0.3, 0.6) * np.ones((H, 1, 3))
+    want = np.ones((H, W), bool)
+    want[:, max(edge - h, 0) : edge + h] = False
+    np.testing.assert_array_equal(fusion.smooth(img, size=size), want)
+
+
+@pytest.mark.parametrize("size", [0, 2, -3, 2.0])
+def test_smooth_refuses_a_size_that_is_not_odd(size):
+    with pytest.raises(splat.SplatError, match="smooth: size must be an odd number"):
+        fusion.smooth(np.ones((4, 4, 3)), size=size)
 
 
 def _roughening(k, rtol, seed, H=14, W=24):
@@ -1357,3 +1466,123 @@ def test_guided_demosaic_refuses_a_bad_guide():
     for guide in (np.ones((6, 7, 3)), np.ones((6, 8)), np.full((6, 8, 3), np.nan)):
         with pytest.raises(splat.SplatError, match="guided_demosaic"):
             fusion.guided_demosaic(view, WHITE, guide)
+
+
+# --------------------------------------------------------------------------------------- textured
+
+
+def _textured_by_hand(values, weight, exif, white, rtol):
+    """The rule in plain Python: some channel's valid sites in the 5 × 5 window (clipped at the borders)
+    span more than rtol × max(their maximum, 0.02)."""
+    m = np.asarray(values, float) / exif / white
+    H, W, _ = m.shape
+    out = np.zeros((H, W), bool)
+    for y in range(H):
+        for x in range(W):
+            for j in range(3):
+                vals = [
+                    m[yy, xx, j]
+                    for yy in range(max(y - 2, 0), min(y + 3, H))
+                    for xx in range(max(x - 2, 0), min(x + 3, W))
+                    if weight[yy, xx, j] > 0
+                ]
+                if vals and max(vals) - min(vals) > rtol * max(max(vals), 0.02):
+                    out[y, x] = True
+    return out
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", "GBRG", None])
+@pytest.mark.parametrize("rtol", [0.1, 0.5])
+def test_textured_matches_the_rule_by_hand(pattern, rtol):
+    """Random texture whose amplitude rises across the columns (flat on the left, textured on the
+    right), a few dead sites, dark rows (the 0.02 floor): against the rule in plain Python."""
+    rng = np.random.default_rng(int(rtol * 10) + (pattern is None))
+    H, W = 12, 20
+    amp = np.linspace(0.0, 3 * rtol, W)[None, :, None]
+    scene = 0.3 * (1 + amp * rng.uniform(0, 1, (H, W, 3)))
+    scene[:2] *= 0.01  # dark: the floor
+    weight = _cfa_mask(H, W, pattern)
+    weight[rng.uniform(size=(H, W)) < 0.05] = 0
+    view = _view(scene * weight, weight, full_colour=pattern is None, exif=1.7)
+    got = fusion.textured(view, WHITE, rtol=rtol)
+    want = _textured_by_hand(view.values, view.weight, 1.7, WHITE, rtol)
+    np.testing.assert_array_equal(got, want)
+    assert 0.1 < got.mean() < 0.9  # both kinds of pixel occur
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", None])
+def test_textured_is_the_band_around_edges_and_ignores_noise(pattern):
+    """The four-rectangle scene with 1 % noise: textured exactly where the 5 × 5 window straddles an
+    edge (within 2 px: every channel jumps by ≥ 0.1, ≥ 0.13 × the brighter side, against rtol 0.1; a
+    Bayer channel's sites two apart still fall on both sides) and nowhere on the flat rectangles (the
+    noise spans ≈ 5 % of the level); exposure and white scale change nothing."""
+    H = W = 32
+    rng = np.random.default_rng(2)
+    scene = _scene(H, W) * (1 + 0.01 * rng.standard_normal((H, W, 3)))
+    weight = _cfa_mask(H, W, pattern)
+    band = np.zeros((H, W), bool)  # rows and columns within 2 px of the steps (edge − 2 … edge + 1)
+    band[H // 2 - 2 : H // 2 + 2] = True
+    band[:, 3 * W // 8 - 2 : 3 * W // 8 + 2] = True
+    view = _view(scene * weight, weight, full_colour=pattern is None, exif=1.0)
+    got = fusion.textured(view, np.ones(3), rtol=0.1)
+    np.testing.assert_array_equal(got, band)
+    brighter = _view(3.0 * scene * weight, weight, full_colour=pattern is None, exif=3.0)
+    np.testing.assert_array_equal(fusion.textured(brighter, 2 * np.ones(3), rtol=0.1), band)
+
+
+def test_textured_refuses_a_view_without_exposure_and_a_bad_rtol():
+    view = _view(np.ones((6, 6, 3)), np.ones((6, 6, 3)), full_colour=True, exif=None, name="a/B.dng")
+    with pytest.raises(splat.SplatError, match=r"a/B\.dng: no exposure"):
+        fusion.textured(view, WHITE)
+    view = dataclasses.replace(view, exif=1.0)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(splat.SplatError, match="textured: rtol must be positive"):
+            fusion.textured(view, WHITE, rtol=bad)
+
+
+def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textured(sim):
+    """Textured pixels (``splat.fusion.textured`` at the default rtol): the render anchored to the
+    pixel's own site(s), code ``2**m | site bits << (m + 1)``, σ the sensor's on the site's channel and
+    the render's elsewhere; every other pixel exactly as with the texture test off."""
+    from splat.pipeline import fused_view
+
+    doc = {
+        "render_sigma": 0.017,
+        "reprojected_sigma": [0.004, 0.002, 0.006],
+        "views": {v.name: {"camera": v.camera, "own_sigma": [0.003, 0.0035, 0.005]} for v in sim["views"]},
+    }
+    rng = np.random.default_rng(5)
+    for view in (next(v for v in sim["views"] if v.camera == c) for c in (2, 1)):  # Bayer, full colour
+        H, W = view.shape
+        render = rng.uniform(0.05, 1.0, (H, W, 9))
+        values = rng.uniform(0.05, 1.0, (H, W, 9))
+        count = np.zeros((H, W, 3))
+        count[: H // 2, :, 0] = 2
+        count[:, W // 3 :, 1] = 1
+        count[:, : W // 2, 2] = 1
+        k, cams = view.camera, [0, 1, 2]
+        ws = sim["scale"][3 * k : 3 * k + 3]
+        args = (doc, view.name, render, view, sim["scale"], cams, (values, count))
+        fused, code, sigmas = fused_view(*args)
+        off = fused_view(*args, texture_rtol=np.inf)
+        valid = np.asarray(view.weight).sum(-1) > 0
+        tex = fusion.textured(view, ws) & valid
+        assert 0.05 < tex.mean() < 0.95  # the coarse texture's cell borders
+        np.testing.assert_array_equal(fused[~tex], off[0][~tex])
+        np.testing.assert_array_equal(code[~tex], off[1][~tex])
+        sites = np.asarray(view.weight) > 0
+        site = anchor(render, np.asarray(view.values, float) / view.exif / ws, slice(3 * k, 3 * k + 3), sites)
+        np.testing.assert_allclose(fused[tex], site[tex], rtol=1e-12)
+        bits = (sites * [1, 2, 4]).sum(-1)
+        np.testing.assert_array_equal(code[tex], (8 | bits << 4)[tex])
+        assert sorted(sigmas) == sorted({int(c) for c in np.unique(code)})
+        for cd in np.unique(code[tex]):
+            want = np.full(9, 0.017)
+            for j in range(3):
+                if cd >> 4 >> j & 1:
+                    want[3 * k + j] = [0.003, 0.0035, 0.005][j]
+            np.testing.assert_array_equal(sigmas[int(cd)], want)
+        for cd in np.unique(code[~tex]):
+            np.testing.assert_array_equal(sigmas[int(cd)], off[2][int(cd)])
+        if view.full_colour:
+            assert set(np.unique(code[tex]).tolist()) == {8 | 7 << 4}
