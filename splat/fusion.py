@@ -27,12 +27,13 @@ correct step therefore also corrects such views from fused responses (``pipeline
    noise level means ``σ_k`` in each channel — the MMV's tolerance too (``δ_k = 3σ_k``): measured
    channels constrain the estimate tightly and rendered ones softly, instead of all alike.
 4. **Textured pixels** (:func:`textured`: the photograph's sites of one channel vary over the 5 × 5
-   neighbourhood by more than half their level) take none of the above: there a reprojection misplaced
-   by a fraction of a pixel, or a channel demosaiced across a 1–2 px border, is off by the step itself,
-   not by its σ, and six such channels outvote the three measured ones (the borders are painted over).
-   Their responses are the render anchored to the pixel's own *site* — the one measured channel of a
-   Bayer pixel, the three of a full-colour one (:func:`anchor` with the mosaic's sites as ``valid``) —
-   with the sensor's σ on that channel and the render's on all others.
+   neighbourhood by more than half their level and six σ of the sensor noise) take none of the above:
+   there a reprojection misplaced by a fraction of a pixel, or a channel demosaiced across a 1–2 px
+   border, is off by the step itself, not by its σ, and six such channels outvote the three measured
+   ones (the borders are painted over). Their responses are the render anchored to the pixel's own
+   *site* — the one measured channel of a Bayer pixel, the three of a full-colour one (:func:`anchor`
+   with the mosaic's sites as ``valid``) — with the sensor's σ on that channel and the render's on all
+   others.
 
 Views without a RAW file (novel views) are corrected the same way from the photographs reprojected into
 them (``pipeline.photographed_view``: every camera's channels reprojected where its photographs see the
@@ -45,7 +46,7 @@ render only 1.63–1.66 ΔE00, fused 0.30–0.32 after 1000 steps (two seeds) ag
 camera's own DNG development (same white); as novel views (the view's own RAW unused) 0.36–0.37; with
 sensor noise, render only 1.5–1.85, fused 0.63–0.81 and as novel views 0.65–0.85 on three scenes (their
 DNG developments 1.77–1.96). Over all pixels of the benchmark capture's held-out views (three cameras,
-Prior), the texture test took the fused estimate from 8.08 to 3.87 ΔE00 (flat pixels 0.668 → 0.719), the
+Prior), the texture test took the fused estimate from 8.08 to 3.90 ΔE00 (flat pixels 0.668 → 0.670), the
 best camera's DNG development 8.33 (:data:`splat._tol.TEXTURE_RTOL`).
 """
 
@@ -63,6 +64,7 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
     GUIDE_RELIABILITY,
     OWN_NOISE_FLOOR,
     SMOOTH_RTOL,
+    TEXTURE_NSIGMA,
     TEXTURE_RTOL,
 )
 
@@ -456,19 +458,26 @@ def anchor(render: np.ndarray, own_measured: np.ndarray, own: slice, valid: np.n
     return np.where(v.any(-1, keepdims=True), fused, r)
 
 
-def textured(view, white_scale, *, rtol: float = TEXTURE_RTOL) -> np.ndarray:
-    """Pixels where a RAW view's photograph is textured: in some channel, the measured sites within the
-    pixel's 5 × 5 neighbourhood span more than ``rtol`` × their largest value (at least 0.02).
+def textured(
+    view, white_scale, *, rtol: float = TEXTURE_RTOL, noise=None, n_sigma: float = TEXTURE_NSIGMA
+) -> np.ndarray:
+    """Pixels where a RAW view's photograph is textured: in some channel ``j``, the measured sites within
+    the pixel's 5 × 5 neighbourhood span more than ``rtol`` × their largest value (at least 0.02) and,
+    given the sensor noise, more than ``n_sigma · noise[j]``.
 
     Sites of one channel only are compared (two pixels apart on a Bayer mosaic), so no demosaicing
     enters and the test needs no truth; saturated and dead sites (weight 0) are left out. On the scale of
-    :func:`measured` (white → 1 at exposure 1; borders extended). See :data:`splat._tol.TEXTURE_RTOL`.
+    :func:`measured` (white → 1 at exposure 1; borders extended). See :data:`splat._tol.TEXTURE_RTOL`
+    and :data:`splat._tol.TEXTURE_NSIGMA`.
 
     Parameters
     ----------
     view : splat.capture.RawView
     white_scale : array_like of shape (3,)
     rtol : float
+    noise : array_like of shape (3,), optional
+        The sensor noise σ per channel on the same scale (:func:`sensor_noise`); None: no noise floor.
+    n_sigma : float
 
     Returns
     -------
@@ -480,6 +489,11 @@ def textured(view, white_scale, *, rtol: float = TEXTURE_RTOL) -> np.ndarray:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     if not rtol > 0:
         raise SplatError(f"textured: rtol must be positive, got {rtol!r}.")
+    floor = np.zeros(3) if noise is None else float(n_sigma) * np.asarray(noise, float)
+    if floor.shape != (3,) or not np.all(np.isfinite(floor)) or np.any(floor < 0):
+        raise SplatError(
+            f"textured: noise must be 3 finite σ ≥ 0 and n_sigma finite ≥ 0, got {noise!r} and {n_sigma!r}."
+        )
     m = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
     w = np.asarray(view.weight) > 0
     out = np.zeros(m.shape[:2], bool)
@@ -489,7 +503,8 @@ def textured(view, white_scale, *, rtol: float = TEXTURE_RTOL) -> np.ndarray:
         hi = maximum_filter(np.where(w[..., j], m[..., j], -np.inf), 5, mode="nearest")
         lo = minimum_filter(np.where(w[..., j], m[..., j], np.inf), 5, mode="nearest")
         seen = np.isfinite(hi)  # some site of the channel in the window
-        out |= seen & (np.where(seen, hi - lo, 0) > rtol * np.maximum(np.where(seen, hi, 0), 0.02))
+        span = np.where(seen, hi - lo, 0)
+        out |= seen & (span > rtol * np.maximum(np.where(seen, hi, 0), 0.02)) & (span > floor[j])
     return out
 
 

@@ -996,12 +996,13 @@ def fused_view(
     :func:`splat.fusion.guided`, guided by the view's photograph. Its σ stays the unfiltered
     reprojection's (``fusion_of``): an upper bound, as the filter averages noise.
 
-    Where the photograph is **textured** (:func:`splat.fusion.textured`) none of that holds: a
-    reprojection misplaced by a fraction of a pixel, or a channel demosaiced across a 1–2 px border, is
-    off by the step itself, not by its σ. There the responses are the render anchored to the pixel's
-    own measured site (:func:`splat.fusion.anchor` with the mosaic's sites: no demosaicing, no
-    reprojection), σ the sensor's for the measured channel(s) and the render's for all others. On the
-    benchmark capture this took the all-pixel ΔE00 of three cameras from 8.08 to 3.87 (README).
+    Where the photograph is **textured** (:func:`splat.fusion.textured`, with the view's ``own_sigma``
+    as the noise) none of that holds: a reprojection misplaced by a fraction of a pixel, or a channel
+    demosaiced across a 1–2 px border, is off by the step itself, not by its σ. There the responses
+    are the render anchored to the pixel's own measured site (:func:`splat.fusion.anchor` with the
+    mosaic's sites: no demosaicing, no reprojection), σ the sensor's for the measured channel(s) and
+    the render's for all others. On the benchmark capture this took the all-pixel ΔE00 of three
+    cameras from 8.08 to 3.90 (README).
 
     Parameters
     ----------
@@ -1074,14 +1075,14 @@ def fused_view(
             code |= seen.astype(int) << i
     rtol = TEXTURE_RTOL if texture_rtol is None else texture_rtol
     m = len(cameras)
-    tex = textured(view, ws, rtol=rtol) & valid if np.isfinite(rtol) else np.zeros_like(valid)
+    so = np.asarray(fusion["views"][name]["own_sigma"], float)
+    tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
     if tex.any():  # the render anchored to the pixel's own site(s): no demosaicing, no reprojection
         sites = np.asarray(view.weight) > 0
         site = anchor(render[..., idx], np.asarray(view.values, float) / view.exif / ws, own, sites)
         fused[tex] = site[tex]
         bits = (sites * (1 << np.arange(3))).sum(-1)
         code = np.where(tex, (1 << m) | (bits << (m + 1)), code)
-    so = np.asarray(fusion["views"][name]["own_sigma"], float)
     sigma = _sigma_by_code(fusion, code[code < 1 << m], cameras)
     for cd, s_ in sigma.items():  # the own channels: measured, or averaged with their reprojection
         s_[own] = 1 / np.sqrt(1 / so**2 + 1 / float(rep_sigma[k]) ** 2) if cd >> (pos // 3) & 1 else so

@@ -1471,9 +1471,9 @@ def test_guided_demosaic_refuses_a_bad_guide():
 # --------------------------------------------------------------------------------------- textured
 
 
-def _textured_by_hand(values, weight, exif, white, rtol):
+def _textured_by_hand(values, weight, exif, white, rtol, floor=(0.0, 0.0, 0.0)):
     """The rule in plain Python: some channel's valid sites in the 5 × 5 window (clipped at the borders)
-    span more than rtol × max(their maximum, 0.02)."""
+    span more than rtol × max(their maximum, 0.02) and more than the channel's floor."""
     m = np.asarray(values, float) / exif / white
     H, W, _ = m.shape
     out = np.zeros((H, W), bool)
@@ -1486,7 +1486,8 @@ def _textured_by_hand(values, weight, exif, white, rtol):
                     for xx in range(max(x - 2, 0), min(x + 3, W))
                     if weight[yy, xx, j] > 0
                 ]
-                if vals and max(vals) - min(vals) > rtol * max(max(vals), 0.02):
+                span = max(vals) - min(vals) if vals else 0.0
+                if vals and span > rtol * max(max(vals), 0.02) and span > floor[j]:
                     out[y, x] = True
     return out
 
@@ -1530,6 +1531,39 @@ def test_textured_is_the_band_around_edges_and_ignores_noise(pattern):
     np.testing.assert_array_equal(fusion.textured(brighter, 2 * np.ones(3), rtol=0.1), band)
 
 
+def test_textured_noise_floor_matches_the_rule_by_hand_and_leaves_noise_out():
+    """With ``noise`` σ per channel the span must also exceed ``n_sigma · σ``: a dark flat patch whose
+    noise alone spans more than half its level is textured without the floor and not with it (6 σ);
+    the floor agrees with the rule by hand on a random texture."""
+    H, W = 16, 16
+    rng = np.random.default_rng(9)
+    sigma = np.array([0.004, 0.005, 0.006])
+    weight = _cfa_mask(H, W, "RGGB")
+    dark = 0.02 + sigma * rng.standard_normal((H, W, 3))  # flat, the noise ≈ 25 % of the level
+    view = _view(dark * weight, weight, full_colour=False, exif=1.0)
+    assert fusion.textured(view, np.ones(3)).mean() > 0.5
+    assert not fusion.textured(view, np.ones(3), noise=sigma).any()
+    scene = 0.3 * (1 + 0.6 * rng.uniform(0, 1, (H, W, 3)))
+    view = _view(scene * weight, weight, full_colour=False, exif=2.0)
+    for n_sigma in (0.0, 6.0, 40.0):
+        got = fusion.textured(view, WHITE, rtol=0.2, noise=sigma, n_sigma=n_sigma)
+        want = _textured_by_hand(view.values, view.weight, 2.0, WHITE, 0.2, n_sigma * sigma)
+        np.testing.assert_array_equal(got, want)
+    assert not np.array_equal(
+        fusion.textured(view, WHITE, rtol=0.2, noise=sigma, n_sigma=40.0),
+        fusion.textured(view, WHITE, rtol=0.2),
+    )
+
+
+@pytest.mark.parametrize(
+    "noise, n_sigma", [([0.01, 0.01], 6.0), ([0.01, -0.01, 0.01], 6.0), ([0.01] * 3, np.nan)]
+)
+def test_textured_refuses_a_bad_noise_floor(noise, n_sigma):
+    view = _view(np.ones((6, 6, 3)), np.ones((6, 6, 3)), full_colour=True, exif=1.0)
+    with pytest.raises(splat.SplatError, match="textured: noise must be 3 finite"):
+        fusion.textured(view, WHITE, noise=noise, n_sigma=n_sigma)
+
+
 def test_textured_refuses_a_view_without_exposure_and_a_bad_rtol():
     view = _view(np.ones((6, 6, 3)), np.ones((6, 6, 3)), full_colour=True, exif=None, name="a/B.dng")
     with pytest.raises(splat.SplatError, match=r"a/B\.dng: no exposure"):
@@ -1541,7 +1575,8 @@ def test_textured_refuses_a_view_without_exposure_and_a_bad_rtol():
 
 
 def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textured(sim):
-    """Textured pixels (``splat.fusion.textured`` at the default rtol): the render anchored to the
+    """Textured pixels (``splat.fusion.textured`` at the default rtol, the view's own σ as the noise
+    floor): the render anchored to the
     pixel's own site(s), code ``2**m | site bits << (m + 1)``, σ the sensor's on the site's channel and
     the render's elsewhere; every other pixel exactly as with the texture test off."""
     from splat.pipeline import fused_view
@@ -1566,7 +1601,7 @@ def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textu
         fused, code, sigmas = fused_view(*args)
         off = fused_view(*args, texture_rtol=np.inf)
         valid = np.asarray(view.weight).sum(-1) > 0
-        tex = fusion.textured(view, ws) & valid
+        tex = fusion.textured(view, ws, noise=[0.003, 0.0035, 0.005]) & valid
         assert 0.05 < tex.mean() < 0.95  # the coarse texture's cell borders
         np.testing.assert_array_equal(fused[~tex], off[0][~tex])
         np.testing.assert_array_equal(code[~tex], off[1][~tex])
