@@ -220,7 +220,39 @@ def test_recycling_frees_the_faintest_gaussians_of_a_full_buffer():
     np.testing.assert_array_equal(m[3], np.asarray(p.means)[3])
 
 
-@pytest.mark.parametrize("bad", [{"lr_means_final": 0.0}, {"lr_means_final": 2.0}, {"recycle_opacity": 1.0}])
+def test_train_step_weighs_errors_with_the_configured_loss_offset(scene):
+    """``TrainConfig.loss_offset`` is the ε of the loss each step reports: the step's loss equals
+    ``rawnerf_loss(exposure · render, image, weight, offset=ε)`` of the state it started from."""
+    from splat import train_step
+
+    v = 0
+    cam = scene.capture.views[v].camera
+    img, w = jnp.asarray(scene.images[v]), jnp.asarray(scene.weights[v])
+    mask = jnp.ones(img.shape[-1])
+    losses = []
+    for eps in (1e-3, 0.05):
+        cfg = tiny(2, capacity=64, loss_offset=eps)
+        state = init_state(cfg, bounds=scene.bounds, n_channels=9)
+        _, loss, _ = train_step(state, cam, img, w, mask, 1.3, config=cfg, extent=1.0)
+        pred = render_views(state.params, [cam], mask=state.alive, config=cfg.render)[0]
+        np.testing.assert_allclose(
+            float(loss), float(rawnerf_loss(1.3 * pred, img, w, offset=eps)), rtol=1e-4
+        )
+        losses.append(float(loss))
+    assert losses[0] > 2 * losses[1]  # the larger ε weighs the same errors less
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"lr_means_final": 0.0},
+        {"lr_means_final": 2.0},
+        {"recycle_opacity": 1.0},
+        {"loss_offset": 0.0},
+        {"loss_offset": -1e-3},
+        {"loss_offset": float("inf")},
+    ],
+)
 def test_rate_and_recycling_options_are_checked(bad):
     with pytest.raises(SplatError, match=next(iter(bad))):
         TrainConfig(**bad)
