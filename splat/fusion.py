@@ -78,6 +78,7 @@ __all__ = [
     "reprojection_noise",
     "sensor_noise",
     "site_noise",
+    "sites",
     "smooth",
     "textured",
     "whitened",
@@ -105,6 +106,16 @@ def measured(view, white_scale, *, method: str = "Malvar 2004") -> np.ndarray:
         else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method=method)
     )
     return lin / view.exif / np.asarray(white_scale, float)
+
+
+def sites(view, white_scale) -> tuple[np.ndarray, np.ndarray]:
+    """A RAW view's measured sites, not demosaiced: its values on the scale of :func:`measured`
+    (white → 1 at exposure 1; 0 off the sites of a Bayer mosaic) and where they are usable
+    (``weight > 0``: not saturated, not dead, on the channel's CFA sites), both (H, W, 3)."""
+    if view.exif is None:
+        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
+    values = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
+    return values, np.asarray(view.weight) > 0
 
 
 def smooth(render: np.ndarray, *, rtol: float = SMOOTH_RTOL, size: int = 5) -> np.ndarray:
@@ -283,17 +294,16 @@ def guided_demosaic(
         )
     if view.full_colour:
         return own
-    mosaic = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
-    sites = np.asarray(view.weight) > 0
+    mosaic, at = sites(view, white_scale)
     out = own.copy()
     for j in range(3):  # sites keep their value; a pixel with no usable site in its window keeps Malvar's
         out[..., j] = _bilateral(
-            np.where(sites[..., j], mosaic[..., j], own[..., j])[..., None],
-            np.where(sites[..., j], 0.0, -np.inf),
+            np.where(at[..., j], mosaic[..., j], own[..., j])[..., None],
+            np.where(at[..., j], 0.0, -np.inf),
             G,
             int(radius),
             range_sigma,
-            at=~sites[..., j],
+            at=~at[..., j],
         )[..., 0]
     return out
 
@@ -485,8 +495,6 @@ def textured(
     """
     from scipy.ndimage import maximum_filter, minimum_filter
 
-    if view.exif is None:
-        raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     if not rtol > 0:
         raise SplatError(f"textured: rtol must be positive, got {rtol!r}.")
     floor = np.zeros(3) if noise is None else float(n_sigma) * np.asarray(noise, float)
@@ -494,8 +502,7 @@ def textured(
         raise SplatError(
             f"textured: noise must be 3 finite σ ≥ 0 and n_sigma finite ≥ 0, got {noise!r} and {n_sigma!r}."
         )
-    m = np.asarray(view.values, float) / view.exif / np.asarray(white_scale, float)
-    w = np.asarray(view.weight) > 0
+    m, w = sites(view, white_scale)
     out = np.zeros(m.shape[:2], bool)
     for j in range(3):
         if not w[..., j].any():

@@ -914,6 +914,7 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
         reprojection_noise,
         sensor_noise,
         site_noise,
+        sites,
         smooth,
     )
 
@@ -938,9 +939,9 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
             seen = _read_tiff(d / "reprojected_count.tiff")[..., k] > 0
             rep = _read_tiff(d / "reprojected.tiff")[..., 3 * k : 3 * k + 3] / ws
             # at the measured sites themselves (no demosaicing), where the render is smooth
-            sites = (np.asarray(v.weight) > 0) & (seen & smooth(img))[..., None]
-            r = (rep - np.asarray(v.values, float) / v.exif / ws)[sites]
-            resid.setdefault(k, []).append((r, site_noise(v, ws)[sites]))
+            mosaic, at = sites(v, ws)
+            at &= (seen & smooth(img))[..., None]
+            resid.setdefault(k, []).append(((rep - mosaic)[at], site_noise(v, ws)[at]))
     rep_sigma = {
         k: _two_digits(
             max(
@@ -1021,7 +1022,7 @@ def fused_view(
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
-    from .fusion import TEXTURE_RTOL, anchor, guided, guided_demosaic, measured, textured
+    from .fusion import TEXTURE_RTOL, anchor, guided, guided_demosaic, measured, sites, textured
 
     k = view.camera
     cameras = list(cameras)
@@ -1078,10 +1079,9 @@ def fused_view(
     so = np.asarray(fusion["views"][name]["own_sigma"], float)
     tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
     if tex.any():  # the render anchored to the pixel's own site(s): no demosaicing, no reprojection
-        sites = np.asarray(view.weight) > 0
-        site = anchor(render[..., idx], np.asarray(view.values, float) / view.exif / ws, own, sites)
-        fused[tex] = site[tex]
-        bits = (sites * (1 << np.arange(3))).sum(-1)
+        mosaic, at = sites(view, ws)
+        fused[tex] = anchor(render[..., idx], mosaic, own, at)[tex]
+        bits = (at * (1 << np.arange(3))).sum(-1)
         code = np.where(tex, (1 << m) | (bits << (m + 1)), code)
     sigma = _sigma_by_code(fusion, code[code < 1 << m], cameras)
     for cd, s_ in sigma.items():  # the own channels: measured, or averaged with their reprojection
