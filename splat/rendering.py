@@ -83,6 +83,14 @@ class RenderConfig:
         Gaussians composited per tile at most (tiled back-end); the excess is dropped and counted.
     chunk : int
         Gaussians composited per scan step (memory ∝ pixels × chunk).
+    tile_batch : int or None
+        Tiles the tiled back-end composites at once (``jax.lax.map``'s ``batch_size``): 1 runs them one
+        after another (least memory; chunks past a tile's last Gaussian are skipped), 0 all at once
+        (one vectorised scan over the chunks), anything between in batches. ``None`` (default): all at
+        once on a GPU, one at a time on the CPU. On an H200 a benchmark-size training step (one
+        510 × 360 view) took 0.024 s with all tiles at once against 1.98 s one at a time (32 768
+        Gaussians, ``tile_capacity`` 1024; 0.043 against 3.98 s at 262 144 Gaussians and 2048); on
+        the CPU one at a time is the faster (8.5× at 1024 Gaussians), and ``"cpu"`` faster still.
     """
 
     near: float = 0.01
@@ -95,12 +103,18 @@ class RenderConfig:
     tile_size: int = 16
     tile_capacity: int = 512
     chunk: int = 32
+    tile_batch: int | None = None
 
     def __post_init__(self):
         for name in ("tile_size", "tile_capacity", "chunk"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 1:
                 raise SplatError(f"RenderConfig.{name} must be a positive int; got {v!r}.")
+        if self.tile_batch is not None and (not isinstance(self.tile_batch, int) or self.tile_batch < 0):
+            raise SplatError(
+                "RenderConfig.tile_batch must be None (by device) or an int ≥ 0 (0: all tiles at once); "
+                f"got {self.tile_batch!r}."
+            )
         if not 0 <= self.alpha_min < self.alpha_max <= 1:
             raise SplatError(f"need 0 ≤ alpha_min < alpha_max ≤ 1; got {self.alpha_min}, {self.alpha_max}.")
         if not 0 <= self.transmittance_min < 1:
@@ -276,7 +290,7 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
         if n_used is None and config.transmittance_min <= 0:
             return blend(carry, g[1:]), None
         # chunks past the last used Gaussian, or when every pixel is saturated, are skipped
-        # (a real branch: this runs under lax.map/scan, not vmap)
+        # (a real branch under scan and lax.map one tile at a time; batched tiles turn it into a select)
         go = jnp.any(carry[0] > log_tmin)
         if n_used is not None:
             go = go & (g[0] * ch < n_used)
@@ -355,13 +369,13 @@ def render_tiled(
         & (my + ey >= y0)
         & (my - ey <= y0 + s - 1)
     )  # [n_tiles, G]
-    counts = jnp.sum(hits, axis=1)
-    # the first K hits of each tile, in depth order
-    rank = jnp.arange(G, 0, -1)
-    score, idx = jax.lax.top_k(jnp.where(hits, rank, 0), min(K, G))
-    if idx.shape[1] < K:
-        score, idx = _pad(score.T, K).T, _pad(idx.T, K).T
-    keep = score > 0  # [n_tiles, K]
+    # the first K hits of each tile, in depth order: the j-th is where the running count of hits first
+    # reaches j + 1 (a binary search per slot; a top_k over [n_tiles, G] sorts on a GPU)
+    cum = jnp.cumsum(hits, axis=1, dtype=jnp.int32)  # [n_tiles, G]
+    counts = cum[:, -1]
+    slots = jnp.arange(1, K + 1, dtype=jnp.int32)
+    idx = jnp.minimum(jax.vmap(lambda c: jnp.searchsorted(c, slots, side="left"))(cum), G - 1)
+    keep = slots[None, :] <= counts[:, None]  # [n_tiles, K]
     means2d = jnp.where(keep[..., None], pj.means2d[idx], -1e6)
     opac = jnp.where(keep, pj.opacities[idx], 0.0)
     conics, colours = pj.conics[idx], pj.colours[idx]
@@ -370,8 +384,14 @@ def render_tiled(
     off = jnp.stack([ox, oy], -1).reshape(-1, 2).astype(means2d.dtype)
     px = off[None] + jnp.stack([x0[:, 0], y0[:, 0]], -1)[:, None, :]  # [n_tiles, s*s, 2]
     used = jnp.minimum(counts, K)
+    batch = config.tile_batch
+    if batch is None:  # a GPU runs one vectorised scan far faster; the CPU skips chunks tile by tile
+        batch = 1 if jax.default_backend() == "cpu" else 0
+    batch = px.shape[0] if batch == 0 else min(batch, px.shape[0])
     C, T = jax.lax.map(
-        lambda a: _composite(*a[:-1], config, n_used=a[-1]), (px, means2d, conics, opac, colours, used)
+        lambda a: _composite(*a[:-1], config, n_used=a[-1]),
+        (px, means2d, conics, opac, colours, used),
+        batch_size=None if batch == 1 else batch,
     )  # [n_tiles, s*s, k], [n_tiles, s*s]
     C = C + config.background * T[..., None]
 

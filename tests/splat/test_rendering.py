@@ -50,6 +50,37 @@ def test_tiled_reports_what_it_drops(small_scene):
     np.testing.assert_allclose(cpu.image, full.image, atol=1e-6)
 
 
+@pytest.mark.parametrize("batch", [0, 3])
+def test_tiled_batches_of_tiles_equal_one_tile_at_a_time(batch, make_gaussians):
+    """``tile_batch`` (all tiles, or batches of 3 with a ragged last one) only changes how the tiles are
+    scheduled: the image, alpha and every gradient equal the sequential map's, per-chunk termination and
+    the skipped chunks past a tile's last Gaussian included."""
+    g = make_gaussians(G=120, N=4, seed=3, spread=0.9)
+    aniso = np.random.default_rng(4).normal(0, 0.4, g.log_scales.shape)  # so that rotations matter
+    g = Gaussians(g.means, g.quats, g.log_scales + aniso, g.opacity_logits, g.colour_params)
+    cam = look_at((0.4, -3.0, 0.5), (0, 0, 0), width=30, height=21, fov_deg=55)
+    one = RenderConfig(tile_size=8, transmittance_min=0.2, chunk=8, tile_batch=1)
+    many = RenderConfig(tile_size=8, transmittance_min=0.2, chunk=8, tile_batch=batch)
+    a, b = render(g, cam, method="tiled", config=one), render(g, cam, method="tiled", config=many)
+    np.testing.assert_allclose(b.image, a.image, atol=1e-6)
+    np.testing.assert_allclose(b.alpha, a.alpha, atol=1e-6)
+    assert int(a.n_dropped) == int(b.n_dropped) == 0 and float(a.image.max()) > 0.1
+    w = jnp.asarray(np.random.default_rng(0).normal(size=a.image.shape), jnp.float32)
+
+    def loss(params, c):
+        return jnp.sum(render(params, cam, method="tiled", config=c).image * w)
+
+    for x, y in zip(jax.tree.leaves(jax.grad(loss)(g, one)), jax.tree.leaves(jax.grad(loss)(g, many))):
+        assert np.abs(np.asarray(x)).max() > 0
+        np.testing.assert_allclose(y, x, atol=1e-5 * np.abs(np.asarray(x)).max(), rtol=0)
+    # the default (None) picks by device: one tile at a time here, on the CPU
+    c = render(g, cam, method="tiled", config=RenderConfig(tile_size=8, transmittance_min=0.2, chunk=8))
+    np.testing.assert_array_equal(c.image, a.image)
+    for bad in (-1, 1.5, "all"):
+        with pytest.raises(SplatError, match="tile_batch"):
+            RenderConfig(tile_batch=bad)
+
+
 @pytest.fixture
 def x64_everywhere():
     """float64 in every thread (the ``jax.enable_x64`` context manager does not reach the thread on

@@ -1,0 +1,365 @@
+"""Held-out PSNR against the number of Gaussians, trained on a GPU (issue 9's 35 dB goal).
+
+The benchmark capture's training inputs are exported once, on the machine that has the RAW files and
+the pipeline's poses, into one small bundle (float16 values at the measured sites only), so that a GPU
+machine with nothing but JAX and this repository can train on them::
+
+    python benchmarks/gpu_capacity.py export CAPTURE OUT BUNDLE.npz   # OUT: the pipeline's output (poses)
+    python benchmarks/gpu_capacity.py run BUNDLE.npz RESULTS.json --budget 520 --capacities 32768,262144
+
+``run`` first times training steps of the pure-JAX ``"tiled"`` back-end with the tiles composited one
+after another (``RenderConfig.tile_batch=1``, the baseline) and all at once (``tile_batch=0``) in the same
+process, then trains the pipeline's schedule (:func:`splat.pipeline.train_config`) from the COLMAP points
+at each capacity that still fits the time budget (largest first), and scores each model as the README's
+PSNR table does: render × EXIF exposure against every held-out RAW mosaic's measured sites, peak 1, the
+mean of the per-view, per-channel PSNRs. Results are written after every phase, so a run stopped at its
+limit keeps what it measured. The float16 values quantise the mosaics 91 dB below their peak.
+Figures of one H200 (2026-11-27) are in the README ("Measured" and the PSNR table).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _pack(values: np.ndarray, weight: np.ndarray) -> dict:
+    on = weight > 0
+    return {"vals": values[on].astype(np.float16), "mask": np.packbits(on.reshape(-1)), "shape": on.shape}
+
+
+def _unpack(vals, mask, shape) -> tuple[np.ndarray, np.ndarray]:
+    on = np.unpackbits(mask)[: int(np.prod(shape))].reshape(shape).astype(bool)
+    values = np.zeros(shape, np.float32)
+    values[on] = vals.astype(np.float32)
+    return values, on.astype(np.float32)
+
+
+def _cams(cameras) -> dict:
+    return {
+        "R": np.stack([np.asarray(c.R) for c in cameras]),
+        "t": np.stack([np.asarray(c.t) for c in cameras]),
+        "focal": np.stack([np.asarray(c.focal) for c in cameras]),
+        "principal": np.stack([np.asarray(c.principal) for c in cameras]),
+        "wh": np.array([(c.width, c.height) for c in cameras]),
+    }
+
+
+def export(capture: str, out: str, bundle: str) -> None:
+    """Write the training inputs (no ground truth) and the held-out views' RAW sites to ``bundle``."""
+    from splat.capture import load_views, read_capture
+    from splat.pipeline import PipelineConfig, _load_model_capture, training_inputs
+
+    spec = read_capture(capture)
+    inp = training_inputs(spec, Path(out), PipelineConfig(capacity=1 << 30))  # every COLMAP point
+    cap = inp.capture
+    model, mc = _load_model_capture(spec, Path(out))
+    raws = {v.name: v for v in load_views(spec)}
+    hold = [v for v in mc.views if v.name in set(spec.holdout)]
+    arrays = {f"train_{k}": v for k, v in _pack(np.asarray(inp.images), np.asarray(inp.weights)).items()}
+    arrays |= {f"train_cam_{k}": v for k, v in _cams([v.camera for v in cap.views]).items()}
+    arrays |= {
+        "train_camera_id": np.array([v.camera_id for v in cap.views]),
+        "train_exposure": np.array([v.exposure for v in cap.views]),
+        "bounds": np.asarray(inp.bounds),
+    }
+    # training_inputs drew every point in a seeded random order; undo it, so that ``run`` draws a
+    # capacity's subset and its colours exactly as the pipeline does (_init_points)
+    back = np.argsort(np.random.default_rng(0).permutation(len(inp.points)))
+    xyz, rgb = model.points()
+    lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
+    keep = np.all((xyz >= lo) & (xyz <= hi), axis=1)
+    assert np.array_equal(xyz[keep], np.asarray(inp.points)[back])
+    valid = np.asarray(inp.weights) > 0
+    arrays |= {
+        "points": xyz[keep],
+        "points_rgb": rgb[keep],
+        "level": float(np.median(np.asarray(inp.images)[valid])),
+    }
+    arrays |= {f"hold_cam_{k}": v for k, v in _cams([v.camera for v in hold]).items()}
+    for i, v in enumerate(hold):
+        r = raws[v.name]
+        arrays |= {f"hold{i}_{k}": x for k, x in _pack(r.values, r.weight).items()}
+        arrays[f"hold{i}_meta"] = np.array([r.camera, r.exif])
+    meta = {
+        "channels": {str(k): list(v) for k, v in cap.channels.items()},
+        "labels": list(cap.labels),
+        "train_names": [v.name for v in cap.views],
+        "hold_names": [v.name for v in hold],
+    }
+    np.savez_compressed(bundle, meta=np.array(json.dumps(meta)), **arrays)
+    print(
+        f"{bundle}: {Path(bundle).stat().st_size / 2**20:.1f} MiB, {len(cap.views)} training views, "
+        f"{len(hold)} held out, {len(inp.points)} points"
+    )
+
+
+def _cameras(b, prefix):
+    from splat.camera import Camera
+
+    w = b[f"{prefix}_cam_wh"]
+    return [
+        Camera(
+            b[f"{prefix}_cam_R"][i],
+            b[f"{prefix}_cam_t"][i],
+            b[f"{prefix}_cam_focal"][i],
+            b[f"{prefix}_cam_principal"][i],
+            int(w[i, 0]),
+            int(w[i, 1]),
+        )
+        for i in range(len(w))
+    ]
+
+
+def run(
+    bundle: str,
+    results: str,
+    budget: float,
+    capacities: list[int],
+    steps: int,
+    time_steps: int,
+    method: str,
+    tile_capacity: int = 0,
+    save_model: str | None = None,
+) -> None:
+    import jax
+    import jax.numpy as jnp
+
+    from splat.data import Capture, View
+    from splat.outputs import render_views
+    from splat.rendering import RenderConfig
+    from splat.training import TrainConfig, init_state, train, train_step
+
+    t_start = time.perf_counter()
+    res = {
+        "device": str(jax.devices()[0]),
+        "backend": jax.default_backend(),
+        "jax": jax.__version__,
+        "timing": [],
+        "runs": [],
+    }
+
+    def save():
+        Path(results).write_text(json.dumps(res, indent=1))
+
+    b = np.load(bundle)
+    meta = json.loads(str(b["meta"]))
+    images, weights = _unpack(b["train_vals"], b["train_mask"], tuple(b["train_shape"]))
+    cams = _cameras(b, "train")
+    views = tuple(
+        View(n, c, int(i), float(e))
+        for n, c, i, e in zip(meta["train_names"], cams, b["train_camera_id"], b["train_exposure"])
+    )
+    capture = Capture(views, {int(k): tuple(v) for k, v in meta["channels"].items()}, tuple(meta["labels"]))
+    hold = []
+    for i, (name, cam) in enumerate(zip(meta["hold_names"], _cameras(b, "hold"))):
+        vals, on = _unpack(b[f"hold{i}_vals"], b[f"hold{i}_mask"], tuple(b[f"hold{i}_shape"]))
+        c, exif = b[f"hold{i}_meta"]
+        hold.append((name, cam, int(c), float(exif), vals, on > 0))
+    bounds, points, rgb, level = b["bounds"], b["points"], b["points_rgb"], float(b["level"])
+    res["data"] = {"train": list(images.shape), "held_out": len(hold), "points": len(points)}
+    print(res, flush=True)
+
+    def config(capacity, render, n_steps=steps):  # splat.pipeline.train_config without checkpoints
+        return TrainConfig(
+            steps=n_steps,
+            capacity=capacity,
+            seed=0,
+            densify_from=min(200, n_steps // 5),
+            densify_until=int(0.7 * n_steps),
+            densify_every=max(25, min(100, n_steps // 20)),
+            densify_fraction=0.3,
+            render=render,
+            method=method,
+        )
+
+    def init_points(capacity):  # as splat.pipeline.training_inputs: a random half-capacity subset
+        take = np.random.default_rng(0).permutation(len(points))[: capacity // 2]
+        lum = (rgb[take].astype(float) / 255) ** 2.2
+        lum = lum.mean(1) / max(np.median(lum.mean(1)), 1e-6)
+        return points[take], np.clip(level * lum, 1e-3, 1)[:, None] * np.ones(capture.n_channels)
+
+    def psnr(params, alive, render):
+        out = []
+        for _, cam, c, exif, vals, on in hold:
+            pred = np.asarray(render_views(params, [cam], mask=alive, config=render, method=method)[0])[
+                ..., 3 * c : 3 * c + 3
+            ]
+            pred = np.minimum(pred * exif, 1)
+            for j in range(3):
+                out.append(10 * np.log10(1 / np.mean((pred[..., j] - vals[..., j])[on[..., j]] ** 2)))
+        return float(np.mean(out)), float(np.min(out))
+
+    ims, wts = jnp.asarray(images), jnp.asarray(weights)
+    masks = jnp.asarray(np.stack([capture.channel_mask(v) for v in capture.views]), jnp.float32)
+    extent = float(np.linalg.norm(bounds[1] - bounds[0]))
+
+    def tiles(capacity, tile_batch=0):  # tile capacity: the trained 32 768-Gaussian model needs ≤ 826
+        k = tile_capacity or (1024 if capacity <= 65536 else 2048)
+        return RenderConfig(tile_batch=tile_batch, tile_capacity=k)
+
+    def time_steps_of(capacity, render):
+        cfg = config(capacity, render)
+        pts, cols = init_points(capacity)
+        state = init_state(
+            cfg, bounds=bounds, n_channels=capture.n_channels, points=pts, colours=cols, n_views=len(views)
+        )
+        ts = []
+        for k in range(time_steps + 1):
+            v = k % len(views)
+            t0 = time.perf_counter()
+            state, loss, dropped = train_step(
+                state,
+                views[v].camera,
+                ims[v],
+                wts[v],
+                masks[v],
+                jnp.float32(views[v].exposure),
+                config=cfg,
+                extent=extent,
+            )
+            loss.block_until_ready()
+            ts.append(time.perf_counter() - t0)
+        return {
+            "capacity": capacity,
+            "tile_batch": render.tile_batch,
+            "tile_capacity": render.tile_capacity,
+            "first_step_s": round(ts[0], 2),
+            "step_s_median": round(float(np.median(ts[1:])), 4),
+            "dropped_last": int(dropped),
+            "loss_last": float(loss),
+        }
+
+    # 1. step time: tiles one after another (baseline) and all at once, in the same process
+    lo, hi = min(capacities), max(capacities)
+    for cap_, tb in [(lo, 1), (lo, 0)] + ([(hi, 0)] if hi != lo else []):
+        if time.perf_counter() - t_start > 0.3 * budget:
+            continue
+        try:
+            r = time_steps_of(cap_, tiles(cap_, tb))
+        except Exception as e:  # record it and go on: the run's other phases still measure
+            r = {"capacity": cap_, "tile_batch": tb, "error": f"{type(e).__name__}: {e}"[:500]}
+        res["timing"].append(r)
+        print(r, flush=True)
+        save()
+    known = sorted(
+        (t["capacity"], t["step_s_median"])
+        for t in res["timing"]
+        if t.get("tile_batch") == 0 and "error" not in t
+    )
+
+    def step_time(capacity):  # a power law through the measured capacities (linear from one)
+        if not known:
+            return None
+        (g0, s0), (g1, s1) = known[0], known[-1]
+        k = float(np.clip(np.log(s1 / s0) / np.log(g1 / g0), 0.3, 1.0)) if g1 > g0 else 1.0
+        return s1 * (capacity / g1) ** k
+
+    # 2. train and score the largest capacities that still fit, largest first
+    class OutOfTime(Exception):
+        pass
+
+    for capacity in sorted(capacities, reverse=True):
+        left = budget - (time.perf_counter() - t_start)
+        est = step_time(capacity)
+        if est is None or steps * est * 1.2 + 45 > left:
+            res["runs"].append({"capacity": capacity, "skipped": f"{left:.0f} s left, ≈ {est} s/step"})
+            save()
+            continue
+        render = tiles(capacity)
+        cfg = config(capacity, render)
+        pts, cols = init_points(capacity)
+        marks = {}
+        t0 = time.perf_counter()
+
+        def cb(step, state, loss, t0=t0, marks=marks, capacity=capacity):
+            if step in (1, steps // 2, steps) or step % 500 == 0:
+                marks[step] = (round(time.perf_counter() - t0, 1), float(loss), int(state.alive.sum()))
+                print(capacity, step, marks[step], flush=True)
+            if step % 100 == 0 and time.perf_counter() - t_start > budget:
+                raise OutOfTime(f"stopped at step {step}: past the {budget:.0f} s budget")
+
+        try:
+            out = train(capture, ims, wts, config=cfg, bounds=bounds, points=pts, colours=cols, callback=cb)
+            t_train = time.perf_counter() - t0
+            t1 = time.perf_counter()
+            alive = jnp.asarray(out.alive)
+            mean, low = psnr(out.gaussians, alive, render)
+            run_ = {
+                "capacity": capacity,
+                "steps": steps,
+                "train_s": round(t_train, 1),
+                "step_s_mean": round(t_train / steps, 4),
+                "psnr_heldout_db": round(mean, 2),
+                "psnr_lowest_channel_view_db": round(low, 2),
+                "score_s": round(time.perf_counter() - t1, 1),
+                "alive": int(out.alive.sum()),
+                "dropped_mean_last100": float(np.mean(out.history["n_dropped"][-100:])),
+                "marks": marks,
+            }
+            if save_model and not any("psnr_heldout_db" in r for r in res["runs"]):
+                run_["saved"] = _save_model(out.gaussians, np.asarray(out.alive), Path(save_model), capacity)
+        except Exception as e:
+            run_ = {"capacity": capacity, "error": f"{type(e).__name__}: {e}"[:500], "marks": marks}
+        res["runs"].append(run_)
+        print(run_, flush=True)
+        save()
+    res["total_s"] = round(time.perf_counter() - t_start, 1)
+    save()
+
+
+def _save_model(params, alive, folder: Path, capacity: int, limit: float = 15.5 * 2**20) -> list[str]:
+    """The alive Gaussians, one ``.npy`` per field (centres float32, the rest float16, each under the
+    device tool's 16 MiB per file); fields over the limit are left out and named in the list."""
+    folder.mkdir(parents=True, exist_ok=True)
+    saved = []
+    for k in ("means", "quats", "log_scales", "opacity_logits", "colour_params"):
+        x = np.asarray(getattr(params, k))[alive]
+        x = x.astype(np.float32 if k == "means" else np.float16)
+        if x.nbytes > limit:
+            saved.append(f"{k}: too large ({x.nbytes / 2**20:.1f} MiB), not saved")
+            continue
+        np.save(folder / f"g{capacity}_{k}.npy", x)
+        saved.append(k)
+    return saved
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    e = sub.add_parser("export")
+    e.add_argument("capture"), e.add_argument("out"), e.add_argument("bundle")
+    r = sub.add_parser("run")
+    r.add_argument("bundle"), r.add_argument("results")
+    r.add_argument("--budget", type=float, default=520.0, help="seconds for the whole run")
+    r.add_argument("--capacities", default="32768,262144")
+    r.add_argument("--steps", type=int, default=3000)
+    r.add_argument("--time-steps", type=int, default=10)
+    r.add_argument("--method", default="auto", help="render back-end (auto: tiled on a GPU)")
+    r.add_argument("--tile-capacity", type=int, default=0, help="0: 1024 up to 65 536 Gaussians, else 2048")
+    r.add_argument("--save-model", default=None, help="folder for the largest trained model's Gaussians")
+    a = p.parse_args(argv)
+    if a.cmd == "export":
+        export(a.capture, a.out, a.bundle)
+    else:
+        caps = [int(c) for c in a.capacities.split(",")]
+        run(
+            a.bundle,
+            a.results,
+            a.budget,
+            caps,
+            a.steps,
+            a.time_steps,
+            a.method,
+            a.tile_capacity,
+            a.save_model,
+        )
+
+
+if __name__ == "__main__":
+    sys.exit(main())
