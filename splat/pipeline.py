@@ -568,6 +568,9 @@ def train_step_(
         "init_points": 0 if xyz is None else len(xyz),
         "exposure_factors": {v.name: float(f) for v, f in zip(views, res.exposure_factors)},
         "backend": jax.default_backend(),
+        # Gaussian–tile pairs the "tiled" back-end (on a GPU) left out per step, mean of the last 100
+        # steps (0 with the CPU back-end): above 0, RenderConfig.tile_capacity is too small for the model
+        "dropped_per_step": float(np.mean(res.history["n_dropped"][-100:])) if loss.size else 0.0,
     }
     if tc.refine_poses:
         summary.update(_pose_summary(train_cap, res, float(np.linalg.norm(bounds[1] - bounds[0]))))

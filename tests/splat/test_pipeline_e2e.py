@@ -63,6 +63,8 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     assert _digest(cap) == before  # the capture (RAW files, capture.toml, truth/) is untouched
     poses = json.loads((out / "poses" / "summary.json").read_text())
     assert poses["source"] == "pycolmap" and poses["registered"] >= 0.5 * poses["views"]
+    train = json.loads((out / "train" / "summary.json").read_text())
+    assert train["backend"] == "cpu" and train["dropped_per_step"] == 0.0  # the numba back-end drops none
     assert all(c["registered"] >= 4 for c in poses["cameras"].values())
     index = json.loads((out / "render" / "index.json").read_text())
     held = [k for k, v in index.items() if v["kind"] == "holdout"]
