@@ -20,6 +20,7 @@ Figures of one H200 (2026-11-27) are in the README ("Measured" and the PSNR tabl
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -69,7 +70,7 @@ def export(capture: str, out: str, bundle: str) -> None:
         "bounds": np.asarray(inp.bounds),
     }
     # training_inputs drew every point in a seeded random order; undo it, so that ``run`` draws a
-    # capacity's subset and its colours exactly as the pipeline does (_init_points)
+    # capacity's subset and its colours exactly as the pipeline does (splat.pipeline._initial_points)
     back = np.argsort(np.random.default_rng(0).permutation(len(inp.points)))
     xyz, rgb = model.points()
     lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
@@ -132,8 +133,9 @@ def run(
 
     from splat.data import Capture, View
     from splat.outputs import render_views
+    from splat.pipeline import PipelineConfig, _initial_points, train_config
     from splat.rendering import RenderConfig
-    from splat.training import TrainConfig, init_state, train, train_step
+    from splat.training import init_state, train, train_step
 
     t_start = time.perf_counter()
     res = {
@@ -165,24 +167,12 @@ def run(
     res["data"] = {"train": list(images.shape), "held_out": len(hold), "points": len(points)}
     print(res, flush=True)
 
-    def config(capacity, render, n_steps=steps):  # splat.pipeline.train_config without checkpoints
-        return TrainConfig(
-            steps=n_steps,
-            capacity=capacity,
-            seed=0,
-            densify_from=min(200, n_steps // 5),
-            densify_until=int(0.7 * n_steps),
-            densify_every=max(25, min(100, n_steps // 20)),
-            densify_fraction=0.3,
-            render=render,
-            method=method,
-        )
+    def config(capacity, render):  # the pipeline's train step, without checkpoints
+        tc = train_config(PipelineConfig(steps=steps, capacity=capacity))
+        return dataclasses.replace(tc, render=render, method=method)
 
-    def init_points(capacity):  # as splat.pipeline.training_inputs: a random half-capacity subset
-        take = np.random.default_rng(0).permutation(len(points))[: capacity // 2]
-        lum = (rgb[take].astype(float) / 255) ** 2.2
-        lum = lum.mean(1) / max(np.median(lum.mean(1)), 1e-6)
-        return points[take], np.clip(level * lum, 1e-3, 1)[:, None] * np.ones(capture.n_channels)
+    def init_points(capacity):
+        return _initial_points(points, rgb, level, capacity, capture.n_channels)
 
     def psnr(params, alive, render):
         out = []

@@ -450,13 +450,18 @@ def training_inputs(
     level = float(np.median(images[valid])) if valid.any() else 0.2
     colours = None
     if xyz is not None:
-        rng = np.random.default_rng(config.seed)
-        take = rng.permutation(len(xyz))[: config.capacity // 2]
-        xyz, rgb = xyz[take], rgb[take]
-        lum = (rgb.astype(float) / 255) ** 2.2
-        lum = lum.mean(1) / max(np.median(lum.mean(1)), 1e-6)
-        colours = np.clip(level * lum, 1e-3, 1)[:, None] * np.ones(N)
+        xyz, colours = _initial_points(xyz, rgb, level, config.capacity, N, seed=config.seed)
     return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours)
+
+
+def _initial_points(xyz, rgb, level: float, capacity: int, n_channels: int, *, seed: int = 0):
+    """The Gaussians' starting centres and colours: a seeded random half-capacity subset of the COLMAP
+    points, each grey at the median measured value ``level`` scaled by its preview luminance relative to
+    the subset's median. Returns ``(xyz (P, 3), colours (P, n_channels))``."""
+    take = np.random.default_rng(seed).permutation(len(xyz))[: capacity // 2]
+    lum = (np.asarray(rgb)[take].astype(float) / 255) ** 2.2
+    lum = lum.mean(1) / max(np.median(lum.mean(1)), 1e-6)
+    return np.asarray(xyz)[take], np.clip(level * lum, 1e-3, 1)[:, None] * np.ones(n_channels)
 
 
 def train_config(config: PipelineConfig, checkpoint: Path | None = None):
