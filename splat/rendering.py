@@ -83,18 +83,17 @@ class RenderConfig:
         Gaussians composited per tile at most (tiled back-end); the excess (the deepest) is dropped and
         counted. 2048 holds what the benchmark capture needs up to ≈ 262 144 Gaussians (its trained
         32 768-Gaussian model has ≤ 826 per tile; at 262 144, 2048 dropped 83 k Gaussian–tile pairs per
-        view and the model scored as expected, while 1 M Gaussians lost 3 dB to drops). With all tiles
-        at once (GPU) the cost grows with it: 0.043 s per training step at 2048, 0.078 at 4096 (H200).
+        view and the model scored as expected; 1 M Gaussians dropped 1.4 M and scored 2.7 dB lower).
     chunk : int
         Gaussians composited per scan step (memory ∝ pixels × chunk).
     tile_batch : int or None
-        Tiles the tiled back-end composites at once (``jax.lax.map``'s ``batch_size``): 1 runs them one
-        after another (least memory; chunks past a tile's last Gaussian are skipped), 0 all at once
-        (one vectorised scan over the chunks), anything between in batches. ``None`` (default): all at
-        once on a GPU, one at a time on the CPU. On an H200 a benchmark-size training step (one
+        Tiles the tiled back-end composites together in one scan over the chunks: 1 one tile after
+        another (least memory), 0 all at once, anything between in batches. A batch skips the chunks past
+        its deepest tile's last Gaussian and those after all its pixels saturated. ``None`` (default):
+        all at once on a GPU, one at a time on the CPU. On an H200 a benchmark-size training step (one
         510 × 360 view) took 0.024 s with all tiles at once against 1.98 s one at a time (32 768
-        Gaussians, ``tile_capacity`` 1024; 0.043 against 3.98 s at 262 144 Gaussians and 2048); on
-        the CPU one at a time is the faster (8.5× at 1024 Gaussians), and ``"cpu"`` faster still.
+        Gaussians, ``tile_capacity`` 1024; 0.043 against 3.98 s at 262 144 Gaussians and 2048, 0.078 at
+        4096 — measured before batches skipped chunks, when all-at-once cost grew with the capacity).
     """
 
     near: float = 0.01
@@ -251,57 +250,61 @@ def project(
 
 
 def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig) -> jax.Array:
-    """Alpha of K Gaussians at P pixels, shape (P, K) (px (P, 2); means2d (K, 2); conics (K, 3))."""
-    d = px[:, None, :] - means2d[None, :, :]  # [P, K, 2]
+    """Alpha of K Gaussians at P pixels, shape (..., P, K) (px (..., P, 2); means2d (..., K, 2); conics
+    (..., K, 3); opacities (..., K); the leading axes, e.g. tiles, broadcast)."""
+    d = px[..., :, None, :] - means2d[..., None, :, :]  # [..., P, K, 2]
     dx, dy = d[..., 0], d[..., 1]
-    q = conics[:, 0] * dx * dx + 2 * conics[:, 1] * dx * dy + conics[:, 2] * dy * dy  # [P, K]
+    c = conics[..., None, :, :]
+    q = c[..., 0] * dx * dx + 2 * c[..., 1] * dx * dy + c[..., 2] * dy * dy  # [..., P, K]
     inside = q <= config.sigma_cutoff**2
     qs = jnp.where(inside, q, 0.0)
-    alpha = jnp.minimum(config.alpha_max, opacities * jnp.exp(-0.5 * qs))
+    alpha = jnp.minimum(config.alpha_max, opacities[..., None, :] * jnp.exp(-0.5 * qs))
     return jnp.where(inside & (alpha >= config.alpha_min), alpha, 0.0)
 
 
 def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_used=None):
     """Front-to-back compositing of K depth-ordered Gaussians at P pixels, chunk by chunk.
 
-    Parameters: px (P, 2); means2d (K, 2); conics (K, 3); opacities (K,); colours (K, k);
-    K must be a multiple of ``config.chunk``. Returns colour (P, k) and transmittance (P,).
-    ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)`` (Kerbl et al. 2023, eq. 3), products kept as sums of logs.
+    Parameters: px (..., P, 2); means2d (..., K, 2); conics (..., K, 3); opacities (..., K); colours
+    (..., K, k); n_used (...) or None; the leading axes (a batch of tiles) share one scan over the
+    chunks. K must be a multiple of ``config.chunk``. Returns colour (..., P, k) and transmittance
+    (..., P). ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)`` (Kerbl et al. 2023, eq. 3), products kept as sums of
+    logs. A chunk is skipped when every pixel of the batch is saturated or every tile is past its
+    last Gaussian.
     """
-    K, N = colours.shape
+    *lead, K, N = colours.shape
     ch = config.chunk
-    xs = (
-        means2d.reshape(K // ch, ch, 2),
-        conics.reshape(K // ch, ch, 3),
-        opacities.reshape(K // ch, ch),
-        colours.reshape(K // ch, ch, N),
-    )
 
+    def chunks(x):  # [..., K, *rest] -> [K // ch, ..., ch, *rest]
+        return jnp.moveaxis(x.reshape(*lead, K // ch, ch, *x.shape[len(lead) + 1 :]), len(lead), 0)
+
+    xs = (chunks(means2d), chunks(conics), chunks(opacities), chunks(colours))
     log_tmin = float(np.log(config.transmittance_min)) if config.transmittance_min > 0 else -np.inf
+    last = None if n_used is None else jnp.max(n_used)
 
     def blend(carry, g):
         logT, C = carry
-        alpha = _alpha(px, g[0], g[1], g[2], config)  # [P, ch]
+        alpha = _alpha(px, g[0], g[1], g[2], config)  # [..., P, ch]
         if config.transmittance_min > 0:  # saturated pixels stop (per chunk), as 3DGS does
-            alpha = jnp.where((logT > log_tmin)[:, None], alpha, 0.0)
+            alpha = jnp.where((logT > log_tmin)[..., None], alpha, 0.0)
         l1m = jnp.log1p(-alpha)
         cum = jnp.cumsum(l1m, axis=-1)
-        w = alpha * jnp.exp(logT[:, None] + cum - l1m)
-        return logT + cum[:, -1], C + w @ g[3]
+        w = alpha * jnp.exp(logT[..., None] + cum - l1m)
+        return logT + cum[..., -1], C + w @ g[3]
 
     @jax.checkpoint
     def step(carry, g):
         if n_used is None and config.transmittance_min <= 0:
             return blend(carry, g[1:]), None
-        # chunks past the last used Gaussian, or when every pixel is saturated, are skipped
-        # (a real branch under scan and lax.map one tile at a time; batched tiles turn it into a select)
+        # a real branch under scan and lax.map (one predicate for the whole batch of tiles; under an
+        # outer vmap it turns into a select)
         go = jnp.any(carry[0] > log_tmin)
-        if n_used is not None:
-            go = go & (g[0] * ch < n_used)
+        if last is not None:
+            go = go & (g[0] * ch < last)
         return jax.lax.cond(go, blend, lambda c, _: c, carry, g[1:]), None
 
-    P = px.shape[0]
-    init = (jnp.zeros((P,), colours.dtype), jnp.zeros((P, N), colours.dtype))
+    P = px.shape[-2]
+    init = (jnp.zeros((*lead, P), colours.dtype), jnp.zeros((*lead, P, N), colours.dtype))
     (logT, C), _ = jax.lax.scan(step, init, (jnp.arange(K // ch), *xs))
     return C, jnp.exp(logT)
 
@@ -391,11 +394,17 @@ def render_tiled(
     batch = config.tile_batch
     if batch is None:  # a GPU runs one vectorised scan far faster; the CPU skips chunks tile by tile
         batch = 1 if jax.default_backend() == "cpu" else 0
-    batch = px.shape[0] if batch == 0 else min(batch, px.shape[0])
-    C, T = jax.lax.map(
-        lambda a: _composite(*a[:-1], config, n_used=a[-1]),
-        (px, means2d, conics, opac, colours, used),
-        batch_size=None if batch == 1 else batch,
+    n = px.shape[0]
+    batch = n if batch == 0 else min(batch, n)
+    nb = -(-n // batch)  # batches of tiles, composited together; the last padded with empty tiles
+    xs = tuple(
+        _pad(x, nb * batch).reshape(nb, batch, *x.shape[1:])
+        for x in (px, means2d, conics, opac, colours, used)
+    )
+    C, T = jax.lax.map(lambda a: _composite(*a[:-1], config, n_used=a[-1]), xs)
+    C, T = (
+        C.reshape(nb * batch, *C.shape[2:])[:n],
+        T.reshape(nb * batch, -1)[:n],
     )  # [n_tiles, s*s, k], [n_tiles, s*s]
     C = C + config.background * T[..., None]
 
