@@ -54,10 +54,10 @@ def _cams(cameras) -> dict:
 def export(capture: str, out: str, bundle: str) -> None:
     """Write the training inputs (no ground truth) and the held-out views' RAW sites to ``bundle``."""
     from splat.capture import load_views, read_capture
-    from splat.pipeline import PipelineConfig, _load_model_capture, training_inputs
+    from splat.pipeline import _load_model_capture, _scene_points, training_inputs
 
     spec = read_capture(capture)
-    inp = training_inputs(spec, Path(out), PipelineConfig(capacity=1 << 30))  # every COLMAP point
+    inp = training_inputs(spec, Path(out))
     cap = inp.capture
     model, mc = _load_model_capture(spec, Path(out))
     raws = {v.name: v for v in load_views(spec)}
@@ -69,19 +69,11 @@ def export(capture: str, out: str, bundle: str) -> None:
         "train_exposure": np.array([v.exposure for v in cap.views]),
         "bounds": np.asarray(inp.bounds),
     }
-    # training_inputs drew every point in a seeded random order; undo it, so that ``run`` draws a
-    # capacity's subset and its colours exactly as the pipeline does (splat.pipeline._initial_points)
-    back = np.argsort(np.random.default_rng(0).permutation(len(inp.points)))
-    xyz, rgb = model.points()
-    lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
-    keep = np.all((xyz >= lo) & (xyz <= hi), axis=1)
-    assert np.array_equal(xyz[keep], np.asarray(inp.points)[back])
+    # every point the pipeline may start from, in its order: run draws a capacity's subset and colours
+    # as training_inputs does (splat.pipeline._initial_points)
+    xyz, rgb, _ = _scene_points(model, [v.camera for v in cap.views])
     valid = np.asarray(inp.weights) > 0
-    arrays |= {
-        "points": xyz[keep],
-        "points_rgb": rgb[keep],
-        "level": float(np.median(np.asarray(inp.images)[valid])),
-    }
+    arrays |= {"points": xyz, "points_rgb": rgb, "level": float(np.median(np.asarray(inp.images)[valid]))}
     arrays |= {f"hold_cam_{k}": v for k, v in _cams([v.camera for v in hold]).items()}
     for i, v in enumerate(hold):
         r = raws[v.name]
@@ -96,7 +88,7 @@ def export(capture: str, out: str, bundle: str) -> None:
     np.savez_compressed(bundle, meta=np.array(json.dumps(meta)), **arrays)
     print(
         f"{bundle}: {Path(bundle).stat().st_size / 2**20:.1f} MiB, {len(cap.views)} training views, "
-        f"{len(hold)} held out, {len(inp.points)} points"
+        f"{len(hold)} held out, {len(xyz)} points"
     )
 
 

@@ -434,24 +434,27 @@ def training_inputs(
         c = v.camera
         padded.append(type(v)(v.name, Camera(c.R, c.t, c.focal, c.principal, W, H), v.camera_id, v.exposure))
     train_cap = Capture(tuple(padded), cap.channels, cap.labels)
-    xyz, rgb = model.points()
-    centres = np.array([np.asarray(v.camera.centre) for v in views])
-    if len(xyz) >= 8:
-        lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
-        keep = np.all((xyz >= lo) & (xyz <= hi), axis=1)
-        xyz, rgb = xyz[keep], rgb[keep]
-        pad = 0.1 * (hi - lo)
-        bounds = np.stack([lo - pad, hi + pad])
-    else:
-        lo, hi = centres.min(0), centres.max(0)
-        bounds = np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
-        xyz = rgb = None
+    xyz, rgb, bounds = _scene_points(model, [v.camera for v in views])
     valid = weights > 0
     level = float(np.median(images[valid])) if valid.any() else 0.2
     colours = None
     if xyz is not None:
         xyz, colours = _initial_points(xyz, rgb, level, config.capacity, N, seed=config.seed)
     return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours)
+
+
+def _scene_points(model, cameras):
+    """The COLMAP points inside the 2–98th percentile box of each coordinate, their preview colours and
+    the scene's bounds (that box, padded by 10 %); with fewer than 8 points, ``(None, None, bounds)``
+    around the camera centres."""
+    xyz, rgb = model.points()
+    if len(xyz) >= 8:
+        lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
+        keep = np.all((xyz >= lo) & (xyz <= hi), axis=1)
+        return xyz[keep], rgb[keep], np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
+    centres = np.array([np.asarray(c.centre) for c in cameras])
+    lo, hi = centres.min(0), centres.max(0)
+    return None, None, np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
 
 
 def _initial_points(xyz, rgb, level: float, capacity: int, n_channels: int, *, seed: int = 0):
