@@ -15,6 +15,9 @@ PSNR table does: render × EXIF exposure against every held-out RAW mosaic's mea
 mean of the per-view, per-channel PSNRs. Results are written after every phase, so a run stopped at its
 limit keeps what it measured. The float16 values quantise the mosaics 91 dB below their peak.
 Figures of one H200 (2026-11-27) are in the README ("Measured" and the PSNR table).
+
+``--set FIELD=VALUE`` (repeatable) overrides a :class:`splat.TrainConfig` field of that schedule, e.g.
+``--set densify_gradient=screen --set densify_fraction=0.5``; the overrides are written to the results.
 """
 
 from __future__ import annotations
@@ -119,6 +122,7 @@ def run(
     method: str,
     tile_capacity: int = 0,
     save_model: str | None = None,
+    overrides: dict | None = None,
 ) -> None:
     import jax
     import jax.numpy as jnp
@@ -136,6 +140,7 @@ def run(
         "jax": jax.__version__,
         "timing": [],
         "runs": [],
+        "train_overrides": overrides or {},
     }
 
     def save():
@@ -161,7 +166,7 @@ def run(
 
     def config(capacity, render):  # the pipeline's train step, without checkpoints
         tc = train_config(PipelineConfig(steps=steps, capacity=capacity))
-        return dataclasses.replace(tc, render=render, method=method)
+        return dataclasses.replace(tc, render=render, method=method, **(overrides or {}))
 
     def init_points(capacity):
         return _initial_points(points, rgb, level, capacity, capture.n_channels)
@@ -311,6 +316,26 @@ def _save_model(params, alive, folder: Path, capacity: int, limit: float = 15.5 
     return saved
 
 
+def _overrides(items: list[str]) -> dict:
+    """``--set FIELD=VALUE`` pairs as :class:`splat.TrainConfig` overrides of the pipeline's schedule
+    (VALUE parsed as JSON where it is, else kept as a string); checked here, before any timing."""
+    from splat.training import TrainConfig
+
+    fixed = {"steps", "capacity", "render", "method", "checkpoint"}  # set by the other options
+    names = sorted({f.name for f in dataclasses.fields(TrainConfig)} - fixed)
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or key not in names:
+            raise SystemExit(f"--set {item!r}: expected FIELD=VALUE with FIELD one of {', '.join(names)}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    dataclasses.replace(TrainConfig(), **out)  # a bad value fails now (SplatError names it)
+    return out
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -325,6 +350,13 @@ def main(argv=None) -> None:
     r.add_argument("--method", default="auto", help="render back-end (auto: tiled on a GPU)")
     r.add_argument("--tile-capacity", type=int, default=0, help="0: 1024 up to 65 536 Gaussians, else 2048")
     r.add_argument("--save-model", default=None, help="folder for the largest trained model's Gaussians")
+    r.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="override a TrainConfig field of the pipeline's schedule, e.g. densify_gradient=screen",
+    )
     a = p.parse_args(argv)
     if a.cmd == "export":
         export(a.capture, a.out, a.bundle)
@@ -340,6 +372,7 @@ def main(argv=None) -> None:
             a.method,
             a.tile_capacity,
             a.save_model,
+            _overrides(a.set),
         )
 
 

@@ -121,6 +121,14 @@ class TrainConfig:
         4.08 | 0.724, novel views 5.83 | 0.594 → 6.01 | 0.647, render only 5.44 | 2.16 → 5.63 | 1.90):
         the dark cell borders, which the fused estimate takes from the render, lost weight. Hence the
         default; raise it for PSNR, not for colour.
+    densify_gradient : {"world", "screen"}
+        The positional gradient that ranks Gaussians for densification: ``"world"`` (the default) the
+        norm of ∂L/∂(3-D centre); ``"screen"`` the norm of ∂L/∂(the centre's pixel position), as
+        3DGS ranks them — from the camera-frame gradient, ``g_xy · z / f`` (the projection's Jacobian at
+        fixed depth), so that a Gaussian twice as far, covering the same pixels, ranks the same instead
+        of half as high. Benchmark capture (3000 steps, 32 768 Gaussians, same cost): held-out PSNR
+        30.55 → 30.67 dB; the far half of the images (upper quarter 28.19 → 28.75 dB) gains what the near
+        half loses (31.41 → 31.11): the buffer is shared, so the ranking moves Gaussians to the far half.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -171,6 +179,7 @@ class TrainConfig:
     prune_opacity: float = 0.005
     recycle_opacity: float = 0.05
     loss_offset: float = 1e-3
+    densify_gradient: str = "world"
     method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
@@ -200,6 +209,10 @@ class TrainConfig:
         if not isinstance(o, int | float) or not np.isfinite(o) or o <= 0:
             raise SplatError(
                 f"TrainConfig.loss_offset={o!r}: must be a finite number > 0 (rawnerf_loss's ε)."
+            )
+        if self.densify_gradient not in ("world", "screen"):
+            raise SplatError(
+                f"TrainConfig.densify_gradient={self.densify_gradient!r}: choose 'world' or 'screen'."
             )
         r = self.recycle_opacity
         if not isinstance(r, int | float) or not 0 <= r < 1:
@@ -410,7 +423,14 @@ def train_step(
     )
     updates, opt_state = _optimiser(config, extent).update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)
-    gnorm = jnp.linalg.norm(grads.means, axis=-1)
+    if config.densify_gradient == "screen":
+        # ∂L/∂(pixel position of the centre) from the camera-frame gradient: g_px = g_cam,xy · z / f
+        # (the projection's Jacobian at fixed depth; the path through the 2-D covariance is left out)
+        g_cam = grads.means @ camera.R.T
+        z = jnp.maximum((state.params.means @ camera.R.T + camera.t)[:, 2], 1e-6)
+        gnorm = jnp.linalg.norm(g_cam[:, :2] * z[:, None] / camera.focal, axis=-1)
+    else:
+        gnorm = jnp.linalg.norm(grads.means, axis=-1)
     seen = gnorm > 0
     new = {}
     if refine:

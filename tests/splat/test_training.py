@@ -251,8 +251,39 @@ def test_train_step_weighs_errors_with_the_configured_loss_offset(scene):
         {"loss_offset": 0.0},
         {"loss_offset": -1e-3},
         {"loss_offset": float("inf")},
+        {"densify_gradient": "pixels"},
     ],
 )
 def test_rate_and_recycling_options_are_checked(bad):
     with pytest.raises(SplatError, match=next(iter(bad))):
         TrainConfig(**bad)
+
+
+def test_screen_gradient_does_not_favour_near_gaussians():
+    """``densify_gradient="screen"`` ranks Gaussians by the gradient of their pixel position: a
+    Gaussian twice as far and twice as large projects to the same 2-D Gaussian and gets the same
+    statistic, while the world-space gradient of its centre halves."""
+    from splat import look_at, train_step
+
+    cam = look_at((0, -3, 0), (0, 0, 0), width=24, height=24)
+    img = jnp.zeros((24, 24, 3)).at[8:14, 10:16].set(0.4)
+    w, mask = jnp.ones((24, 24, 3)), jnp.ones(3)
+    near = np.array([0.05, 0.0, 0.03])
+    eye = np.array([0.0, -3.0, 0.0])
+    stats = {}
+    for kind in ("world", "screen"):
+        cfg = tiny(2, capacity=1, densify_gradient=kind)
+        for d in (1.0, 2.0):
+            st = init_state(cfg, bounds=np.array([[-1.0, -1, -1], [1, 1, 1]]), n_channels=3, n_init=1)
+            p = dataclasses.replace(
+                st.params,
+                means=jnp.asarray([eye + d * (near - eye)], jnp.float32),
+                log_scales=jnp.asarray([[np.log(0.08 * d), np.log(0.03 * d), np.log(0.05 * d)]], jnp.float32),
+                opacity_logits=jnp.zeros(1),
+                colour_params=jnp.zeros((1, 3)),
+            )
+            st, _, _ = train_step(st._replace(params=p), cam, img, w, mask, 1.0, config=cfg, extent=1.0)
+            stats[kind, d] = float(st.grad_accum[0])
+    assert stats["screen", 1.0] > 0
+    np.testing.assert_allclose(stats["screen", 2.0], stats["screen", 1.0], rtol=1e-3)
+    np.testing.assert_allclose(stats["world", 2.0], 0.5 * stats["world", 1.0], rtol=1e-3)
