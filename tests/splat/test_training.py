@@ -287,3 +287,16 @@ def test_screen_gradient_does_not_favour_near_gaussians():
     assert stats["screen", 1.0] > 0
     np.testing.assert_allclose(stats["screen", 2.0], stats["screen", 1.0], rtol=1e-3)
     np.testing.assert_allclose(stats["world", 2.0], 0.5 * stats["world", 1.0], rtol=1e-3)
+
+
+def test_gpu_capacity_schedule_overrides_are_checked_before_any_work():
+    from benchmarks.gpu_capacity import _overrides
+
+    got = _overrides(["densify_gradient=world", "densify_fraction=0.5", "refine_exposure=true"])
+    assert got == {"densify_gradient": "world", "densify_fraction": 0.5, "refine_exposure": True}
+    with pytest.raises(SystemExit, match="FIELD=VALUE"):
+        _overrides(["capacity=5"])  # set by --capacities
+    with pytest.raises(SystemExit, match="FIELD=VALUE"):
+        _overrides(["densify_gradient"])
+    with pytest.raises(SplatError, match="densify_gradient"):
+        _overrides(["densify_gradient=pixel"])
