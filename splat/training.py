@@ -127,11 +127,11 @@ class TrainConfig:
         from the camera-frame gradient, ``g_xy · z / f`` (the projection's Jacobian at fixed depth), so
         that a Gaussian twice as far, covering the same pixels, ranks the same; ``"world"`` (the old
         default) the norm of ∂L/∂(3-D centre), which ranks it half as high. Benchmark capture (3000
-        steps, 32 768 Gaussians, same cost): held-out PSNR 30.55 → 30.67 dB (the upper, far quarter of
-        the images 28.19 → 28.75 dB, the lower half 31.41 → 31.11: the buffer is shared, so the ranking
-        moves Gaussians to the far part); three cameras, Prior, the 12 held-out views, ΔE00 all | flat
-        pixels: fused 3.90 | 0.670 → 3.84 | 0.684, novel views 5.83 | 0.594 → 5.67 | 0.577, render
-        only 5.44 | 2.16 → 5.35 | 2.16.
+        steps, 32 768 Gaussians, same cost): held-out PSNR 30.55 → 30.67 dB (image quarters, top to
+        bottom, 28.19 / 28.00 / 31.41 / 31.25 → 28.75 / 27.97 / 31.11 / 31.15 dB: the buffer is shared,
+        so the ranking moves Gaussians to the far part; 131 072 Gaussians: 31.83 → 31.88 dB); three
+        cameras, Prior, the 12 held-out views, ΔE00 all | flat pixels: fused 3.90 | 0.670 → 3.84 |
+        0.684, novel views 5.83 | 0.594 → 5.67 | 0.577, render only 5.44 | 2.16 → 5.35 | 2.16.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
