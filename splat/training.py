@@ -430,7 +430,7 @@ def train_step(
         # ∂L/∂(pixel position of the centre) from the camera-frame gradient: g_px = g_cam,xy · z / f
         # (the projection's Jacobian at fixed depth; the path through the 2-D covariance is left out)
         g_cam = grads.means @ camera.R.T
-        z = jnp.maximum((state.params.means @ camera.R.T + camera.t)[:, 2], 1e-6)
+        z = jnp.maximum(state.params.means @ camera.R[2] + camera.t[2], 1e-6)  # depth: the third row only
         gnorm = jnp.linalg.norm(g_cam[:, :2] * z[:, None] / camera.focal, axis=-1)
     else:
         gnorm = jnp.linalg.norm(grads.means, axis=-1)
