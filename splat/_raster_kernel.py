@@ -9,7 +9,8 @@ split that gsplat's CUDA rasteriser makes (projection differentiated by JAX, ras
 - :func:`forward` composites each pixel (``C = Σ c_i α_i T_i``, ``T_{i+1} = T_i (1 − α_i)``) and keeps
   its final transmittance and the number of list entries it went through;
 - :func:`backward` walks each tile's list back to front, recovering ``T_i = T_{i+1} / (1 − α_i)`` per
-  pixel, and returns ∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C and ∂L/∂T.
+  pixel, and returns ∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C and ∂L/∂T, and on request
+  the sum over pixels of each pixel's |∂L/∂means2d| (AbsGS' densification statistic).
 
 Both visit a tile Gaussian by Gaussian (in depth order, or its reverse) and each Gaussian only over the
 pixels of its cut-off box: most Gaussians listed for a 16 × 16 tile cover a few of its pixels, so this
@@ -192,9 +193,14 @@ def forward(
 @njit(parallel=True, cache=True)
 def backward(
     means2d, conics, opac, colours, extents, offsets, ids, T, n_done, gC, gT, H, W, s, cut2, alpha_min,
-    alpha_max,
+    alpha_max, absgrad,
 ):  # fmt: skip
     """∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C (H, W, k) and ∂L/∂T (H, W).
+
+    Returns an array (G, 8 + k): columns 0–1 ∂L/∂means2d, 2–4 ∂L/∂conics, 5 ∂L/∂opacity, then k
+    columns ∂L/∂colours and, when ``absgrad`` is true, two columns ``Σ_p |∂L_p/∂means2d|`` per axis (each
+    pixel's contribution taken absolutely before the sum, so that contributions of opposite sign over a
+    textured footprint do not cancel; Ye et al. 2024), zeros otherwise.
 
     For pixel p and its i-th Gaussian, with ``S_i = Σ_{j>i} c_j α_j T_j`` and ``T_f`` the final
     transmittance: ``∂C/∂c_i = α_i T_i``, ``∂C/∂α_i = c_i T_i − S_i / (1 − α_i)``,
@@ -206,10 +212,10 @@ def backward(
     nx = (W + s - 1) // s
     nt = offsets.shape[0] - 1
     per = (nt + N_BLOCKS - 1) // N_BLOCKS
-    buf = np.zeros((N_BLOCKS, G, 6 + k))  # dmx, dmy, da, db, dc, do, dcolours
+    buf = np.zeros((N_BLOCKS, G, 8 + k))  # dmx, dmy, da, db, dc, do, dcolours, |dmx|, |dmy|
     for blk in prange(N_BLOCKS):
         out = buf[blk]
-        d = np.zeros(6 + k)
+        d = np.zeros(8 + k)
         for t in range(blk * per, min(nt, (blk + 1) * per)):
             ty, tx = t // nx, t % nx
             x0, y0 = tx * s, ty * s
@@ -257,15 +263,20 @@ def backward(
                             continue
                         d[5] += d_alpha * gauss
                         dq = -0.5 * alpha * d_alpha
-                        d[0] -= dq * 2.0 * (a * dx + b * dy)
-                        d[1] -= dq * 2.0 * (b * dx + c * dy)
+                        gmx = dq * 2.0 * (a * dx + b * dy)
+                        gmy = dq * 2.0 * (b * dx + c * dy)
+                        d[0] -= gmx
+                        d[1] -= gmy
+                        if absgrad:
+                            d[6 + k] += abs(gmx)
+                            d[7 + k] += abs(gmy)
                         d[2] += dq * dx * dx
                         d[3] += dq * 2.0 * dx * dy
                         d[4] += dq * dy * dy
                 if hit:
-                    for j in range(6 + k):
+                    for j in range(8 + k):
                         out[g, j] += d[j]
-    total = np.zeros((G, 6 + k))
+    total = np.zeros((G, 8 + k))
     for blk in range(N_BLOCKS):
         total += buf[blk]
     return total

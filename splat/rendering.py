@@ -23,6 +23,8 @@ References
 ----------
 Kerbl, B., Kopanas, G., Leimkühler, T., Drettakis, G. (2023). 3D Gaussian Splatting for Real-Time
 Radiance Field Rendering. ACM TOG 42(4). Eqs. (2)–(6).
+Ye, Z., Li, W., Liu, S., Qiao, P., Dou, Y. (2024). AbsGS: Recovering Fine Details for 3D Gaussian
+Splatting. ACM Multimedia 2024. Sec. 3.2 (the absolute gradient of ``absgrad_probe``).
 Zwicker, M., Pfister, H., van Baar, J., Gross, M. (2002). EWA splatting. IEEE TVCG 8(3). Eq. (31).
 """
 
@@ -250,10 +252,23 @@ def project(
     )
 
 
-def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig) -> jax.Array:
+@jax.custom_vjp
+def _abs_tap(d, probe):
+    """``d`` unchanged; the gradient reaching ``probe`` (``d``'s shape with the pixel axis −3 of size 1)
+    is the sum over pixels of the absolute gradient of ``d`` (AbsGS' statistic, see :func:`render`)."""
+    return d
+
+
+_abs_tap.defvjp(lambda d, probe: (d, None), lambda _, g: (g, jnp.sum(jnp.abs(g), axis=-3, keepdims=True)))
+
+
+def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig, probe=None) -> jax.Array:
     """Alpha of K Gaussians at P pixels, shape (..., P, K) (px (..., P, 2); means2d (..., K, 2); conics
-    (..., K, 3); opacities (..., K); the leading axes, e.g. tiles, broadcast)."""
+    (..., K, 3); opacities (..., K); the leading axes, e.g. tiles, broadcast). ``probe`` (..., K, 2),
+    if given, receives the absolute per-pixel gradients of the centres (:func:`_abs_tap`)."""
     d = px[..., :, None, :] - means2d[..., None, :, :]  # [..., P, K, 2]
+    if probe is not None:
+        d = _abs_tap(d, probe[..., None, :, :])
     dx, dy = d[..., 0], d[..., 1]
     c = conics[..., None, :, :]
     q = c[..., 0] * dx * dx + 2 * c[..., 1] * dx * dy + c[..., 2] * dy * dy  # [..., P, K]
@@ -263,11 +278,12 @@ def _alpha(px: jax.Array, means2d, conics, opacities, config: RenderConfig) -> j
     return jnp.where(inside & (alpha >= config.alpha_min), alpha, 0.0)
 
 
-def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_used=None):
+def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_used=None, probe=None):
     """Front-to-back compositing of K depth-ordered Gaussians at P pixels, chunk by chunk.
 
     Parameters: px (..., P, 2); means2d (..., K, 2); conics (..., K, 3); opacities (..., K); colours
-    (..., K, k); n_used (...) or None; the leading axes (a batch of tiles) share one scan over the
+    (..., K, k); n_used (...) or None; probe (..., K, 2) or None (see :func:`_alpha`); the leading
+    axes (a batch of tiles) share one scan over the
     chunks. K must be a multiple of ``config.chunk``. Returns colour (..., P, k) and transmittance
     (..., P). ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)`` (Kerbl et al. 2023, eq. 3), products kept as sums of
     logs. A chunk is skipped when every pixel of the batch is saturated or every tile is past its
@@ -280,12 +296,14 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
         return jnp.moveaxis(x.reshape(*lead, K // ch, ch, *x.shape[len(lead) + 1 :]), len(lead), 0)
 
     xs = (chunks(means2d), chunks(conics), chunks(opacities), chunks(colours))
+    if probe is not None:
+        xs = (*xs, chunks(probe))
     log_tmin = float(np.log(config.transmittance_min)) if config.transmittance_min > 0 else -np.inf
     last = None if n_used is None else jnp.max(n_used)
 
     def blend(carry, g):
         logT, C = carry
-        alpha = _alpha(px, g[0], g[1], g[2], config)  # [..., P, ch]
+        alpha = _alpha(px, g[0], g[1], g[2], config, probe=g[4] if len(g) > 4 else None)  # [..., P, ch]
         if config.transmittance_min > 0:  # saturated pixels stop (per chunk), as 3DGS does
             alpha = jnp.where((logT > log_tmin)[..., None], alpha, 0.0)
         l1m = jnp.log1p(-alpha)
@@ -315,9 +333,9 @@ def _pad(x, n, value=0.0):
     return jnp.pad(x, pad, constant_values=value)
 
 
-def _sorted(pj: Projected) -> Projected:
+def _sorted(pj: Projected, probe=None) -> tuple[Projected, jax.Array | None]:
     order = jnp.argsort(jnp.where(pj.valid, pj.depths, jnp.inf))
-    return Projected(*(x[order] for x in pj))
+    return Projected(*(x[order] for x in pj)), None if probe is None else probe[order]
 
 
 @partial(jax.jit, static_argnames=("config",))
@@ -327,19 +345,26 @@ def render_reference(
     *,
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
+    absgrad_probe: jax.Array | None = None,
 ) -> RenderOutput:
     """Exact reference back-end: all Gaussians at every pixel (slow twin of :func:`render_tiled`).
 
     Same parameters and result as :func:`render`.
     """
-    pj = _sorted(project(gaussians, camera, config=config, mask=mask))
+    pj, probe = _sorted(project(gaussians, camera, config=config, mask=mask), absgrad_probe)
     H, W = camera.height, camera.width
     G = gaussians.n
     K = -(-G // config.chunk) * config.chunk
     yy, xx = jnp.meshgrid(jnp.arange(H), jnp.arange(W), indexing="ij")
     px = jnp.stack([xx, yy], -1).reshape(-1, 2).astype(pj.means2d.dtype) + 0.5
     C, T = _composite(
-        px, _pad(pj.means2d, K, -1e6), _pad(pj.conics, K), _pad(pj.opacities, K), _pad(pj.colours, K), config
+        px,
+        _pad(pj.means2d, K, -1e6),
+        _pad(pj.conics, K),
+        _pad(pj.opacities, K),
+        _pad(pj.colours, K),
+        config,
+        probe=None if probe is None else _pad(probe, K),
     )
     image = (C + config.background * T[:, None]).reshape(H, W, -1)
     n_valid = jnp.sum(pj.valid)
@@ -353,12 +378,13 @@ def render_tiled(
     *,
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
+    absgrad_probe: jax.Array | None = None,
 ) -> RenderOutput:
     """Tiled back-end with a static per-tile capacity that counts what it drops.
 
     Same parameters and result as :func:`render`.
     """
-    pj = _sorted(project(gaussians, camera, config=config, mask=mask))
+    pj, probe = _sorted(project(gaussians, camera, config=config, mask=mask), absgrad_probe)
     H, W, s = camera.height, camera.width, config.tile_size
     ny, nx = -(-H // s), -(-W // s)
     G = gaussians.n
@@ -387,6 +413,7 @@ def render_tiled(
     means2d = jnp.where(keep[..., None], pj.means2d[idx], -1e6)
     opac = jnp.where(keep, pj.opacities[idx], 0.0)
     conics, colours = pj.conics[idx], pj.colours[idx]
+    tiled = [means2d, conics, opac, colours] + ([] if probe is None else [probe[idx]])
     # pixel centres of each tile
     oy, ox = jnp.meshgrid(jnp.arange(s), jnp.arange(s), indexing="ij")
     off = jnp.stack([ox, oy], -1).reshape(-1, 2).astype(means2d.dtype)
@@ -398,11 +425,10 @@ def render_tiled(
     n = px.shape[0]
     batch = n if batch == 0 else min(batch, n)
     nb = -(-n // batch)  # batches of tiles, composited together; the last padded with empty tiles
-    xs = tuple(
-        _pad(x, nb * batch).reshape(nb, batch, *x.shape[1:])
-        for x in (px, means2d, conics, opac, colours, used)
+    xs = tuple(_pad(x, nb * batch).reshape(nb, batch, *x.shape[1:]) for x in (px, used, *tiled))
+    C, T = jax.lax.map(
+        lambda a: _composite(a[0], *a[2:6], config, n_used=a[1], probe=a[6] if len(a) > 6 else None), xs
     )
-    C, T = jax.lax.map(lambda a: _composite(*a[:-1], config, n_used=a[-1]), xs)
     C, T = (
         C.reshape(nb * batch, *C.shape[2:])[:n],
         T.reshape(nb * batch, -1)[:n],
@@ -467,7 +493,7 @@ def _host_forward(means2d, conics, opac, colours, aux, *, H, W, config, dtype):
     return C, T, n_done, np.int32(max_per_tile)
 
 
-def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H, W, config, dtype):
+def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H, W, config, dtype, absgrad):
     from . import _raster_kernel as kern
 
     arrays = _as(dtype, means2d, conics, opac, colours, aux, T, gC, gT)
@@ -477,16 +503,21 @@ def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H,
     with _KERNEL_LOCK:
         extents, offsets, ids, _ = _host_bins(means2d, aux, H, W, s)
         gaussians = (means2d, conics, opac, colours, extents)
-        d = kern.backward(*gaussians, offsets, ids, T, n_done, gC, gT, H, W, s, *_cutoffs(config))
-    return (d[:, 0:2].astype(dtype), d[:, 2:5].astype(dtype), d[:, 5].astype(dtype), d[:, 6:].astype(dtype))
+        d = kern.backward(*gaussians, offsets, ids, T, n_done, gC, gT, H, W, s, *_cutoffs(config), absgrad)
+    k = colours.shape[1]
+    return tuple(
+        d[:, c].astype(dtype) for c in (slice(0, 2), slice(2, 5), 5, slice(6, 6 + k), slice(6 + k, None))
+    )
 
 
-@partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2))
-def _rasterize(H, W, config, means2d, conics, opac, colours, aux):
-    return _rasterize_fwd(H, W, config, means2d, conics, opac, colours, aux)[0]
+@partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2, 3))
+def _rasterize(H, W, config, absgrad, means2d, conics, opac, colours, probe, aux):
+    """Composite on the host; ``probe`` (G, 2) is not used, its gradient is the absolute one of the
+    centres when ``absgrad`` (else zero)."""
+    return _rasterize_fwd(H, W, config, absgrad, means2d, conics, opac, colours, probe, aux)[0]
 
 
-def _rasterize_fwd(H, W, config, means2d, conics, opac, colours, aux):
+def _rasterize_fwd(H, W, config, absgrad, means2d, conics, opac, colours, probe, aux):
     k, dtype = colours.shape[1], colours.dtype
     shapes = (
         jax.ShapeDtypeStruct((H, W, k), dtype),
@@ -507,12 +538,14 @@ def _rasterize_fwd(H, W, config, means2d, conics, opac, colours, aux):
     return (C, T, max_per_tile), (means2d, conics, opac, colours, aux, T, n_done)
 
 
-def _rasterize_bwd(H, W, config, res, cotangents):
+def _rasterize_bwd(H, W, config, absgrad, res, cotangents):
     gC, gT, _ = cotangents
     means2d, conics, opac, colours, aux, T, n_done = res
-    shapes = tuple(jax.ShapeDtypeStruct(x.shape, colours.dtype) for x in (means2d, conics, opac, colours))
+    shapes = tuple(
+        jax.ShapeDtypeStruct(x.shape, colours.dtype) for x in (means2d, conics, opac, colours, means2d)
+    )
     grads = jax.pure_callback(
-        partial(_host_backward, H=H, W=W, config=config, dtype=np.dtype(colours.dtype)),
+        partial(_host_backward, H=H, W=W, config=config, dtype=np.dtype(colours.dtype), absgrad=absgrad),
         shapes,
         means2d,
         conics,
@@ -538,6 +571,7 @@ def render_cpu(
     *,
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
+    absgrad_probe: jax.Array | None = None,
 ) -> RenderOutput:
     """CPU back-end: the tiled back-end's tiles and termination, no capacity, numba kernels.
 
@@ -549,8 +583,19 @@ def render_cpu(
     aux = jax.lax.stop_gradient(
         jnp.concatenate([pj.extents, pj.depths[:, None], pj.valid[:, None].astype(pj.extents.dtype)], -1)
     )
+    absgrad = absgrad_probe is not None
+    probe = absgrad_probe if absgrad else jnp.zeros_like(pj.means2d)
     C, T, max_per_tile = _rasterize(
-        camera.height, camera.width, config, pj.means2d, pj.conics, pj.opacities, pj.colours, aux
+        camera.height,
+        camera.width,
+        config,
+        absgrad,
+        pj.means2d,
+        pj.conics,
+        pj.opacities,
+        pj.colours,
+        probe,
+        aux,
     )
     image = C + config.background * T[..., None]
     return RenderOutput(image, 1 - T, jnp.zeros((), jnp.int32), max_per_tile)
@@ -576,6 +621,7 @@ def render(
     method: str = "auto",
     config: RenderConfig = RenderConfig(),
     mask: jax.Array | None = None,
+    absgrad_probe: jax.Array | None = None,
 ) -> RenderOutput:
     """Render an (H, W, k) image of N-channel Gaussians from one camera (differentiable).
 
@@ -592,6 +638,12 @@ def render(
         Projection, cut-off and tiling options.
     mask : array_like of bool, shape (G,), optional
         Gaussians to render; the others are ignored (zero gradient).
+    absgrad_probe : Array of shape (G, 2), optional
+        Zeros (their value is not used and the image does not depend on them) whose gradient is, per
+        Gaussian and axis, the sum over pixels of the absolute gradient of each pixel's loss with
+        respect to the centre's pixel position, ``Σ_p |∂L_p/∂μ₂ᴅ|`` — AbsGS' densification statistic
+        (Ye et al. 2024), which, unlike ``∂L/∂μ₂ᴅ = Σ_p ∂L_p/∂μ₂ᴅ``, does not cancel where a large
+        Gaussian covers texture that pulls its centre both ways. Supported by the built-in back-ends.
 
     Returns
     -------
@@ -616,4 +668,6 @@ def render(
     if isinstance(method, str) and method.lower() == "auto":
         method = default_method()
     fn = RENDER_METHODS[method]
-    return fn(gaussians, camera, config=config, mask=mask)
+    if absgrad_probe is None:  # back-ends registered by users need not know the probe
+        return fn(gaussians, camera, config=config, mask=mask)
+    return fn(gaussians, camera, config=config, mask=mask, absgrad_probe=absgrad_probe)

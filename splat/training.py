@@ -121,7 +121,7 @@ class TrainConfig:
         4.08 | 0.724, novel views 5.83 | 0.594 → 6.01 | 0.647, render only 5.44 | 2.16 → 5.63 | 1.90):
         the dark cell borders, which the fused estimate takes from the render, lost weight. Hence the
         default; raise it for PSNR, not for colour.
-    densify_gradient : {"world", "screen"}
+    densify_gradient : {"world", "screen", "absolute"}
         The positional gradient that ranks Gaussians for densification: ``"screen"`` (the default, new
         in the eleventh session) the norm of ∂L/∂(the centre's pixel position), as 3DGS ranks them —
         from the camera-frame gradient, ``g_xy · z / f`` (the projection's Jacobian at fixed depth), so
@@ -132,6 +132,10 @@ class TrainConfig:
         so the ranking moves Gaussians to the far part; 131 072 Gaussians: 31.83 → 31.88 dB); three
         cameras, Prior, the 12 held-out views, ΔE00 all | flat pixels: fused 3.90 | 0.670 → 3.84 |
         0.684, novel views 5.83 | 0.594 → 5.67 | 0.577, render only 5.44 | 2.16 → 5.35 | 2.16.
+        ``"absolute"`` (AbsGS, Ye et al. 2024) the norm of ``Σ_p |∂L_p/∂μ₂ᴅ|``, each pixel's gradient
+        of the centre's pixel position taken absolutely before the sum over the pixels (``render``'s
+        ``absgrad_probe``): a large Gaussian over texture that pulls its centre both ways ranks high,
+        where ``"screen"``'s signed sum cancels.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -213,9 +217,10 @@ class TrainConfig:
             raise SplatError(
                 f"TrainConfig.loss_offset={o!r}: must be a finite number > 0 (rawnerf_loss's ε)."
             )
-        if self.densify_gradient not in ("world", "screen"):
+        if self.densify_gradient not in ("world", "screen", "absolute"):
             raise SplatError(
-                f"TrainConfig.densify_gradient={self.densify_gradient!r}: choose 'world' or 'screen'."
+                f"TrainConfig.densify_gradient={self.densify_gradient!r}: choose 'world', 'screen' or "
+                "'absolute'."
             )
         r = self.recycle_opacity
         if not isinstance(r, int | float) or not 0 <= r < 1:
@@ -414,16 +419,20 @@ def train_step(
     refine = state.log_exposure is not None
     refine_pose = state.pose_delta is not None
 
-    def loss_fn(params, log_e, pose):
+    def loss_fn(params, log_e, pose, probe):
         cam = pose_corrected(camera, pose[view]) if refine_pose else camera
-        out = render(params, cam, method=config.method, config=config.render, mask=state.alive)
+        out = render(
+            params, cam, method=config.method, config=config.render, mask=state.alive, absgrad_probe=probe
+        )
         e = exposure * jnp.exp(log_e[view]) if refine else exposure
         loss = rawnerf_loss(e * out.image, image, weight * channel_mask, offset=config.loss_offset)
         return loss, out.n_dropped
 
-    (loss, dropped), (grads, g_exp, g_pose) = jax.value_and_grad(loss_fn, argnums=(0, 1, 2), has_aux=True)(
-        state.params, state.log_exposure, state.pose_delta
-    )
+    absolute = config.densify_gradient == "absolute"
+    probe = jnp.zeros((state.params.n, 2), state.params.means.dtype) if absolute else None
+    (loss, dropped), (grads, g_exp, g_pose, g_probe) = jax.value_and_grad(
+        loss_fn, argnums=(0, 1, 2, 3), has_aux=True
+    )(state.params, state.log_exposure, state.pose_delta, probe)
     updates, opt_state = _optimiser(config, extent).update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)
     if config.densify_gradient == "screen":
@@ -432,6 +441,8 @@ def train_step(
         g_cam = grads.means @ camera.R.T
         z = jnp.maximum(state.params.means @ camera.R[2] + camera.t[2], 1e-6)  # depth: the third row only
         gnorm = jnp.linalg.norm(g_cam[:, :2] * z[:, None] / camera.focal, axis=-1)
+    elif absolute:  # Σ_p |∂L_p/∂μ₂ᴅ| per axis, already in pixels
+        gnorm = jnp.linalg.norm(g_probe, axis=-1)
     else:
         gnorm = jnp.linalg.norm(grads.means, axis=-1)
     seen = gnorm > 0

@@ -289,6 +289,43 @@ def test_screen_gradient_does_not_favour_near_gaussians():
     np.testing.assert_allclose(stats["world", 2.0], 0.5 * stats["world", 1.0], rtol=1e-3)
 
 
+def test_absolute_gradient_ranks_a_gaussian_over_texture_whose_signed_gradient_cancels():
+    """``densify_gradient="absolute"`` (AbsGS): a large Gaussian centred on a point-symmetric
+    checkerboard is pulled both ways, so its signed positional gradient cancels (``"screen"`` ranks it
+    near zero) while the sum of the absolute per-pixel gradients does not; the statistic is the norm of
+    the render's ``absgrad_probe`` gradient."""
+    from splat import look_at, render, train_step
+    from splat.training import rawnerf_loss
+
+    cam = look_at((0, -3, 0), (0, 0, 0), width=24, height=24)
+    yy, xx = np.meshgrid(np.arange(24), np.arange(24), indexing="ij")
+    board = np.where((yy // 2 + xx // 2) % 2 == 0, 0.1, 0.5)
+    img = jnp.asarray(np.repeat(board[..., None], 3, -1), jnp.float32)
+    w, mask = jnp.ones((24, 24, 3)), jnp.ones(3)
+    stats = {}
+    for kind in ("screen", "absolute"):
+        cfg = tiny(2, capacity=1, densify_gradient=kind)
+        st = init_state(cfg, bounds=np.array([[-1.0, -1, -1], [1, 1, 1]]), n_channels=3, n_init=1)
+        p = dataclasses.replace(
+            st.params,
+            means=jnp.zeros((1, 3)),
+            log_scales=jnp.full((1, 3), np.log(0.15), jnp.float32),
+            opacity_logits=jnp.zeros(1),
+            colour_params=jnp.zeros((1, 3)),
+        )
+        out, _, _ = train_step(st._replace(params=p), cam, img, w, mask, 1.0, config=cfg, extent=1.0)
+        stats[kind] = float(out.grad_accum[0])
+
+    def loss(probe):
+        pred = render(p, cam, config=cfg.render, absgrad_probe=probe).image
+        return rawnerf_loss(pred, img, w * mask, offset=cfg.loss_offset)
+
+    expected = float(jnp.linalg.norm(jax.grad(loss)(jnp.zeros((1, 2)))))
+    assert stats["absolute"] > 0
+    np.testing.assert_allclose(stats["absolute"], expected, rtol=1e-5)
+    assert stats["screen"] < 1e-3 * stats["absolute"]
+
+
 def test_gpu_capacity_schedule_overrides_are_checked_before_any_work():
     from benchmarks.gpu_capacity import _overrides
 
