@@ -283,11 +283,10 @@ def _composite(px, means2d, conics, opacities, colours, config: RenderConfig, n_
 
     Parameters: px (..., P, 2); means2d (..., K, 2); conics (..., K, 3); opacities (..., K); colours
     (..., K, k); n_used (...) or None; probe (..., K, 2) or None (see :func:`_alpha`); the leading
-    axes (a batch of tiles) share one scan over the
-    chunks. K must be a multiple of ``config.chunk``. Returns colour (..., P, k) and transmittance
-    (..., P). ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)`` (Kerbl et al. 2023, eq. 3), products kept as sums of
-    logs. A chunk is skipped when every pixel of the batch is saturated or every tile is past its
-    last Gaussian.
+    axes (a batch of tiles) share one scan over the chunks. K must be a multiple of ``config.chunk``.
+    Returns colour (..., P, k) and transmittance (..., P). ``C = Σ_i c_i α_i Π_{j<i} (1 − α_j)``
+    (Kerbl et al. 2023, eq. 3), products kept as sums of logs. A chunk is skipped when every pixel of
+    the batch is saturated or every tile is past its last Gaussian.
     """
     *lead, K, N = colours.shape
     ch = config.chunk
