@@ -197,10 +197,10 @@ def backward(
 ):  # fmt: skip
     """∂L/∂(means2d, conics, opacities, colours) from ∂L/∂C (H, W, k) and ∂L/∂T (H, W).
 
-    Returns an array (G, 8 + k): columns 0–1 ∂L/∂means2d, 2–4 ∂L/∂conics, 5 ∂L/∂opacity, then k
-    columns ∂L/∂colours and, when ``absgrad`` is true, two columns ``Σ_p |∂L_p/∂means2d|`` per axis (each
-    pixel's contribution taken absolutely before the sum, so that contributions of opposite sign over a
-    textured footprint do not cancel; Ye et al. 2024), zeros otherwise.
+    Returns an array (G, 6 + k), or (G, 8 + k) when ``absgrad`` is true: columns 0–1 ∂L/∂means2d, 2–4
+    ∂L/∂conics, 5 ∂L/∂opacity, then k columns ∂L/∂colours and, with ``absgrad``, two columns
+    ``Σ_p |∂L_p/∂means2d|`` per axis (each pixel's contribution taken absolutely before the sum, so that
+    contributions of opposite sign over a textured footprint do not cancel; Ye et al. 2024).
 
     For pixel p and its i-th Gaussian, with ``S_i = Σ_{j>i} c_j α_j T_j`` and ``T_f`` the final
     transmittance: ``∂C/∂c_i = α_i T_i``, ``∂C/∂α_i = c_i T_i − S_i / (1 − α_i)``,
@@ -212,10 +212,11 @@ def backward(
     nx = (W + s - 1) // s
     nt = offsets.shape[0] - 1
     per = (nt + N_BLOCKS - 1) // N_BLOCKS
-    buf = np.zeros((N_BLOCKS, G, 8 + k))  # dmx, dmy, da, db, dc, do, dcolours, |dmx|, |dmy|
+    ncol = 8 + k if absgrad else 6 + k
+    buf = np.zeros((N_BLOCKS, G, ncol))  # dmx, dmy, da, db, dc, do, dcolours[, |dmx|, |dmy|]
     for blk in prange(N_BLOCKS):
         out = buf[blk]
-        d = np.zeros(8 + k)
+        d = np.zeros(ncol)
         for t in range(blk * per, min(nt, (blk + 1) * per)):
             ty, tx = t // nx, t % nx
             x0, y0 = tx * s, ty * s
@@ -274,9 +275,9 @@ def backward(
                         d[3] += dq * 2.0 * dx * dy
                         d[4] += dq * dy * dy
                 if hit:
-                    for j in range(8 + k):
+                    for j in range(ncol):
                         out[g, j] += d[j]
-    total = np.zeros((G, 8 + k))
+    total = np.zeros((G, ncol))
     for blk in range(N_BLOCKS):
         total += buf[blk]
     return total

@@ -504,9 +504,8 @@ def _host_backward(means2d, conics, opac, colours, aux, T, n_done, gC, gT, *, H,
         gaussians = (means2d, conics, opac, colours, extents)
         d = kern.backward(*gaussians, offsets, ids, T, n_done, gC, gT, H, W, s, *_cutoffs(config), absgrad)
     k = colours.shape[1]
-    return tuple(
-        d[:, c].astype(dtype) for c in (slice(0, 2), slice(2, 5), 5, slice(6, 6 + k), slice(6 + k, None))
-    )
+    probe = d[:, 6 + k :] if absgrad else np.zeros((len(d), 2))
+    return tuple(x.astype(dtype) for x in (d[:, 0:2], d[:, 2:5], d[:, 5], d[:, 6 : 6 + k], probe))
 
 
 @partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2, 3))
