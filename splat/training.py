@@ -140,6 +140,13 @@ class TrainConfig:
         → 28.89 / 28.10 / 31.15 / 31.07), CI fine capture (1000 steps, 4096) 28.59 → 28.70; colour
         (as above) fused 3.839 | 0.684 → 3.840 | 0.700: within a tenth of a dB and a little worse on
         flat pixels, so not the default.
+    flatten_weight : float
+        λ of a flatness penalty added to the loss: ``λ · mean over alive Gaussians of min(scales) /
+        extent`` (the smallest standard deviation in units of the scene extent; the loss reported is
+        still the data term). The surfaces of a scene are opaque and thin, and a Gaussian left thick on
+        a textured surface projects a little differently from each direction; the penalty lets the
+        data decide two axes and makes the third as thin as the views allow (Gaussian-surfel and PGSR
+        style). 0 turns it off. FLATTEN_NUMBERS
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -191,6 +198,7 @@ class TrainConfig:
     recycle_opacity: float = 0.05
     loss_offset: float = 1e-3
     densify_gradient: str = "screen"
+    flatten_weight: float = 0.0
     method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
@@ -225,6 +233,11 @@ class TrainConfig:
             raise SplatError(
                 f"TrainConfig.densify_gradient={self.densify_gradient!r}: choose 'world', 'screen' or "
                 "'absolute'."
+            )
+        w = self.flatten_weight
+        if not isinstance(w, int | float) or not np.isfinite(w) or w < 0:
+            raise SplatError(
+                f"TrainConfig.flatten_weight={w!r}: must be a finite number ≥ 0 (0 turns it off)."
             )
         r = self.recycle_opacity
         if not isinstance(r, int | float) or not 0 <= r < 1:
@@ -430,11 +443,17 @@ def train_step(
         )
         e = exposure * jnp.exp(log_e[view]) if refine else exposure
         loss = rawnerf_loss(e * out.image, image, weight * channel_mask, offset=config.loss_offset)
-        return loss, out.n_dropped
+        total = loss
+        if config.flatten_weight:
+            # mean over alive Gaussians of the smallest standard deviation, in units of the scene extent
+            thin = jnp.exp(jnp.min(params.log_scales, axis=-1)) / extent
+            n = jnp.maximum(jnp.sum(state.alive), 1)
+            total = loss + config.flatten_weight * jnp.sum(jnp.where(state.alive, thin, 0.0)) / n
+        return total, (out.n_dropped, loss)
 
     absolute = config.densify_gradient == "absolute"
     probe = jnp.zeros((state.params.n, 2), state.params.means.dtype) if absolute else None
-    (loss, dropped), (grads, g_exp, g_pose, g_probe) = jax.value_and_grad(
+    (_, (dropped, loss)), (grads, g_exp, g_pose, g_probe) = jax.value_and_grad(
         loss_fn, argnums=(0, 1, 2, 3), has_aux=True
     )(state.params, state.log_exposure, state.pose_delta, probe)
     updates, opt_state = _optimiser(config, extent).update(grads, state.opt_state, state.params)

@@ -252,11 +252,47 @@ def test_train_step_weighs_errors_with_the_configured_loss_offset(scene):
         {"loss_offset": -1e-3},
         {"loss_offset": float("inf")},
         {"densify_gradient": "pixels"},
+        {"flatten_weight": -1.0},
+        {"flatten_weight": float("nan")},
     ],
 )
 def test_rate_and_recycling_options_are_checked(bad):
     with pytest.raises(SplatError, match=next(iter(bad))):
         TrainConfig(**bad)
+
+
+def test_flatten_weight_thins_the_smallest_axis_of_alive_gaussians_only():
+    """With nothing to fit (zero weights) the only gradient is the flatness penalty's: its value is
+    ``λ · Σ_alive min(s) / (n_alive · extent)``, so one step moves exactly the smallest log-scale of each
+    alive Gaussian (down, by Adam's first step ≈ the rate), nothing else, and the step reports the data
+    loss (0), not the penalty."""
+    from splat import look_at, train_step
+
+    cam = look_at((0, -3, 0), (0, 0, 0), width=16, height=16)
+    img, w, mask = jnp.zeros((16, 16, 3)), jnp.zeros((16, 16, 3)), jnp.ones(3)
+    bounds = np.array([[-1.0, -1, -1], [1, 1, 1]])
+    for lam in (0.0, 5.0):
+        cfg = tiny(2, capacity=8, flatten_weight=lam)
+        st = init_state(cfg, bounds=bounds, n_channels=3, n_init=5)
+        ls = np.log(np.random.default_rng(1).uniform(0.02, 0.2, (8, 3)))
+        st = st._replace(params=dataclasses.replace(st.params, log_scales=jnp.asarray(ls, jnp.float32)))
+        new, loss, _ = train_step(st, cam, img, w, mask, 1.0, config=cfg, extent=2.0)
+        assert float(loss) == 0.0
+        d = np.asarray(new.params.log_scales) - np.asarray(st.params.log_scales)
+        if lam == 0:
+            np.testing.assert_array_equal(d, 0)
+            continue
+        smallest = np.arange(3)[None] == np.argmin(ls, axis=1)[:, None]
+        moved = smallest & (np.arange(8) < 5)[:, None]
+        np.testing.assert_allclose(d[moved], -cfg.lr_log_scales, rtol=1e-3)
+        np.testing.assert_array_equal(d[~moved], 0)
+        for k in ("means", "quats", "opacity_logits", "colour_params"):
+            np.testing.assert_array_equal(getattr(new.params, k), getattr(st.params, k))
+    # the penalty itself, as the docstring states
+    g = jax.grad(lambda x: cfg.flatten_weight * jnp.sum(jnp.exp(jnp.min(x[:5], axis=-1))) / (5 * 2.0))(
+        jnp.asarray(ls)
+    )
+    assert np.all(np.asarray(g)[:5][smallest[:5]] > 0)
 
 
 def test_screen_gradient_does_not_favour_near_gaussians():
