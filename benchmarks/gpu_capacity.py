@@ -192,7 +192,7 @@ def run(
         for name, cam, c, exif, vals, on in hold:
             ps, n = view_psnr(params, alive, render, cam, range(3 * c, 3 * c + 3), exif, vals, on)
             out += ps
-            norm[name] = round(n, 2)
+            norm[name] = n
         return float(np.mean(out)), float(np.min(out)), norm
 
     def psnr_training(params, alive, render):  # every training view, normalised: the fit itself
@@ -309,7 +309,7 @@ def run(
                 # normalised to the median exposure: held out vs the training views' own fit
                 "psnr_heldout_normalised_db": round(float(np.mean(list(held_norm.values()))), 2),
                 "psnr_training_normalised_db": round(train_norm, 2),
-                "psnr_heldout_views_normalised_db": held_norm,
+                "psnr_heldout_views_normalised_db": {k: round(v, 2) for k, v in held_norm.items()},
                 "score_s": round(time.perf_counter() - t1, 1),
                 "alive": int(out.alive.sum()),
                 "dropped_mean_last100": float(np.mean(out.history["n_dropped"][-100:])),
