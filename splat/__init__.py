@@ -10,7 +10,7 @@ is fitted to all the images, then renders pixel-aligned N-channel images from an
 - data: :func:`read_colmap` / :func:`write_colmap`, :func:`read_transforms` /
   :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`;
 - training: :func:`train` with :class:`TrainConfig`; outputs: :func:`render_views`,
-  :func:`split_cameras`, :func:`pca_false_colour`, :func:`correct_image`;
+  :func:`render_depth`, :func:`split_cameras`, :func:`pca_false_colour`, :func:`correct_image`;
 - a synthetic capture to try it all: :func:`synthetic_scene`.
 
 ``import splat`` is cheap: the submodules (and JAX) load on first use of a public name.
@@ -68,7 +68,7 @@ _EXPORTS = {
         "train",
         "train_step",
     ],
-    "outputs": ["correct_image", "pca_false_colour", "psnr", "render_views", "split_cameras"],
+    "outputs": ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"],
     "poses": ["PoseConfig", "recover_poses"],
     "simcapture": [
         "SimCamera",

@@ -63,3 +63,31 @@ def test_correct_image_hands_the_aligned_channels_to_zonotope():
     np.testing.assert_allclose(one.reshape(-1, 3), correct((R @ G)[:, 3:], [cams[1]], **opts))
     with pytest.raises(SplatError, match="one per id"):
         correct_image(image, capture, cams[:1])
+
+
+@pytest.mark.parametrize("method", ["reference", "cpu", "tiled"])
+def test_render_depth_is_the_compositing_weighted_mean_depth(method):
+    """One Gaussian: its depth wherever it is drawn, NaN elsewhere. Two on the optical axis: front-to-back
+    compositing weights ``a₁`` and ``(1 − a₁) a₂``, each Gaussian's opacity at the pixel taken from a render
+    of it alone."""
+    from splat import init_gaussians, render, render_depth
+
+    cam = look_at((0, 0, -4), (0, 0, 0), up=(0, 1, 0), width=32, height=32)
+    g = init_gaussians(
+        [[0.0, 0, 0], [0.02, 0.01, 3]], [[0.5], [0.5]], scales=np.array([0.2, 0.5]), opacity=0.6
+    )
+    one = np.array([True, False])
+    depth, alpha = render_depth(g, cam, mask=one, method=method)
+    drawn = alpha > 0
+    assert drawn.any() and not drawn.all()
+    np.testing.assert_allclose(depth[drawn], 4.0, rtol=1e-5)
+    assert np.isnan(depth[~drawn]).all()
+
+    depth, alpha = render_depth(g, cam, method=method)
+    a1 = np.asarray(render(g, cam, mask=one, method=method).alpha, float)
+    a2 = np.asarray(render(g, cam, mask=~one, method=method).alpha, float)
+    both = (a1 > 0.05) & (a2 > 0.05)
+    assert both.sum() > 20
+    w1, w2 = a1[both], (1 - a1[both]) * a2[both]
+    np.testing.assert_allclose(alpha[both], w1 + w2, rtol=1e-4)
+    np.testing.assert_allclose(depth[both], (4 * w1 + 7 * w2) / (w1 + w2), rtol=1e-4)

@@ -232,3 +232,20 @@ def test_training_inputs_exclude_held_out_views_and_pad_with_zero_weight(ci_run,
     np.testing.assert_array_equal(again.images, inp.images)
     np.testing.assert_array_equal(again.weights, inp.weights)
     np.testing.assert_array_equal(again.points, inp.points)
+
+
+def test_depth_error_against_the_simulated_geometry(ci_run):
+    """benchmarks/depth_error.py on the run: the model's depth (``splat.render_depth``) lies near the
+    simulator's ray-cast depth in the middle of every view, and a scene rebuilt at the wrong size is
+    refused rather than compared."""
+    from benchmarks.depth_error import depth_error
+
+    cap, out, *_ = ci_run
+    res = depth_error(cap, out, size="ci", model=None, views=None)
+    assert len(res) >= 12
+    for fifths in res.values():
+        assert len(fifths) == 5
+        for median, off, front in fifths[1:4]:
+            assert 0 <= median < 0.1 and 0 <= off <= 1 and 0 <= front <= 1
+    with pytest.raises(SystemExit, match="does not match"):
+        depth_error(cap, out, size="benchmark", model=None, views=None)
