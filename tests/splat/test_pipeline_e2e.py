@@ -243,9 +243,13 @@ def test_depth_error_against_the_simulated_geometry(ci_run):
     cap, out, *_ = ci_run
     res = depth_error(cap, out, size="ci", model=None, views=None)
     assert len(res) >= 12
+    middles = []
     for fifths in res.values():
         assert len(fifths) == 5
         for median, off, front in fifths[1:4]:
-            assert 0 <= median < 0.1 and 0 <= off <= 1 and 0 <= front <= 1
+            # 130 steps leave a rough model: one fifth may be ~10 % off, the run as a whole is not
+            assert 0 <= median < 0.3 and 0 <= off <= 1 and 0 <= front <= 1
+            middles.append(median)
+    assert np.median(middles) < 0.05
     with pytest.raises(SystemExit, match="does not match"):
         depth_error(cap, out, size="benchmark", model=None, views=None)
