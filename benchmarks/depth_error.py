@@ -59,14 +59,11 @@ def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, view
             continue
         depth, _ = splat.render_depth(g, view.camera, mask=alive)
         s = sim[view.name]
-        cam = cams[s.camera]
-        H, W = cam.height, cam.width
+        H, W = depth.shape
         u, w = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
-        d_cam = np.stack([(u - W / 2) / s.f, (w - H / 2) / s.f, np.ones_like(u)], -1).reshape(-1, 3)
-        d = d_cam @ s.R
-        norm = np.linalg.norm(d, axis=1)
-        _, _, t = shade(scene, -s.R.T @ s.t, d / norm[:, None])
-        ratio = depth[:H, :W] / (t / norm).reshape(H, W)
+        o, d = scene.rays(s, u.ravel(), w.ravel())
+        _, _, t = shade(scene, o, d)
+        ratio = depth / (t * (d @ s.R[2])).reshape(H, W)  # camera-frame z of the hit: t · (R d)_z
         middle = ratio[:, W // 5 : 4 * W // 5]
         ratio = ratio / np.nanmedian(middle[np.isfinite(middle)])
         fifths = []

@@ -286,6 +286,16 @@ class SimScene:
     palettes: dict
 
     # -------------------------------------------------------------------------------- rendering
+    def rays(self, view: SimView, u, v) -> tuple[np.ndarray, np.ndarray]:
+        """The camera centre (3,) and the unit world directions (n, 3) of the rays through pixel
+        positions ``u``, ``v`` (n,) (pixel ``(i, j)`` spans ``[j, j + 1) × [i, i + 1)``)."""
+        cam = self.config.cameras[view.camera]
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        d_cam = np.stack([(u - cam.width / 2) / view.f, (v - cam.height / 2) / view.f, np.ones_like(u)], -1)
+        d = d_cam @ view.R  # world directions (R^T d)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        return -view.R.T @ view.t, d
+
     def trace(self, view: SimView) -> tuple[np.ndarray, np.ndarray]:
         """Ray-cast a view: per sample ray the library indices and weights of its spectrum.
 
@@ -302,10 +312,7 @@ class SimScene:
         u = np.arange(W)[None, :, None, None] + off[None, None, None, :]
         v = np.arange(H)[:, None, None, None] + off[None, None, :, None]
         u, v = np.broadcast_arrays(u, v)
-        d_cam = np.stack([(u - W / 2) / view.f, (v - H / 2) / view.f, np.ones_like(u)], axis=-1)
-        d = d_cam.reshape(-1, 3) @ view.R  # world directions (R^T d)
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        o = -view.R.T @ view.t
+        o, d = self.rays(view, u.ravel(), v.ravel())
         idx, wts, _ = shade(self, o, d)
         return idx.reshape(H, W, s * s, 3), wts.reshape(H, W, s * s, 3)
 
@@ -840,9 +847,7 @@ def _surface_points(scene: SimScene, per_view: int = 400):
         cam = scene.config.cameras[v.camera]
         u = rng.uniform(0, cam.width, per_view)
         w = rng.uniform(0, cam.height, per_view)
-        d = np.stack([(u - cam.width / 2) / v.f, (w - cam.height / 2) / v.f, np.ones(per_view)], 1) @ v.R
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        o = -v.R.T @ v.t
+        o, d = scene.rays(v, u, w)
         idx, wts, t = shade(scene, o, d)
         XYZ = np.einsum("nk,nkc->nc", wts, (scene.library @ scene.observer)[idx])
         rgb = np.clip(colour.XYZ_to_sRGB(XYZ), 0, 1)
