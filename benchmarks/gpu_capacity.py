@@ -82,6 +82,8 @@ def export(capture: str, out: str, bundle: str) -> None:
     xyz, rgb, _ = _scene_points(model, [v.camera for v in cap.views])
     valid = np.asarray(inp.weights) > 0
     arrays |= {"points": xyz, "points_rgb": rgb, "level": float(np.median(np.asarray(inp.images)[valid]))}
+    if inp.depth is not None:  # the COLMAP points each view observes (TrainConfig.depth_weight)
+        arrays |= dict(zip(("depth_pixel", "depth_z", "depth_valid"), inp.depth))
     arrays |= {f"hold_cam_{k}": v for k, v in _cams([v.camera for v in hold]).items()}
     for i, v in enumerate(hold):
         r = raws[v.name]
@@ -166,7 +168,9 @@ def run(
         c, exif = b[f"hold{i}_meta"]
         hold.append((name, cam, int(c), float(exif), vals, on > 0))
     bounds, points, rgb, level = b["bounds"], b["points"], b["points_rgb"], float(b["level"])
+    depth = tuple(b[k] for k in ("depth_pixel", "depth_z", "depth_valid")) if "depth_z" in b else None
     res["data"] = {"train": list(images.shape), "held_out": len(hold), "points": len(points)}
+    res["data"]["depth_targets"] = 0 if depth is None else int(depth[2].sum())
     print(res, flush=True)
 
     def config(capacity, render):  # the pipeline's train step, without checkpoints
@@ -293,7 +297,17 @@ def run(
                 raise OutOfTime(f"stopped at step {step}: past the {budget:.0f} s budget")
 
         try:
-            out = train(capture, ims, wts, config=cfg, bounds=bounds, points=pts, colours=cols, callback=cb)
+            out = train(
+                capture,
+                ims,
+                wts,
+                config=cfg,
+                bounds=bounds,
+                points=pts,
+                colours=cols,
+                callback=cb,
+                depth=depth,
+            )
             t_train = time.perf_counter() - t0
             t1 = time.perf_counter()
             alive = jnp.asarray(out.alive)

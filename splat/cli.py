@@ -61,6 +61,13 @@ def _parser() -> argparse.ArgumentParser:
             help="learn a pose correction per training view with the Gaussians (two views fixed); "
             "default: keep the recovered poses",
         )
+        s.add_argument(
+            "--depth-weight",
+            type=float,
+            default=None,
+            help="weight of the sparse depth term from the COLMAP points each view observes "
+            "(0: off; default: PipelineConfig.depth_weight)",
+        )
     return p
 
 
@@ -90,6 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             refine_exposure=args.refine_exposure,
             refine_poses=args.refine_poses,
+            **({} if args.depth_weight is None else {"depth_weight": args.depth_weight}),
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)

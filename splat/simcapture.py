@@ -688,11 +688,12 @@ def write_synthetic_capture(
         rng = np.random.default_rng(config.seed + 1)
         (tmp / "truth" / "xyz").mkdir(parents=True)
         cameras, images, view_rows, white = {}, {}, [], None
+        image_ids = {}  # index in scene.views → COLMAP image id
         for ci, cam in enumerate(config.cameras):
             (tmp / cam.folder).mkdir()
             cameras[ci + 1] = cm.ColmapCamera(ci + 1, "PINHOLE", cam.width, cam.height, ())
             cm1, cm2 = _color_matrices(scene, ci)
-            for v in (v for v in scene.views if v.camera == ci):
+            for vi, v in ((i, v) for i, v in enumerate(scene.views) if v.camera == ci):
                 idx, wts = scene.trace(v)
                 resp = (
                     np.einsum("hwsk,hwskc->hwc", wts, (scene.library @ scene.camera_generators[ci])[idx])
@@ -738,6 +739,7 @@ def write_synthetic_capture(
                         photometric="rgb",
                     )
                 iid = len(images) + 1
+                image_ids[vi] = iid
                 images[iid] = cm.ColmapImage(
                     iid, _qvec(v.R), np.asarray(v.t, float), ci + 1, f"{cam.folder}/{v.stem}.dng"
                 )
@@ -757,7 +759,10 @@ def write_synthetic_capture(
             cameras[ci + 1] = cm.ColmapCamera(
                 ci + 1, "PINHOLE", cam.width, cam.height, (f, f, cam.width / 2, cam.height / 2)
             )
-        cm.write_colmap(cm.ColmapModel(cameras, images, _surface_points(scene)), tmp / "truth", binary=False)
+        points, keypoints = _surface_points(scene, image_ids)
+        for iid, (xys, pids) in keypoints.items():
+            images[iid] = replace(images[iid], xys=xys, point3D_ids=pids)
+        cm.write_colmap(cm.ColmapModel(cameras, images, points), tmp / "truth", binary=False)
         if white is None:
             raise SplatError(
                 "the white card is seen whole and unsaturated in no training view; change the "
@@ -833,31 +838,53 @@ def write_synthetic_capture(
     return out
 
 
-def _surface_points(scene: SimScene, per_view: int = 400):
-    """True 3-D points on the visible surfaces (a sparse grid of pixels of each training view)."""
+def _surface_points(scene: SimScene, image_ids: dict, per_view: int = 400):
+    """True 3-D points on the visible surfaces (a sparse grid of pixels of each training view), with
+    COLMAP tracks: every training view that sees a point unoccluded inside its frame observes it.
+
+    ``image_ids`` maps a view's index in ``scene.views`` to its COLMAP image id. Returns the points
+    (id → :class:`ColmapPoint3D`) and the keypoints of each image (id → ``(xys (n, 2), point3D_ids
+    (n,))``, in COLMAP's pixel convention: the first pixel's centre at 0.5)."""
     import colour
 
     from .colmap import ColmapPoint3D
 
     rng = np.random.default_rng(scene.config.seed + 2)
-    points = {}
-    for v in scene.views:
-        if v.holdout:
-            continue
+    train = [(i, v) for i, v in enumerate(scene.views) if not v.holdout]
+    xyz, rgb = [], []
+    for _, v in train:
         cam = scene.config.cameras[v.camera]
         u = rng.uniform(0, cam.width, per_view)
         w = rng.uniform(0, cam.height, per_view)
         o, d = scene.rays(v, u, w)
         idx, wts, t = shade(scene, o, d)
         XYZ = np.einsum("nk,nkc->nc", wts, (scene.library @ scene.observer)[idx])
-        rgb = np.clip(colour.XYZ_to_sRGB(XYZ), 0, 1)
         ok = np.isfinite(t)
-        for p, c in zip(o + t[ok, None] * d[ok], rgb[ok]):
-            pid = len(points) + 1
-            points[pid] = ColmapPoint3D(
-                pid, p, np.round(c * 255).astype(np.uint8), 0.0, np.zeros(0, np.int64), np.zeros(0, np.int64)
-            )
-    return points
+        xyz.append(o + t[ok, None] * d[ok])
+        rgb.append(np.clip(colour.XYZ_to_sRGB(XYZ[ok]), 0, 1))
+    xyz, rgb = np.concatenate(xyz), np.concatenate(rgb)
+    tracks = [[] for _ in xyz]
+    keypoints = {}
+    for i, v in train:
+        cam = scene.config.cameras[v.camera]
+        p = xyz @ v.R.T + v.t
+        z = p[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = v.f * p[:, :2] / z[:, None] + np.array([cam.width, cam.height]) / 2
+        inside = (z > 0) & np.all((uv >= 0) & (uv < [cam.width, cam.height]), axis=1)
+        sel = np.nonzero(inside)[0]
+        o = -v.R.T @ v.t
+        dist = np.linalg.norm(xyz[sel] - o, axis=1)
+        _, _, t = shade(scene, o, (xyz[sel] - o) / dist[:, None])
+        seen = sel[np.abs(t - dist) <= 1e-6 + 1e-4 * dist]  # the first hit is the point itself
+        keypoints[image_ids[i]] = (uv[seen], seen + 1)
+        for j, pid in enumerate(seen):
+            tracks[pid].append((image_ids[i], j))
+    points = {}
+    for k, (p, c) in enumerate(zip(xyz, rgb)):
+        tr = np.asarray(tracks[k], np.int64).reshape(-1, 2)
+        points[k + 1] = ColmapPoint3D(k + 1, p, np.round(c * 255).astype(np.uint8), 0.0, tr[:, 0], tr[:, 1])
+    return points, keypoints
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -11,7 +11,7 @@ Kerbl, B. et al. (2023). 3D Gaussian Splatting. ACM TOG 42(4). Sec. 5.2 (adaptiv
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -24,7 +24,7 @@ import optax
 from ._errors import SplatError
 from .camera import Camera, pose_corrected
 from .data import Capture
-from .gaussians import Gaussians, init_gaussians
+from .gaussians import Gaussians, init_gaussians, inverse_softplus
 from .rendering import RenderConfig, render
 
 __all__ = [
@@ -163,6 +163,15 @@ class TrainConfig:
         Gaussians) 30.67 → 30.81 dB (normalised to the median exposure: training views 33.67 → 33.88,
         held out 33.11 → 33.24); but on top of ``lr_log_scales`` 2e-2 it costs 0.07 dB (CI fine 28.96 →
         28.89), so it is off by default.
+    depth_weight : float
+        λ of a sparse depth term added to the loss (0 turns it off): at the pixels where a view observes
+        COLMAP points (``train(..., depth=)``, :func:`splat.pipeline.depth_targets`), ``λ · mean |Σ_i w_i
+        z_i − A z*| / z*`` with ``w_i`` the compositing weights, ``z_i`` the Gaussians' depths, ``A = Σ_i
+        w_i`` and ``z*`` the point's depth — each pixel's depth, weighted by what it draws, against the
+        point's, relative, L1 (robust to the odd wrong point). A view constrains depth only through
+        parallax, and where few views see a region (a backdrop near the edge of every frame) a faint
+        layer in front of the surface explains them as well as the surface (fourteenth session); the
+        term pulls it onto the points. Costs one more rendered channel.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -215,6 +224,7 @@ class TrainConfig:
     loss_offset: float = 1e-3
     densify_gradient: str = "screen"
     flatten_weight: float = 0.0
+    depth_weight: float = 0.0
     method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
@@ -250,11 +260,10 @@ class TrainConfig:
                 f"TrainConfig.densify_gradient={self.densify_gradient!r}: choose 'world', 'screen' or "
                 "'absolute'."
             )
-        w = self.flatten_weight
-        if not isinstance(w, int | float) or not np.isfinite(w) or w < 0:
-            raise SplatError(
-                f"TrainConfig.flatten_weight={w!r}: must be a finite number ≥ 0 (0 turns it off)."
-            )
+        for name in ("flatten_weight", "depth_weight"):
+            w = getattr(self, name)
+            if not isinstance(w, int | float) or not np.isfinite(w) or w < 0:
+                raise SplatError(f"TrainConfig.{name}={w!r}: must be a finite number ≥ 0 (0 turns it off).")
         r = self.recycle_opacity
         if not isinstance(r, int | float) or not 0 <= r < 1:
             raise SplatError(f"TrainConfig.recycle_opacity={r!r}: must lie in [0, 1) (0 never recycles).")
@@ -427,6 +436,7 @@ def train_step(
     view=None,
     exposure_mask=None,
     pose_mask=None,
+    depth=None,
 ):
     """One Adam step on one view; returns the new state (step not incremented), loss and drops.
 
@@ -448,18 +458,38 @@ def train_step(
     pose_mask : Array of shape (V,), optional
         1 for views whose pose may change, 0 for the fixed reference views (with ``state.pose_delta``:
         the camera rendered is ``pose_corrected(camera, pose_delta[view])``).
+    depth : tuple of Arrays of shape (D,), optional
+        ``(pixel, depth, valid)``: the view's sparse depth (flat pixel index, depth along the optical
+        axis, which entries are real); used when ``config.depth_weight > 0``.
     """
     refine = state.log_exposure is not None
     refine_pose = state.pose_delta is not None
 
+    use_depth = depth is not None and config.depth_weight > 0
+
     def loss_fn(params, log_e, pose, probe):
         cam = pose_corrected(camera, pose[view]) if refine_pose else camera
+        g = params
+        if use_depth:  # one more channel holding each Gaussian's depth (in units of the extent)
+            z = jnp.maximum(params.means @ cam.R[2] + cam.t[2], config.render.near) / extent
+            g = replace(
+                params,
+                colour_params=jnp.concatenate([params.colour_params, inverse_softplus(z)[:, None]], -1),
+            )
         out = render(
-            params, cam, method=config.method, config=config.render, mask=state.alive, absgrad_probe=probe
+            g, cam, method=config.method, config=config.render, mask=state.alive, absgrad_probe=probe
         )
+        colour = out.image[..., : params.n_channels]
         e = exposure * jnp.exp(log_e[view]) if refine else exposure
-        loss = rawnerf_loss(e * out.image, image, weight * channel_mask, offset=config.loss_offset)
+        loss = rawnerf_loss(e * colour, image, weight * channel_mask, offset=config.loss_offset)
         total = loss
+        if use_depth:
+            pixel, target, valid = depth
+            acc = out.alpha.reshape(-1)[pixel]
+            zsum = out.image[..., -1].reshape(-1)[pixel] - config.render.background * (1 - acc)
+            zt = target / extent
+            err = jnp.where(valid, jnp.abs(zsum - acc * zt) / zt, 0.0)
+            total = total + config.depth_weight * jnp.sum(err) / jnp.maximum(jnp.sum(valid), 1)
         if config.flatten_weight:
             # mean over alive Gaussians of the smallest standard deviation, in units of the scene extent
             thin = jnp.exp(jnp.min(params.log_scales, axis=-1)) / extent
@@ -670,6 +700,7 @@ def train(
     callback=None,
     reference_views=None,
     pose_reference_views=None,
+    depth=None,
 ) -> TrainResult:
     """Fit N-channel Gaussians to the RAW views of a multi-camera capture.
 
@@ -715,6 +746,9 @@ def train(
         Views whose pose stays fixed when ``config.refine_poses`` (default: the two views farthest apart,
         see above); at least one. With one, the scale stays free, but a common scaling of the scene and
         the camera centres leaves every image unchanged, so the loss's gradient never points along it.
+    depth : tuple of array_like of shape (V, D), optional
+        ``(pixel, depth, valid)``: each view's sparse depth, e.g. the COLMAP points it observes
+        (:func:`splat.pipeline.depth_targets`); used when ``config.depth_weight > 0``.
 
     Returns
     -------
@@ -778,6 +812,23 @@ def train(
                 "whole scene and its cameras may turn and shift together); two fix the scale as well."
             )
         pose_mask = jnp.ones(V).at[jnp.asarray(pref)].set(0.0)
+    if depth is not None and config.depth_weight > 0:
+        pixel, target, on = (np.asarray(a) for a in depth)
+        H, W = images.shape[1:3]
+        if not (pixel.shape == target.shape == on.shape and pixel.ndim == 2 and len(pixel) == V):
+            raise SplatError(f"depth: expected (pixel, depth, valid), each of shape (V={V}, D).")
+        if np.any(on & ((pixel < 0) | (pixel >= H * W) | ~(target > 0))):
+            raise SplatError(
+                f"depth: a valid entry has a pixel outside [0, {H * W}) or a depth that is not > 0; mark it "
+                "invalid or drop it."
+            )
+        depth = (
+            jnp.asarray(pixel, jnp.int32),
+            jnp.asarray(np.where(on, target, 1.0), jnp.float32),
+            jnp.asarray(on),
+        )
+    else:
+        depth = None
     if resume is not None:
         state = load_checkpoint(resume, state)
 
@@ -801,6 +852,7 @@ def train(
             view=jnp.asarray(v, jnp.int32),
             exposure_mask=exposure_mask,
             pose_mask=pose_mask,
+            depth=None if depth is None else tuple(a[v] for a in depth),
         )
         state = state._replace(step=step + 1)
         if config.densify_from <= step + 1 < config.densify_until and (step + 1) % config.densify_every == 0:
