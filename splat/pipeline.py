@@ -50,8 +50,8 @@ if TYPE_CHECKING:
 __all__ = [
     "STEPS",
     "PipelineConfig",
-    "depth_targets",
     "correct_step",
+    "depth_targets",
     "poses_step",
     "render_step",
     "report_step",
