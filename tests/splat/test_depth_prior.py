@@ -173,23 +173,12 @@ def test_bad_depth_targets_are_refused():
     im = np.zeros((1, 8, 8, 1), np.float32)
     cfg = TrainConfig(steps=1, capacity=8, depth_weight=1.0)
     bounds = np.array([[-1.0, -1, -1], [1, 1, 1]])
-    with pytest.raises(SplatError, match="pixel outside"):
-        train(
-            capture,
-            im,
-            im,
-            config=cfg,
-            bounds=bounds,
-            depth=(np.array([[64]]), np.array([[2.0]]), np.array([[True]])),
-        )
-    with pytest.raises(SplatError, match="shape"):
-        train(
-            capture,
-            im,
-            im,
-            config=cfg,
-            bounds=bounds,
-            depth=(np.array([1]), np.array([2.0]), np.array([True])),
-        )
+    bad = {
+        "pixel outside": (np.array([[64]]), np.array([[2.0]]), np.array([[True]])),  # 8 × 8 = 64 pixels
+        "shape": (np.array([1]), np.array([2.0]), np.array([True])),  # not (V, D)
+    }
+    for message, depth in bad.items():
+        with pytest.raises(SplatError, match=message):
+            train(capture, im, im, config=cfg, bounds=bounds, depth=depth)
     with pytest.raises(SplatError, match="depth_weight"):
         TrainConfig(depth_weight=-1)
