@@ -26,6 +26,8 @@ __all__ = [
     "SO3_TAYLOR_THETA2",
     "TEXTURE_NSIGMA",
     "TEXTURE_RTOL",
+    "TRACK_VISIBLE_ATOL",
+    "TRACK_VISIBLE_RTOL",
     "WARP_RADIUS_MIN",
 ]
 
@@ -141,3 +143,12 @@ GUIDE_RADIUS = 2
 GUIDE_RANGE = 0.1
 #: See :data:`GUIDE_RADIUS`.
 GUIDE_RELIABILITY = 0.1
+
+#: A simulated COLMAP point is in a training view's track when the view's ray towards it first hits a
+#: surface within this of the point's distance (relative, plus :data:`TRACK_VISIBLE_ATOL` in m): the
+#: point is itself a float64 ray hit, so an unoccluded ray meets it again to ~1e-12 relative; an
+#: occluder closer to the point than 1e-4 of its distance (0.5 mm at 5 m, far below a pixel's footprint
+#: there) could not hide it in any image.
+TRACK_VISIBLE_RTOL = 1e-4
+#: See :data:`TRACK_VISIBLE_RTOL` (m; for points next to a camera, far below any occluder's distance).
+TRACK_VISIBLE_ATOL = 1e-6

@@ -39,7 +39,7 @@ import numpy as np
 
 from ._errors import SplatError
 from ._simgeometry import CARD, CHART, shade
-from ._tol import GRID_NM, PURE_WEIGHT
+from ._tol import GRID_NM, PURE_WEIGHT, TRACK_VISIBLE_ATOL, TRACK_VISIBLE_RTOL
 
 __all__ = ["SimCamera", "SimCaptureConfig", "SimScene", "SimView", "build_scene", "write_synthetic_capture"]
 
@@ -876,7 +876,7 @@ def _surface_points(scene: SimScene, image_ids: dict, per_view: int = 400):
         o = -v.R.T @ v.t
         dist = np.linalg.norm(xyz[sel] - o, axis=1)
         _, _, t = shade(scene, o, (xyz[sel] - o) / dist[:, None])
-        seen = sel[np.abs(t - dist) <= 1e-6 + 1e-4 * dist]  # the first hit is the point itself
+        seen = sel[np.abs(t - dist) <= TRACK_VISIBLE_ATOL + TRACK_VISIBLE_RTOL * dist]  # hit: the point
         keypoints[image_ids[i]] = (uv[seen], seen + 1)
         for j, pid in enumerate(seen):
             tracks[pid].append((image_ids[i], j))
