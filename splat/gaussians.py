@@ -14,7 +14,14 @@ import numpy as np
 
 from ._errors import SplatError
 
-__all__ = ["Gaussians", "covariances_from", "init_gaussians", "inverse_softplus", "quat_to_rotmat"]
+__all__ = [
+    "Gaussians",
+    "covariances_from",
+    "depth_colour_params",
+    "init_gaussians",
+    "inverse_softplus",
+    "quat_to_rotmat",
+]
 
 
 @jax.tree_util.register_dataclass
@@ -135,6 +142,15 @@ def inverse_softplus(y: np.ndarray | jax.Array, *, floor: float = 1e-6) -> jax.A
     """``x`` with ``softplus(x) = y`` (``y`` clipped at ``floor`` so the result is finite), same shape."""
     y = jnp.maximum(jnp.asarray(y), floor)
     return y + jnp.log(-jnp.expm1(-y))
+
+
+def depth_colour_params(gaussians: Gaussians, camera, *, near: float, scale: float = 1.0) -> jax.Array:
+    """``colour_params`` (G,) of one channel that holds each Gaussian's camera depth ``max(z, near) / scale``
+    (``softplus⁻¹``): rendered, it composites to ``Σ_i w_i z_i / scale`` (``render_depth`` and the training
+    depth term). Gaussians behind ``near`` are never drawn; the clip only keeps the inverse finite."""
+    R = jnp.asarray(camera.R, gaussians.means.dtype)
+    z = gaussians.means @ R[2] + jnp.asarray(camera.t, gaussians.means.dtype)[2]
+    return inverse_softplus(jnp.maximum(z, near) / scale)
 
 
 def init_gaussians(

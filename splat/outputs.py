@@ -10,7 +10,7 @@ import numpy as np
 from ._errors import SplatError
 from .camera import Camera
 from .data import Capture
-from .gaussians import Gaussians, inverse_softplus
+from .gaussians import Gaussians, depth_colour_params
 from .rendering import RenderConfig, render
 
 __all__ = ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"]
@@ -75,12 +75,8 @@ def render_depth(
         Accumulated opacity ``Σ_i w_i``: where it is well below 1 the depth is of a thin veil.
     """
     config = replace(config or RenderConfig(), background=0.0)
-    R = jnp.asarray(camera.R, gaussians.means.dtype)
-    z = gaussians.means @ R[2] + jnp.asarray(camera.t, gaussians.means.dtype)[2]
-    # colours = softplus(colour_params): one channel holding each Gaussian's depth (those behind the near
-    # plane are never drawn, so the clip only keeps the inverse finite)
-    zc = jnp.maximum(z, config.near)[:, None]
-    g = replace(gaussians, colour_params=inverse_softplus(zc).astype(gaussians.colour_params.dtype))
+    depth = depth_colour_params(gaussians, camera, near=config.near)[:, None]
+    g = replace(gaussians, colour_params=depth.astype(gaussians.colour_params.dtype))
     out = render(g, camera, method=method, config=config, mask=None if mask is None else jnp.asarray(mask))
     alpha = np.asarray(out.alpha, np.float64)
     num = np.asarray(out.image[..., 0], np.float64)

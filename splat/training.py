@@ -24,7 +24,7 @@ import optax
 from ._errors import SplatError
 from .camera import Camera, pose_corrected
 from .data import Capture
-from .gaussians import Gaussians, init_gaussians, inverse_softplus
+from .gaussians import Gaussians, depth_colour_params, init_gaussians
 from .rendering import RenderConfig, render
 
 __all__ = [
@@ -474,11 +474,8 @@ def train_step(
         cam = pose_corrected(camera, pose[view]) if refine_pose else camera
         g = params
         if use_depth:  # one more channel holding each Gaussian's depth (in units of the extent)
-            z = jnp.maximum(params.means @ cam.R[2] + cam.t[2], config.render.near) / extent
-            g = replace(
-                params,
-                colour_params=jnp.concatenate([params.colour_params, inverse_softplus(z)[:, None]], -1),
-            )
+            z = depth_colour_params(params, cam, near=config.render.near, scale=extent)
+            g = replace(params, colour_params=jnp.concatenate([params.colour_params, z[:, None]], -1))
         out = render(
             g, cam, method=config.method, config=config.render, mask=state.alive, absgrad_probe=probe
         )
