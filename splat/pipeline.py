@@ -105,9 +105,10 @@ class PipelineConfig:
         (two seeds, whose own spread is 0.18) and the training views' rotation error 0.51° → 0.40–0.43°
         (centres 0.0134 → 0.0140 in a 5.9 m arc): no measurable gain at that training length.
     depth_weight : float
-        λ of the sparse depth term (:attr:`splat.TrainConfig.depth_weight`): each training view's
-        rendered depth is pulled towards the COLMAP points its track says it observes
-        (:func:`depth_targets`). 0 turns it off.
+        λ of the sparse depth term (:attr:`splat.TrainConfig.depth_weight`, whose default it shares):
+        each training view's rendered depth is pulled towards the COLMAP points its track says it
+        observes (:func:`depth_targets`; a model without tracks gives none, and the term is off). 0 turns
+        it off.
     """
 
     steps: int = 3000
@@ -123,7 +124,7 @@ class PipelineConfig:
     densify_until: int | None = None
     refine_exposure: bool = False
     refine_poses: bool = False
-    depth_weight: float = 0.0
+    depth_weight: float = 13.0
 
     def __post_init__(self):
         positive = {"steps": self.steps, "capacity": self.capacity}

@@ -164,17 +164,22 @@ class TrainConfig:
         held out 33.11 → 33.24); but on top of ``lr_log_scales`` 2e-2 it costs 0.07 dB (CI fine 28.96 →
         28.89), so it is off by default.
     depth_weight : float
-        λ of a sparse depth term added to the loss (0 turns it off): at the pixels where a view observes
-        COLMAP points (``train(..., depth=)``, :func:`splat.pipeline.depth_targets`), ``λ · mean |Σ_i w_i
-        z_i − A z*| / z*`` with ``w_i`` the compositing weights, ``z_i`` the Gaussians' depths, ``A = Σ_i
-        w_i`` and ``z*`` the point's depth — each pixel's depth, weighted by what it draws, against the
-        point's, relative, L1 (robust to the odd wrong point). A view constrains depth only through
-        parallax, and where few views see a region (a backdrop near the edge of every frame) a faint
-        layer in front of the surface explains them as well as the surface (fourteenth session); the
-        term pulls it onto the points. Costs one more rendered channel. Held-out PSNR with λ = 1
-        (fifteenth session, README): benchmark capture with its exact points 30.83 → 31.28 dB (32 768
-        Gaussians), 33.38 → 33.59 (524 288); with pycolmap's sparse points +0.22 dB (CI fine) and −0.37
-        (CI coarse, 695 points), so 0 stays the default.
+        λ of a sparse depth term added to the loss (0 turns it off; it acts only where ``train(...,
+        depth=)`` gives targets, e.g. :func:`splat.pipeline.depth_targets`): ``λ · Σ_p |Σ_i w_i z_i − A_p
+        z*_p| / z*_p / (H W)``, summed over the pixels ``p`` where the view observes a COLMAP point, with
+        ``w_i`` the compositing weights, ``z_i`` the Gaussians' depths, ``A_p = Σ_i w_i`` and ``z*_p`` the
+        point's depth — each pixel's depth, weighted by what it draws, against the point's, relative, L1
+        (robust to the odd wrong point) — and divided by the image's pixel count, so that each observed
+        point weighs like one pixel of the data term and a sparse model (few tracked points) pulls little.
+        A view constrains depth only through parallax, and where few views see a region (a backdrop near
+        the edge of every frame) a faint layer in front of the surface explains them as well as the
+        surface (fourteenth session); the term pulls it onto the points. Costs one more rendered channel.
+        13 (sixteenth session; ≈ 1 per view's mean on the benchmark capture's ≈ 11.5 k points per 172.8 k
+        pixels). Held-out PSNR, λ = 0 → 13 (README): benchmark capture with its exact points 30.83 →
+        31.19 dB (32 768 Gaussians; λ = 39: 31.39); CI fine 29.20 → 29.22 (true points), 29.44 → 29.60
+        (pycolmap's), CI coarse (pycolmap's 695 points) 34.74 → 34.72. The fifteenth session's mean over
+        the view's points instead (λ = 1) cost the coarse capture 0.37 dB and the fine one's flat-pixel
+        colour.
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -227,7 +232,7 @@ class TrainConfig:
     loss_offset: float = 1e-3
     densify_gradient: str = "screen"
     flatten_weight: float = 0.0
-    depth_weight: float = 0.0
+    depth_weight: float = 13.0
     method: str = "auto"
     render: RenderConfig = field(default_factory=RenderConfig)
     checkpoint: str | Path | None = None
@@ -489,12 +494,12 @@ def train_step(
             zsum = out.image[..., -1].reshape(-1)[pixel] - config.render.background * (1 - acc)
             zt = target / extent
             err = jnp.where(valid, jnp.abs(zsum - acc * zt) / zt, 0.0)
-            total = total + config.depth_weight * jnp.sum(err) / jnp.maximum(jnp.sum(valid), 1)
+            total = total + config.depth_weight * jnp.sum(err) / (image.shape[0] * image.shape[1])
         if config.flatten_weight:
             # mean over alive Gaussians of the smallest standard deviation, in units of the scene extent
             thin = jnp.exp(jnp.min(params.log_scales, axis=-1)) / extent
             n = jnp.maximum(jnp.sum(state.alive), 1)
-            total = loss + config.flatten_weight * jnp.sum(jnp.where(state.alive, thin, 0.0)) / n
+            total = total + config.flatten_weight * jnp.sum(jnp.where(state.alive, thin, 0.0)) / n
         return total, (out.n_dropped, loss)
 
     absolute = config.densify_gradient == "absolute"

@@ -129,7 +129,8 @@ def test_poses_step_keeps_the_tracks_and_training_inputs_carry_the_depth(ci_capt
 def test_depth_term_pulls_the_drawn_depth_onto_the_points():
     """A sheet of Gaussians at depth 4 and targets saying 5, no data term (all weights 0): with
     ``depth_weight`` the term ``|Σ w z − A z*| / z*`` falls — the sheet moves back and, with nothing to
-    draw, fades (the data term is what keeps a real surface opaque) — and without it nothing moves."""
+    draw, fades (the data term is what keeps a real surface opaque) — and without it nothing moves. The
+    flatness penalty on top must not switch the depth term off (it once replaced the total loss)."""
     cam = look_at((0, 0, -4), (0, 0, 0), up=(0, 1, 0), width=24, height=24)
     g = np.stack(np.meshgrid(np.linspace(-1, 1, 9), np.linspace(-1, 1, 9), [0.0], indexing="ij"), -1).reshape(
         -1, 3
@@ -141,8 +142,10 @@ def test_depth_term_pulls_the_drawn_depth_onto_the_points():
     targets = (pixel, np.full(pixel.shape, 5.0, np.float32), np.ones(pixel.shape, bool))
     bounds = np.array([[-5.0, -5, -5], [5, 5, 5]])
 
-    def drawn(weight):
-        cfg = TrainConfig(steps=60, capacity=len(g), densify_from=10_000, depth_weight=weight)
+    def drawn(weight, flatten=0.0):
+        cfg = TrainConfig(
+            steps=60, capacity=len(g), densify_from=10_000, depth_weight=weight, flatten_weight=flatten
+        )
         res = train(
             capture,
             images,
@@ -160,9 +163,10 @@ def test_depth_term_pulls_the_drawn_depth_onto_the_points():
     d0, a0 = drawn(0.0)
     np.testing.assert_allclose(d0, 4.0, atol=1e-3)
     d1, a1 = drawn(1.0)
-    assert np.nanmean(d1) > 4.1
-    term = [np.mean(np.nan_to_num(a * np.abs(d - 5))) / 5 for d, a in ((d0, a0), (d1, a1))]
-    assert term[1] < 0.5 * term[0]
+    d2, a2 = drawn(1.0, flatten=1.0)
+    assert np.nanmean(d1) > 4.1 and np.nanmean(d2) > 4.1
+    term = [np.mean(np.nan_to_num(a * np.abs(d - 5))) / 5 for d, a in ((d0, a0), (d1, a1), (d2, a2))]
+    assert term[1] < 0.5 * term[0] and term[2] < 0.5 * term[0]
 
 
 def test_bad_depth_targets_are_refused():
