@@ -3,13 +3,16 @@ view gets (:func:`splat.pipeline.depth_targets`) and the training term (``TrainC
 
 from __future__ import annotations
 
+import dataclasses
+
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from splat import TrainConfig, look_at, render_depth, train
+from splat import RenderConfig, TrainConfig, init_state, look_at, render_depth, train, train_step
 from splat.colmap import ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, read_colmap
 from splat.data import Capture, View, capture_from_colmap
-from splat.pipeline import depth_targets
+from splat.pipeline import PipelineConfig, depth_targets
 
 
 def _qvec(R):
@@ -188,17 +191,17 @@ def test_bad_depth_targets_are_refused():
         TrainConfig(depth_weight=-1)
 
 
+def test_pipeline_and_training_share_the_depth_weight_default():
+    """``PipelineConfig`` keeps JAX out of its import, so it cannot read ``TrainConfig``'s default and
+    repeats it; the two must not drift apart."""
+    assert PipelineConfig().depth_weight == TrainConfig().depth_weight > 0
+
+
 def test_depth_term_is_the_same_on_every_back_end():
     """The depth term renders each Gaussian's depth as one more colour channel, so every back-end must
     carry it: the GPU's ``"tiled"`` one (which CI never trains with) gives the same gradient of the
     term as the CPU's and the dense reference. With the data term off (zero weights) the centres' screen
     gradient that one ``train_step`` accumulates is the depth term's alone."""
-    import dataclasses
-
-    import jax.numpy as jnp
-
-    from splat import RenderConfig, init_state, train_step
-
     cam = look_at((0, 0, -4), (0.1, 0, 0), up=(0, 1, 0), width=24, height=16)
     rng = np.random.default_rng(2)
     xyz = np.column_stack([rng.uniform(-1, 1, (40, 2)), rng.uniform(-0.3, 0.3, 40)])
