@@ -1293,7 +1293,7 @@ def _reprojected_of(d: Path, scale: np.ndarray):
 def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
     ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     out = np.zeros((*fused.shape[:-1], 3))
     for cd, s_ in sigma.items():
@@ -1387,7 +1387,7 @@ def correct_step(
     dict
         The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
     """
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .fusion import measured
 

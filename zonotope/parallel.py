@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from ._errors import ZonotopeError
-from ._progress import ProgressCallback
+from .utilities.progress import ProgressCallback
 
 __all__ = [
     "ENV_VAR",
@@ -600,7 +600,7 @@ def run_files(
     if settings is not None:
         import json
 
-        from ._io import atomic_write_bytes
+        from .utilities.io import atomic_write_bytes
 
         check_settings(manifest, settings)
         if not _settings_path(manifest).is_file():
@@ -655,8 +655,8 @@ def run_files(
 def _remove_temporaries(tasks: list[FileTask]) -> None:
     """Remove the temporaries of attempts whose worker died while writing (only this batch's): the
     ``.part`` files, and the atomic writers' own temporaries of a ``.part`` file (a worker killed
-    inside ``zonotope._io``'s write of it leaves ``..stem.<hex>.part.tif.<pid>.tmp-….tif``)."""
-    from ._io import _TMP
+    inside ``zonotope.utilities.io``'s write of it leaves ``..stem.<hex>.part.tif.<pid>.tmp-….tif``)."""
+    from .utilities.io import _TMP
 
     names: dict[Path, set[str]] = {}
     for t in tasks:

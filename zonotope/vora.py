@@ -22,10 +22,10 @@ from itertools import combinations
 
 import numpy as np
 
-from . import spectra
 from ._errors import OptionError, SpectralDataError, UnknownMethodError
-from ._loading import load_camera
 from ._tol import TOL
+from .spectra import builtin as spectra
+from .spectra.loading import load_camera
 
 __all__ = ["CameraSetScore", "projector", "rank_camera_sets", "vora_value"]
 
