@@ -22,8 +22,8 @@ import numpy as np
 from ._errors import PipelineError
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
     from zonotope.correct import Corrector
+    from zonotope.utilities import ProgressCallback
 
 __all__ = ["METAMER_RANGE", "MetamerConfig", "MetamerCorrection", "metamer_correction"]
 

@@ -45,7 +45,7 @@ from ._tol import FEASIBLE_DISTANCE
 from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "STEPS",
@@ -151,7 +151,7 @@ class PipelineConfig:
 
 def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
     """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     return atomic_path(path, write)
 

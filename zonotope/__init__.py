@@ -76,7 +76,6 @@ from .spectra.builtin import (
 from .spectra.loading import SpectralFileNotFoundError, load_camera, load_reflectances
 from .spectra.pair import GeneratorPair, generator_pair
 from .utilities.lazy import install_moved_modules, lazy_exports
-from .utilities.registry import Method, MethodRegistry
 from .vora import CameraSetScore, projector, rank_camera_sets, vora_value
 
 try:
@@ -96,8 +95,6 @@ __all__ = [
     "GeneratorPair",
     "GeometryError",
     "InfeasibleResponseError",
-    "Method",
-    "MethodRegistry",
     "OptionError",
     "Parallelograms",
     "SpectralDataError",
@@ -200,6 +197,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         ],
         "correct.methods": [
             "CORRECTION_METHODS",
+            "DELTA_SIGMAS",
             "CorrectionProblem",
             "Corrector",
             "PriorConfig",
@@ -214,6 +212,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "fit_Projection",
             "fit_correction",
             "mmv_centroids",
+            "noise_options",
             "root_polynomial_terms",
             "select_regression",
         ],
@@ -253,17 +252,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "plot_spectral_locus",
             "plot_vora_chain",
         ],
-        "utilities.progress": ["ProgressCallback"],
         "geometry.lp": ["distance_to_zonotope"],
-        "utilities.io": [
-            "OutputExistsError",
-            "atomic_dir",
-            "atomic_file",
-            "atomic_path",
-            "atomic_write_bytes",
-            "atomic_write_text",
-            "check_output",
-        ],
     },
     eager=__all__,
 )

@@ -471,11 +471,17 @@ VOLUME_FLOOR = 1e-300
 #: grids differ by ≥ 1e-4.
 SCALED_SAME = 1e-14
 
+#: The MMV's per-channel response tolerance δ = DELTA_SIGMAS · σ for responses with noise σ: a few σ,
+#: so that the noise-free response lies within δ of the measured one with high probability (3σ per
+#: channel: 99.7 % for Gaussian noise), while the MMV grows only by that margin.
+DELTA_SIGMAS = 3.0
+
 __all__ += [
     "BVLS_CONDITION",
     "BVLS_FALLBACK",
     "BVLS_KKT",
     "CENTROID_MIN_WEIGHT",
+    "DELTA_SIGMAS",
     "GATE_NONE",
     "GATE_SURE",
     "GP_JITTER",

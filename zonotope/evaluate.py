@@ -45,9 +45,11 @@ import numpy as np
 from ._errors import OptionError, SpectralDataError, ZonotopeError
 from .correct.methods import (
     CORRECTION_METHODS,
+    DELTA_SIGMAS,
     CorrectionProblem,
     correction_problem,
     fit_correction,
+    noise_options,
 )
 from .correct.prior import project_to_mmv
 from .mismatch.membership import outside_mmv_fraction
@@ -507,7 +509,7 @@ class EvaluationConfig:
         Number of atypical spectra added when ``test_sets`` is None (0 for none).
     noise : float
         Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
-        ``delta = 3σ``) are told about it.
+        ``delta = DELTA_SIGMAS · σ``) are told about it.
     seed : int
         Seed of the atypical spectra and of the noise.
     centroid_eps : float
@@ -600,7 +602,7 @@ def evaluate(
         that compute MMVs); None: this process. The table is identical either way.
     progress
         Called as ``progress(stage, 0, n)`` before and ``progress(stage, n, n)`` after each step
-        (n test responses; :class:`~zonotope.ProgressCallback`).
+        (n test responses; :class:`~zonotope.utilities.ProgressCallback`).
     **options
         :class:`EvaluationConfig` fields as keywords, alone or overriding those of ``config``
         (e.g. ``evaluate(sets, noise=0.01, atypical=0)``).
@@ -659,10 +661,9 @@ def evaluate(
         notes.extend(n for n in split_notes if n not in notes)
         fitted = {}
         for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
-            props = CORRECTION_METHODS.properties(m)
-            opts = {"noise": noise} if props["noise"] and noise > 0 else {}
-            if props["centroid"]:
-                opts = {"delta": 3 * noise, "eps": centroid_eps}
+            opts = noise_options(m, noise)
+            if CORRECTION_METHODS.properties(m)["centroid"]:
+                opts = {"delta": DELTA_SIGMAS * noise, "eps": centroid_eps}
             if executor is not None and "executor" in inspect.signature(CORRECTION_METHODS[m]).parameters:
                 opts["executor"] = executor
             try:
@@ -686,7 +687,9 @@ def evaluate(
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", 0, len(C))
                 t0 = time.perf_counter()
-                cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise, executor=executor)
+                cents, vols = _mmv_batch(
+                    problem, C, eps=centroid_eps, delta=DELTA_SIGMAS * noise, executor=executor
+                )
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", len(C), len(C))
                 volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))

@@ -121,7 +121,7 @@ class Executor(_Executor):
         Yields ``(index, result)`` as the tasks finish (any order); a task that raised yields a
         :class:`TaskFailure` instead of its result and the others go on. ``shared`` is sent to
         each worker once, not once per item. ``progress(stage, done, total)`` is called after
-        each finished task (:class:`~zonotope.ProgressCallback`).
+        each finished task (:class:`~zonotope.utilities.ProgressCallback`).
         """
         raise NotImplementedError  # pragma: no cover - the subclasses implement it
 
@@ -575,7 +575,7 @@ def run_files(
         ``min_tasks`` files or more (default :data:`FILE_MIN_TASKS`).
     progress : callable, optional
         ``progress("files", done, total)`` over the files that had to be made
-        (:class:`~zonotope.ProgressCallback`).
+        (:class:`~zonotope.utilities.ProgressCallback`).
     settings : mapping, optional
         The options that change the outputs: kept beside the manifest, and a rerun into the same
         folder with other settings is refused (:func:`check_settings`).

@@ -160,7 +160,7 @@ def write_report(
     force
         Replace an existing ``output``.
     progress
-        ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.ProgressCallback`; a new
+        ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.utilities.ProgressCallback`; a new
         stage name closes the previous one).
     **options
         :class:`ReportConfig` fields as keywords, alone or overriding those of ``config``

@@ -274,7 +274,7 @@ def survey(
     scheduler
         Where the tasks run (:func:`zonotope.parallel.executor`); one task per camera set.
     progress
-        ``progress("camera sets", done, total)`` (:class:`~zonotope.ProgressCallback`).
+        ``progress("camera sets", done, total)`` (:class:`~zonotope.utilities.ProgressCallback`).
     **options
         :class:`SurveyConfig` fields as keywords, alone or overriding those of ``config``
         (e.g. ``survey(cams, size=3)``).

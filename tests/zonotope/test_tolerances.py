@@ -235,4 +235,4 @@ def test_output_writers_go_through_the_atomic_writers():
             for pattern in ("mkstemp(", "os.replace(", "NamedTemporaryFile("):
                 if pattern in code and rel not in allowed:
                     bad.append(f"{rel}: {pattern}")
-    assert not bad, f"write through zonotope.atomic_path / atomic_file / atomic_write_*: {bad}"
+    assert not bad, f"write through zonotope.utilities.atomic_path / atomic_file / atomic_write_*: {bad}"

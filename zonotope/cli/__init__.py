@@ -115,7 +115,8 @@ def _shape(args: argparse.Namespace):
 
 
 def _rich_progress(console):
-    """A (progress, callback) pair; ``callback(stage, done, total)`` (:class:`~zonotope.ProgressCallback`).
+    """A (progress, callback) pair; ``callback(stage, done, total)``
+    (:class:`~zonotope.utilities.ProgressCallback`).
 
     A new stage name completes the previous bar and starts a new one.
 

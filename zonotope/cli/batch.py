@@ -193,7 +193,7 @@ def _correct(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from .._errors import ZonotopeError
-    from ..correct.methods import CORRECTION_METHODS, fit_correction
+    from ..correct import CORRECTION_METHODS, fit_correction, noise_options
     from ..parallel import (
         FILE_MIN_TASKS,
         FileTask,
@@ -228,19 +228,13 @@ def _correct(args: argparse.Namespace) -> int:
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
             console.print(f"fitting {args.method} for {' + '.join(args.camera)}…")
-        props = CORRECTION_METHODS.properties(args.method)
-        noise = {}  # the options zonotope evaluate gives each estimator for a noise σ
-        if args.noise > 0 and props["centroid"]:
-            noise = {"delta": 3 * args.noise}
-        elif args.noise > 0 and props["noise"]:
-            noise = {"noise": args.noise}
         corrector = fit_correction(
             args.camera,
             method=args.method,
             target=args.target,
             illuminant=args.illuminant,
             training=args.training,
-            **noise,
+            **noise_options(args.method, args.noise),
         )
     out_dir.mkdir(parents=True, exist_ok=True)
     bar, callback = _bar(console, args.quiet, f"correcting ({where})")

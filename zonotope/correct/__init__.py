@@ -10,6 +10,7 @@ from __future__ import annotations
 from ..utilities.lazy import lazy_exports
 from .methods import (
     CORRECTION_METHODS,
+    DELTA_SIGMAS,
     CorrectionProblem,
     Corrector,
     PriorConfig,
@@ -25,6 +26,7 @@ from .methods import (
     fit_Prior,
     fit_Projection,
     mmv_centroids,
+    noise_options,
     root_polynomial_terms,
     select_regression,
 )
@@ -50,6 +52,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
 
 __all__ = [
     "CORRECTION_METHODS",
+    "DELTA_SIGMAS",
     "CorrectionProblem",
     "Corrector",
     "PriorConfig",
@@ -65,6 +68,7 @@ __all__ = [
     "fit_Projection",
     "fit_correction",
     "mmv_centroids",
+    "noise_options",
     "root_polynomial_terms",
     "select_regression",
     *_LAZY,

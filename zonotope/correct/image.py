@@ -126,7 +126,7 @@ def correct_image(
         atomically after each batch.
     progress
         Called as ``progress("distinct colours", done, total)`` after each batch
-        (:class:`~zonotope.ProgressCallback`).
+        (:class:`~zonotope.utilities.ProgressCallback`).
 
     Returns
     -------

@@ -66,6 +66,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .._errors import OptionError
+from .._tol import DELTA_SIGMAS
 from ..utilities.registry import MethodRegistry
 from .mmv import (
     PriorConfig,
@@ -77,10 +78,11 @@ from .mmv import (
     select_regression,
 )
 from .problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
-from .regressions import fit_Cheung2004, fit_Dyer2017, fit_Finlayson2015, root_polynomial_terms
+from .regressions import REGRESSIONS, fit_Cheung2004, fit_Dyer2017, fit_Finlayson2015, root_polynomial_terms
 
 __all__ = [
     "CORRECTION_METHODS",
+    "DELTA_SIGMAS",
     "CorrectionProblem",
     "Corrector",
     "PriorConfig",
@@ -96,6 +98,7 @@ __all__ = [
     "fit_Projection",
     "fit_correction",
     "mmv_centroids",
+    "noise_options",
     "root_polynomial_terms",
     "select_regression",
 ]
@@ -113,36 +116,14 @@ __all__ = [
 #: ``centroid``
 #:     The estimate *is* the MMV volume centroid (``evaluate`` computes it once together with the
 #:     MMV volumes; its options are ``eps`` and ``delta`` instead of ``noise``).
-#: ``noise``
-#:     It accepts the ``noise=σ`` option (training on noisy replicas / noisy evidence).
+#: ``noise_option``
+#:     How it is told the responses' noise σ (:func:`noise_options`): ``"noise"`` (it accepts
+#:     ``noise=σ``: training on noisy replicas / noisy evidence), ``"delta"`` (the MMV's response
+#:     tolerance ``delta = DELTA_SIGMAS · σ``) or ``None`` (it ignores noise).
 CORRECTION_METHODS: MethodRegistry[Callable[..., Corrector]] = MethodRegistry("correction")
-CORRECTION_METHODS.register(
-    "Cheung 2004",
-    fit_Cheung2004,
-    aliases=("least squares", "matrix", "lstsq"),
-    closed_form=True,
-    needs_mmv=False,
-    centroid=False,
-    noise=True,
-)
-CORRECTION_METHODS.register(
-    "Finlayson 2015",
-    fit_Finlayson2015,
-    aliases=("root-polynomial", "rootpoly"),
-    closed_form=True,
-    needs_mmv=False,
-    centroid=False,
-    noise=True,
-)
-CORRECTION_METHODS.register(
-    "Dyer 2017",
-    fit_Dyer2017,
-    aliases=("idt", "aces idt", "aces"),
-    closed_form=True,
-    needs_mmv=False,
-    centroid=False,
-    noise=False,
-)
+for _name in REGRESSIONS:
+    _entry = REGRESSIONS.method(_name)
+    CORRECTION_METHODS.register(_name, _entry.function, aliases=_entry.aliases, **_entry.properties)
 CORRECTION_METHODS.register(
     "Centroid",
     fit_Centroid,
@@ -150,12 +131,14 @@ CORRECTION_METHODS.register(
     closed_form=False,
     needs_mmv=True,
     centroid=True,
-    noise=False,
+    noise_option="delta",
 )
 CORRECTION_METHODS.register(
-    "Projection", fit_Projection, closed_form=False, needs_mmv=True, centroid=False, noise=True
+    "Projection", fit_Projection, closed_form=False, needs_mmv=True, centroid=False, noise_option="noise"
 )
-CORRECTION_METHODS.register("MAP", fit_MAP, closed_form=False, needs_mmv=False, centroid=False, noise=True)
+CORRECTION_METHODS.register(
+    "MAP", fit_MAP, closed_form=False, needs_mmv=False, centroid=False, noise_option="noise"
+)
 CORRECTION_METHODS.register(
     "Prior",
     fit_Prior,
@@ -163,8 +146,54 @@ CORRECTION_METHODS.register(
     closed_form=False,
     needs_mmv=True,
     centroid=False,
-    noise=True,
+    noise_option="noise",
 )
+
+
+def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None) -> dict:
+    """The :func:`fit_correction` options that tell ``method`` its responses carry noise ``sigma``.
+
+    The one place turning a noise level into estimator options, read from the method's
+    ``noise_option`` property, so that a newly registered estimator gets its noise in every
+    consumer (evaluation, the batch command, saved corrections, capture pipelines).
+
+    Parameters
+    ----------
+    method : str
+        Key or alias of ``registry``.
+    sigma : float or array_like of shape (k,)
+        Noise level (standard deviation) of the responses, one value or one per channel; ``None``
+        or 0 means noise-free.
+    registry : MethodRegistry, optional
+        Default :data:`CORRECTION_METHODS`.
+
+    Returns
+    -------
+    dict
+        ``{"noise": sigma}`` (property ``"noise"``), ``{"delta": DELTA_SIGMAS * sigma}`` (property
+        ``"delta"``: the MMV's response tolerance, see :data:`DELTA_SIGMAS`), or ``{}`` for a
+        noise-free level or a method without a noise option (property ``None``).
+
+    Examples
+    --------
+    >>> noise_options("Centroid", 0.01)
+    {'delta': 0.03}
+    >>> noise_options("least squares", 0.01), noise_options("idt", 0.01), noise_options("Prior", 0)
+    ({'noise': 0.01}, {}, {})
+    """
+    registry = CORRECTION_METHODS if registry is None else registry
+    option = registry.properties(method).get("noise_option")
+    if sigma is None or option is None or not np.any(np.asarray(sigma, dtype=np.float64) > 0):
+        return {}
+    if option == "noise":
+        return {"noise": sigma}
+    if option == "delta":
+        scaled = DELTA_SIGMAS * np.asarray(sigma, dtype=np.float64)
+        return {"delta": float(scaled) if scaled.ndim == 0 else scaled}
+    raise OptionError(
+        f"{registry.resolve(method)}: noise_option={option!r} in its registry entry; "
+        "allowed: 'noise', 'delta' or None."
+    )
 
 
 def fit_correction(

@@ -12,11 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import OptionError, SpectralDataError
-from .._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
+from .._tol import CENTROID_MIN_WEIGHT, DELTA_SIGMAS, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
 from ..utilities.config import check_count, check_nonnegative, with_options
 from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
 from .problem import CorrectionProblem, Corrector
-from .regressions import fit_Cheung2004, fit_Finlayson2015
+from .regressions import REGRESSIONS, fit_Cheung2004, fit_Finlayson2015
 
 __all__ = [
     "CENTROID_MIN_WEIGHT",
@@ -386,7 +386,9 @@ def learn_mix(
     C, T = np.concatenate(C_all), np.concatenate(T_all)
     t_nat, t_map, w = np.concatenate(nat_all), np.concatenate(map_all), np.concatenate(w_all)[:, None]
     b_in = np.concatenate(in_all)
-    t_cen, vol = mmv_centroids(problem, C, eps=eps, delta=3.0 * noise, executor=executor, volumes=True)
+    t_cen, vol = mmv_centroids(
+        problem, C, eps=eps, delta=DELTA_SIGMAS * noise, executor=executor, volumes=True
+    )
 
     def blend(pair):
         lam_rows = (b_in * pair[0] + (1 - b_in) * pair[1])[:, None]
@@ -681,9 +683,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
     executor = cfg.executor
     reg, cv = select_regression(problem, degree=degree, noise=noise, folds=cfg.folds)
     if cfg.regression != "cv":
-        from .methods import CORRECTION_METHODS
-
-        name = CORRECTION_METHODS.resolve(cfg.regression)
+        name = REGRESSIONS.resolve(cfg.regression) if cfg.regression in REGRESSIONS else None
         if name not in ("Cheung 2004", "Finlayson 2015"):
             raise SpectralDataError(
                 f"regression={cfg.regression!r}: choose 'cv', 'Cheung 2004' or 'Finlayson 2015'."
@@ -754,7 +754,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             mmv = np.ones_like(cen) if with_radius else cen  # radii need every MMV's volume
             if mmv.any():
                 t_cen, vol = mmv_centroids(
-                    problem, c[arb][mmv], eps=eps, delta=3.0 * noise, executor=executor, volumes=True
+                    problem, c[arb][mmv], eps=eps, delta=DELTA_SIGMAS * noise, executor=executor, volumes=True
                 )
                 use = cen[mmv]
                 t_arb[cen] = lam_arb[cen] * t_arb[cen] + (1.0 - lam_arb[cen]) * t_cen[use]

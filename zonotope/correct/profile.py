@@ -248,7 +248,7 @@ def correction_LUT(
         batch, name); default all defaults.
     progress
         Called as ``progress("LUT nodes", done, size³)`` after each batch of lattice nodes
-        (:class:`~zonotope.ProgressCallback`; a 33³ Prior LUT takes minutes).
+        (:class:`~zonotope.utilities.ProgressCallback`; a 33³ Prior LUT takes minutes).
     **options
         Fields of :class:`LUTConfig` as keywords (override those of ``config``), e.g. ``size=17``.
 
@@ -353,7 +353,15 @@ def write_correction_LUT(
 # ---------------------------------------------------------------------------------------------
 
 _PROBLEM_ARRAYS = ("Phi", "Psi", "wavelengths", "training", "XYZ_from_target")
-_OPTION_KEYS = ("degree", "noise", "eps", "delta")
+
+
+def _option_keys(method: str) -> tuple[str, ...]:
+    """The fitting options a saved correction records: shape options and the method's noise option
+    (its registry entry's ``noise_option``), so that a reload refits with the same noise."""
+    from .methods import CORRECTION_METHODS
+
+    option = CORRECTION_METHODS.properties(method).get("noise_option")
+    return ("degree", "eps", *((option,) if option else ()))
 
 
 def save_correction(
@@ -367,8 +375,9 @@ def save_correction(
         Output file (``.npz``).
     corrector : zonotope.correct.Corrector
     options
-        Fitting options to record (default: those the estimator keeps in ``params``: degree,
-        noise, eps, delta). Give non-default options of Prior/MAP (odds, shrinkage) here.
+        Fitting options to record (default: those the estimator keeps in ``params``: degree, eps
+        and its noise option, ``noise`` or ``delta``). Give non-default options of Prior/MAP (odds,
+        shrinkage) here.
     overwrite
         Replace an existing file.
 
@@ -382,7 +391,8 @@ def save_correction(
     if path.exists() and not overwrite:
         raise ZonotopeError(f"{path} exists; pass overwrite=True or choose another name.")
     prob = corrector.problem
-    opts = {k: v for k, v in corrector.params.items() if k in _OPTION_KEYS and np.isscalar(v)}
+    keys = _option_keys(corrector.method)
+    opts = {k: v for k, v in corrector.params.items() if k in keys and np.isscalar(v)}
     opts.update(options or {})
     meta = {
         "format": _FORMAT,

@@ -10,9 +10,10 @@ import colour
 import numpy as np
 
 from .._errors import OptionError, SpectralDataError
+from ..utilities.registry import MethodRegistry
 from .problem import CorrectionProblem, Corrector
 
-__all__ = ["fit_Cheung2004", "fit_Dyer2017", "fit_Finlayson2015", "root_polynomial_terms"]
+__all__ = ["REGRESSIONS", "fit_Cheung2004", "fit_Dyer2017", "fit_Finlayson2015", "root_polynomial_terms"]
 
 
 def root_polynomial_terms(responses, *, degree: int = 2) -> np.ndarray:
@@ -174,3 +175,36 @@ def fit_Dyer2017(problem: CorrectionProblem) -> Corrector:
     s = float(np.sum((C @ full @ X2T) * problem.target_of(problem.training)) / np.sum((C @ full @ X2T) ** 2))
     full = s * full @ X2T
     return Corrector("Dyer 2017", problem, lambda c: c @ full, {"M": full, "M_IDT": M})
+
+
+#: The regressions' registry entries (names, aliases, properties; see
+#: :data:`zonotope.correct.CORRECTION_METHODS`, which holds them too). Here, below the MMV-based
+#: estimators, because Prior resolves its ``regression=`` option against them.
+REGRESSIONS: MethodRegistry = MethodRegistry("regression")
+REGRESSIONS.register(
+    "Cheung 2004",
+    fit_Cheung2004,
+    aliases=("least squares", "matrix", "lstsq"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise_option="noise",
+)
+REGRESSIONS.register(
+    "Finlayson 2015",
+    fit_Finlayson2015,
+    aliases=("root-polynomial", "rootpoly"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise_option="noise",
+)
+REGRESSIONS.register(
+    "Dyer 2017",
+    fit_Dyer2017,
+    aliases=("idt", "aces idt", "aces"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise_option=None,
+)

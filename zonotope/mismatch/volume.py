@@ -687,7 +687,7 @@ def metamer_mismatch_batch(
         :class:`MMVBatchConfig`); default ``MMVBatchConfig()``.
     progress : callable, optional
         Called as ``progress("metamer mismatch volumes", done, total)`` (responses) after each
-        chunk (:class:`~zonotope.ProgressCallback`); the library draws nothing.
+        chunk (:class:`~zonotope.utilities.ProgressCallback`); the library draws nothing.
     executor : concurrent.futures.Executor, optional
         Where the chunks run: any object whose ``map(fn, iterable)`` yields the results in the
         order of ``iterable``, as :meth:`concurrent.futures.Executor.map` does (a

@@ -28,7 +28,7 @@ from .builtin import (
     resample,
     spectral_matrix,
 )
-from .loading import SPECTRAL_SUFFIXES, SpectralFileNotFoundError, load_camera, load_reflectances
+from .loading import SpectralFileNotFoundError, load_camera, load_reflectances
 from .pair import GeneratorPair, generator_pair
 
 __all__ = [
@@ -37,7 +37,6 @@ __all__ = [
     "ILLUMINANTS",
     "OBSERVERS",
     "REFLECTANCES",
-    "SPECTRAL_SUFFIXES",
     "STRUCTURED_KINDS",
     "GeneratorPair",
     "SpectralFileNotFoundError",

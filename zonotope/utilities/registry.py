@@ -11,7 +11,7 @@ registry was built with) naming the argument, the bad value and the valid names.
 
 Examples
 --------
->>> from zonotope import MethodRegistry
+>>> from zonotope.utilities import MethodRegistry
 >>> SHAPES = MethodRegistry("shape")
 >>> SHAPES.register("Unit Square", lambda: 1.0, aliases=("square",), corners=4)
 >>> SHAPES["unit-square"](), SHAPES.resolve("SQUARE"), SHAPES.properties("square")["corners"]

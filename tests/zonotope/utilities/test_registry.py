@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import zonotope
-from zonotope import MethodRegistry, UnknownMethodError
+from zonotope import UnknownMethodError
+from zonotope.utilities import MethodRegistry
 
 
 def _registry():
