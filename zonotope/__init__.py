@@ -65,9 +65,6 @@ from .spectra.builtin import (
     illuminant,
     list_builtin,
     observer,
-    read_camera,
-    read_reflectances,
-    read_sfu1995,
     read_spectral_csv,
     reflectances,
     resample,
@@ -115,9 +112,6 @@ __all__ = [
     "observer",
     "projector",
     "rank_camera_sets",
-    "read_camera",
-    "read_reflectances",
-    "read_sfu1995",
     "read_spectral_csv",
     "reflectances",
     "resample",
@@ -255,5 +249,10 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         "geometry.lp": ["distance_to_zonotope"],
     },
     eager=__all__,
+    deprecated={
+        "read_camera": ("spectra.builtin", "load_camera"),
+        "read_reflectances": ("spectra.builtin", "load_reflectances"),
+        "read_sfu1995": ("spectra.builtin", "load_reflectances"),
+    },
 )
 __all__ += _LAZY

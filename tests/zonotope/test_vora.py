@@ -67,7 +67,7 @@ def test_shared_cameras_vora(shared_data):
     paths = sorted((shared_data / "ssf_rawtoaces" / "data" / "camera").glob("*.json"))
     values = []
     for path in paths:
-        cam = zonotope.read_camera(path)
+        cam = zonotope.load_camera(path)
         G = zonotope.generators(cam, "D65", np.arange(400.0, 701.0, 10.0)).values
         values.append(vora_value(G, X_LMS))
     assert len(values) == 52 and 0.7 < min(values) and max(values) < 1.0
@@ -81,3 +81,21 @@ def test_channels_of_wildly_different_scale_all_count():
     assert vora_value(tiny, X_LMS) == pytest.approx(vora_value(np.ones((31, 1)), X_LMS), rel=1e-12)
     assert vora_value(np.hstack([tiny, e0]), X_LMS) >= vora_value(tiny, X_LMS)
     assert vora_value(np.zeros((31, 2)), X_LMS) == 0.0
+
+
+def test_vora_value_accepts_what_generators_returns(tmp_path):
+    """``generators`` takes a camera file as every entry point does, and ``vora_value`` takes its
+    result (a colour MSDS) as it takes arrays."""
+    grid = np.arange(400, 701, 10)
+    cam = zonotope.load_camera("Nikon 5100 (NPL)")
+    path = tmp_path / "nikon.csv"
+    np.savetxt(path, np.column_stack([cam.wavelengths, cam.values]), delimiter=",")
+    G = zonotope.generators("Nikon 5100 (NPL)", shape=grid)
+    for source in (path, str(path)):
+        np.testing.assert_allclose(zonotope.generators(source, shape=grid).values, G.values)
+    X = zonotope.generators("CIE 1931 2°", shape=grid)
+    assert zonotope.vora_value(G, X) == pytest.approx(zonotope.vora_value(G.values, X.values))
+    with pytest.raises(zonotope.SpectralDataError, match="grid"):
+        zonotope.vora_value(G, zonotope.generators("CIE 1931 2°", shape=np.arange(400, 701, 5)))
+    with pytest.raises(zonotope.SpectralDataError, match="not found"):
+        zonotope.generators(tmp_path / "missing.csv")

@@ -8,6 +8,7 @@ Why one folder: every other part of ``zonotope`` starts from curves resampled on
 from __future__ import annotations
 
 from .._errors import float_array as float_array  # used as ``spectra.float_array`` by other modules
+from ..utilities.lazy import lazy_exports
 from .atypical import ATYPICAL_KINDS, STRUCTURED_KINDS, atypical_reflectances, structured_reflectances
 from .builtin import (
     CAMERAS,
@@ -20,9 +21,6 @@ from .builtin import (
     illuminant,
     list_builtin,
     observer,
-    read_camera,
-    read_reflectances,
-    read_sfu1995,
     read_spectral_csv,
     reflectances,
     resample,
@@ -30,6 +28,14 @@ from .builtin import (
 )
 from .loading import SpectralFileNotFoundError, load_camera, load_reflectances
 from .pair import GeneratorPair, generator_pair
+
+#: One loader per kind: the file readers behind load_camera / load_reflectances stay in ``builtin``.
+_DEPRECATED = {
+    "read_camera": ("builtin", "load_camera"),
+    "read_reflectances": ("builtin", "load_reflectances"),
+    "read_sfu1995": ("builtin", "load_reflectances"),
+}
+__getattr__, __dir__, _ = lazy_exports(__name__, {}, deprecated=_DEPRECATED)
 
 __all__ = [
     "ATYPICAL_KINDS",
@@ -50,9 +56,6 @@ __all__ = [
     "load_camera",
     "load_reflectances",
     "observer",
-    "read_camera",
-    "read_reflectances",
-    "read_sfu1995",
     "read_spectral_csv",
     "reflectances",
     "resample",

@@ -31,6 +31,7 @@ import csv
 import io
 import json
 import math
+import os
 import re
 from collections.abc import Callable, Iterable, Sequence
 from importlib import resources
@@ -659,7 +660,8 @@ def _flatten_sensitivities(sensitivities) -> list[Curve]:
     items = (
         [sensitivities]
         if isinstance(
-            sensitivities, str | colour.MultiSpectralDistributions | colour.SpectralDistribution | tuple
+            sensitivities,
+            str | os.PathLike | colour.MultiSpectralDistributions | colour.SpectralDistribution | tuple,
         )
         else list(sensitivities)
     )
@@ -667,7 +669,20 @@ def _flatten_sensitivities(sensitivities) -> list[Curve]:
         raise SpectralDataError("no sensitivities given; pass a camera, an observer or a list.")
     out = []
     for item in items:
-        if isinstance(item, str):
+        if isinstance(item, os.PathLike) or (isinstance(item, str) and Path(item).is_file()):
+            # a camera file, as every entry point accepts (zonotope.load_camera's rule)
+            path = Path(item)
+            if not path.is_file():
+                raise SpectralDataError(
+                    f"camera file {path} not found; give an existing file or a built-in name."
+                )
+            try:
+                out.append(read_camera(path))
+            except (OSError, KeyError, TypeError, ValueError, UnicodeDecodeError) as exc:
+                if isinstance(exc, SpectralDataError):
+                    raise
+                raise SpectralDataError(f"cannot read camera file {path}: {exc}") from exc
+        elif isinstance(item, str):
             try:
                 out.append(camera(item))
             except SpectralDataError:
@@ -714,8 +729,9 @@ def generators(
     Parameters
     ----------
     sensitivities
-        A camera or observer (colour MSDS, built-in name, ``(wavelengths, values)``), or a list of
-        them: their channels are stacked (two cameras give 6 channels).
+        A camera or observer (colour MSDS, built-in name, path to a camera file as
+        :func:`zonotope.load_camera` reads it, ``(wavelengths, values)``), or a list of them: their
+        channels are stacked (two cameras give 6 channels).
     illuminant
         Illuminant (SD or name, default ``"D65"``); ``None`` for an equal-energy illuminant.
     shape

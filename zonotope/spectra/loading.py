@@ -4,7 +4,8 @@ Every entry point that accepts a camera or a reflectance set (``zonotope.correct
 ``isp.metamer_correction``, ``isp.simulate``, ``splat`` captures) resolves it here:
 
 1. a colour ``MultiSpectralDistributions`` is returned as it is;
-2. an existing file is read (:func:`zonotope.read_camera` / :func:`zonotope.read_reflectances`);
+2. an existing file is read (the readers ``read_camera`` / ``read_reflectances`` of
+   ``zonotope.spectra.builtin``);
 3. a string that looks like a path (a spectral-file suffix or a path separator) but names no file
    raises :class:`SpectralFileNotFoundError`;
 4. anything else is looked up among the built-in curves (:func:`zonotope.camera` /

@@ -18,7 +18,10 @@ __all__ = ["install_moved_modules", "lazy_exports"]
 
 
 def lazy_exports(
-    package: str, table: Mapping[str, Iterable[str]], eager: Iterable[str] = ()
+    package: str,
+    table: Mapping[str, Iterable[str]],
+    eager: Iterable[str] = (),
+    deprecated: Mapping[str, tuple[str, str]] | None = None,
 ) -> tuple[Callable[[str], object], Callable[[], list[str]], list[str]]:
     """Module-level ``__getattr__`` and ``__dir__`` serving ``table`` lazily, and the lazy names.
 
@@ -30,6 +33,9 @@ def lazy_exports(
         Module path relative to ``package`` (``"geometry.polytope"``) -> public names it defines.
     eager : iterable of str
         Names already bound in the package's namespace (listed by ``__dir__``).
+    deprecated : mapping of str to (str, str), optional
+        Old name -> (module relative to ``package`` that defines it, the name to use instead). These
+        still resolve, with a :class:`DeprecationWarning`, and are not listed.
 
     Returns
     -------
@@ -40,8 +46,15 @@ def lazy_exports(
     where = {name: module for module, names in table.items() for name in names}
     namespace = sys.modules[package].__dict__
     eager = list(eager)
+    deprecated = dict(deprecated or {})
 
     def __getattr__(name: str):
+        if name in deprecated:
+            module, instead = deprecated[name]
+            warnings.warn(
+                f"{package}.{name} is deprecated; use {package}.{instead}", DeprecationWarning, stacklevel=2
+            )
+            return getattr(importlib.import_module(f"{package}.{module}"), name)
         if name in where:
             value = getattr(importlib.import_module(f"{package}.{where[name]}"), name)
             namespace[name] = value

@@ -300,11 +300,11 @@ def test_bad_points_raise():
 
 def test_real_reflectances_are_inside_their_solids(shared_data):
     sets = [
-        zonotope.read_reflectances(
+        zonotope.load_reflectances(
             shared_data / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
         ),
-        zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
-        zonotope.read_reflectances(shared_data / "reflectance_colorchecker" / "ColorChecker_N_Ohta.csv"),
+        zonotope.load_reflectances(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
+        zonotope.load_reflectances(shared_data / "reflectance_colorchecker" / "ColorChecker_N_Ohta.csv"),
     ]
     shape = colour.SpectralShape(400, 700, 10)
     for sensor in ["nikon 5100", "canon 5d mark ii", "lms", "CIE 1931 2°"]:

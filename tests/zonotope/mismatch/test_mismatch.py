@@ -213,13 +213,13 @@ def test_truth_in_mmv_real_cameras_and_reflectances(shared_data):
     """Every real reflectance's true LMS lies in the MMV of its response, for 5 real cameras."""
     paths = sorted((shared_data / "ssf_rawtoaces" / "data" / "camera").glob("*.json"))[::10][:5]
     assert len(paths) == 5
-    cams = [zonotope.read_camera(p) for p in paths]
+    cams = [zonotope.load_camera(p) for p in paths]
     sets = [
         zonotope.reflectances("ColorChecker N Ohta"),
-        zonotope.read_reflectances(
+        zonotope.load_reflectances(
             shared_data / "reflectance_munsell_matte_joensuu_5nm" / "munsell_matte_1269_380_780_5nm.csv"
         ),
-        zonotope.read_sfu1995(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
+        zonotope.load_reflectances(shared_data / "reflectance_sfu1995" / "reflect_db.reflect"),
     ]
     rng = np.random.default_rng(0)
     R = []

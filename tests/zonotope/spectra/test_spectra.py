@@ -132,13 +132,13 @@ def test_all_zero_channel_raises():
 def test_read_camera_layouts(tmp_path):
     path = tmp_path / "cam.csv"
     path.write_text("wavelength,R,G,B\n400,0.1,0.2,0.3\n410,0.2,0.3,0.4\n420,0.3,0.4,0.5\n")
-    cam = zonotope.read_camera(path)
+    cam = zonotope.load_camera(path)
     assert cam.labels == ("R", "G", "B") or list(cam.labels) == ["R", "G", "B"]
     np.testing.assert_array_equal(cam.wavelengths, [400, 410, 420])
     bad = tmp_path / "bad.csv"
     bad.write_text("hello\nworld\n")
     with pytest.raises(SpectralDataError, match="no table of numbers"):
-        zonotope.read_camera(bad)
+        zonotope.load_camera(bad)
 
 
 # ---- real data in ../shared/data ---------------------------------------------------------------
@@ -151,16 +151,16 @@ def test_all_shared_cameras_load(shared_data):
     paths += sorted((shared_data / "ssf_darrodi2015_npl").glob("*.csv"))
     assert len(paths) == 52 + 28 + 4 + 2
     for path in paths:
-        cam = zonotope.read_camera(path)
+        cam = zonotope.load_camera(path)
         assert cam.values.shape[1] == 3, path
         G = zonotope.generators(cam, "D65")
         np.testing.assert_allclose(G.values.sum(axis=0), 1.0, rtol=1e-12)
     # camspec JSON (dcamprof) agrees with its CSV
-    a = zonotope.read_camera(shared_data / "ssf_jiang2013_camspec/Canon_40D/Canon_40D.json")
-    b = zonotope.read_camera(shared_data / "ssf_jiang2013_camspec/Canon_40D/Canon_40D.csv")
+    a = zonotope.load_camera(shared_data / "ssf_jiang2013_camspec/Canon_40D/Canon_40D.json")
+    b = zonotope.load_camera(shared_data / "ssf_jiang2013_camspec/Canon_40D/Canon_40D.csv")
     np.testing.assert_allclose(a.values, b.values, atol=1e-5)
     # the NPL export equals colour's built-in
-    npl = zonotope.read_camera(shared_data / "ssf_darrodi2015_npl/Nikon_5100_NPL.csv")
+    npl = zonotope.load_camera(shared_data / "ssf_darrodi2015_npl/Nikon_5100_NPL.csv")
     np.testing.assert_allclose(npl.values, zonotope.camera("nikon 5100").values, rtol=1e-9)
 
 
@@ -178,10 +178,10 @@ def test_shared_reflectance_sets_load(shared_data):
         "reflectance_sfu1995/reflect_db.reflect": (1995, 101),
     }
     for rel, (samples, n) in sets.items():
-        r = zonotope.read_reflectances(shared_data / rel)
+        r = zonotope.load_reflectances(shared_data / rel)
         assert r.values.shape == (n, samples), rel
         assert r.values.min() >= 0.0
-    munsell = zonotope.read_reflectances(sets_path := shared_data / next(iter(sets)))
+    munsell = zonotope.load_reflectances(sets_path := shared_data / next(iter(sets)))
     assert munsell.labels[0] == "2.5R9/2", sets_path
-    ohta = zonotope.read_reflectances(shared_data / "reflectance_colorchecker/ColorChecker_N_Ohta.csv")
+    ohta = zonotope.load_reflectances(shared_data / "reflectance_colorchecker/ColorChecker_N_Ohta.csv")
     np.testing.assert_allclose(ohta.values, zonotope.reflectances("ColorChecker N Ohta").values, rtol=1e-9)

@@ -321,13 +321,13 @@ def test_malformed_csv_row_raises_instead_of_changing_the_grid(tmp_path):
     p = tmp_path / "cam.csv"
     p.write_text(_csv(rows))
     with pytest.raises(SpectralDataError, match="line 5 has 3 values"):
-        zonotope.read_camera(p)
+        zonotope.load_camera(p)
     rows[3] = "415,0.1,0.2,abc"
     p.write_text(_csv(rows))
     with pytest.raises(SpectralDataError, match="not a number"):
-        zonotope.read_camera(p)
+        zonotope.load_camera(p)
     p.write_text(_csv(GOOD_ROWS))
-    assert np.all(np.diff(zonotope.read_camera(p).wavelengths) == 5)
+    assert np.all(np.diff(zonotope.load_camera(p).wavelengths) == 5)
 
 
 def test_dcamprof_labels_follow_the_keys(tmp_path):
@@ -342,7 +342,7 @@ def test_dcamprof_labels_follow_the_keys(tmp_path):
             }
         )
     )
-    cam = zonotope.read_camera(p)
+    cam = zonotope.load_camera(p)
     assert list(cam.labels) == ["red", "blue"]  # blue was labelled "green"
     np.testing.assert_array_equal(cam.values[:, 1], [0.1, 0.5, 1])
 
@@ -370,9 +370,9 @@ def test_json_of_the_wrong_shape(tmp_path, doc):
     p = tmp_path / "x.json"
     p.write_text(json.dumps(doc))
     with pytest.raises(SpectralDataError):
-        zonotope.read_camera(p)
+        zonotope.load_camera(p)
     with pytest.raises(SpectralDataError):
-        zonotope.read_reflectances(p)
+        zonotope.load_reflectances(p)
 
 
 @pytest.mark.parametrize("name", ["cam.csv", "cam.json", "cam.png", "refl.reflect"])
@@ -380,9 +380,9 @@ def test_binary_file_given_as_spectra(tmp_path, name):
     p = tmp_path / name
     p.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)) * 4)
     with pytest.raises(SpectralDataError, match="not a text file"):
-        zonotope.read_camera(p)
+        zonotope.load_camera(p)
     with pytest.raises(SpectralDataError, match="not a text file"):
-        zonotope.read_reflectances(p)
+        zonotope.load_reflectances(p)
 
 
 _BASE = _csv(GOOD_ROWS[:20]).encode()
@@ -430,7 +430,7 @@ def test_fuzz_spectra_loaders(tmp_path_factory, data):
     p = tmp_path_factory.mktemp("fz") / f"f.{kind}"
     p.write_bytes(bytes(b))
     FUZZ_COUNT["spectra"] += 1
-    for load in (zonotope.read_camera, zonotope.read_reflectances):
+    for load in (zonotope.load_camera, zonotope.load_reflectances):
         try:
             curve = load(p)
         except SpectralDataError:
