@@ -680,7 +680,8 @@ def evaluate(
                     notes.append(
                         f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
                         "camera's object-colour solid (no reflectance produces them); the MMV estimators "
-                        "used the nearest feasible response (delta = 3σ), the others extrapolate."
+                        f"used the nearest feasible response (delta = {DELTA_SIGMAS:g}σ), the others "
+                        "extrapolate."
                     )
             centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
             if centroid is not None:

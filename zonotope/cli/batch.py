@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._tol import DELTA_SIGMAS
+
 __all__ = ["add_commands"]
 
 _IMAGE_SUFFIXES = (".tif", ".tiff")
@@ -53,7 +55,7 @@ def add_commands(sub) -> None:
         type=float,
         default=0.0,
         help="σ of the images' responses (white = 1), e.g. 0.005; the estimator's noise model "
-        "(Centroid: δ = 3σ). Give it for real photos: without it noisy responses outside the "
+        f"(Centroid: δ = {DELTA_SIGMAS:g}σ). Give it for real photos: without it noisy responses outside the "
         "solid are taken as exact (default 0)",
     )
     _scheduler_option(p)

@@ -98,17 +98,8 @@ def correct_image(
         response in every channel (greedy leader clustering, so the noise cloud of one surface is
         not cut into up to 2ᵏ grid cells) — and the others are corrected exactly, pixel by pixel:
         noisy photos (as many distinct colours as pixels) cost little more than the regression plus
-        one solve per cluster. Use a ``quantum`` of about 2–4σ on noisy images. Measured on a 1 MP
-        two-camera Munsell mosaic with σ = 0.005 (``benchmarks/bench_correct.py --noise 0.005
-        --quantum 0.02``, Nikon 5100 + Sony ILCE-7M3, 2 shared cores): 5.8 % of the pixels need a
-        solver; fit 5.1–5.3 CPU-s + correct_image 17.9–19.9 CPU-s (three runs), 36–47 s wall at
-        load ≈ 5–6, 27 s with the MMV centroids in two threads (``fit_correction(...,
-        executor=ThreadPoolExecutor(2))``, ``--workers 2``: the walk kernel releases the GIL; the
-        result is identical); about 75 % of the time is the MMV centroids of ≈ 2,000 clusters
-        (11 ms each with the noise tolerance δ = 3σ). The previous version (one pass for the solver
-        rows and another for the estimates, the regression as transfer base): 10.5 % of the
-        pixels, correct_image 32.4 CPU-s, 87 s wall at load ≈ 8. ΔE00 from the exact per-pixel
-        estimates on 3,000 pixels: mean 0.022, p99 0.99, max 2.4 (previously 0.090 / 3.3 / 8.6).
+        one solve per cluster. Use a ``quantum`` of about 2–4σ on noisy images (measurements:
+        ``docs/notes/2026-11-28-image-correction-clusters.md``).
     base
         A cheap estimator used to carry each group's result to its pixels:
         ``out = est(c₀) + base(c) − base(c₀)`` (``c₀`` the group's representative response), which

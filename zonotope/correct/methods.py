@@ -112,7 +112,7 @@ __all__ = [
 #:     corrected pixel by pixel without the unique-colour cache, and ``evaluate`` reports how often
 #:     its estimates leave the MMV.
 #: ``needs_mmv``
-#:     Fitting or applying it computes metamer mismatch volumes (≈ 2–4 CPU-ms per colour at 10 nm).
+#:     Fitting or applying it computes metamer mismatch volumes (the costly part of its run time).
 #: ``centroid``
 #:     The estimate *is* the MMV volume centroid (``evaluate`` computes it once together with the
 #:     MMV volumes; its options are ``eps`` and ``delta`` instead of ``noise``).

@@ -159,7 +159,7 @@ def fit_Centroid(
         Certification tolerance of the MMV (response units); the certified MMV's centroid is used
         (exact volume centroid for ``eps = 0``).
     delta
-        Per-channel response tolerance of the MMV (use ≈ 3σ with noisy responses).
+        Per-channel response tolerance of the MMV (``DELTA_SIGMAS · σ`` with noisy responses).
     executor
         Where the MMV chunks run (:func:`zonotope.parallel.executor`); None: this process.
         Results are identical either way.
@@ -593,7 +593,7 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         the evaluation at odds 1, 10 and 100.
     noise
         Response noise σ (white = 1); enters the evidence, relaxes the fiber constraint and gives
-        the MMV a tolerance δ = 3σ.
+        the MMV a tolerance δ = DELTA_SIGMAS · σ.
     eps
         Certification tolerance of the MMV centroids (see :func:`fit_Centroid`).
     regression

@@ -53,7 +53,8 @@ Real responses carry noise, and the responses of two cameras to one surface are 
 consistent, so Φᵀx = c is often infeasible for stacked cameras. With shot noise (variance ∝
 signal, gain g electrons per unit) and read noise σ_r (in response units), the standard deviation of
 channel i is σ_i ≈ sqrt(c_i / g + σ_r²) in the normalised units used here (white → 1). Take
-δ_i = 3σ_i (a few σ: the true response then lies within δ with high probability); add the
+δ_i = k·σ_i with k = :data:`zonotope.correct.DELTA_SIGMAS` (3: the true response then lies within δ
+with high probability); add the
 quantisation step / √12 and any calibration error of the sensitivities (often 1–2 % of the
 white, which usually dominates). ``delta`` accepts a scalar or one value per channel. The MMV with
 δ > 0 is the union of the MMVs of every response within δ, so it grows with δ.
