@@ -125,7 +125,7 @@ class Tolerances:
       at θ ≥ 1e-7 keeps normals accurate to ≈ 2e-9;
     - ``coplanar = 1e-11`` rad: only generators coplanar to rounding are grouped into one zonogon;
       a larger value would merge genuine facets of near-coplanar measured data (see
-      ``_zonohedron``'s notes on the 1e-12…1e-11 rad band);
+      ``geometry.zonohedron``'s notes on the 1e-12…1e-11 rad band);
     - ``rank = 1e-10``: singular values of exact rank-deficient stacks (duplicated or linearly
       dependent channels) come out at ≈ 1e-15 relative; measured independent channels are ≥ 1e-4;
     - ``contains = 1e-9``: three orders above the ≈ 1e-12 error of the exact half-spaces, so a
@@ -204,7 +204,7 @@ REFLECTANCE_MIN = -1e-6
 #: See :data:`REFLECTANCE_MIN`.
 REFLECTANCE_MAX = 1.5
 
-# --- sections, reflectances of boundary points, cube map, plots (spectra/macadam/_cubemap/viz) ---
+# --- sections, reflectances of boundary points, cube map, plots (spectra/macadam/cubemap/viz) ---
 
 #: :func:`zonotope.geometry.macadam.section`: an edge end within ``SECTION_PLANE × scale`` of the cutting
 #: plane lies *on* it (it is a vertex of the section), farther ends are on one side. The signed
@@ -235,7 +235,7 @@ CAP_HEMISPHERE = 1e-6
 #: Cube map: the angular margin (rad) added to every facet's cap before the cap/cell overlap test,
 #: so that rounding of the ``arccos`` of unit-vector dot products (≈ ε / sin θ ≲ 1e-12 rad away
 #: from θ ≈ 0) never drops the exit facet from a cell's candidates. A larger margin only adds
-#: candidates (never changes an answer: the test is exact over the candidates, see ``_cubemap``).
+#: candidates (never changes an answer: the test is exact over the candidates, see ``geometry.cubemap``).
 CAP_MARGIN = 1e-9
 
 #: :func:`zonotope.viz.plot_spectral_locus`: wavelengths whose target generator is shorter than
@@ -245,9 +245,9 @@ CAP_MARGIN = 1e-9
 LOCUS_ZERO = 1e-9
 
 # --- MMV engine: simplex kernels, vertex walk, refinement, membership; zonohedron sweeps -------
-# The numba kernels (_mmv_walk_kernel) read these as compile-time constants and cache the compiled
+# The numba kernels (mismatch.walk_kernel) read these as compile-time constants and cache the compiled
 # code on disk keyed by the kernel's own source file: after changing a value used there, delete
-# zonotope/__pycache__/_mmv_walk_kernel.* so that it is recompiled.
+# zonotope/mismatch/__pycache__/walk_kernel.* so that it is recompiled.
 
 #: Simplex kernels (walk, ``mmv_distance``): a basis matrix whose Gauss–Jordan pivot falls below
 #: ``PIVOT ×`` its largest entry is singular. Basis columns are source generators (|det| of a
@@ -371,7 +371,7 @@ MAGNITUDE_MAX = 1e150
 #: ~80× over the measured rounding and stays ≤ 4e-8 rad for pairs kept apart by ``parallel``.
 ANGLE_ROUNDING = 16 * 2.220446049250313e-16
 
-# -- colour-correction estimators (prior, _mmv_estimators, _correction_problem, atypical, report) --
+# -- colour-correction estimators (correct.prior, correct.mmv, correct.problem, atypical, report) --
 
 #: :func:`zonotope.correct.prior.interior_solution`: the closed-form MAP reflectance counts as inside [0, 1]ⁿ
 #: (and so as the exact bounded solution) when no entry is below ``-INTERIOR_SLACK`` or above

@@ -171,7 +171,7 @@ for name in ("zonotope", "isp"):
         import zonotope._errors
         import zonotope.utilities.io
         vars(pkg).update({k: v for k, v in vars(zonotope._errors).items() if k.endswith("Error")})
-        vars(pkg).update({k: getattr(zonotope._io, k) for k in zonotope._io.__all__})
+        vars(pkg).update({k: getattr(zonotope.utilities.io, k) for k in zonotope.utilities.io.__all__})
 import numpy as np
 from isp.io import write_image
 dest = sys.argv[1]

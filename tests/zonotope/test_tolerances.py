@@ -216,16 +216,16 @@ def test_isp_and_splat_tolerances_are_documented(module, at_least):
 
 
 def test_output_writers_go_through_the_atomic_writers():
-    """Files are written only through ``zonotope``'s atomic, umask-respecting writers (``_io``):
+    """Files are written only through ``zonotope``'s atomic, umask-respecting writers (``utilities.io``):
     no module of zonotope or isp makes its own temporary + rename (which gave 0600 files)."""
     allowed = {
-        "zonotope/_io.py": "the atomic writers themselves",
+        "zonotope/utilities/io.py": "the atomic writers themselves",
         "zonotope/parallel.py": "folder batches publish a finished temporary with os.link/os.replace "
         "(first attempt wins); the temporaries are created by open() and so already get umask modes",
     }
     bad = []
     for package in ("zonotope", "isp"):
-        for path in sorted((ROOT / package).glob("*.py")):
+        for path in sorted((ROOT / package).rglob("*.py")):
             rel = path.relative_to(ROOT).as_posix()
             code = "\n".join(
                 line

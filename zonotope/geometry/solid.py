@@ -211,7 +211,7 @@ class Zonotope:
 
     @cached_property
     def _reduction(self):
-        """(H, offset', group (n,), flipped (n,)): see :func:`._zonohedron.reduce_with_groups`."""
+        """(H, offset', group (n,), flipped (n,)): see :func:`.zonohedron.reduce_with_groups`."""
         return _zh.reduce_with_groups(self.generators, self.offset, self.tol)
 
     # -- support / optimal stimuli ------------------------------------------------------------
@@ -253,7 +253,7 @@ class Zonotope:
 
     @cached_property
     def _facets(self) -> _zh.Facets3:
-        """Facets of the zonohedron (+ side of each ± pair), see :func:`._zonohedron.facets`."""
+        """Facets of the zonohedron (+ side of each ± pair), see :func:`.zonohedron.facets`."""
         self._require_3d("facets")
         H, off = self._reduced
         s = np.linalg.svd(H, compute_uv=False) if H.size else np.zeros(0)
@@ -313,7 +313,7 @@ class Zonotope:
 
     def _vertices_sweep(self) -> np.ndarray | None:
         """Each vertex exactly once from the great-circle arrangement, or None (see
-        :func:`._zonohedron.vertices_sweep`)."""
+        :func:`.zonohedron.vertices_sweep`)."""
         H, off = self._reduced
         return _zh.vertices_sweep(self._facets, H, off, self._keys_r, self.centroid)
 
