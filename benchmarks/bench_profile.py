@@ -26,7 +26,7 @@ R. Encoding accuracy: ΔE00 between an estimator (root-polynomial, Nikon 5100, D
    DCP (per HueSatMap size, without and with the LookTable) or 3-D LUT (per lattice size, log2
    shaper, 16× headroom) encoding, on
    natural sets (ColorChecker, CIE 1995 TCS, NIST CQS) and 200 atypical spectra
-   (``zonotope.atypical``), responses at the white's exposure.
+   (``zonotope.spectra.atypical``), responses at the white's exposure.
 S. Why the profile is fitted as it is (noise-free spectra, D65, ColorChecker N Ohta held out): ΔE00
    vs truth of the DNG matrix, the Prior estimator, last round's recipe (ForwardMatrix and 2.5-D
    HueSatMap fitted on all colours, random smooth spectra 87 % of them; with and without the
@@ -200,8 +200,8 @@ def table_Q() -> None:
 
 
 def table_R(quick: bool) -> None:
-    from zonotope.atypical import atypical_reflectances
-    from zonotope.profile import correction_LUT
+    from zonotope.correct.profile import correction_LUT
+    from zonotope.spectra.atypical import atypical_reflectances
 
     cam = "Nikon 5100 (NPL)"
     mcs = [

@@ -50,7 +50,7 @@ def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from zonotope import ZonotopeError
-    from zonotope.profile import LUTConfig, correction_LUT, save_correction, write_correction_LUT
+    from zonotope.correct.profile import LUTConfig, correction_LUT, save_correction, write_correction_LUT
 
     from .dcp import write_dcp
     from .profile_fit import ProfileConfig, fit_dcp
@@ -141,7 +141,7 @@ def _profile(args: argparse.Namespace) -> int:
 
 def add_command(sub) -> None:
     """Register ``profile`` on the ``isp`` sub-parser collection."""
-    from zonotope.profile import LUT_SPACES
+    from zonotope.correct.profile import LUT_SPACES
 
     p = sub.add_parser("profile", help="DNG camera profile (.dcp) and 3-D LUT from a camera's sensitivities")
     p.add_argument(

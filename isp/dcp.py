@@ -701,7 +701,7 @@ def write_dcp(path: str | os.PathLike, profile: DCPProfile, *, overwrite: bool =
     if p.baseline_exposure_offset:
         tags.append((51109, 10, 1, _srational([p.baseline_exposure_offset], 1000), True))
     tags.append((51110, "I", 1, int(p.default_black_render), True))
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     def write(tmp: Path) -> None:
         with warnings.catch_warnings():

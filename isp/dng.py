@@ -828,7 +828,7 @@ def write_dng(
         tags.append((34855, "H", 1, int(d.iso), True))
     if d.noise_profile is not None:
         tags.append((51041, 12, d.noise_profile.size, tuple(float(x) for x in d.noise_profile.ravel()), True))
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     def write(tmp: Path) -> None:
         tifffile.imwrite(

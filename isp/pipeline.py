@@ -28,7 +28,7 @@ from ._errors import PipelineError
 from .raw import RawImage
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = ["Development", "Pipeline", "Stage", "chain", "correction_stage", "default_pipeline", "develop"]
 

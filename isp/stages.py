@@ -17,7 +17,7 @@ from collections.abc import Callable
 import colour
 import numpy as np
 
-from zonotope import MethodRegistry
+from zonotope.utilities import MethodRegistry
 
 from ._config import float_array
 from ._errors import PipelineError, PipelineMethodError

@@ -45,7 +45,7 @@ from ._tol import FEASIBLE_DISTANCE
 from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "STEPS",
@@ -151,7 +151,7 @@ class PipelineConfig:
 
 def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
     """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     return atomic_path(path, write)
 
@@ -1293,7 +1293,7 @@ def _reprojected_of(d: Path, scale: np.ndarray):
 def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
     ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     out = np.zeros((*fused.shape[:-1], 3))
     for cd, s_ in sigma.items():
@@ -1387,7 +1387,7 @@ def correct_step(
     dict
         The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
     """
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .fusion import measured
 

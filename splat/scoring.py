@@ -154,7 +154,7 @@ def score(
     import tifffile
 
     from zonotope.correct import CORRECTION_METHODS
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .capture import load_views, read_capture
     from .colmap import read_colmap
