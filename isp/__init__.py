@@ -18,16 +18,20 @@ Module map, in data-flow order (``isp`` uses only public ``zonotope`` names and 
   :data:`TONEMAP_METHODS` registries), white-balance choices;
 - ``pipeline``: :class:`Pipeline` / :func:`default_pipeline` / :func:`develop`;
 - ``metamer``: the bridge to ``zonotope.correct`` (:func:`metamer_correction`);
-- ``dcp``, ``profile_fit``: DNG camera profiles (read, write, fit);
-- ``io``, ``batch``, ``cli``: atomic image files, folders of RAW files, the ``isp`` command;
+- ``profiles``: DNG camera profiles (``profiles.dcp`` read/write/apply, ``profiles.fitting`` fit,
+  ``profiles.rawtherapee`` check against RawTherapee);
+- ``io``, ``batch``: atomic image files, folders of RAW files;
+- ``cli``: the ``isp`` command, on top of the library (no library module imports it);
 - ``simulate``: the spectral forward model (reflectances → RAW mosaic → DNG).
 
-The names of ``simulate``, ``dcp``, ``profile_fit`` and ``batch`` load on first use.
+The names of ``simulate``, ``profiles`` and ``batch`` load on first use.
 
 >>> import isp
 >>> isp.default_pipeline(demosaic="Menon 2007").names[2]
 'demosaic'
 """
+
+import sys as _sys
 
 from ._errors import InputFileNotFoundError, PipelineError, PipelineMethodError, RawFormatError
 from .dng import (
@@ -124,7 +128,7 @@ _LAZY = {
         "spectral_setup",
         "true_XYZ",
     ],
-    "dcp": [
+    "profiles.dcp": [
         "DCP_TAGS",
         "DCPError",
         "DCPProfile",
@@ -135,7 +139,7 @@ _LAZY = {
         "read_dcp",
         "write_dcp",
     ],
-    "profile_fit": [
+    "profiles.fitting": [
         "DCP_DEFAULT_DIMS",
         "LOOK_TABLE_DEFAULT_DIMS",
         "ProfileConfig",
@@ -174,3 +178,42 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(__all__))
+
+
+#: Module paths that moved, old dotted name -> new one: importing an old one warns and gives the new module.
+_MOVED_MODULES = {
+    "isp.dcp": "isp.profiles.dcp",
+    "isp.profile_fit": "isp.profiles.fitting",
+    "isp.rawtherapee": "isp.profiles.rawtherapee",
+}
+
+
+class _MovedModules:
+    """Import hook serving :data:`_MOVED_MODULES`: a ``DeprecationWarning`` at the importing line, and
+    the old name aliased to the new module in ``sys.modules`` (one module object, not a copy)."""
+
+    def __init__(self, moved: dict[str, str]) -> None:
+        self.moved = moved
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname not in self.moved:
+            return None
+        from importlib.machinery import ModuleSpec
+
+        return ModuleSpec(fullname, self)
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module) -> None:
+        import importlib
+        import warnings
+
+        old, new = module.__name__, self.moved[module.__name__]
+        # stacklevel 2: the importing line (warnings skips the import system's own frames)
+        warnings.warn(f"{old} moved to {new}; import it from there.", DeprecationWarning, stacklevel=2)
+        _sys.modules[old] = importlib.import_module(new)  # the import system returns sys.modules[old]
+
+
+if not any(isinstance(f, _MovedModules) for f in _sys.meta_path):
+    _sys.meta_path.insert(0, _MovedModules(_MOVED_MODULES))  # before finders that would find a stale copy

@@ -46,7 +46,7 @@ _METAMER_OPTIONS = {
 
 def _metamer(args: argparse.Namespace):
     """The fitted metamer correction, or an error message (exit 2) when the options are wrong."""
-    from .metamer import MetamerConfig, metamer_correction
+    from ..metamer import MetamerConfig, metamer_correction
 
     if args.correction != "metamer":
         given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]
@@ -156,22 +156,22 @@ def _version() -> str:
 def _develop(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from .exif import output_tags, srgb_icc_profile
-    from .io import write_image
-    from .pipeline import default_pipeline
-    from .raw import read_raw
-    from .whitebalance import describe_white_balance
+    from ..exif import output_tags, srgb_icc_profile
+    from ..io import write_image
+    from ..pipeline import default_pipeline
+    from ..raw import read_raw
+    from ..whitebalance import describe_white_balance
 
     console = Console(stderr=True)
     src = Path(args.input)
     out = Path(args.output)
     if src.is_dir():  # a folder batch: every RAW file, the same options (isp/batch.py)
-        from .batch import develop_folder
+        from ..batch import develop_folder
 
         return develop_folder(args)
-    from ._errors import PipelineError
-    from ._tol import NEUTRAL_MISMATCH
-    from .io import IMAGE_FORMATS, _is_our_output
+    from .._errors import PipelineError
+    from .._tol import NEUTRAL_MISMATCH
+    from ..io import IMAGE_FORMATS, _is_our_output
 
     if out.suffix.lower() not in IMAGE_FORMATS:  # before the development, not when writing it
         raise PipelineError(f"{out}: unknown image format {out.suffix!r}; use one of {list(IMAGE_FORMATS)}.")
@@ -183,7 +183,7 @@ def _develop(args: argparse.Namespace) -> int:
             f"{out} exists and was not written by isp; --overwrite replaces only isp outputs."
         )
     tonemap = None if args.tonemap.lower() == "none" else args.tonemap
-    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS
 
     DEMOSAIC_METHODS.resolve(args.demosaic, argument="--demosaic")  # unknown names: before any work
     if tonemap is not None:
@@ -208,8 +208,8 @@ def _develop(args: argparse.Namespace) -> int:
         tonemap_options=options,
         white_balance=args.wb,
     )
-    if getattr(args, "profile", None):  # a DNG camera profile (isp/dcp.py) replaces camera_to_XYZ
-        from .dcp import profile_pipeline
+    if getattr(args, "profile", None):  # a DNG camera profile (isp/profiles/dcp.py) replaces camera_to_XYZ
+        from ..profiles.dcp import profile_pipeline
 
         pipeline, error = profile_pipeline(pipeline, args)
         if error:
@@ -305,9 +305,9 @@ def _info(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from ._errors import RawFormatError
-    from .raw import read_raw
-    from .whitebalance import describe_white_balance
+    from .._errors import RawFormatError
+    from ..raw import read_raw
+    from ..whitebalance import describe_white_balance
 
     try:
         raw = read_raw(args.input, metadata_only=args.metadata_only)
@@ -354,7 +354,7 @@ def _info(args: argparse.Namespace) -> int:
 def _parser() -> argparse.ArgumentParser:
     from zonotope.correct import CORRECTION_METHODS
 
-    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS
 
     parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
@@ -453,7 +453,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--overwrite", action="store_true", help="replace existing output files")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     d.set_defaults(func=_develop)
-    from ._profile_cli import add_command as add_profile  # 'isp profile': DCP / 3-D LUT export
+    from .profile import add_command as add_profile  # 'isp profile': DCP / 3-D LUT export
 
     add_profile(sub)
     i = sub.add_parser("info", help="print the metadata of a RAW/DNG file")
@@ -473,7 +473,7 @@ def _profile_camera_mismatch(profile, raw) -> str | None:
     """
     if not profile or str(profile).lower() == "embedded":
         return None
-    from .dcp import read_dcp
+    from ..profiles.dcp import read_dcp
 
     made_for = read_dcp(profile).unique_camera_model
     tags = getattr(raw, "tags", None) or {}

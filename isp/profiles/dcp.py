@@ -47,10 +47,10 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from ._config import float_array
-from ._errors import InputFileNotFoundError, RawFormatError
-from ._tol import NEUTRAL_XY_STEP
-from .dng import (
+from .._config import float_array
+from .._errors import InputFileNotFoundError, RawFormatError
+from .._tol import NEUTRAL_XY_STEP
+from ..dng import (
     LIGHT_SOURCE_CCT,
     D50_xy,
     DNGProfile,
@@ -749,7 +749,7 @@ def dcp_stage(
     isp.Stage
         Input: white-balanced camera RGB (H, W, 3); output: XYZ D50 (white Y = 1).
     """
-    from .pipeline import Stage
+    from ..pipeline import Stage
 
     prof = read_dcp(profile) if isinstance(profile, str | os.PathLike) else profile
 
@@ -777,7 +777,7 @@ def profile_pipeline(pipeline, args):
     wb = getattr(args, "wb", "as-shot")
     neutral = None
     if wb and str(wb).lower() not in ("as-shot", "asshot", "as_shot"):
-        from .whitebalance import white_balance_neutral
+        from ..whitebalance import white_balance_neutral
 
         def neutral(raw):
             return white_balance_neutral(raw, wb)

@@ -36,12 +36,12 @@ from typing import Any
 import colour
 import numpy as np
 
-from ._config import float_array
-from ._errors import PipelineError
-from ._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
+from .._config import float_array
+from .._errors import PipelineError
+from .._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
+from ..dng import D50_xy
+from ..simulate import ILLUMINANT_LIGHT_SOURCE
 from .dcp import PROPHOTO_FROM_XYZ, DCPProfile, _rgb_to_hsv, apply_hue_sat_map
-from .dng import D50_xy
-from .simulate import ILLUMINANT_LIGHT_SOURCE
 
 __all__ = [
     "DCP_DEFAULT_DIMS",
@@ -183,7 +183,7 @@ def fit_hue_sat_map(
         Non-negative weight per colour (default all 1); scaled to mean 1.
     encoding
         ProfileHueSatMapEncoding / ProfileLookTableEncoding: 0 linear, 1 sRGB-encoded value axis
-        (and value scale), as :func:`isp.dcp.apply_hue_sat_map` reads it.
+        (and value scale), as :func:`isp.profiles.dcp.apply_hue_sat_map` reads it.
     unbiased_saturation
         Saturation rings up to this value (0: none) are held *bias-free*: per ring, the hue-mean
         of each entry is the identity's and its first hue harmonic (cos, sin) is 0. Noise spread
@@ -444,8 +444,8 @@ class ProfileConfig:
     estimator_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        from ._config import check_int, check_number, check_options
-        from .metamer import MetamerConfig
+        from .._config import check_int, check_number, check_options
+        from ..metamer import MetamerConfig
 
         owner = "ProfileConfig"
         if not (isinstance(self.method, str) and self.method.strip()):
@@ -548,8 +548,8 @@ def fit_dcp(
     camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical colours moves along
     the value axis; natural colours are not affected.
     """
-    from ._config import with_options
-    from .metamer import MetamerConfig, metamer_correction
+    from .._config import with_options
+    from ..metamer import MetamerConfig, metamer_correction
 
     cfg = with_options(ProfileConfig, config, options, where="fit_dcp")
     illuminants, dims, look_table_dims = cfg.illuminants, cfg.dims, cfg.look_table_dims
