@@ -12,6 +12,7 @@ by a ``zonotope.correct`` estimator.
 
 Module map, in data-flow order (``isp`` uses only public ``zonotope`` names and never ``splat``):
 
+- ``cfa``: Bayer patterns (:data:`CFA_PATTERNS`, :func:`cfa_masks`);
 - ``raw``, ``dng``, ``exif``: RAW/DNG reading (:class:`RawImage`), DNG tags and colour matrices,
   output metadata;
 - ``stages``, ``whitebalance``: the pure operations (:data:`DEMOSAIC_METHODS`,
@@ -34,6 +35,7 @@ The names of ``simulate``, ``profiles`` and ``batch`` load on first use.
 import sys as _sys
 
 from ._errors import InputFileNotFoundError, PipelineError, PipelineMethodError, RawFormatError
+from .cfa import CFA_PATTERNS, cfa_masks
 from .dng import (
     DNGMetadata,
     DNGProfile,
@@ -48,14 +50,13 @@ from .exif import output_tags, srgb_icc_profile
 from .io import write_image
 from .metamer import MetamerConfig, MetamerCorrection, metamer_correction
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
-from .raw import CFA_PATTERNS, RawImage, read_raw
+from .raw import RawImage, read_raw
 from .stages import (
     DEMOSAIC_METHODS,
     TONEMAP_METHODS,
     XYZ_to_linear_sRGB,
     apply_correction,
     camera_to_XYZ,
-    cfa_masks,
     demosaic,
     encode_sRGB,
     linearise,
@@ -152,7 +153,7 @@ _LAZY = {
     "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
     "dng": ["DNG_TAGS", "LIGHT_SOURCE_CCT", "xy_to_CCT_DNG"],
     "io": ["IMAGE_FORMATS", "to_uint16"],
-    "raw": ["check_cfa"],
+    "cfa": ["check_cfa"],
     "metamer": ["METAMER_RANGE"],
     "stages": [
         "demosaic_Malvar2004",

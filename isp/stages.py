@@ -22,8 +22,8 @@ from zonotope import MethodRegistry
 from ._config import float_array
 from ._errors import PipelineError, PipelineMethodError
 from ._tol import WHITE_XY
+from .cfa import CHANNEL_INDEX, cfa_masks, check_cfa
 from .dng import D50_xy, DNGProfile
-from .raw import check_cfa
 
 __all__ = [
     "DEMOSAIC_METHODS",
@@ -31,7 +31,6 @@ __all__ = [
     "XYZ_to_linear_sRGB",
     "apply_correction",
     "camera_to_XYZ",
-    "cfa_masks",
     "demosaic",
     "demosaic_Malvar2004",
     "demosaic_Menon2007",
@@ -46,8 +45,6 @@ __all__ = [
     "tonemap_clip",
     "white_balance",
 ]
-
-_CHANNEL = {"R": 0, "G": 1, "B": 2}
 
 
 def _mosaic_array(x, what: str = "mosaic") -> np.ndarray:
@@ -70,29 +67,6 @@ def _image_array(x, what: str = "image") -> np.ndarray:
 def _finite(a: np.ndarray, what: str) -> None:
     if not np.all(np.isfinite(a)):
         raise PipelineError(f"{what}: contains NaN or inf ({int(np.sum(~np.isfinite(a)))} values).")
-
-
-def cfa_masks(shape: tuple[int, int], cfa: str) -> np.ndarray:
-    """Boolean masks of the R, G, B sites of a Bayer pattern.
-
-    Parameters
-    ----------
-    shape
-        (H, W) of the mosaic.
-    cfa
-        2 × 2 pattern, e.g. ``"RGGB"``.
-
-    Returns
-    -------
-    ndarray of shape (H, W, 3), bool
-    """
-    cfa = check_cfa(cfa)
-    H, W = shape
-    out = np.zeros((H, W, 3), dtype=bool)
-    for k, letter in enumerate(cfa):
-        i, j = divmod(k, 2)
-        out[i::2, j::2, _CHANNEL[letter]] = True
-    return out
 
 
 def _site_values(values2x2: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -184,7 +158,7 @@ def white_balance(x, *, neutral, cfa: str | None = None, clip: bool = True) -> n
     gains = n.max() / n
     if cfa is not None:
         m = _mosaic_array(x)
-        g2 = np.array([gains[_CHANNEL[c]] for c in check_cfa(cfa)]).reshape(2, 2)
+        g2 = np.array([gains[CHANNEL_INDEX[c]] for c in check_cfa(cfa)]).reshape(2, 2)
         out = m * _site_values(g2, m.shape)
     else:
         out = _image_array(x) * gains
