@@ -149,7 +149,7 @@ _LAZY = {
         "fit_hue_sat_map",
         "profile_reflectances",
     ],
-    "batch": ["RAW_SUFFIXES", "develop_folder", "raw_files"],
+    "batch": ["RAW_SUFFIXES", "develop_file", "develop_folder", "raw_files"],
     "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
     "dng": ["DNG_TAGS", "LIGHT_SOURCE_CCT", "xy_to_CCT_DNG"],
     "io": ["IMAGE_FORMATS", "to_uint16"],

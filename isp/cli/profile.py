@@ -120,7 +120,7 @@ def _profile(args: argparse.Namespace) -> int:
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
-        from . import _progress  # rich's bar on a terminal, plain timed lines when piped
+        from ._console import _progress  # rich's bar on a terminal, plain timed lines when piped
 
         with _progress(console, quiet=False) as bar:
             task = bar.add_task(f"sampling a {args.lut_size}³ LUT", total=args.lut_size**3)

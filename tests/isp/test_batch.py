@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isp.cli import _parser, main
+from isp import default_pipeline
+from isp.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -98,8 +99,6 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
     dask_cluster.wait_for(2)
     out = tmp_path / "dev"
     out.mkdir()
-    args = _parser().parse_args(["develop", str(dng_folder), "-o", str(out), "-q"])
-    values = {k: v for k, v in vars(args).items() if k != "func"}
     tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in raw_files(dng_folder)]
     killed = []
 
@@ -111,7 +110,7 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
     rows = run_files(
         tasks,
         _develop_one,
-        (values, None),
+        (default_pipeline(), None, None),  # isp develop's defaults: (pipeline, crop, save_stages)
         manifest=out / "manifest.csv",
         scheduler=dask_cluster.address,
         progress=progress,
