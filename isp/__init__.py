@@ -156,6 +156,7 @@ _LAZY = {
     "cfa": ["check_cfa"],
     "metamer": ["METAMER_RANGE"],
     "stages": [
+        "default_method",
         "demosaic_Malvar2004",
         "demosaic_Menon2007",
         "demosaic_bilinear",

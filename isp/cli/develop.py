@@ -374,7 +374,7 @@ def add_develop(sub) -> None:
     """Register ``develop`` on the ``isp`` sub-parser collection."""
     from zonotope.correct import CORRECTION_METHODS
 
-    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS, default_method
 
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
     d.add_argument("input", help="RAW or DNG file, or a folder of them (then -o is a folder)")
@@ -386,8 +386,8 @@ def add_develop(sub) -> None:
     )
     d.add_argument(
         "--demosaic",
-        default="Malvar 2004",
-        help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)",
+        default=default_method(DEMOSAIC_METHODS),
+        help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default %(default)s)",
     )
     d.add_argument(
         "--correction",
@@ -450,8 +450,8 @@ def add_develop(sub) -> None:
     )
     d.add_argument(
         "--tonemap",
-        default="Reinhard 2002",
-        help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)",
+        default=default_method(TONEMAP_METHODS),
+        help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default %(default)s)",
     )
     d.add_argument(
         "--exposure",
