@@ -188,8 +188,8 @@ def fit_hue_sat_map(
         Saturation rings up to this value (0: none) are held *bias-free*: per ring, the hue-mean
         of each entry is the identity's and its first hue harmonic (cos, sin) is 0. Noise spread
         evenly around the grey axis then keeps its mean to first order in the saturation, where a
-        free table rotates and scales it hue by hue (a near-grey patch's mean moves by up to
-        6 ΔE00 on the Sigma SD Merrill). Hue-varying corrections stay free.
+        free table rotates and scales it hue by hue, moving near-grey means. Hue-varying
+        corrections stay free.
 
     Returns
     -------
@@ -413,9 +413,8 @@ class ProfileConfig:
     unbiased_saturation : float
         Rings of both tables up to this saturation, in [0, 1] (default 0.35: 10 of the
         HueSatMap's 30), are kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a
-        per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. Measured on
-        the simulated Sigma SD Merrill chart (noisy): dark grey patches 1.5–2.0 → 0.6 ΔE00, mean
-        1.57 → 1.37; noise-free the natural sets move by ≤ 0.01. 0 switches it off.
+        per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. 0 switches it
+        off.
     estimator_options : mapping of str to object
         Keywords of the estimator's fitting function (e.g. ``{"noise": 0.01}``), passed on through
         :class:`isp.MetamerConfig`.
@@ -539,14 +538,12 @@ def fit_dcp(
     exposure-invariant too. On atypical colours an MMV estimator's answer depends on the lightness
     (the metamer mismatch volume of a colour depends on how close it lies to the object-colour
     solid's boundary), which a 2.5-D table cannot express: fitted together, the random smooth
-    spectra pull the natural colours' entries (Sigma SD Merrill, ColorChecker held out, noise-free:
-    1.68 ΔE00 mean with the random spectra at 1 % of the weight, 2.33 at their share of the
-    colours, 1.40 without them). The single 3-D **LookTable** (value divisions, both illuminants' colours)
-    then takes the colours after matrix and HueSatMap to the estimator, natural and random
-    colours weighted ``1 : atypical_weight`` in total, so it stays near identity on natural
-    colours. Its value axis assumes the perfect white reflector at value 1 (white-balanced
-    camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical colours moves along
-    the value axis; natural colours are not affected.
+    spectra would pull the natural colours' entries. The single 3-D **LookTable** (value
+    divisions, both illuminants' colours) then takes the colours after matrix and HueSatMap to the
+    estimator, natural and random colours weighted ``1 : atypical_weight`` in total, so it stays
+    near identity on natural colours. Its value axis assumes the perfect white reflector at value
+    1 (white-balanced camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical
+    colours moves along the value axis; natural colours are not affected.
     """
     from .._config import with_options
     from ..metamer import MetamerConfig, metamer_correction
