@@ -80,6 +80,26 @@ def test_folder_serial_resume_and_bad_file(dng_folder, singles, tmp_path):
     assert main(["develop", str(tmp_path / "nothing_here"), "-o", str(out), "-q"]) == 2
 
 
+def test_develop_folder_library_call(dng_folder, singles, tmp_path):
+    """The library function takes a Pipeline and plain values, reports through a callback, prints nothing."""
+    from isp import PipelineError
+    from isp.batch import develop_folder
+
+    out, calls = tmp_path / "lib", []
+    rows = develop_folder(
+        dng_folder,
+        out,
+        pipeline=default_pipeline(),
+        executor="serial",
+        progress=lambda description, done, total: calls.append((description, done, total)),
+    )
+    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 4
+    assert calls[0] == ("developing (serial)", 0, 5) and calls[-1][1:] == (5, 5)
+    assert {k: v for k, v in _digest(out).items() if k.endswith(".tif")} == singles
+    with pytest.raises(PipelineError, match="another folder than the input"):
+        develop_folder(dng_folder, dng_folder, pipeline=default_pipeline())
+
+
 def test_folder_progress_is_plain_lines_when_piped(dng_folder, tmp_path, capsys):
     """A folder batch drew rich's bar even when stderr was a log file (only its last frame landed
     there, as 'developing ━━━ 3/3'); now plain timed lines, as the single-file command prints."""
