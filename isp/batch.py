@@ -121,10 +121,9 @@ def develop_folder(
     pipeline,
     metamer: tuple[Any, Any] | None = None,
     executor: str | None = None,
-    crop: Sequence[int] | None = None,
-    save_stages: str | Path | None = None,
     settings: Mapping[str, Any] | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    **options: Any,
 ) -> list[dict]:
     """Develop every RAW file of the folder ``inputs`` into the folder ``out``.
 
@@ -142,14 +141,15 @@ def develop_folder(
     executor
         ``"serial"``, ``"local[:N]"`` or a Dask scheduler address; None asks
         :func:`zonotope.parallel.resolve_scheduler` (``ZONOTOPE_SCHEDULER``, else by folder size).
-    crop, save_stages
-        As in :func:`develop_file` (``save_stages`` gets one sub-folder per input stem).
     settings
         What the outputs depend on, kept beside the manifest: a rerun into ``out`` with other
         settings is refused before any work (it would mix outputs of two developments).
     progress
         ``progress(description, done, total)``: called once with ``done=0`` before the work, then
         after each file.
+    **options
+        ``crop`` and ``save_stages`` of :func:`develop_file`, for every file (``save_stages`` gets
+        one sub-folder per input stem).
 
     Returns
     -------
@@ -160,8 +160,15 @@ def develop_folder(
     ------
     PipelineError
         ``out`` is a file or the input folder, no RAW files, or two inputs share a stem.
+    TypeError
+        An option other than ``crop`` and ``save_stages``.
     """
     from zonotope.parallel import FILE_MIN_TASKS, FileTask, check_settings, resolve_scheduler, run_files
+
+    unknown = sorted(set(options) - {"crop", "save_stages"})
+    if unknown:
+        raise TypeError(f"develop_folder() got unknown options {unknown}; valid: ['crop', 'save_stages'].")
+    crop, save_stages = options.get("crop"), options.get("save_stages")
 
     out_dir = Path(out)
     if out_dir.exists() and not out_dir.is_dir():
