@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQRS]``.
 Prints four tables (no timings); ``--quick`` fits the DCPs on 300 instead of 1,500 random spectra.
-The DCPs are fitted without the ColorChecker sets (``isp.profile_fit.profile_reflectances``), so the
+The DCPs are fitted without the ColorChecker sets (``isp.profiles.fitting.profile_reflectances``), so the
 chart every table evaluates on is held out.
 Needs ``rawtherapee-cli`` for the RawTherapee columns (skipped otherwise) and ../shared/data for
 table Q (skipped otherwise).
@@ -49,9 +49,9 @@ sys.path.insert(0, str(ROOT))
 
 import isp  # noqa: E402
 import zonotope  # noqa: E402
-from isp.dcp import DCPProfile, dcp_stage, read_dcp, write_dcp  # noqa: E402
-from isp.profile_fit import fit_dcp  # noqa: E402
-from isp.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
+from isp.profiles.dcp import DCPProfile, dcp_stage, read_dcp, write_dcp  # noqa: E402
+from isp.profiles.fitting import fit_dcp  # noqa: E402
+from isp.profiles.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
 from isp.simulate import chart_image, simulate_capture, simulate_dng, spectral_setup  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
@@ -256,8 +256,8 @@ def table_R(quick: bool) -> None:
 
 def table_S(cameras, quick: bool) -> None:
     """Why the profile is fitted as it is: noise-free spectral ablation on the held-out ColorChecker."""
-    from isp.dcp import PROPHOTO_FROM_XYZ
-    from isp.profile_fit import _fit_white_preserving, fit_hue_sat_map
+    from isp.profiles.dcp import PROPHOTO_FROM_XYZ
+    from isp.profiles.fitting import _fit_white_preserving, fit_hue_sat_map
 
     def lab(X):
         return colour.XYZ_to_Lab(X, D50_xy)

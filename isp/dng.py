@@ -627,7 +627,7 @@ class DNGMetadata:
 
     def __post_init__(self):
         from ._errors import PipelineError
-        from .raw import check_cfa
+        from .cfa import check_cfa
 
         def fail(name, value, allowed):
             raise PipelineError(f"DNGMetadata.{name}={value!r}: {allowed}.")

@@ -242,7 +242,7 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
             raise CaptureError(f"{file}: {where}.exposure must map file names to positive numbers.")
         cfa = c.get("cfa")
         if cfa is not None:
-            from isp.raw import check_cfa
+            from isp.cfa import check_cfa
 
             try:
                 cfa = check_cfa(cfa)
@@ -438,7 +438,7 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
         An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
     """
     from isp import DNGProfile, RawFormatError, noise_profile, read_raw
-    from isp.stages import cfa_masks
+    from isp.cfa import cfa_masks
 
     path = Path(path)
     camera = camera or CameraSpec("", "")

@@ -47,10 +47,10 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from ._config import float_array
-from ._errors import InputFileNotFoundError, RawFormatError
-from ._tol import NEUTRAL_XY_STEP
-from .dng import (
+from .._config import float_array
+from .._errors import InputFileNotFoundError, RawFormatError
+from .._tol import NEUTRAL_XY_STEP
+from ..dng import (
     LIGHT_SOURCE_CCT,
     D50_xy,
     DNGProfile,
@@ -749,7 +749,7 @@ def dcp_stage(
     isp.Stage
         Input: white-balanced camera RGB (H, W, 3); output: XYZ D50 (white Y = 1).
     """
-    from .pipeline import Stage
+    from ..pipeline import Stage
 
     prof = read_dcp(profile) if isinstance(profile, str | os.PathLike) else profile
 
@@ -765,22 +765,26 @@ def dcp_stage(
     return Stage(name, fn)
 
 
-def profile_pipeline(pipeline, args):
-    """``isp develop --profile``: the pipeline with :func:`dcp_stage`, or an error message.
+def profile_pipeline(pipeline, profile, *, white_balance="as-shot"):
+    """``pipeline`` with its ``camera_to_XYZ`` stage replaced by :func:`dcp_stage` of ``profile``.
 
-    Returns ``(pipeline, None)`` or ``(None, message)`` (the CLI prints it and exits 2).
+    Parameters
+    ----------
+    pipeline : isp.Pipeline
+        A pipeline with a ``camera_to_XYZ`` stage (e.g. :func:`isp.default_pipeline`).
+    profile : str or path
+        A ``.dcp`` file, or ``"embedded"`` for the DNG's own profile tags.
+    white_balance
+        As in :func:`isp.default_pipeline`; other than as-shot, the profile's matrices are
+        interpolated for that white (the DNG spec's rule).
     """
-    if getattr(args, "correction", "dng") != "dng":
-        return None, (
-            "--profile replaces the DNG ColorMatrix; it cannot be combined with --correction metamer."
-        )
-    wb = getattr(args, "wb", "as-shot")
+    wb = white_balance
     neutral = None
     if wb and str(wb).lower() not in ("as-shot", "asshot", "as_shot"):
-        from .whitebalance import white_balance_neutral
+        from ..whitebalance import white_balance_neutral
 
         def neutral(raw):
             return white_balance_neutral(raw, wb)
 
-    prof = None if str(args.profile).lower() == "embedded" else read_dcp(args.profile)
-    return pipeline.replace("camera_to_XYZ", dcp_stage(prof, neutral=neutral)), None
+    prof = None if str(profile).lower() == "embedded" else read_dcp(profile)
+    return pipeline.replace("camera_to_XYZ", dcp_stage(prof, neutral=neutral))

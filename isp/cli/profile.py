@@ -1,7 +1,7 @@
 """``isp profile``: a DNG camera profile (and optionally a 3-D LUT and a saved correction) for a camera.
 
 Registered on the ``isp`` command by :func:`add_command`. The DCP is fitted by
-:func:`isp.profile_fit.fit_dcp`; the LUT and the saved correction come from :mod:`zonotope.profile`.
+:func:`isp.profiles.fitting.fit_dcp`; the LUT and the saved correction come from :mod:`zonotope.profile`.
 (It is an ``isp`` command, not a ``zonotope`` one, because ``zonotope`` never imports ``isp``.)
 """
 
@@ -52,8 +52,8 @@ def _profile(args: argparse.Namespace) -> int:
     from zonotope import ZonotopeError
     from zonotope.correct.profile import LUTConfig, correction_LUT, save_correction, write_correction_LUT
 
-    from .dcp import write_dcp
-    from .profile_fit import ProfileConfig, fit_dcp
+    from ..profiles.dcp import write_dcp
+    from ..profiles.fitting import ProfileConfig, fit_dcp
 
     console = Console(stderr=True)
     out = Path(args.output)
@@ -120,7 +120,7 @@ def _profile(args: argparse.Namespace) -> int:
     )
     mc = fit.corrections[-1]  # the estimator under the second (daylight) calibration illuminant
     if args.lut:
-        from .cli import _progress  # rich's bar on a terminal, plain timed lines when piped
+        from ._console import _progress  # rich's bar on a terminal, plain timed lines when piped
 
         with _progress(console, quiet=False) as bar:
             task = bar.add_task(f"sampling a {args.lut_size}³ LUT", total=args.lut_size**3)

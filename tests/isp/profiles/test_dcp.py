@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from isp import PipelineError
-from isp.dcp import (
+from isp.profiles.dcp import (
     DCPError,
     DCPProfile,
     apply_hue_sat_map,
@@ -337,7 +337,7 @@ def test_isp_develop_profile_cli(tmp_path):
 def test_fit_recovers_a_known_3d_look_table(encoding):
     """fit_hue_sat_map with value divisions: the equations are exact, so colours made by a known
     smooth 3-D table give that table back (grey nodes at identity, as the fit holds them)."""
-    from isp.profile_fit import fit_hue_sat_map
+    from isp.profiles.fitting import fit_hue_sat_map
 
     V, H, S = 4, 12, 5
     v = np.linspace(0, 1, V)[:, None, None] * np.ones((V, H, S))
@@ -370,7 +370,7 @@ def test_unbiased_rings_keep_the_mean_of_noisy_greys():
     """unbiased_saturation: the rings near grey have identity hue-means and no first hue harmonic,
     so a noise cloud around a grey keeps its mean, where the free fit follows a table that rotates
     and scales low saturations hue by hue."""
-    from isp.profile_fit import fit_hue_sat_map
+    from isp.profiles.fitting import fit_hue_sat_map
 
     H, S = 24, 11
     h = np.linspace(0, 2 * np.pi, H, endpoint=False)[:, None] * np.ones((H, S))

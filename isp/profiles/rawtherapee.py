@@ -23,7 +23,7 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from ._errors import PipelineError
+from .._errors import PipelineError
 
 __all__ = ["RawTherapeeImage", "develop_rawtherapee", "patch_delta_E", "rawtherapee_cli"]
 

@@ -36,12 +36,12 @@ from typing import Any
 import colour
 import numpy as np
 
-from ._config import float_array
-from ._errors import PipelineError
-from ._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
+from .._config import float_array
+from .._errors import PipelineError
+from .._tol import TABLE_GREY_SATURATION, TABLE_HARD_WEIGHT, TABLE_RIDGE, TABLE_RING_ROUNDING
+from ..dng import D50_xy
+from ..simulate import ILLUMINANT_LIGHT_SOURCE
 from .dcp import PROPHOTO_FROM_XYZ, DCPProfile, _rgb_to_hsv, apply_hue_sat_map
-from .dng import D50_xy
-from .simulate import ILLUMINANT_LIGHT_SOURCE
 
 __all__ = [
     "DCP_DEFAULT_DIMS",
@@ -183,13 +183,13 @@ def fit_hue_sat_map(
         Non-negative weight per colour (default all 1); scaled to mean 1.
     encoding
         ProfileHueSatMapEncoding / ProfileLookTableEncoding: 0 linear, 1 sRGB-encoded value axis
-        (and value scale), as :func:`isp.dcp.apply_hue_sat_map` reads it.
+        (and value scale), as :func:`isp.profiles.dcp.apply_hue_sat_map` reads it.
     unbiased_saturation
         Saturation rings up to this value (0: none) are held *bias-free*: per ring, the hue-mean
         of each entry is the identity's and its first hue harmonic (cos, sin) is 0. Noise spread
         evenly around the grey axis then keeps its mean to first order in the saturation, where a
-        free table rotates and scales it hue by hue (a near-grey patch's mean moves by up to
-        6 ΔE00 on the Sigma SD Merrill). Hue-varying corrections stay free.
+        free table rotates and scales it hue by hue, moving near-grey means. Hue-varying
+        corrections stay free.
 
     Returns
     -------
@@ -413,9 +413,8 @@ class ProfileConfig:
     unbiased_saturation : float
         Rings of both tables up to this saturation, in [0, 1] (default 0.35: 10 of the
         HueSatMap's 30), are kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a
-        per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. Measured on
-        the simulated Sigma SD Merrill chart (noisy): dark grey patches 1.5–2.0 → 0.6 ΔE00, mean
-        1.57 → 1.37; noise-free the natural sets move by ≤ 0.01. 0 switches it off.
+        per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. 0 switches it
+        off.
     estimator_options : mapping of str to object
         Keywords of the estimator's fitting function (e.g. ``{"noise": 0.01}``), passed on through
         :class:`isp.MetamerConfig`.
@@ -444,8 +443,8 @@ class ProfileConfig:
     estimator_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        from ._config import check_int, check_number, check_options
-        from .metamer import MetamerConfig
+        from .._config import check_int, check_number, check_options
+        from ..metamer import MetamerConfig
 
         owner = "ProfileConfig"
         if not (isinstance(self.method, str) and self.method.strip()):
@@ -539,17 +538,15 @@ def fit_dcp(
     exposure-invariant too. On atypical colours an MMV estimator's answer depends on the lightness
     (the metamer mismatch volume of a colour depends on how close it lies to the object-colour
     solid's boundary), which a 2.5-D table cannot express: fitted together, the random smooth
-    spectra pull the natural colours' entries (Sigma SD Merrill, ColorChecker held out, noise-free:
-    1.68 ΔE00 mean with the random spectra at 1 % of the weight, 2.33 at their share of the
-    colours, 1.40 without them). The single 3-D **LookTable** (value divisions, both illuminants' colours)
-    then takes the colours after matrix and HueSatMap to the estimator, natural and random
-    colours weighted ``1 : atypical_weight`` in total, so it stays near identity on natural
-    colours. Its value axis assumes the perfect white reflector at value 1 (white-balanced
-    camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical colours moves along
-    the value axis; natural colours are not affected.
+    spectra would pull the natural colours' entries. The single 3-D **LookTable** (value
+    divisions, both illuminants' colours) then takes the colours after matrix and HueSatMap to the
+    estimator, natural and random colours weighted ``1 : atypical_weight`` in total, so it stays
+    near identity on natural colours. Its value axis assumes the perfect white reflector at value
+    1 (white-balanced camera RGB ``(1, 1, 1)``): at other exposures its correction of atypical
+    colours moves along the value axis; natural colours are not affected.
     """
-    from ._config import with_options
-    from .metamer import MetamerConfig, metamer_correction
+    from .._config import with_options
+    from ..metamer import MetamerConfig, metamer_correction
 
     cfg = with_options(ProfileConfig, config, options, where="fit_dcp")
     illuminants, dims, look_table_dims = cfg.illuminants, cfg.dims, cfg.look_table_dims

@@ -1,26 +1,17 @@
-"""``isp`` command line: develop RAW files.
+"""``isp develop`` (a RAW file or a folder of them) and ``isp info``.
 
-- ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF (with an sRGB ICC profile and
-  the camera's metadata) or PNG; ``--wb as-shot|daylight|5000K|D65|spot:x0,y0,x1,y1`` picks the
-  white balance; the picture is rotated as the file's Orientation tag says;
-  ``--correction metamer --camera NAME_OR_FILE [--method Prior] [--illuminant D65]`` replaces the
-  file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's sensitivities;
-- ``isp info IN``: print the RAW metadata the pipeline uses;
-- ``isp profile --camera NAME_OR_FILE -o camera.dcp [--lut camera.cube]``: a DNG camera profile
-  (and 3-D LUT, saved correction) fitted to a ``zonotope.correct`` estimator; ``isp develop
-  --profile camera.dcp`` applies any DCP.
-
-Runnable as ``isp ...`` (console script) or ``python -m isp ...``.
+The folder branch builds the options and calls :func:`isp.batch.develop_folder`; the single-file
+branch shows the development stage by stage.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
-from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["main"]
+from ._console import _fail, _progress
+
+__all__ = ["add_develop", "add_info"]
 
 _ORIENTATION = {
     1: "as stored",
@@ -44,9 +35,10 @@ _METAMER_OPTIONS = {
 }
 
 
-def _metamer(args: argparse.Namespace):
-    """The fitted metamer correction, or an error message (exit 2) when the options are wrong."""
-    from .metamer import MetamerConfig, metamer_correction
+def _metamer_config(args: argparse.Namespace):
+    """``(MetamerConfig, None)`` for ``--correction metamer``, ``(None, None)`` without it, or
+    ``(None, message)`` (exit 2) when the options are wrong; checked before any fit."""
+    from ..metamer import MetamerConfig
 
     if args.correction != "metamer":
         given = [flag for dest, flag in _METAMER_OPTIONS.items() if getattr(args, dest) is not None]
@@ -78,100 +70,119 @@ def _metamer(args: argparse.Namespace):
         white_level=defaults.white_level if args.scene_white is None else args.scene_white,
         quantum=defaults.quantum if args.quantum is None else args.quantum,
     )
-    corr = metamer_correction(args.camera, config)
-    return corr, None
+    return config, None
 
 
-class _PlainProgress:
-    """Progress as plain, periodic lines on stderr, for when it is not a terminal (rich draws no live
-    bars there): a line per step, and a line per sub-task at most every ``every`` seconds."""
+def _pipeline(args: argparse.Namespace):
+    """``(pipeline, None)`` built from the develop options (without a metamer fit), or ``(None, message)``."""
+    from ..pipeline import default_pipeline
+    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS
 
-    def __init__(self, console, every: float = 5.0) -> None:
-        import time
+    tonemap = None if args.tonemap.lower() == "none" else args.tonemap
+    DEMOSAIC_METHODS.resolve(args.demosaic, argument="--demosaic")  # unknown names: before any work
+    if tonemap is not None:
+        TONEMAP_METHODS.resolve(tonemap, argument="--tonemap")
+    options = {}
+    if args.exposure is not None:
+        if tonemap is None or tonemap.lower() != "clip":
+            return None, (
+                "--exposure applies to --tonemap clip only "
+                "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
+            )
+        options = {"exposure": args.exposure}
+    pipeline = default_pipeline(
+        demosaic=args.demosaic,
+        tonemap=tonemap,
+        tonemap_options=options,
+        white_balance=args.wb,
+    )
+    if getattr(args, "profile", None):  # a DNG camera profile (isp.profiles.dcp) replaces camera_to_XYZ
+        if args.correction != "dng":
+            return None, (
+                "--profile replaces the DNG ColorMatrix; it cannot be combined with --correction metamer."
+            )
+        from ..profiles.dcp import profile_pipeline
 
-        self.console, self.every, self.clock = console, every, time.monotonic
-        self.t0 = self.last = self.clock()
-        self.tasks: dict[int, list] = {}
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        return None
-
-    def _line(self, text: str) -> None:
-        self.console.print(f"[{self.clock() - self.t0:6.1f} s] {text}", markup=False, highlight=False)
-        self.last = self.clock()
-
-    def add_task(self, description: str, total: float | None = None) -> int:
-        self.tasks[len(self.tasks)] = [description, total]
-        self._line(description)
-        return len(self.tasks) - 1
-
-    def update(
-        self,
-        task: int,
-        *,
-        completed: float | None = None,
-        total: float | None = None,
-        description: str | None = None,
-    ) -> None:
-        t = self.tasks[task]
-        t[1] = total if total is not None else t[1]
-        if description is not None and description != t[0]:
-            t[0] = description
-            self._line(description)
-        elif completed is not None and (self.clock() - self.last >= self.every or completed == t[1]):
-            self._line(f"{t[0]}: {completed:g}/{t[1]:g}" if t[1] else t[0])
-
-    def advance(self, task: int, n: float = 1) -> None:
-        return None
+        pipeline = profile_pipeline(pipeline, args.profile, white_balance=args.wb)
+    return pipeline, None
 
 
-def _progress(console, quiet: bool):
-    """Rich's live bars on a terminal; plain periodic lines otherwise (e.g. piped into a log)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+def _develop_folder(args: argparse.Namespace) -> int:
+    """The folder branch of ``isp develop`` (prints; returns the exit status).
 
-    if quiet or console.is_terminal:
-        return Progress(
-            TextColumn("{task.description}"),
-            BarColumn(),
-            TextColumn("{task.completed}/{task.total}"),
-            TimeElapsedColumn(),
-            console=console,
-            disable=quiet,
+    Exit status 0 when every file was developed (now or by an earlier run), 1 when some failed
+    (listed, and in the manifest), 2 for bad options.
+    """
+    from rich.console import Console
+
+    from ..batch import develop_folder
+
+    console = Console(stderr=True)
+    out_dir = Path(args.output)
+    if getattr(args, "overwrite", False):
+        return _fail(
+            "--overwrite does not apply to folders: a rerun keeps finished "
+            "outputs (delete them to develop again)."
         )
-    return _PlainProgress(console)
+    config, error = _metamer_config(args)
+    if error:
+        return _fail(error)
+    pipeline, error = _pipeline(args)
+    if error:
+        return _fail(error)
+    # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
+    ignore = {"func", "scheduler", "quiet", "input", "output", "overwrite", "command"}
+    settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
+    with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
+        task: list[int] = []
 
+        def on_progress(description: str, done: int, total: int) -> None:
+            if not task:
+                task.append(bar.add_task(description, total=total))
+            else:
+                bar.update(task[0], completed=done)
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("zonotope")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
-        return "0+unknown"
+        rows = develop_folder(
+            args.input,
+            out_dir,
+            pipeline=pipeline,
+            metamer=None if config is None else (args.camera, config),
+            executor=getattr(args, "scheduler", None),
+            crop=args.crop,
+            save_stages=args.save_stages,
+            settings=settings,
+            progress=on_progress,
+        )
+    failed = [r for r in rows if r["status"] == "failed"]
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
+    for r in failed:
+        console.print(f"[red]failed:[/] {r['input']}: {r['error']}", soft_wrap=True)
+    if not args.quiet or failed:
+        console.print(
+            f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
+            f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})",
+            soft_wrap=True,
+        )
+    return 1 if failed else 0
 
 
 def _develop(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from .exif import output_tags, srgb_icc_profile
-    from .io import write_image
-    from .pipeline import default_pipeline
-    from .raw import read_raw
-    from .whitebalance import describe_white_balance
+    from ..exif import output_tags, srgb_icc_profile
+    from ..io import write_image
+    from ..pipeline import correction_stage
+    from ..raw import read_raw
+    from ..whitebalance import describe_white_balance
 
     console = Console(stderr=True)
     src = Path(args.input)
     out = Path(args.output)
-    if src.is_dir():  # a folder batch: every RAW file, the same options (isp/batch.py)
-        from .batch import develop_folder
-
-        return develop_folder(args)
-    from ._errors import PipelineError
-    from ._tol import NEUTRAL_MISMATCH
-    from .io import IMAGE_FORMATS, _is_our_output
+    if src.is_dir():  # a folder batch: every RAW file, the same options (isp.batch)
+        return _develop_folder(args)
+    from .._errors import PipelineError
+    from .._tol import NEUTRAL_MISMATCH
+    from ..io import IMAGE_FORMATS, _is_our_output
 
     if out.suffix.lower() not in IMAGE_FORMATS:  # before the development, not when writing it
         raise PipelineError(f"{out}: unknown image format {out.suffix!r}; use one of {list(IMAGE_FORMATS)}.")
@@ -182,38 +193,18 @@ def _develop(args: argparse.Namespace) -> int:
         raise PipelineError(
             f"{out} exists and was not written by isp; --overwrite replaces only isp outputs."
         )
-    tonemap = None if args.tonemap.lower() == "none" else args.tonemap
-    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
-
-    DEMOSAIC_METHODS.resolve(args.demosaic, argument="--demosaic")  # unknown names: before any work
-    if tonemap is not None:
-        TONEMAP_METHODS.resolve(tonemap, argument="--tonemap")
-    options = {}
-    if args.exposure is not None:
-        if tonemap is None or tonemap.lower() != "clip":
-            return _fail(
-                "--exposure applies to --tonemap clip only "
-                "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
-            )
-        options = {"exposure": args.exposure}
-    fitted = getattr(args, "fitted_metamer", None)  # a folder batch fits once for every file
-    metamer, error = (fitted, None) if fitted is not None else _metamer(args)
+    config, error = _metamer_config(args)
     if error:
         return _fail(error)
-    correction = metamer if metamer is not None else args.correction
-    pipeline = default_pipeline(
-        demosaic=args.demosaic,
-        correction=correction,
-        tonemap=tonemap,
-        tonemap_options=options,
-        white_balance=args.wb,
-    )
-    if getattr(args, "profile", None):  # a DNG camera profile (isp/dcp.py) replaces camera_to_XYZ
-        from .dcp import profile_pipeline
+    pipeline, error = _pipeline(args)
+    if error:
+        return _fail(error)
+    metamer = None
+    if config is not None:
+        from ..metamer import metamer_correction
 
-        pipeline, error = profile_pipeline(pipeline, args)
-        if error:
-            return _fail(error)
+        metamer = metamer_correction(args.camera, config)
+        pipeline = pipeline.replace("camera_to_XYZ", correction_stage(metamer))
     if args.save_stages:
         stage_dir = Path(args.save_stages)
         if stage_dir.exists() and any(stage_dir.iterdir()) and not args.overwrite:
@@ -305,9 +296,9 @@ def _info(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from ._errors import RawFormatError
-    from .raw import read_raw
-    from .whitebalance import describe_white_balance
+    from .._errors import RawFormatError
+    from ..raw import read_raw
+    from ..whitebalance import describe_white_balance
 
     try:
         raw = read_raw(args.input, metadata_only=args.metadata_only)
@@ -351,14 +342,40 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _parser() -> argparse.ArgumentParser:
+def _profile_camera_mismatch(profile, raw) -> str | None:
+    """A warning when ``--profile FILE`` was made for another camera than the RAW file's, else None.
+
+    Raw developers offer a DCP only for the camera named by its UniqueCameraModel; ``--profile``
+    applies any file, so a Nikon profile on a Canon file would go unnoticed. Names are compared
+    without case and spacing, and one may contain the other ("Canon EOS 550D" in "Canon Canon EOS
+    550D"); files without a recorded model (non-DNG RAW) are not checked.
+    """
+    if not profile or str(profile).lower() == "embedded":
+        return None
+    from ..profiles.dcp import read_dcp
+
+    made_for = read_dcp(profile).unique_camera_model
+    tags = getattr(raw, "tags", None) or {}
+    model = str(tags.get("UniqueCameraModel", "") or "") or f"{raw.make} {raw.model}".strip()
+
+    def norm(name: str) -> str:
+        return "".join(name.lower().split())
+
+    a, b = norm(made_for), norm(model)
+    if not a or not b or a in b or b in a:
+        return None
+    return (
+        f"{profile} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from "
+        f"{model!r}: the colours are right only for that camera."
+    )
+
+
+def add_develop(sub) -> None:
+    """Register ``develop`` on the ``isp`` sub-parser collection."""
     from zonotope.correct import CORRECTION_METHODS
 
-    from .stages import DEMOSAIC_METHODS, TONEMAP_METHODS
+    from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS, default_method
 
-    parser = argparse.ArgumentParser(prog="isp", description="Develop camera RAW files, one stage at a time.")
-    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
-    sub = parser.add_subparsers(dest="command", required=True)
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
     d.add_argument("input", help="RAW or DNG file, or a folder of them (then -o is a folder)")
     d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
@@ -369,8 +386,8 @@ def _parser() -> argparse.ArgumentParser:
     )
     d.add_argument(
         "--demosaic",
-        default="Malvar 2004",
-        help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default Malvar 2004)",
+        default=default_method(DEMOSAIC_METHODS),
+        help=f"demosaicing method: {', '.join(DEMOSAIC_METHODS)} (default %(default)s)",
     )
     d.add_argument(
         "--correction",
@@ -433,8 +450,8 @@ def _parser() -> argparse.ArgumentParser:
     )
     d.add_argument(
         "--tonemap",
-        default="Reinhard 2002",
-        help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default Reinhard 2002)",
+        default=default_method(TONEMAP_METHODS),
+        help=f"global tone mapping: {', '.join(TONEMAP_METHODS)} or none (default %(default)s)",
     )
     d.add_argument(
         "--exposure",
@@ -453,76 +470,11 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--overwrite", action="store_true", help="replace existing output files")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     d.set_defaults(func=_develop)
-    from ._profile_cli import add_command as add_profile  # 'isp profile': DCP / 3-D LUT export
 
-    add_profile(sub)
+
+def add_info(sub) -> None:
+    """Register ``info`` on the ``isp`` sub-parser collection."""
     i = sub.add_parser("info", help="print the metadata of a RAW/DNG file")
     i.add_argument("input")
     i.add_argument("--metadata-only", action="store_true", help="accept files without pixel data")
     i.set_defaults(func=_info)
-    return parser
-
-
-def _profile_camera_mismatch(profile, raw) -> str | None:
-    """A warning when ``--profile FILE`` was made for another camera than the RAW file's, else None.
-
-    Raw developers offer a DCP only for the camera named by its UniqueCameraModel; ``--profile``
-    applies any file, so a Nikon profile on a Canon file would go unnoticed. Names are compared
-    without case and spacing, and one may contain the other ("Canon EOS 550D" in "Canon Canon EOS
-    550D"); files without a recorded model (non-DNG RAW) are not checked.
-    """
-    if not profile or str(profile).lower() == "embedded":
-        return None
-    from .dcp import read_dcp
-
-    made_for = read_dcp(profile).unique_camera_model
-    tags = getattr(raw, "tags", None) or {}
-    model = str(tags.get("UniqueCameraModel", "") or "") or f"{raw.make} {raw.model}".strip()
-
-    def norm(name: str) -> str:
-        return "".join(name.lower().split())
-
-    a, b = norm(made_for), norm(model)
-    if not a or not b or a in b or b in a:
-        return None
-    return (
-        f"{profile} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from "
-        f"{model!r}: the colours are right only for that camera."
-    )
-
-
-def _fail(message: str) -> int:
-    """Bad options: ``isp: error: …`` as one line on stderr (as :func:`main` prints project errors), 2."""
-    print("isp: error: " + " ".join(str(message).split()), file=sys.stderr)
-    return 2
-
-
-def _stdout_gone() -> int:
-    """Exit status after the reader of stdout closed it (``isp info F | head``): 128 + SIGPIPE, quietly."""
-    import os
-    import signal
-
-    try:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
-    except (OSError, ValueError, AttributeError):  # stdout without a file descriptor (captured)
-        pass
-    return 128 + signal.SIGPIPE
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``isp`` command; returns the exit status (2 for bad input)."""
-    from zonotope import ZonotopeError
-
-    args = _parser().parse_args(argv)
-    try:
-        status = args.func(args)
-        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
-        return status
-    except KeyboardInterrupt:
-        print("isp: interrupted (no output was written or replaced)", file=sys.stderr)
-        return 130
-    except BrokenPipeError:
-        return _stdout_gone()
-    except (ZonotopeError, OSError, ValueError) as exc:  # one line, no traceback
-        print("isp: error: " + " ".join(str(exc).split()), file=sys.stderr)
-        return 2
