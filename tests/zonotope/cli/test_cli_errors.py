@@ -215,7 +215,7 @@ def test_isp_develop_warns_when_the_profile_is_for_another_camera(
     """``--profile FILE`` applied a Nikon profile to a Canon DNG without a word."""
     from isp import read_raw
     from isp.cli import main
-    from isp.dcp import DCPProfile, write_dcp
+    from isp.profiles.dcp import DCPProfile, write_dcp
 
     dng = shared_data / "raw_samples" / "tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng"
     if not dng.is_file():
@@ -240,7 +240,7 @@ def test_isp_profile_overwrite_replaces_only_its_own_outputs(tmp_path, capsys):
     """``isp profile --overwrite`` replaced any existing file: a third-party DCP, the user's own
     .cube; a --save-correction without .npz was refused only after the fit, with the DCP written."""
     from isp.cli import main
-    from isp.dcp import DCPProfile, write_dcp
+    from isp.profiles.dcp import DCPProfile, write_dcp
 
     theirs = tmp_path / "theirs.dcp"  # a DCP from elsewhere (no isp Software tag): as RawTherapee's
     theirs.write_bytes(b"IIRC" + b"\x00" * 60)
@@ -258,6 +258,6 @@ def test_isp_profile_overwrite_replaces_only_its_own_outputs(tmp_path, capsys):
     assert {p.name: p.read_bytes() for p in (theirs, own_lut)} == before
     assert not (tmp_path / "new.dcp").exists()
     ours = write_dcp(tmp_path / "ours.dcp", DCPProfile(np.eye(3), calibration_illuminant_1=21))
-    from isp._profile_cli import _written_by_isp_profile
+    from isp.cli.profile import _written_by_isp_profile
 
     assert _written_by_isp_profile(ours) and not _written_by_isp_profile(theirs)

@@ -164,7 +164,7 @@ def test_load_rejects_other_files(tmp_path):
 
 @pytest.fixture(scope="module")
 def dcp_fit():
-    from isp.profile_fit import fit_dcp
+    from isp.profiles.fitting import fit_dcp
 
     return fit_dcp(CAM, method="Finlayson 2015", n_random=300, unique_camera_model="Nikon D5100")
 
@@ -205,7 +205,7 @@ def test_fitted_look_table_is_written_and_read_alike(dcp_fit, tmp_path):
     import shutil
     import subprocess
 
-    from isp.dcp import read_dcp, write_dcp
+    from isp.profiles.dcp import read_dcp, write_dcp
 
     p = dcp_fit.profile
     assert p.look_table.shape == (8, 36, 12, 3) and p.look_table_encoding == 1
@@ -234,7 +234,7 @@ def test_colorchecker_is_held_out_of_the_fit(dcp_fit):
 
 def test_isp_profile_cli(tmp_path):
     from isp.cli import main
-    from isp.dcp import read_dcp
+    from isp.profiles.dcp import read_dcp
 
     out = tmp_path / "cam.dcp"
     args = [
@@ -280,7 +280,7 @@ def test_isp_profile_cli(tmp_path):
 
 @pytest.fixture(scope="module")
 def rawtherapee():
-    from isp.rawtherapee import rawtherapee_cli
+    from isp.profiles.rawtherapee import rawtherapee_cli
 
     if rawtherapee_cli() is None:
         pytest.skip("rawtherapee-cli not installed")
@@ -289,8 +289,8 @@ def rawtherapee():
 @pytest.mark.slow
 def test_dcp_beats_dng_matrix_in_rawtherapee_and_isp(tmp_path, rawtherapee, dcp_fit):
     from benchmarks.bench_profile import isp_XYZ, simulated_chart
-    from isp.dcp import write_dcp
-    from isp.rawtherapee import develop_rawtherapee, patch_delta_E
+    from isp.profiles.dcp import write_dcp
+    from isp.profiles.rawtherapee import develop_rawtherapee, patch_delta_E
 
     path, labels, truth = simulated_chart(CAM, tmp_path)
     dcp = write_dcp(tmp_path / "cam.dcp", dcp_fit.profile)
@@ -319,8 +319,8 @@ def test_rawtherapee_applies_a_3d_look_table_like_isp(tmp_path, rawtherapee, dcp
     to × 1.3) on our fitted matrices: rawtherapee-cli and ``isp develop --profile`` move every patch
     alike, for both value encodings, so RawTherapee honours the value divisions and the encoding."""
     from benchmarks.bench_profile import isp_XYZ, simulated_chart
-    from isp.dcp import write_dcp
-    from isp.rawtherapee import develop_rawtherapee
+    from isp.profiles.dcp import write_dcp
+    from isp.profiles.rawtherapee import develop_rawtherapee
 
     path, labels, _ = simulated_chart(CAM, tmp_path)
     V, H, S = 8, 36, 12
@@ -360,7 +360,7 @@ def dng_550d(shared_data):
 @pytest.mark.slow
 def test_rawtherapee_and_isp_apply_a_shipped_dcp_alike(rawtherapee, dng_550d):
     from benchmarks.bench_profile import BOX, CHART_COLS, CHART_ROWS, isp_XYZ
-    from isp.rawtherapee import develop_rawtherapee
+    from isp.profiles.rawtherapee import develop_rawtherapee
 
     dcp = Path("/usr/share/rawtherapee/dcpprofiles/Canon EOS 550D.dcp")
     if not dcp.is_file():
