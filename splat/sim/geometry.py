@@ -1,4 +1,4 @@
-"""Geometry and textures of the simulated capture's scene (:mod:`splat.simcapture`): exact ray casting of
+"""Geometry and textures of the simulated capture's scene (:mod:`splat.sim.capture`): exact ray casting of
 a floor, a backdrop, boxes, spheres and capped cylinders, and procedural textures mixing measured
 reflectances.
 
@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
+from .._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
 
 if TYPE_CHECKING:
-    from .simcapture import SimScene
+    from .capture import SimScene
 
 __all__ = ["CARD", "CHART", "shade"]
 
