@@ -345,6 +345,15 @@ class RawView:
         """Image size ``(H, W)``."""
         return self.values.shape[:2]
 
+    @property
+    def cfa(self) -> str:
+        """The 2 × 2 CFA pattern of the mosaic's top-left corner, e.g. ``"RGGB"`` (the channel measured
+        at each site, read off the mosaic itself so that no second source of the pattern can disagree)."""
+        m = self.values[:2, :2] != 0
+        w = self.weight[:2, :2] > 0
+        site = np.argmax(m | w, axis=-1)
+        return "".join("RGB"[int(site[i, j])] for i in range(2) for j in range(2))
+
 
 def _exif_from_tags(tags) -> dict:
     out = {}

@@ -96,14 +96,12 @@ def measured(view, white_scale, *, method: str = "Malvar 2004") -> np.ndarray:
     demosaics sources with ``"bilinear"`` (a convex combination of measured sites, no overshoot)."""
     from isp.stages import demosaic
 
-    from .pipeline import _cfa_of
-
     if view.exif is None:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     lin = (
         view.values.astype(np.float64)
         if view.full_colour
-        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method=method)
+        else demosaic(view.values.sum(-1), cfa=view.cfa, method=method)
     )
     return lin / view.exif / np.asarray(white_scale, float)
 

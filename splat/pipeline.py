@@ -52,11 +52,11 @@ __all__ = [
     "PipelineConfig",
     "correct_step",
     "depth_targets",
+    "fit_step",
     "poses_step",
     "render_step",
     "report_step",
     "run",
-    "train_step_",
     "xyz_to_srgb",
 ]
 
@@ -231,19 +231,11 @@ def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
     img = (
         v.values.astype(np.float64)
         if v.full_colour
-        else demosaic(v.values.sum(-1), cfa=_cfa_of(v), method="bilinear")
+        else demosaic(v.values.sum(-1), cfa=v.cfa, method="bilinear")
     )
     img = np.maximum(img, 0) / white / max(v.exif, 1e-9)
     img = img / max(np.percentile(img, 99.5), 1e-9)
     return encode_sRGB(np.clip(img, 0, 1))
-
-
-def _cfa_of(v: RawView) -> str:
-    letters = "RGB"
-    m = v.values != 0
-    w = v.weight > 0
-    site = np.argmax(m[:2, :2] | w[:2, :2], axis=-1)
-    return "".join(letters[int(site[i, j])] for i in range(2) for j in range(2))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -562,7 +554,7 @@ def train_config(config: PipelineConfig, checkpoint: Path | None = None):
     )
 
 
-def train_step_(
+def fit_step(
     capture: str | os.PathLike,
     out: str | os.PathLike,
     *,
@@ -1534,7 +1526,7 @@ def run(
     """Run the steps in order (each skipped or resumed when its results exist); returns their results."""
     fns = {
         "poses": poses_step,
-        "train": train_step_,
+        "train": fit_step,
         "render": render_step,
         "correct": correct_step,
         "report": report_step,
