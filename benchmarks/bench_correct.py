@@ -301,7 +301,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:  # the pipeline's problem of the simulated capture
         from splat.capture import read_capture
         from splat.pipeline import correction_problem_of
-        from splat.simcapture import write_synthetic_capture
+        from splat.sim.capture import write_synthetic_capture
 
         spec = read_capture(write_synthetic_capture(Path(tmp) / "capture"))
         piped = correction_problem_of(spec, [0, 1, 2])

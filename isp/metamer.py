@@ -62,7 +62,7 @@ class MetamerCorrection:
     """White-balanced camera RGB ``(N, 3)`` → XYZ ``(N, 3)`` with a fitted ``zonotope.correct`` estimator.
 
     Built by :func:`metamer_correction`; pass it as ``default_pipeline(correction=...)``. Calls go
-    through :func:`zonotope.image.correct_image`, which corrects each distinct colour (responses
+    through :func:`zonotope.correct.image.correct_image`, which corrects each distinct colour (responses
     rounded to ``quantum``) once and carries the result to its pixels with the estimator's
     regression. A colour whose estimate fails (e.g. the degenerate metamer mismatch volume of a
     response outside the object-colour solid) gets the root-polynomial regression's estimate

@@ -1,4 +1,4 @@
-"""Geometry and textures of the simulated capture's scene (:mod:`splat.simcapture`): exact ray casting of
+"""Geometry and textures of the simulated capture's scene (:mod:`splat.sim.capture`): exact ray casting of
 a floor, a backdrop, boxes, spheres and capped cylinders, and procedural textures mixing measured
 reflectances.
 
@@ -9,16 +9,22 @@ included), so a pixel's spectrum stays a convex mix of measured reflectances.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
-from ._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
+from .._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
 
-if TYPE_CHECKING:
-    from .simcapture import SimScene
+__all__ = ["CARD", "CHART", "SceneLike", "shade"]
 
-__all__ = ["CARD", "CHART", "shade"]
+
+class SceneLike(Protocol):
+    """What shading reads of a scene (:class:`splat.sim.capture.SimScene` is one); declared here so
+    that the geometry does not import the capture that uses it."""
+
+    config: Any  # .texture ("fine" | "coarse"), .cell_size (m), .seed (int)
+    palettes: dict  # palette name -> ndarray of library indices
+
 
 _LIGHT = np.array([0.4, 0.3, 1.0]) / np.linalg.norm([0.4, 0.3, 1.0])
 _WALL_R, _WALL_H = 6.0, 5.0
@@ -86,7 +92,7 @@ def _value_noise(uv: np.ndarray, size: float, salt: int) -> np.ndarray:
     return top * (1 - f[:, 1]) + bot * f[:, 1]
 
 
-def _texture(scene: SimScene, uv: np.ndarray, palette: str, size: float, salt: int):
+def _texture(scene: SceneLike, uv: np.ndarray, palette: str, size: float, salt: int):
     """Library indices (N, 3) and weights (N, 3) of the procedural texture at surface coordinates uv.
 
     ``texture="fine"``: Voronoi cells mixed with a second reflectance in cells a third the size under a
@@ -221,7 +227,7 @@ def _surface(kind: str, q, p: np.ndarray):
     return n, uv
 
 
-def shade(scene: SimScene, o: np.ndarray, d: np.ndarray):
+def shade(scene: SceneLike, o: np.ndarray, d: np.ndarray):
     """Nearest hit of every ray (origin o (3,), directions d (N, 3)) → library indices, weights, depth."""
     N = len(d)
     cell = scene.config.cell_size

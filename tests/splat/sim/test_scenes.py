@@ -1,4 +1,4 @@
-"""splat.scenes: the synthetic capture is what its spectral model says it is."""
+"""splat.sim.scenes: the synthetic capture is what its spectral model says it is."""
 
 from __future__ import annotations
 

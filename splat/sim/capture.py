@@ -37,13 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ._errors import SplatError
-from ._simgeometry import CARD, CHART, shade
-from ._tol import GRID_NM, PURE_WEIGHT, TRACK_VISIBLE_ATOL, TRACK_VISIBLE_RTOL
+from .._errors import SplatError
+from .._tol import GRID_NM, PURE_WEIGHT, TRACK_VISIBLE_ATOL, TRACK_VISIBLE_RTOL
+from .geometry import CARD, CHART, shade
 
 __all__ = ["SimCamera", "SimCaptureConfig", "SimScene", "SimView", "build_scene", "write_synthetic_capture"]
 
-_GENERATOR = "splat.simcapture"
+_GENERATOR = "splat.simcapture"  # the id written into truth.json; captures on disk carry it
 _OBSERVER = "CIE 1931 2 Degree Standard Observer"
 
 
@@ -660,7 +660,7 @@ def write_synthetic_capture(
 
     Examples
     --------
-    >>> from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    >>> from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
     >>> write_synthetic_capture("capture", SimCaptureConfig.ci())  # doctest: +SKIP
     """
     import tifffile
@@ -675,7 +675,7 @@ def write_synthetic_capture(
             raise SplatError(
                 f"out_dir {out} exists and is not empty"
                 + (
-                    " and is not an output of splat.simcapture; choose an empty or new folder."
+                    " and is not an output of splat.sim.capture; choose an empty or new folder."
                     if overwrite
                     else "; choose a new folder, or pass overwrite=True to replace a previous"
                     " simulator output."
@@ -847,7 +847,7 @@ def _surface_points(scene: SimScene, image_ids: dict, per_view: int = 400):
     (n,))``, in COLMAP's pixel convention: the first pixel's centre at 0.5)."""
     import colour
 
-    from .colmap import ColmapPoint3D
+    from ..colmap import ColmapPoint3D
 
     rng = np.random.default_rng(scene.config.seed + 2)
     train = [(i, v) for i, v in enumerate(scene.views) if not v.holdout]
@@ -888,7 +888,7 @@ def _surface_points(scene: SimScene, image_ids: dict, per_view: int = 400):
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m splat.simcapture OUT [--size ci|benchmark] [--seed N] [--no-noise] [--overwrite]``."""
+    """``python -m splat.sim.capture OUT [--size ci|benchmark] [--seed N] [--no-noise] [--overwrite]``."""
     import argparse
     import sys
     import time
@@ -896,7 +896,7 @@ def main(argv: list[str] | None = None) -> int:
     import zonotope
 
     parser = argparse.ArgumentParser(
-        prog="python -m splat.simcapture",
+        prog="python -m splat.sim.capture",
         description="Write a simulated three-camera RAW capture (DNG files, capture.toml, truth/).",
     )
     parser.add_argument("out", help="capture folder to create")
@@ -931,7 +931,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         out = write_synthetic_capture(args.out, config, overwrite=args.overwrite)
     except (SplatError, zonotope.ZonotopeError, OSError) as exc:  # one line on stderr, no traceback
-        print(f"splat.simcapture: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        print(f"splat.sim.capture: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     n = sum(1 for _ in out.glob("*/*.dng"))
     print(f"wrote {out} ({n} DNG files, {len(config.cameras)} cameras) in {time.perf_counter() - t:.1f} s")

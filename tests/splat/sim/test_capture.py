@@ -18,7 +18,7 @@ import pytest
 
 import isp
 import splat
-from splat.simcapture import SimCamera, SimCaptureConfig, build_scene, write_synthetic_capture
+from splat.sim.capture import SimCamera, SimCaptureConfig, build_scene, write_synthetic_capture
 
 GRID = np.arange(400.0, 681.0, 5.0)  # the cameras' common range (Sigma SDMerill ends at 680 nm)
 
@@ -423,7 +423,7 @@ def test_extra_reflectances(shared_data):
 
 
 def test_main(tmp_path, capsys):
-    from splat.simcapture import main
+    from splat.sim.capture import main
 
     assert main([str(tmp_path / "c"), "--size", "ci", "--seed", "2", "--no-noise"]) == 0
     assert "24 DNG files" in capsys.readouterr().out

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
-from ._errors import SplatError
-from .camera import look_at
-from .data import Capture, View
-from .gaussians import Gaussians, init_gaussians
-from .rendering import RenderConfig, render_reference
+from .._errors import SplatError
+from ..camera import look_at
+from ..data import Capture, View
+from ..gaussians import Gaussians, init_gaussians
+from ..rendering import RenderConfig, render_reference
 
 __all__ = ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"]
 
