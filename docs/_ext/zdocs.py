@@ -8,14 +8,20 @@
   themselves (``zonotope.cli._parser`` and friends), so it cannot drift from the code.
 * **Gallery**: ``notebooks/*.ipynb`` copied into ``docs/gallery/``. A notebook whose code cells all
   carry an execution count (already executed, e.g. by ``pytest --nbmake --overwrite`` earlier in the
-  same CI run) is rendered as it is; the others are executed once by myst-nb during the build.
+  same CI run) is rendered as it is; the others are executed once by myst-nb during the build (or not
+  at all with ``-D nb_execution_mode=off``). The gallery's table (``docs/gallery/table.inc``) says for
+  each notebook which of these happened, shows the first figure of an executed notebook as its
+  thumbnail, and says when a notebook that reads ``../shared/data`` runs without it (the notebook page
+  then opens with the same note) instead of leaving the measured data silently out.
 
 Everything generated lives in ignored paths (``docs/api/generated``, ``docs/guide/cli_help``,
-``docs/gallery/*.ipynb``) and is rewritten on every build.
+``docs/gallery/*.ipynb``, ``docs/gallery/_thumbs``, ``docs/gallery/table.inc``) and is rewritten on
+every build.
 """
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import importlib
 import inspect
@@ -41,7 +47,20 @@ CLIS = (
     ("zonotope", "zonotope.cli", "_parser"),
     ("isp", "isp.cli", "_parser"),
     ("splat", "splat.cli", "_parser"),
-    ("python -m splat.simcapture", "splat.simcapture", "main"),
+    ("python -m splat.sim.capture", "splat.sim.capture", "main"),
+)
+
+#: Gallery notebooks in reading order, with the thesis figures each reproduces.
+GALLERY = (
+    ("fig1_colour_vision", "1.1 cone fundamentals; 1.2 spectral locus (LMS, XYZ, xy)"),
+    ("fig1_cameras_and_eye", "1.4 camera vs eye in XYZ, gamuts; 1.5 the eye's object-colour solid"),
+    ("object_colour_solids", "solids of the built-in cameras"),
+    ("raw_pipeline", "1.3 Bayer mosaic and demosaicing; 3.4 ISP stages of one RAW file"),
+    ("fig3_multispectral", "3.2 one view, three cameras (splat); 3.3 PCA false colour"),
+    ("fig4_mmv", "4.1 MMV vs per-channel intersection; 4.2 MMVs of several pixel values"),
+    ("fig5_sanity_vora", "5.1 sanity cases; 5.2 Vora value"),
+    ("fig5_cameras_added", "MMV volume and ΔE00 as cameras are added (not in the thesis)"),
+    ("colour_correction", "estimators compared (fig. 5.2 again)"),
 )
 
 
@@ -66,14 +85,20 @@ def _summary(doc: str | None) -> str:
     return line.replace("|", "\\|")
 
 
+def _modules(package: str) -> list[str]:
+    """Dotted names of ``package`` and every module below it, subpackages included."""
+    pkg = importlib.import_module(package)
+    found = [package]
+    for info in pkgutil.walk_packages(pkg.__path__, prefix=f"{package}."):
+        if info.name.rsplit(".", 1)[-1] != "__main__":
+            found.append(info.name)
+    return found
+
+
 def _data_docs(package: str) -> dict[str, tuple[str, str]]:
     """``name → (module, doc)`` for every ``#:`` documented module-level name in ``package``."""
     found: dict[str, tuple[str, str]] = {}
-    pkg = importlib.import_module(package)
-    modules = [package] + [
-        f"{package}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if m.name != "__main__"
-    ]
-    for mod in modules:
+    for mod in _modules(package):
         try:
             docs = ModuleAnalyzer.for_module(mod).find_attr_docs()
         except Exception:  # a module the analyzer cannot parse has no #: docs for us
@@ -222,25 +247,86 @@ def generate_cli(app, config) -> None:
         _write(out / f"{module.split('.')[-1] if '.' in title else title}.rst", "\n".join(lines))
 
 
-def _executed(nb_path: Path) -> bool:
-    nb = json.loads(nb_path.read_text())
+def _executed(nb: dict) -> bool:
     cells = [c for c in nb["cells"] if c["cell_type"] == "code"]
     return bool(cells) and all(c.get("execution_count") is not None for c in cells)
 
 
+def _shared_data() -> Path | None:
+    """``../shared/data`` (or ``$ZONOTOPE_SHARED_DATA``) as the notebooks find it, else None."""
+    env = os.environ.get("ZONOTOPE_SHARED_DATA")
+    candidates = [Path(env)] if env else []
+    candidates += [p / "shared" / "data" for p in (ROOT, *ROOT.parents)]
+    return next((p for p in candidates if p.is_dir()), None)
+
+
+def _uses_shared_data(nb: dict) -> bool:
+    return any("shared_data" in "".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "code")
+
+
+def _thumbnail(nb: dict, target: Path) -> bool:
+    """Write the notebook's first PNG output to ``target``; False when it has none."""
+    for cell in nb["cells"]:
+        for output in cell.get("outputs", []):
+            png = output.get("data", {}).get("image/png")
+            if png:
+                data = base64.b64decode("".join(png) if isinstance(png, list) else png)
+                if not target.exists() or target.read_bytes() != data:
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    target.write_bytes(data)
+                return True
+    return False
+
+
+_NO_DATA_NOTE = (
+    "```{note}\nThis page was built without `../shared/data` (set `ZONOTOPE_SHARED_DATA` to point to "
+    "it): the figures below that need its measured data sets are left out or drawn from the built-in "
+    "sets only, as the notebook says where it checks for the data.\n```"
+)
+
+
 def copy_gallery(app, config) -> None:
-    """Copy ``notebooks/*.ipynb`` into ``docs/gallery``; executed ones are not executed again."""
+    """Copy ``notebooks/*.ipynb`` into ``docs/gallery`` and write the gallery's table.
+
+    Executed notebooks are not executed again. Where a notebook reads ``../shared/data`` and this
+    build runs it without that folder, its copy opens with a note saying so.
+    """
     dst = DOCS / "gallery"
     dst.mkdir(exist_ok=True)
+    data = _shared_data()
+    mode = config.nb_execution_mode
     names = set()
     excluded = []
-    for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
-        names.add(nb.name)
-        target = dst / nb.name
-        if not target.exists() or target.read_bytes() != nb.read_bytes():
-            shutil.copyfile(nb, target)
-        if _executed(nb):
-            excluded.append(f"gallery/{nb.name}")
+    rows = []
+    order = [name for name, _ in GALLERY]
+    notebooks = sorted(
+        (ROOT / "notebooks").glob("*.ipynb"),
+        key=lambda p: (order.index(p.stem) if p.stem in order else len(order), p.stem),
+    )
+    figures = dict(GALLERY)
+    for path in notebooks:
+        names.add(path.name)
+        nb = json.loads(path.read_text())
+        executed = _executed(nb)
+        no_data = _uses_shared_data(nb) and data is None
+        if executed:
+            excluded.append(f"gallery/{path.name}")
+            how = "shown with the outputs it carries (executed before this build)"
+        elif mode in ("force", "auto", "cache", "inline"):
+            how = "executed during this build"
+        else:
+            how = "**not executed** in this build (``nb_execution_mode = off``): code only"
+        if no_data and not executed:
+            nb["cells"].insert(0, {"cell_type": "markdown", "metadata": {}, "source": _NO_DATA_NOTE})
+            how += "; **without** ``../shared/data``: its measured-data figures are left out"
+        elif _uses_shared_data(nb):
+            how += "; reads ``../shared/data`` when present"
+        text = json.dumps(nb, indent=1, ensure_ascii=False) + "\n"
+        target = dst / path.name
+        if not target.exists() or target.read_text() != text:
+            target.write_text(text)
+        thumb = _thumbnail(nb, dst / "_thumbs" / f"{path.stem}.png")
+        rows.append((path.stem, figures.get(path.stem, ""), how, thumb))
     for helper in sorted((ROOT / "notebooks").glob("*.py")):  # modules the notebooks import
         names.add(helper.name)
         if not (dst / helper.name).exists() or (dst / helper.name).read_bytes() != helper.read_bytes():
@@ -248,7 +334,30 @@ def copy_gallery(app, config) -> None:
     for stale in [*dst.glob("*.ipynb"), *dst.glob("*.py")]:
         if stale.name not in names:
             stale.unlink()
+    for stale in (dst / "_thumbs").glob("*.png") if (dst / "_thumbs").is_dir() else ():
+        if not any(stem == stale.stem and thumb for stem, _, _, thumb in rows):
+            stale.unlink()
+    lines = [
+        ".. list-table::",
+        "   :header-rows: 1",
+        "   :widths: 22 48 30",
+        "   :class: zdocs-gallery",
+        "",
+        "   * - figure",
+        "     - notebook and thesis figures",
+        "     - in this build",
+    ]
+    for stem, figs, how, thumb in rows:
+        cell = (
+            f".. image:: /gallery/_thumbs/{stem}.png\n          :width: 180px\n          :alt: {stem}"
+            if thumb
+            else "*(no figure yet: the notebook has no outputs)*"
+        )
+        lines += [f"   * - {cell}", f"     - :doc:`/gallery/{stem}`", "", f"       {figs}", f"     - {how}"]
+    _write(dst / "table.inc", "\n".join(lines) + "\n")
     config.nb_execution_excludepatterns = list(config.nb_execution_excludepatterns) + excluded
+    if data is None and any(_uses_shared_data(json.loads(p.read_text())) for p in notebooks):
+        logger.info("gallery: ../shared/data not found; the notebooks that read it say so on their pages")
     logger.info("gallery: %d files, %d notebooks already executed", len(names), len(excluded))
 
 
@@ -354,12 +463,9 @@ def _module_names() -> set[str]:
     """Every top-level name defined in any module of the three packages (built once)."""
     if not _NAMES:
         for package in PACKAGES:
-            pkg = importlib.import_module(package)
-            for info in pkgutil.iter_modules(pkg.__path__):
-                if info.name == "__main__":
-                    continue
+            for name in _modules(package)[1:]:
                 try:
-                    mod = importlib.import_module(f"{package}.{info.name}")
+                    mod = importlib.import_module(name)
                 except Exception:  # an optional dependency missing: its names are simply unknown
                     continue
                 _NAMES.update(n for n in vars(mod) if not n.startswith("__"))
