@@ -78,5 +78,8 @@ html_theme_options = {
 }
 html_static_path = ["_static"]
 html_css_files = ["zdocs.css"]
-# the root page lists every section in its own text; the other pages get their section's navigation
-html_sidebars = {"index": []}
+# The left sidebar lists a section's pages; pages that have none (the root page, which lists every section
+# in its text, and the single-page sections) get no empty sidebar.
+html_sidebars = {
+    page: [] for page in ("index", "install", "guide/cli", "exact", "math", "data", "benchmarks", "changelog")
+}
