@@ -117,13 +117,13 @@ def _kind(obj) -> str:
     return "data"
 
 
-def _public_names(package: str):
-    """``[(name, obj, kind, defining module, doc)]`` for every name in ``package.__all__``."""
+def _public_names(package: str, names: list[str] | None = None):
+    """``[(name, obj, kind, defining module, doc)]`` for ``names`` (default: ``package.__all__``)."""
     pkg = importlib.import_module(package)
     data = _data_docs(package)
     lazy = getattr(pkg, "_WHERE", {})
     out = []
-    for name in pkg.__all__:
+    for name in pkg.__all__ if names is None else names:
         obj = getattr(pkg, name)
         kind = _kind(obj)
         if kind == "data":
@@ -142,6 +142,23 @@ def _public_names(package: str):
     return out
 
 
+def _subpackage_names(package: str) -> dict[str, list[str]]:
+    """``subpackage → names`` of its ``__all__`` that ``package.__all__`` does not re-export.
+
+    Plumbing (``zonotope.utilities``: registries, atomic writers, progress types) is public in its
+    subpackage only; those names get a page of their own, under their subpackage's path.
+    """
+    top = set(importlib.import_module(package).__all__)
+    found = {}
+    for name in _modules(package)[1:]:
+        mod = importlib.import_module(name)
+        if hasattr(mod, "__path__") and hasattr(mod, "__all__"):
+            extra = [n for n in mod.__all__ if n not in top]
+            if extra:
+                found[name] = extra
+    return found
+
+
 def _module_group(module: str) -> str:
     """Page name of a defining module's names (``zonotope._tol`` → ``zonotope-tol``)."""
     if "." not in module:
@@ -149,57 +166,95 @@ def _module_group(module: str) -> str:
     return module.replace("._", ".").replace(".", "-")
 
 
+def _api_page(namespace: str, rows, out: Path, written: set[str], intro: str, suffix: str = "") -> list[str]:
+    """Write ``namespace``'s summary page and one page per defining module; the summary's lines."""
+    groups: dict[str, list] = {}
+    for row in rows:
+        groups.setdefault(row[3], []).append(row)
+    lines = [
+        f".. _api-{namespace}:\n",
+        _title(f"``{namespace}``"),
+        f".. automodule:: {namespace}\n   :no-members:\n",
+        _title("Public names", "-"),
+        intro,
+    ]
+    toc = []
+    for module in sorted(groups, key=lambda m: (m.split(".")[-1].lstrip("_"), m)):
+        group = sorted(groups[module], key=lambda r: r[0].lower())
+        page = _module_group(module) + suffix
+        toc.append(page)
+        lines += [
+            f".. list-table:: from ``{module}`` — :doc:`details <{page}>`",
+            "   :widths: 30 12 58\n   :header-rows: 0\n",
+        ]
+        for name, _obj, kind, _m, doc in group:
+            lines += [
+                f"   * - :py:{'obj'}:`~{namespace}.{name}`",
+                f"     - {kind}",
+                f"     - {_summary(doc)}",
+            ]
+        lines.append("")
+        mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
+        body = [
+            _title(f"``{module}``"),
+            f".. currentmodule:: {module}\n",  # short references in the module's summary
+            f"{mod_doc}\n" if mod_doc else "",
+            f".. currentmodule:: {namespace}\n",
+        ]
+        for name, _obj, kind, _m, doc in group:
+            if kind == "data":
+                body += [f".. py:data:: {name}\n", _indent(doc) + "\n"]
+            elif kind in ("class", "exception"):
+                members = "" if kind == "exception" else "   :members:\n   :show-inheritance:\n"
+                body += [f".. autoclass:: {name}\n{members}"]
+            else:
+                body += [f".. autofunction:: {name}\n"]
+        _write(out / f"{page}.rst", "\n".join(body))
+        written.add(f"{page}.rst")
+    return lines + [".. toctree::\n   :hidden:\n"] + [f"   {t}" for t in toc] + [""]
+
+
 def generate_api(app, config) -> None:
-    """Write ``docs/api/generated/*.rst``: one page per package, one per defining module."""
+    """Write ``docs/api/generated/*.rst``: one page per package, one per defining module.
+
+    Names public only in a subpackage (``zonotope.utilities.MethodRegistry``) get a page per
+    subpackage, linked from the package's page.
+    """
     out = DOCS / "api" / "generated"
-    written = set()
+    written: set[str] = set()
     for package in PACKAGES:
         names = _public_names(package)
-        groups: dict[str, list] = {}
-        for row in names:
-            groups.setdefault(row[3], []).append(row)
-        lines = [
-            f".. _api-{package}:\n",
-            _title(f"``{package}``"),
-            f".. automodule:: {package}\n   :no-members:\n",
-            _title("Public names", "-"),
+        lines = _api_page(
+            package,
+            names,
+            out,
+            written,
             f"All {len(names)} names of ``{package}.__all__``, by the module that defines them "
             f"(import them from ``{package}``).\n",
-        ]
-        toc = []
-        for module in sorted(groups, key=lambda m: (m.split(".")[-1].lstrip("_"), m)):
-            rows = sorted(groups[module], key=lambda r: r[0].lower())
-            page = _module_group(module)
-            toc.append(page)
-            lines += [
-                f".. list-table:: from ``{module}`` — :doc:`details <{page}>`",
-                "   :widths: 30 12 58\n   :header-rows: 0\n",
-            ]
-            for name, _obj, kind, _m, doc in rows:
-                lines += [
-                    f"   * - :py:{'obj'}:`~{package}.{name}`",
-                    f"     - {kind}",
-                    f"     - {_summary(doc)}",
+        )
+        subpackages = _subpackage_names(package)
+        if subpackages:
+            lines += (
+                [
+                    _title("Names public in a subpackage only", "-"),
+                    "Import these from their subpackage (``from zonotope.utilities import atomic_path``).\n",
+                    ".. toctree::\n   :maxdepth: 1\n",
                 ]
-            lines.append("")
-            mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
-            body = [
-                _title(f"``{module}``"),
-                f".. currentmodule:: {module}\n",  # short references in the module's summary
-                f"{mod_doc}\n" if mod_doc else "",
-                f".. currentmodule:: {package}\n",
-            ]
-            for name, _obj, kind, _m, doc in rows:
-                if kind == "data":
-                    body += [f".. py:data:: {name}\n", _indent(doc) + "\n"]
-                elif kind in ("class", "exception"):
-                    members = "" if kind == "exception" else "   :members:\n   :show-inheritance:\n"
-                    body += [f".. autoclass:: {name}\n{members}"]
-                else:
-                    body += [f".. autofunction:: {name}\n"]
-            _write(out / f"{page}.rst", "\n".join(body))
-            written.add(f"{page}.rst")
-        lines += [".. toctree::\n   :hidden:\n"] + [f"   {t}" for t in toc] + [""]
+                + [f"   {sub}" for sub in subpackages]
+                + [""]
+            )
+            for sub, extra in subpackages.items():
+                rows = _public_names(sub, extra)
+                sub_lines = _api_page(
+                    sub,
+                    rows,
+                    out,
+                    written,
+                    f"The {len(rows)} names of ``{sub}.__all__`` that ``{package}`` does not re-export.\n",
+                    suffix="-sub",
+                )
+                _write(out / f"{sub}.rst", "\n".join(sub_lines))
+                written.add(f"{sub}.rst")
         _write(out / f"{package}.rst", "\n".join(lines))
         written.add(f"{package}.rst")
     for stale in out.glob("*.rst"):  # a module that no longer defines public names
