@@ -29,11 +29,11 @@ import numpy as np
 
 def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, views: list[str] | None) -> dict:
     import splat
-    from splat.sim.geometry import shade
     from splat.capture import read_capture
     from splat.colmap import read_colmap
     from splat.pipeline import _load_model_capture
     from splat.sim.capture import SimCaptureConfig, build_scene
+    from splat.sim.geometry import shade
 
     truth = tomllib.loads((capture / "truth" / "truth.toml").read_text())
     keys = {k: truth[k] for k in ("seed", "texture", "noise", "supersample", "gain") if k in truth}

@@ -1,7 +1,8 @@
 """``isp profile``: a DNG camera profile (and optionally a 3-D LUT and a saved correction) for a camera.
 
 Registered on the ``isp`` command by :func:`add_command`. The DCP is fitted by
-:func:`isp.profiles.fitting.fit_dcp`; the LUT and the saved correction come from :mod:`zonotope.correct.profile`.
+:func:`isp.profiles.fitting.fit_dcp`; the LUT and the saved correction come from
+:mod:`zonotope.correct.profile`.
 (It is an ``isp`` command, not a ``zonotope`` one, because ``zonotope`` never imports ``isp``.)
 """
 
