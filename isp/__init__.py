@@ -32,7 +32,7 @@ The names of ``simulate``, ``profiles`` and ``batch`` load on first use.
 'demosaic'
 """
 
-import sys as _sys
+from zonotope.utilities.lazy import install_moved_modules, lazy_exports
 
 from ._errors import InputFileNotFoundError, PipelineError, PipelineMethodError, RawFormatError
 from .cfa import CFA_PATTERNS, cfa_masks
@@ -164,23 +164,8 @@ _LAZY = {
         "tonemap_clip",
     ],
 }
-_WHERE = {name: module for module, names in _LAZY.items() for name in names}
-__all__ += sorted(_WHERE)
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        import importlib
-
-        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'isp' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
-
+__getattr__, __dir__, _lazy_names = lazy_exports(__name__, _LAZY, eager=__all__)
+__all__ += _lazy_names
 
 #: Module paths that moved, old dotted name -> new one: importing an old one warns and gives the new module.
 _MOVED_MODULES = {
@@ -188,34 +173,4 @@ _MOVED_MODULES = {
     "isp.profile_fit": "isp.profiles.fitting",
     "isp.rawtherapee": "isp.profiles.rawtherapee",
 }
-
-
-class _MovedModules:
-    """Import hook serving :data:`_MOVED_MODULES`: a ``DeprecationWarning`` at the importing line, and
-    the old name aliased to the new module in ``sys.modules`` (one module object, not a copy)."""
-
-    def __init__(self, moved: dict[str, str]) -> None:
-        self.moved = moved
-
-    def find_spec(self, fullname, path=None, target=None):
-        if fullname not in self.moved:
-            return None
-        from importlib.machinery import ModuleSpec
-
-        return ModuleSpec(fullname, self)
-
-    def create_module(self, spec):
-        return None
-
-    def exec_module(self, module) -> None:
-        import importlib
-        import warnings
-
-        old, new = module.__name__, self.moved[module.__name__]
-        # stacklevel 2: the importing line (warnings skips the import system's own frames)
-        warnings.warn(f"{old} moved to {new}; import it from there.", DeprecationWarning, stacklevel=2)
-        _sys.modules[old] = importlib.import_module(new)  # the import system returns sys.modules[old]
-
-
-if not any(isinstance(f, _MovedModules) for f in _sys.meta_path):
-    _sys.meta_path.insert(0, _MovedModules(_MOVED_MODULES))  # before finders that would find a stale copy
+install_moved_modules(_MOVED_MODULES)
