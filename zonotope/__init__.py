@@ -6,23 +6,22 @@ metamer-based colour correction.
 Module map, in data-flow order (each layer imports only the layers above it; the test
 ``tests/test_architecture.py`` enforces it and that no import circle exists):
 
-=====================  ========================================================================
-``utilities``          plumbing: :class:`~zonotope.utilities.MethodRegistry` for every ``method=``
-                       table, atomic output files, config checks, progress callbacks, lazy exports
-``spectra``            spectral curves on one grid: built-in cameras, observers, illuminants,
-                       reflectance sets; file readers; :func:`generators`; :class:`GeneratorPair`;
-                       atypical test spectra
-``geometry``           :class:`Zonotope` (object-colour solid, exact), :class:`Polytope`, MacAdam limits
-``mismatch``           metamer mismatch volumes (:func:`metamer_mismatch`, :class:`MetamerMismatch`):
-                       vertex walk, facet refinement, oracles, membership
-``correct``            estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`,
-                       :func:`correct_image`, saved corrections and 3-D LUTs
-``vora``, ``parallel``, applications: Vora values, executors, ΔE00 evaluation, camera surveys,
-``evaluate``,          HTML/Markdown reports, pictures
-``survey``, ``report``,
-``viz``
-``cli``                the ``zonotope`` command
-=====================  ========================================================================
+========================  ========================================================================
+``utilities``             plumbing: :class:`~zonotope.utilities.MethodRegistry` for every ``method=``
+                          table, atomic output files, config checks, progress callbacks, lazy exports
+``spectra``               spectral curves on one grid: built-in cameras, observers, illuminants,
+                          reflectance sets; file readers; :func:`generators`; :class:`GeneratorPair`;
+                          atypical test spectra
+``geometry``              :class:`Zonotope` (object-colour solid, exact), :class:`Polytope`, MacAdam limits
+``mismatch``              metamer mismatch volumes (:func:`metamer_mismatch`, :class:`MetamerMismatch`):
+                          vertex walk, facet refinement, oracles, membership
+``correct``               estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`,
+                          :func:`correct_image`, saved corrections and 3-D LUTs
+``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
+``survey``, ``parallel``  HTML/Markdown reports, pictures
+``report``, ``viz``
+``cli``                   the ``zonotope`` command
+========================  ========================================================================
 
 Shared at the top: ``_errors`` (one exception hierarchy) and ``_tol`` (every tolerance, with its
 reason). Old module paths (``zonotope.solid``, ``zonotope.prior``, ...) still import, with a
