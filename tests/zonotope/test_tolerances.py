@@ -164,7 +164,7 @@ def _stray_literals(path: Path) -> list[tuple[int, float]]:
 
 def _package_modules():
     for package in ("zonotope", "isp", "splat"):
-        for path in sorted((ROOT / package).glob("*.py")):
+        for path in sorted((ROOT / package).rglob("*.py")):
             if path.name != "_tol.py":  # the homes of the named values
                 yield path
 
