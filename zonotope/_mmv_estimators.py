@@ -14,6 +14,7 @@ import numpy as np
 from ._config import check_count, check_nonnegative, with_options
 from ._correction_problem import CorrectionProblem, Corrector
 from ._errors import OptionError, SpectralDataError
+from ._noise import NoiseModel, noisy, scalar_sigma
 from ._regressions import fit_Cheung2004, fit_Finlayson2015
 from ._tol import CENTROID_MIN_WEIGHT, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
 from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
@@ -172,7 +173,9 @@ def fit_Centroid(
     )
 
 
-def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float = 0.0) -> Corrector:
+def fit_Projection(
+    problem: CorrectionProblem, *, degree: int = 2, noise: float | NoiseModel = 0.0
+) -> Corrector:
     """Root-polynomial estimate projected onto the MMV in linearised CIELAB when outside.
 
     See :func:`project_to_mmv`. Inside estimates are returned unchanged, so on natural colours this
@@ -180,14 +183,17 @@ def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float 
     """
     reg = fit_Finlayson2015(problem, degree=degree, noise=noise)
     prior = ReflectancePrior.fit(problem.training)
+    sigma = scalar_sigma(noise, problem.source_of(problem.training))
 
     def predict(c):
-        return project_to_mmv(problem, c, reg(c), prior=prior, noise=noise)[0]
+        return project_to_mmv(problem, c, reg(c), prior=prior, noise=sigma)[0]
 
     return Corrector("Projection", problem, predict, {"regression": reg})
 
 
-def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float = 0.0) -> Corrector:
+def fit_MAP(
+    problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float | NoiseModel = 0.0
+) -> Corrector:
     """Ψᵀ of the most probable natural reflectance in the fiber (:func:`map_reflectance`).
 
     A Gaussian prior learnt from the training set, restricted to physically possible reflectances
@@ -195,9 +201,10 @@ def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float
     but close to a linear (Wiener) estimate on natural ones, hence behind root-polynomials there.
     """
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
+    sigma = scalar_sigma(noise, problem.source_of(problem.training))
 
     def predict(c):
-        return map_reflectance(problem, c, prior, noise=noise) @ problem.Psi
+        return map_reflectance(problem, c, prior, noise=sigma) @ problem.Psi
 
     return Corrector("MAP", problem, predict, {"prior": prior})
 
@@ -225,7 +232,10 @@ def select_regression(
     perm = np.random.default_rng(seed).permutation(R.shape[0])
     parts = np.array_split(perm, folds)
     rng = np.random.default_rng(seed + 1)
-    draws = [rng.normal(0.0, noise, (f.size, problem.k)) if noise > 0 else 0.0 for f in parts]
+    if isinstance(noise, NoiseModel):  # held-out responses with the model's noise at their level
+        draws = [noisy(problem.source_of(R[f]), noise, rng) - problem.source_of(R[f]) for f in parts]
+    else:
+        draws = [rng.normal(0.0, noise, (f.size, problem.k)) if noise > 0 else 0.0 for f in parts]
     candidates = {
         "Cheung 2004": lambda pb: fit_Cheung2004(pb, noise=noise),
         "Finlayson 2015": lambda pb: fit_Finlayson2015(pb, degree=degree, noise=noise),
@@ -357,7 +367,8 @@ def learn_mix(
     from .atypical import sharpened_reflectances
 
     cfg = PriorConfig() if config is None else config
-    degree, shrinkage, noise, odds, eps = cfg.degree, cfg.shrinkage, cfg.noise, cfg.odds, cfg.eps
+    degree, shrinkage, noise_model, odds, eps = cfg.degree, cfg.shrinkage, cfg.noise, cfg.odds, cfg.eps
+    noise = scalar_sigma(noise_model, problem.source_of(problem.training))
     augment, executor = cfg.augment, cfg.executor
     R = problem.training
     folds = int(max(2, min(cfg.folds, R.shape[0])))
@@ -372,10 +383,8 @@ def learn_mix(
             continue
         sub = dataclasses.replace(problem, training=R[np.setdiff1d(perm, f)])
         prior = ReflectancePrior.fit(sub.training, shrinkage=shrinkage)
-        reg = _fit_regression(sub, regression, degree=degree, noise=noise)
-        C = problem.source_of(X)
-        if noise > 0:
-            C = C + rng.normal(0.0, noise, C.shape)
+        reg = _fit_regression(sub, regression, degree=degree, noise=noise_model)
+        C = noisy(problem.source_of(X), noise_model, rng)
         x, b_fold = _fit_map(sub, prior, C, noise=noise)
         in_all.append(b_fold)
         C_all.append(C)
@@ -456,7 +465,7 @@ class PriorConfig:
     degree: int = 2
     shrinkage: float = 0.01
     odds: float = 100.0
-    noise: float = 0.0
+    noise: float | NoiseModel = 0.0
     eps: float = 1e-3
     regression: str = "cv"
     folds: int = 10
@@ -469,7 +478,8 @@ class PriorConfig:
         check_count(name, "degree", self.degree, minimum=1)
         check_count(name, "folds", self.folds, minimum=2)
         check_count(name, "augment", self.augment, minimum=1)
-        object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
+        if not isinstance(self.noise, NoiseModel):  # a σ, or a shot + read model per channel
+            object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
         object.__setattr__(self, "eps", check_nonnegative(name, "eps", self.eps))
         shrinkage = check_nonnegative(name, "shrinkage", self.shrinkage)
         if shrinkage > 1:
@@ -590,8 +600,10 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         surface is far more often natural than not), not fitted to any test set. The README gives
         the evaluation at odds 1, 10 and 100.
     noise
-        Response noise σ (white = 1); enters the evidence, relaxes the fiber constraint and gives
-        the MMV a tolerance δ = 3σ.
+        Response noise σ (white = 1), or a :class:`~zonotope.NoiseModel` (shot + read per channel):
+        the regression candidates are fitted for it, and its root mean σ over the training
+        responses enters the evidence, relaxes the fiber constraint and gives the MMV a tolerance
+        δ = 3σ.
     eps
         Certification tolerance of the MMV centroids (see :func:`fit_Centroid`).
     regression
@@ -677,9 +689,13 @@ def _one_blas_thread():
 
 def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> Corrector:
     """:func:`fit_Prior` with checked options ``cfg`` and the log-volume function ``log_volume``."""
-    degree, shrinkage, odds, noise, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
+    degree, shrinkage, odds, noise_model, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
     executor = cfg.executor
-    reg, cv = select_regression(problem, degree=degree, noise=noise, folds=cfg.folds)
+    if isinstance(noise_model, NoiseModel):
+        noise_model = noise_model.check_channels(problem.k)
+    # the regressions take the noise model; the gate, fiber and MMV tolerance one σ over the training set
+    noise = scalar_sigma(noise_model, problem.source_of(problem.training))
+    reg, cv = select_regression(problem, degree=degree, noise=noise_model, folds=cfg.folds)
     if cfg.regression != "cv":
         from .correct import CORRECTION_METHODS
 
@@ -688,7 +704,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             raise SpectralDataError(
                 f"regression={cfg.regression!r}: choose 'cv', 'Cheung 2004' or 'Finlayson 2015'."
             )
-        reg = _fit_regression(problem, name, degree=degree, noise=noise)
+        reg = _fit_regression(problem, name, degree=degree, noise=noise_model)
     r_nat = float(np.percentile(cv["errors"], 95))
     log_vol = log_volume(problem.Phi)
     if cfg.mix == "cv":
@@ -796,6 +812,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             "centroid_rows": centroid_rows,
             "odds": odds,
             "noise": noise,
+            "noise_model": noise_model,
             "config": cfg,
         },
         predict_with_radius=lambda c: run(c, True),

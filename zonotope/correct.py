@@ -76,17 +76,28 @@ from ._mmv_estimators import (
     mmv_centroids,
     select_regression,
 )
+from ._noise import NoiseModel, NoiseModelError, estimate_noise, noise_model
 from ._registry import MethodRegistry
-from ._regressions import fit_Cheung2004, fit_Dyer2017, fit_Finlayson2015, root_polynomial_terms
+from ._regressions import (
+    expected_normal_equations,
+    fit_Cheung2004,
+    fit_Dyer2017,
+    fit_Finlayson2015,
+    root_polynomial_terms,
+)
 
 __all__ = [
     "CORRECTION_METHODS",
     "CorrectionProblem",
     "Corrector",
+    "NoiseModel",
+    "NoiseModelError",
     "PriorConfig",
     "check_reflectances",
     "correct",
     "correction_problem",
+    "estimate_noise",
+    "expected_normal_equations",
     "fit_Centroid",
     "fit_Cheung2004",
     "fit_Dyer2017",
@@ -96,6 +107,7 @@ __all__ = [
     "fit_Projection",
     "fit_correction",
     "mmv_centroids",
+    "noise_model",
     "root_polynomial_terms",
     "select_regression",
 ]
