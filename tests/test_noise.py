@@ -170,3 +170,15 @@ def test_zero_noise_model_is_the_noise_free_fit(problem2):
     zero = NoiseModel(np.zeros(6), np.zeros(6))
     a = fit_correction(problem2, method="root-polynomial", noise=zero).params["M"]
     np.testing.assert_array_equal(a, fit_correction(problem2, method="root-polynomial").params["M"])
+
+
+def test_two_unknown_nnls_matches_scipy():
+    from scipy.optimize import nnls
+
+    from zonotope._noise import _nnls2
+
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        A = np.abs(rng.normal(size=(8, 2)))
+        b = rng.normal(size=8)
+        np.testing.assert_allclose(_nnls2(A, b), nnls(A, b)[0], atol=1e-10)
