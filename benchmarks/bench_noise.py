@@ -12,8 +12,11 @@ Methods: ``naive linear`` / ``naive root-poly`` (fitted noise-free), ``NA linear
 (fitted for the noise model: noise-averaged normal equations), ``aug root-poly`` (10 noisy replicas of
 the training set at the model's root mean σ), ``Prior`` (told the noise model), ``Prior naive`` (σ = 0).
 
+With ``--coverage`` the estimators that know their uncertainty (``Prior``) are applied through
+``with_uncertainty``: the median 95 % credible radius and the share of test responses within it.
+
 Run: ``python benchmarks/bench_noise.py [--cameras 1 2 3] [--sigmas 0 0.002 0.005] [--size 150]
-[--atypical 100] [--methods ...] [--json out.json]``
+[--atypical 100] [--methods ...] [--coverage] [--json out.json]``
 """
 
 from __future__ import annotations
@@ -83,9 +86,14 @@ def run_cell(n_cams: int, sigma: float, args) -> list[dict]:
         fit_s = time.perf_counter() - t0
         for kind, (C, T) in data.items():
             t0 = time.perf_counter()
-            dE = problem.delta_E(est(C), T)
+            if args.coverage and est.predict_with_radius is not None:
+                XYZ, radius = est.with_uncertainty(C)
+            else:
+                XYZ, radius = est(C), None
             apply_s = time.perf_counter() - t0
+            dE = problem.delta_E(XYZ, T)
             mean, p95, mx = stats(dE)
+            cover = float(np.mean(dE <= radius)) if radius is not None else None
             row = {
                 "cameras": n_cams,
                 "sigma": sigma,
@@ -97,12 +105,19 @@ def run_cell(n_cams: int, sigma: float, args) -> list[dict]:
                 "max": mx,
                 "fit_s": fit_s,
                 "apply_s": apply_s,
+                "coverage": cover,
+                "radius": float(np.median(radius)) if radius is not None else None,
             }
             rows.append(row)
             print(
                 f"{n_cams} cam  σ={sigma:<6g} {kind:8s} n={C.shape[0]:4d}  {label:16s} "
                 f"mean {mean:6.3f}  p95 {p95:6.2f}  max {mx:6.2f}   "
-                f"fit {fit_s:8.3f} s  apply {apply_s:7.3f} s",
+                f"fit {fit_s:8.3f} s  apply {apply_s:7.3f} s"
+                + (
+                    f"  95 % radius (median) {row['radius']:.2f}, coverage {100 * cover:.0f} %"
+                    if radius is not None
+                    else ""
+                ),
                 flush=True,
             )
     return rows
@@ -116,6 +131,9 @@ def main() -> None:
     ap.add_argument("--atypical", type=int, default=100)
     ap.add_argument("--methods", nargs="*", default=None)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument(
+        "--coverage", action="store_true", help="Prior: with_uncertainty radii and their coverage"
+    )
     args = ap.parse_args()
     rows = []
     for n in args.cameras:

@@ -101,3 +101,26 @@ def test_float32_input_is_accepted_chunk_by_chunk(problem2):
     C = np.random.default_rng(3).uniform(0.02, 0.9, (1000, 6)).astype(np.float32)
     a, b = cor(C), cor(C.astype(np.float64))
     assert problem2.delta_E(a, b).max() < 0.01  # the float32 budget (measured 1.2e-3 noise-free)
+
+
+@pytest.mark.parametrize("method", ["Finlayson 2015", "MAP", "Projection"])
+def test_working_memory_does_not_grow_with_the_number_of_responses(problem2, method):
+    """Beyond its input and output, a corrector's peak memory is that of one chunk."""
+    import tracemalloc
+
+    cor = fit_correction(problem2, method=method)
+    cor = type(cor)(cor.method, cor.problem, cor.predict, cor.params, cor.predict_with_radius, batch_size=128)
+    rng = np.random.default_rng(5)
+    base = problem2.source_of(rng.uniform(0.05, 0.95, (64, W.size)) ** 2)  # physically possible responses
+
+    def extra(n):
+        C = base[rng.integers(0, base.shape[0], n)] * rng.uniform(0.9, 1.0, (n, 1))
+        tracemalloc.start()
+        start = tracemalloc.get_traced_memory()[0]
+        out = cor(C)
+        peak = tracemalloc.get_traced_memory()[1] - start - out.nbytes
+        tracemalloc.stop()
+        return peak
+
+    small, large = extra(512), extra(4096)
+    assert large < 1.5 * small + 2**20, (small, large)
