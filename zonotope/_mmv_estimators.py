@@ -225,7 +225,8 @@ def select_regression(
     regression : Corrector
     cv : dict
         ``"scores"``: mean held-out ΔE00 per candidate; ``"errors"``: the winner's held-out ΔE00 per
-        training sample; ``"errors_ab"``: the same in ΔE*ab.
+        training sample; ``"errors_ab"``: the same in ΔE*ab; ``"order"``: the training sample of each
+        error (indices into ``problem.training``).
     """
     R = problem.training
     folds = int(max(2, min(folds, R.shape[0])))
@@ -260,7 +261,13 @@ def select_regression(
             "use a larger one (e.g. 'rawtoaces 190')."
         )
     best = min(scores, key=scores.get)
-    return candidates[best](problem), {"scores": scores, "errors": errors[best], "errors_ab": errors_ab[best]}
+    cv = {
+        "scores": scores,
+        "errors": errors[best],
+        "errors_ab": errors_ab[best],
+        "order": np.concatenate(parts),
+    }
+    return candidates[best](problem), cv
 
 
 def _ab_to_00(problem: CorrectionProblem, target: np.ndarray, radius_ab: np.ndarray) -> np.ndarray:
@@ -441,6 +448,38 @@ def learn_mix(
     return lam, cv
 
 
+#: 95 % quantile of χ² with 3 degrees of freedom: the radius² (in σ² units) of the 95 % ball of an
+#: isotropic 3-D Gaussian, used for the CIELAB spread of response noise.
+_CHI2_3_95 = 7.814727903251178
+
+
+def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, responses) -> np.ndarray:
+    """95 % ΔE00 reach of the response noise carried through ``regression`` at ``responses (N, k)``.
+
+    The noise covariance ``diag(noise.variance(c))`` is mapped to a target-space covariance ``S`` by
+    the regression's Jacobian (central differences); with ``S = Σ λᵢ vᵢvᵢᵀ`` the mean squared ΔE00 of
+    the noise is ``Σ ΔE00(t, t + √λᵢ vᵢ)²`` (exact where ΔE00 is locally quadratic), and the radius that
+    of the 95 % ball of a 3-D Gaussian with that mean square, ``sqrt(mean² · χ²₃(0.95) / 3)``.
+    Returns ``(N,)``.
+    """
+    c = np.atleast_2d(np.asarray(responses, dtype=np.float64))
+    var = noise.check_channels(problem.k).variance(c)
+    t = regression(c)
+    h = 1e-4
+    S = np.zeros((c.shape[0], problem.m, problem.m))
+    for j in range(problem.k):
+        e = np.zeros(problem.k)
+        e[j] = h
+        d = (regression(c + e) - regression(np.maximum(c - e, 0.0))) / (h + np.minimum(c[:, j], h))[:, None]
+        S += var[:, j, None, None] * d[:, :, None] * d[:, None, :]
+    lam, vec = np.linalg.eigh(S)  # (N, m), (N, m, m): columns are eigenvectors
+    mean_sq = np.zeros(c.shape[0])
+    for i in range(problem.m):
+        step = np.sqrt(np.maximum(lam[:, i], 0.0))[:, None] * vec[:, :, i]
+        mean_sq += problem.delta_E(t + step, t) ** 2
+    return np.sqrt(mean_sq * _CHI2_3_95 / 3.0)
+
+
 def _mmv_radius(problem: CorrectionProblem, t_cen, t_arb, vol) -> np.ndarray:
     """ΔE00 reach from ``t_arb`` of the CIELAB ball with the MMV's volume (linearised at ``t_cen``),
     shrunk to the radius that holds 95 % of a uniform ball (0.983)."""
@@ -577,7 +616,11 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     smallest that covers 95 % of the held-out contrast-stretched spectra reaching the atypical
     branch; measured 2.04 Nikon 5100, 1.09 Canon EOS 5D Mark II, 1.21 Nikon + Sigma, 1.0 Nikon +
     Canon and all three, where it would have been < 1). Where ``w ≥ 0.99`` the MMV is not computed
-    and ``r = √w · r_nat``. The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
+    and ``r = √w · r_nat``. With noise (a σ or a :class:`~zonotope.correct.NoiseModel`) the natural
+    radius is per response, ``r_nat(c)² = r₀² + r_noise(c)²``: ``r_noise`` the 95 % ΔE00 reach of the
+    response noise carried through the regression at ``c`` (:func:`_noise_radius`; dark colours get
+    more), ``r₀`` the smallest value covering 95 % of the cross-validation errors (held out with
+    noise). The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
     held-out spectra and ``r_MMV`` is a ball of the MMV's size, not a bound (the MMV itself is the
     100 % region, noise-free). Measured coverage (``benchmarks/bench_estimators.py``): 86–100 % on
     natural sets except SFU Krinov (51–86 %, its errors exceed the training CV's); on atypical sets
@@ -706,6 +749,23 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             )
         reg = _fit_regression(problem, name, degree=degree, noise=noise_model)
     r_nat = float(np.percentile(cv["errors"], 95))
+    radius_model = noise_model if isinstance(noise_model, NoiseModel) else None
+    if radius_model is None and noise > 0:
+        radius_model = NoiseModel.constant(noise, problem.k)
+    if radius_model is not None:
+        # natural radius per response: r0² + r_noise(c)², r0 the smallest that covers 95 % of the
+        # cross-validation errors given each one's own noise reach
+        r_cv = _noise_radius(problem, reg, radius_model, problem.source_of(problem.training[cv["order"]]))
+        r0 = float(np.sqrt(np.percentile(np.maximum(cv["errors"] ** 2 - r_cv**2, 0.0), 95)))
+    else:
+        r0 = r_nat
+
+    def r_nat_of(c):
+        """The natural branch's 95 % radius at responses ``c (N, k)``."""
+        if radius_model is None:
+            return np.full(c.shape[0], r_nat)
+        return np.sqrt(r0**2 + _noise_radius(problem, reg, radius_model, c) ** 2)
+
     log_vol = log_volume(problem.Phi)
     if cfg.mix == "cv":
         lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
@@ -761,7 +821,8 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
         if nat.any():
             out[nat] = project_to_mmv(problem, c[nat], out[nat], prior=prior, noise=noise)[0]
         t_nat = out.copy()
-        r2 = w * r_nat**2
+        r_nat_c = r_nat_of(c) if with_radius else None
+        r2 = w * r_nat_c**2 if with_radius else None
         arb = w < GATE_SURE  # an atypical weight under 1 % moves the estimate by < 1 % of the gap
         if arb.any():
             t_arb = x[arb] @ problem.Psi
@@ -780,7 +841,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
                 r_arb = radius_scale * _mmv_radius(problem, t_cen, t_arb, vol)
                 gap = problem.delta_E(t_nat[arb], t_arb)
                 wa1 = wa[:, 0]
-                r2[arb] = wa1 * r_nat**2 + (1 - wa1) * r_arb**2 + wa1 * (1 - wa1) * gap**2
+                r2[arb] = wa1 * r_nat_c[arb] ** 2 + (1 - wa1) * r_arb**2 + wa1 * (1 - wa1) * gap**2
         if not with_radius:
             return out
         return out, np.sqrt(r2)
@@ -805,6 +866,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             "mix_cv": mix_cv,
             "log_volume": log_vol,
             "r_nat": r_nat,
+            "r_nat_of": r_nat_of,
             "radius_scale": radius_scale,
             "weights": weights,
             "needs_solver": needs_solver,
