@@ -1,6 +1,6 @@
 """Multispectral capture end to end: time and peak memory per pipeline step, accuracy on held-out views.
 
-Writes a simulated capture (``splat.simcapture``, CI or benchmark size), runs ``splat``'s steps each in a
+Writes a simulated capture (``splat.sim.capture``, CI or benchmark size), runs ``splat``'s steps each in a
 fresh process (wall time and peak resident memory of that process, via ``os.wait4``), then scores the
 output against ``truth/`` (``splat.scoring.score``): ΔE00 of each camera's own DNG-matrix development (the
 baseline), of each camera alone with Prior, of pairs and all three with Prior and Centroid through the
@@ -97,7 +97,7 @@ res = {}
 t0 = time.perf_counter()
 if what == "simulate":
     from dataclasses import replace
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture, _default_cameras
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture, _default_cameras
     cfg = SimCaptureConfig.ci(cameras=_default_cameras(arg["scale"]), n_train=arg["n_train"],
                               n_holdout=arg["n_holdout"], arc_deg=arg["arc"], texture="coarse")
     write_synthetic_capture(capture, cfg)
@@ -334,7 +334,7 @@ def main(argv=None) -> int:
     args.capacity = args.capacity or (16384 if big else 2048)
     import tempfile
 
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     work = Path(args.work or tempfile.mkdtemp(prefix="bench_capture_"))
     capture, out = work / "capture", work / "out"

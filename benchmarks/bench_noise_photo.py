@@ -23,8 +23,8 @@ import tracemalloc
 import numpy as np
 
 from zonotope.correct import NoiseModel, correction_problem, fit_correction
+from zonotope.correct.image import correct_image
 from zonotope.evaluate import natural_test_sets
-from zonotope.image import correct_image
 
 CAMERAS = {
     1: ["Nikon 5100 (NPL)"],

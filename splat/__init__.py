@@ -19,6 +19,10 @@ is fitted to all the images, then renders pixel-aligned N-channel images from an
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.util
+import sys
+import warnings
 
 _EXPORTS = {
     "_errors": ["DataFormatError", "SplatError", "SplatMethodError"],
@@ -55,7 +59,7 @@ _EXPORTS = {
         "read_transforms",
         "write_transforms",
     ],
-    "scenes": ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"],
+    "sim.scenes": ["SceneConfig", "SyntheticScene", "bayer_mask", "synthetic_scene"],
     "training": [
         "TrainConfig",
         "TrainResult",
@@ -70,7 +74,7 @@ _EXPORTS = {
     ],
     "outputs": ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"],
     "poses": ["PoseConfig", "recover_poses"],
-    "simcapture": [
+    "sim.capture": [
         "SimCamera",
         "SimCaptureConfig",
         "SimScene",
@@ -79,6 +83,36 @@ _EXPORTS = {
         "write_synthetic_capture",
     ],
 }
+#: Old module paths that still import, with a DeprecationWarning, as their new module.
+_MOVED_MODULES = {
+    "splat.scenes": "splat.sim.scenes",
+    "splat.simcapture": "splat.sim.capture",
+    "splat._simgeometry": "splat.sim.geometry",
+}
+
+
+class _MovedModuleFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Serve an old module path as the module it moved to (the same object in ``sys.modules``)."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname not in _MOVED_MODULES:
+            return None
+        return importlib.util.spec_from_loader(fullname, self)
+
+    def create_module(self, spec):
+        new = _MOVED_MODULES[spec.name]
+        warnings.warn(f"{spec.name} moved to {new}; import that instead", DeprecationWarning, stacklevel=2)
+        module = importlib.import_module(new)
+        self._spec = module.__spec__  # the import system overwrites __spec__ on the object it is given
+        return module
+
+    def exec_module(self, module):
+        module.__spec__ = self._spec
+
+
+if not any(isinstance(f, _MovedModuleFinder) for f in sys.meta_path):
+    sys.meta_path.insert(0, _MovedModuleFinder())
+
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
 
 __all__ = sorted(_WHERE)

@@ -53,6 +53,7 @@ __all__ = [
     "CaptureSpec",
     "RawView",
     "WhiteSpec",
+    "check_white_box",
     "exif_exposure",
     "load_views",
     "read_capture",
@@ -147,6 +148,25 @@ class CaptureSpec:
             f"{[c.folder for c in self.cameras]}."
         )
 
+    def label(self, k: int) -> str:
+        """The folder of camera ``k``'s results inside the output folder: its ``folder`` when that is a
+        plain relative path inside the capture, else ``camera<k+1>-<last part>`` (so that an absolute or
+        ``..`` folder is never written next to)."""
+        f = self.cameras[k].folder
+        p = Path(f)
+        if not p.is_absolute() and ".." not in p.parts and p.parts and p.as_posix() == f:
+            return f
+        return f"camera{k + 1}-{p.name or 'folder'}"
+
+    def out_stem(self, name: str) -> str:
+        """``"<label>/<stem>"`` of a view ``"<folder>/<file>"`` (or a novel view ``"<folder>/novel_..."``):
+        where its results go inside the output folder."""
+        for k in sorted(range(len(self.cameras)), key=lambda k: -len(self.cameras[k].folder)):
+            folder = self.cameras[k].folder
+            if name.startswith(f"{folder}/") and "/" not in name[len(folder) + 1 :]:
+                return f"{self.label(k)}/{Path(name).stem}"
+        raise CaptureError(f"{name!r} is not a view of a camera folder {[c.folder for c in self.cameras]}.")
+
     def raw_files(self, k: int) -> list[Path]:
         """The RAW files of camera ``k``, sorted by name."""
         folder = self.root / self.cameras[k].folder
@@ -169,14 +189,160 @@ class CaptureSpec:
             raise CaptureError(f"{self.file}: ssf {s!r} has {len(cam.labels)} channels; RAW cameras have 3.")
         return cam
 
+    def load_illuminant(self):
+        """The capture's illuminant (a colour SD): a built-in name or an SPD CSV next to the capture file."""
+        import zonotope
+
+        il = self.illuminant
+        p = self.root / il
+        try:
+            if p.is_file():
+                import colour
+
+                m = zonotope.read_spectral_csv(p)
+                if isinstance(m, colour.MultiSpectralDistributions):
+                    m = m.to_sds()[0]
+                return m
+            return zonotope.illuminant(il)
+        except (OSError, KeyError, ValueError) as e:
+            raise CaptureError(
+                f"{self.file}: illuminant = {il!r} is neither a built-in name nor a readable SPD CSV ({e})."
+            ) from e
+
+
+_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses")
+_CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
+_WHITE_KEYS = ("method", "image", "box", "reflectance")
+_HOLDOUT_KEYS = ("images",)
+_POSES_KEYS = ("colmap", "transforms")
+
+
+def _table(doc: dict, key: str, allowed: tuple[str, ...], file: Path) -> dict:
+    """``doc[key]`` as a table (empty when absent) whose keys are all in ``allowed``."""
+    t = doc.get(key, {})
+    if not isinstance(t, dict):
+        raise CaptureError(f"{file}: {key} = {t!r} must be a table ([{key}]).")
+    _known(t, allowed, f"[{key}]", file)
+    return t
+
+
+def _known(t: dict, allowed: tuple[str, ...], where: str, file: Path) -> None:
+    extra = sorted(set(t) - set(allowed))
+    if extra:
+        raise CaptureError(f"{file}: {where} has unknown key(s) {extra}; allowed keys are {list(allowed)}.")
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
 
 def _need(doc: dict, key: str, kind, where: str, file: Path):
     if key not in doc:
         raise CaptureError(f"{file}: {where} lacks the key {key!r}.")
     v = doc[key]
-    if not isinstance(v, kind):
+    if not isinstance(v, kind) or isinstance(v, bool):
         raise CaptureError(f"{file}: {where}.{key} = {v!r} must be a {getattr(kind, '__name__', kind)}.")
     return v
+
+
+def _optional_str(doc: dict, key: str, default, where: str, file: Path):
+    v = doc.get(key, default)
+    if v is not None and not isinstance(v, str):
+        raise CaptureError(f"{file}: {where}{key} = {v!r} must be a string.")
+    return v
+
+
+def _level(c: dict, key: str, where: str, file: Path) -> float | None:
+    v = c.get(key)
+    if v is None:
+        return None
+    if not _is_number(v) or not math.isfinite(v) or v < 0:
+        raise CaptureError(f"{file}: {where}.{key} = {v!r} must be a finite number ≥ 0 (raw DN).")
+    return float(v)
+
+
+def _camera(c, i: int, root: Path, file: Path) -> CameraSpec:
+    where = f"[[camera]] #{i + 1}"
+    if not isinstance(c, dict):
+        raise CaptureError(f"{file}: {where} must be a table.")
+    _known(c, _CAMERA_KEYS, where, file)
+    folder = _need(c, "folder", str, where, file)
+    ssf = _need(c, "ssf", str, where, file)
+    if (root / ssf).suffix.lower() in (".json", ".csv", ".txt") or "/" in ssf:
+        if not (root / ssf).is_file():
+            raise CaptureError(
+                f"{file}: {where}: SSF file {root / ssf} does not exist; give a path "
+                "relative to capture.toml or a built-in camera name."
+            )
+        ssf = str(root / ssf)
+    if not (root / folder).is_dir():
+        raise CaptureError(f"{file}: {where}: folder {root / folder} does not exist.")
+    black, white = _level(c, "black_level", where, file), _level(c, "white_level", where, file)
+    if black is not None and white is not None and black >= white:
+        raise CaptureError(f"{file}: {where}: black_level = {black:g} must be below white_level = {white:g}.")
+    exp = c.get("exposure", {})
+    if not isinstance(exp, dict):
+        raise CaptureError(f"{file}: {where}.exposure = {exp!r} must map file names to positive numbers.")
+    for name, v in exp.items():
+        if not _is_number(v) or not math.isfinite(v) or v <= 0:
+            raise CaptureError(
+                f"{file}: {where}.exposure[{name!r}] = {v!r} must be a finite positive number "
+                "(time × ISO / f-number²)."
+            )
+        if not (root / folder / name).is_file():
+            raise CaptureError(
+                f"{file}: {where}.exposure names {name!r}, which is not a file in {root / folder}."
+            )
+    cfa = _optional_str(c, "cfa", None, f"{where}.", file)
+    if cfa is not None:
+        from isp.cfa import check_cfa
+
+        try:
+            cfa = check_cfa(cfa)
+        except ValueError as e:
+            raise CaptureError(f"{file}: {where}: {e}") from e
+    return CameraSpec(folder, ssf, cfa, black, white, {k: float(v) for k, v in exp.items()})
+
+
+def _white(w: dict, root: Path, file: Path) -> WhiteSpec:
+    method = _optional_str(w, "method", "brightest-neutral", "[white].", file)
+    if method not in _WHITE_METHODS:
+        raise CaptureError(f"{file}: [white].method = {method!r}; use one of {list(_WHITE_METHODS)}.")
+    refl = w.get("reflectance", 1.0)
+    if not _is_number(refl) or not 0 < refl <= 1.5:
+        raise CaptureError(f"{file}: [white].reflectance = {refl!r} must be a number in (0, 1.5].")
+    if method != "patch":
+        given = sorted({"image", "box"} & set(w))
+        if given:
+            raise CaptureError(
+                f'{file}: [white] {given} apply only to method = "patch" (method is {method!r}).'
+            )
+        return WhiteSpec(method, None, None, float(refl))
+    image = _need(w, "image", str, "[white]", file)
+    box = _need(w, "box", list, "[white]", file)
+    if (
+        len(box) != 4
+        or not all(type(b) is int for b in box)
+        or box[2] <= box[0]
+        or box[3] <= box[1]
+        or min(box) < 0
+    ):
+        raise CaptureError(
+            f"{file}: [white].box = {box} must be [x0, y0, x1, y1] integers ≥ 0, x1 > x0, "
+            "y1 > y0 (pixels, end exclusive)."
+        )
+    if not (root / image).is_file():
+        raise CaptureError(f"{file}: [white].image = {image!r} does not exist.")
+    return WhiteSpec(method, image, tuple(box), float(refl))
+
+
+def _colliding_stems(files: list[Path]) -> list[str] | None:
+    seen: dict[str, str] = {}
+    for f in files:
+        if f.stem in seen:
+            return [seen[f.stem], f.name]
+        seen[f.stem] = f.name
+    return None
 
 
 def read_capture(path: str | os.PathLike) -> CaptureSpec:
@@ -194,9 +360,13 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
     Raises
     ------
     CaptureError
-        Missing or invalid TOML, unknown keys, a camera folder that does not exist or holds no RAW
-        files, a duplicated folder, an unknown white method or a bad box, a hold-out image that does
-        not exist, a pose file that does not exist.
+        Missing or invalid TOML; an unknown key in any table (the allowed ones named) or a value of the
+        wrong type; a camera folder that does not exist, holds no RAW files or holds two files with one
+        stem (``DSC_0003.dng`` and ``DSC_0003.nef``: their outputs would collide); a duplicated folder;
+        levels that are not finite, negative, or black ≥ white; exposure overrides that are not finite
+        positive numbers or name no file; an unknown white method, a bad box, or ``image``/``box``
+        without ``method = "patch"``; a hold-out image that does not exist or is no camera's file; a pose
+        file that does not exist, or both kinds given. Every check runs here, before any RAW file is read.
     """
     path = Path(path)
     file = path / "capture.toml" if path.is_dir() else path
@@ -209,87 +379,57 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise CaptureError(f"{file}: not valid TOML ({e}).") from e
     root = file.parent
-    known = {"illuminant", "observer", "camera", "white", "holdout", "poses"}
-    extra = sorted(set(doc) - known)
-    if extra:
-        raise CaptureError(f"{file}: unknown key(s) {extra}; known keys are {sorted(known)}.")
-    illuminant = str(doc.get("illuminant", "D65"))
-    observer = str(doc.get("observer", "CIE 1931 2 Degree Standard Observer"))
+    _known(doc, _TOP_KEYS, "the top level", file)
+    illuminant = _optional_str(doc, "illuminant", "D65", "", file)
+    observer = _optional_str(doc, "observer", "CIE 1931 2 Degree Standard Observer", "", file)
     cams = doc.get("camera")
     if not isinstance(cams, list) or not cams:
         raise CaptureError(f"{file}: needs at least one [[camera]] table with folder and ssf.")
-    specs = []
-    for i, c in enumerate(cams):
-        where = f"[[camera]] #{i + 1}"
-        if not isinstance(c, dict):
-            raise CaptureError(f"{file}: {where} must be a table.")
-        bad = sorted(set(c) - {"folder", "ssf", "cfa", "black_level", "white_level", "exposure"})
-        if bad:
-            raise CaptureError(f"{file}: {where} has unknown key(s) {bad}.")
-        folder = _need(c, "folder", str, where, file)
-        ssf = _need(c, "ssf", str, where, file)
-        if (root / ssf).suffix.lower() in (".json", ".csv", ".txt") or "/" in ssf:
-            if not (root / ssf).is_file():
-                raise CaptureError(
-                    f"{file}: {where}: SSF file {root / ssf} does not exist; give a path "
-                    "relative to capture.toml or a built-in camera name."
-                )
-            ssf = str(root / ssf)
-        if not (root / folder).is_dir():
-            raise CaptureError(f"{file}: {where}: folder {root / folder} does not exist.")
-        exp = c.get("exposure", {})
-        if not isinstance(exp, dict) or not all(isinstance(v, int | float) and v > 0 for v in exp.values()):
-            raise CaptureError(f"{file}: {where}.exposure must map file names to positive numbers.")
-        cfa = c.get("cfa")
-        if cfa is not None:
-            from isp.raw import check_cfa
-
-            try:
-                cfa = check_cfa(cfa)
-            except ValueError as e:
-                raise CaptureError(f"{file}: {where}: {e}") from e
-        specs.append(CameraSpec(folder, ssf, cfa, c.get("black_level"), c.get("white_level"), dict(exp)))
+    specs = [_camera(c, i, root, file) for i, c in enumerate(cams)]
     folders = [s.folder for s in specs]
     if len(set(folders)) != len(folders):
         raise CaptureError(f"{file}: a camera folder is listed twice ({folders}); one [[camera]] per folder.")
-    w = doc.get("white", {})
-    method = str(w.get("method", "brightest-neutral"))
-    if method not in _WHITE_METHODS:
-        raise CaptureError(f"{file}: [white].method = {method!r}; use one of {list(_WHITE_METHODS)}.")
-    white = WhiteSpec(method, None, None, float(w.get("reflectance", 1.0)))
-    if not 0 < white.reflectance <= 1.5:
-        raise CaptureError(f"{file}: [white].reflectance = {white.reflectance} must lie in (0, 1.5].")
-    if method == "patch":
-        image = _need(w, "image", str, "[white]", file)
-        box = _need(w, "box", list, "[white]", file)
-        if len(box) != 4 or not all(isinstance(b, int) for b in box) or box[2] <= box[0] or box[3] <= box[1]:
+    white = _white(_table(doc, "white", _WHITE_KEYS, file), root, file)
+    h = _table(doc, "holdout", _HOLDOUT_KEYS, file).get("images", [])
+    if not isinstance(h, list) or not all(isinstance(x, str) for x in h):
+        raise CaptureError(
+            f'{file}: [holdout].images = {h!r} must be a list of "<folder>/<file>" strings, '
+            'e.g. images = ["nikon/DSC_0003.NEF"].'
+        )
+    holdout = tuple(h)
+    for name in holdout:
+        if not (root / name).is_file():
+            raise CaptureError(f"{file}: [holdout] image {name!r} does not exist.")
+        if not any(name.startswith(f"{c.folder}/") and "/" not in name[len(c.folder) + 1 :] for c in specs):
             raise CaptureError(
-                f"{file}: [white].box = {box} must be [x0, y0, x1, y1] integers, x1 > x0, "
-                "y1 > y0 (pixels, end exclusive)."
+                f"{file}: [holdout] image {name!r} is not a file of a camera folder {folders}; "
+                'name it "<folder>/<file>".'
             )
-        if not (root / image).is_file():
-            raise CaptureError(f"{file}: [white].image = {image!r} does not exist.")
-        white = WhiteSpec(method, image, tuple(box), white.reflectance)
-    holdout = tuple(doc.get("holdout", {}).get("images", ()))
-    for h in holdout:
-        if not (root / h).is_file():
-            raise CaptureError(f"{file}: [holdout] image {h!r} does not exist.")
-    poses = doc.get("poses", {})
+    poses = _table(doc, "poses", _POSES_KEYS, file)
     colmap = transforms = None
+    if "colmap" in poses and "transforms" in poses:
+        raise CaptureError(f"{file}: [poses] gives both colmap and transforms; give one.")
     if "colmap" in poses:
-        colmap = root / poses["colmap"]
+        colmap = root / _need(poses, "colmap", str, "[poses]", file)
         if not colmap.is_dir():
             raise CaptureError(f"{file}: [poses].colmap = {poses['colmap']!r} is not a folder.")
     if "transforms" in poses:
-        transforms = root / poses["transforms"]
+        transforms = root / _need(poses, "transforms", str, "[poses]", file)
         if not transforms.is_file():
             raise CaptureError(f"{file}: [poses].transforms = {poses['transforms']!r} does not exist.")
     spec = CaptureSpec(root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms)
     for k, c in enumerate(specs):
-        if not spec.raw_files(k):
+        files = spec.raw_files(k)
+        if not files:
             raise CaptureError(
                 f"{file}: folder {root / c.folder} holds no RAW files "
                 f"({', '.join(sorted(RAW_SUFFIXES)[:4])}, ...)."
+            )
+        clash = _colliding_stems(files)
+        if clash:
+            raise CaptureError(
+                f"{file}: folder {root / c.folder} holds {clash[0]} and {clash[1]}, one photograph's "
+                "name twice (their outputs would collide); keep one of them in the folder."
             )
     return spec
 
@@ -344,6 +484,15 @@ class RawView:
     def shape(self) -> tuple[int, int]:
         """Image size ``(H, W)``."""
         return self.values.shape[:2]
+
+    @property
+    def cfa(self) -> str:
+        """The 2 × 2 CFA pattern of the mosaic's top-left corner, e.g. ``"RGGB"`` (the channel measured
+        at each site, read off the mosaic itself so that no second source of the pattern can disagree)."""
+        m = self.values[:2, :2] != 0
+        w = self.weight[:2, :2] > 0
+        site = np.argmax(m | w, axis=-1)
+        return "".join("RGB"[int(site[i, j])] for i in range(2) for j in range(2))
 
 
 def _exif_from_tags(tags) -> dict:
@@ -438,7 +587,7 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
         An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
     """
     from isp import DNGProfile, RawFormatError, noise_profile, read_raw
-    from isp.stages import cfa_masks
+    from isp.cfa import cfa_masks
 
     path = Path(path)
     camera = camera or CameraSpec("", "")
@@ -606,30 +755,10 @@ def camera_white(spec: CaptureSpec, k: int) -> np.ndarray:
     import zonotope
 
     cam = spec.load_ssf(k)
-    light = _illuminant(spec)
+    light = spec.load_illuminant()
     shape = zonotope.common_shape(cam, light, interval=5)
     g = zonotope.generators(cam, light, shape, normalise=None).values.sum(0)
     return g / g.max()
-
-
-def _illuminant(spec: CaptureSpec):
-    import zonotope
-
-    il = spec.illuminant
-    p = spec.root / il
-    try:
-        if p.is_file():
-            import colour
-
-            m = zonotope.read_spectral_csv(p)
-            if isinstance(m, colour.MultiSpectralDistributions):
-                m = m.to_sds()[0]
-            return m
-        return zonotope.illuminant(il)
-    except (OSError, KeyError, ValueError) as e:
-        raise CaptureError(
-            f"{spec.file}: illuminant = {il!r} is neither a built-in name nor a readable SPD CSV ({e})."
-        ) from e
 
 
 def _superpixels(v: RawView) -> tuple[np.ndarray, np.ndarray]:
@@ -677,6 +806,36 @@ def brightest_neutral(
     return float(np.percentile(lv, percentile))
 
 
+def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:
+    """The view of ``[white] image`` once its ``box`` is known to lie inside it with a valid pixel in
+    every channel (None without ``method = "patch"``); checked as soon as the files are read, so that a
+    bad box is refused before poses and training rather than at the correct step.
+
+    Raises
+    ------
+    CaptureError
+        The image is no camera's view; the box is outside it or has no valid pixel in some channel.
+    """
+    if spec.white.method != "patch":
+        return None
+    v = next((v for v in views if v.name == Path(spec.white.image).as_posix()), None)
+    if v is None:
+        raise CaptureError(
+            f"{spec.file}: [white].image {spec.white.image!r} is not one of the capture's views."
+        )
+    x0, y0, x1, y1 = spec.white.box
+    H, W = v.shape
+    if x1 > W or y1 > H:
+        raise CaptureError(f"{spec.file}: [white].box {list(spec.white.box)} lies outside the {W}×{H} image.")
+    wt = v.weight[y0:y1, x0:x1].reshape(-1, 3)
+    if np.any(wt.sum(0) == 0):
+        raise CaptureError(
+            f"{spec.file}: [white].box {list(spec.white.box)} has no valid pixel in some channel "
+            "(saturated or too small); choose a larger, unsaturated patch."
+        )
+    return v
+
+
 def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     """Per camera, the divisor that puts raw responses (exposure 1) on the white → 1 scale.
 
@@ -698,20 +857,10 @@ def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     ks = list(levels)
     if spec.white.method == "patch":
         k0 = spec.camera_index(Path(spec.white.image).parent.as_posix())
-        v = next((v for v in views if v.name == Path(spec.white.image).as_posix()), None)
-        if v is None:
-            raise CaptureError(f"[white].image {spec.white.image!r} is not one of the capture's views.")
+        v = check_white_box(spec, views)
         x0, y0, x1, y1 = spec.white.box
-        H, W = v.shape
-        if x1 > W or y1 > H:
-            raise CaptureError(f"[white].box {spec.white.box} lies outside the {W}×{H} image.")
         val = v.values[y0:y1, x0:x1].reshape(-1, 3)
         wt = v.weight[y0:y1, x0:x1].reshape(-1, 3)
-        if np.any(wt.sum(0) == 0):
-            raise CaptureError(
-                f"[white].box {spec.white.box} has no valid pixel in some channel "
-                "(saturated or too small); choose a larger, unsaturated patch."
-            )
         mean = (val * wt).sum(0) / wt.sum(0)
         patch = mean / (spec.white.reflectance * v.exif)  # the patch camera's white, per channel
         k_patch = float(np.mean(patch / whites[k0]))

@@ -96,14 +96,12 @@ def measured(view, white_scale, *, method: str = "Malvar 2004") -> np.ndarray:
     demosaics sources with ``"bilinear"`` (a convex combination of measured sites, no overshoot)."""
     from isp.stages import demosaic
 
-    from .pipeline import _cfa_of
-
     if view.exif is None:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     lin = (
         view.values.astype(np.float64)
         if view.full_colour
-        else demosaic(view.values.sum(-1), cfa=_cfa_of(view), method=method)
+        else demosaic(view.values.sum(-1), cfa=view.cfa, method=method)
     )
     return lin / view.exif / np.asarray(white_scale, float)
 
@@ -326,7 +324,7 @@ def sensor_noise(view, white_scale) -> np.ndarray:
     variance ``S_j·x + O_j`` of the linear value ``x``), ``σ_j = sqrt(S_j·x_j + O_j)`` at ``x_j``, the
     median of channel ``j``'s valid site values (weight > 0; the typical signal level): the sensor's
     own noise, whatever the scene. On the simulated capture it is the realised noise within a few per
-    cent (:mod:`splat.simcapture` writes the exact profile).
+    cent (:mod:`splat.sim.capture` writes the exact profile).
 
     Without one, an estimate from the image: differences of horizontally and vertically adjacent sites
     of the same colour (two sites apart on a Bayer mosaic, adjacent on a full-colour sensor) carry twice

@@ -42,21 +42,30 @@ import numpy as np
 
 from ._errors import SplatError
 from ._tol import FEASIBLE_DISTANCE
-from .capture import CaptureError, CaptureSpec, RawView, load_views, read_capture, white_scale
+from .capture import (
+    CaptureError,
+    CaptureSpec,
+    RawView,
+    check_white_box,
+    load_views,
+    read_capture,
+    white_scale,
+)
+from .workspace import Workspace, capture_fingerprint, read_json
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "STEPS",
     "PipelineConfig",
     "correct_step",
     "depth_targets",
+    "fit_step",
     "poses_step",
     "render_step",
     "report_step",
     "run",
-    "train_step_",
     "xyz_to_srgb",
 ]
 
@@ -84,7 +93,7 @@ class PipelineConfig:
     method : str
         ``zonotope.correct`` estimator of the correct step (default Prior).
     quantum : float
-        Colour deduplication step of :func:`zonotope.image.correct_image`.
+        Colour deduplication step of :func:`zonotope.correct.image.correct_image`.
     seed, threads : int
     min_registered : float
         Fraction of each camera's views that must register.
@@ -151,7 +160,7 @@ class PipelineConfig:
 
 def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
     """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     return atomic_path(path, write)
 
@@ -185,21 +194,84 @@ def preview_upscale(shape: tuple[int, int]) -> int:
     return int(min(4, max(1, np.ceil(400 / min(shape)))))
 
 
-def _check_out(spec: CaptureSpec, out: Path) -> Path:
-    out = Path(out).resolve()
-    root = spec.root.resolve()
-    if out == root or root in out.parents:
+def check_run(spec: CaptureSpec, config: PipelineConfig) -> None:
+    """Everything a run needs that can be checked before any RAW file is read: two or more cameras, the
+    observer, the illuminant, every camera's SSF, the correction method and ``config.camera``.
+
+    Why: a run that trains for minutes must not fail on an option it could have refused at once.
+
+    Raises
+    ------
+    CaptureError, zonotope.UnknownMethodError
+        One line naming the value and what is allowed.
+    """
+    import zonotope
+    from zonotope.correct import CORRECTION_METHODS
+
+    if len(spec.cameras) < 2:
         raise CaptureError(
-            f"output folder {out} lies inside the capture {root}; choose a folder outside "
-            "it (the capture is never written to)."
+            f"{spec.file}: one camera ({spec.cameras[0].folder!r}); splat fuses the photographs of several "
+            "cameras. For one camera's photographs use `isp develop FOLDER -o OUT --correction metamer` "
+            "(and `isp profile` for a camera profile)."
         )
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+    try:
+        zonotope.observer(spec.observer)
+    except (KeyError, ValueError, OSError) as e:
+        raise CaptureError(
+            f"{spec.file}: observer = {spec.observer!r} is not a built-in observer "
+            f"(e.g. 'CIE 1931 2 Degree Standard Observer'): {' '.join(str(e).split())}"
+        ) from e
+    spec.load_illuminant()
+    for k in range(len(spec.cameras)):
+        spec.load_ssf(k)
+    CORRECTION_METHODS.resolve(config.method, argument="method")
+    if config.camera is not None:
+        spec.camera_index(config.camera)
 
 
-def _stem(name: str) -> str:
-    p = Path(name)
-    return f"{p.parent.as_posix()}/{p.stem}"
+def _workspace(capture, out, config: PipelineConfig, step: str | None = None, settings=None):
+    """The checked capture and its :class:`splat.workspace.Workspace`, with ``step`` begun there on
+    ``settings(spec)`` when both are given."""
+    spec = read_capture(capture)
+    check_run(spec, config)
+    ws = Workspace(spec, out)
+    if step is not None:
+        ws.begin(step, settings(spec))
+    return spec, ws
+
+
+def _train_settings(spec: CaptureSpec, config: PipelineConfig) -> dict:
+    return {
+        "holdout": sorted(spec.holdout),
+        **{
+            f: getattr(config, f)
+            for f in (
+                "steps",
+                "capacity",
+                "seed",
+                "densify_until",
+                "refine_exposure",
+                "refine_poses",
+                "depth_weight",
+            )
+        },
+    }
+
+
+def read_index(spec: CaptureSpec, path: Path) -> dict:
+    """``render/index.json``: view name → {camera, kind, dir}, each ``dir`` the view's own folder
+    (:meth:`splat.capture.CaptureSpec.out_stem`), so that no path read from the file leads elsewhere."""
+    index = read_json(path, what="render index")
+    for name, info in index.items():
+        try:
+            ok = isinstance(info, dict) and info.get("dir") == spec.out_stem(name) and "kind" in info
+        except CaptureError:
+            ok = False
+        if not ok:
+            raise CaptureError(
+                f"{path}: not a render index of this capture (entry {name!r}); run the render step."
+            )
+    return index
 
 
 def xyz_to_srgb(XYZ, white_XYZ) -> np.ndarray:
@@ -231,19 +303,11 @@ def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
     img = (
         v.values.astype(np.float64)
         if v.full_colour
-        else demosaic(v.values.sum(-1), cfa=_cfa_of(v), method="bilinear")
+        else demosaic(v.values.sum(-1), cfa=v.cfa, method="bilinear")
     )
     img = np.maximum(img, 0) / white / max(v.exif, 1e-9)
     img = img / max(np.percentile(img, 99.5), 1e-9)
     return encode_sRGB(np.clip(img, 0, 1))
-
-
-def _cfa_of(v: RawView) -> str:
-    letters = "RGB"
-    m = v.values != 0
-    w = v.weight > 0
-    site = np.argmax(m[:2, :2] | w[:2, :2], axis=-1)
-    return "".join(letters[int(site[i, j])] for i in range(2) for j in range(2))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -274,13 +338,24 @@ def poses_step(
     from .data import read_transforms
     from .poses import PoseConfig, recover_poses
 
-    spec = read_capture(capture)
-    out = _check_out(spec, Path(out))
+    spec, ws = _workspace(
+        capture,
+        out,
+        config,
+        "poses",
+        lambda spec: {
+            "capture": capture_fingerprint(spec),
+            "seed": config.seed,
+            "min_registered": config.min_registered,
+        },
+    )
+    out = ws.root
     done = out / "poses" / "summary.json"
     if done.is_file():
-        return json.loads(done.read_text())
+        return read_json(done)
     t0 = time.perf_counter()
     views = load_views(spec, progress=progress)
+    check_white_box(spec, views)
     names = [v.name for v in views]
     if spec.colmap is not None or spec.transforms is not None:
         source = "colmap" if spec.colmap is not None else "transforms"
@@ -297,7 +372,7 @@ def poses_step(
 
         whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
         for i, v in enumerate(views):
-            path = out / "previews" / f"{_stem(v.name)}.png"
+            path = ws.path("previews", f"{spec.out_stem(v.name)}.png")
             if not path.is_file():
                 _write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
             if progress is not None:
@@ -313,7 +388,9 @@ def poses_step(
         by_name = {}
         for im in model.images.values():
             stem = Path(im.name)
-            raw = next((n for n in names if _stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None)
+            raw = next(
+                (n for n in names if spec.out_stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None
+            )
             if raw is not None:
                 by_name[raw] = im
         if progress is not None:
@@ -402,7 +479,9 @@ def _load_model_capture(spec: CaptureSpec, out: Path):
     n = len(spec.cameras)
     channels = {k + 1: (3 * k, 3 * k + 1, 3 * k + 2) for k in range(n)}
     labels = tuple(f"{c.folder}:{ch}" for c in spec.cameras for ch in "RGB")
-    exposures = json.loads((out / "poses" / "summary.json").read_text())["exposures"]
+    exposures = read_json(out / "poses" / "summary.json").get("exposures")
+    if not isinstance(exposures, dict):
+        raise CaptureError(f"{out / 'poses' / 'summary.json'}: not a splat poses summary (no exposures).")
     return model, capture_from_colmap(model, channels=channels, exposures=exposures, labels=labels)
 
 
@@ -562,7 +641,7 @@ def train_config(config: PipelineConfig, checkpoint: Path | None = None):
     )
 
 
-def train_step_(
+def fit_step(
     capture: str | os.PathLike,
     out: str | os.PathLike,
     *,
@@ -585,11 +664,11 @@ def train_step_(
 
     from .training import train
 
-    spec = read_capture(capture)
-    out = _check_out(spec, Path(out))
+    spec, ws = _workspace(capture, out, config, "train", lambda spec: _train_settings(spec, config))
+    out = ws.root
     done = out / "train" / "summary.json"
     if done.is_file() and (out / "train" / "model.npz").is_file():
-        return json.loads(done.read_text())
+        return read_json(done)
     inp = training_inputs(spec, out, config)
     train_cap, images, weights = inp.capture, inp.images, inp.weights
     bounds, xyz, colours = inp.bounds, inp.points, inp.colours
@@ -685,7 +764,7 @@ def pose_corrections_of(out: str | os.PathLike) -> dict[str, np.ndarray]:
     path = Path(out) / "train" / "summary.json"
     if not path.is_file():
         return {}
-    doc = json.loads(path.read_text()).get("pose_corrections", {})
+    doc = read_json(path).get("pose_corrections", {})
     return {k: np.asarray(v, float) for k, v in doc.items()}
 
 
@@ -714,9 +793,15 @@ def load_gaussians(out: str | os.PathLike):
     path = Path(out) / "train" / "model.npz"
     if not path.is_file():
         raise CaptureError(f"{path}: no trained model; run the train step first.")
-    with np.load(path) as f:
-        arrays = {k: f[k] for k in f.files}
-    return Gaussians.from_numpy(arrays), arrays["alive"]
+    from .training import read_arrays
+
+    arrays = read_arrays(path, what="model")
+    try:
+        return Gaussians.from_numpy(arrays), arrays["alive"]
+    except (KeyError, ValueError, TypeError) as e:
+        raise CaptureError(
+            f"{path}: not a splat model ({type(e).__name__}); run the train step again."
+        ) from e
 
 
 # ---------------------------------------------------------------------------------------------
@@ -818,8 +903,8 @@ def render_step(
     """
     from .outputs import pca_false_colour, render_views, split_cameras
 
-    spec = read_capture(capture)
-    out = _check_out(spec, Path(out))
+    spec, ws = _workspace(capture, out, config, "render", lambda spec: {})
+    out = ws.root
     _, cap = _load_model_capture(spec, out)
     g, alive = load_gaussians(out)
     views = refined_views(cap.views, out)  # training views with their learned pose corrections, if any
@@ -837,19 +922,19 @@ def render_step(
     depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
     index = {}
     for i, (name, cam, cid, kind) in enumerate(todo):
-        d = out / "render" / _stem(name)
+        d = ws.view_dir("render", name)
         files = {"render": d / "render.tiff", "pca": d / "pca.png"}
         if not all(p.is_file() for p in files.values()):
             img = render_views(g, [cam], mask=alive)[0]
             _write_tiff(files["render"], img)
             for cid2, part in split_cameras(img, cap).items():
-                _write_tiff(d / f"camera_{spec.cameras[cid2 - 1].folder}.tiff", part)
+                _write_tiff(d / f"camera_{spec.label(cid2 - 1)}.tiff", part)
             _write_png8(files["pca"], pca_false_colour(img))
         if not (d / "reprojected_count.tiff").is_file():
             rep, count = _reprojected_view(name, cam, views, raws, g, alive, depths, n)
             _write_tiff(d / "reprojected.tiff", rep)
             _write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
-        index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": _stem(name)}
+        index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}
         if progress is not None:
             progress("render", i + 1, len(todo))
     _write_json(out / "render" / "index.json", index)
@@ -871,7 +956,7 @@ def white_of(spec: CaptureSpec, out: Path, views: list[RawView] | None = None) -
     """The white → 1 scale (:func:`splat.capture.white_scale`), cached in ``OUT/correct/white.json``."""
     path = out / "correct" / "white.json"
     if path.is_file():
-        d = json.loads(path.read_text())
+        d = read_json(path, what="white scale")
         d["scale"] = [np.asarray(s) for s in d["scale"]]
         return d
     d = white_scale(spec, views if views is not None else load_views(spec))
@@ -888,10 +973,8 @@ def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
     import zonotope
     from zonotope.correct import correction_problem
 
-    from .capture import _illuminant
-
     curves = [spec.load_ssf(k) for k in cameras]
-    light = _illuminant(spec)
+    light = spec.load_illuminant()
     obs = zonotope.observer(spec.observer)
     common = zonotope.common_shape(*curves, obs, light, interval=10)
     shape = np.arange(max(common.start, 400.0), min(common.end, 700.0) + 5, 10.0)
@@ -902,7 +985,11 @@ def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
 
 def noise_sigma(out: Path, scale: np.ndarray) -> float:
     """RMS training residual on the white → 1 scale, median over channels (for the report)."""
-    s = json.loads((out / "train" / "summary.json").read_text())["residual_sigma_raw"]
+    s = read_json(out / "train" / "summary.json").get("residual_sigma_raw")
+    if s is None:
+        raise CaptureError(
+            f"{out / 'train' / 'summary.json'}: not a splat train summary (no residual_sigma_raw)."
+        )
     return float(np.median(np.asarray(s) / scale))
 
 
@@ -956,7 +1043,7 @@ def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> di
     ``OUT/correct/delta.json`` (so resumed runs and scoring use the same δ)."""
     path = out / "correct" / "delta.json"
     if path.is_file():
-        return json.loads(path.read_text())
+        return read_json(path, what="noise tolerance")
     rng = np.random.default_rng(0)
     pool = []
     for info in index.values():
@@ -1003,7 +1090,7 @@ def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.n
 
     path = out / "correct" / "fusion.json"
     if path.is_file():
-        return json.loads(path.read_text())
+        return read_json(path, what="fusion record")
     n = len(spec.cameras)
     pairs, views, resid = [], {}, {}
     for name, info in index.items():
@@ -1283,7 +1370,7 @@ def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
     _write_png8(o / f"{stem}_sRGB.png", rgb)
 
 
-def _reprojected_of(d: Path, scale: np.ndarray):
+def reprojected_of(d: Path, scale: np.ndarray):
     """A rendered view's reprojected photographs (white → 1) and counts, or None (not written)."""
     if not (d / "reprojected_count.tiff").is_file():
         return None
@@ -1293,7 +1380,7 @@ def _reprojected_of(d: Path, scale: np.ndarray):
 def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
     ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     out = np.zeros((*fused.shape[:-1], 3))
     for cd, s_ in sigma.items():
@@ -1387,21 +1474,35 @@ def correct_step(
     dict
         The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
     """
-    from zonotope.image import correct_image
+    from zonotope.correct import CORRECTION_METHODS
+    from zonotope.correct.image import correct_image
 
     from .fusion import measured
 
-    spec = read_capture(capture)
-    out = _check_out(spec, Path(out))
+    spec, ws = _workspace(capture, out, config)
+    out = ws.root
     index_path = out / "render" / "index.json"
     if not index_path.is_file():
         raise CaptureError(f"{out}: nothing rendered yet; run the render step first.")
-    index = json.loads(index_path.read_text())
+    index = read_index(spec, index_path)
     raws = {v.name: v for v in load_views(spec)}
+    # white, δ and the fusion noise levels are functions of these (δ pools the photographed views only,
+    # so that novel views rendered later do not change it): a change recomputes every corrected image
+    photographed = {k: v for k, v in index.items() if k in raws}
+    ws.begin(
+        "correct",
+        {
+            "white": [spec.white.method, spec.white.image, spec.white.box, spec.white.reflectance],
+            "observer": spec.observer,
+            "method": CORRECTION_METHODS.resolve(config.method, argument="method"),
+            "quantum": config.quantum,
+            "photographed": sorted(photographed),
+        },
+    )
     white = white_of(spec, out, list(raws.values()))
     scale = np.concatenate(white["scale"])
     n = len(spec.cameras)
-    tol = delta_of(spec, out, index, scale)
+    tol = delta_of(spec, out, photographed or index, scale)
     corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"])
     problem = corrector.problem
     wXYZ = problem.white_XYZ
@@ -1421,14 +1522,14 @@ def correct_step(
             _write_corrected(o, mname, XYZ, wXYZ)
         for k in range(n):
             prof, neutral = profiles[k]
-            f = o / f"dng_{spec.cameras[k].folder}_XYZ.tiff"
+            f = o / f"dng_{spec.label(k)}_XYZ.tiff"
             if prof is None or f.is_file():
                 continue
             X = dng_matrix_XYZ(np.maximum(img[..., 3 * k : 3 * k + 3], 0), prof, neutral, wXYZ)
             _write_tiff(f, X)
-            _write_png8(o / f"dng_{spec.cameras[k].folder}_sRGB.png", xyz_to_srgb(X, wXYZ))
+            _write_png8(o / f"dng_{spec.label(k)}_sRGB.png", xyz_to_srgb(X, wXYZ))
         r = raws.get(name)
-        rep = _reprojected_of(d, scale)
+        rep = reprojected_of(d, scale)
         novel = name not in fusion["views"] and rep is not None and fusion["reprojected_sigma"] is not None
         if (name in fusion["views"] or novel) and not (o / f"{mname}_fused_XYZ.tiff").is_file():
             if novel:  # no RAW file here: the photographs reprojected into the view, the render elsewhere
@@ -1482,8 +1583,8 @@ def report_step(
     left one)."""
     import html
 
-    spec = read_capture(capture)
-    out = _check_out(spec, Path(out))
+    spec, ws = _workspace(capture, out, config, "report", lambda spec: {})
+    out = ws.root
     parts = [
         "<!doctype html><meta charset='utf-8'><title>splat capture report</title>",
         "<style>body{font-family:sans-serif} img{width:240px;image-rendering:pixelated;margin:2px}"
@@ -1493,7 +1594,7 @@ def report_step(
     for step in ("poses", "train", "correct"):
         p = out / step / "summary.json"
         if p.is_file():
-            doc = json.loads(p.read_text())
+            doc = read_json(p)
             doc.pop("exposures", None)
             doc.pop("views", None) if step == "correct" else None
             parts.append(f"<h2>{step}</h2><pre>{html.escape(json.dumps(doc, indent=1))}</pre>")
@@ -1504,9 +1605,7 @@ def report_step(
             + "</pre>"
         )
     index = (
-        json.loads((out / "render" / "index.json").read_text())
-        if (out / "render" / "index.json").is_file()
-        else {}
+        read_index(spec, out / "render" / "index.json") if (out / "render" / "index.json").is_file() else {}
     )
     for name, info in index.items():
         parts.append(f"<h3>{html.escape(name)} ({info['kind']})</h3>")
@@ -1534,7 +1633,7 @@ def run(
     """Run the steps in order (each skipped or resumed when its results exist); returns their results."""
     fns = {
         "poses": poses_step,
-        "train": train_step_,
+        "train": fit_step,
         "render": render_step,
         "correct": correct_step,
         "report": report_step,

@@ -61,6 +61,12 @@ def similarity(X, Y):
     return s, R, my - s * R @ mx
 
 
+def _truth_stem(name: str) -> str:
+    """``"<folder>/<stem>"``: where the simulator keeps a view's truth inside the capture."""
+    p = Path(name)
+    return f"{p.parent.as_posix()}/{p.stem}"
+
+
 def _pose_error(est: dict, tru: dict, names: list) -> dict:
     """Centre and rotation error of the views ``names`` (name → :class:`splat.data.View` in ``est`` and
     ``tru``) after a similarity alignment of their centres (:func:`similarity`)."""
@@ -145,7 +151,7 @@ def score(
         ``flat_delta_E00`` alone): the 9-channel estimators are slow per distinct colour, and
         the flat pixels of a coarse texture share few colours.
     quantum : float
-        Colour deduplication step of :func:`zonotope.image.correct_image`.
+        Colour deduplication step of :func:`zonotope.correct.image.correct_image`.
 
     Returns
     -------
@@ -154,14 +160,12 @@ def score(
     import tifffile
 
     from zonotope.correct import CORRECTION_METHODS
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .capture import load_views, read_capture
     from .colmap import read_colmap
     from .data import capture_from_colmap
     from .pipeline import (
-        _reprojected_of,
-        _stem,
         correct_fused,
         delta_of,
         dng_matrix_XYZ,
@@ -170,6 +174,8 @@ def score(
         fused_view,
         fusion_of,
         photographed_view,
+        read_index,
+        reprojected_of,
         white_of,
     )
 
@@ -181,12 +187,12 @@ def score(
     raws = {v.name: v for v in load_views(spec)}
     white = white_of(spec, out, list(raws.values()))
     scale = np.concatenate(white["scale"])
-    index = json.loads((out / "render" / "index.json").read_text())
+    index = read_index(spec, out / "render" / "index.json")
     delta = delta_of(spec, out, index, scale)["delta"]
     held = [
         k
         for k, v in index.items()
-        if v["kind"] == "holdout" and (truth / "xyz" / f"{_stem(k)}.tiff").is_file()
+        if v["kind"] == "holdout" and (truth / "xyz" / f"{_truth_stem(k)}.tiff").is_file()
     ]
     rows: dict[str, list] = {}
     flat_rows: dict[str, list] = {}
@@ -213,10 +219,10 @@ def score(
         return est[:, 0] if flat_only else est
 
     for name in held:
-        ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_stem(name)}.tiff"), float)
+        ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_truth_stem(name)}.tiff"), float)
         flat = flat_mask(ref)
         n_flat.append(float(flat.mean()))
-        d = out / "correct" / _stem(name)
+        d = out / "correct" / spec.out_stem(name)
         raw_dng = d / "raw_dng_XYZ.tiff"
         cam = raws[name].camera
         if raw_dng.is_file():
@@ -233,14 +239,14 @@ def score(
                 cor = raw_corr[(m, cam)]
                 est = unpick(correct_image(pick(np.maximum(bal, 0), fl), cor, quantum=quantum))
                 add(f"raw-{cor.method}:{spec.cameras[cam].folder}", est, r, fl)
-        render = np.asarray(tifffile.imread(out / "render" / _stem(name) / "render.tiff"), float)
+        render = np.asarray(tifffile.imread(out / "render" / spec.out_stem(name) / "render.tiff"), float)
         c = np.maximum(render / scale, 0)[::stride, ::stride]
         for (_m, s), cor in corr.items():
             idx = [3 * k + j for k in s for j in range(3)]
             est = unpick(correct_image(pick(c[..., idx], fl), cor, quantum=quantum))
             label = f"{cor.method}:{'+'.join(spec.cameras[k].folder for k in s)}"
             add(label, est, r, fl)
-        rep = _reprojected_of(out / "render" / _stem(name), scale)
+        rep = reprojected_of(out / "render" / spec.out_stem(name), scale)
         for sub in subsets:
             views = []
             if name in fusion["views"] and cam in sub and len(sub) > 1:  # its RAW, the others reprojected

@@ -34,6 +34,7 @@ __all__ = [
     "init_state",
     "load_checkpoint",
     "rawnerf_loss",
+    "read_arrays",
     "save_checkpoint",
     "stack_cameras",
     "train",
@@ -608,7 +609,7 @@ def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainStat
 
 def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     leaves = jax.tree.leaves(
         (
@@ -640,6 +641,23 @@ def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     return atomic_path(Path(path), write)
 
 
+def read_arrays(path: str | Path, *, what: str) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` file written by splat, or a one-line :class:`SplatError` naming the
+    file (a foreign, truncated or pickled file is never loaded: object arrays are refused)."""
+    import zipfile
+
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            if not isinstance(f, np.lib.npyio.NpzFile):
+                raise TypeError("not an .npz archive")
+            return {k: np.asarray(f[k]) for k in f.files}
+    except (OSError, ValueError, TypeError, EOFError, KeyError, zipfile.BadZipFile) as e:
+        raise SplatError(
+            f"{path}: not a readable splat {what} ({type(e).__name__}); remove it or choose a new "
+            "output folder."
+        ) from e
+
+
 def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
     """Load a checkpoint into the structure of ``like`` (a fresh state from :func:`init_state`).
 
@@ -658,36 +676,38 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
         like.exposure_opt,
     )
     leaves, treedef = jax.tree.flatten(like_tree)
-    with np.load(path) as f:
-        stored = sorted(k for k in f.files if k.startswith("leaf_"))
-        if len(stored) != len(leaves):
+    f = read_arrays(path, what="checkpoint")
+    if "step" not in f or "key" not in f:
+        raise SplatError(f"{path}: not a splat checkpoint (no step or key); remove it to train afresh.")
+    stored = sorted(k for k in f if k.startswith("leaf_"))
+    if len(stored) != len(leaves):
+        raise SplatError(
+            f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
+            f"{len(leaves)} (capacity, channels or refine_exposure changed?)."
+        )
+    new = [jnp.asarray(f[k]) for k in stored]
+    for a, b in zip(new, leaves):
+        if a.shape != np.shape(b):
             raise SplatError(
-                f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
-                f"{len(leaves)} (capacity, channels or refine_exposure changed?)."
+                f"checkpoint {path} holds an array of shape {a.shape} where {np.shape(b)} "
+                "is expected (capacity or channels changed?)."
             )
-        new = [jnp.asarray(f[k]) for k in stored]
-        for a, b in zip(new, leaves):
-            if a.shape != np.shape(b):
-                raise SplatError(
-                    f"checkpoint {path} holds an array of shape {a.shape} where {np.shape(b)} "
-                    "is expected (capacity or channels changed?)."
-                )
-        step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
-        pose_leaves, pose_def = jax.tree.flatten((like.pose_delta, like.pose_opt))
-        stored_pose = sorted(k for k in f.files if k.startswith("pose_"))
-        if stored_pose and not pose_leaves:
+    step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
+    pose_leaves, pose_def = jax.tree.flatten((like.pose_delta, like.pose_opt))
+    stored_pose = sorted(k for k in f if k.startswith("pose_"))
+    if stored_pose and not pose_leaves:
+        raise SplatError(
+            f"checkpoint {path} holds pose corrections but this configuration does not refine poses; "
+            "resume it with refine_poses=True (--refine-poses)."
+        )
+    if stored_pose:
+        got = [jnp.asarray(f[k]) for k in stored_pose]
+        if len(got) != len(pose_leaves) or any(a.shape != np.shape(b) for a, b in zip(got, pose_leaves)):
             raise SplatError(
-                f"checkpoint {path} holds pose corrections but this configuration does not refine poses; "
-                "resume it with refine_poses=True (--refine-poses)."
+                f"checkpoint {path} holds pose corrections for a different number of views; expected "
+                f"{np.shape(like.pose_delta)}."
             )
-        if stored_pose:
-            got = [jnp.asarray(f[k]) for k in stored_pose]
-            if len(got) != len(pose_leaves) or any(a.shape != np.shape(b) for a, b in zip(got, pose_leaves)):
-                raise SplatError(
-                    f"checkpoint {path} holds pose corrections for a different number of views; expected "
-                    f"{np.shape(like.pose_delta)}."
-                )
-            pose_leaves = got
+        pose_leaves = got
     params, opt_state, alive, ga, gc, log_e, e_opt = jax.tree.unflatten(treedef, new)
     pose, pose_opt = jax.tree.unflatten(pose_def, pose_leaves)
     return TrainState(params, opt_state, alive, ga, gc, step, key, log_e, e_opt, pose, pose_opt)

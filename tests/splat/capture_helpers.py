@@ -1,5 +1,5 @@
 """Writes small RAW captures (real DNG files + capture.toml) from the synthetic Gaussian scene, for the
-capture and pipeline tests (the full simulator with true XYZ lives in splat.simcapture)."""
+capture and pipeline tests (the full simulator with true XYZ lives in splat.sim.capture)."""
 
 from __future__ import annotations
 

@@ -154,6 +154,110 @@ def test_bad_capture_files(tmp_path, body, match):
         read_capture(tmp_path)
 
 
+CAM = '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n'
+
+
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        # unknown keys in every table, the allowed ones named
+        (
+            CAM + "[white]\nmethd = 'patch'\n",
+            r"\[white\] has unknown key\(s\) \['methd'\]; allowed keys are \['method'",
+        ),
+        (
+            CAM + "[holdout]\nimage = ['a/IMG_0.dng']\n",
+            r"\[holdout\] has unknown key\(s\) \['image'\]; allowed keys are \['images'\]",
+        ),
+        (
+            CAM + "[poses]\nholdout = ['a/IMG_0.dng']\n",
+            r"\[poses\] has unknown key\(s\) \['holdout'\]; allowed keys are \['colmap'",
+        ),
+        (CAM + "blacklevel = 3\n", r"unknown key\(s\) \['blacklevel'\]; allowed keys are \['folder'"),
+        ("colour = 1\n" + CAM, r"allowed keys are \['illuminant'"),
+        # types
+        ("observer = 2\n" + CAM, "observer = 2 must be a string"),
+        (CAM + "[holdout]\nimages = [5]\n", r"\[holdout\].images = \[5\] must be a list"),
+        (CAM + "[holdout]\nimages = 'a/IMG_0.dng'\n", "must be a list"),
+        ("white = 3\n" + CAM, "white = 3 must be a table"),
+        (CAM + "[white]\nreflectance = true\n", "reflectance = True must be a number"),
+        (CAM + "[white]\nimage = 'a/IMG_0.dng'\nbox = [0, 0, 4, 4]\n", "apply only to method"),
+        (
+            CAM + "[white]\nmethod = 'patch'\nimage = 'a/IMG_0.dng'\nbox = [0, 0, 4.5, 4]\n",
+            "integers",
+        ),
+        # exposures and levels
+        (CAM + "exposure = {'IMG_0.dng' = inf}\n", "finite positive number"),
+        (CAM + "exposure = {'IMG_0.dng' = true}\n", "finite positive number"),
+        (CAM + "exposure = {'IMG_0.dng' = 0}\n", "finite positive number"),
+        (CAM + "exposure = {'IMG_9.dng' = 1.0}\n", "not a file"),
+        (CAM + "black_level = 4095\nwhite_level = 4095\n", "must be below white_level"),
+        (CAM + "black_level = 500\nwhite_level = 300\n", "must be below white_level"),
+        (CAM + "white_level = nan\n", "finite number"),
+        (CAM + "black_level = -1\n", "finite number"),
+        (CAM + "white_level = 'high'\n", "finite number"),
+        # poses
+        (CAM + "[poses]\ncolmap = 'a'\ntransforms = 'a/IMG_0.dng'\n", "both"),
+        (CAM + "[poses]\ncolmap = 3\n", "must be a str"),
+    ],
+)
+def test_every_key_and_type_is_checked(tmp_path, body, match):
+    _simple(tmp_path, n=1)
+    _toml(tmp_path, body)
+    with pytest.raises(CaptureError, match=match) as e:
+        read_capture(tmp_path)
+    assert "\n" not in str(e.value)
+
+
+def test_colliding_stems_and_foreign_holdout_are_refused(tmp_path):
+    import shutil
+
+    _simple(tmp_path, n=1)
+    shutil.copy(tmp_path / "a" / "IMG_0.dng", tmp_path / "a" / "IMG_0.DNG.nef")  # other stem: fine
+    read_capture(tmp_path)
+    shutil.copy(tmp_path / "a" / "IMG_0.dng", tmp_path / "a" / "IMG_0.nef")
+    with pytest.raises(CaptureError, match=r"IMG_0.dng and IMG_0.nef"):
+        read_capture(tmp_path)
+    (tmp_path / "a" / "IMG_0.nef").unlink()
+    (tmp_path / "a" / "IMG_0.DNG.nef").unlink()
+    (tmp_path / "b").mkdir()
+    shutil.copy(tmp_path / "a" / "IMG_0.dng", tmp_path / "b" / "x.dng")
+    _toml(tmp_path, CAM + "[holdout]\nimages = ['b/x.dng']\n")
+    with pytest.raises(CaptureError, match="not a file of a camera folder"):
+        read_capture(tmp_path)
+
+
+def test_a_zero_exif_exposure_is_refused_naming_the_file(tmp_path):
+    (tmp_path / "a").mkdir()
+    rng = np.random.default_rng(0)
+    _bayer(tmp_path / "a" / "IMG_0.dng", rng.integers(300, 4000, (32, 40)), t=0.0)
+    _bayer(tmp_path / "a" / "IMG_1.dng", rng.integers(300, 4000, (32, 40)))
+    _toml(tmp_path, CAM)
+    with pytest.raises(CaptureError, match=r"no EXIF exposure .* in \['a/IMG_0.dng'\]"):
+        load_views(read_capture(tmp_path))
+
+
+def test_output_stems_stay_inside_whatever_the_folder(tmp_path):
+    outside = tmp_path / "elsewhere" / "canon"
+    outside.mkdir(parents=True)
+    cap = tmp_path / "cap"
+    cap.mkdir()
+    _simple(cap, n=1)
+    rng = np.random.default_rng(0)
+    _bayer(outside / "IMG_7.dng", rng.integers(300, 4000, (32, 40)))
+    _toml(
+        cap,
+        CAM + f'[[camera]]\nfolder = "{outside}"\nssf = "Nikon 5100 (NPL)"\n'
+        '[[camera]]\nfolder = "../elsewhere/canon"\nssf = "Nikon 5100 (NPL)"\n',
+    )
+    spec = read_capture(cap)
+    assert [spec.label(k) for k in range(3)] == ["a", "camera2-canon", "camera3-canon"]
+    names = [v.name for v in load_views(spec)]
+    stems = [spec.out_stem(n) for n in names]
+    assert stems == ["a/IMG_0", "camera2-canon/IMG_7", "camera3-canon/IMG_7"]
+    assert all(not s.startswith("/") and ".." not in s.split("/") for s in stems)
+
+
 def test_missing_capture_file_and_empty_folder(tmp_path):
     with pytest.raises(CaptureError, match="no capture file"):
         read_capture(tmp_path)

@@ -1,6 +1,6 @@
 """Do more cameras give better colour? A fair test of issue 9's claim, apart from reconstruction quality.
 
-The scene is the CI size of :mod:`splat.simcapture` with the *coarse* texture (one measured reflectance per
+The scene is the CI size of :mod:`splat.sim.capture` with the *coarse* texture (one measured reflectance per
 cell, cells several Bayer periods wide) and no sensor noise. For held-out views the simulator gives each
 camera's exact raw responses, pixel-aligned across cameras — what a perfect N-channel reconstruction
 would render — and the true XYZ. On the *flat* pixels (true colour constant over 5 × 5) the pipeline's own
@@ -27,8 +27,8 @@ def ideal(tmp_path_factory):
     from splat.capture import read_capture
     from splat.pipeline import fit_corrector
     from splat.scoring import _dE, flat_mask
-    from splat.simcapture import SimCaptureConfig, build_scene, write_synthetic_capture
-    from zonotope.image import correct_image
+    from splat.sim.capture import SimCaptureConfig, build_scene, write_synthetic_capture
+    from zonotope.correct.image import correct_image
 
     config = SimCaptureConfig.ci(texture="coarse", noise=False)
     root = tmp_path_factory.mktemp("ideal")

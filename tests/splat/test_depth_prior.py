@@ -76,7 +76,7 @@ def test_depth_targets_are_the_tracked_points_projected_into_each_view():
 
 @pytest.fixture(scope="module")
 def ci_capture(tmp_path_factory):
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     return write_synthetic_capture(tmp_path_factory.mktemp("depth") / "cap", SimCaptureConfig.ci())
 

@@ -34,7 +34,7 @@ def sim(tmp_path_factory):
     """A small simulated capture (3 cameras × 3 views, coarse texture) with noise, its noise-free twin
     (same seed: same scene, exposures and poses), their views and the white scale."""
     from splat.capture import load_views, read_capture, white_scale
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     cfg = SimCaptureConfig.ci(n_train=2, n_holdout=1, texture="coarse")
     root = tmp_path_factory.mktemp("fusion")
@@ -54,7 +54,7 @@ def sim(tmp_path_factory):
 def fine(tmp_path_factory):
     """The default (fine, pixel-scale) texture, 2 views per camera, with noise and its noise-free twin."""
     from splat.capture import load_views, read_capture
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     cfg = SimCaptureConfig.ci(n_train=2, n_holdout=0)
     root = tmp_path_factory.mktemp("fine")

@@ -23,7 +23,7 @@ from splat.fusion import sensor_noise
 @pytest.fixture(scope="module")
 def twins(tmp_path_factory):
     """The default (fine, pixel-scale) texture, 2 views per camera, with noise and its noise-free twin."""
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     cfg = SimCaptureConfig.ci(n_train=2, n_holdout=0)
     root = tmp_path_factory.mktemp("noise_profile")

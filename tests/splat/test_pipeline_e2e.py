@@ -1,6 +1,6 @@
 """End to end from files: simulated RAW capture (DNG) → `splat run` → outputs, scored against truth/.
 
-The capture is the CI size of :mod:`splat.simcapture` (3 cameras × (6 + 2 held-out) views, ~128 × 96); the
+The capture is the CI size of :mod:`splat.sim.capture` (3 cameras × (6 + 2 held-out) views, ~128 × 96); the
 training is short (the scores are checked against loose bounds that a broken stage would miss by far,
 not against the accuracy goals, which the benchmark measures).
 """
@@ -32,7 +32,7 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def ci_run(tmp_path_factory):
     from splat.cli import main
-    from splat.simcapture import SimCaptureConfig, write_synthetic_capture
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     root = tmp_path_factory.mktemp("e2e")
     cap = write_synthetic_capture(root / "capture", SimCaptureConfig.ci())
