@@ -190,7 +190,7 @@ class NoiseModel:
     def describe(self) -> str:
         """One line: σ at white per channel, and the source."""
         s = ", ".join(f"{x:.4g}" for x in self.sigma_white)
-        return f"σ at white [{s}] (shot + read) from {self.source}"
+        return f"σ at white [{s}] (shot + read; {self.source})"
 
 
 def noise_model(noise, k: int) -> NoiseModel | None:
