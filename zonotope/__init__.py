@@ -210,6 +210,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "fit_Projection",
             "fit_correction",
             "mmv_centroids",
+            "noise_from_profile",
             "noise_model",
             "noise_options",
             "root_polynomial_terms",

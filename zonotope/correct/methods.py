@@ -77,7 +77,7 @@ from .mmv import (
     mmv_centroids,
     select_regression,
 )
-from .noise import NoiseModel, NoiseModelError, estimate_noise, noise_model
+from .noise import NoiseModel, NoiseModelError, estimate_noise, noise_from_profile, noise_model
 from .problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
 from .regressions import (
     REGRESSIONS,
@@ -110,6 +110,7 @@ __all__ = [
     "fit_Projection",
     "fit_correction",
     "mmv_centroids",
+    "noise_from_profile",
     "noise_model",
     "noise_options",
     "root_polynomial_terms",

@@ -14,7 +14,7 @@ import numpy as np
 
 from .._errors import OptionError
 
-__all__ = ["NoiseModel", "NoiseModelError", "estimate_noise", "noise_model"]
+__all__ = ["NoiseModel", "NoiseModelError", "estimate_noise", "noise_from_profile", "noise_model"]
 
 #: σ at white above this (half the white level) is not noise a photograph could carry: a
 #: ``NoiseProfile`` or an estimate that implies it is reported and ignored.
@@ -191,6 +191,27 @@ class NoiseModel:
         """One line: σ at white per channel, and the source."""
         s = ", ".join(f"{x:.4g}" for x in self.sigma_white)
         return f"σ at white [{s}] (shot + read; {self.source})"
+
+
+def noise_from_profile(profile, *, white=1.0, k: int | None = None) -> tuple[NoiseModel | None, str]:
+    """A noise model from a file's DNG ``NoiseProfile`` pairs, or None and why it was not used.
+
+    The tolerant twin of :meth:`NoiseModel.from_noise_profile` for readers of files: a missing
+    profile (None), a malformed one or an implausible one is reported in the returned note and
+    ignored, so that the caller falls back to another source (e.g. ``correct_image(noise="auto")``).
+
+    Returns
+    -------
+    model : NoiseModel or None
+    note : str
+        "" when the profile was used, else the one-line reason it was not.
+    """
+    if profile is None:
+        return None, "no NoiseProfile in the file"
+    try:
+        return NoiseModel.from_noise_profile(profile, white=white, k=k), ""
+    except NoiseModelError as exc:
+        return None, f"NoiseProfile ignored: {exc}"
 
 
 def noise_model(noise, k: int) -> NoiseModel | None:

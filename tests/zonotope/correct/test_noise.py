@@ -193,3 +193,18 @@ def test_noise_options_take_a_noise_model():
     np.testing.assert_allclose(noise_options("Centroid", m)["delta"], DELTA_SIGMAS * m.sigma_white)
     assert noise_options("idt", m) == {}
     assert noise_options("Prior", NoiseModel(np.zeros(3), np.zeros(3))) == {}
+
+
+def test_a_file_profile_that_cannot_be_used_is_reported_and_ignored():
+    from zonotope.correct import noise_from_profile
+
+    model, note = noise_from_profile([[2e-4, 1e-6]] * 3, white=[0.5, 0.8, 0.6], k=3)
+    assert model is not None and note == "" and model.source == "DNG NoiseProfile"
+    for bad, why in (
+        (None, "no NoiseProfile"),
+        ([0.9, 0.1], "not a plausible"),
+        ([[1e-4, 0]] * 2, "pairs"),
+        ([-1e-4, 0.0], "≥ 0"),
+    ):
+        model, note = noise_from_profile(bad, k=3)
+        assert model is None and why in note and "\n" not in note
