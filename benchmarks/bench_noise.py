@@ -16,7 +16,7 @@ With ``--coverage`` the estimators that know their uncertainty (``Prior``) are a
 ``with_uncertainty``: the median 95 % credible radius and the share of test responses within it.
 
 Run: ``python benchmarks/bench_noise.py [--cameras 1 2 3] [--sigmas 0 0.002 0.005] [--size 150]
-[--atypical 100] [--methods ...] [--coverage] [--json out.json]``
+[--atypical 100] [--methods ...] [--noise-kind shot|constant] [--coverage] [--json out.json]``
 """
 
 from __future__ import annotations
@@ -67,7 +67,8 @@ def run_cell(n_cams: int, sigma: float, args) -> list[dict]:
     sets = natural_test_sets(w, data_dir=DATA if DATA.is_dir() else None, size=args.size)
     sets += atypical_test_sets(w, args.atypical)
     sets = source_split(sets, problem.training)[0]
-    model = NoiseModel.shot_limited(sigma, problem.k) if sigma > 0 else None
+    kind = NoiseModel.shot_limited if args.noise_kind == "shot" else NoiseModel.constant
+    model = kind(sigma, problem.k) if sigma > 0 else None
     sigma_rms = model.effective_sigma(problem.source_of(problem.training)) if model else 0.0
     rng = np.random.default_rng(12345 + n_cams)
     data = {}
@@ -131,6 +132,12 @@ def main() -> None:
     ap.add_argument("--atypical", type=int, default=100)
     ap.add_argument("--methods", nargs="*", default=None)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument(
+        "--noise-kind",
+        choices=["shot", "constant"],
+        default="shot",
+        help="shot: variance σ² · c (default); constant: σ at every level",
+    )
     ap.add_argument(
         "--coverage", action="store_true", help="Prior: with_uncertainty radii and their coverage"
     )
