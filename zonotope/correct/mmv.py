@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import os
 import threading
 from dataclasses import dataclass
 
@@ -454,6 +455,10 @@ def learn_mix(
 #: isotropic 3-D Gaussian, used for the CIELAB spread of response noise.
 _CHI2_3_95 = 7.814727903251178
 
+#: Central-difference step of the regression Jacobian in :func:`_noise_radius` (response units): small
+#: against the noise it carries (σ ≥ 1e-3) and far above float64 rounding of responses ≤ 1.
+_JACOBIAN_STEP = 1e-4
+
 
 def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, responses) -> np.ndarray:
     """95 % ΔE00 reach of the response noise carried through ``regression`` at ``responses (N, k)``.
@@ -467,7 +472,7 @@ def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, res
     c = np.atleast_2d(np.asarray(responses, dtype=np.float64))
     var = noise.check_channels(problem.k).variance(c)
     t = regression(c)
-    h = 1e-4
+    h = _JACOBIAN_STEP
     S = np.zeros((c.shape[0], problem.m, problem.m))
     for j in range(problem.k):
         e = np.zeros(problem.k)
@@ -513,6 +518,7 @@ class PriorConfig:
     mix: float | tuple[float, float] | str = "cv"
     augment: int = 300
     executor: object = None
+    cache_dir: str | os.PathLike | None = None
 
     def __post_init__(self):
         name = "PriorConfig"
@@ -664,6 +670,10 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     executor
         Where the MMV chunks run (:func:`zonotope.parallel.executor`, or a
         ``concurrent.futures`` pool); None: this process. Results are identical either way.
+    cache_dir
+        Folder of an on-disk cache of the cross-validated atypical weights (the costly part of the
+        fit), keyed by the generators, training set, options, noise and version
+        (:mod:`zonotope.correct.fitcache`): a second fit of the same problem skips it. None: no cache.
 
     Returns
     -------
@@ -768,7 +778,16 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
 
     log_vol = log_volume(problem.Phi)
     if cfg.mix == "cv":
-        lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
+        from .fitcache import load_mix, prior_fit_key, save_mix
+
+        key = prior_fit_key(problem, cfg) if cfg.cache_dir is not None else None
+        cached = load_mix(cfg.cache_dir, key) if key is not None else None
+        if cached is None:
+            lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
+            if key is not None:
+                save_mix(cfg.cache_dir, key, lam, mix_cv)
+        else:
+            lam, mix_cv = cached
         radius_scale = mix_cv["radius_scale"]
     else:
         pair = cfg.mix if isinstance(cfg.mix, tuple) else (cfg.mix, cfg.mix)
