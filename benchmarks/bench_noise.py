@@ -16,7 +16,8 @@ With ``--coverage`` the estimators that know their uncertainty (``Prior``) are a
 ``with_uncertainty``: the median 95 % credible radius and the share of test responses within it.
 
 Run: ``python benchmarks/bench_noise.py [--cameras 1 2 3] [--sigmas 0 0.002 0.005] [--size 150]
-[--atypical 100] [--methods ...] [--noise-kind shot|constant] [--coverage] [--json out.json]``
+[--atypical 100] [--methods ...] [--noise-kind shot|constant] [--coverage] [--json out.json]``;
+``--prior-cache`` times a cold and a cached ``"Prior"`` fit instead.
 """
 
 from __future__ import annotations
@@ -124,6 +125,27 @@ def run_cell(n_cams: int, sigma: float, args) -> list[dict]:
     return rows
 
 
+def prior_cache(args) -> None:
+    """Cold and cached ``"Prior"`` fit times (``cache_dir``), per camera count and noise level."""
+    import tempfile
+
+    for n in args.cameras:
+        cams = CAMERAS[n]
+        shape = colour.SpectralShape(400, 680 if any("Sigma" in c for c in cams) else 700, 10)
+        problem = correction_problem(cams, shape=shape)
+        for sigma in args.sigmas:
+            opts = {"noise": NoiseModel.shot_limited(sigma, problem.k)} if sigma > 0 else {}
+            with tempfile.TemporaryDirectory() as tmp:
+                times = []
+                for _ in range(2):
+                    t0 = time.perf_counter()
+                    fit_correction(problem, method="Prior", cache_dir=tmp, **opts)
+                    times.append(time.perf_counter() - t0)
+            print(
+                f"{n} cam σ={sigma:g}: Prior fit cold {times[0]:.2f} s, cached {times[1]:.2f} s", flush=True
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cameras", nargs="+", type=int, default=[1, 2, 3], choices=[1, 2, 3])
@@ -141,7 +163,11 @@ def main() -> None:
     ap.add_argument(
         "--coverage", action="store_true", help="Prior: with_uncertainty radii and their coverage"
     )
+    ap.add_argument("--prior-cache", action="store_true", help="only time cold vs cached Prior fits")
     args = ap.parse_args()
+    if args.prior_cache:
+        prior_cache(args)
+        return
     rows = []
     for n in args.cameras:
         for s in args.sigmas:
