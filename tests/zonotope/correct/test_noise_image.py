@@ -124,3 +124,12 @@ def test_working_memory_does_not_grow_with_the_number_of_responses(problem2, met
 
     small, large = extra(512), extra(4096)
     assert large < 1.5 * small + 2**20, (small, large)
+
+
+def test_the_photo_default_is_the_regression_fitted_for_the_estimated_noise(problem2):
+    img, _ = _patch_image(problem2)
+    noisy = NoiseModel.shot_limited(0.005, problem2.k).sample(img, np.random.default_rng(4))
+    out, info = correct_image(noisy, problem2, return_info=True)
+    assert info["method"] == "Finlayson 2015" and info["noise_source"] == "estimated from image"
+    want = fit_correction(problem2, method="Finlayson 2015", noise=info["noise"])(noisy)
+    np.testing.assert_array_equal(out, want)
