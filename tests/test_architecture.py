@@ -313,6 +313,8 @@ def test_isp_reexports_every_public_name(module):
 MANY_PARAMETERS_ALLOWED = {
     "splat.training.train": "already takes splat.TrainConfig; the other 9 are its inputs (capture, "
     "images, weights, bounds, points, colours) and runtime objects (resume, callback, reference_views)",
+    "zonotope.correct.image.correct_image": "the one-call photo path: the image, the cameras and the fit's "
+    "method and noise, the grouping knobs (quantum, base, batch_size, cache_dir), progress and return_info",
 }
 
 

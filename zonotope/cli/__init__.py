@@ -358,7 +358,7 @@ def _check_numbers(args: argparse.Namespace) -> None:
         if value is not None and value < low:
             raise bad(option, value, f"must be ≥ {low}")
     noise = getattr(args, "noise", None)
-    if noise is not None and not (math.isfinite(noise) and noise >= 0):
+    if isinstance(noise, float) and not (math.isfinite(noise) and noise >= 0):
         raise bad("--noise", noise, "the response noise σ must be finite and ≥ 0")
 
 

@@ -52,11 +52,12 @@ def add_commands(sub) -> None:
     )
     p.add_argument(
         "--noise",
-        type=float,
-        default=0.0,
-        help="σ of the images' responses (white = 1), e.g. 0.005; the estimator's noise model "
-        f"(Centroid: δ = {DELTA_SIGMAS:g}σ). Give it for real photos: without it noisy responses outside the "
-        "solid are taken as exact (default 0)",
+        type=_noise_argument,
+        default="auto",
+        help="noise of the images' responses (white = 1), which the estimator is fitted for "
+        f"(Centroid: δ = {DELTA_SIGMAS:g}σ): 'auto' (default: estimated from the flat regions of the first "
+        "image), a σ such as 0.005 (0: noise-free), or shot and read variances per unit response as "
+        "SHOT:READ (the DNG NoiseProfile's S:O at white = 1)",
     )
     _scheduler_option(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
@@ -191,6 +192,52 @@ def correct_file(src: str, tmp_out: str, options) -> None:
     tifffile.imwrite(tmp_out, xyz.astype(np.float32), photometric="minisblack", planarconfig="contig")
 
 
+def _noise_argument(text: str):
+    """``--noise``: ``"auto"``, a σ (float), or ``"SHOT:READ"`` → ``{"shot": .., "read": ..}``."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    if ":" in text:
+        shot, _, read = text.partition(":")
+        try:
+            return {"shot": float(shot), "read": float(read)}
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: give SHOT:READ as two numbers, e.g. 2e-5:1e-7"
+            ) from None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give 'auto', a σ such as 0.005, or SHOT:READ") from None
+
+
+def _resolve_cli_noise(noise, files, k: int):
+    """The noise (a NoiseModel, a σ, or None) for ``--noise``: ``"auto"`` estimates it from the first
+    image."""
+    from ..correct.image import _resolve_noise
+    from ..correct.noise import noise_model
+
+    if isinstance(noise, str):  # "auto"
+        import tifffile
+
+        try:
+            img = np.asarray(tifffile.imread(files[0]))
+        except (OSError, ValueError, tifffile.TiffFileError):
+            return None, "none", f"noise not estimated: {files[0]} is not a readable TIFF"
+        if img.ndim != 3 or img.shape[-1] != k:
+            return None, "none", f"noise not estimated: {files[0]} has shape {img.shape}"
+        return _resolve_noise("auto", img, k)
+    if isinstance(noise, float):  # a σ is passed as given, as fit_correction(..., noise=σ) takes it
+        return (noise if noise > 0 else None), ("none" if noise == 0 else "--noise"), ""
+    model = noise_model(noise, k)
+    return model, ("none" if model is None else "--noise"), ""
+
+
+def _describe(noise) -> str:
+    if noise is None:
+        return "none"
+    return f"σ = {noise:g} (--noise)" if isinstance(noise, float) else noise.describe()
+
+
 def _correct(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -216,6 +263,14 @@ def _correct(args: argparse.Namespace) -> int:
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
     # a bad --scheduler is refused before the fit; a cluster only for FILE_MIN_TASKS files or more
     where = resolve_scheduler(args.scheduler, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
+    from ..correct import correction_problem
+
+    problem = correction_problem(
+        args.camera, target=args.target, illuminant=args.illuminant, training=args.training
+    )
+    model, _, note = _resolve_cli_noise(args.noise, files, problem.k)
+    if not args.quiet:
+        console.print(f"noise: {_describe(model)}" + (f" ({note})" if note else ""), soft_wrap=True)
     settings = {  # what the outputs depend on: a rerun into this folder must ask for the same
         "cameras": list(args.camera),
         "method": CORRECTION_METHODS.resolve(args.method, argument="--method"),
@@ -223,21 +278,14 @@ def _correct(args: argparse.Namespace) -> int:
         "training": args.training,
         "target": args.target,
         "quantum": args.quantum,
-        "noise": args.noise,
+        "noise": model if isinstance(model, float) else repr(model.key()) if model is not None else 0.0,
     }
     check_settings(out_dir / "manifest.csv", settings)
     corrector = None  # a rerun with every output present (all 'done') needs no fit
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
             console.print(f"fitting {args.method} for {' + '.join(args.camera)}…")
-        corrector = fit_correction(
-            args.camera,
-            method=args.method,
-            target=args.target,
-            illuminant=args.illuminant,
-            training=args.training,
-            **noise_options(args.method, args.noise),
-        )
+        corrector = fit_correction(problem, method=args.method, **noise_options(args.method, model))
     out_dir.mkdir(parents=True, exist_ok=True)
     bar, callback = _bar(console, args.quiet, f"correcting ({where})")
     with bar:

@@ -77,18 +77,30 @@ from .mmv import (
     mmv_centroids,
     select_regression,
 )
+from .noise import NoiseModel, NoiseModelError, estimate_noise, noise_from_profile, noise_model
 from .problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
-from .regressions import REGRESSIONS, fit_Cheung2004, fit_Dyer2017, fit_Finlayson2015, root_polynomial_terms
+from .regressions import (
+    REGRESSIONS,
+    expected_normal_equations,
+    fit_Cheung2004,
+    fit_Dyer2017,
+    fit_Finlayson2015,
+    root_polynomial_terms,
+)
 
 __all__ = [
     "CORRECTION_METHODS",
     "DELTA_SIGMAS",
     "CorrectionProblem",
     "Corrector",
+    "NoiseModel",
+    "NoiseModelError",
     "PriorConfig",
     "check_reflectances",
     "correct",
     "correction_problem",
+    "estimate_noise",
+    "expected_normal_equations",
     "fit_Centroid",
     "fit_Cheung2004",
     "fit_Dyer2017",
@@ -98,6 +110,8 @@ __all__ = [
     "fit_Projection",
     "fit_correction",
     "mmv_centroids",
+    "noise_from_profile",
+    "noise_model",
     "noise_options",
     "root_polynomial_terms",
     "select_regression",
@@ -161,9 +175,10 @@ def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None)
     ----------
     method : str
         Key or alias of ``registry``.
-    sigma : float or array_like of shape (k,)
-        Noise level (standard deviation) of the responses, one value or one per channel; ``None``
-        or 0 means noise-free.
+    sigma : float, array_like of shape (k,) or NoiseModel
+        Noise level (standard deviation) of the responses, one value or one per channel, or a
+        :class:`NoiseModel` (shot + read per channel: passed whole to ``"noise"`` estimators, its σ at
+        white per channel for a ``"delta"`` tolerance); ``None``, 0 or a zero model means noise-free.
     registry : MethodRegistry, optional
         Default :data:`CORRECTION_METHODS`.
 
@@ -183,6 +198,12 @@ def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None)
     """
     registry = CORRECTION_METHODS if registry is None else registry
     option = registry.properties(method).get("noise_option")
+    if isinstance(sigma, NoiseModel):
+        if sigma.is_zero or option is None:
+            return {}
+        if option == "noise":
+            return {"noise": sigma}
+        sigma = sigma.sigma_white  # the tolerance must hold for every response level: σ at white
     if sigma is None or option is None or not np.any(np.asarray(sigma, dtype=np.float64) > 0):
         return {}
     if option == "noise":

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import os
 import threading
 from dataclasses import dataclass
 
@@ -14,6 +15,7 @@ import numpy as np
 from .._errors import OptionError, SpectralDataError
 from .._tol import CENTROID_MIN_WEIGHT, DELTA_SIGMAS, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
 from ..utilities.config import check_count, check_nonnegative, with_options
+from .noise import NoiseModel, noisy, scalar_sigma
 from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
 from .problem import CorrectionProblem, Corrector
 from .regressions import REGRESSIONS, fit_Cheung2004, fit_Finlayson2015
@@ -172,7 +174,9 @@ def fit_Centroid(
     )
 
 
-def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float = 0.0) -> Corrector:
+def fit_Projection(
+    problem: CorrectionProblem, *, degree: int = 2, noise: float | NoiseModel = 0.0
+) -> Corrector:
     """Root-polynomial estimate projected onto the MMV in linearised CIELAB when outside.
 
     See :func:`project_to_mmv`. Inside estimates are returned unchanged, so on natural colours this
@@ -180,14 +184,17 @@ def fit_Projection(problem: CorrectionProblem, *, degree: int = 2, noise: float 
     """
     reg = fit_Finlayson2015(problem, degree=degree, noise=noise)
     prior = ReflectancePrior.fit(problem.training)
+    sigma = scalar_sigma(noise, problem.source_of(problem.training))
 
     def predict(c):
-        return project_to_mmv(problem, c, reg(c), prior=prior, noise=noise)[0]
+        return project_to_mmv(problem, c, reg(c), prior=prior, noise=sigma)[0]
 
     return Corrector("Projection", problem, predict, {"regression": reg})
 
 
-def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float = 0.0) -> Corrector:
+def fit_MAP(
+    problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float | NoiseModel = 0.0
+) -> Corrector:
     """Ψᵀ of the most probable natural reflectance in the fiber (:func:`map_reflectance`).
 
     A Gaussian prior learnt from the training set, restricted to physically possible reflectances
@@ -195,9 +202,10 @@ def fit_MAP(problem: CorrectionProblem, *, shrinkage: float = 0.01, noise: float
     but close to a linear (Wiener) estimate on natural ones, hence behind root-polynomials there.
     """
     prior = ReflectancePrior.fit(problem.training, shrinkage=shrinkage)
+    sigma = scalar_sigma(noise, problem.source_of(problem.training))
 
     def predict(c):
-        return map_reflectance(problem, c, prior, noise=noise) @ problem.Psi
+        return map_reflectance(problem, c, prior, noise=sigma) @ problem.Psi
 
     return Corrector("MAP", problem, predict, {"prior": prior})
 
@@ -218,14 +226,18 @@ def select_regression(
     regression : Corrector
     cv : dict
         ``"scores"``: mean held-out ΔE00 per candidate; ``"errors"``: the winner's held-out ΔE00 per
-        training sample; ``"errors_ab"``: the same in ΔE*ab.
+        training sample; ``"errors_ab"``: the same in ΔE*ab; ``"order"``: the training sample of each
+        error (indices into ``problem.training``).
     """
     R = problem.training
     folds = int(max(2, min(folds, R.shape[0])))
     perm = np.random.default_rng(seed).permutation(R.shape[0])
     parts = np.array_split(perm, folds)
     rng = np.random.default_rng(seed + 1)
-    draws = [rng.normal(0.0, noise, (f.size, problem.k)) if noise > 0 else 0.0 for f in parts]
+    if isinstance(noise, NoiseModel):  # held-out responses with the model's noise at their level
+        draws = [noisy(problem.source_of(R[f]), noise, rng) - problem.source_of(R[f]) for f in parts]
+    else:
+        draws = [rng.normal(0.0, noise, (f.size, problem.k)) if noise > 0 else 0.0 for f in parts]
     candidates = {
         "Cheung 2004": lambda pb: fit_Cheung2004(pb, noise=noise),
         "Finlayson 2015": lambda pb: fit_Finlayson2015(pb, degree=degree, noise=noise),
@@ -250,7 +262,13 @@ def select_regression(
             "use a larger one (e.g. 'rawtoaces 190')."
         )
     best = min(scores, key=scores.get)
-    return candidates[best](problem), {"scores": scores, "errors": errors[best], "errors_ab": errors_ab[best]}
+    cv = {
+        "scores": scores,
+        "errors": errors[best],
+        "errors_ab": errors_ab[best],
+        "order": np.concatenate(parts),
+    }
+    return candidates[best](problem), cv
 
 
 def _ab_to_00(problem: CorrectionProblem, target: np.ndarray, radius_ab: np.ndarray) -> np.ndarray:
@@ -357,7 +375,8 @@ def learn_mix(
     from ..spectra.atypical import sharpened_reflectances
 
     cfg = PriorConfig() if config is None else config
-    degree, shrinkage, noise, odds, eps = cfg.degree, cfg.shrinkage, cfg.noise, cfg.odds, cfg.eps
+    degree, shrinkage, noise_model, odds, eps = cfg.degree, cfg.shrinkage, cfg.noise, cfg.odds, cfg.eps
+    noise = scalar_sigma(noise_model, problem.source_of(problem.training))
     augment, executor = cfg.augment, cfg.executor
     R = problem.training
     folds = int(max(2, min(cfg.folds, R.shape[0])))
@@ -372,10 +391,8 @@ def learn_mix(
             continue
         sub = dataclasses.replace(problem, training=R[np.setdiff1d(perm, f)])
         prior = ReflectancePrior.fit(sub.training, shrinkage=shrinkage)
-        reg = _fit_regression(sub, regression, degree=degree, noise=noise)
-        C = problem.source_of(X)
-        if noise > 0:
-            C = C + rng.normal(0.0, noise, C.shape)
+        reg = _fit_regression(sub, regression, degree=degree, noise=noise_model)
+        C = noisy(problem.source_of(X), noise_model, rng)
         x, b_fold = _fit_map(sub, prior, C, noise=noise)
         in_all.append(b_fold)
         C_all.append(C)
@@ -434,6 +451,42 @@ def learn_mix(
     return lam, cv
 
 
+#: 95 % quantile of χ² with 3 degrees of freedom: the radius² (in σ² units) of the 95 % ball of an
+#: isotropic 3-D Gaussian, used for the CIELAB spread of response noise.
+_CHI2_3_95 = 7.814727903251178
+
+#: Central-difference step of the regression Jacobian in :func:`_noise_radius` (response units): small
+#: against the noise it carries (σ ≥ 1e-3) and far above float64 rounding of responses ≤ 1.
+_JACOBIAN_STEP = 1e-4
+
+
+def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, responses) -> np.ndarray:
+    """95 % ΔE00 reach of the response noise carried through ``regression`` at ``responses (N, k)``.
+
+    The noise covariance ``diag(noise.variance(c))`` is mapped to a target-space covariance ``S`` by
+    the regression's Jacobian (central differences); with ``S = Σ λᵢ vᵢvᵢᵀ`` the mean squared ΔE00 of
+    the noise is ``Σ ΔE00(t, t + √λᵢ vᵢ)²`` (exact where ΔE00 is locally quadratic), and the radius that
+    of the 95 % ball of a 3-D Gaussian with that mean square, ``sqrt(mean² · χ²₃(0.95) / 3)``.
+    Returns ``(N,)``.
+    """
+    c = np.atleast_2d(np.asarray(responses, dtype=np.float64))
+    var = noise.check_channels(problem.k).variance(c)
+    t = regression(c)
+    h = _JACOBIAN_STEP
+    S = np.zeros((c.shape[0], problem.m, problem.m))
+    for j in range(problem.k):
+        e = np.zeros(problem.k)
+        e[j] = h
+        d = (regression(c + e) - regression(np.maximum(c - e, 0.0))) / (h + np.minimum(c[:, j], h))[:, None]
+        S += var[:, j, None, None] * d[:, :, None] * d[:, None, :]
+    lam, vec = np.linalg.eigh(S)  # (N, m), (N, m, m): columns are eigenvectors
+    mean_sq = np.zeros(c.shape[0])
+    for i in range(problem.m):
+        step = np.sqrt(np.maximum(lam[:, i], 0.0))[:, None] * vec[:, :, i]
+        mean_sq += problem.delta_E(t + step, t) ** 2
+    return np.sqrt(mean_sq * _CHI2_3_95 / 3.0)
+
+
 def _mmv_radius(problem: CorrectionProblem, t_cen, t_arb, vol) -> np.ndarray:
     """ΔE00 reach from ``t_arb`` of the CIELAB ball with the MMV's volume (linearised at ``t_cen``),
     shrunk to the radius that holds 95 % of a uniform ball (0.983)."""
@@ -458,20 +511,22 @@ class PriorConfig:
     degree: int = 2
     shrinkage: float = 0.01
     odds: float = 100.0
-    noise: float = 0.0
+    noise: float | NoiseModel = 0.0
     eps: float = 1e-3
     regression: str = "cv"
     folds: int = 10
     mix: float | tuple[float, float] | str = "cv"
     augment: int = 300
     executor: object = None
+    cache_dir: str | os.PathLike | None = None
 
     def __post_init__(self):
         name = "PriorConfig"
         check_count(name, "degree", self.degree, minimum=1)
         check_count(name, "folds", self.folds, minimum=2)
         check_count(name, "augment", self.augment, minimum=1)
-        object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
+        if not isinstance(self.noise, NoiseModel):  # a σ, or a shot + read model per channel
+            object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
         object.__setattr__(self, "eps", check_nonnegative(name, "eps", self.eps))
         shrinkage = check_nonnegative(name, "shrinkage", self.shrinkage)
         if shrinkage > 1:
@@ -569,7 +624,11 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     smallest that covers 95 % of the held-out contrast-stretched spectra reaching the atypical
     branch; measured 2.04 Nikon 5100, 1.09 Canon EOS 5D Mark II, 1.21 Nikon + Sigma, 1.0 Nikon +
     Canon and all three, where it would have been < 1). Where ``w ≥ 0.99`` the MMV is not computed
-    and ``r = √w · r_nat``. The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
+    and ``r = √w · r_nat``. With noise (a σ or a :class:`~zonotope.correct.NoiseModel`) the natural
+    radius is per response, ``r_nat(c)² = r₀² + r_noise(c)²``: ``r_noise`` the 95 % ΔE00 reach of the
+    response noise carried through the regression at ``c`` (:func:`_noise_radius`; dark colours get
+    more), ``r₀`` the smallest value covering 95 % of the cross-validation errors (held out with
+    noise). The 95 % is a claim *under the model*: ``r_nat`` is calibrated on natural
     held-out spectra and ``r_MMV`` is a ball of the MMV's size, not a bound (the MMV itself is the
     100 % region, noise-free). Measured coverage (``benchmarks/bench_estimators.py``): 86–100 % on
     natural sets except SFU Krinov (51–86 %, its errors exceed the training CV's); on atypical sets
@@ -592,8 +651,10 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
         surface is far more often natural than not), not fitted to any test set. The README gives
         the evaluation at odds 1, 10 and 100.
     noise
-        Response noise σ (white = 1); enters the evidence, relaxes the fiber constraint and gives
-        the MMV a tolerance δ = DELTA_SIGMAS · σ.
+        Response noise σ (white = 1), or a :class:`~zonotope.correct.NoiseModel` (shot + read per
+        channel): the regression candidates are fitted for it, and its root mean σ over the training
+        responses enters the evidence, relaxes the fiber constraint and gives the MMV a tolerance
+        δ = DELTA_SIGMAS · σ.
     eps
         Certification tolerance of the MMV centroids (see :func:`fit_Centroid`).
     regression
@@ -609,6 +670,10 @@ def fit_Prior(problem: CorrectionProblem, config: PriorConfig | None = None, **o
     executor
         Where the MMV chunks run (:func:`zonotope.parallel.executor`, or a
         ``concurrent.futures`` pool); None: this process. Results are identical either way.
+    cache_dir
+        Folder of an on-disk cache of the cross-validated atypical weights (the costly part of the
+        fit), keyed by the generators, training set, options, noise and version
+        (:mod:`zonotope.correct.fitcache`): a second fit of the same problem skips it. None: no cache.
 
     Returns
     -------
@@ -679,20 +744,50 @@ def _one_blas_thread():
 
 def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> Corrector:
     """:func:`fit_Prior` with checked options ``cfg`` and the log-volume function ``log_volume``."""
-    degree, shrinkage, odds, noise, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
+    degree, shrinkage, odds, noise_model, eps = cfg.degree, cfg.shrinkage, cfg.odds, cfg.noise, cfg.eps
     executor = cfg.executor
-    reg, cv = select_regression(problem, degree=degree, noise=noise, folds=cfg.folds)
+    if isinstance(noise_model, NoiseModel):
+        noise_model = noise_model.check_channels(problem.k)
+    # the regressions take the noise model; the gate, fiber and MMV tolerance one σ over the training set
+    noise = scalar_sigma(noise_model, problem.source_of(problem.training))
+    reg, cv = select_regression(problem, degree=degree, noise=noise_model, folds=cfg.folds)
     if cfg.regression != "cv":
         name = REGRESSIONS.resolve(cfg.regression) if cfg.regression in REGRESSIONS else None
         if name not in ("Cheung 2004", "Finlayson 2015"):
             raise SpectralDataError(
                 f"regression={cfg.regression!r}: choose 'cv', 'Cheung 2004' or 'Finlayson 2015'."
             )
-        reg = _fit_regression(problem, name, degree=degree, noise=noise)
+        reg = _fit_regression(problem, name, degree=degree, noise=noise_model)
     r_nat = float(np.percentile(cv["errors"], 95))
+    radius_model = noise_model if isinstance(noise_model, NoiseModel) else None
+    if radius_model is None and noise > 0:
+        radius_model = NoiseModel.constant(noise, problem.k)
+    if radius_model is not None:
+        # natural radius per response: r0² + r_noise(c)², r0 the smallest that covers 95 % of the
+        # cross-validation errors given each one's own noise reach
+        r_cv = _noise_radius(problem, reg, radius_model, problem.source_of(problem.training[cv["order"]]))
+        r0 = float(np.sqrt(np.percentile(np.maximum(cv["errors"] ** 2 - r_cv**2, 0.0), 95)))
+    else:
+        r0 = r_nat
+
+    def r_nat_of(c):
+        """The natural branch's 95 % radius at responses ``c (N, k)``."""
+        if radius_model is None:
+            return np.full(c.shape[0], r_nat)
+        return np.sqrt(r0**2 + _noise_radius(problem, reg, radius_model, c) ** 2)
+
     log_vol = log_volume(problem.Phi)
     if cfg.mix == "cv":
-        lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
+        from .fitcache import load_mix, prior_fit_key, save_mix
+
+        key = prior_fit_key(problem, cfg) if cfg.cache_dir is not None else None
+        cached = load_mix(cfg.cache_dir, key) if key is not None else None
+        if cached is None:
+            lam, mix_cv = learn_mix(problem, reg.method, cfg, r_nat=r_nat, log_volume=log_vol)
+            if key is not None:
+                save_mix(cfg.cache_dir, key, lam, mix_cv)
+        else:
+            lam, mix_cv = cached
         radius_scale = mix_cv["radius_scale"]
     else:
         pair = cfg.mix if isinstance(cfg.mix, tuple) else (cfg.mix, cfg.mix)
@@ -745,7 +840,8 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
         if nat.any():
             out[nat] = project_to_mmv(problem, c[nat], out[nat], prior=prior, noise=noise)[0]
         t_nat = out.copy()
-        r2 = w * r_nat**2
+        r_nat_c = r_nat_of(c) if with_radius else None
+        r2 = w * r_nat_c**2 if with_radius else None
         arb = w < GATE_SURE  # an atypical weight under 1 % moves the estimate by < 1 % of the gap
         if arb.any():
             t_arb = x[arb] @ problem.Psi
@@ -764,7 +860,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
                 r_arb = radius_scale * _mmv_radius(problem, t_cen, t_arb, vol)
                 gap = problem.delta_E(t_nat[arb], t_arb)
                 wa1 = wa[:, 0]
-                r2[arb] = wa1 * r_nat**2 + (1 - wa1) * r_arb**2 + wa1 * (1 - wa1) * gap**2
+                r2[arb] = wa1 * r_nat_c[arb] ** 2 + (1 - wa1) * r_arb**2 + wa1 * (1 - wa1) * gap**2
         if not with_radius:
             return out
         return out, np.sqrt(r2)
@@ -789,6 +885,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             "mix_cv": mix_cv,
             "log_volume": log_vol,
             "r_nat": r_nat,
+            "r_nat_of": r_nat_of,
             "radius_scale": radius_scale,
             "weights": weights,
             "needs_solver": needs_solver,
@@ -796,6 +893,7 @@ def _fit_Prior(problem: CorrectionProblem, cfg: PriorConfig, *, log_volume) -> C
             "centroid_rows": centroid_rows,
             "odds": odds,
             "noise": noise,
+            "noise_model": noise_model,
             "config": cfg,
         },
         predict_with_radius=lambda c: run(c, True),

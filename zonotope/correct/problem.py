@@ -225,6 +225,10 @@ class Corrector:
     predict_with_radius: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = field(
         default=None, repr=False
     )
+    #: Responses per call of ``predict``: the working memory of a call is bounded by this many rows
+    #: whatever the number of responses (only the input and the output grow with it). float32
+    #: responses reach ``predict`` as float32 (regressions then compute in float32), others as float64.
+    batch_size: int = field(default=16_384, repr=False)
 
     def with_uncertainty(self, responses) -> tuple[np.ndarray, np.ndarray]:
         """Estimates and, per estimate, a 95 % credible radius in ΔE00 (a confidence map per pixel).
@@ -249,20 +253,36 @@ class Corrector:
                 f"the {self.method!r} estimator has no uncertainty model; fit method='Prior' for "
                 "estimates with credible radii."
             )
-        c = np.asarray(responses, dtype=np.float64)
+        c, flat = self._responses(responses)
+        out = np.full((flat.shape[0], self.problem.m), np.nan)
+        rad = np.full(flat.shape[0], np.nan)
+        for i, rows, ok in self._chunks(flat):
+            if ok.any():
+                j = np.arange(i, i + ok.size)[ok]
+                out[j], rad[j] = self.predict_with_radius(rows[ok])
+        return out.reshape(*c.shape[:-1], self.problem.m), rad.reshape(c.shape[:-1])
+
+    def _responses(self, responses) -> tuple[np.ndarray, np.ndarray]:
+        """The responses as an array and its ``(N, k)`` view (not yet converted to float64: chunks
+        are, one at a time), or the channel-count error."""
+        c = np.asarray(responses)
+        if not np.issubdtype(c.dtype, np.floating):
+            c = c.astype(np.float64)
         k = self.problem.k
         if c.shape[-1:] != (k,):
             raise SpectralDataError(
                 f"responses: last axis must have the {k} source channels "
                 f"({', '.join(self.problem.sources)}); got shape {c.shape}."
             )
-        flat = c.reshape(-1, k)
-        out = np.full((flat.shape[0], self.problem.m), np.nan)
-        rad = np.full(flat.shape[0], np.nan)
-        ok = np.all(np.isfinite(flat), axis=1)
-        if ok.any():
-            out[ok], rad[ok] = self.predict_with_radius(flat[ok])
-        return out.reshape(*c.shape[:-1], self.problem.m), rad.reshape(c.shape[:-1])
+        return c, c.reshape(-1, k)
+
+    def _chunks(self, flat: np.ndarray):
+        """``(start, rows (n, k) float64 or float32, finite (n,))`` per chunk of :attr:`batch_size` rows."""
+        step = max(int(self.batch_size), 1)
+        dtype = np.float32 if flat.dtype == np.float32 else np.float64
+        for i in range(0, flat.shape[0], step):
+            rows = np.asarray(flat[i : i + step], dtype=dtype)
+            yield i, rows, np.all(np.isfinite(rows), axis=1)
 
     def __call__(self, responses) -> np.ndarray:
         """Estimate target values.
@@ -275,16 +295,11 @@ class Corrector:
         -------
         ndarray of shape (..., m)
         """
-        c = np.asarray(responses, dtype=np.float64)
-        k = self.problem.k
-        if c.shape[-1:] != (k,):
-            raise SpectralDataError(
-                f"responses: last axis must have the {k} source channels "
-                f"({', '.join(self.problem.sources)}); got shape {c.shape}."
-            )
-        flat = c.reshape(-1, k)
+        c, flat = self._responses(responses)
         out = np.full((flat.shape[0], self.problem.m), np.nan)
-        ok = np.all(np.isfinite(flat), axis=1)
-        if ok.any():
-            out[ok] = self.predict(flat[ok])
+        for i, rows, ok in self._chunks(flat):
+            if ok.all():
+                out[i : i + ok.size] = self.predict(rows)
+            elif ok.any():
+                out[np.arange(i, i + ok.size)[ok]] = self.predict(rows[ok])
         return out.reshape(*c.shape[:-1], self.problem.m)

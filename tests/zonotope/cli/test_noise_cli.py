@@ -1,0 +1,66 @@
+"""``zonotope correct --noise``: estimated from the images by default, or given as σ or SHOT:READ."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from zonotope.cli import main
+from zonotope.correct import NoiseModel, estimate_noise, fit_correction
+
+
+def _write(tmp_path, seed=0):
+    import tifffile
+
+    rng = np.random.default_rng(seed)
+    img = np.repeat(np.repeat(rng.uniform(0.05, 0.7, (4, 4, 3)), 16, 0), 16, 1)
+    img = NoiseModel.shot_limited(0.01, 3).sample(img, rng).astype(np.float32)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    tifffile.imwrite(folder / "a.tif", img, photometric="rgb")
+    return folder, img
+
+
+def _argv(folder, out, *extra):
+    return [
+        "correct",
+        str(folder),
+        "-o",
+        str(out),
+        "--camera",
+        "Nikon 5100 (NPL)",
+        "--method",
+        "Finlayson 2015",
+    ]
+
+
+def test_default_noise_is_estimated_from_the_image_and_said(tmp_path, capsys):
+    import tifffile
+
+    folder, img = _write(tmp_path)
+    argv = [*_argv(folder, tmp_path / "out"), "--scheduler", "serial"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "noise: σ at white" in err and "estimated from image" in err
+    got = tifffile.imread(tmp_path / "out" / "a_XYZ.tif")
+    want = fit_correction("Nikon 5100 (NPL)", method="Finlayson 2015", noise=estimate_noise(img))(img)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
+
+
+def test_shot_read_noise_and_bad_values(tmp_path, capsys):
+    import tifffile
+
+    folder, img = _write(tmp_path)
+    argv = [*_argv(folder, tmp_path / "out"), "--scheduler", "serial", "--noise", "1e-4:1e-6"]
+    assert main(argv) == 0
+    assert "(shot + read; given)" in capsys.readouterr().err
+    model = NoiseModel(1e-4, 1e-6).check_channels(3)
+    want = fit_correction("Nikon 5100 (NPL)", method="Finlayson 2015", noise=model)(img)
+    np.testing.assert_allclose(tifffile.imread(tmp_path / "out" / "a_XYZ.tif"), want, rtol=1e-5, atol=1e-6)
+    for bad in ("loud", "1:x", "-1e-4:0"):
+        try:
+            code = main([*_argv(folder, tmp_path / "o2"), "--scheduler", "serial", f"--noise={bad}"])
+        except SystemExit as exc:  # argparse refuses what it cannot parse
+            code = exc.code
+        assert code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert "noise" in err[-1].lower()
