@@ -476,6 +476,11 @@ SCALED_SAME = 1e-14
 #: channel: 99.7 % for Gaussian noise), while the MMV grows only by that margin.
 DELTA_SIGMAS = 3.0
 
+#: Central-difference step of the regression Jacobian that carries response noise to ΔE00 (Prior's
+#: noise radius; response units): small against the noise it carries (σ ≥ 1e-3) and far above float64
+#: rounding of responses ≤ 1.
+NOISE_JACOBIAN_STEP = 1e-4
+
 __all__ += [
     "BVLS_CONDITION",
     "BVLS_FALLBACK",
@@ -489,6 +494,7 @@ __all__ += [
     "LABEL_INK",
     "LAB_STEP",
     "METRIC_JITTER",
+    "NOISE_JACOBIAN_STEP",
     "PROJECTION_TIE",
     "REPORT_MMV_EPS",
     "SCALED_SAME",

@@ -13,7 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import OptionError, SpectralDataError
-from .._tol import CENTROID_MIN_WEIGHT, DELTA_SIGMAS, GATE_NONE, GATE_SURE, SCALED_SAME, VOLUME_FLOOR
+from .._tol import (
+    CENTROID_MIN_WEIGHT,
+    DELTA_SIGMAS,
+    GATE_NONE,
+    GATE_SURE,
+    NOISE_JACOBIAN_STEP,
+    SCALED_SAME,
+    VOLUME_FLOOR,
+)
 from ..utilities.config import check_count, check_nonnegative, with_options
 from .noise import NoiseModel, noisy, scalar_sigma
 from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
@@ -455,10 +463,6 @@ def learn_mix(
 #: isotropic 3-D Gaussian, used for the CIELAB spread of response noise.
 _CHI2_3_95 = 7.814727903251178
 
-#: Central-difference step of the regression Jacobian in :func:`_noise_radius` (response units): small
-#: against the noise it carries (σ ≥ 1e-3) and far above float64 rounding of responses ≤ 1.
-_JACOBIAN_STEP = 1e-4
-
 
 def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, responses) -> np.ndarray:
     """95 % ΔE00 reach of the response noise carried through ``regression`` at ``responses (N, k)``.
@@ -472,7 +476,7 @@ def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, res
     c = np.atleast_2d(np.asarray(responses, dtype=np.float64))
     var = noise.check_channels(problem.k).variance(c)
     t = regression(c)
-    h = _JACOBIAN_STEP
+    h = NOISE_JACOBIAN_STEP
     S = np.zeros((c.shape[0], problem.m, problem.m))
     for j in range(problem.k):
         e = np.zeros(problem.k)
