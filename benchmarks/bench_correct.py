@@ -13,7 +13,8 @@ pixels that need a solver (the rest are exact closed forms) is printed.
 ``--fit-apply N``: fit + apply of each estimator on N natural responses (Munsell chips under random
 exposures), median of ``--repeats`` runs, against MAP (issue 14: within 10× of MAP).
 
-``--bvls N``: ``zonotope.prior.fiber_lsq`` (the batched exact solver of ``zonotope._bvls``) against
+``--bvls N``: ``zonotope.correct.prior.fiber_lsq`` (the batched exact solver of
+``zonotope.correct.bvls``) against
 its former per-row loop of ``scipy.optimize.lsq_linear(method="bvls")`` (the baseline, same process),
 on N rows of a noisy Prior MAP as the splat pipeline's correct step poses it: three cameras' 9
 channels, whitened by per-channel noise (σ_ref = ``--noise``, default 0.005), the shared prior
@@ -25,7 +26,7 @@ median of ``--repeats`` runs each, and the largest difference between the two an
 CIE 1931 2° target, rawtoaces 190 — checked equal to ``correction_problem_of`` of the simulated capture —
 whitened by N seeded per-channel noise patterns as ``splat.fusion.whitened`` does, ``noise = σ_ref``,
 ``mix = 1``),
-N patterns in a row from cold caches, against the reference twin ``zonotope._mmv_estimators.
+N patterns in a row from cold caches, against the reference twin ``zonotope.correct.mmv.
 _fit_Prior_reference`` (the implementation before: BLAS threads as configured, the log volume computed
 per whitened Φ), interleaved in one process, median of ``--repeats``; and the largest difference.
 
@@ -47,8 +48,8 @@ import numpy as np
 
 import zonotope.spectra as spectra
 from zonotope.correct import correction_problem, fit_correction
-from zonotope.image import correct_image
-from zonotope.prior import ReflectancePrior, fiber_lsq, interior_solution
+from zonotope.correct.image import correct_image
+from zonotope.correct.prior import ReflectancePrior, fiber_lsq, interior_solution
 
 try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
     from _timing import median_time
@@ -237,7 +238,7 @@ def fit_apply(n: int, repeats: int) -> None:
 
 def bvls(n_rows: int, noise: float, repeats: int) -> None:
     """fiber_lsq (batched) against the per-row scipy BVLS loop it replaced, on noisy Prior MAP rows."""
-    from zonotope._bvls import PDAS_STEPS, _scipy_bvls, box_lsq
+    from zonotope.correct.bvls import PDAS_STEPS, _scipy_bvls, box_lsq
 
     shape = np.arange(400.0, 681.0, 10.0)  # the Sigma's measured range, as the splat pipeline narrows it
     pool, pool_name = reflectance_pool(shape)
@@ -290,7 +291,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
 
     from threadpoolctl import threadpool_info
 
-    import zonotope._mmv_estimators as mmv
+    import zonotope.correct.mmv as mmv
 
     shape = np.arange(400.0, 681.0, 10.0)  # correction_problem_of of the simulated capture: its grid,
     cams = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]  # cameras, training
@@ -300,7 +301,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:  # the pipeline's problem of the simulated capture
         from splat.capture import read_capture
         from splat.pipeline import correction_problem_of
-        from splat.simcapture import write_synthetic_capture
+        from splat.sim.capture import write_synthetic_capture
 
         spec = read_capture(write_synthetic_capture(Path(tmp) / "capture"))
         piped = correction_problem_of(spec, [0, 1, 2])

@@ -2,12 +2,12 @@
 
 Run: ``python benchmarks/bench_macadam.py [--repeats 5]`` (prints a table; medians of repeats).
 
-- Exact: :func:`zonotope.macadam.is_object_colour` on the exact object-colour solid of the CIE
+- Exact: :func:`zonotope.geometry.macadam.is_object_colour` on the exact object-colour solid of the CIE
   1931 2° observer under illuminant C (360–780 nm, 1 nm); the solid is built once (its build
   time is a separate row, caches cleared) and the classification is timed on it.
 - Baseline: ``colour.is_within_macadam_limits(xyY, "C")`` (Delaunay of MacAdam's tabulated
   optimal colours, colour-science).
-- Witnesses: :func:`zonotope.macadam.invert` for the accepted colours (one reflectance each).
+- Witnesses: :func:`zonotope.geometry.macadam.invert` for the accepted colours (one reflectance each).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from colour.notation.datasets.munsell import MUNSELL_COLOURS_REAL
 
 from zonotope import Zonotope
-from zonotope.macadam import _solid_cached, invert, is_object_colour, object_colour_solid
+from zonotope.geometry.macadam import _solid_cached, invert, is_object_colour, object_colour_solid
 
 try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
     from _timing import median_time

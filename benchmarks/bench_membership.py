@@ -1,6 +1,6 @@
 """Benchmark: batched exact MMV membership vs one HiGHS feasibility LP per (c, y) pair, same process.
 
-Also times :func:`zonotope.membership.mmv_distance` (one compiled simplex per pair; the L1
+Also times :func:`zonotope.mismatch.membership.mmv_distance` (one compiled simplex per pair; the L1
 distance to the MMV, 0 inside). Nikon 5100 → Stockman & Sharpe LMS, D65, 400–700 nm at 10 nm
 (31 wavelengths, C(31, 5) facet directions of the joint 6-D solid). The LP baseline is timed on
 50 pairs and reported per pair.
@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 import zonotope
-from zonotope.membership import joint_halfspaces, mmv_contains, mmv_distance
+from zonotope.mismatch.membership import joint_halfspaces, mmv_contains, mmv_distance
 
 try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
     from _timing import median_time

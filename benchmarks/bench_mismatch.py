@@ -1,6 +1,6 @@
 """Benchmark: exact metamer mismatch volumes — vertex walk vs facet refinement (simplex, HiGHS).
 
-Baseline = facet refinement (zonotope._mmv_refine) with one ``scipy.optimize.linprog(method="highs")``
+Baseline = facet refinement (zonotope.mismatch.refine) with one ``scipy.optimize.linprog(method="highs")``
 call per support LP (``oracle="highs"``), run in the same process. Also timed: the same refinement
 with the warm-started simplex (``oracle="fast"``, the previous engine) and the output-sensitive
 vertex walk (``oracle="walk"``, the default): end to end (``metamer_mismatch`` → Polytope with its
@@ -32,13 +32,13 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 import zonotope
-from zonotope._mmv_walk import walk_mmv
 from zonotope.mismatch import (
     MetamerMismatch,
     channelwise_intersection,
     metamer_mismatch,
     metamer_mismatch_bounds,
 )
+from zonotope.mismatch.walk import walk_mmv
 
 NIKON, SIGMA, TARGET = "Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Stockman & Sharpe 2°"
 
@@ -119,8 +119,8 @@ def walk_baseline(rev, N, repeats):
     import sys
     import tempfile
 
-    import zonotope._mmv_walk as W
-    from zonotope._mmv_walk import walk_mmv_batch
+    import zonotope.mismatch.walk as W
+    from zonotope.mismatch.walk import walk_mmv_batch
 
     root = pathlib.Path(__file__).resolve().parents[1]
     cmd = ["git", "show", f"{rev}:zonotope/_mmv_walk_kernel.py"]

@@ -70,8 +70,8 @@ def main() -> None:
     )
     args = ap.parse_args()
 
+    from isp import default_pipeline
     from isp.batch import _develop_one
-    from isp.cli import _parser
     from zonotope.mismatch import MetamerMismatch, metamer_mismatch_batch
     from zonotope.parallel import FileTask, executor, run_files
     from zonotope.survey import load_cameras, survey
@@ -138,11 +138,8 @@ def main() -> None:
             tmp = Path(tmp)
             (tmp / "in").mkdir()
             files = _dngs(tmp / "in", n_img, 40)
-            values = {
-                k: v
-                for k, v in vars(_parser().parse_args(["develop", str(tmp / "in"), "-o", "x", "-q"])).items()
-                if k != "func"
-            }
+            # isp develop's defaults: (pipeline, crop, save_stages)
+            options = (default_pipeline(), None, None)
             counter = iter(range(10**6))
 
             def develop(scheduler):
@@ -150,7 +147,7 @@ def main() -> None:
                 out.mkdir()
                 tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in files]
                 return run_files(
-                    tasks, _develop_one, (values, None), manifest=out / "manifest.csv", scheduler=scheduler
+                    tasks, _develop_one, options, manifest=out / "manifest.csv", scheduler=scheduler
                 )
 
             t_s, r1 = _median_time(lambda: develop("serial"), args.repeat)

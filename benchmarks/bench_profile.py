@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQRS]``.
 Prints four tables (no timings); ``--quick`` fits the DCPs on 300 instead of 1,500 random spectra.
-The DCPs are fitted without the ColorChecker sets (``isp.profile_fit.profile_reflectances``), so the
+The DCPs are fitted without the ColorChecker sets (``isp.profiles.fitting.profile_reflectances``), so the
 chart every table evaluates on is held out.
 Needs ``rawtherapee-cli`` for the RawTherapee columns (skipped otherwise) and ../shared/data for
 table Q (skipped otherwise).
@@ -26,7 +26,7 @@ R. Encoding accuracy: ΔE00 between an estimator (root-polynomial, Nikon 5100, D
    DCP (per HueSatMap size, without and with the LookTable) or 3-D LUT (per lattice size, log2
    shaper, 16× headroom) encoding, on
    natural sets (ColorChecker, CIE 1995 TCS, NIST CQS) and 200 atypical spectra
-   (``zonotope.atypical``), responses at the white's exposure.
+   (``zonotope.spectra.atypical``), responses at the white's exposure.
 S. Why the profile is fitted as it is (noise-free spectra, D65, ColorChecker N Ohta held out): ΔE00
    vs truth of the DNG matrix, the Prior estimator, last round's recipe (ForwardMatrix and 2.5-D
    HueSatMap fitted on all colours, random smooth spectra 87 % of them; with and without the
@@ -49,9 +49,9 @@ sys.path.insert(0, str(ROOT))
 
 import isp  # noqa: E402
 import zonotope  # noqa: E402
-from isp.dcp import DCPProfile, dcp_stage, read_dcp, write_dcp  # noqa: E402
-from isp.profile_fit import fit_dcp  # noqa: E402
-from isp.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
+from isp.profiles.dcp import DCPProfile, dcp_stage, read_dcp, write_dcp  # noqa: E402
+from isp.profiles.fitting import fit_dcp  # noqa: E402
+from isp.profiles.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
 from isp.simulate import chart_image, simulate_capture, simulate_dng, spectral_setup  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
@@ -200,8 +200,8 @@ def table_Q() -> None:
 
 
 def table_R(quick: bool) -> None:
-    from zonotope.atypical import atypical_reflectances
-    from zonotope.profile import correction_LUT
+    from zonotope.correct.profile import correction_LUT
+    from zonotope.spectra.atypical import atypical_reflectances
 
     cam = "Nikon 5100 (NPL)"
     mcs = [
@@ -256,8 +256,8 @@ def table_R(quick: bool) -> None:
 
 def table_S(cameras, quick: bool) -> None:
     """Why the profile is fitted as it is: noise-free spectral ablation on the held-out ColorChecker."""
-    from isp.dcp import PROPHOTO_FROM_XYZ
-    from isp.profile_fit import _fit_white_preserving, fit_hue_sat_map
+    from isp.profiles.dcp import PROPHOTO_FROM_XYZ
+    from isp.profiles.fitting import _fit_white_preserving, fit_hue_sat_map
 
     def lab(X):
         return colour.XYZ_to_Lab(X, D50_xy)

@@ -1,6 +1,6 @@
 """The trained model's depth against the simulator's ray-cast depth, by fifths of the image width.
 
-For a capture written by :mod:`splat.simcapture` and the pipeline's output folder: each chosen view is
+For a capture written by :mod:`splat.sim.capture` and the pipeline's output folder: each chosen view is
 rendered as depth (:func:`splat.render_depth`, in the model's own frame and cameras) and compared with the
 depth the simulator's geometry gives along every pixel's centre ray (the pipeline never sees it). The
 model's frame may differ from the simulator's by a similarity (pycolmap's poses), so the ratio
@@ -29,11 +29,11 @@ import numpy as np
 
 def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, views: list[str] | None) -> dict:
     import splat
-    from splat._simgeometry import shade
     from splat.capture import read_capture
     from splat.colmap import read_colmap
     from splat.pipeline import _load_model_capture
-    from splat.simcapture import SimCaptureConfig, build_scene
+    from splat.sim.capture import SimCaptureConfig, build_scene
+    from splat.sim.geometry import shade
 
     truth = tomllib.loads((capture / "truth" / "truth.toml").read_text())
     keys = {k: truth[k] for k in ("seed", "texture", "noise", "supersample", "gain") if k in truth}
@@ -79,7 +79,7 @@ def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, view
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("capture", type=Path, help="a capture written by splat.simcapture")
+    ap.add_argument("capture", type=Path, help="a capture written by splat.sim.capture")
     ap.add_argument("out", type=Path, help="the pipeline's output folder (poses, train)")
     ap.add_argument("--size", choices=("benchmark", "ci"), default="benchmark")
     ap.add_argument("--model", type=Path, help="a model.npz (default: OUT/train/model.npz)")

@@ -46,8 +46,11 @@ numpydoc_xref_param_type = False
 # methods. numpydoc's own GL08 check is not used: it flags attributes documented by '#:' comments.
 
 # -- notebooks (myst-nb) --------------------------------------------------------------------------
-# A notebook already executed in this CI run (pytest --nbmake --overwrite) is rendered as it is
-# (zdocs adds it to the exclude patterns); the others run once here.
+# Execution of the gallery: every notebook that does not carry outputs runs once during the build; one
+# already executed (by `pytest --nbmake --overwrite`, as CI does first) is rendered as it is, because
+# zdocs adds it to nb_execution_excludepatterns. ("auto" is not used: it would re-run an executed
+# notebook for any code cell that prints nothing.) `-D nb_execution_mode=off` builds without running
+# any; the gallery page says which of these happened to each notebook.
 nb_execution_mode = "force"
 nb_execution_excludepatterns: list[str] = []
 nb_execution_timeout = 900
@@ -55,8 +58,10 @@ nb_execution_raise_on_error = True
 nb_execution_show_tb = True
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "amsmath"]
-# README sections are included below their own heading level; module docstrings list References
-# that their text does not cite (numpydoc renames them, Sphinx then calls them unreferenced).
+# Links to headings of Markdown pages (docs/benchmarks.md, docs/notes/*.md) by their anchors.
+myst_heading_anchors = 3
+# The changelog's version headings skip a level under the included page title; module docstrings list
+# References that their text does not cite (numpydoc renames them, Sphinx then calls them unreferenced).
 suppress_warnings = ["myst.header", "ref.citation"]
 
 # -- HTML -----------------------------------------------------------------------------------------
@@ -65,7 +70,16 @@ html_title = f"zonotope {release}"
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
+    # the header holds the top-level pages; each one's pages are listed in the left sidebar
+    "header_links_before_dropdown": 4,
+    "show_nav_level": 2,
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["zdocs.css"]
+# The left sidebar lists a section's pages; pages that have none (the root page, which lists every section
+# in its text, and the single-page sections) get no empty sidebar.
+html_sidebars = {
+    page: [] for page in ("index", "install", "guide/cli", "exact", "math", "data", "benchmarks", "changelog")
+}

@@ -12,24 +12,30 @@ by a ``zonotope.correct`` estimator.
 
 Module map, in data-flow order (``isp`` uses only public ``zonotope`` names and never ``splat``):
 
+- ``cfa``: Bayer patterns (:data:`CFA_PATTERNS`, :func:`cfa_masks`);
 - ``raw``, ``dng``, ``exif``: RAW/DNG reading (:class:`RawImage`), DNG tags and colour matrices,
   output metadata;
 - ``stages``, ``whitebalance``: the pure operations (:data:`DEMOSAIC_METHODS`,
   :data:`TONEMAP_METHODS` registries), white-balance choices;
 - ``pipeline``: :class:`Pipeline` / :func:`default_pipeline` / :func:`develop`;
 - ``metamer``: the bridge to ``zonotope.correct`` (:func:`metamer_correction`);
-- ``dcp``, ``profile_fit``: DNG camera profiles (read, write, fit);
-- ``io``, ``batch``, ``cli``: atomic image files, folders of RAW files, the ``isp`` command;
+- ``profiles``: DNG camera profiles (``profiles.dcp`` read/write/apply, ``profiles.fitting`` fit,
+  ``profiles.rawtherapee`` check against RawTherapee);
+- ``io``, ``batch``: atomic image files, folders of RAW files;
+- ``cli``: the ``isp`` command, on top of the library (no library module imports it);
 - ``simulate``: the spectral forward model (reflectances → RAW mosaic → DNG).
 
-The names of ``simulate``, ``dcp``, ``profile_fit`` and ``batch`` load on first use.
+The names of ``simulate``, ``profiles`` and ``batch`` load on first use.
 
 >>> import isp
 >>> isp.default_pipeline(demosaic="Menon 2007").names[2]
 'demosaic'
 """
 
+import sys as _sys
+
 from ._errors import InputFileNotFoundError, PipelineError, PipelineMethodError, RawFormatError
+from .cfa import CFA_PATTERNS, cfa_masks
 from .dng import (
     DNGMetadata,
     DNGProfile,
@@ -44,14 +50,13 @@ from .exif import output_tags, srgb_icc_profile
 from .io import write_image
 from .metamer import MetamerConfig, MetamerCorrection, metamer_correction
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
-from .raw import CFA_PATTERNS, RawImage, read_raw
+from .raw import RawImage, read_raw
 from .stages import (
     DEMOSAIC_METHODS,
     TONEMAP_METHODS,
     XYZ_to_linear_sRGB,
     apply_correction,
     camera_to_XYZ,
-    cfa_masks,
     demosaic,
     encode_sRGB,
     linearise,
@@ -124,7 +129,7 @@ _LAZY = {
         "spectral_setup",
         "true_XYZ",
     ],
-    "dcp": [
+    "profiles.dcp": [
         "DCP_TAGS",
         "DCPError",
         "DCPProfile",
@@ -135,7 +140,7 @@ _LAZY = {
         "read_dcp",
         "write_dcp",
     ],
-    "profile_fit": [
+    "profiles.fitting": [
         "DCP_DEFAULT_DIMS",
         "LOOK_TABLE_DEFAULT_DIMS",
         "ProfileConfig",
@@ -144,13 +149,14 @@ _LAZY = {
         "fit_hue_sat_map",
         "profile_reflectances",
     ],
-    "batch": ["RAW_SUFFIXES", "develop_folder", "raw_files"],
+    "batch": ["RAW_SUFFIXES", "develop_file", "develop_folder", "raw_files"],
     "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
     "dng": ["DNG_TAGS", "LIGHT_SOURCE_CCT", "xy_to_CCT_DNG"],
     "io": ["IMAGE_FORMATS", "to_uint16"],
-    "raw": ["check_cfa"],
+    "cfa": ["check_cfa"],
     "metamer": ["METAMER_RANGE"],
     "stages": [
+        "default_method",
         "demosaic_Malvar2004",
         "demosaic_Menon2007",
         "demosaic_bilinear",
@@ -174,3 +180,42 @@ def __getattr__(name: str):
 
 def __dir__():
     return sorted(set(globals()) | set(__all__))
+
+
+#: Module paths that moved, old dotted name -> new one: importing an old one warns and gives the new module.
+_MOVED_MODULES = {
+    "isp.dcp": "isp.profiles.dcp",
+    "isp.profile_fit": "isp.profiles.fitting",
+    "isp.rawtherapee": "isp.profiles.rawtherapee",
+}
+
+
+class _MovedModules:
+    """Import hook serving :data:`_MOVED_MODULES`: a ``DeprecationWarning`` at the importing line, and
+    the old name aliased to the new module in ``sys.modules`` (one module object, not a copy)."""
+
+    def __init__(self, moved: dict[str, str]) -> None:
+        self.moved = moved
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname not in self.moved:
+            return None
+        from importlib.machinery import ModuleSpec
+
+        return ModuleSpec(fullname, self)
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module) -> None:
+        import importlib
+        import warnings
+
+        old, new = module.__name__, self.moved[module.__name__]
+        # stacklevel 2: the importing line (warnings skips the import system's own frames)
+        warnings.warn(f"{old} moved to {new}; import it from there.", DeprecationWarning, stacklevel=2)
+        _sys.modules[old] = importlib.import_module(new)  # the import system returns sys.modules[old]
+
+
+if not any(isinstance(f, _MovedModules) for f in _sys.meta_path):
+    _sys.meta_path.insert(0, _MovedModules(_MOVED_MODULES))  # before finders that would find a stale copy

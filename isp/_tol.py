@@ -31,7 +31,7 @@ __all__ = [
 #: tungsten and fluorescent light (or sensitivities of another camera).
 NEUTRAL_MISMATCH = 0.1
 
-#: :func:`isp.dcp.white_xy` fallback iteration (camera neutral → white xy): stop when the xy estimate
+#: :func:`isp.profiles.dcp.white_xy` fallback iteration (camera neutral → white xy): stop when the xy estimate
 #: moves by less than this (sum of |Δx| + |Δy|). The DNG SDK's own threshold
 #: (``dng_color_spec::NeutralToXY``), so that profiles on which the fixed point oscillates give the
 #: SDK's answer.

@@ -1,25 +1,23 @@
-"""``isp develop DIR -o OUTDIR``: develop every RAW file of a folder with the single-file options.
+"""Develop every RAW file of a folder with one pipeline, resumably, on a serial or Dask executor.
 
-Each file runs the single-file command itself (:func:`isp.cli._develop` on a copy of the options
-with that file as input), so every option of ``isp develop FILE`` means the same in a folder batch.
-A metamer correction is fitted once, here, and sent to the workers once. Outputs are
+:func:`develop_folder` is the library side of ``isp develop DIR -o OUTDIR``. A metamer correction is
+fitted once, after the folder checks, and sent to the workers once with the pipeline. Outputs are
 ``OUTDIR/<stem>.tif`` (16-bit TIFF), written atomically and at most once; a rerun skips outputs that
-exist (resume); a file that fails is listed with its error and the others go on;
-``OUTDIR/manifest.csv`` lists every input, its output, status, time and worker. Where the work runs
-is :func:`zonotope.parallel.executor`'s choice (``--scheduler``, ``ZONOTOPE_SCHEDULER``, or serial
-for one file and a local Dask cluster for more).
+exist (resume) and refuses other settings than the first run's; a file that fails is listed with its
+error and the others go on; ``OUTDIR/manifest.csv`` lists every input, its output, status, time and
+worker. Where the work runs is :func:`zonotope.parallel.executor`'s choice (``executor=``,
+``ZONOTOPE_SCHEDULER``, or serial for one file and a local Dask cluster for more).
 """
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import io
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 from ._errors import PipelineError
 
-__all__ = ["RAW_SUFFIXES", "develop_folder", "raw_files"]
+__all__ = ["RAW_SUFFIXES", "develop_file", "develop_folder", "raw_files"]
 
 #: File suffixes (lower case) taken as RAW files in a folder.
 RAW_SUFFIXES = frozenset(
@@ -60,88 +58,161 @@ def raw_files(folder: str | Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in RAW_SUFFIXES)
 
 
-def _develop_one(src: str, tmp_out: str, options) -> None:
-    """Worker side: ``isp develop src -o tmp_out`` with the batch's options; raises on failure."""
-    from .cli import _develop
+def develop_file(
+    src: str | Path,
+    out: str | Path,
+    *,
+    pipeline,
+    crop: Sequence[int] | None = None,
+    save_stages: str | Path | None = None,
+    overwrite: bool = False,
+    progress: Callable[[str, int, int], None] | None = None,
+):
+    """Read ``src``, develop it with ``pipeline`` and write ``out``; returns ``(raw, development)``.
 
-    values, fitted = options
-    ns = argparse.Namespace(**values)
-    ns.input, ns.output, ns.quiet, ns.overwrite = src, tmp_out, True, False
-    ns.fitted_metamer = fitted
-    if values.get("save_stages"):
-        ns.save_stages = str(Path(values["save_stages"]) / Path(src).stem)
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(err):
-        rc = _develop(ns)
-    if rc != 0:
-        raise PipelineError(" ".join(err.getvalue().split()) or f"isp develop exited with status {rc}")
-
-
-def develop_folder(args: argparse.Namespace) -> int:
-    """The folder branch of ``isp develop`` (prints; returns the exit status).
-
-    Exit status 0 when every file was developed (now or by an earlier run), 1 when some failed
-    (listed, and in the manifest), 2 for bad options.
+    The image is written as ``isp develop FILE`` writes it: 16-bit, with the sRGB ICC profile when
+    the pipeline ends encoded, the camera's metadata, never over ``src``. ``crop`` is
+    ``(top, left, height, width)`` of the mosaic; ``save_stages`` a folder that receives every
+    intermediate as a float32 TIFF (refused when it holds files, unless ``overwrite``).
+    ``progress(stage, done, total)`` follows the pipeline's stages.
     """
-    from rich.console import Console
+    from .exif import output_tags, srgb_icc_profile
+    from .io import write_image
+    from .raw import read_raw
 
+    src, out = Path(src), Path(out)
+    if save_stages is not None:
+        stage_dir = Path(save_stages)
+        if stage_dir.exists() and any(stage_dir.iterdir()) and not overwrite:
+            raise PipelineError(f"--save-stages {stage_dir} is not empty; use --overwrite or another folder.")
+    raw = read_raw(src)
+    if crop:
+        raw = raw.crop(*crop)
+    dev = pipeline(raw, progress=progress, keep=save_stages is not None)
+    encoded = "encode_sRGB" in pipeline.names
+    write_image(
+        out,
+        dev.image,
+        overwrite=overwrite,
+        protect=[src],
+        icc_profile=srgb_icc_profile() if encoded else None,
+        tiff_tags=output_tags(raw),
+    )
+    if save_stages is not None:
+        stage_dir.mkdir(parents=True, exist_ok=True)
+        for i, (name, arr) in enumerate(dev.intermediates.items()):
+            write_image(
+                stage_dir / f"{i:02d}_{name}.tif", arr, dtype="float32", overwrite=overwrite, protect=[src]
+            )
+    return raw, dev
+
+
+def _develop_one(src: str, tmp_out: str, options) -> None:
+    """Worker side of :func:`develop_folder`: ``options`` is ``(pipeline, crop, save_stages)``."""
+    pipeline, crop, save_stages = options
+    stages = None if save_stages is None else Path(save_stages) / Path(src).stem
+    develop_file(src, tmp_out, pipeline=pipeline, crop=crop, save_stages=stages)
+
+
+def develop_folder(
+    inputs: str | Path,
+    out: str | Path,
+    *,
+    pipeline,
+    metamer: tuple[Any, Any] | None = None,
+    executor: str | None = None,
+    settings: Mapping[str, Any] | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
+    **options: Any,
+) -> list[dict]:
+    """Develop every RAW file of the folder ``inputs`` into the folder ``out``.
+
+    Parameters
+    ----------
+    inputs
+        Folder of RAW files (:func:`raw_files`); never written to.
+    out
+        Output folder (another one than ``inputs``); receives ``<stem>.tif`` and ``manifest.csv``.
+    pipeline : isp.Pipeline
+        The development of every file (e.g. :func:`isp.default_pipeline`).
+    metamer
+        ``(camera, MetamerConfig)``: fit :func:`isp.metamer_correction` once, after the folder checks,
+        and use it as the pipeline's ``camera_to_XYZ`` stage; None keeps ``pipeline`` as it is.
+    executor
+        ``"serial"``, ``"local[:N]"`` or a Dask scheduler address; None asks
+        :func:`zonotope.parallel.resolve_scheduler` (``ZONOTOPE_SCHEDULER``, else by folder size).
+    settings
+        What the outputs depend on, kept beside the manifest: a rerun into ``out`` with other
+        settings is refused before any work (it would mix outputs of two developments).
+    progress
+        ``progress(description, done, total)``: called once with ``done=0`` before the work, then
+        after each file.
+    **options
+        ``crop`` and ``save_stages`` of :func:`develop_file`, for every file (``save_stages`` gets
+        one sub-folder per input stem).
+
+    Returns
+    -------
+    list of dict
+        The manifest rows (``input``, ``output``, ``status`` in ``ok``/``done``/``failed``, ``error``, ...).
+
+    Raises
+    ------
+    PipelineError
+        ``out`` is a file or the input folder, no RAW files, or two inputs share a stem.
+    TypeError
+        An option other than ``crop`` and ``save_stages``.
+    """
     from zonotope.parallel import FILE_MIN_TASKS, FileTask, check_settings, resolve_scheduler, run_files
 
-    from .cli import _fail, _metamer, _progress
+    unknown = sorted(set(options) - {"crop", "save_stages"})
+    if unknown:
+        raise TypeError(f"develop_folder() got unknown options {unknown}; valid: ['crop', 'save_stages'].")
+    crop, save_stages = options.get("crop"), options.get("save_stages")
 
-    console = Console(stderr=True)
-    out_dir = Path(args.output)
+    out_dir = Path(out)
     if out_dir.exists() and not out_dir.is_dir():
-        return _fail(f"-o {out_dir}: with an input folder the output must be a folder.")
-    files = raw_files(args.input)
+        raise PipelineError(f"-o {out_dir}: with an input folder the output must be a folder.")
+    files = raw_files(inputs)
     if not files:
-        return _fail(f"no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {args.input}.")
-    if out_dir.resolve() == Path(args.input).resolve():
-        return _fail("-o must be another folder than the input folder (inputs are never touched).")
-    if getattr(args, "overwrite", False):
-        return _fail(
-            "--overwrite does not apply to folders: a rerun keeps finished "
-            "outputs (delete them to develop again)."
-        )
+        raise PipelineError(f"no RAW files ({', '.join(sorted(RAW_SUFFIXES))}) in {inputs}.")
+    if out_dir.resolve() == Path(inputs).resolve():
+        raise PipelineError("-o must be another folder than the input folder (inputs are never touched).")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}.tif")) for f in files]
     taken: dict[str, Path] = {}
     for f in files:  # IMG_0001.CR2 next to IMG_0001.dng: refused before the fit or any folder is made
         if f.stem in taken:
-            return _fail(
+            raise PipelineError(
                 f"{taken[f.stem]} and {f} would both be developed to {out_dir / (f.stem + '.tif')}; "
                 "move one of them to another folder."
             )
         taken[f.stem] = f
     # before any work; a cluster only for FILE_MIN_TASKS files or more
-    where = resolve_scheduler(getattr(args, "scheduler", None), tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
-    # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
-    ignore = {"func", "fitted_metamer", "scheduler", "quiet", "input", "output", "overwrite", "command"}
-    settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
-    check_settings(out_dir / "manifest.csv", settings)
-    fitted, error = _metamer(args)  # fitted once, sent to every worker once
-    if error:
-        return _fail(error)
+    where = resolve_scheduler(executor, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
+    if settings is not None:
+        check_settings(out_dir / "manifest.csv", settings)
+    if metamer is not None:  # fitted once, sent to every worker once
+        from .metamer import metamer_correction
+        from .pipeline import correction_stage
+
+        camera, config = metamer
+        pipeline = pipeline.replace("camera_to_XYZ", correction_stage(metamer_correction(camera, config)))
     out_dir.mkdir(parents=True, exist_ok=True)
-    values = {k: v for k, v in vars(args).items() if k not in ("func", "fitted_metamer")}
-    with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
-        task = bar.add_task(f"developing ({where})", total=len(tasks))
-        rows = run_files(
-            tasks,
-            _develop_one,
-            (values, fitted),
-            manifest=out_dir / "manifest.csv",
-            scheduler=where,
-            progress=lambda stage, done, total: bar.update(task, completed=done),
-            settings=settings,
-        )
-    failed = [r for r in rows if r["status"] == "failed"]
-    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "done", "failed")}
-    for r in failed:
-        console.print(f"[red]failed:[/] {r['input']}: {r['error']}", soft_wrap=True)
-    if not args.quiet or failed:
-        console.print(
-            f"{counts['ok']} developed, {counts['done']} already done, {counts['failed']} failed "
-            f"→ {out_dir} (manifest: {out_dir / 'manifest.csv'})",
-            soft_wrap=True,
-        )
-    return 1 if failed else 0
+    description = f"developing ({where})"
+    if progress is not None:
+        progress(description, 0, len(tasks))
+
+    def report(stage: str, done: int, total: int) -> None:
+        progress(description, done, total)
+
+    return run_files(
+        tasks,
+        _develop_one,
+        (pipeline, None if not crop else tuple(crop), None if save_stages is None else str(save_stages)),
+        manifest=out_dir / "manifest.csv",
+        scheduler=where,
+        progress=None
+        if progress is None
+        else (lambda stage, done, total: progress(description, done, total)),
+        settings=settings,
+    )

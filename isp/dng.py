@@ -627,7 +627,7 @@ class DNGMetadata:
 
     def __post_init__(self):
         from ._errors import PipelineError
-        from .raw import check_cfa
+        from .cfa import check_cfa
 
         def fail(name, value, allowed):
             raise PipelineError(f"DNGMetadata.{name}={value!r}: {allowed}.")
@@ -828,7 +828,7 @@ def write_dng(
         tags.append((34855, "H", 1, int(d.iso), True))
     if d.noise_profile is not None:
         tags.append((51041, 12, d.noise_profile.size, tuple(float(x) for x in d.noise_profile.ravel()), True))
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     def write(tmp: Path) -> None:
         tifffile.imwrite(

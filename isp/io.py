@@ -157,7 +157,7 @@ def write_image(
         img = to_uint16(image)
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 3, 4)):
         raise PipelineError(f"image: expected shape (H, W) or (H, W, 3); got {img.shape}.")
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     def write(tmp: Path) -> None:
         if suffix == ".png":

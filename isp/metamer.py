@@ -22,8 +22,8 @@ import numpy as np
 from ._errors import PipelineError
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
     from zonotope.correct import Corrector
+    from zonotope.utilities import ProgressCallback
 
 __all__ = ["METAMER_RANGE", "MetamerConfig", "MetamerCorrection", "metamer_correction"]
 
@@ -62,7 +62,7 @@ class MetamerCorrection:
     """White-balanced camera RGB ``(N, 3)`` → XYZ ``(N, 3)`` with a fitted ``zonotope.correct`` estimator.
 
     Built by :func:`metamer_correction`; pass it as ``default_pipeline(correction=...)``. Calls go
-    through :func:`zonotope.image.correct_image`, which corrects each distinct colour (responses
+    through :func:`zonotope.correct.image.correct_image`, which corrects each distinct colour (responses
     rounded to ``quantum``) once and carries the result to its pixels with the estimator's
     regression. A colour whose estimate fails (e.g. the degenerate metamer mismatch volume of a
     response outside the object-colour solid) gets the root-polynomial regression's estimate
@@ -155,7 +155,7 @@ class MetamerCorrection:
 
     def __call__(self, responses) -> np.ndarray:
         """White-balanced camera RGB ``(N, 3)`` → XYZ ``(N, 3)``."""
-        from zonotope.image import correct_image
+        from zonotope.correct.image import correct_image
 
         c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0) / self.white_level
         over = np.maximum(np.max(c, axis=-1, keepdims=True), 1.0)  # brighter than the white: scale down

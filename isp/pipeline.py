@@ -28,7 +28,7 @@ from ._errors import PipelineError
 from .raw import RawImage
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = ["Development", "Pipeline", "Stage", "chain", "correction_stage", "default_pipeline", "develop"]
 
@@ -303,9 +303,9 @@ def correction_stage(
 
 def default_pipeline(
     *,
-    demosaic: str = "Malvar 2004",
+    demosaic: str = st.default_method(st.DEMOSAIC_METHODS),
     correction: str | Callable = "dng",
-    tonemap: str | None = "Reinhard 2002",
+    tonemap: str | None = st.default_method(st.TONEMAP_METHODS),
     tonemap_options: dict | None = None,
     encode: bool = True,
     white_balance="as-shot",
@@ -319,13 +319,14 @@ def default_pipeline(
     Parameters
     ----------
     demosaic
-        Key of :data:`isp.DEMOSAIC_METHODS`.
+        Key of :data:`isp.DEMOSAIC_METHODS` (default: its entry registered with ``default=True``).
     correction
         ``"dng"`` (ColorMatrix/ForwardMatrix of the file, CCT-interpolated) or a callable
         ``(N, 3) → (N, 3)`` taking white-balanced camera RGB to XYZ (see :func:`correction_stage`),
         e.g. :func:`isp.metamer_correction` for a camera whose spectral sensitivities are known.
     tonemap
-        Key of :data:`isp.TONEMAP_METHODS`, or None for no tone mapping.
+        Key of :data:`isp.TONEMAP_METHODS` (default: its ``default=True`` entry), or None for no tone
+        mapping.
     tonemap_options
         Keyword options of the operator.
     encode

@@ -17,22 +17,10 @@ import numpy as np
 
 from ._errors import InputFileNotFoundError, RawFormatError
 from ._tol import STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
+from .cfa import check_cfa
 from .dng import DNGProfile, read_dng_tags
 
-__all__ = ["CFA_PATTERNS", "RawImage", "check_cfa", "read_raw"]
-
-#: The 2 × 2 Bayer layouts the pipeline handles (top-left site first, row-major).
-CFA_PATTERNS: tuple[str, ...] = ("RGGB", "BGGR", "GRBG", "GBRG")
-
-
-def check_cfa(cfa: str) -> str:
-    """Return ``cfa`` upper-cased, or raise :class:`RawFormatError` naming the valid patterns."""
-    p = str(cfa).upper()
-    if p not in CFA_PATTERNS:
-        raise RawFormatError(
-            f"cfa={cfa!r} is not a supported Bayer pattern; use one of {list(CFA_PATTERNS)}."
-        )
-    return p
+__all__ = ["RawImage", "read_raw"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -24,9 +24,8 @@ import numpy as np
 import zonotope
 
 from ._errors import PipelineError
+from .cfa import cfa_masks, check_cfa
 from .dng import write_dng
-from .raw import check_cfa
-from .stages import cfa_masks
 
 __all__ = [
     "ILLUMINANT_LIGHT_SOURCE",

@@ -17,13 +17,13 @@ from collections.abc import Callable
 import colour
 import numpy as np
 
-from zonotope import MethodRegistry
+from zonotope.utilities import MethodRegistry
 
 from ._config import float_array
 from ._errors import PipelineError, PipelineMethodError
 from ._tol import WHITE_XY
+from .cfa import CHANNEL_INDEX, cfa_masks, check_cfa
 from .dng import D50_xy, DNGProfile
-from .raw import check_cfa
 
 __all__ = [
     "DEMOSAIC_METHODS",
@@ -31,7 +31,7 @@ __all__ = [
     "XYZ_to_linear_sRGB",
     "apply_correction",
     "camera_to_XYZ",
-    "cfa_masks",
+    "default_method",
     "demosaic",
     "demosaic_Malvar2004",
     "demosaic_Menon2007",
@@ -46,8 +46,6 @@ __all__ = [
     "tonemap_clip",
     "white_balance",
 ]
-
-_CHANNEL = {"R": 0, "G": 1, "B": 2}
 
 
 def _mosaic_array(x, what: str = "mosaic") -> np.ndarray:
@@ -70,29 +68,6 @@ def _image_array(x, what: str = "image") -> np.ndarray:
 def _finite(a: np.ndarray, what: str) -> None:
     if not np.all(np.isfinite(a)):
         raise PipelineError(f"{what}: contains NaN or inf ({int(np.sum(~np.isfinite(a)))} values).")
-
-
-def cfa_masks(shape: tuple[int, int], cfa: str) -> np.ndarray:
-    """Boolean masks of the R, G, B sites of a Bayer pattern.
-
-    Parameters
-    ----------
-    shape
-        (H, W) of the mosaic.
-    cfa
-        2 × 2 pattern, e.g. ``"RGGB"``.
-
-    Returns
-    -------
-    ndarray of shape (H, W, 3), bool
-    """
-    cfa = check_cfa(cfa)
-    H, W = shape
-    out = np.zeros((H, W, 3), dtype=bool)
-    for k, letter in enumerate(cfa):
-        i, j = divmod(k, 2)
-        out[i::2, j::2, _CHANNEL[letter]] = True
-    return out
 
 
 def _site_values(values2x2: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -184,7 +159,7 @@ def white_balance(x, *, neutral, cfa: str | None = None, clip: bool = True) -> n
     gains = n.max() / n
     if cfa is not None:
         m = _mosaic_array(x)
-        g2 = np.array([gains[_CHANNEL[c]] for c in check_cfa(cfa)]).reshape(2, 2)
+        g2 = np.array([gains[CHANNEL_INDEX[c]] for c in check_cfa(cfa)]).reshape(2, 2)
         out = m * _site_values(g2, m.shape)
     else:
         out = _image_array(x) * gains
@@ -194,12 +169,6 @@ def white_balance(x, *, neutral, cfa: str | None = None, clip: bool = True) -> n
 # ---------------------------------------------------------------------------------------------
 # Demosaicing
 # ---------------------------------------------------------------------------------------------
-
-#: Border padding (pixels, even so the CFA phase is kept) before calling colour-demosaicing, whose
-#: bilinear and Malvar kernels use scipy's ``reflect`` border mode: it repeats the edge row, which
-#: puts samples of the wrong colour under the kernel and spoils a 1–2 pixel frame. Mirroring
-#: (``numpy.pad(mode="reflect")``) keeps every site's colour; the pad is cropped off afterwards.
-_PAD = {"bilinear": 2, "Malvar 2004": 4, "Menon 2007": 8}
 
 
 def _colour_demosaicing():
@@ -212,9 +181,17 @@ def _colour_demosaicing():
     return colour_demosaicing
 
 
-def _padded(fn, m: np.ndarray, cfa: str, pad: int) -> np.ndarray:
-    # numpy's "reflect" mirrors about the edge sample (x → -x, x → 2(H-1) - x): parity, hence the
-    # CFA colour of every padded site, is preserved, also for pads larger than the image.
+def _padded(method: str, kernel: str, mosaic, cfa: str) -> np.ndarray:
+    """colour-demosaicing's ``kernel`` on ``mosaic`` mirror-padded by the ``pad`` of ``method``'s entry.
+
+    colour-demosaicing's bilinear and Malvar kernels use scipy's ``reflect`` border mode, which
+    repeats the edge row and so puts samples of the wrong colour under the kernel, spoiling a 1–2
+    pixel frame. numpy's ``reflect`` mirrors about the edge sample (x → -x, x → 2(H-1) - x): parity,
+    hence the CFA colour of every padded site, is preserved, also for pads larger than the image.
+    """
+    fn = getattr(_colour_demosaicing(), kernel)
+    m, cfa = _mosaic_array(mosaic), check_cfa(cfa)
+    pad = DEMOSAIC_METHODS.properties(method)["pad"]
     H, W = m.shape
     out = fn(np.pad(m, pad, mode="reflect"), cfa)
     return np.asarray(out[pad : pad + H, pad : pad + W], dtype=np.float64)
@@ -235,11 +212,9 @@ def demosaic_bilinear(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
 
     Notes
     -----
-    colour-demosaicing's implementation, on a mirror-padded mosaic (see ``_PAD``).
+    colour-demosaicing's implementation, on a mosaic mirror-padded by the entry's ``pad``.
     """
-    demosaicing_CFA_Bayer_bilinear = _colour_demosaicing().demosaicing_CFA_Bayer_bilinear
-
-    return _padded(demosaicing_CFA_Bayer_bilinear, _mosaic_array(mosaic), check_cfa(cfa), _PAD["bilinear"])
+    return _padded("bilinear", "demosaicing_CFA_Bayer_bilinear", mosaic, cfa)
 
 
 def demosaic_Malvar2004(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
@@ -260,11 +235,7 @@ def demosaic_Malvar2004(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     Malvar, H. S., He, L., & Cutler, R. (2004). High-quality linear interpolation for demosaicing of
     Bayer-patterned color images. ICASSP 2004, vol. 3, 485–488 (the 5 × 5 filters of Fig. 2).
     """
-    demosaicing_CFA_Bayer_Malvar2004 = _colour_demosaicing().demosaicing_CFA_Bayer_Malvar2004
-
-    return _padded(
-        demosaicing_CFA_Bayer_Malvar2004, _mosaic_array(mosaic), check_cfa(cfa), _PAD["Malvar 2004"]
-    )
+    return _padded("Malvar 2004", "demosaicing_CFA_Bayer_Malvar2004", mosaic, cfa)
 
 
 def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
@@ -285,25 +256,39 @@ def demosaic_Menon2007(mosaic, *, cfa: str = "RGGB") -> np.ndarray:
     Menon, D., Andriani, S., & Calvagno, G. (2007). Demosaicing With Directional Filtering and a
     posteriori Decision. IEEE TIP, 16(1), 132–141 (with the refining step of section IV).
     """
-    demosaicing_CFA_Bayer_Menon2007 = _colour_demosaicing().demosaicing_CFA_Bayer_Menon2007
-
-    return _padded(demosaicing_CFA_Bayer_Menon2007, _mosaic_array(mosaic), check_cfa(cfa), _PAD["Menon 2007"])
+    return _padded("Menon 2007", "demosaicing_CFA_Bayer_Menon2007", mosaic, cfa)
 
 
 #: Demosaicing algorithms by name (``demosaic(..., method=name)``; case and punctuation ignored).
+#: Properties: ``pad``, the mirror padding in pixels (even, so the CFA phase is kept) that covers
+#: the kernel's reach; ``default=True`` on the method every front end uses when none is named.
 DEMOSAIC_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
     "demosaicing", error=PipelineMethodError
 )
-DEMOSAIC_METHODS.register("bilinear", demosaic_bilinear)
-DEMOSAIC_METHODS.register("Malvar 2004", demosaic_Malvar2004)
-DEMOSAIC_METHODS.register("Menon 2007", demosaic_Menon2007)
+DEMOSAIC_METHODS.register("bilinear", demosaic_bilinear, pad=2)
+DEMOSAIC_METHODS.register("Malvar 2004", demosaic_Malvar2004, pad=4, default=True)
+DEMOSAIC_METHODS.register("Menon 2007", demosaic_Menon2007, pad=8)
+
+
+def default_method(table: MethodRegistry) -> str:
+    """The name registered with ``default=True`` in ``table`` (exactly one per isp registry).
+
+    Defaults of functions and of the ``isp`` command ask this, so the default is stated once, on
+    its registry entry.
+    """
+    names = table.names(default=True)
+    if len(names) != 1:
+        raise PipelineError(
+            f"{table!r}: expected one method registered with default=True; got {list(names)}."
+        )
+    return names[0]
 
 
 def _resolve(method: str, table: MethodRegistry, what: str) -> str:
     return table.resolve(method, argument=what)
 
 
-def demosaic(mosaic, *, cfa: str = "RGGB", method: str = "Malvar 2004") -> np.ndarray:
+def demosaic(mosaic, *, cfa: str = "RGGB", method: str = default_method(DEMOSAIC_METHODS)) -> np.ndarray:
     """Reconstruct a full RGB image from a Bayer mosaic.
 
     Parameters
@@ -541,15 +526,16 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
     return np.clip(_image_array(rgb, "rgb") * 2.0**exposure, 0.0, 1.0)
 
 
-#: Global tone-mapping operators by name (``tonemap(..., method=name)``).
+#: Global tone-mapping operators by name (``tonemap(..., method=name)``); ``default=True`` marks the
+#: operator every front end uses when none is named.
 TONEMAP_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
     "tone-mapping", error=PipelineMethodError
 )
-TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002)
+TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002, default=True)
 TONEMAP_METHODS.register("clip", tonemap_clip)
 
 
-def tonemap(rgb, *, method: str = "Reinhard 2002", **options) -> np.ndarray:
+def tonemap(rgb, *, method: str = default_method(TONEMAP_METHODS), **options) -> np.ndarray:
     """Apply a global tone-mapping operator of :data:`TONEMAP_METHODS`.
 
     Parameters

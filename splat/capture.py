@@ -295,7 +295,7 @@ def _camera(c, i: int, root: Path, file: Path) -> CameraSpec:
             )
     cfa = _optional_str(c, "cfa", None, f"{where}.", file)
     if cfa is not None:
-        from isp.raw import check_cfa
+        from isp.cfa import check_cfa
 
         try:
             cfa = check_cfa(cfa)
@@ -587,7 +587,7 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
         An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
     """
     from isp import DNGProfile, RawFormatError, noise_profile, read_raw
-    from isp.stages import cfa_masks
+    from isp.cfa import cfa_masks
 
     path = Path(path)
     camera = camera or CameraSpec("", "")

@@ -234,7 +234,7 @@ def write_transforms(capture: Capture, path: str | Path) -> Path:
         "channel_labels": list(capture.labels),
         "frames": frames,
     }
-    from zonotope import atomic_write_text
+    from zonotope.utilities import atomic_write_text
 
     return atomic_write_text(path, json.dumps(doc, indent=1))
 

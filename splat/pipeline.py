@@ -60,7 +60,7 @@ from .capture import (
 from .workspace import Workspace, capture_fingerprint, read_json
 
 if TYPE_CHECKING:
-    from zonotope import ProgressCallback
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "STEPS",
@@ -102,7 +102,7 @@ class PipelineConfig:
     method : str
         ``zonotope.correct`` estimator of the correct step (default Prior).
     quantum : float
-        Colour deduplication step of :func:`zonotope.image.correct_image`.
+        Colour deduplication step of :func:`zonotope.correct.image.correct_image`.
     seed, threads : int
     min_registered : float
         Fraction of each camera's views that must register.
@@ -175,7 +175,7 @@ class PipelineConfig:
 
 def _atomic(path: Path, write: Callable[[Path], object]) -> Path:
     """Write through a temporary sibling and rename (zonotope's shared atomic writer)."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     return atomic_path(path, write)
 
@@ -1420,7 +1420,7 @@ def reprojected_of(d: Path, scale: np.ndarray):
 def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
     ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     out = np.zeros((*fused.shape[:-1], 3))
     for cd, s_ in sigma.items():
@@ -1515,7 +1515,7 @@ def correct_step(
         The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
     """
     from zonotope.correct import CORRECTION_METHODS
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .fusion import measured
 

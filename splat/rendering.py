@@ -39,7 +39,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from zonotope import MethodRegistry
+from zonotope.utilities import MethodRegistry
 
 from ._errors import SplatError, SplatMethodError
 from .camera import Camera

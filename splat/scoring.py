@@ -151,7 +151,7 @@ def score(
         ``flat_delta_E00`` alone): the 9-channel estimators are slow per distinct colour, and
         the flat pixels of a coarse texture share few colours.
     quantum : float
-        Colour deduplication step of :func:`zonotope.image.correct_image`.
+        Colour deduplication step of :func:`zonotope.correct.image.correct_image`.
 
     Returns
     -------
@@ -160,7 +160,7 @@ def score(
     import tifffile
 
     from zonotope.correct import CORRECTION_METHODS
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     from .capture import load_views, read_capture
     from .colmap import read_colmap

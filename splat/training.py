@@ -609,7 +609,7 @@ def _densify(state: TrainState, config: TrainConfig, extent: float) -> TrainStat
 
 def save_checkpoint(state: TrainState, path: str | Path) -> Path:
     """Save a :class:`TrainState` as ``.npz`` data at exactly ``path`` (pytree order), atomically."""
-    from zonotope import atomic_path
+    from zonotope.utilities import atomic_path
 
     leaves = jax.tree.leaves(
         (

@@ -231,6 +231,6 @@ class Workspace:
         return key
 
     def _write(self, path: Path, doc: dict) -> None:
-        from zonotope import atomic_path
+        from zonotope.utilities import atomic_path
 
         atomic_path(path, lambda p: p.write_text(json.dumps(doc, indent=1, sort_keys=True, default=str)))

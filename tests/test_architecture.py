@@ -1,10 +1,12 @@
-"""The layers of the code, checked by parsing every import (``ast``), plus the public surface.
+"""The shape of the code, checked by parsing every import (``ast``), plus the public surface.
 
-zonotope, in data-flow order: infrastructure → spectra → solid / polytope → mismatch →
-correct → image → applications (evaluate, report, viz, cli). A module may import modules of its
-own layer or of lower ones, never a higher one (a lazy import inside a function counts too).
-``isp`` and ``splat`` use only public ``zonotope`` names (no ``zonotope._private`` module);
-``zonotope`` never imports ``isp`` or ``splat``, ``isp`` never imports ``splat``.
+No import circles anywhere in ``zonotope``, ``isp`` and ``splat`` (every ``.py`` file, subpackages
+included; an import inside a function body counts too). ``zonotope``'s layers come from its folders,
+lowest first: ``_errors``/``_tol`` → ``utilities`` → ``spectra`` → ``geometry`` → ``mismatch`` →
+``correct`` → the flat applications (``vora``, ``parallel``, ``evaluate``, ``report``, ``survey``,
+``viz``) → ``cli``; a module imports its own layer (siblings of its folder) or lower ones only.
+``isp`` and ``splat`` use only public ``zonotope`` names; ``zonotope`` never imports ``isp`` or
+``splat``, ``isp`` never imports ``splat``; no library module imports its package's command line.
 """
 
 from __future__ import annotations
@@ -16,16 +18,19 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("zonotope", "isp", "splat")
 
-#: zonotope's modules by layer (0 = lowest). A new module must be placed here.
+#: zonotope's layers, by first component below ``zonotope`` (folder or flat module), lowest first.
 LAYERS: dict[int, set[str]] = {
-    0: {"_errors", "_tol", "_registry", "_io", "_progress", "_config", "parallel", "_cubemap"},
-    1: {"spectra", "_loading", "_generators", "_bvls"},
-    2: {"_zonohedron", "_lp", "solid", "polytope", "vora", "macadam", "_mmv_walk_kernel", "membership"},
-    3: {"_oracle", "_mmv_refine", "_mmv_walk", "mismatch"},
-    4: {"prior", "atypical", "_correction_problem", "_regressions", "_mmv_estimators", "correct"},
-    5: {"image", "profile"},
-    6: {"evaluate", "report", "viz", "survey", "_batch_cli", "_profile_cli", "cli", "__main__", "__init__"},
+    0: {"_errors", "_tol"},
+    1: {"utilities"},
+    2: {"spectra"},
+    3: {"geometry"},
+    4: {"mismatch"},
+    5: {"correct"},
+    6: {"vora", "parallel", "evaluate", "report", "survey", "viz"},
+    7: {"cli"},
+    8: {"__init__", "__main__"},
 }
 RANK = {m: r for r, mods in LAYERS.items() for m in mods}
 
@@ -33,8 +38,25 @@ RANK = {m: r for r, mods in LAYERS.items() for m in mods}
 ALLOWED_PRIVATE: dict[str, str] = {}
 
 
-def _imports(path: Path, package: str) -> list[tuple[int, str]]:
-    """``(line, absolute module)`` of every import in a file, function bodies included."""
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    return ".".join(path.relative_to(root).with_suffix("").parts).removesuffix(".__init__")
+
+
+def _modules(package: str, root: Path = ROOT) -> dict[str, Path]:
+    """Every module of ``package`` (subpackages included): dotted name -> file."""
+    return {_module_name(p, root): p for p in sorted((root / package).rglob("*.py"))}
+
+
+def _imports(
+    path: Path, module: str, known: set[str] | frozenset[str] = frozenset()
+) -> list[tuple[int, str]]:
+    """``(line, absolute module)`` of every import in a file, function bodies included.
+
+    ``from X import a`` names ``X.a`` when that is a module (a file in ``known`` or on disk), and names
+    ``X`` itself only when some imported name is not a module: ``from . import sibling`` runs the
+    parent package only as a parent, which every import of a submodule does.
+    """
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
@@ -42,68 +64,167 @@ def _imports(path: Path, package: str) -> list[tuple[int, str]]:
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package if node.level == 1 else package.rsplit(".", node.level - 1)[0]
-                if node.module:
-                    out.append((node.lineno, f"{base}.{node.module}"))
-                else:
-                    out += [(node.lineno, f"{base}.{a.name}") for a in node.names]
-            elif node.module:
-                out.append((node.lineno, node.module))
-                out += [
-                    (node.lineno, f"{node.module}.{a.name}")
-                    for a in node.names
-                    if (ROOT / node.module.replace(".", "/") / f"{a.name}.py").exists()
-                ]
+                source = f"{base}.{node.module}" if node.module else base
+            else:
+                source = node.module
+            subs = [f"{source}.{a.name}" for a in node.names]
+            found = [m for m in subs if m in known or _on_disk(m)]
+            out += [(node.lineno, m) for m in found]
+            if len(found) < len(subs):
+                out.append((node.lineno, source))
     return out
 
 
-def _modules(package: str) -> list[Path]:
-    return sorted((ROOT / package).glob("*.py"))
+def _on_disk(module: str) -> bool:
+    p = ROOT / module.replace(".", "/")
+    return p.with_suffix(".py").exists() or (p / "__init__.py").exists()
+
+
+def _resolve(target: str, known: set[str]) -> str | None:
+    """The longest known module that ``target`` names (``None`` for modules outside ``known``)."""
+    parts = target.split(".")
+    for n in range(len(parts), 0, -1):
+        if ".".join(parts[:n]) in known:
+            return ".".join(parts[:n])
+    return None
+
+
+def import_graph(packages=PACKAGES, root: Path = ROOT) -> dict[str, set[str]]:
+    """Module -> the modules of ``packages`` it imports (lazy imports included)."""
+    files: dict[str, Path] = {}
+    for package in packages:
+        files.update(_modules(package, root))
+    known = set(files)
+    graph: dict[str, set[str]] = {}
+    for module, path in files.items():
+        targets = {_resolve(t, known) for _, t in _imports(path, module, known)}
+        graph[module] = {t for t in targets if t and t != module}
+    return graph
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every import circle: the strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    circles: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return circles
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_import_circles(package):
+    circles = [c for c in import_circles(import_graph()) if c[0].split(".")[0] == package]
+    assert not circles, f"import circles in {package}:\n" + "\n".join(" <-> ".join(c) for c in circles)
+
+
+def test_circle_detector_finds_a_planted_circle(tmp_path):
+    """The checker itself: a circle through a lazy import in a subpackage is found, a chain is not."""
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("from .a import f\n")
+    (pkg / "sub" / "a.py").write_text("from ..b import g\n\ndef f():\n    return g()\n")
+    (pkg / "b.py").write_text("def g():\n    from .sub import a\n    return a\n")
+    (pkg / "c.py").write_text("from . import b\n")
+    assert import_circles(import_graph(["pkg"], tmp_path)) == [["pkg.b", "pkg.sub.a"]]
+    (pkg / "b.py").write_text("def g():\n    return 1\n")
+    assert import_circles(import_graph(["pkg"], tmp_path)) == []
+
+
+def _rank(module: str) -> int:
+    parts = module.split(".")
+    return RANK["__init__"] if len(parts) == 1 else RANK[parts[1]]
 
 
 def test_every_zonotope_module_has_a_layer():
-    missing = sorted(p.stem for p in _modules("zonotope") if p.stem not in RANK)
-    assert not missing, f"place these modules in LAYERS: {missing}"
+    missing = sorted(m for m in _modules("zonotope") if "." in m and m.split(".")[1] not in RANK)
+    assert not missing, f"place these folders/modules in LAYERS: {missing}"
 
 
-@pytest.mark.parametrize("path", _modules("zonotope"), ids=lambda p: p.stem)
-def test_zonotope_layers(path):
-    me = RANK.get(path.stem, 0)
+@pytest.mark.parametrize("module", sorted(_modules("zonotope")))
+def test_zonotope_layers(module):
+    me = _rank(module)
+    known = set(_modules("zonotope"))
     bad = []
-    for line, mod in _imports(path, "zonotope"):
-        top, _, rest = mod.partition(".")
+    for line, target in _imports(_modules("zonotope")[module], module, known):
+        top = target.split(".")[0]
         if top in ("isp", "splat"):
-            bad.append(f"line {line}: {mod} (zonotope never imports isp/splat)")
-        elif top == "zonotope" and rest:
-            sub = rest.split(".")[0]
-            if RANK.get(sub, 0) > me:
-                bad.append(f"line {line}: {mod} (layer {RANK[sub]} > {me})")
-    assert not bad, f"zonotope/{path.name} imports a higher layer:\n" + "\n".join(bad)
+            bad.append(f"line {line}: {target} (zonotope never imports isp/splat)")
+        elif top == "zonotope" and "." in target and _rank(target) > me:
+            bad.append(f"line {line}: {target} (layer {_rank(target)} > {me})")
+    assert not bad, f"{module} imports a higher layer:\n" + "\n".join(bad)
 
 
-@pytest.mark.parametrize(
-    "path", [*_modules("isp"), *_modules("splat")], ids=lambda p: f"{p.parent.name}.{p.stem}"
-)
-def test_isp_and_splat_use_public_names(path):
-    package = path.parent.name
+def _is_cli(module: str) -> bool:
+    return any(part == "cli" or part.endswith("_cli") or part == "__main__" for part in module.split(".")[1:])
+
+
+def _library_modules():
+    return sorted(m for package in PACKAGES for m in _modules(package) if not _is_cli(m) and "." in m)
+
+
+@pytest.mark.parametrize("module", _library_modules())
+def test_libraries_never_import_their_command_line(module):
+    package = module.split(".")[0]
+    path = ROOT / (module.replace(".", "/") + ".py")
+    if not path.exists():
+        path = ROOT / module.replace(".", "/") / "__init__.py"
+    bad = [
+        f"line {line}: {t}" for line, t in _imports(path, module) if t.split(".")[0] == package and _is_cli(t)
+    ]
+    assert not bad, f"{module} imports a command line:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize("module", sorted([*_modules("isp"), *_modules("splat")]))
+def test_isp_and_splat_use_public_names(module):
+    package = module.split(".")[0]
+    path = {**_modules("isp"), **_modules("splat")}[module]
     bad = []
-    for line, mod in _imports(path, package):
-        parts = mod.split(".")
-        if parts[0] == "zonotope" and len(parts) > 1 and parts[1].startswith("_"):
-            if ".".join(parts[:2]) not in ALLOWED_PRIVATE:
-                bad.append(f"line {line}: {mod} (private; use a name from `zonotope`)")
+    for line, target in _imports(path, module):
+        parts = target.split(".")
+        if parts[0] == "zonotope" and any(p.startswith("_") for p in parts[1:]):
+            if target not in ALLOWED_PRIVATE:
+                bad.append(f"line {line}: {target} (private; use a public zonotope name)")
         if package == "isp" and parts[0] == "splat":
-            bad.append(f"line {line}: {mod} (isp never imports splat)")
-        if package == "splat" and parts[0] == "isp" and len(parts) > 1 and parts[1].startswith("_"):
-            bad.append(f"line {line}: {mod} (private isp module)")
-    assert not bad, f"{package}/{path.name}:\n" + "\n".join(bad)
+            bad.append(f"line {line}: {target} (isp never imports splat)")
+        if package == "splat" and parts[0] == "isp" and any(p.startswith("_") for p in parts[1:]):
+            bad.append(f"line {line}: {target} (private isp module)")
+    assert not bad, f"{module}:\n" + "\n".join(bad)
 
 
 def test_layer_checker_catches_a_violation(tmp_path):
-    """The checker itself: a relative import of a higher layer and a private import are found."""
-    f = tmp_path / "spectra.py"
-    f.write_text("def f():\n    from .correct import fit_correction\n    import zonotope._lp\n")
-    found = _imports(f, "zonotope")
-    assert (2, "zonotope.correct") in found and (3, "zonotope._lp") in found
+    """The checker itself: a lazy relative import of a higher layer and an absolute import are found."""
+    f = tmp_path / "builtin.py"
+    f.write_text("def f():\n    from ..correct import fit_correction\n    import zonotope.geometry.lp\n")
+    found = _imports(f, "zonotope.spectra.builtin")
+    assert (2, "zonotope.correct") in found and (3, "zonotope.geometry.lp") in found
+    assert _rank("zonotope.correct") > _rank("zonotope.spectra.builtin")
 
 
 #: Public module names that are *not* re-exported as attributes of ``zonotope``, with the reason.
@@ -116,6 +237,7 @@ NOT_REEXPORTED = {
 
 #: Public modules used through their module path, with the reason.
 MODULE_NAMESPACES = {
+    "utilities": "plumbing, kept out of the top-level namespace: zonotope.utilities.atomic_path, ...",
     "parallel": "the execution layer: zonotope.parallel.executor(...)",
     "survey": "an application (zonotope survey), used as zonotope.survey",
     "cli": "the command line",
@@ -124,7 +246,8 @@ MODULE_NAMESPACES = {
 
 
 @pytest.mark.parametrize(
-    "module", sorted(m for m in RANK if not m.startswith("_") and m not in MODULE_NAMESPACES)
+    "module",
+    sorted(m for m in RANK if not m.startswith("_") and m not in MODULE_NAMESPACES),
 )
 def test_zonotope_reexports_every_public_name(module):
     import zonotope

@@ -4,29 +4,29 @@ Exact object-colour solids (zonotopes), metamer mismatch volumes, Vora values an
 metamer-based colour correction.
 
 Module map, in data-flow order (each layer imports only the layers above it; the test
-``tests/test_architecture.py`` enforces it):
+``tests/test_architecture.py`` enforces it and that no import circle exists):
 
-===========================  ==================================================================
-``spectra``, ``_loading``,   spectral curves on one grid: built-in cameras, observers,
-``_generators``              illuminants, reflectance sets; file readers; :func:`generators`;
-                             :class:`GeneratorPair` (source Φ and target Ψ on one grid)
-``solid``, ``polytope``      :class:`Zonotope` (object-colour solid, exact) and :class:`Polytope`
-``vora``, ``macadam``        Vora values and camera-set ranking; MacAdam limits (object colours)
-``mismatch``                 metamer mismatch volumes (:func:`metamer_mismatch`,
-                             :class:`MetamerMismatch`), certified by facet refinement
-``prior``, ``atypical``      a reflectance prior and atypical test spectra
-``correct``                  estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`
-``image``, ``profile``       :func:`correct_image` (unique colours, batches, cache); 3-D LUTs
-                             and saved corrections
-``evaluate``, ``report``,    applications: ΔE00 evaluation, HTML/Markdown reports, pictures,
-``viz``, ``cli``             the ``zonotope`` command
-===========================  ==================================================================
+=====================  ========================================================================
+``utilities``          plumbing: :class:`~zonotope.utilities.MethodRegistry` for every ``method=``
+                       table, atomic output files, config checks, progress callbacks, lazy exports
+``spectra``            spectral curves on one grid: built-in cameras, observers, illuminants,
+                       reflectance sets; file readers; :func:`generators`; :class:`GeneratorPair`;
+                       atypical test spectra
+``geometry``           :class:`Zonotope` (object-colour solid, exact), :class:`Polytope`, MacAdam limits
+``mismatch``           metamer mismatch volumes (:func:`metamer_mismatch`, :class:`MetamerMismatch`):
+                       vertex walk, facet refinement, oracles, membership
+``correct``            estimators: :func:`fit_correction` over :data:`CORRECTION_METHODS`,
+                       :func:`correct_image`, saved corrections and 3-D LUTs
+``vora``, ``parallel``, applications: Vora values, executors, ΔE00 evaluation, camera surveys,
+``evaluate``,          HTML/Markdown reports, pictures
+``survey``, ``report``,
+``viz``
+``cli``                the ``zonotope`` command
+=====================  ========================================================================
 
-Shared infrastructure: ``_errors`` (one exception hierarchy), ``_tol`` (every tolerance, with
-its reason), ``_registry`` (:class:`MethodRegistry` for every ``method=`` table), ``_progress``
-(:class:`ProgressCallback`, the one ``progress(stage, done, total)`` type of every long-running
-function), ``_config`` (config dataclasses taken as one checked object or as keywords),
-``parallel`` (executors), ``_io`` (atomic output files).
+Shared at the top: ``_errors`` (one exception hierarchy) and ``_tol`` (every tolerance, with its
+reason). Old module paths (``zonotope.solid``, ``zonotope.prior``, ...) still import, with a
+:class:`DeprecationWarning`, through the one table ``_MOVED_MODULES``.
 
 ``import zonotope`` loads the spectra and the solid; everything else loads on first use of a
 public name. Two module names are not shadowed by a function of the same name:
@@ -42,7 +42,6 @@ True
 
 from __future__ import annotations
 
-import importlib
 from importlib.metadata import PackageNotFoundError, version
 
 from ._errors import (
@@ -53,12 +52,9 @@ from ._errors import (
     UnknownMethodError,
     ZonotopeError,
 )
-from ._generators import GeneratorPair, generator_pair
-from ._loading import SpectralFileNotFoundError, load_camera, load_reflectances
-from ._registry import Method, MethodRegistry
 from ._tol import REFLECTANCE_MAX, REFLECTANCE_MIN, TOL, Tolerances
-from .solid import Parallelograms, Support, Zonotope
-from .spectra import (
+from .geometry.solid import Parallelograms, Support, Zonotope
+from .spectra.builtin import (
     CAMERAS,
     ILLUMINANTS,
     OBSERVERS,
@@ -69,14 +65,14 @@ from .spectra import (
     illuminant,
     list_builtin,
     observer,
-    read_camera,
-    read_reflectances,
-    read_sfu1995,
     read_spectral_csv,
     reflectances,
     resample,
     spectral_matrix,
 )
+from .spectra.loading import SpectralFileNotFoundError, load_camera, load_reflectances
+from .spectra.pair import GeneratorPair, generator_pair
+from .utilities.lazy import install_moved_modules, lazy_exports
 from .vora import CameraSetScore, projector, rank_camera_sets, vora_value
 
 try:
@@ -96,8 +92,6 @@ __all__ = [
     "GeneratorPair",
     "GeometryError",
     "InfeasibleResponseError",
-    "Method",
-    "MethodRegistry",
     "OptionError",
     "Parallelograms",
     "SpectralDataError",
@@ -118,9 +112,6 @@ __all__ = [
     "observer",
     "projector",
     "rank_camera_sets",
-    "read_camera",
-    "read_reflectances",
-    "read_sfu1995",
     "read_spectral_csv",
     "reflectances",
     "resample",
@@ -128,110 +119,140 @@ __all__ = [
     "vora_value",
 ]
 
-#: Public names loaded on first use, by module.
-_EXPORTS = {
-    "polytope": ["Polytope"],
-    "membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
-    "macadam": [
-        "MacAdamLimits",
-        "invert",
-        "is_object_colour",
-        "macadam_limits",
-        "object_colour_solid",
-        "section",
-    ],
-    "mismatch": [
-        "ORACLES",
-        "CertifiedMMV",
-        "MMVBatch",
-        "MMVBatchConfig",
-        "MetamerMismatch",
-        "channelwise_intersection",
-        "metamer_mismatch",
-        "metamer_mismatch_batch",
-        "metamer_mismatch_bounds",
-    ],
-    "prior": ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"],
-    "atypical": ["ATYPICAL_KINDS", "STRUCTURED_KINDS", "atypical_reflectances", "structured_reflectances"],
-    "correct": [
-        "CORRECTION_METHODS",
-        "CorrectionProblem",
-        "Corrector",
-        "PriorConfig",
-        "check_reflectances",
-        "correction_problem",
-        "fit_Centroid",
-        "fit_Cheung2004",
-        "fit_Dyer2017",
-        "fit_Finlayson2015",
-        "fit_MAP",
-        "fit_Prior",
-        "fit_Projection",
-        "fit_correction",
-        "mmv_centroids",
-        "root_polynomial_terms",
-        "select_regression",
-    ],
-    "image": ["correct_image"],
-    "profile": [
-        "LUT_SHAPERS",
-        "LUT_SPACES",
-        "LUTConfig",
-        "SavedCorrectionNotFoundError",
-        "apply_correction_LUT",
-        "correction_LUT",
-        "load_correction",
-        "save_correction",
-        "write_correction_LUT",
-    ],
-    "evaluate": [
-        "ATYPICAL_SEED",
-        "DEFAULT_METHODS",
-        "Evaluation",
-        "EvaluationConfig",
-        "EvaluationRow",
-        "PairedComparison",
-        "TestSet",
-        "atypical_test_set",
-        "atypical_test_sets",
-        "natural_test_sets",
-        "source_split",
-    ],
-    "report": ["ReportConfig", "ReportExistsError", "write_report"],
-    "viz": [
-        "mmv_polytope",
-        "plot_grey_mmvs",
-        "plot_mmv",
-        "plot_mmv_comparison",
-        "plot_object_colour_solid",
-        "plot_sensitivities",
-        "plot_spectral_locus",
-        "plot_vora_chain",
-    ],
-    "_progress": ["ProgressCallback"],
-    "_lp": ["distance_to_zonotope"],
-    "_io": [
-        "OutputExistsError",
-        "atomic_dir",
-        "atomic_file",
-        "atomic_path",
-        "atomic_write_bytes",
-        "atomic_write_text",
-        "check_output",
-    ],
+#: Old dotted module name -> its module now. Served by one import hook: importing an old name warns
+#: (DeprecationWarning) and returns the new module object.
+_MOVED_MODULES = {
+    "zonotope._registry": "zonotope.utilities.registry",
+    "zonotope._io": "zonotope.utilities.io",
+    "zonotope._config": "zonotope.utilities.config",
+    "zonotope._progress": "zonotope.utilities.progress",
+    "zonotope._loading": "zonotope.spectra.loading",
+    "zonotope._generators": "zonotope.spectra.pair",
+    "zonotope.atypical": "zonotope.spectra.atypical",
+    "zonotope.solid": "zonotope.geometry.solid",
+    "zonotope._zonohedron": "zonotope.geometry.zonohedron",
+    "zonotope.polytope": "zonotope.geometry.polytope",
+    "zonotope.macadam": "zonotope.geometry.macadam",
+    "zonotope._cubemap": "zonotope.geometry.cubemap",
+    "zonotope._lp": "zonotope.geometry.lp",
+    "zonotope._mmv_walk": "zonotope.mismatch.walk",
+    "zonotope._mmv_walk_kernel": "zonotope.mismatch.walk_kernel",
+    "zonotope._mmv_refine": "zonotope.mismatch.refine",
+    "zonotope._oracle": "zonotope.mismatch.oracle",
+    "zonotope.membership": "zonotope.mismatch.membership",
+    "zonotope._correction_problem": "zonotope.correct.problem",
+    "zonotope._regressions": "zonotope.correct.regressions",
+    "zonotope._mmv_estimators": "zonotope.correct.mmv",
+    "zonotope.prior": "zonotope.correct.prior",
+    "zonotope._bvls": "zonotope.correct.bvls",
+    "zonotope.image": "zonotope.correct.image",
+    "zonotope.profile": "zonotope.correct.profile",
+    "zonotope._batch_cli": "zonotope.cli.batch",
 }
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+install_moved_modules(_MOVED_MODULES)
 
-__all__ += sorted(_WHERE)
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'zonotope' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+#: Public names loaded on first use, by module (relative to this package).
+__getattr__, __dir__, _LAZY = lazy_exports(
+    __name__,
+    {
+        "geometry.polytope": ["Polytope"],
+        "mismatch.membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
+        "geometry.macadam": [
+            "MacAdamLimits",
+            "invert",
+            "is_object_colour",
+            "macadam_limits",
+            "object_colour_solid",
+            "section",
+        ],
+        "mismatch.volume": [
+            "ORACLES",
+            "CertifiedMMV",
+            "MMVBatch",
+            "MMVBatchConfig",
+            "MetamerMismatch",
+            "channelwise_intersection",
+            "metamer_mismatch",
+            "metamer_mismatch_batch",
+            "metamer_mismatch_bounds",
+        ],
+        "correct.prior": [
+            "ReflectancePrior",
+            "fiber_lsq",
+            "interior_solution",
+            "map_reflectance",
+            "project_to_mmv",
+        ],
+        "spectra.atypical": [
+            "ATYPICAL_KINDS",
+            "STRUCTURED_KINDS",
+            "atypical_reflectances",
+            "structured_reflectances",
+        ],
+        "correct.methods": [
+            "CORRECTION_METHODS",
+            "DELTA_SIGMAS",
+            "CorrectionProblem",
+            "Corrector",
+            "PriorConfig",
+            "check_reflectances",
+            "correction_problem",
+            "fit_Centroid",
+            "fit_Cheung2004",
+            "fit_Dyer2017",
+            "fit_Finlayson2015",
+            "fit_MAP",
+            "fit_Prior",
+            "fit_Projection",
+            "fit_correction",
+            "mmv_centroids",
+            "noise_options",
+            "root_polynomial_terms",
+            "select_regression",
+        ],
+        "correct.image": ["correct_image"],
+        "correct.profile": [
+            "LUT_SHAPERS",
+            "LUT_SPACES",
+            "LUTConfig",
+            "SavedCorrectionNotFoundError",
+            "apply_correction_LUT",
+            "correction_LUT",
+            "load_correction",
+            "save_correction",
+            "write_correction_LUT",
+        ],
+        "evaluate": [
+            "ATYPICAL_SEED",
+            "DEFAULT_METHODS",
+            "Evaluation",
+            "EvaluationConfig",
+            "EvaluationRow",
+            "PairedComparison",
+            "TestSet",
+            "atypical_test_set",
+            "atypical_test_sets",
+            "natural_test_sets",
+            "source_split",
+        ],
+        "report": ["ReportConfig", "ReportExistsError", "write_report"],
+        "viz": [
+            "mmv_polytope",
+            "plot_grey_mmvs",
+            "plot_mmv",
+            "plot_mmv_comparison",
+            "plot_object_colour_solid",
+            "plot_sensitivities",
+            "plot_spectral_locus",
+            "plot_vora_chain",
+        ],
+        "geometry.lp": ["distance_to_zonotope"],
+    },
+    eager=__all__,
+    deprecated={
+        "read_camera": ("spectra.builtin", "load_camera"),
+        "read_reflectances": ("spectra.builtin", "load_reflectances"),
+        "read_sfu1995": ("spectra.builtin", "load_reflectances"),
+    },
+)
+__all__ += _LAZY

@@ -125,7 +125,7 @@ class Tolerances:
       at θ ≥ 1e-7 keeps normals accurate to ≈ 2e-9;
     - ``coplanar = 1e-11`` rad: only generators coplanar to rounding are grouped into one zonogon;
       a larger value would merge genuine facets of near-coplanar measured data (see
-      ``_zonohedron``'s notes on the 1e-12…1e-11 rad band);
+      ``geometry.zonohedron``'s notes on the 1e-12…1e-11 rad band);
     - ``rank = 1e-10``: singular values of exact rank-deficient stacks (duplicated or linearly
       dependent channels) come out at ≈ 1e-15 relative; measured independent channels are ≥ 1e-4;
     - ``contains = 1e-9``: three orders above the ≈ 1e-12 error of the exact half-spaces, so a
@@ -204,22 +204,22 @@ REFLECTANCE_MIN = -1e-6
 #: See :data:`REFLECTANCE_MIN`.
 REFLECTANCE_MAX = 1.5
 
-# --- sections, reflectances of boundary points, cube map, plots (spectra/macadam/_cubemap/viz) ---
+# --- sections, reflectances of boundary points, cube map, plots (spectra/macadam/cubemap/viz) ---
 
-#: :func:`zonotope.macadam.section`: an edge end within ``SECTION_PLANE × scale`` of the cutting
+#: :func:`zonotope.geometry.macadam.section`: an edge end within ``SECTION_PLANE × scale`` of the cutting
 #: plane lies *on* it (it is a vertex of the section), farther ends are on one side. The signed
 #: distances are dot products of coordinates of size ``scale`` and carry ≈ 10 ε · scale ≈ 2e-15 ·
 #: scale of rounding; 1e-13 is fifty times that, and four orders below :data:`SECTION_MERGE`, so a
 #: vertex is never counted on both sides and never lost between them.
 SECTION_PLANE = 1e-13
 
-#: :func:`zonotope.macadam.section`: cut points closer than ``SECTION_MERGE × scale`` (rounded to
+#: :func:`zonotope.geometry.macadam.section`: cut points closer than ``SECTION_MERGE × scale`` (rounded to
 #: that grid) are one vertex — the same vertex reached from the edges of neighbouring facets, which
 #: agree to the ≈ 1e-15 · scale rounding of the edge interpolation. Distinct vertices of a measured
 #: solid's section lie ≥ 1e-6 · scale apart (one generator's length at 10 nm is ≈ 1e-2 · scale).
 SECTION_MERGE = 1e-10
 
-#: :func:`zonotope.macadam.reflectance_for` on a zonogon facet: the ``tol`` of scipy's bounded least
+#: :func:`zonotope.geometry.macadam.reflectance_for` on a zonogon facet: the ``tol`` of scipy's bounded least
 #: squares (``lsq_linear(method="bvls")``) over the facet's coplanar generators. At its floor
 #: (float64 rounding) so that the reflectance re-integrates to the point to ≈ 1e-15 relative, which
 #: the tests check; the problem is at most a few dozen generators, so the cost is nil.
@@ -235,7 +235,7 @@ CAP_HEMISPHERE = 1e-6
 #: Cube map: the angular margin (rad) added to every facet's cap before the cap/cell overlap test,
 #: so that rounding of the ``arccos`` of unit-vector dot products (≈ ε / sin θ ≲ 1e-12 rad away
 #: from θ ≈ 0) never drops the exit facet from a cell's candidates. A larger margin only adds
-#: candidates (never changes an answer: the test is exact over the candidates, see ``_cubemap``).
+#: candidates (never changes an answer: the test is exact over the candidates, see ``geometry.cubemap``).
 CAP_MARGIN = 1e-9
 
 #: :func:`zonotope.viz.plot_spectral_locus`: wavelengths whose target generator is shorter than
@@ -245,9 +245,9 @@ CAP_MARGIN = 1e-9
 LOCUS_ZERO = 1e-9
 
 # --- MMV engine: simplex kernels, vertex walk, refinement, membership; zonohedron sweeps -------
-# The numba kernels (_mmv_walk_kernel) read these as compile-time constants and cache the compiled
+# The numba kernels (mismatch.walk_kernel) read these as compile-time constants and cache the compiled
 # code on disk keyed by the kernel's own source file: after changing a value used there, delete
-# zonotope/__pycache__/_mmv_walk_kernel.* so that it is recompiled.
+# zonotope/mismatch/__pycache__/walk_kernel.* so that it is recompiled.
 
 #: Simplex kernels (walk, ``mmv_distance``): a basis matrix whose Gauss–Jordan pivot falls below
 #: ``PIVOT ×`` its largest entry is singular. Basis columns are source generators (|det| of a
@@ -256,14 +256,14 @@ LOCUS_ZERO = 1e-9
 #: them with two orders either way.
 PIVOT = 1e-13
 
-#: Simplex pricing (walk, ``mmv_distance``, :class:`~zonotope._oracle.SimplexOracle`): a reduced
+#: Simplex pricing (walk, ``mmv_distance``, :class:`~zonotope.mismatch.oracle.SimplexOracle`): a reduced
 #: cost counts as improving above ``REDUCED_COST ×`` the largest objective coefficient. Reduced
 #: costs are sums of ≈ n products, rounded to ≈ n ε ≈ 1e-14 of that coefficient at n ≤ 100; 1e-11
 #: stops on rounding noise (no cycling on ties) while a support LP's optimum moves by at most
 #: 1e-11 × Σ|Ψu| ≈ 1e-11 of the target scale, below :data:`CERTIFY`.
 REDUCED_COST = 1e-11
 
-#: Phase 1 (walk, :class:`~zonotope._oracle.SimplexOracle`, ``mmv_distance``): a response is
+#: Phase 1 (walk, :class:`~zonotope.mismatch.oracle.SimplexOracle`, ``mmv_distance``): a response is
 #: feasible when the artificial variables sum to at most ``PHASE1 × scale`` (source scale, or 1).
 #: Equal to :data:`CERTIFY`: a response on the solid's boundary computed in float64 (≈ 1e-15 ·
 #: scale off) is feasible, one a billionth of the scale outside is not.
@@ -304,19 +304,19 @@ HULL2_COLLINEAR = 1e-14
 #: directions differ by ≥ 1e-7 rad (:attr:`Tolerances.parallel`).
 PARALLEL_EDGES = 1e-12
 
-#: :class:`~zonotope._oracle.SimplexOracle` ratio test: basic variables whose rate of change is
+#: :class:`~zonotope.mismatch.oracle.SimplexOracle` ratio test: basic variables whose rate of change is
 #: below ``RATIO_PIVOT`` (in variable units per unit step, variables in [0, 1]) do not bound the
 #: step. Dropping pivots that small keeps the basis well conditioned (|pivot| ≥ 1e-9 bounds the
 #: growth of the basis inverse) at the cost of a bound violation ≤ 1e-9 × step ≤ 1e-9, which phase
 #: 2 removes and :data:`PHASE1` tolerates.
 RATIO_PIVOT = 1e-9
 
-#: :class:`~zonotope._oracle.HighsOracle` (reference twin): HiGHS' primal and dual feasibility
+#: :class:`~zonotope.mismatch.oracle.HighsOracle` (reference twin): HiGHS' primal and dual feasibility
 #: tolerances, tightened from their default 1e-7 so that the reference's support values are exact
 #: to ≈ 1e-10 of the scale, below :data:`CERTIFY` (1e-9) of the refinement it checks.
 HIGHS_FEASIBILITY = 1e-10
 
-#: Refinement's outer bound (:meth:`zonotope._mmv_refine.Refinement.outer`): a support direction
+#: Refinement's outer bound (:meth:`zonotope.mismatch.refine.Refinement.outer`): a support direction
 #: whose component inside the MMV's affine hull is shorter than ``NORMAL_ZERO ×`` the longest is
 #: dropped (it is normal to the hull: no constraint inside it). Unit directions projected onto a
 #: basis round to ≈ 1e-16; genuine facet normals have components ≈ 1.
@@ -348,7 +348,7 @@ ZONOGON_HALFTURN = 1e-12
 #: 1e-9 keeps the sweep's combinatorics far from ties at the cost of declining on ~1e-9 of inputs.
 SWEEP_GENERIC = 1e-9
 
-#: :func:`zonotope.membership` (dense half-spaces of a zonotope in any dimension): a subset of d − 1
+#: :func:`zonotope.mismatch.membership` (dense half-spaces of a zonotope in any dimension): a subset of d − 1
 #: generators spans a hyperplane when its smallest singular value exceeds ``HYPERPLANE_RANK ×`` the
 #: largest generator entry. Equal to :attr:`Tolerances.rank` for the same reason: singular values
 #: of exactly dependent subsets come out at ≈ 1e-15 relative, measured independent ones ≥ 1e-4.
@@ -371,21 +371,23 @@ MAGNITUDE_MAX = 1e150
 #: ~80× over the measured rounding and stays ≤ 4e-8 rad for pairs kept apart by ``parallel``.
 ANGLE_ROUNDING = 16 * 2.220446049250313e-16
 
-# -- colour-correction estimators (prior, _mmv_estimators, _correction_problem, atypical, report) --
+# -- colour-correction estimators (correct.prior, correct.mmv, correct.problem, atypical, report) --
 
-#: :func:`zonotope.prior.interior_solution`: the closed-form MAP reflectance counts as inside [0, 1]ⁿ
+#: :func:`zonotope.correct.prior.interior_solution`: the closed-form MAP reflectance counts as inside [0, 1]ⁿ
 #: (and so as the exact bounded solution) when no entry is below ``-INTERIOR_SLACK`` or above
 #: ``1 + INTERIOR_SLACK``. The closed form is exact to ≈ 1e-15 (a 6 × 6 solve of a well-conditioned
 #: Gram matrix); a row on a bound to rounding is the same solution either way, and it is clipped, which
 #: moves its colour by ≤ 1e-12 of the white.
 INTERIOR_SLACK = 1e-12
 
-#: :func:`zonotope.prior.fiber_lsq` (:func:`zonotope._bvls.box_lsq`'s per-row fallback): tolerance of
+#: :func:`zonotope.correct.prior.fiber_lsq` (:func:`zonotope.correct.bvls.box_lsq`'s per-row fallback):
+#: tolerance of
 #: the TRF fallback when scipy's BVLS does not converge (never seen); at 1e-12 its answer agrees with
 #: BVLS's exact active-set solution to the constraint weighting.
 BVLS_FALLBACK = 1e-12
 
-#: :func:`zonotope._bvls.box_lsq` (the batched solver of :func:`zonotope.prior.fiber_lsq`): a row is
+#: :func:`zonotope.correct.bvls.box_lsq` (the batched solver of :func:`zonotope.correct.prior.fiber_lsq`):
+#: a row is
 #: solved when it meets the KKT conditions of ``min ‖Mx − r‖², 0 ≤ x ≤ 1`` with the gradient
 #: ``g = Mᵀ(Mx − r)`` within ``BVLS_KKT · |M|ᵀ(|M||x| + |r|)`` of its required sign or of zero (relative
 #: to the terms summed in ``g``, the scale of its rounding error). Measured on the Prior MAP of
@@ -397,7 +399,8 @@ BVLS_FALLBACK = 1e-12
 #: reason for :data:`BVLS_CONDITION`.)
 BVLS_KKT = 1e-13
 
-#: :func:`zonotope._bvls.box_lsq`: problems whose ``MᵀM`` has a condition number above this are solved by
+#: :func:`zonotope.correct.bvls.box_lsq`: problems whose ``MᵀM`` has a condition number above this are
+#: solved by
 #: scipy's per-row BVLS (QR-based) instead of the batched normal equations. Measured on a Prior MAP
 #: (three cameras, 9 channels, 29 bands, 600 responses the closed form does not cover; σ swept), the
 #: largest difference from scipy's BVLS is 3e-14 at cond 9e3 (σ = 1e-3), 1e-12 at 4e6, 9e-11 at 4e8,
@@ -406,12 +409,12 @@ BVLS_KKT = 1e-13
 #: (``noise = 0``, weight 1e5: cond ≈ 1.5e11) goes to scipy.
 BVLS_CONDITION = 1e9
 
-#: :func:`zonotope.prior.project_to_mmv`: ``METRIC_JITTER × I`` is added to the CIELAB metric ``JᵀJ``
+#: :func:`zonotope.correct.prior.project_to_mmv`: ``METRIC_JITTER × I`` is added to the CIELAB metric ``JᵀJ``
 #: before its Cholesky factor is taken (``JᵀJ`` is positive definite, entries ≈ 1e3–1e5; the jitter
 #: only guards against rounding making it semidefinite and changes distances by < 1e-15 relative).
 METRIC_JITTER = 1e-12
 
-#: :func:`zonotope.prior.project_to_mmv`: relative weight of the prior energy that picks one
+#: :func:`zonotope.correct.prior.project_to_mmv`: relative weight of the prior energy that picks one
 #: reflectance among the ties of the projection (the MMV point is unique, its fiber is not): at 1e-4
 #: of the colour term's scale it decides only among (near-)ties, and the projection's result is used
 #: only when it moves the estimate by more than ``tol_dE`` (0.01 ΔE*ab).
@@ -445,12 +448,12 @@ REPORT_MMV_EPS = 1e-3
 #: fraction of the magma colour scale and in white below (legibility, not numerics).
 LABEL_INK = 0.6
 
-#: :func:`zonotope.atypical.structured_reflectances` ("rough"): ``GP_JITTER × I`` on the squared-
+#: :func:`zonotope.spectra.atypical.structured_reflectances` ("rough"): ``GP_JITTER × I`` on the squared-
 #: exponential kernel so its Cholesky factor exists (the kernel of 8–25 nm on a 10 nm grid has
 #: eigenvalues down to ≈ 1e-16); 1e-9 changes the spectra by ≈ 3e-5 rms, far below their 0.2–0.35 spread.
 GP_JITTER = 1e-9
 
-#: ``zonotope.atypical.sharpened_reflectances``: reflectances are clipped to ``[SHARPEN_CLIP,
+#: ``zonotope.spectra.atypical.sharpened_reflectances``: reflectances are clipped to ``[SHARPEN_CLIP,
 #: 1 − SHARPEN_CLIP]`` before their logit is taken (measured zeros and ones would give infinite
 #: logits); 1e-3 is below the noise of reflectance measurements.
 SHARPEN_CLIP = 1e-3
@@ -459,20 +462,26 @@ SHARPEN_CLIP = 1e-3
 #: degenerate solid (zero volume: fewer independent wavelengths than channels) has a finite log volume;
 #: real solids are far above it (the simulated capture's 9-channel solid: log volume ≈ −18, its
 #: channel-whitened versions within ±20 of that). A clamped log volume is not reused
-#: under channel scaling (:func:`zonotope._mmv_estimators._log_volume`): it does not scale.
+#: under channel scaling (:func:`zonotope.correct.mmv._log_volume`): it does not scale.
 VOLUME_FLOOR = 1e-300
 
 #: Two source solids' Φ are "the same up to channel scaling" (Prior reuses the log volume,
-#: :func:`zonotope._mmv_estimators._log_volume`) when, each channel divided by its largest |entry|,
+#: :func:`zonotope.correct.mmv._log_volume`) when, each channel divided by its largest |entry|,
 #: they agree to this (absolute): a scaled copy agrees to a few ulp (~1e-16); distinct cameras or
 #: grids differ by ≥ 1e-4.
 SCALED_SAME = 1e-14
+
+#: The MMV's per-channel response tolerance δ = DELTA_SIGMAS · σ for responses with noise σ: a few σ,
+#: so that the noise-free response lies within δ of the measured one with high probability (3σ per
+#: channel: 99.7 % for Gaussian noise), while the MMV grows only by that margin.
+DELTA_SIGMAS = 3.0
 
 __all__ += [
     "BVLS_CONDITION",
     "BVLS_FALLBACK",
     "BVLS_KKT",
     "CENTROID_MIN_WEIGHT",
+    "DELTA_SIGMAS",
     "GATE_NONE",
     "GATE_SURE",
     "GP_JITTER",

@@ -5,18 +5,19 @@ of :data:`zonotope.correct.CORRECTION_METHODS` is fitted once and applied to the
 test set; the table reports ΔE00 mean / median / 95th percentile / max against the true target
 colours, the fraction of regression estimates that lie inside the metamer mismatch volume (MMV),
 the share of every estimator's answers that lie outside the MMV of its input (physically impossible
-colours: no reflectance gives both, by the exact test :func:`zonotope.membership.outside_mmv_fraction`;
+colours: no reflectance gives both, by the exact test
+:func:`zonotope.mismatch.membership.outside_mmv_fraction`;
 noise-free runs only) and MMV volume statistics (XYZ units, Y_white = 1).
 
 Test sets
 ---------
 Built in (always available): ColorChecker N Ohta, CIE 1995 TCS, NIST CQS 9.0, and the seeded
-atypical generator :func:`zonotope.atypical.atypical_reflectances`. With a data folder laid out
+atypical generator :func:`zonotope.spectra.atypical.atypical_reflectances`. With a data folder laid out
 like ``../shared/data`` (see its README) also: a seeded subset of the 1269 matte Munsell chips,
 the SFU 1995 Krinov natural surfaces and Vrhel objects (subsets), and the CIE 224:2017 colour
 evaluation samples. Test reflectances are clipped to [0, 1] (a few measured values exceed 1 by
 fluorescence or gloss; they would be outside the object-colour solid). A second, independently written
-atypical generator (:func:`zonotope.atypical.structured_reflectances`: multi-transition steps,
+atypical generator (:func:`zonotope.spectra.atypical.structured_reflectances`: multi-transition steps,
 thin-film fringes, rough spectra) is the set "atypical B", so that an estimator tuned on one atypical
 family can be checked on another.
 
@@ -41,19 +42,21 @@ from pathlib import Path
 
 import numpy as np
 
-from . import spectra
-from ._config import check_count, check_nonnegative, with_options
 from ._errors import OptionError, SpectralDataError, ZonotopeError
-from ._progress import ProgressCallback
-from .atypical import atypical_reflectances, structured_reflectances
-from .correct import (
+from .correct.methods import (
     CORRECTION_METHODS,
+    DELTA_SIGMAS,
     CorrectionProblem,
     correction_problem,
     fit_correction,
+    noise_options,
 )
-from .membership import outside_mmv_fraction
-from .prior import project_to_mmv
+from .correct.prior import project_to_mmv
+from .mismatch.membership import outside_mmv_fraction
+from .spectra import builtin as spectra
+from .spectra.atypical import atypical_reflectances, structured_reflectances
+from .utilities.config import check_count, check_nonnegative, with_options
+from .utilities.progress import ProgressCallback
 
 __all__ = [
     "ATYPICAL_SEED",
@@ -118,8 +121,8 @@ def atypical_test_set(wavelengths, n: int, *, seed: int = ATYPICAL_SEED, generat
     seed
         Generator seed.
     generator
-        ``"A"``: :func:`zonotope.atypical.atypical_reflectances` (band-pass/stop, narrow-band,
-        spiky); ``"B"``: :func:`zonotope.atypical.structured_reflectances` (steps, thin-film
+        ``"A"``: :func:`zonotope.spectra.atypical.atypical_reflectances` (band-pass/stop, narrow-band,
+        spiky); ``"B"``: :func:`zonotope.spectra.atypical.structured_reflectances` (steps, thin-film
         fringes, rough).
 
     Returns
@@ -246,7 +249,8 @@ class EvaluationRow:
 
     ``inside``: fraction of its estimates in the MMV (regressions, tolerant projection test);
     ``outside``: exact share of its estimates outside the MMV of their responses (every estimator,
-    noise-free runs; :func:`zonotope.membership.outside_mmv_fraction`); ``radius`` and ``coverage``: for
+    noise-free runs; :func:`zonotope.mismatch.membership.outside_mmv_fraction`); ``radius`` and
+    ``coverage``: for
     estimators with an uncertainty model (:meth:`~zonotope.correct.Corrector.with_uncertainty`),
     the median 95 % credible radius (ΔE00) and the fraction of samples whose true error is within it.
     """
@@ -468,7 +472,7 @@ def _stats(dE: np.ndarray) -> tuple[float, float, float, float]:
 
 def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: float, executor=None):
     """Centroids (N, m) and volumes (N,) of the MMVs of responses C (N, k)."""
-    from .mismatch import metamer_mismatch_batch
+    from .mismatch.volume import metamer_mismatch_batch
 
     out = metamer_mismatch_batch(
         problem.Phi, problem.Psi, C, eps=eps, delta=delta, on_infeasible="nearest", executor=executor
@@ -479,7 +483,7 @@ def _mmv_batch(problem: CorrectionProblem, C: np.ndarray, *, eps: float, delta: 
 def _outside_solid(problem: CorrectionProblem, C: np.ndarray, atol: float = 1e-6) -> np.ndarray:
     """Which responses (N, k) no reflectance in [0, 1] can produce: the nearest producible response
     is farther than ``atol`` (an absolute slack in response units, white = 1) in some channel."""
-    from .prior import fiber_lsq
+    from .correct.prior import fiber_lsq
 
     n = problem.Phi.shape[0]
     x = fiber_lsq(problem.Phi, C, np.eye(n), np.full(n, 0.5))
@@ -488,7 +492,7 @@ def _outside_solid(problem: CorrectionProblem, C: np.ndarray, atol: float = 1e-6
 
 @dataclass(frozen=True, eq=False)
 class EvaluationConfig:
-    """Options of :func:`evaluate` (checked when made; see :mod:`zonotope._config`).
+    """Options of :func:`evaluate` (checked when made; see :mod:`zonotope.utilities.config`).
 
     Attributes
     ----------
@@ -505,7 +509,7 @@ class EvaluationConfig:
         Number of atypical spectra added when ``test_sets`` is None (0 for none).
     noise : float
         Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
-        ``delta = 3σ``) are told about it.
+        ``delta = DELTA_SIGMAS · σ``) are told about it.
     seed : int
         Seed of the atypical spectra and of the noise.
     centroid_eps : float
@@ -598,7 +602,7 @@ def evaluate(
         that compute MMVs); None: this process. The table is identical either way.
     progress
         Called as ``progress(stage, 0, n)`` before and ``progress(stage, n, n)`` after each step
-        (n test responses; :class:`~zonotope.ProgressCallback`).
+        (n test responses; :class:`~zonotope.utilities.ProgressCallback`).
     **options
         :class:`EvaluationConfig` fields as keywords, alone or overriding those of ``config``
         (e.g. ``evaluate(sets, noise=0.01, atypical=0)``).
@@ -657,10 +661,9 @@ def evaluate(
         notes.extend(n for n in split_notes if n not in notes)
         fitted = {}
         for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
-            props = CORRECTION_METHODS.properties(m)
-            opts = {"noise": noise} if props["noise"] and noise > 0 else {}
-            if props["centroid"]:
-                opts = {"delta": 3 * noise, "eps": centroid_eps}
+            opts = noise_options(m, noise)
+            if CORRECTION_METHODS.properties(m)["centroid"]:
+                opts = {"delta": DELTA_SIGMAS * noise, "eps": centroid_eps}
             if executor is not None and "executor" in inspect.signature(CORRECTION_METHODS[m]).parameters:
                 opts["executor"] = executor
             try:
@@ -677,14 +680,17 @@ def evaluate(
                     notes.append(
                         f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
                         "camera's object-colour solid (no reflectance produces them); the MMV estimators "
-                        "used the nearest feasible response (delta = 3σ), the others extrapolate."
+                        f"used the nearest feasible response (delta = {DELTA_SIGMAS:g}σ), the others "
+                        "extrapolate."
                     )
             centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
             if centroid is not None:
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", 0, len(C))
                 t0 = time.perf_counter()
-                cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=3 * noise, executor=executor)
+                cents, vols = _mmv_batch(
+                    problem, C, eps=centroid_eps, delta=DELTA_SIGMAS * noise, executor=executor
+                )
                 if progress:
                     progress(f"{label} · {ts.name}: MMVs", len(C), len(C))
                 volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))

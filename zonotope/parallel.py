@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from ._errors import ZonotopeError
-from ._progress import ProgressCallback
+from .utilities.progress import ProgressCallback
 
 __all__ = [
     "ENV_VAR",
@@ -121,7 +121,7 @@ class Executor(_Executor):
         Yields ``(index, result)`` as the tasks finish (any order); a task that raised yields a
         :class:`TaskFailure` instead of its result and the others go on. ``shared`` is sent to
         each worker once, not once per item. ``progress(stage, done, total)`` is called after
-        each finished task (:class:`~zonotope.ProgressCallback`).
+        each finished task (:class:`~zonotope.utilities.ProgressCallback`).
         """
         raise NotImplementedError  # pragma: no cover - the subclasses implement it
 
@@ -575,7 +575,7 @@ def run_files(
         ``min_tasks`` files or more (default :data:`FILE_MIN_TASKS`).
     progress : callable, optional
         ``progress("files", done, total)`` over the files that had to be made
-        (:class:`~zonotope.ProgressCallback`).
+        (:class:`~zonotope.utilities.ProgressCallback`).
     settings : mapping, optional
         The options that change the outputs: kept beside the manifest, and a rerun into the same
         folder with other settings is refused (:func:`check_settings`).
@@ -600,7 +600,7 @@ def run_files(
     if settings is not None:
         import json
 
-        from ._io import atomic_write_bytes
+        from .utilities.io import atomic_write_bytes
 
         check_settings(manifest, settings)
         if not _settings_path(manifest).is_file():
@@ -655,8 +655,8 @@ def run_files(
 def _remove_temporaries(tasks: list[FileTask]) -> None:
     """Remove the temporaries of attempts whose worker died while writing (only this batch's): the
     ``.part`` files, and the atomic writers' own temporaries of a ``.part`` file (a worker killed
-    inside ``zonotope._io``'s write of it leaves ``..stem.<hex>.part.tif.<pid>.tmp-….tif``)."""
-    from ._io import _TMP
+    inside ``zonotope.utilities.io``'s write of it leaves ``..stem.<hex>.part.tif.<pid>.tmp-….tif``)."""
+    from .utilities.io import _TMP
 
     names: dict[Path, set[str]] = {}
     for t in tasks:

@@ -10,7 +10,7 @@
    solid with its spectral locus, MMVs along the grey axis, one MMV with one camera vs all.
 
 Everything is written into a temporary folder next to the output, which is renamed into place
-only when complete (:func:`zonotope._io.atomic_dir`): an interrupted run never replaces (or
+only when complete (:func:`zonotope.utilities.io.atomic_dir`): an interrupted run never replaces (or
 half-writes) a good report and leaves no temporary folder behind. An existing folder is replaced only
 with ``force=True`` and only if it is a report (it holds the ``.zonotope-output`` marker this function
 writes); any other folder is never touched. Both are checked before the long computation starts.
@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ._config import check_bool, check_count, with_options
 from ._errors import OptionError, SpectralDataError
-from ._io import OutputExistsError, atomic_dir, check_output
-from ._progress import ProgressCallback
 from ._tol import LABEL_INK, REPORT_MMV_EPS
+from .utilities.config import check_bool, check_count, with_options
+from .utilities.io import OutputExistsError, atomic_dir, check_output
+from .utilities.progress import ProgressCallback
 
 __all__ = ["ReportConfig", "ReportExistsError", "write_report"]
 
@@ -62,7 +62,7 @@ def _table_html(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 
 
 def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray:
-    from .mismatch import metamer_mismatch_bounds
+    from .mismatch.volume import metamer_mismatch_bounds
 
     vols = []
     for c in responses:
@@ -75,7 +75,7 @@ def _mmv_volumes(problem, responses: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ReportConfig:
-    """Options of :func:`write_report` (checked when made; see :mod:`zonotope._config`).
+    """Options of :func:`write_report` (checked when made; see :mod:`zonotope.utilities.config`).
 
     Attributes
     ----------
@@ -114,7 +114,7 @@ class ReportConfig:
     volumes: bool = True
 
     def __post_init__(self):
-        from .correct import CORRECTION_METHODS
+        from .correct.methods import CORRECTION_METHODS
 
         name = "ReportConfig"
         if self.shape is not None and type(self.shape).__name__ != "SpectralShape":
@@ -160,7 +160,7 @@ def write_report(
     force
         Replace an existing ``output``.
     progress
-        ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.ProgressCallback`; a new
+        ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.utilities.ProgressCallback`; a new
         stage name closes the previous one).
     **options
         :class:`ReportConfig` fields as keywords, alone or overriding those of ``config``
@@ -185,10 +185,10 @@ def write_report(
     size, pictures, methods, volumes = cfg.size, cfg.pictures, cfg.methods, cfg.volumes
     import colour
 
-    from . import spectra
-    from ._loading import load_camera
-    from .correct import correction_problem
+    from .correct.methods import correction_problem
     from .evaluate import DEFAULT_METHODS, evaluate, natural_test_sets
+    from .spectra import builtin as spectra
+    from .spectra.loading import load_camera
     from .vora import rank_camera_sets, vora_value
 
     output = Path(output)
@@ -387,7 +387,7 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
     step("pictures: MMVs", 2)
     viz.plot_grey_mmvs(full, filename=folder / "grey_mmvs.png").close()
     pics.append(("grey_mmvs.png", f"MMVs along the grey axis, {' + '.join(full.sources)}"))
-    from . import spectra
+    from .spectra import builtin as spectra
 
     x = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), full.wavelengths)[:, 2], 0, 1)
     problems = [singles[0], full] if len(singles) > 1 else [full]
@@ -411,9 +411,9 @@ def _confidence_map(problem, filename: Path) -> None:
     import colour
     import matplotlib.pyplot as plt
 
-    from . import spectra
-    from .correct import fit_correction
+    from .correct.methods import fit_correction
     from .evaluate import atypical_test_set
+    from .spectra import builtin as spectra
 
     w = problem.wavelengths
     cc = np.clip(spectra.resample(spectra.reflectances("ColorChecker N Ohta"), w).T, 0, 1)[:24]

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ._config import check_count, check_nonnegative, with_options
 from ._errors import OptionError, SpectralDataError, ZonotopeError
-from ._loading import load_camera
-from ._progress import ProgressCallback
+from .spectra.loading import load_camera
+from .utilities.config import check_count, check_nonnegative, with_options
+from .utilities.progress import ProgressCallback
 
 __all__ = [
     "REGRESSIONS",
@@ -98,7 +98,7 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
     skipped : list of str
         Files of a folder that were not cameras, with the reason.
     """
-    from . import spectra
+    from .spectra import builtin as spectra
 
     skipped: list[str] = []
     if isinstance(spec, str | Path) and Path(spec).is_dir():
@@ -133,7 +133,7 @@ def load_cameras(spec: str | Path | Sequence[str | Path]) -> tuple[dict, list[st
 
 
 def _grid(curves, interval: float) -> np.ndarray:
-    from . import spectra
+    from .spectra import builtin as spectra
 
     common = spectra.common_shape(*curves)
     start = max(400.0, math.ceil(common.start / interval) * interval)
@@ -145,9 +145,9 @@ def _grid(curves, interval: float) -> np.ndarray:
 
 def _score(names: tuple[str, ...], shared) -> SurveyRow:
     """One camera set → its :class:`SurveyRow` (a task; never raises for bad data)."""
-    from . import spectra
-    from .correct import correction_problem, fit_correction
-    from .mismatch import metamer_mismatch_batch
+    from .correct.methods import correction_problem, fit_correction
+    from .mismatch.volume import metamer_mismatch_batch
+    from .spectra import builtin as spectra
     from .vora import vora_value
 
     cameras, opts = shared
@@ -205,7 +205,7 @@ def _score(names: tuple[str, ...], shared) -> SurveyRow:
 
 @dataclass(frozen=True)
 class SurveyConfig:
-    """Options of :func:`survey` (checked when made; see :mod:`zonotope._config`).
+    """Options of :func:`survey` (checked when made; see :mod:`zonotope.utilities.config`).
 
     Attributes
     ----------
@@ -274,7 +274,7 @@ def survey(
     scheduler
         Where the tasks run (:func:`zonotope.parallel.executor`); one task per camera set.
     progress
-        ``progress("camera sets", done, total)`` (:class:`~zonotope.ProgressCallback`).
+        ``progress("camera sets", done, total)`` (:class:`~zonotope.utilities.ProgressCallback`).
     **options
         :class:`SurveyConfig` fields as keywords, alone or overriding those of ``config``
         (e.g. ``survey(cams, size=3)``).
@@ -294,8 +294,8 @@ def survey(
     cfg = with_options(SurveyConfig, config, options, where="survey")
     size, target, illuminant, interval = cfg.size, cfg.target, cfg.illuminant, cfg.interval
     reflectances, training, eps, containing = cfg.reflectances, cfg.training, cfg.eps, cfg.containing
-    from . import spectra
     from .parallel import TaskFailure, executor
+    from .spectra import builtin as spectra
 
     cams = cameras if isinstance(cameras, dict) else load_cameras(cameras)[0]
     if not isinstance(size, int) or not 1 <= size <= len(cams):
@@ -364,7 +364,7 @@ def write_table(rows: Sequence[SurveyRow], path: str | Path) -> Path:
     import csv
     import io
 
-    from ._io import atomic_path, atomic_write_text
+    from .utilities.io import atomic_path, atomic_write_text
 
     path = Path(path)
     if path.suffix.lower() not in TABLE_SUFFIXES:

@@ -103,7 +103,7 @@ def _finish(
         plotter.reset_camera(bounds=bounds)
         plotter.camera.zoom(_FRAME_ZOOM)
     if filename is not None:
-        from ._io import atomic_path
+        from .utilities.io import atomic_path
 
         atomic_path(filename, lambda tmp: plotter.screenshot(str(tmp)))
     return plotter
@@ -180,7 +180,7 @@ def plot_object_colour_solid(
     -------
     pyvista.Plotter
     """
-    from .solid import Zonotope
+    from .geometry.solid import Zonotope
 
     p = _plotter(plotter)
     p.add_mesh(
@@ -226,7 +226,7 @@ def plot_spectral_locus(
 
 
 def mmv_polytope(problem, response, *, eps: float = 1e-3):
-    """The metamer mismatch volume of one source response as a :class:`zonotope.polytope.Polytope`.
+    """The metamer mismatch volume of one source response as a :class:`zonotope.geometry.polytope.Polytope`.
 
     Parameters
     ----------
@@ -235,7 +235,7 @@ def mmv_polytope(problem, response, *, eps: float = 1e-3):
     eps
         Certification tolerance; the certified inner polytope is returned.
     """
-    from .mismatch import metamer_mismatch_bounds
+    from .mismatch.volume import metamer_mismatch_bounds
 
     return metamer_mismatch_bounds(
         problem.Phi, problem.Psi, np.asarray(response, dtype=np.float64), eps=eps, on_infeasible="nearest"
@@ -295,7 +295,7 @@ def _plot_mmv(
 ):
     """:func:`plot_mmv`; ``bounds`` (xmin, xmax, ..., zmax) is the box to label and frame (default the
     MMV's, see :func:`_mmv_box`): the panels of :func:`plot_mmv_comparison` share one."""
-    from .solid import Zonotope
+    from .geometry.solid import Zonotope
 
     pv = _pv()
     p = _plotter(plotter)
@@ -346,7 +346,7 @@ def plot_grey_mmvs(
     ``title`` is shown above the picture (default names the cameras, the target and the levels;
     ``""`` shows none).
     """
-    from .solid import Zonotope
+    from .geometry.solid import Zonotope
 
     pv = _pv()
     p = _plotter(plotter)
@@ -410,7 +410,7 @@ def _figure(ax, figsize=(7, 4)):
 
 def _save(fig, filename):
     if filename is not None:
-        from ._io import atomic_path
+        from .utilities.io import atomic_path
 
         atomic_path(filename, lambda tmp: fig.savefig(tmp, dpi=110))
 

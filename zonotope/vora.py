@@ -22,10 +22,10 @@ from itertools import combinations
 
 import numpy as np
 
-from . import spectra
 from ._errors import OptionError, SpectralDataError, UnknownMethodError
-from ._loading import load_camera
 from ._tol import TOL
+from .spectra import builtin as spectra
+from .spectra.loading import load_camera
 
 __all__ = ["CameraSetScore", "projector", "rank_camera_sets", "vora_value"]
 
@@ -68,9 +68,10 @@ def vora_value(Q, X) -> float:
 
     Parameters
     ----------
-    Q : array_like of shape (n, k)
-        Camera sensitivities × illuminant (any number of channels, e.g. 6 for two cameras).
-    X : array_like of shape (n, m)
+    Q : array_like of shape (n, k) or colour.MultiSpectralDistributions
+        Camera sensitivities × illuminant (any number of channels, e.g. 6 for two cameras), such as
+        :func:`zonotope.generators` returns.
+    X : array_like of shape (n, m) or colour.MultiSpectralDistributions
         Target (eye) sensitivities × illuminant on the same grid.
 
     Examples
@@ -79,9 +80,16 @@ def vora_value(Q, X) -> float:
     >>> X = np.random.default_rng(0).random((31, 3))
     >>> round(vora_value(X @ np.array([[1, 2, 0], [0, 1, 0], [1, 0, 3]]), X), 12)
     1.0
+    >>> import zonotope
+    >>> G = zonotope.generators("Nikon 5100 (NPL)", shape=np.arange(400, 701, 10))
+    >>> 0 < vora_value(G, zonotope.generators("CIE 1931 2°", shape=np.arange(400, 701, 10))) <= 1
+    True
     """
-    Q = spectra.float_array(Q, "Q")
-    X = spectra.float_array(X, "X")
+    grids = [np.asarray(A.wavelengths) for A in (Q, X) if hasattr(A, "wavelengths")]
+    if len(grids) == 2 and not (grids[0].shape == grids[1].shape and np.allclose(grids[0], grids[1])):
+        raise SpectralDataError("Q and X are on different wavelength grids; resample them onto one.")
+    Q = spectra.float_array(getattr(Q, "values", Q), "Q")
+    X = spectra.float_array(getattr(X, "values", X), "X")
     if Q.ndim != 2 or X.ndim != 2 or Q.shape[0] != X.shape[0]:
         raise SpectralDataError(
             f"Q {Q.shape} and X {X.shape} must be (n, k) and (n, m) on the same wavelength grid."

@@ -8,14 +8,20 @@
   themselves (``zonotope.cli._parser`` and friends), so it cannot drift from the code.
 * **Gallery**: ``notebooks/*.ipynb`` copied into ``docs/gallery/``. A notebook whose code cells all
   carry an execution count (already executed, e.g. by ``pytest --nbmake --overwrite`` earlier in the
-  same CI run) is rendered as it is; the others are executed once by myst-nb during the build.
+  same CI run) is rendered as it is; the others are executed once by myst-nb during the build (or not
+  at all with ``-D nb_execution_mode=off``). The gallery's table (``docs/gallery/table.inc``) says for
+  each notebook which of these happened, shows the first figure of an executed notebook as its
+  thumbnail, and says when a notebook that reads ``../shared/data`` runs without it (the notebook page
+  then opens with the same note) instead of leaving the measured data silently out.
 
 Everything generated lives in ignored paths (``docs/api/generated``, ``docs/guide/cli_help``,
-``docs/gallery/*.ipynb``) and is rewritten on every build.
+``docs/gallery/*.ipynb``, ``docs/gallery/_thumbs``, ``docs/gallery/table.inc``) and is rewritten on
+every build.
 """
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import importlib
 import inspect
@@ -41,7 +47,20 @@ CLIS = (
     ("zonotope", "zonotope.cli", "_parser"),
     ("isp", "isp.cli", "_parser"),
     ("splat", "splat.cli", "_parser"),
-    ("python -m splat.simcapture", "splat.simcapture", "main"),
+    ("python -m splat.sim.capture", "splat.sim.capture", "main"),
+)
+
+#: Gallery notebooks in reading order, with the thesis figures each reproduces.
+GALLERY = (
+    ("fig1_colour_vision", "1.1 cone fundamentals; 1.2 spectral locus (LMS, XYZ, xy)"),
+    ("fig1_cameras_and_eye", "1.4 camera vs eye in XYZ, gamuts; 1.5 the eye's object-colour solid"),
+    ("object_colour_solids", "solids of the built-in cameras"),
+    ("raw_pipeline", "1.3 Bayer mosaic and demosaicing; 3.4 ISP stages of one RAW file"),
+    ("fig3_multispectral", "3.2 one view, three cameras (splat); 3.3 PCA false colour"),
+    ("fig4_mmv", "4.1 MMV vs per-channel intersection; 4.2 MMVs of several pixel values"),
+    ("fig5_sanity_vora", "5.1 sanity cases; 5.2 Vora value"),
+    ("fig5_cameras_added", "MMV volume and ΔE00 as cameras are added (not in the thesis)"),
+    ("colour_correction", "estimators compared (fig. 5.2 again)"),
 )
 
 
@@ -66,14 +85,20 @@ def _summary(doc: str | None) -> str:
     return line.replace("|", "\\|")
 
 
+def _modules(package: str) -> list[str]:
+    """Dotted names of ``package`` and every module below it, subpackages included."""
+    pkg = importlib.import_module(package)
+    found = [package]
+    for info in pkgutil.walk_packages(pkg.__path__, prefix=f"{package}."):
+        if info.name.rsplit(".", 1)[-1] != "__main__":
+            found.append(info.name)
+    return found
+
+
 def _data_docs(package: str) -> dict[str, tuple[str, str]]:
     """``name → (module, doc)`` for every ``#:`` documented module-level name in ``package``."""
     found: dict[str, tuple[str, str]] = {}
-    pkg = importlib.import_module(package)
-    modules = [package] + [
-        f"{package}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if m.name != "__main__"
-    ]
-    for mod in modules:
+    for mod in _modules(package):
         try:
             docs = ModuleAnalyzer.for_module(mod).find_attr_docs()
         except Exception:  # a module the analyzer cannot parse has no #: docs for us
@@ -92,13 +117,13 @@ def _kind(obj) -> str:
     return "data"
 
 
-def _public_names(package: str):
-    """``[(name, obj, kind, defining module, doc)]`` for every name in ``package.__all__``."""
+def _public_names(package: str, names: list[str] | None = None):
+    """``[(name, obj, kind, defining module, doc)]`` for ``names`` (default: ``package.__all__``)."""
     pkg = importlib.import_module(package)
     data = _data_docs(package)
     lazy = getattr(pkg, "_WHERE", {})
     out = []
-    for name in pkg.__all__:
+    for name in pkg.__all__ if names is None else names:
         obj = getattr(pkg, name)
         kind = _kind(obj)
         if kind == "data":
@@ -117,6 +142,23 @@ def _public_names(package: str):
     return out
 
 
+def _subpackage_names(package: str) -> dict[str, list[str]]:
+    """``subpackage → names`` of its ``__all__`` that ``package.__all__`` does not re-export.
+
+    Plumbing (``zonotope.utilities``: registries, atomic writers, progress types) is public in its
+    subpackage only; those names get a page of their own, under their subpackage's path.
+    """
+    top = set(importlib.import_module(package).__all__)
+    found = {}
+    for name in _modules(package)[1:]:
+        mod = importlib.import_module(name)
+        if hasattr(mod, "__path__") and hasattr(mod, "__all__"):
+            extra = [n for n in mod.__all__ if n not in top]
+            if extra:
+                found[name] = extra
+    return found
+
+
 def _module_group(module: str) -> str:
     """Page name of a defining module's names (``zonotope._tol`` → ``zonotope-tol``)."""
     if "." not in module:
@@ -124,57 +166,95 @@ def _module_group(module: str) -> str:
     return module.replace("._", ".").replace(".", "-")
 
 
+def _api_page(namespace: str, rows, out: Path, written: set[str], intro: str, suffix: str = "") -> list[str]:
+    """Write ``namespace``'s summary page and one page per defining module; the summary's lines."""
+    groups: dict[str, list] = {}
+    for row in rows:
+        groups.setdefault(row[3], []).append(row)
+    lines = [
+        f".. _api-{namespace}:\n",
+        _title(f"``{namespace}``"),
+        f".. automodule:: {namespace}\n   :no-members:\n",
+        _title("Public names", "-"),
+        intro,
+    ]
+    toc = []
+    for module in sorted(groups, key=lambda m: (m.split(".")[-1].lstrip("_"), m)):
+        group = sorted(groups[module], key=lambda r: r[0].lower())
+        page = _module_group(module) + suffix
+        toc.append(page)
+        lines += [
+            f".. list-table:: from ``{module}`` — :doc:`details <{page}>`",
+            "   :widths: 30 12 58\n   :header-rows: 0\n",
+        ]
+        for name, _obj, kind, _m, doc in group:
+            lines += [
+                f"   * - :py:{'obj'}:`~{namespace}.{name}`",
+                f"     - {kind}",
+                f"     - {_summary(doc)}",
+            ]
+        lines.append("")
+        mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
+        body = [
+            _title(f"``{module}``"),
+            f".. currentmodule:: {module}\n",  # short references in the module's summary
+            f"{mod_doc}\n" if mod_doc else "",
+            f".. currentmodule:: {namespace}\n",
+        ]
+        for name, _obj, kind, _m, doc in group:
+            if kind == "data":
+                body += [f".. py:data:: {name}\n", _indent(doc) + "\n"]
+            elif kind in ("class", "exception"):
+                members = "" if kind == "exception" else "   :members:\n   :show-inheritance:\n"
+                body += [f".. autoclass:: {name}\n{members}"]
+            else:
+                body += [f".. autofunction:: {name}\n"]
+        _write(out / f"{page}.rst", "\n".join(body))
+        written.add(f"{page}.rst")
+    return lines + [".. toctree::\n   :hidden:\n"] + [f"   {t}" for t in toc] + [""]
+
+
 def generate_api(app, config) -> None:
-    """Write ``docs/api/generated/*.rst``: one page per package, one per defining module."""
+    """Write ``docs/api/generated/*.rst``: one page per package, one per defining module.
+
+    Names public only in a subpackage (``zonotope.utilities.MethodRegistry``) get a page per
+    subpackage, linked from the package's page.
+    """
     out = DOCS / "api" / "generated"
-    written = set()
+    written: set[str] = set()
     for package in PACKAGES:
         names = _public_names(package)
-        groups: dict[str, list] = {}
-        for row in names:
-            groups.setdefault(row[3], []).append(row)
-        lines = [
-            f".. _api-{package}:\n",
-            _title(f"``{package}``"),
-            f".. automodule:: {package}\n   :no-members:\n",
-            _title("Public names", "-"),
+        lines = _api_page(
+            package,
+            names,
+            out,
+            written,
             f"All {len(names)} names of ``{package}.__all__``, by the module that defines them "
             f"(import them from ``{package}``).\n",
-        ]
-        toc = []
-        for module in sorted(groups, key=lambda m: (m.split(".")[-1].lstrip("_"), m)):
-            rows = sorted(groups[module], key=lambda r: r[0].lower())
-            page = _module_group(module)
-            toc.append(page)
-            lines += [
-                f".. list-table:: from ``{module}`` — :doc:`details <{page}>`",
-                "   :widths: 30 12 58\n   :header-rows: 0\n",
-            ]
-            for name, _obj, kind, _m, doc in rows:
-                lines += [
-                    f"   * - :py:{'obj'}:`~{package}.{name}`",
-                    f"     - {kind}",
-                    f"     - {_summary(doc)}",
+        )
+        subpackages = _subpackage_names(package)
+        if subpackages:
+            lines += (
+                [
+                    _title("Names public in a subpackage only", "-"),
+                    "Import these from their subpackage (``from zonotope.utilities import atomic_path``).\n",
+                    ".. toctree::\n   :maxdepth: 1\n",
                 ]
-            lines.append("")
-            mod_doc = _summary(inspect.getdoc(importlib.import_module(module)))
-            body = [
-                _title(f"``{module}``"),
-                f".. currentmodule:: {module}\n",  # short references in the module's summary
-                f"{mod_doc}\n" if mod_doc else "",
-                f".. currentmodule:: {package}\n",
-            ]
-            for name, _obj, kind, _m, doc in rows:
-                if kind == "data":
-                    body += [f".. py:data:: {name}\n", _indent(doc) + "\n"]
-                elif kind in ("class", "exception"):
-                    members = "" if kind == "exception" else "   :members:\n   :show-inheritance:\n"
-                    body += [f".. autoclass:: {name}\n{members}"]
-                else:
-                    body += [f".. autofunction:: {name}\n"]
-            _write(out / f"{page}.rst", "\n".join(body))
-            written.add(f"{page}.rst")
-        lines += [".. toctree::\n   :hidden:\n"] + [f"   {t}" for t in toc] + [""]
+                + [f"   {sub}" for sub in subpackages]
+                + [""]
+            )
+            for sub, extra in subpackages.items():
+                rows = _public_names(sub, extra)
+                sub_lines = _api_page(
+                    sub,
+                    rows,
+                    out,
+                    written,
+                    f"The {len(rows)} names of ``{sub}.__all__`` that ``{package}`` does not re-export.\n",
+                    suffix="-sub",
+                )
+                _write(out / f"{sub}.rst", "\n".join(sub_lines))
+                written.add(f"{sub}.rst")
         _write(out / f"{package}.rst", "\n".join(lines))
         written.add(f"{package}.rst")
     for stale in out.glob("*.rst"):  # a module that no longer defines public names
@@ -222,25 +302,86 @@ def generate_cli(app, config) -> None:
         _write(out / f"{module.split('.')[-1] if '.' in title else title}.rst", "\n".join(lines))
 
 
-def _executed(nb_path: Path) -> bool:
-    nb = json.loads(nb_path.read_text())
+def _executed(nb: dict) -> bool:
     cells = [c for c in nb["cells"] if c["cell_type"] == "code"]
     return bool(cells) and all(c.get("execution_count") is not None for c in cells)
 
 
+def _shared_data() -> Path | None:
+    """``../shared/data`` (or ``$ZONOTOPE_SHARED_DATA``) as the notebooks find it, else None."""
+    env = os.environ.get("ZONOTOPE_SHARED_DATA")
+    candidates = [Path(env)] if env else []
+    candidates += [p / "shared" / "data" for p in (ROOT, *ROOT.parents)]
+    return next((p for p in candidates if p.is_dir()), None)
+
+
+def _uses_shared_data(nb: dict) -> bool:
+    return any("shared_data" in "".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "code")
+
+
+def _thumbnail(nb: dict, target: Path) -> bool:
+    """Write the notebook's first PNG output to ``target``; False when it has none."""
+    for cell in nb["cells"]:
+        for output in cell.get("outputs", []):
+            png = output.get("data", {}).get("image/png")
+            if png:
+                data = base64.b64decode("".join(png) if isinstance(png, list) else png)
+                if not target.exists() or target.read_bytes() != data:
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    target.write_bytes(data)
+                return True
+    return False
+
+
+_NO_DATA_NOTE = (
+    "```{note}\nThis page was built without `../shared/data` (set `ZONOTOPE_SHARED_DATA` to point to "
+    "it): the figures below that need its measured data sets are left out or drawn from the built-in "
+    "sets only, as the notebook says where it checks for the data.\n```"
+)
+
+
 def copy_gallery(app, config) -> None:
-    """Copy ``notebooks/*.ipynb`` into ``docs/gallery``; executed ones are not executed again."""
+    """Copy ``notebooks/*.ipynb`` into ``docs/gallery`` and write the gallery's table.
+
+    Executed notebooks are not executed again. Where a notebook reads ``../shared/data`` and this
+    build runs it without that folder, its copy opens with a note saying so.
+    """
     dst = DOCS / "gallery"
     dst.mkdir(exist_ok=True)
+    data = _shared_data()
+    mode = config.nb_execution_mode
     names = set()
     excluded = []
-    for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
-        names.add(nb.name)
-        target = dst / nb.name
-        if not target.exists() or target.read_bytes() != nb.read_bytes():
-            shutil.copyfile(nb, target)
-        if _executed(nb):
-            excluded.append(f"gallery/{nb.name}")
+    rows = []
+    order = [name for name, _ in GALLERY]
+    notebooks = sorted(
+        (ROOT / "notebooks").glob("*.ipynb"),
+        key=lambda p: (order.index(p.stem) if p.stem in order else len(order), p.stem),
+    )
+    figures = dict(GALLERY)
+    for path in notebooks:
+        names.add(path.name)
+        nb = json.loads(path.read_text())
+        executed = _executed(nb)
+        no_data = _uses_shared_data(nb) and data is None
+        if executed:
+            excluded.append(f"gallery/{path.name}")
+            how = "shown with the outputs it carries (executed before this build)"
+        elif mode in ("force", "auto", "cache", "inline"):
+            how = "executed during this build"
+        else:
+            how = "**not executed** in this build (``nb_execution_mode = off``): code only"
+        if no_data and not executed:
+            nb["cells"].insert(0, {"cell_type": "markdown", "metadata": {}, "source": _NO_DATA_NOTE})
+            how += "; **without** ``../shared/data``: its measured-data figures are left out"
+        elif _uses_shared_data(nb):
+            how += "; reads ``../shared/data`` when present"
+        text = json.dumps(nb, indent=1, ensure_ascii=False) + "\n"
+        target = dst / path.name
+        if not target.exists() or target.read_text() != text:
+            target.write_text(text)
+        thumb = _thumbnail(nb, dst / "_thumbs" / f"{path.stem}.png")
+        rows.append((path.stem, figures.get(path.stem, ""), how, thumb))
     for helper in sorted((ROOT / "notebooks").glob("*.py")):  # modules the notebooks import
         names.add(helper.name)
         if not (dst / helper.name).exists() or (dst / helper.name).read_bytes() != helper.read_bytes():
@@ -248,7 +389,30 @@ def copy_gallery(app, config) -> None:
     for stale in [*dst.glob("*.ipynb"), *dst.glob("*.py")]:
         if stale.name not in names:
             stale.unlink()
+    for stale in (dst / "_thumbs").glob("*.png") if (dst / "_thumbs").is_dir() else ():
+        if not any(stem == stale.stem and thumb for stem, _, _, thumb in rows):
+            stale.unlink()
+    lines = [
+        ".. list-table::",
+        "   :header-rows: 1",
+        "   :widths: 22 48 30",
+        "   :class: zdocs-gallery",
+        "",
+        "   * - figure",
+        "     - notebook and thesis figures",
+        "     - in this build",
+    ]
+    for stem, figs, how, thumb in rows:
+        cell = (
+            f".. image:: /gallery/_thumbs/{stem}.png\n          :width: 180px\n          :alt: {stem}"
+            if thumb
+            else "*(no figure yet: the notebook has no outputs)*"
+        )
+        lines += [f"   * - {cell}", f"     - :doc:`/gallery/{stem}`", "", f"       {figs}", f"     - {how}"]
+    _write(dst / "table.inc", "\n".join(lines) + "\n")
     config.nb_execution_excludepatterns = list(config.nb_execution_excludepatterns) + excluded
+    if data is None and any(_uses_shared_data(json.loads(p.read_text())) for p in notebooks):
+        logger.info("gallery: ../shared/data not found; the notebooks that read it say so on their pages")
     logger.info("gallery: %d files, %d notebooks already executed", len(names), len(excluded))
 
 
@@ -354,12 +518,9 @@ def _module_names() -> set[str]:
     """Every top-level name defined in any module of the three packages (built once)."""
     if not _NAMES:
         for package in PACKAGES:
-            pkg = importlib.import_module(package)
-            for info in pkgutil.iter_modules(pkg.__path__):
-                if info.name == "__main__":
-                    continue
+            for name in _modules(package)[1:]:
                 try:
-                    mod = importlib.import_module(f"{package}.{info.name}")
+                    mod = importlib.import_module(name)
                 except Exception:  # an optional dependency missing: its names are simply unknown
                     continue
                 _NAMES.update(n for n in vars(mod) if not n.startswith("__"))

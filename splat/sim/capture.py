@@ -528,7 +528,7 @@ def _views(config: SimCaptureConfig) -> list[SimView]:
 # ------------------------------------------------------------------------------------------ writing
 def _raw_values(scene: SimScene, view: SimView, responses: np.ndarray, rng) -> np.ndarray:
     """DN image (H, W) for a Bayer camera, (H, W, 3) for a full-colour one (uint16)."""
-    from isp.stages import cfa_masks
+    from isp.cfa import cfa_masks
 
     cam = scene.config.cameras[view.camera]
     frac = scene.config.gain * view.relative_exposure * responses

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from isp.cli import _parser, main
+from isp import default_pipeline
+from isp.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -79,6 +80,26 @@ def test_folder_serial_resume_and_bad_file(dng_folder, singles, tmp_path):
     assert main(["develop", str(tmp_path / "nothing_here"), "-o", str(out), "-q"]) == 2
 
 
+def test_develop_folder_library_call(dng_folder, singles, tmp_path):
+    """The library function takes a Pipeline and plain values, reports through a callback, prints nothing."""
+    from isp import PipelineError
+    from isp.batch import develop_folder
+
+    out, calls = tmp_path / "lib", []
+    rows = develop_folder(
+        dng_folder,
+        out,
+        pipeline=default_pipeline(),
+        executor="serial",
+        progress=lambda description, done, total: calls.append((description, done, total)),
+    )
+    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 4
+    assert calls[0] == ("developing (serial)", 0, 5) and calls[-1][1:] == (5, 5)
+    assert {k: v for k, v in _digest(out).items() if k.endswith(".tif")} == singles
+    with pytest.raises(PipelineError, match="another folder than the input"):
+        develop_folder(dng_folder, dng_folder, pipeline=default_pipeline())
+
+
 def test_folder_progress_is_plain_lines_when_piped(dng_folder, tmp_path, capsys):
     """A folder batch drew rich's bar even when stderr was a log file (only its last frame landed
     there, as 'developing ━━━ 3/3'); now plain timed lines, as the single-file command prints."""
@@ -98,8 +119,6 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
     dask_cluster.wait_for(2)
     out = tmp_path / "dev"
     out.mkdir()
-    args = _parser().parse_args(["develop", str(dng_folder), "-o", str(out), "-q"])
-    values = {k: v for k, v in vars(args).items() if k != "func"}
     tasks = [FileTask(str(f), str(out / f"{f.stem}.tif")) for f in raw_files(dng_folder)]
     killed = []
 
@@ -111,7 +130,7 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
     rows = run_files(
         tasks,
         _develop_one,
-        (values, None),
+        (default_pipeline(), None, None),  # isp develop's defaults: (pipeline, crop, save_stages)
         manifest=out / "manifest.csv",
         scheduler=dask_cluster.address,
         progress=progress,

@@ -169,9 +169,9 @@ for name in ("zonotope", "isp"):
     sys.modules[name] = pkg
     if name == "zonotope":
         import zonotope._errors
-        import zonotope._io
+        import zonotope.utilities.io
         vars(pkg).update({k: v for k, v in vars(zonotope._errors).items() if k.endswith("Error")})
-        vars(pkg).update({k: getattr(zonotope._io, k) for k in zonotope._io.__all__})
+        vars(pkg).update({k: getattr(zonotope.utilities.io, k) for k in zonotope.utilities.io.__all__})
 import numpy as np
 from isp.io import write_image
 dest = sys.argv[1]
@@ -209,7 +209,7 @@ def test_sigkill_mid_image_write(tmp_path):
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(b"IEND\xaeB`\x82")
         idat = data[data.index(b"IDAT") + 4 : data.rindex(b"IEND") - 8]
         assert len(zlib.decompress(idat)) == 600 * (1 + 800 * 6)
-        from zonotope._io import clean_stale_temporaries
+        from zonotope.utilities.io import clean_stale_temporaries
 
         hits += bool(clean_stale_temporaries(dest))
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]

@@ -202,3 +202,25 @@ def test_apply_correction_matrix_callable():
         apply_correction(rgb, XYZ_from_responses=lambda c: c[:, :2])
     with pytest.raises(PipelineError, match="NaN"):
         apply_correction(rgb, XYZ_from_responses=lambda c: c * np.nan)
+
+
+def test_demosaic_and_tonemap_facts_live_on_the_registry_entries():
+    import inspect
+
+    from isp import TONEMAP_METHODS, default_method, default_pipeline
+    from isp.cli import _parser
+
+    pads = {name: DEMOSAIC_METHODS.properties(name)["pad"] for name in DEMOSAIC_METHODS}
+    assert pads == {"bilinear": 2, "Malvar 2004": 4, "Menon 2007": 8}
+    assert all(p % 2 == 0 for p in pads.values())  # even: the CFA phase survives the padding
+    assert default_method(DEMOSAIC_METHODS) == "Malvar 2004"
+    assert default_method(TONEMAP_METHODS) == "Reinhard 2002"
+    args = _parser().parse_args(["develop", "in.dng", "-o", "out.tif"])
+    defaults = inspect.signature(default_pipeline).parameters
+    for table, used in (
+        (DEMOSAIC_METHODS, [inspect.signature(demosaic).parameters["method"].default, args.demosaic]),
+        (TONEMAP_METHODS, [inspect.signature(tonemap).parameters["method"].default, args.tonemap]),
+    ):
+        assert used == [default_method(table)] * 2
+    assert defaults["demosaic"].default == default_method(DEMOSAIC_METHODS)
+    assert defaults["tonemap"].default == default_method(TONEMAP_METHODS)

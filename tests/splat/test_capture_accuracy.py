@@ -28,7 +28,7 @@ def ideal(tmp_path_factory):
     from splat.pipeline import fit_corrector
     from splat.scoring import _dE, flat_mask
     from splat.sim.capture import SimCaptureConfig, build_scene, write_synthetic_capture
-    from zonotope.image import correct_image
+    from zonotope.correct.image import correct_image
 
     config = SimCaptureConfig.ci(texture="coarse", noise=False)
     root = tmp_path_factory.mktemp("ideal")

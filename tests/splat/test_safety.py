@@ -94,7 +94,7 @@ def test_sigkill_mid_checkpoint_keeps_a_good_checkpoint(tmp_path):
     on 2 busy cores): the file left is always a complete checkpoint, no temporary remains."""
     path = tmp_path / "ckpt.npz"
     like = init_state(TrainConfig(steps=1, capacity=200_000), bounds=BOUNDS, n_channels=9)
-    from zonotope._io import clean_stale_temporaries
+    from zonotope.utilities.io import clean_stale_temporaries
 
     hits = 0
     for delay in (0.0, 0.05, 0.15):

@@ -1,0 +1,107 @@
+"""zonotope.report: complete, atomic, never overwrites without force."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from zonotope._errors import SpectralDataError
+from zonotope.report import ReportExistsError, write_report
+from zonotope.utilities.io import MARKER
+
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+@pytest.mark.slow
+def test_report_written_atomically(tmp_path):
+    out = tmp_path / "rep"
+    steps = []
+    write_report(
+        ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"],
+        out,
+        atypical=4,
+        pictures=False,
+        methods=["root-polynomial", "Prior"],
+        volumes=False,
+        progress=lambda stage, done, total: steps.append((stage, done, total)),
+    )
+    html = (out / "index.html").read_text()
+    md = (out / "report.md").read_text()
+    assert "Vora" in html and "Greedy order" in md and "Colour-correction evaluation" in md
+    assert "Nikon 5100 (NPL) + Canon EOS 5D Mark II" in md
+    assert ("loading cameras", 0, 2) in steps and all(d == 0 for _, d, _ in steps)
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]  # no temp folders left
+
+    with pytest.raises(ReportExistsError, match="force"):
+        write_report(["Nikon 5100 (NPL)"], out, pictures=False)
+    assert "Canon" in (out / "report.md").read_text()  # the good report is untouched
+
+
+def test_failed_report_never_replaces_a_good_one(tmp_path, monkeypatch):
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "report.md").write_text("good")
+    (out / MARKER).write_text("zonotope report\n")  # a previous report: force may replace it
+    import zonotope.evaluate
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(zonotope.evaluate, "evaluate", boom)
+    with pytest.raises(RuntimeError, match="interrupted"):
+        write_report(
+            ["Nikon 5100 (NPL)"],
+            out,
+            force=True,
+            atypical=0,
+            pictures=False,
+            methods=["least squares"],
+            volumes=False,
+        )
+    assert (out / "report.md").read_text() == "good"
+    assert [p.name for p in tmp_path.iterdir()] == ["rep"]
+
+
+def test_force_replaces(tmp_path):
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "stale.txt").write_text("old")
+    (out / MARKER).write_text("zonotope report\n")
+    write_report(
+        ["Nikon 5100 (NPL)"],
+        out,
+        force=True,
+        atypical=0,
+        pictures=False,
+        methods=["least squares"],
+        volumes=False,
+    )
+    assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_report_errors(tmp_path):
+    with pytest.raises(SpectralDataError, match="more than once"):
+        write_report(["Nikon 5100 (NPL)", "Nikon 5100 (NPL)"], tmp_path / "x", pictures=False)
+    with pytest.raises(SpectralDataError, match="at least one camera"):
+        write_report([], tmp_path / "y", pictures=False)
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_report_with_pictures(tmp_path):
+    out = tmp_path / "rep"
+    write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["least squares"], volumes=False)
+    assert (out / "solid.png").stat().st_size > 10_000
+    assert "solid.png" in (out / "index.html").read_text()
+    assert (out / "confidence_map.png").stat().st_size > 10_000  # the credible radii, per patch
+    assert "confidence_map.png" in (out / "report.md").read_text()
+
+
+@pytest.mark.slow
+def test_report_mmv_tables(tmp_path):
+    out = tmp_path / "rep"
+    write_report(["Nikon 5100 (NPL)"], out, atypical=0, methods=["Centroid"], pictures=False)
+    md = (out / "report.md").read_text()
+    assert "MMV volume along the grey axis" in md and "MMV volume of the ColorChecker" in md
+    assert "| Nikon 5100 (NPL) | ColorChecker N Ohta | Centroid |" in md

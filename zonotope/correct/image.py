@@ -1,0 +1,279 @@
+"""Colour correction of whole images: unique-colour deduplication, batching, disk cache.
+
+Estimators that solve a small optimisation per colour (``"Prior"``, ``"Projection"``, ``"MAP"``,
+``"Centroid"``) cost milliseconds per colour, but real images hold far fewer distinct colours than
+pixels. :func:`correct_image` quantises the responses, corrects each distinct colour once, in
+batches, and scatters the results back; with ``cache_dir`` the per-colour results persist between
+calls (keyed by the estimator and the quantised colour).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import OptionError, SpectralDataError
+from ..spectra.builtin import float_array
+from ..utilities.progress import ProgressCallback
+from .methods import CORRECTION_METHODS, Corrector, fit_correction
+
+__all__ = ["correct_image"]
+
+
+def _fingerprint(corrector: Corrector, quantum: float) -> str:
+    h = hashlib.sha256()
+    p = corrector.problem
+    for a in (p.Phi, p.Psi, p.training):
+        h.update(np.ascontiguousarray(a).tobytes())
+    h.update(
+        repr(
+            (
+                corrector.method,
+                sorted((k, repr(v)) for k, v in corrector.params.items() if isinstance(v, int | float | str)),
+                quantum,
+            )
+        ).encode()
+    )
+    return h.hexdigest()[:24]
+
+
+def _load_cache(path: Path, k: int, m: int) -> dict[bytes, np.ndarray]:
+    if not path.is_file():
+        return {}
+    try:
+        with open(path, "rb") as fh, np.load(fh) as data:  # our handle: closed even when np.load fails
+            keys, values = data["keys"], data["values"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return {}  # a damaged cache (e.g. from an older, non-atomic writer) is rebuilt, not trusted
+    if keys.ndim != 2 or keys.shape[1] != k or values.shape != (keys.shape[0], m):
+        return {}
+    return {row.tobytes(): v for row, v in zip(keys, values)}
+
+
+def _save_cache(path: Path, cache: dict[bytes, np.ndarray], k: int, m: int) -> None:
+    keys = np.frombuffer(b"".join(cache), dtype=np.int64).reshape(-1, k)
+    values = np.array(list(cache.values()), dtype=np.float64).reshape(-1, m)
+    from ..utilities.io import atomic_path
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, keys=keys, values=values)
+
+    atomic_path(path, write)  # a crash never leaves a half-written cache, Ctrl-C no temporary
+
+
+def correct_image(
+    image,
+    cameras_or_corrector,
+    *,
+    method: str = "Prior",
+    quantum: float = 2e-3,
+    base: Corrector | str | None = "auto",
+    batch_size: int = 2048,
+    cache_dir: str | Path | None = None,
+    progress: ProgressCallback | None = None,
+    **options,
+) -> np.ndarray:
+    """Correct a linear multi-camera image to target XYZ.
+
+    Parameters
+    ----------
+    image : array_like of shape (H, W, k) or (..., k)
+        Linear, white-balanced responses (the perfect white gives 1 per channel), channels of
+        the cameras stacked on the last axis. NaN pixels stay NaN.
+    cameras_or_corrector
+        A fitted :class:`~zonotope.correct.Corrector`, or the camera(s) to fit one for (with
+        ``method`` and ``**options``, see :func:`~zonotope.correct.fit_correction`).
+    method
+        Estimator when cameras are given (default ``"Prior"``).
+    quantum
+        Pixels whose responses round to the same multiples of ``quantum`` form one group,
+        corrected once at the response of its first pixel (0: exact deduplication only). For
+        estimators with closed-form rows (``"Prior"``: ``params["closed_form"]``, which returns the
+        closed-form estimates and the rows that need a solver in one vectorised pass) only the pixels
+        that need a solver are grouped — each with the responses within ``quantum`` of a leader
+        response in every channel (greedy leader clustering, so the noise cloud of one surface is
+        not cut into up to 2ᵏ grid cells) — and the others are corrected exactly, pixel by pixel:
+        noisy photos (as many distinct colours as pixels) cost little more than the regression plus
+        one solve per cluster. Use a ``quantum`` of about 2–4σ on noisy images (measurements:
+        ``docs/notes/2026-11-28-image-correction-clusters.md``).
+    base
+        A cheap estimator used to carry each group's result to its pixels:
+        ``out = est(c₀) + base(c) − base(c₀)`` (``c₀`` the group's representative response), which
+        removes the first-order error of grouping and allows a coarse ``quantum`` on images with
+        smooth shading. ``"auto"``: the estimator's own closed-form part where it has one
+        (``params["closed_form"]``: for ``"Prior"`` it follows the gate and the MAP estimate of every
+        pixel, so only the centroid and the bounded solves are carried over), else its regression
+        (``params["regression"]``) or a root-polynomial fit; ``None``: no transfer
+        (``out = est(c₀)``). Regression estimators are applied to every pixel directly (they are
+        cheap), with no grouping.
+    batch_size
+        Distinct colours corrected per call of the estimator.
+    cache_dir
+        Folder for a persistent per-colour cache (one ``.npz`` per estimator and grid), written
+        atomically after each batch.
+    progress
+        Called as ``progress("distinct colours", done, total)`` after each batch
+        (:class:`~zonotope.utilities.ProgressCallback`).
+
+    Returns
+    -------
+    ndarray of shape (..., m)
+
+    Raises
+    ------
+    SpectralDataError
+        ``image`` is not an array of numbers, has the wrong channel count, or ``batch_size`` is not
+        positive.
+    OptionError
+        ``quantum`` is negative or not finite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((4, 5, 3), 0.18)
+    >>> correct_image(img, "Nikon 5100 (NPL)", method="root-polynomial",
+    ...               shape=np.arange(400, 701, 10)).shape
+    (4, 5, 3)
+    """
+    corrector = (
+        cameras_or_corrector
+        if isinstance(cameras_or_corrector, Corrector)
+        else fit_correction(cameras_or_corrector, method=method, **options)
+    )
+    k, m = corrector.problem.k, corrector.problem.m
+    img = float_array(image, "image")
+    if img.shape[-1:] != (k,):
+        raise SpectralDataError(
+            f"image: last axis must hold the {k} stacked channels of {list(corrector.problem.sources)}; "
+            f"got shape {img.shape}."
+        )
+    if batch_size < 1:
+        raise SpectralDataError(f"batch_size must be >= 1, got {batch_size}.")
+    if not (np.isfinite(quantum) and quantum >= 0):
+        raise OptionError(f"quantum={quantum!r}: give a grouping step >= 0 in response units (0: exact).")
+    if cache_dir and Path(cache_dir).exists() and not Path(cache_dir).is_dir():
+        from ..utilities.io import OutputExistsError
+
+        raise OutputExistsError(f"cache_dir={str(cache_dir)!r} is a file, not a folder; give a folder path.")
+    if CORRECTION_METHODS.properties(corrector.method)["closed_form"]:
+        return corrector(img)
+    if isinstance(base, str):
+        if base != "auto":
+            raise OptionError(f"base={base!r}: give a Corrector, 'auto' or None.")
+        closed = corrector.params.get("closed_form")
+        if closed is not None:  # the estimator's own closed-form part: follows its gate per pixel
+            base = lambda c: closed(c)[0]  # noqa: E731
+        else:
+            base = corrector.params.get("regression") or fit_correction(
+                corrector.problem, method="Finlayson 2015"
+            )
+    flat = img.reshape(-1, k)
+    ok = np.all(np.isfinite(flat), axis=1)
+    out = np.full((flat.shape[0], m), np.nan)
+    if not ok.any():
+        return out.reshape(*img.shape[:-1], m)
+    pixels = flat[ok]
+    closed_form = corrector.params.get("closed_form")
+    needs_solver = corrector.params.get("needs_solver")
+    if (closed_form is not None or needs_solver is not None) and quantum > 0:
+        # exact per pixel where the estimator is a closed form; grouping only where it solves
+        res = np.empty((pixels.shape[0], m))
+        slow = np.empty(pixels.shape[0], dtype=bool)
+        for i in range(0, pixels.shape[0], _CHUNK):
+            if closed_form is not None:  # estimates and solver rows in one vectorised pass
+                res[i : i + _CHUNK], slow[i : i + _CHUNK] = closed_form(pixels[i : i + _CHUNK])
+            else:
+                slow[i : i + _CHUNK] = needs_solver(pixels[i : i + _CHUNK])
+        if closed_form is None:
+            fast = np.flatnonzero(~slow)
+            for i in range(0, fast.size, _CHUNK):
+                res[fast[i : i + _CHUNK]] = corrector(pixels[fast[i : i + _CHUNK]])
+        if slow.any():
+            res[slow] = _grouped(
+                pixels[slow], corrector, quantum, base, batch_size, cache_dir, progress, leaders=True
+            )
+        out[ok] = res
+        return out.reshape(*img.shape[:-1], m)
+    out[ok] = _grouped(pixels, corrector, quantum, base, batch_size, cache_dir, progress)
+    return out.reshape(*img.shape[:-1], m)
+
+
+#: Pixels per vectorised call of the closed-form path (bounds the memory of (N, n) reflectances).
+_CHUNK = 65_536
+
+
+def _leader_groups(pixels: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy leader clustering: in lexicographic order, each response not yet grouped leads a group
+    of every ungrouped response within ``radius`` of it in every channel (L∞). Deterministic.
+
+    Returns ``first`` (leader index per group) and ``inverse`` (group per response). Unlike rounding
+    to a grid, a noise cloud around one surface colour is not cut into up to 2ᵏ cells by grid lines.
+    """
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(pixels)
+    label = np.full(pixels.shape[0], -1, dtype=np.intp)
+    first = []
+    for i in np.lexsort(pixels.T[::-1]):
+        if label[i] >= 0:
+            continue
+        near = np.asarray(tree.query_ball_point(pixels[i], radius, p=np.inf), dtype=np.intp)
+        near = near[label[near] < 0]
+        label[near] = len(first)
+        label[i] = len(first)
+        first.append(i)
+    return np.asarray(first, dtype=np.intp), label
+
+
+def _grouped(
+    pixels, corrector, quantum, base, batch_size, cache_dir, progress, leaders: bool = False
+) -> np.ndarray:
+    """Correct ``pixels (N, k)`` once per group of responses equal after rounding to ``quantum``
+    (``leaders``: within ``quantum`` of a leader response, :func:`_leader_groups`)."""
+    k, m = corrector.problem.k, corrector.problem.m
+    if leaders:
+        first, inverse = _leader_groups(pixels, quantum)
+        keys = np.ascontiguousarray(pixels).view(np.int64)  # cache key: the leader's exact response
+        uniq = keys[first]
+    else:
+        keys = (
+            np.round(pixels / quantum).astype(np.int64)
+            if quantum > 0
+            else np.ascontiguousarray(pixels).view(np.int64)
+        )
+        rows = np.ascontiguousarray(keys).view(np.dtype((np.void, 8 * k))).reshape(-1)
+        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        uniq = keys[first]
+    # each group is corrected at one of its actual responses, not at the rounded one: rounding
+    # every channel independently would leave the (low-dimensional) set of real responses and
+    # change estimators that weigh how plausible a response is.
+    colours = pixels[first]
+    tag = ("leaders", quantum) if leaders else quantum
+    cache_path = Path(cache_dir) / f"{_fingerprint(corrector, tag)}.npz" if cache_dir else None
+    cache = _load_cache(cache_path, k, m) if cache_path else {}
+    result = np.empty((uniq.shape[0], m))
+    todo = []
+    for i, row in enumerate(uniq):
+        hit = cache.get(row.tobytes())
+        if hit is None:
+            todo.append(i)
+        else:
+            result[i] = hit
+    todo = np.asarray(todo, dtype=np.intp)
+    for start in range(0, todo.size, batch_size):
+        idx = todo[start : start + batch_size]
+        result[idx] = corrector(colours[idx])
+        if cache_path is not None:
+            cache.update({uniq[i].tobytes(): result[i] for i in idx})
+            _save_cache(cache_path, cache, k, m)
+        if progress is not None:
+            progress("distinct colours", min(start + batch_size, todo.size), todo.size)
+    inverse = inverse.reshape(-1)
+    res = result[inverse]
+    if base is not None and quantum > 0:
+        res += base(pixels) - base(colours)[inverse]
+    return res
