@@ -18,11 +18,7 @@ is fitted to all the images, then renders pixel-aligned N-channel images from an
 
 from __future__ import annotations
 
-import importlib
-import importlib.abc
-import importlib.util
-import sys
-import warnings
+from zonotope.utilities.lazy import install_moved_modules, lazy_exports
 
 _EXPORTS = {
     "_errors": ["DataFormatError", "SplatError", "SplatMethodError"],
@@ -91,40 +87,6 @@ _MOVED_MODULES = {
 }
 
 
-class _MovedModuleFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Serve an old module path as the module it moved to (the same object in ``sys.modules``)."""
+install_moved_modules(_MOVED_MODULES)
 
-    def find_spec(self, fullname, path=None, target=None):
-        if fullname not in _MOVED_MODULES:
-            return None
-        return importlib.util.spec_from_loader(fullname, self)
-
-    def create_module(self, spec):
-        new = _MOVED_MODULES[spec.name]
-        warnings.warn(f"{spec.name} moved to {new}; import that instead", DeprecationWarning, stacklevel=2)
-        module = importlib.import_module(new)
-        self._spec = module.__spec__  # the import system overwrites __spec__ on the object it is given
-        return module
-
-    def exec_module(self, module):
-        module.__spec__ = self._spec
-
-
-if not any(isinstance(f, _MovedModuleFinder) for f in sys.meta_path):
-    sys.meta_path.insert(0, _MovedModuleFinder())
-
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = sorted(_WHERE)
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'splat' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

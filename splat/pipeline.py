@@ -1433,15 +1433,17 @@ def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
 
 
 def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
-    """A fitted estimator with the noise tolerance δ: Prior gets ``noise=δ/3`` (δ in its MMV branch),
-    Centroid ``delta=δ``; regressions are trained on noisy replicas (σ = δ/3)."""
+    """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
+    passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
+    Centroid ``delta=δ``)."""
     return _fit_on(correction_problem_of(spec, cameras), method, delta)
 
 
 def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
     """An estimator for fused responses with per-channel noise ``noise`` (σ per channel of ``cameras``):
     fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
-    (:func:`splat.fusion.whitened`, δ = 3σ_ref); returns it and the scale to apply to responses.
+    (:func:`splat.fusion.whitened`, δ = ``DELTA_SIGMAS`` · σ_ref); returns it and the scale to apply to
+    responses.
     ``mix``: Prior's atypical-branch weight (:func:`fused_mix`); without it Prior chooses it by its own
     cross-validation for every noise pattern (~3–5 s each). ``problem``: the cameras'
     :func:`correction_problem_of`, when the caller already has it."""
@@ -1450,12 +1452,14 @@ def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, nois
     if problem is None:
         problem = correction_problem_of(spec, cameras)
     problem, scale, ref = whitened(problem, noise)
-    return _fit_on(problem, method, 3 * ref, mix=mix), scale
+    from zonotope.correct import DELTA_SIGMAS
+
+    return _fit_on(problem, method, DELTA_SIGMAS * ref, mix=mix), scale
 
 
 def fused_mix(method: str):
     """Prior's atypical-branch weight λ for fused responses: 1, the MAP estimate alone (None for other
-    methods). The measured channels' small σ makes the fused MMV thin (δ_k = 3σ_k), so its centroid
+    methods). The measured channels' small σ makes the fused MMV thin (δ_k ∝ σ_k), so its centroid
     adds little to the MAP and cost three quarters of the time: on the CI coarse captures (1000 steps,
     three cameras, flat held-out pixels) λ chosen by Prior's cross-validation gave 0.500 ΔE00 noise-free
     and 1.399 noisy, λ = 1 0.497 and 1.392, and a noisy view took 31 s against 7.9 s."""
@@ -1467,18 +1471,12 @@ def fused_mix(method: str):
 
 
 def _fit_on(problem, method: str, delta: float, *, mix=None):
-    sigma = delta / 3
-    from zonotope.correct import CORRECTION_METHODS, fit_correction
+    """``method`` fitted on ``problem`` with the noise of tolerance ``delta`` (σ = δ / DELTA_SIGMAS), told
+    to it as its registry entry says (:func:`zonotope.correct.noise_options`)."""
+    from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
-    opts = {
-        "Prior": {"noise": sigma},
-        "Centroid": {"delta": delta},
-        "Projection": {"noise": sigma},
-        "MAP": {"noise": sigma},
-        "Finlayson 2015": {"noise": sigma},
-        "Cheung 2004": {"noise": sigma},
-    }.get(name, {})
+    opts = noise_options(name, delta / DELTA_SIGMAS)
     if name == "Prior" and mix is not None:
         opts["mix"] = mix
     return fit_correction(problem, method=name, **opts)
