@@ -86,6 +86,7 @@ _MOVED_MODULES = {
     "splat._simgeometry": "splat.sim.geometry",
 }
 
+
 install_moved_modules(_MOVED_MODULES)
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -1,9 +1,11 @@
 """``splat`` command: a RAW capture folder → poses → N-channel Gaussians → colour-corrected images.
 
 ``splat run CAPTURE -o OUT`` runs every step; ``splat poses|train|render|correct|report CAPTURE -o OUT``
-runs one. Every step resumes from what ``OUT`` already holds. Bad input (a missing SSF, an unreadable
-RAW file, mixed image sizes within a camera, too few registered views, ...) is reported as one line on
-stderr with exit status 2. Progress bars are drawn here (rich), never by the library.
+runs one. Every step resumes from what ``OUT`` already holds when it was made from the same capture
+and options (``OUT/settings.json``), and recomputes it otherwise; ``OUT`` is new, empty or splat's own.
+Bad input (a missing SSF, an unknown key or option, an unreadable RAW file, mixed image sizes within a
+camera, too few registered views, ...) is reported as one line on stderr with exit status 2, before any
+work where it can be known then. Progress bars are drawn here (rich), never by the library.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ def _parser() -> argparse.ArgumentParser:
         ("run", "every step: poses, train, render, correct, report"),
         ("poses", "recover (or read) the camera poses"),
         ("train", "train the N-channel Gaussians on all cameras' RAW mosaics"),
-        ("render", "render held-out, chosen-camera and novel views"),
+        ("render", "render every photograph (or --views) and --novel views"),
         ("correct", "colour-correct the renders; DNG-matrix developments for comparison"),
         ("report", "write OUT/report.html"),
     ):
@@ -42,10 +44,21 @@ def _parser() -> argparse.ArgumentParser:
         s.add_argument("--steps", type=int, default=3000, help="training steps (default 3000)")
         s.add_argument("--capacity", type=int, default=4096, help="Gaussian buffer size (default 4096)")
         s.add_argument(
-            "--camera", default=None, help="camera folder whose views are rendered (default: first)"
+            "--views",
+            nargs="+",
+            default=None,
+            metavar="NAME",
+            help="photographs to render and correct: <folder>/<file> names or patterns such as 'canon/*' "
+            "(default: every photograph of every camera)",
         )
-        s.add_argument("--all-views", action="store_true", help="render every view of --camera")
-        s.add_argument("--novel", type=int, default=0, help="novel views between consecutive views")
+        s.add_argument(
+            "--camera",
+            default=None,
+            help="camera folder whose views the novel views lie between (default: first)",
+        )
+        s.add_argument(
+            "--novel", type=int, default=0, help="novel views between consecutive views (default 0)"
+        )
         s.add_argument("--method", default="Prior", help="zonotope.correct estimator (default Prior)")
         s.add_argument("--quantum", type=float, default=5e-3, help="colour deduplication step (white = 1)")
         s.add_argument("--threads", type=int, default=-1, help="COLMAP threads (-1: all cores)")
@@ -78,7 +91,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     os.environ.setdefault("GLOG_minloglevel", "2")  # COLMAP's own log lines would drown the progress bars
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from zonotope import ZonotopeError
 
@@ -89,7 +102,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             steps=args.steps,
             capacity=args.capacity,
             camera=args.camera,
-            all_views=args.all_views,
+            views=None if args.views is None else tuple(args.views),
             novel=args.novel,
             method=args.method,
             quantum=args.quantum,
@@ -109,6 +122,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         BarColumn(),
         TextColumn("{task.completed}/{task.total}"),
         TimeElapsedColumn(),
+        TextColumn("left"),
+        TimeRemainingColumn(),
         console=console,
         transient=False,
         disable=not console.is_terminal,
@@ -118,16 +133,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     t0, printed = time.monotonic(), {"at": -1e9}
 
+    started: dict[str, tuple[float, int]] = {}
+
     def progress(what: str, done: int, total: int) -> None:
         if what not in tasks:
             tasks[what] = bar.add_task(what, total=total)
         bar.update(tasks[what], completed=done, total=total)
         now = time.monotonic()
         # stderr is not a terminal (piped, redirected): rich draws nothing there, so plain lines,
-        # one per step start and end and at most one every 10 s in between
+        # one per step start and end and at most one every 10 s in between, with the time left at the
+        # task's mean rate so far
         if not console.is_terminal and (done in (0, total) or now - printed["at"] >= 10.0):
             printed["at"] = now
-            print(f"[{now - t0:7.1f} s] {what}: {done}/{total}", file=sys.stderr, flush=True)
+            t_start, d_start = started.setdefault(what, (now, done))
+            left = ""
+            if 0 < done - d_start and done < total:
+                left = f", about {(now - t_start) / (done - d_start) * (total - done):.0f} s left"
+            print(f"[{now - t0:7.1f} s] {what}: {done}/{total}{left}", file=sys.stderr, flush=True)
 
     try:
         with bar:

@@ -24,7 +24,7 @@ correct step therefore also corrects such views from fused responses (``pipeline
    render is :func:`smooth`, each site's own noise :func:`site_noise` removed), rendered ones the
    render's error after anchoring (:func:`render_noise`). The estimator is fitted on the
    channel-whitened problem (:func:`whitened`: channel ``k`` scaled by ``σ_ref/σ_k``), so that its single
-   noise level means ``σ_k`` in each channel — the MMV's tolerance too (``δ_k = 3σ_k``): measured
+   noise level means ``σ_k`` in each channel — the MMV's tolerance too (``δ_k ∝ σ_k``): measured
    channels constrain the estimate tightly and rendered ones softly, instead of all alike.
 4. **Textured pixels** (:func:`textured`: the photograph's sites of one channel vary over the 5 × 5
    neighbourhood by more than half their level and six σ of the sensor noise) take none of the above:
@@ -544,9 +544,10 @@ def whitened(problem, noise):
 
     An estimator fitted on it with noise ``σ_ref`` (the median of ``noise``) and applied to responses
     scaled the same way treats channel ``k`` as having noise ``σ_k`` (the least-squares parts exactly;
-    the MMV's max-norm tolerance ``δ = 3σ_ref`` becomes ``3σ_k`` per channel). The noise-free MMV does
-    not change: scaling a channel scales a response and its generator alike. The whitened ``Φ`` no
-    longer maps white to 1 in every channel; nothing outside this round trip should use it.
+    the MMV's max-norm tolerance ``δ = DELTA_SIGMAS·σ_ref`` becomes ``DELTA_SIGMAS·σ_k`` per channel).
+    The noise-free MMV does not change: scaling a channel scales a response and its generator alike.
+    The whitened ``Φ`` no longer maps white to 1 in every channel; nothing outside this round trip
+    should use it.
 
     Parameters
     ----------

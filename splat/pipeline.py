@@ -2,7 +2,10 @@
 
 Each step reads the capture (never writes into it) and what earlier steps left in the output
 folder ``OUT``, writes its own files atomically (temporary file + ``os.replace``), and is skipped or
-resumed when its results are already there:
+resumed when its results are already there and were made from the same inputs and options:
+:class:`splat.workspace.Workspace` owns ``OUT`` (a marker file, a settings record per step, every path
+inside ``OUT``) and removes a step's results, and its dependents', when what they were made from
+changed. :func:`check_run` refuses bad options and captures before any RAW file is read.
 
 =========  ==========================================================================================
 step       writes (under ``OUT``)
@@ -22,11 +25,14 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
 report     ``report.html``
 =========  ==========================================================================================
 
-Ground truth (``truth/``) is never read here; :mod:`splat.scoring` does that.
+``<folder>`` is the camera's folder, or ``camera<k>-<name>`` for a folder outside the capture
+(:meth:`splat.capture.CaptureSpec.label`). Ground truth (``truth/``) is never read here;
+:mod:`splat.scoring` does that.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import functools
 import itertools
 import json
@@ -59,6 +65,7 @@ if TYPE_CHECKING:
 __all__ = [
     "STEPS",
     "PipelineConfig",
+    "check_run",
     "correct_step",
     "depth_targets",
     "fit_step",
@@ -66,6 +73,7 @@ __all__ = [
     "render_step",
     "report_step",
     "run",
+    "views_to_render",
     "xyz_to_srgb",
 ]
 
@@ -82,14 +90,15 @@ class PipelineConfig:
         Training steps.
     capacity : int
         Gaussian buffer size.
+    views : tuple of str or None
+        The photographs rendered and corrected: ``"<folder>/<file>"`` names or shell patterns
+        (``"canon/*"``); None (default) every registered photograph of every camera, held-out ones
+        included — each photograph is what a user wants corrected.
     camera : str or None
-        Folder of the camera whose views are rendered and corrected (besides the held-out ones);
-        default the first camera.
-    all_views : bool
-        Render every view of that camera (else only held-out views, or the first view when there are
-        none).
+        Folder of the camera between whose consecutive registered views the novel views lie; default
+        the first camera.
     novel : int
-        Novel views rendered between consecutive registered views of the camera.
+        Novel views rendered between consecutive registered views of ``camera`` (0: none).
     method : str
         ``zonotope.correct`` estimator of the correct step (default Prior).
     quantum : float
@@ -123,7 +132,7 @@ class PipelineConfig:
     steps: int = 3000
     capacity: int = 4096
     camera: str | None = None
-    all_views: bool = False
+    views: tuple[str, ...] | None = None
     novel: int = 0
     method: str = "Prior"
     quantum: float = 5e-3
@@ -140,6 +149,12 @@ class PipelineConfig:
         for name, value in positive.items():
             if not isinstance(value, int) or value < 1:
                 raise SplatError(f"{name}={value!r}: must be a positive integer (e.g. --{name} 3000).")
+        if self.views is not None and (
+            isinstance(self.views, str) or not self.views or not all(isinstance(v, str) for v in self.views)
+        ):
+            raise SplatError(
+                f"views={self.views!r}: must be a non-empty tuple of names or patterns, or None."
+            )
         if not isinstance(self.novel, int) or self.novel < 0:
             raise SplatError(f"novel={self.novel!r}: must be a non-negative integer.")
         if not (np.isfinite(self.quantum) and self.quantum > 0):
@@ -227,6 +242,14 @@ def check_run(spec: CaptureSpec, config: PipelineConfig) -> None:
     CORRECTION_METHODS.resolve(config.method, argument="method")
     if config.camera is not None:
         spec.camera_index(config.camera)
+    if config.views is not None:
+        names = [f"{c.folder}/{p.name}" for k, c in enumerate(spec.cameras) for p in spec.raw_files(k)]
+        for pattern in config.views:
+            if not any(fnmatch.fnmatchcase(n, pattern) for n in names):
+                raise CaptureError(
+                    f"--views {pattern!r} names no photograph of the capture; names are "
+                    f'"<folder>/<file>", e.g. {names[:3]}.'
+                )
 
 
 def _workspace(capture, out, config: PipelineConfig, step: str | None = None, settings=None):
@@ -884,6 +907,30 @@ def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
     return values, count
 
 
+def views_to_render(spec: CaptureSpec, views, config: PipelineConfig) -> list[tuple]:
+    """``(name, camera, camera id, kind)`` of every view the render step renders: the registered
+    photographs ``config.views`` selects (all by default; held-out ones first, kind ``"holdout"``, then
+    kind ``"view"``), then ``config.novel`` novel views between consecutive registered training views of
+    ``config.camera`` (kind ``"novel"``).
+
+    Parameters
+    ----------
+    views : list of splat.View
+        The registered views (:func:`refined_views` of the model's capture).
+    """
+    k = spec.camera_index(config.camera or spec.cameras[0].folder)
+    hold = set(spec.holdout)
+    chosen = [
+        v for v in views if config.views is None or any(fnmatch.fnmatchcase(v.name, p) for p in config.views)
+    ]
+    todo = [(v.name, v.camera, v.camera_id, "holdout") for v in chosen if v.name in hold]
+    todo += [(v.name, v.camera, v.camera_id, "view") for v in chosen if v.name not in hold]
+    if config.novel:
+        mine = [v for v in views if v.camera_id == k + 1 and v.name not in hold]
+        todo += [(n, c, cid, "novel") for n, c, cid in _novel_cameras(mine, config.novel)]
+    return todo
+
+
 def render_step(
     capture: str | os.PathLike,
     out: str | os.PathLike,
@@ -891,7 +938,8 @@ def render_step(
     config: PipelineConfig = PipelineConfig(),
     progress: ProgressCallback | None = None,
 ) -> dict:
-    """Render held-out views, views of the chosen camera and novel views (N channels, exposure 1), and
+    """Render the photographs ``config.views`` selects (default all) and ``config.novel`` novel views
+    (N channels, exposure 1), and
     reproject every camera's photographs (but the view's own) into each of them through the splat's depth
     (``reprojected.tiff``, 0 where none sees a pixel, and ``reprojected_count.tiff``, how many see it;
     :mod:`splat.reproject`).
@@ -908,15 +956,7 @@ def render_step(
     _, cap = _load_model_capture(spec, out)
     g, alive = load_gaussians(out)
     views = refined_views(cap.views, out)  # training views with their learned pose corrections, if any
-    folder = config.camera or spec.cameras[0].folder
-    k = spec.camera_index(folder)
-    hold = set(spec.holdout)
-    todo = [(v.name, v.camera, v.camera_id, "holdout") for v in views if v.name in hold]
-    mine = [v for v in views if v.camera_id == k + 1 and v.name not in hold]
-    chosen = mine if config.all_views else ([] if todo else mine[:1])
-    todo += [(v.name, v.camera, v.camera_id, "view") for v in chosen]
-    if config.novel:
-        todo += [(n, c, cid, "novel") for n, c, cid in _novel_cameras(mine, config.novel)]
+    todo = views_to_render(spec, views, config)
     raws = {v.name: v for v in load_views(spec)}
     n = len(spec.cameras)
     depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
@@ -1393,15 +1433,17 @@ def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
 
 
 def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
-    """A fitted estimator with the noise tolerance δ: Prior gets ``noise=δ/3`` (δ in its MMV branch),
-    Centroid ``delta=δ``; regressions are trained on noisy replicas (σ = δ/3)."""
+    """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
+    passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
+    Centroid ``delta=δ``)."""
     return _fit_on(correction_problem_of(spec, cameras), method, delta)
 
 
 def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
     """An estimator for fused responses with per-channel noise ``noise`` (σ per channel of ``cameras``):
     fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
-    (:func:`splat.fusion.whitened`, δ = 3σ_ref); returns it and the scale to apply to responses.
+    (:func:`splat.fusion.whitened`, δ = ``DELTA_SIGMAS`` · σ_ref); returns it and the scale to apply to
+    responses.
     ``mix``: Prior's atypical-branch weight (:func:`fused_mix`); without it Prior chooses it by its own
     cross-validation for every noise pattern (~3–5 s each). ``problem``: the cameras'
     :func:`correction_problem_of`, when the caller already has it."""
@@ -1410,12 +1452,14 @@ def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, nois
     if problem is None:
         problem = correction_problem_of(spec, cameras)
     problem, scale, ref = whitened(problem, noise)
-    return _fit_on(problem, method, 3 * ref, mix=mix), scale
+    from zonotope.correct import DELTA_SIGMAS
+
+    return _fit_on(problem, method, DELTA_SIGMAS * ref, mix=mix), scale
 
 
 def fused_mix(method: str):
     """Prior's atypical-branch weight λ for fused responses: 1, the MAP estimate alone (None for other
-    methods). The measured channels' small σ makes the fused MMV thin (δ_k = 3σ_k), so its centroid
+    methods). The measured channels' small σ makes the fused MMV thin (δ_k ∝ σ_k), so its centroid
     adds little to the MAP and cost three quarters of the time: on the CI coarse captures (1000 steps,
     three cameras, flat held-out pixels) λ chosen by Prior's cross-validation gave 0.500 ΔE00 noise-free
     and 1.399 noisy, λ = 1 0.497 and 1.392, and a noisy view took 31 s against 7.9 s."""
@@ -1427,18 +1471,12 @@ def fused_mix(method: str):
 
 
 def _fit_on(problem, method: str, delta: float, *, mix=None):
-    sigma = delta / 3
-    from zonotope.correct import CORRECTION_METHODS, fit_correction
+    """``method`` fitted on ``problem`` with the noise of tolerance ``delta`` (σ = δ / DELTA_SIGMAS), told
+    to it as its registry entry says (:func:`zonotope.correct.noise_options`)."""
+    from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
-    opts = {
-        "Prior": {"noise": sigma},
-        "Centroid": {"delta": delta},
-        "Projection": {"noise": sigma},
-        "MAP": {"noise": sigma},
-        "Finlayson 2015": {"noise": sigma},
-        "Cheung 2004": {"noise": sigma},
-    }.get(name, {})
+    opts = noise_options(name, delta / DELTA_SIGMAS)
     if name == "Prior" and mix is not None:
         opts["mix"] = mix
     return fit_correction(problem, method=name, **opts)

@@ -239,3 +239,30 @@ def test_a_white_box_outside_the_image_is_refused_before_the_poses(cap, tmp_path
     with pytest.raises(CaptureError, match=r"box \[0, 0, 4, 400\] lies outside the 48×36 image"):
         _poses(c, tmp_path / "out")
     assert not (tmp_path / "out" / "poses").exists()
+
+
+# --------------------------------------------------------------------------- which views are rendered
+
+
+def test_every_photograph_is_rendered_by_default_and_views_selects(cap, tmp_path):
+    from splat.pipeline import PipelineConfig, _load_model_capture, views_to_render
+
+    out = tmp_path / "out"
+    _poses(cap, out)
+    spec = read_capture(cap)
+    views = _load_model_capture(spec, out)[1].views
+    every = views_to_render(spec, views, PipelineConfig())
+    assert sorted(n for n, *_ in every) == sorted(v.name for v in views) and len(every) == 12
+    kinds = [k for *_, k in every]
+    assert kinds == ["holdout"] * 3 + ["view"] * 9  # all three cameras, held-out ones first
+    some = views_to_render(spec, views, PipelineConfig(views=("canon/*", "nikon/IMG_0001.dng")))
+    assert [n for n, *_ in some] == ["canon/IMG_0003.dng", "nikon/IMG_0001.dng"] + [
+        f"canon/IMG_000{i}.dng" for i in range(3)
+    ]
+    novel = views_to_render(
+        spec, views, PipelineConfig(views=("nikon/IMG_0000.dng",), novel=2, camera="sigma")
+    )
+    assert [k for *_, k in novel] == ["view"] + ["novel"] * 4  # 2 between each of sigma's 3 training views
+    assert all(n.startswith("sigma/novel_") for n, _, _, k in novel if k == "novel")
+    with pytest.raises(CaptureError, match=r"--views 'leica/\*' names no photograph"):
+        _poses(cap, out, views=("leica/*",))

@@ -1,0 +1,45 @@
+"""The capture asks the correction registry how to tell an estimator its noise: a newly registered
+estimator gets σ = δ / DELTA_SIGMAS from the plain and the fused correction alike."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_Cheung2004
+
+from .capture_helpers import write_capture
+
+
+@pytest.fixture
+def dummy(monkeypatch):
+    """A dummy estimator (a least-squares matrix that records its options), registered for this test
+    only with ``noise_option="noise"``; yields the list of option dicts it was fitted with."""
+    calls: list[dict] = []
+
+    def fit_Dummy(problem, **options):
+        calls.append(dict(options))
+        fitted = fit_Cheung2004(problem, noise=options.get("noise", 0.0))
+        return type(fitted)("Dummy", problem, fitted.predict, {**fitted.params, **options})
+
+    monkeypatch.setattr(CORRECTION_METHODS, "_methods", dict(CORRECTION_METHODS._methods))
+    monkeypatch.setattr(CORRECTION_METHODS, "_keys", dict(CORRECTION_METHODS._keys))
+    CORRECTION_METHODS.register(
+        "Dummy", fit_Dummy, closed_form=True, needs_mmv=False, centroid=False, noise_option="noise"
+    )
+    return calls
+
+
+def test_the_capture_passes_a_new_estimator_its_noise(dummy, tmp_path):
+    from splat.capture import read_capture
+    from splat.pipeline import PipelineConfig, check_run, fit_corrector, fused_fitter
+
+    write_capture(tmp_path / "cap", views=1, holdout=0, colmap=False)
+    spec = read_capture(tmp_path / "cap")
+    check_run(spec, PipelineConfig(method="dummy"))  # a registered name is a valid --method
+    fit_corrector(spec, [0, 1, 2], "Dummy", 0.03)
+    assert dummy[-1] == {"noise": pytest.approx(0.03 / DELTA_SIGMAS)}
+    fit = fused_fitter(spec, [0, 1, 2], "Dummy")
+    _, scale = fit(np.array([0.01, 0.02, 0.04, 0.01, 0.01, 0.02, 0.03, 0.05, 0.01]))
+    assert dummy[-1] == {"noise": pytest.approx(0.02)}  # σ_ref: the median channel, the others whitened
+    assert scale == pytest.approx(0.02 / np.array([0.01, 0.02, 0.04, 0.01, 0.01, 0.02, 0.03, 0.05, 0.01]))
