@@ -6,9 +6,9 @@ depth the simulator's geometry gives along every pixel's centre ray (the pipelin
 model's frame may differ from the simulator's by a similarity (pycolmap's poses), so the ratio
 ``model / true`` is divided by its median over the middle three fifths of each view. Printed per view and
 fifth: the median of ``|ratio − 1|``, the share of pixels off by more than 5 %, and the share of those in
-front of the true surface. The fourteenth session found this way that the arc-end views' outer fifths
-(the backdrop and far floor, beyond the arc's end) were drawn 1–3 m too near, because the initial
-Gaussians had left the scene's periphery out (README, "Why the arc's ends stall").
+front of the true surface. It showed that the arc-end views' outer fifths (the backdrop and far floor,
+beyond the arc's end) were drawn 1–3 m too near when the initial Gaussians left the scene's periphery
+out (docs/notes/2026-11-28-colmap-initialisation.md).
 
     python benchmarks/depth_error.py CAPTURE OUT --views nikon/DSC_0019.dng,nikon/DSC_0008.dng
     python benchmarks/depth_error.py CAPTURE OUT --model other/model.npz   # any model.npz of the same capture

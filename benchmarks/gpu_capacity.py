@@ -17,9 +17,9 @@ limit keeps what it measured. Each run also reports the PSNR normalised to the m
 (``+ 20 log10(exposure)`` per view, as ``splat.scoring``) of the held-out views, one by one, and of every
 training view: peak-1 PSNR falls ≈ 6 dB per stop of exposure, the held-out views were shot brighter
 than the training views, and only the normalised numbers separate the fit from the generalisation
-(thirteenth session: at the arc's ends the held-out views lag, in the middle they match the fit).
+(at the arc's ends the held-out views lag, in the middle they match the fit).
 The float16 values quantise the mosaics 91 dB below their peak.
-Figures of one H200 (2026-11-27) are in the README ("Measured" and the PSNR table).
+Figures of one H200 (2026-11-27) are in docs/benchmarks.md.
 
 ``--set FIELD=VALUE`` (repeatable) overrides a :class:`splat.TrainConfig` field of that schedule, e.g.
 ``--set densify_gradient=screen --set densify_fraction=0.5``; the overrides are written to the results.

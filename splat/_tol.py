@@ -86,7 +86,7 @@ ANCHOR_EPS = 1e-3
 #: is ~0 (a noise-free simulation). Chosen on one training run of the simulated capture (2000 steps;
 #: three cameras, anchored renders, flat pixels of the held-out views): with one σ = 0.02 for every
 #: rendered channel, 0.002 gave 0.82 ΔE00 and 0.0005 0.92; with per-camera render σ, 0.002 gave 0.94
-#: and 0.001 0.99. Other runs were scored with it fixed (README, capture section).
+#: and 0.001 0.99. Other runs were scored with it fixed (docs/benchmarks.md, multi-camera capture).
 OWN_NOISE_FLOOR = 2e-3
 
 #: A pixel of a view is *smooth* (:func:`splat.fusion.smooth`) when every channel of the view's render
@@ -137,7 +137,7 @@ TEXTURE_NSIGMA = 6.0
 #: (2, 0.05, 0 = no reliability term), (2, 0.05, 0.1), (3, 0.03, 0.1), (2, 0.1, 0.1), (1, 0.05, 0.1),
 #: (3, 0.02, 0.03), (3, 0.05, 0.03), (3, 0.05, 0.01), (4, 0.03, 0.02): flat pixels 0.320 → 0.285–0.362,
 #: all pixels 5.74 → 5.08–5.50; (2, 0.1, 0.1) had the lowest all-pixel error (5.08; flat 0.300). The
-#: README's capture section has the checks on other models and scenes.
+#: docs/benchmarks.md (multi-camera capture) has the checks on other models and scenes.
 GUIDE_RADIUS = 2
 #: See :data:`GUIDE_RADIUS`.
 GUIDE_RANGE = 0.1

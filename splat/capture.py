@@ -372,7 +372,7 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
     file = path / "capture.toml" if path.is_dir() else path
     if not file.is_file():
         raise CaptureError(
-            f"{file}: no capture file; write a capture.toml (see the README, 'Multispectral capture')."
+            f"{file}: no capture file; write a capture.toml (see the README, 'Multi-camera capture')."
         )
     try:
         doc = tomllib.loads(file.read_text())

@@ -41,7 +41,7 @@ pixel, re-read by :func:`guided` with the mean of the cameras' channel triples a
 the render anchored to the channels that were).
 
 Measured (``benchmarks/bench_capture.py``, CI-size coarse capture, true poses, flat pixels of the six
-held-out views, three cameras with Prior; the README's capture section has the tables): noise-free,
+held-out views, three cameras with Prior; docs/benchmarks.md has the tables): noise-free,
 render only 1.63–1.66 ΔE00, fused 0.30–0.32 after 1000 steps (two seeds) against 0.87 for the best
 camera's own DNG development (same white); as novel views (the view's own RAW unused) 0.36–0.37; with
 sensor noise, render only 1.5–1.85, fused 0.63–0.81 and as novel views 0.65–0.85 on three scenes (their

@@ -77,32 +77,18 @@ class TrainConfig:
     lr_means : float
         Learning rate of the centres, as a fraction of the scene extent.
     lr_log_scales : float
-        Learning rate of the log-scales. 2e-2 (thirteenth session; was 1e-2, 3DGS 5e-3): split copies
-        start 1.6× smaller and the COLMAP-initialised Gaussians start at their neighbours' distance, and
-        the scales then need to move; held-out PSNR as the README, CI fine capture (1000 steps, capacity
-        4096) 5e-3 / 1e-2 / 2e-2 / 4e-2 / 8e-2: 28.02 / 28.59 / 28.96 / 29.02 / 28.81 dB, CI coarse 1e-2 /
-        2e-2 / 4e-2 / 8e-2: 33.03 / 33.53 / 34.02 / 33.95, benchmark capture (3000 steps, 32 768
-        Gaussians) 1e-2 / 2e-2 / 4e-2: 30.67 / 30.89 / 30.79 dB (the longer run leaves the scales more
-        time, so the gain is smaller there, and 4e-2 overshoots). Colour (three cameras, Prior, ΔE00
-        all | flat pixels): benchmark held-out views fused 3.839 | 0.684 → 3.865 | 0.698, novel 5.668 |
-        0.577 → 5.548 | 0.611; CI seed-7 capture fused 3.546 | 0.696 → 3.469 | 0.696, novel 3.844 |
-        0.696 → 3.690 | 0.702.
+        Learning rate of the log-scales. Larger than 3DGS's 5e-3 because split copies and
+        COLMAP-initialised Gaussians start away from their final size
+        (:doc:`/notes/2026-11-28-scale-learning-rate`).
     lr_quats, lr_opacity, lr_colours : float
     lr_final : float
-        Final / initial learning rate (the exponential decay over ``steps``; it sets the decay of the
-        exposure and pose corrections too). 0.3 (was 0.05): with 0.05 the rates fall too low to finish
-        fitting the training views (a 3× colour rate alone recovers part of the gain). On the CI-size
-        coarse noise-free capture with true poses (600 steps, capacity 4096, same cost per step) it took
-        the flat-pixel response error on the training views from 5.8 % to 3.6 % and on held-out views
-        from 6.5 % to 4.3 % (no decay, 1.0: 4.3 % and 4.8 %); at 1000 steps 3.4 → 2.8 % and
-        4.1 → 3.6 %, and three-camera flat-pixel ΔE00 (Prior, held-out views) 1.99 → 1.68.
+        Final / initial learning rate (the exponential decay over ``steps``; it also sets the decay of
+        the exposure and pose corrections). 0.3: a faster decay stops fitting the training views too
+        early (:doc:`/notes/2026-11-24-training-learning-rates`).
     lr_means_final : float or None
-        Final / initial learning rate of the centres alone (None: ``lr_final``). 0.03 (was
-        ``lr_final``, 0.3): centres still moving 0.3 × 1e-3 of the extent per step at the end of a run
-        (≈ 0.3 px at the benchmark capture's distances) jitter around their place and blur the texture.
-        Benchmark capture (3000 steps, 32 768 Gaussians, same cost): held-out PSNR 27.2 → 30.0 dB,
-        training views 32.9 → 36.0 dB; CI-size captures at 1000 steps +0.3 to +0.8 dB held out, but
-        0.4 dB lower at 300 steps (short runs still need the mobility).
+        Final / initial learning rate of the centres alone (None: ``lr_final``). 0.03: centres still
+        moving at the end of a run jitter around their place and blur the texture
+        (:doc:`/notes/2026-11-27-centre-rate-and-recycling`).
     capacity : int
         Size of the Gaussian buffer (static); densification fills free slots up to it.
     densify_every, densify_from, densify_until : int
@@ -116,72 +102,34 @@ class TrainConfig:
         Alive Gaussians below this opacity are freed.
     recycle_opacity : float
         When the buffer is full, a densification also frees the faintest alive Gaussians below this
-        opacity (as many as it would add) for the split/clone copies (0: never). 0.05 (new): a full
-        buffer otherwise only changes where pruning (``prune_opacity``) frees a slot, while a fifth of
-        the benchmark model's Gaussians sat below 5 % opacity. Benchmark capture (3000 steps, 32 768
-        Gaussians): held-out PSNR 30.0 → 30.6 dB, training views 36.0 → 36.6 dB; CI-size captures
-        (1000 steps, capacity 4096) +0.05 and +0.1 dB.
+        opacity (as many as it would add) for the split/clone copies (0: never), so that a full buffer
+        still moves capacity to where the error is (:doc:`/notes/2026-11-27-centre-rate-and-recycling`).
     loss_offset : float
         The ε of :func:`rawnerf_loss` (raw units, saturation = 1): errors are weighted by
-        ``1 / (sg(ŷ) + ε)²``, relative where the signal is well above ε. 1e-3 (RawNeRF's value, the
-        default) spends the fit evenly in relative error, which the colour (ΔE00) is near to; a larger ε
-        moves weight to the bright pixels that dominate a peak-1 PSNR, away from dark ones. Measured
-        (ninth session): CI fine capture (1000 steps, capacity 4096) held-out PSNR 28.54 / 28.77 /
-        29.04 / 29.02 dB at ε = 0.001 / 0.01 / 0.05 / 0.2; benchmark capture (3000 steps, 32 768
-        Gaussians) 30.55 → 31.28 dB at 0.05 (training views 36.6 → 37.3), but the colour of its
-        held-out views got worse (three cameras, Prior, all | flat pixels ΔE00: fused 3.90 | 0.670 →
-        4.08 | 0.724, novel views 5.83 | 0.594 → 6.01 | 0.647, render only 5.44 | 2.16 → 5.63 | 1.90):
-        the dark cell borders, which the fused estimate takes from the render, lost weight. Hence the
-        default; raise it for PSNR, not for colour.
+        ``1 / (sg(ŷ) + ε)²``, relative where the signal is well above ε. 1e-3 (RawNeRF's value) spends
+        the fit evenly in relative error, which colour (ΔE00) follows; a larger ε raises a peak-1 PSNR
+        at the cost of dark pixels' colour (:doc:`/notes/2026-11-28-training-options`).
     densify_gradient : {"world", "screen", "absolute"}
-        The positional gradient that ranks Gaussians for densification: ``"screen"`` (the default, new
-        in the eleventh session) the norm of ∂L/∂(the centre's pixel position), as 3DGS ranks them —
-        from the camera-frame gradient, ``g_xy · z / f`` (the projection's Jacobian at fixed depth), so
-        that a Gaussian twice as far, covering the same pixels, ranks the same; ``"world"`` (the old
-        default) the norm of ∂L/∂(3-D centre), which ranks it half as high. Benchmark capture (3000
-        steps, 32 768 Gaussians, same cost): held-out PSNR 30.55 → 30.67 dB (image quarters, top to
-        bottom, 28.19 / 28.00 / 31.41 / 31.25 → 28.75 / 27.97 / 31.11 / 31.15 dB: the buffer is shared,
-        so the ranking moves Gaussians to the far part; 131 072 Gaussians: 31.83 → 31.88 dB); three
-        cameras, Prior, the 12 held-out views, ΔE00 all | flat pixels: fused 3.90 | 0.670 → 3.84 |
-        0.684, novel views 5.83 | 0.594 → 5.67 | 0.577, render only 5.44 | 2.16 → 5.35 | 2.16.
-        ``"absolute"`` (AbsGS, Ye et al. 2024) the norm of ``Σ_p |∂L_p/∂μ₂ᴅ|``, each pixel's gradient
-        of the centre's pixel position taken absolutely before the sum over the pixels (``render``'s
-        ``absgrad_probe``): a large Gaussian over texture that pulls its centre both ways ranks high,
-        where ``"screen"``'s signed sum cancels. Measured (twelfth session, the same held-out PSNR):
-        benchmark capture 30.67 → 30.71 dB (image quarters, top to bottom, 28.75 / 27.97 / 31.11 / 31.15
-        → 28.89 / 28.10 / 31.15 / 31.07), CI fine capture (1000 steps, 4096) 28.59 → 28.70; colour
-        (as above) fused 3.839 | 0.684 → 3.840 | 0.700: within a tenth of a dB and a little worse on
-        flat pixels, so not the default.
+        The positional gradient that ranks Gaussians for densification: ``"screen"`` (default) the norm
+        of ∂L/∂(the centre's pixel position), as 3DGS ranks them, so that a Gaussian twice as far,
+        covering the same pixels, ranks the same; ``"world"`` the norm of ∂L/∂(3-D centre);
+        ``"absolute"`` (AbsGS, Ye et al. 2024) the norm of ``Σ_p |∂L_p/∂μ₂ᴅ|`` (``render``'s
+        ``absgrad_probe``), which ranks a large Gaussian over texture high where the signed sum cancels
+        (:doc:`/notes/2026-11-27-screen-space-densification`).
     flatten_weight : float
         λ of a flatness penalty added to the loss: ``λ · mean over alive Gaussians of min(scales) /
-        extent`` (the smallest standard deviation in units of the scene extent; the loss reported is
-        still the data term). The surfaces of a scene are opaque and thin, and a Gaussian left thick on
-        a textured surface projects a little differently from each direction; the penalty lets the
-        data decide two axes and makes the third as thin as the views allow (Gaussian-surfel and PGSR
-        style). 0 turns it off. Measured (thirteenth session, held-out PSNR as the README): CI fine capture
-        (1000 steps, capacity 4096) λ = 0 / 1 / 10 / 100 / 1000 / 10 000: 28.59 / 28.65 / 28.72 / 28.77
-        / 28.70 / 28.63 dB; CI coarse 33.03 → 33.29 (λ = 100); benchmark capture (3000 steps, 32 768
-        Gaussians) 30.67 → 30.81 dB (normalised to the median exposure: training views 33.67 → 33.88,
-        held out 33.11 → 33.24); but on top of ``lr_log_scales`` 2e-2 it costs 0.07 dB (CI fine 28.96 →
-        28.89), so it is off by default.
+        extent`` (the loss reported is still the data term); it makes the third axis of surface
+        Gaussians as thin as the views allow. 0 (off) by default
+        (:doc:`/notes/2026-11-28-scale-learning-rate`).
     depth_weight : float
         λ of a sparse depth term added to the loss (0 turns it off; it acts only where ``train(...,
         depth=)`` gives targets, e.g. :func:`splat.pipeline.depth_targets`): ``λ · Σ_p |Σ_i w_i z_i − A_p
         z*_p| / z*_p / (H W)``, summed over the pixels ``p`` where the view observes a COLMAP point, with
         ``w_i`` the compositing weights, ``z_i`` the Gaussians' depths, ``A_p = Σ_i w_i`` and ``z*_p`` the
-        point's depth — each pixel's depth, weighted by what it draws, against the point's, relative, L1
-        (robust to the odd wrong point) — and divided by the image's pixel count, so that each observed
-        point weighs like one pixel of the data term and a sparse model (few tracked points) pulls little.
-        A view constrains depth only through parallax, and where few views see a region (a backdrop near
-        the edge of every frame) a faint layer in front of the surface explains them as well as the
-        surface (fourteenth session); the term pulls it onto the points. Costs one more rendered channel.
-        13 (sixteenth session; ≈ 1 per view's mean on the benchmark capture's ≈ 11.5 k points per 172.8 k
-        pixels). Held-out PSNR, λ = 0 → 13 (README): benchmark capture with its exact points 30.83 →
-        31.19 dB (32 768 Gaussians; λ = 39: 31.39); CI fine 29.20 → 29.22 (true points), 29.44 → 29.60
-        (pycolmap's), CI coarse (pycolmap's 695 points) 34.74 → 34.72; the benchmark's three-camera fused
-        ΔE00 (12 held-out views, all | flat pixels) 3.794 | 0.693 → 3.595 | 0.569, novel views 5.441 |
-        0.574 → 4.584 | 0.505. The fifteenth session's mean over the view's points instead (λ = 1) cost
-        the coarse capture 0.37 dB and the fine one's flat-pixel colour.
+        point's depth (relative L1, robust to the odd wrong point), divided by the image's pixel count so
+        that each observed point weighs like one pixel of the data term. Why: where few views see a
+        region, a faint layer in front of the surface explains them as well as the surface; the term
+        pulls it onto the points. Costs one more rendered channel (:doc:`/notes/2026-11-28-depth-term`).
     method : str
         Render back-end during training (``"auto"``: ``"cpu"`` when JAX computes on the CPU, ``"tiled"``
         on a GPU; :func:`splat.rendering.default_method`).
@@ -209,10 +157,8 @@ class TrainConfig:
         Learning rate of the rotation corrections, in radians.
     lr_pose_trans : float
         Learning rate of the translation corrections, as a fraction of the scene extent (the diagonal of
-        ``bounds``; the pipeline's box around COLMAP's points, backdrop included, is 29 m for the CI
-        capture's 5.9 m arc of cameras). On that capture (pycolmap's poses, 1000 steps) 2e-4 moved the
-        centres 0.03 on average where they were 0.013 off and made the colour worse (flat-pixel ΔE00
-        3.71 → 3.98); 2e-5 (the default) moved them 0.007.
+        ``bounds``). Small (2e-5) because a larger rate moves well-registered centres further than their
+        error and worsens the colour (:doc:`/notes/2026-11-24-exposure-and-pose-refinement`).
     """
 
     steps: int = 3000
