@@ -11,7 +11,8 @@ every pair at least as close as the better of its two cameras (within 5 %), all 
 
 This does not test the trained splat: after the few hundred CPU steps affordable here its renders are
 blurred and score far worse than any single camera (docs/benchmarks.md, multi-camera capture); it
-tests what the splat is for, so that a change to the correction, the scales or the simulator that breaks the claim fails here.
+tests what the splat is for, so that a change to the correction, the scales or the simulator that
+breaks the claim fails here.
 """
 
 from __future__ import annotations
