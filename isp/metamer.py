@@ -271,9 +271,8 @@ class MetamerConfig:
         clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training", "noise", "delta"})
         if clash:
             raise PipelineError(
-                f"{owner}.estimator_options: {', '.join(clash)} "
-                f"{'is a field' if len(clash) == 1 else 'are fields'} of {owner} itself (the noise: "
-                f"{owner}.noise); set them there, not in estimator_options."
+                f"{owner}.estimator_options: {', '.join(clash)} are fields of {owner} itself; set them "
+                f"there, not in estimator_options (the noise, as a σ or a model: {owner}.noise)."
             )
         object.__setattr__(self, "estimator_options", opts)
         if self.noise is not None:

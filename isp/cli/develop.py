@@ -184,9 +184,10 @@ def _develop_folder(args: argparse.Namespace) -> int:
     ignore = {"func", "scheduler", "quiet", "input", "output", "overwrite", "command"}
     settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
     if config is not None:  # one fit for the folder: the noise of its first file
-        config, note = _folder_noise(args, config, noise)  # develop_folder records it in the settings
+        config, note, origin = _folder_noise(args, config, noise)  # develop_folder records it in settings
         if not args.quiet or note:
-            console.print(f"noise: {_noise_line(config.noise, note)}", soft_wrap=True)
+            said = "; ".join(x for x in (note, origin) if x)
+            console.print(f"noise: {_noise_line(config.noise, said)}", soft_wrap=True)
     with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
         task: list[int] = []
 
@@ -221,7 +222,8 @@ def _develop_folder(args: argparse.Namespace) -> int:
 
 
 def _folder_noise(args: argparse.Namespace, config, noise):
-    """``config`` with the noise of the folder's first RAW file, and its note."""
+    """``config`` with the noise of the folder's first RAW file, the note of :func:`_resolve_noise` and
+    which file it came from ("" when the noise was given)."""
     import dataclasses
 
     from .._errors import PipelineError, RawFormatError
@@ -229,16 +231,16 @@ def _folder_noise(args: argparse.Namespace, config, noise):
     from ..raw import read_raw
 
     if noise != "auto":
-        return dataclasses.replace(config, noise=noise), ""
+        return dataclasses.replace(config, noise=noise), "", ""
     try:
         files = raw_files(args.input)
         raw = read_raw(files[0])
         if args.crop:
             raw = raw.crop(*args.crop)
     except (IndexError, OSError, PipelineError, RawFormatError) as exc:
-        return dataclasses.replace(config, noise=None), f"noise not found: {exc}"
+        return dataclasses.replace(config, noise=None), f"noise not measured: {exc}", ""
     config, note = _resolve_noise(raw, args, config, noise)
-    return config, f"{note}; " * bool(note) + f"from {files[0].name}, for every file of the folder"
+    return config, note, f"from {files[0].name}, for every file of the folder"
 
 
 def _develop(args: argparse.Namespace) -> int:

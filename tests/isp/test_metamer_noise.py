@@ -82,7 +82,7 @@ def test_the_fit_is_told_the_noise():
 
 
 def test_noise_belongs_in_the_config_not_in_estimator_options():
-    with pytest.raises(isp.PipelineError, match=r"noise is a field of MetamerConfig"):
+    with pytest.raises(isp.PipelineError, match=r"noise are fields of MetamerConfig.*MetamerConfig.noise"):
         MetamerConfig(estimator_options={"noise": 0.01})
     with pytest.raises(isp.PipelineError, match=r"MetamerConfig.noise"):
         MetamerConfig(noise=float("nan"))
