@@ -48,7 +48,7 @@ from .dng import (
 )
 from .exif import output_tags, srgb_icc_profile
 from .io import write_image
-from .metamer import MetamerConfig, MetamerCorrection, metamer_correction
+from .metamer import MetamerConfig, MetamerCorrection, metamer_correction, metamer_noise, photograph_method
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
 from .raw import RawImage, read_raw
 from .stages import (
@@ -99,10 +99,12 @@ __all__ = [
     "matrix_XYZ_from_balanced",
     "matrix_interpolated",
     "metamer_correction",
+    "metamer_noise",
     "mosaic",
     "noise_profile",
     "orient",
     "output_tags",
+    "photograph_method",
     "read_dng_tags",
     "read_raw",
     "srgb_icc_profile",

@@ -143,7 +143,9 @@ def develop_folder(
         :func:`zonotope.parallel.resolve_scheduler` (``ZONOTOPE_SCHEDULER``, else by folder size).
     settings
         What the outputs depend on, kept beside the manifest: a rerun into ``out`` with other
-        settings is refused before any work (it would mix outputs of two developments).
+        settings is refused before any work (it would mix outputs of two developments). With
+        ``metamer``, its noise model (``MetamerConfig.noise``, exact values) is added as
+        ``"noise"``: results fitted for another noise are not reused.
     progress
         ``progress(description, done, total)``: called once with ``done=0`` before the work, then
         after each file.
@@ -189,6 +191,9 @@ def develop_folder(
         taken[f.stem] = f
     # before any work; a cluster only for FILE_MIN_TASKS files or more
     where = resolve_scheduler(executor, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
+    if settings is not None and metamer is not None:
+        noise = getattr(metamer[1], "noise", None)
+        settings = {**settings, "noise": "none" if noise is None else repr(noise.key())}
     if settings is not None:
         check_settings(out_dir / "manifest.csv", settings)
     if metamer is not None:  # fitted once, sent to every worker once

@@ -25,7 +25,14 @@ if TYPE_CHECKING:
     from zonotope.correct import Corrector
     from zonotope.utilities import ProgressCallback
 
-__all__ = ["METAMER_RANGE", "MetamerConfig", "MetamerCorrection", "metamer_correction"]
+__all__ = [
+    "METAMER_RANGE",
+    "MetamerConfig",
+    "MetamerCorrection",
+    "metamer_correction",
+    "metamer_noise",
+    "photograph_method",
+]
 
 
 #: Default wavelength range (nm) and step of the metamer correction fit: 31 samples keep fitting
@@ -50,6 +57,20 @@ def _check_cie1931(target, where: str) -> None:
             "another observer's XYZ would be mixed in silently (≈ 0.25 ΔE00). Fit the estimator with "
             "target='CIE 1931 2°' (isp.metamer_correction does)."
         )
+
+
+def photograph_method() -> str:
+    """The estimator ``zonotope`` uses for photographs: the default ``method`` of
+    :func:`zonotope.correct.correct_image`.
+
+    Read from that function's signature, so that ``isp`` follows ``zonotope``'s choice (measured
+    there for accuracy and cost at photo scale) instead of naming an estimator of its own.
+    """
+    import inspect
+
+    from zonotope.correct import correct_image
+
+    return inspect.signature(correct_image).parameters["method"].default
 
 
 #: Errors of one colour's metamer estimate that fall back to the regression (e.g. Qhull on the
@@ -94,6 +115,9 @@ class MetamerCorrection:
     neutral : ndarray of shape (3,), optional
         The camera's un-balanced response to the perfect white under the fit's illuminant, max 1
         (compare with a file's AsShotNeutral: :meth:`neutral_mismatch`).
+    noise : zonotope.correct.NoiseModel, optional
+        The noise of the responses (white = 1) the estimator was fitted for; None: noise-free.
+        Its ``source`` says where it came from.
     """
 
     corrector: Corrector
@@ -103,6 +127,7 @@ class MetamerCorrection:
     white_level: float = 1.0
     fallbacks: int = 0
     neutral: np.ndarray | None = field(default=None, repr=False)
+    noise: Any = None
 
     def __post_init__(self) -> None:
         import dataclasses
@@ -123,6 +148,10 @@ class MetamerCorrection:
     def method(self) -> str:
         """The estimator's name (key of ``zonotope.correct.CORRECTION_METHODS``)."""
         return self.corrector.method
+
+    def describe_noise(self) -> str:
+        """One line: the noise the estimator was fitted for, and where it came from."""
+        return "none (noise-free fit)" if self.noise is None else self.noise.describe()
 
     def neutral_mismatch(self, as_shot_neutral) -> float:
         """Largest relative difference between a file's AsShotNeutral and :attr:`neutral`.
@@ -172,8 +201,9 @@ class MetamerConfig:
 
     Attributes
     ----------
-    method : str
-        Estimator (key or alias of ``zonotope.correct.CORRECTION_METHODS``; default ``"Prior"``).
+    method : str, optional
+        Estimator (key or alias of ``zonotope.correct.CORRECTION_METHODS``); None (default):
+        :func:`photograph_method`, the one ``zonotope`` uses for photographs.
     illuminant : str or colour.SpectralDistribution
         Scene illuminant of the fit (name or SD); should match the light the file's white balance
         was set for.
@@ -192,8 +222,13 @@ class MetamerConfig:
         Deduplication step in response units (white = 1), ≥ 0; 0 for exact deduplication only.
     batch_size : int
         Distinct colours per call of the estimator, ≥ 1.
+    noise : zonotope.correct.NoiseModel, float or None
+        Noise of the responses (white = 1, after the division by ``white_level``) the estimator is
+        fitted for: a model (e.g. :func:`metamer_noise` of the RAW file), a σ, or None / 0
+        (noise-free, the default). Turned into estimator options by
+        :func:`zonotope.correct.noise_options` only.
     estimator_options : mapping of str to object
-        Keywords passed on to the estimator's fitting function (e.g. ``{"noise": 0.01}``); kept
+        Keywords passed on to the estimator's fitting function (e.g. ``{"degree": 3}``); kept
         apart so that a misspelt field of this config is refused instead of passed on.
 
     Raises
@@ -202,7 +237,7 @@ class MetamerConfig:
         A field out of range (named, with what is allowed).
     """
 
-    method: str = "Prior"
+    method: str | None = None
     illuminant: Any = "D65"
     training: Any = "rawtoaces 190"
     target: Any = "CIE 1931 2°"
@@ -210,13 +245,14 @@ class MetamerConfig:
     white_level: float = 1.0
     quantum: float = 2e-3
     batch_size: int = 64
+    noise: Any = None
     estimator_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from ._config import check_int, check_number, check_options
 
         owner = "MetamerConfig"
-        if not (isinstance(self.method, str) and self.method.strip()):
+        if self.method is not None and not (isinstance(self.method, str) and self.method.strip()):
             raise PipelineError(f"{owner}.method={self.method!r}: give an estimator name, e.g. 'Prior'.")
         check_number(
             owner,
@@ -232,13 +268,20 @@ class MetamerConfig:
         check_int(owner, "batch_size", self.batch_size, minimum=1)
         _check_cie1931(self.target, f"{owner}.target")
         opts = check_options(owner, "estimator_options", self.estimator_options)
-        clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training"})
+        clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training", "noise", "delta"})
         if clash:
             raise PipelineError(
-                f"{owner}.estimator_options: {', '.join(clash)} are fields of {owner} itself; "
-                "set them there, not in estimator_options."
+                f"{owner}.estimator_options: {', '.join(clash)} are fields of {owner} itself; set them "
+                f"there, not in estimator_options (the noise, as a σ or a model: {owner}.noise)."
             )
         object.__setattr__(self, "estimator_options", opts)
+        if self.noise is not None:
+            from zonotope.correct import NoiseModelError, noise_model
+
+            try:
+                object.__setattr__(self, "noise", noise_model(self.noise, 3))
+            except NoiseModelError as exc:
+                raise PipelineError(f"{owner}.noise: {exc}") from None
 
 
 def metamer_correction(
@@ -262,13 +305,13 @@ def metamer_correction(
         ``zonotope.read_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
     config
         The options (:class:`MetamerConfig`: method, illuminant, training, target, shape,
-        white_level, quantum, batch_size, estimator_options); default all defaults.
+        white_level, quantum, batch_size, noise, estimator_options); default all defaults.
     progress
         See :class:`MetamerCorrection`.
     **options
         Fields of :class:`MetamerConfig` as keywords (override those of ``config``), e.g.
-        ``method="MAP", quantum=0``; the estimator's own options go in ``estimator_options``
-        (e.g. ``estimator_options={"noise": 0.01}``).
+        ``method="MAP", quantum=0, noise=0.01``; the estimator's own options go in
+        ``estimator_options`` (e.g. ``estimator_options={"degree": 3}``).
 
     Returns
     -------
@@ -287,11 +330,12 @@ def metamer_correction(
     import colour
 
     import zonotope
-    from zonotope.correct import fit_correction
+    from zonotope.correct import fit_correction, noise_options
 
     from ._config import with_options
 
     cfg = with_options(MetamerConfig, config, options, where="metamer_correction")
+    method = cfg.method or photograph_method()
     target, illuminant, shape = cfg.target, cfg.illuminant, cfg.shape
     cam = zonotope.load_camera(camera)
     train = zonotope.load_reflectances(cfg.training)
@@ -304,11 +348,12 @@ def metamer_correction(
         shape = np.arange(max(common.start, lo), min(common.end, hi) + step / 2, step)
     corrector = fit_correction(
         cam,
-        method=cfg.method,
+        method=method,
         target=target,
         illuminant=illuminant,
         shape=shape,
         training=train,
+        **noise_options(method, cfg.noise),
         **cfg.estimator_options,
     )
     if corrector.problem.k != 3:
@@ -323,4 +368,99 @@ def metamer_correction(
         progress=progress,
         white_level=cfg.white_level,
         neutral=white / white.max(),
+        noise=cfg.noise,
     )
+
+
+def metamer_noise(raw, *, white_balance="as-shot", white_level: float = 1.0, noise="auto"):
+    """The noise model of the responses a metamer correction receives from ``raw``, and where it came from.
+
+    The metamer stage takes linearised raw values ``x`` (0 at black, 1 at saturation), multiplies
+    them by the white-balance gains ``g = max(n) / n`` (``n`` the camera neutral) and divides by
+    ``white_level``: a channel's perfect white reads ``white_level / g`` in raw units, and the
+    model is carried through exactly that (``zonotope.correct.noise_from_profile(white=...)``).
+    With ``noise="auto"`` the file's DNG ``NoiseProfile`` is used when present and plausible;
+    otherwise (none, malformed or implausible: reported in the note) the noise is estimated from
+    flat regions of the mosaic's colour planes (one site per 2 × 2 cell and channel, before
+    demosaicing, whose interpolation would hide part of it; saturated sites left out).
+
+    Parameters
+    ----------
+    raw : isp.RawImage
+    white_balance
+        The pipeline's white-balance choice (:func:`isp.default_pipeline`).
+    white_level
+        Response of a perfect white reflector after white balance (:class:`MetamerConfig`).
+    noise
+        ``"auto"``; or a :class:`zonotope.correct.NoiseModel`, a σ, one σ per channel or a mapping
+        with ``"shot"`` and ``"read"`` (white = 1) given by the user, used as it is; None or 0:
+        noise-free.
+
+    Returns
+    -------
+    model : zonotope.correct.NoiseModel or None
+        None: noise-free. ``model.source`` names the origin (``"DNG NoiseProfile"``,
+        ``"estimated from image"``, ``"--noise"``, ...).
+    note : str
+        Why the NoiseProfile or the estimate was not used ("" otherwise).
+
+    Raises
+    ------
+    zonotope.correct.NoiseModelError
+        A given ``noise`` that is negative, NaN or of the wrong channel count.
+    """
+    from zonotope.correct import NoiseModelError, estimate_noise, noise_from_profile, noise_model
+
+    from ._errors import RawFormatError
+    from .dng import noise_profile
+    from .pipeline import _Neutral
+
+    if not (isinstance(noise, str) and noise == "auto"):
+        return noise_model(noise, 3), ""
+    n = np.asarray(_Neutral(white_balance)(raw), dtype=np.float64)
+    gains = n.max() / n
+    notes = []
+    try:
+        pairs = noise_profile(getattr(raw, "tags", None) or {}, planes=3)
+    except RawFormatError as exc:
+        pairs = None
+        notes.append(f"NoiseProfile ignored: {exc}")
+    else:
+        model, note = noise_from_profile(pairs, white=white_level / gains, k=3)
+        if model is not None:
+            return model, ""
+        if pairs is not None:
+            notes.append(note)
+    if np.ndim(raw.mosaic) != 2:
+        return None, "; ".join([*notes, "noise not estimated: the file holds no Bayer mosaic"])
+    try:
+        model = estimate_noise(_balanced_planes(raw, gains) / white_level)
+    except NoiseModelError as exc:
+        return None, "; ".join([*notes, f"noise not estimated: {exc}"])
+    if model.is_zero:
+        return None, "; ".join([*notes, "estimated noise is zero"])
+    return model, "; ".join(notes)
+
+
+def _balanced_planes(raw, gains: np.ndarray) -> np.ndarray:
+    """White-balanced linear colour planes ``(H/2, W/2, 3)`` of a Bayer mosaic (one site per 2 × 2
+    cell and channel); saturated sites NaN."""
+    from .cfa import CHANNEL_INDEX, check_cfa
+    from .stages import linearise
+
+    table = None if raw.table_applied else raw.linearisation_table
+    x = linearise(
+        raw.mosaic, black_level=raw.black_level, white_level=raw.white_level, table=table, clip=False
+    )
+    cfa = check_cfa(raw.cfa)
+    H, W = (x.shape[0] // 2) * 2, (x.shape[1] // 2) * 2
+    planes = np.empty((H // 2, W // 2, 3))
+    done = set()
+    for k, letter in enumerate(cfa):
+        c = CHANNEL_INDEX[letter]
+        if c not in done:  # the first green site of the cell: averaging the two would halve the variance
+            i, j = divmod(k, 2)
+            planes[..., c] = x[i:H:2, j:W:2]
+            done.add(c)
+    planes = np.where(planes >= 1.0, np.nan, planes)
+    return planes * gains

@@ -268,6 +268,19 @@ class Capture:
     neutral: np.ndarray
     setup: SpectralSetup = field(repr=False)
     exposure: float = 1.0
+    sensor: SensorConfig | None = field(default=None, repr=False)
+
+    @property
+    def noise_profile(self) -> np.ndarray:
+        """The sensor's true DNG NoiseProfile ``(S, O)`` per channel, shape (3, 2): the variance of the
+        linear signal ``x ∈ [0, 1]`` is ``x / full_well`` (shot) plus the read noise and the
+        rounding to DN (``(read_noise² + 1/12) / (white − black)²``)."""
+        if self.sensor is None:
+            raise PipelineError("Capture.noise_profile: the capture does not record its sensor.")
+        span = float(self.white_level - self.black_level)
+        S = 1.0 / self.sensor.full_well if np.isfinite(self.sensor.full_well) else 0.0
+        O = (self.sensor.read_noise**2 + 1.0 / 12.0) / span**2
+        return np.tile([S, O], (3, 1))
 
 
 @dataclass(frozen=True)
@@ -408,11 +421,17 @@ def simulate_capture(
         neutral=setup.neutral,
         setup=setup,
         exposure=exposure,
+        sensor=sensor,
     )
 
 
 def simulate_dng(
-    path: str | os.PathLike, capture: Capture, *, model: str = "simulated", overwrite: bool = False
+    path: str | os.PathLike,
+    capture: Capture,
+    *,
+    model: str = "simulated",
+    noise_profile=None,
+    overwrite: bool = False,
 ) -> Path:
     """Write a :class:`Capture` as a DNG (ColorMatrix1, CalibrationIlluminant1, AsShotNeutral, ...).
 
@@ -424,6 +443,8 @@ def simulate_dng(
         From :func:`simulate_capture`.
     model
         Model tag (e.g. the camera name).
+    noise_profile : array_like of shape (2,) or (3, 2), optional
+        DNG NoiseProfile to write (e.g. ``capture.noise_profile``, the true one); None: no tag.
     overwrite
         Replace an existing file.
 
@@ -443,5 +464,6 @@ def simulate_dng(
         calibration_illuminant_1=code,
         make="zonotope",
         model=model,
+        noise_profile=noise_profile,
         overwrite=overwrite,
     )

@@ -3,8 +3,9 @@
 - ``isp develop IN -o OUT``: develop a RAW/DNG file to a 16-bit TIFF (with an sRGB ICC profile and
   the camera's metadata) or PNG; ``--wb as-shot|daylight|5000K|D65|spot:x0,y0,x1,y1`` picks the
   white balance; the picture is rotated as the file's Orientation tag says;
-  ``--correction metamer --camera NAME_OR_FILE [--method Prior] [--illuminant D65]`` replaces the
-  file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's sensitivities;
+  ``--correction metamer --camera NAME_OR_FILE [--method NAME] [--illuminant D65] [--noise auto]``
+  replaces the file's ColorMatrix by a ``zonotope.correct`` estimator fitted on the camera's
+  sensitivities and for the file's noise (DNG NoiseProfile, else estimated from the mosaic);
 - ``isp info IN``: print the RAW metadata the pipeline uses;
 - ``isp profile --camera NAME_OR_FILE -o camera.dcp [--lut camera.cube]``: a DNG camera profile
   (and 3-D LUT, saved correction) fitted to a ``zonotope.correct`` estimator; ``isp develop

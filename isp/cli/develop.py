@@ -32,12 +32,62 @@ _METAMER_OPTIONS = {
     "training": "--training",
     "scene_white": "--scene-white",
     "quantum": "--quantum",
+    "noise": "--noise",
 }
 
 
+def _noise_request(text: str | None):
+    """``(noise, None)`` from ``--noise`` (``"auto"``, a NoiseModel, or None for noise-free), or
+    ``(None, message)``; the syntax is ``zonotope correct --noise``'s, parsed by zonotope."""
+    import argparse as _argparse
+
+    from zonotope.cli.batch import _noise_argument  # one --noise syntax for both commands
+    from zonotope.correct import NoiseModel, NoiseModelError, noise_model
+
+    if text is None:
+        return "auto", None
+    try:
+        value = _noise_argument(text)
+    except _argparse.ArgumentTypeError as exc:
+        return None, f"--noise {exc}"
+    if value == "auto":
+        return "auto", None
+    try:
+        model = noise_model(value, 3)
+    except NoiseModelError as exc:
+        return None, f"--noise {text}: {exc}"
+    return (None if model is None else NoiseModel(model.shot, model.read, "--noise")), None
+
+
+def _resolve_noise(raw, args: argparse.Namespace, config, noise):
+    """``config`` with the noise of ``raw`` (:func:`isp.metamer.metamer_noise`), and its note."""
+    import dataclasses
+
+    from ..metamer import metamer_noise
+
+    model, note = metamer_noise(raw, white_balance=args.wb, white_level=config.white_level, noise=noise)
+    return dataclasses.replace(config, noise=model), note
+
+
+def _noise_line(model, note: str) -> str:
+    """What ``noise:`` says: the model and its source, or none, and why a source was passed over."""
+    text = "none (noise-free fit)" if model is None else model.describe()
+    return text + (f" ({note})" if note else "")
+
+
 def _metamer_config(args: argparse.Namespace):
-    """``(MetamerConfig, None)`` for ``--correction metamer``, ``(None, None)`` without it, or
-    ``(None, message)`` (exit 2) when the options are wrong; checked before any fit."""
+    """``(MetamerConfig, noise, None)`` for ``--correction metamer`` (``noise``: ``"auto"``, a model or
+    None, resolved against the file by :func:`_resolve_noise`), ``(None, None, None)`` without it, or
+    ``(None, None, message)`` (exit 2) when the options are wrong; checked before any fit."""
+    config, error = _metamer_options(args)
+    if config is None:
+        return None, None, error
+    noise, error = _noise_request(args.noise)
+    return (None, None, error) if error else (config, noise, None)
+
+
+def _metamer_options(args: argparse.Namespace):
+    """``(MetamerConfig, None)``, ``(None, None)`` or ``(None, message)`` (see :func:`_metamer_config`)."""
     from ..metamer import MetamerConfig
 
     if args.correction != "metamer":
@@ -124,7 +174,7 @@ def _develop_folder(args: argparse.Namespace) -> int:
             "--overwrite does not apply to folders: a rerun keeps finished "
             "outputs (delete them to develop again)."
         )
-    config, error = _metamer_config(args)
+    config, noise, error = _metamer_config(args)
     if error:
         return _fail(error)
     pipeline, error = _pipeline(args)
@@ -133,6 +183,11 @@ def _develop_folder(args: argparse.Namespace) -> int:
     # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
     ignore = {"func", "scheduler", "quiet", "input", "output", "overwrite", "command"}
     settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
+    if config is not None:  # one fit for the folder: the noise of its first file
+        config, note, origin = _folder_noise(args, config, noise)  # develop_folder records it in settings
+        if not args.quiet or note:
+            said = "; ".join(x for x in (note, origin) if x)
+            console.print(f"noise: {_noise_line(config.noise, said)}", soft_wrap=True)
     with _progress(console, args.quiet) as bar:  # plain timed lines when stderr is not a terminal
         task: list[int] = []
 
@@ -166,6 +221,28 @@ def _develop_folder(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _folder_noise(args: argparse.Namespace, config, noise):
+    """``config`` with the noise of the folder's first RAW file, the note of :func:`_resolve_noise` and
+    which file it came from ("" when the noise was given)."""
+    import dataclasses
+
+    from .._errors import PipelineError, RawFormatError
+    from ..batch import raw_files
+    from ..raw import read_raw
+
+    if noise != "auto":
+        return dataclasses.replace(config, noise=noise), "", ""
+    try:
+        files = raw_files(args.input)
+        raw = read_raw(files[0])
+        if args.crop:
+            raw = raw.crop(*args.crop)
+    except (IndexError, OSError, PipelineError, RawFormatError) as exc:
+        return dataclasses.replace(config, noise=None), f"noise not measured: {exc}", ""
+    config, note = _resolve_noise(raw, args, config, noise)
+    return config, note, f"from {files[0].name}, for every file of the folder"
+
+
 def _develop(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -193,16 +270,22 @@ def _develop(args: argparse.Namespace) -> int:
         raise PipelineError(
             f"{out} exists and was not written by isp; --overwrite replaces only isp outputs."
         )
-    config, error = _metamer_config(args)
+    config, noise, error = _metamer_config(args)
     if error:
         return _fail(error)
     pipeline, error = _pipeline(args)
     if error:
         return _fail(error)
-    metamer = None
-    if config is not None:
+    metamer = raw = None
+    if config is not None:  # the file is read first: the fit is for its noise
         from ..metamer import metamer_correction
 
+        raw = read_raw(src)
+        if args.crop:
+            raw = raw.crop(*args.crop)
+        config, note = _resolve_noise(raw, args, config, noise)
+        if not args.quiet or note:
+            console.print(f"noise: {_noise_line(config.noise, note)}", soft_wrap=True)
         metamer = metamer_correction(args.camera, config)
         pipeline = pipeline.replace("camera_to_XYZ", correction_stage(metamer))
     if args.save_stages:
@@ -211,9 +294,10 @@ def _develop(args: argparse.Namespace) -> int:
             return _fail(f"--save-stages {stage_dir} is not empty; use --overwrite or another folder.")
     with _progress(console, args.quiet) as progress:
         task = progress.add_task(f"reading {src.name}", total=len(pipeline) + 2)
-        raw = read_raw(src)
-        if args.crop:
-            raw = raw.crop(*args.crop)
+        if raw is None:
+            raw = read_raw(src)
+            if args.crop:
+                raw = raw.crop(*args.crop)
         wb = describe_white_balance(raw, args.wb)
         progress.advance(task)
         other = _profile_camera_mismatch(getattr(args, "profile", None), raw)
@@ -276,7 +360,8 @@ def _develop(args: argparse.Namespace) -> int:
         )
     if not args.quiet:
         how = (
-            f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}"
+            f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}, "
+            f"noise {metamer.describe_noise()}"
             if metamer is not None
             else ("DNG ColorMatrix" if raw.is_dng else "LibRaw's built-in camera matrix")
         )
@@ -374,6 +459,7 @@ def add_develop(sub) -> None:
     """Register ``develop`` on the ``isp`` sub-parser collection."""
     from zonotope.correct import CORRECTION_METHODS
 
+    from ..metamer import photograph_method
     from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS, default_method
 
     d = sub.add_parser("develop", help="develop a RAW/DNG file to a 16-bit TIFF or PNG")
@@ -415,7 +501,7 @@ def add_develop(sub) -> None:
         "--method",
         help=f"zonotope.correct estimator: {', '.join(CORRECTION_METHODS)} or an "
         "alias such as root-polynomial (case and punctuation ignored; default "
-        "Prior)",
+        f"{photograph_method()}, zonotope's estimator for photographs, fitted for the noise)",
     )
     m.add_argument(
         "--illuminant",
@@ -433,6 +519,14 @@ def add_develop(sub) -> None:
         help="response of a perfect white reflector after white balance, as a fraction of "
         "saturation (default 1); the metamer-based estimators (not the regressions) "
         "depend on the exposure",
+    )
+    m.add_argument(
+        "--noise",
+        metavar="auto|σ|SHOT:READ",
+        help="noise of the responses (white = 1) the estimator is fitted for: auto (default: the "
+        "DNG NoiseProfile when present and plausible, else estimated from the mosaic's flat "
+        "regions; for a folder, from its first file), a σ such as 0.005 (0: noise-free), or shot "
+        "and read variances per unit response as SHOT:READ",
     )
     m.add_argument(
         "--quantum",

@@ -47,6 +47,33 @@ def _written_by_isp_profile(path: Path) -> bool:
     return False
 
 
+def _profile_noise(args: argparse.Namespace):
+    """The noise the profile's estimator is fitted for, from ``--noise`` and ``--noise-dng``, and a note.
+
+    ``auto`` takes it from ``--noise-dng`` (its NoiseProfile, else an estimate from its flat
+    regions: :func:`isp.metamer.metamer_noise`); without a file there is nothing to measure, and
+    the fit is noise-free (said in the note).
+    """
+    from zonotope import ZonotopeError
+
+    from ..metamer import metamer_noise
+    from .develop import _noise_request
+
+    noise, error = _noise_request(args.noise)
+    if error:
+        raise ZonotopeError(error)
+    if noise != "auto":
+        if args.noise_dng:
+            raise ZonotopeError("--noise-dng applies to --noise auto only: give one of the two.")
+        return noise, ""
+    if not args.noise_dng:
+        return None, "no RAW file to measure it in: give --noise-dng FILE or --noise"
+    from ..raw import read_raw
+
+    model, note = metamer_noise(read_raw(args.noise_dng))
+    return model, f"{note}; " * bool(note) + f"from {Path(args.noise_dng).name}"
+
+
 def _profile(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -83,10 +110,12 @@ def _profile(args: argparse.Namespace) -> int:
         raise ZonotopeError(
             f"--look-table-size {' '.join(map(str, look))}: need hues ≥ 1, saturations ≥ 2, values ≥ 1."
         )
+    noise, note = _profile_noise(args)
     # both configs are checked before the (long) fit starts
     try:
         config = ProfileConfig(
             method=args.method,
+            noise=noise,
             illuminants=tuple(args.illuminants),
             training=args.training,
             dims=dims,
@@ -110,7 +139,12 @@ def _profile(args: argparse.Namespace) -> int:
     import zonotope
 
     zonotope.load_camera(args.camera)  # an unknown name or a bad file: refused before "fitting …"
-    with _status(console, f"fitting {args.method} for {args.camera} under {' and '.join(args.illuminants)}…"):
+    from ..metamer import photograph_method
+
+    method = args.method or photograph_method()
+    what = "none (noise-free fit)" if config.noise is None else config.noise.describe()
+    console.print(f"noise: {what}" + (f" ({note})" if note else ""), soft_wrap=True)
+    with _status(console, f"fitting {method} for {args.camera} under {' and '.join(args.illuminants)}…"):
         fit = fit_dcp(args.camera, config)
     write_dcp(out, fit.profile, overwrite=args.overwrite)
     console.print(
@@ -152,7 +186,26 @@ def add_command(sub) -> None:
         help="built-in camera name or a rawtoaces JSON / CSV sensitivity file",
     )
     p.add_argument("-o", "--output", required=True, help="output .dcp file")
-    p.add_argument("--method", default="Prior", help="zonotope.correct estimator (default Prior)")
+    from ..metamer import photograph_method
+
+    p.add_argument(
+        "--method",
+        help=f"zonotope.correct estimator (default {photograph_method()}, zonotope's estimator for "
+        "photographs, fitted for the noise)",
+    )
+    p.add_argument(
+        "--noise",
+        metavar="auto|σ|SHOT:READ",
+        help="noise of the white-balanced responses (white = 1) the estimator is fitted for: auto "
+        "(default: from --noise-dng, else noise-free), a σ such as 0.005 (0: noise-free), or shot "
+        "and read variances per unit response as SHOT:READ",
+    )
+    p.add_argument(
+        "--noise-dng",
+        metavar="RAW",
+        help="a RAW/DNG file of the camera whose noise the fit is for (its NoiseProfile when "
+        "plausible, else estimated from its flat regions)",
+    )
     p.add_argument(
         "--illuminants",
         nargs=2,

@@ -380,8 +380,9 @@ class ProfileConfig:
 
     Attributes
     ----------
-    method : str
-        ``zonotope.correct`` estimator (default ``"Prior"``).
+    method : str, optional
+        ``zonotope.correct`` estimator; None (default): :func:`isp.metamer.photograph_method`, the
+        one ``zonotope`` uses for photographs.
     illuminants : tuple of two str
         The two calibration illuminants (names of :data:`isp.simulate.ILLUMINANT_LIGHT_SOURCE`),
         lower CCT first by convention.
@@ -415,8 +416,11 @@ class ProfileConfig:
         HueSatMap's 30), are kept bias-free around the grey axis (:func:`fit_hue_sat_map`): a
         per-pixel table applied to noisy near-grey pixels otherwise shifts their mean. 0 switches it
         off.
+    noise : zonotope.correct.NoiseModel, float or None
+        Noise of the white-balanced responses (white = 1) the estimator is fitted for (e.g.
+        :func:`isp.metamer.metamer_noise` of a RAW file of the camera); None: noise-free.
     estimator_options : mapping of str to object
-        Keywords of the estimator's fitting function (e.g. ``{"noise": 0.01}``), passed on through
+        Keywords of the estimator's fitting function (e.g. ``{"degree": 3}``), passed on through
         :class:`isp.MetamerConfig`.
 
     Raises
@@ -425,7 +429,7 @@ class ProfileConfig:
         A field out of range or of the wrong kind (named, with what is allowed).
     """
 
-    method: str = "Prior"
+    method: str | None = None
     illuminants: Sequence[str] = ("A", "D65")
     training: Any = "rawtoaces 190"
     dims: Sequence[int] | None = DCP_DEFAULT_DIMS
@@ -440,6 +444,7 @@ class ProfileConfig:
     seed: int = 0
     smoothness: float = 1e-3
     unbiased_saturation: float = 0.35
+    noise: Any = None
     estimator_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -447,7 +452,7 @@ class ProfileConfig:
         from ..metamer import MetamerConfig
 
         owner = "ProfileConfig"
-        if not (isinstance(self.method, str) and self.method.strip()):
+        if self.method is not None and not (isinstance(self.method, str) and self.method.strip()):
             raise PipelineError(f"{owner}.method={self.method!r}: give an estimator name, e.g. 'Prior'.")
         ills = (self.illuminants,) if isinstance(self.illuminants, str) else tuple(self.illuminants)
         if len(ills) != 2:
@@ -499,8 +504,12 @@ class ProfileConfig:
             "give a saturation in [0, 1] (0: no rings held)",
         )
         opts = check_options(owner, "estimator_options", self.estimator_options)
-        MetamerConfig(estimator_options=opts)  # the same checks as the estimator will apply
+        try:  # the same checks as the estimator will apply
+            checked = MetamerConfig(noise=self.noise, estimator_options=opts)
+        except PipelineError as exc:
+            raise PipelineError(str(exc).replace("MetamerConfig.", f"{owner}.")) from None
         object.__setattr__(self, "estimator_options", opts)
+        object.__setattr__(self, "noise", checked.noise)
 
 
 def fit_dcp(
@@ -523,8 +532,8 @@ def fit_dcp(
         then ``method``, ``training`` and ``estimator_options`` are not used).
     **options
         Fields of :class:`ProfileConfig` as keywords (override those of ``config``), e.g.
-        ``method="MAP", n_random=300``; the estimator's own options go in ``estimator_options``
-        (e.g. ``estimator_options={"noise": 0.01}``).
+        ``method="MAP", n_random=300, noise=0.01``; the estimator's own options go in
+        ``estimator_options`` (e.g. ``estimator_options={"degree": 3}``).
 
     Returns
     -------
@@ -563,6 +572,7 @@ def fit_dcp(
                     training=cfg.training,
                     quantum=0.0,
                     target="CIE 1931 2°",
+                    noise=cfg.noise,
                     estimator_options=cfg.estimator_options,
                 ),
             )

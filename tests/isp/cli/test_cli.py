@@ -146,7 +146,7 @@ def _patch_Lab(tif, simulated):
     return colour.XYZ_to_Lab(np.array(means), D65_xy), colour.XYZ_to_Lab(ref, D65_xy)
 
 
-@pytest.mark.slow  # 32 s on a quiet 2-core machine: a metamer fit and a full development
+@pytest.mark.slow  # 8 s on a loaded 2-core machine: a metamer fit and a full development
 def test_develop_metamer_close_to_truth_and_dng(simulated, tmp_path, capsys):
     src = simulated[0]
     dng, metamer = tmp_path / "dng.tif", tmp_path / "metamer.tif"
@@ -172,13 +172,13 @@ def test_develop_metamer_close_to_truth_and_dng(simulated, tmp_path, capsys):
         == 0
     )
     err = capsys.readouterr().err
-    assert "metamer correction Prior" in err and "warning" not in err  # AsShotNeutral matches D65
+    assert "metamer correction Finlayson 2015" in err and "warning" not in err  # AsShotNeutral matches D65
     img = tifffile.imread(metamer)
     assert img.dtype == np.uint16 and img.shape == (24, 36, 3)
     assert sorted(p.name for p in stages.iterdir())[3:5] == ["03_demosaic.tif", "04_camera_to_XYZ.tif"]
     (lab_dng, truth), (lab_metamer, _) = _patch_Lab(dng, simulated), _patch_Lab(metamer, simulated)
     dE_metamer = colour.delta_E(lab_metamer, truth, method="CIE 2000")
-    assert dE_metamer.mean() < 1.2 and dE_metamer.max() < 2.0, dE_metamer  # measured 0.74 / 1.11
+    assert dE_metamer.mean() < 1.2 and dE_metamer.max() < 2.0, dE_metamer  # measured 0.63 / 1.21
     assert colour.delta_E(lab_dng, truth, method="CIE 2000").max() < 3.5  # measured 2.58 (red)
     # the same picture as the DNG path (both white-balanced on AsShotNeutral, white → D65), up to
     # the difference between the estimators on these saturated patches
