@@ -260,8 +260,8 @@ def test_fit_dcp_config_equals_keywords_and_refuses_options_before_fitting():
             np.testing.assert_array_equal(getattr(a, name), getattr(other, name))
     assert a.hue_sat_map_1 is None and a.look_table is None
     assert cfg.illuminants == ("A", "D65") and cfg.estimator_options == {}
-    with pytest.raises(isp.PipelineError, match=r"unknown option\(s\) noise.*estimator_options"):
-        isp.fit_dcp(CAM, noise=0.01)
+    with pytest.raises(isp.PipelineError, match=r"unknown option\(s\) degree.*estimator_options"):
+        isp.fit_dcp(CAM, degree=2)
     with pytest.raises(isp.PipelineError, match="n_random=-1"):
         isp.fit_dcp(CAM, n_random=-1)
 
