@@ -239,7 +239,7 @@ def _evaluate(args: argparse.Namespace) -> int:
                     )
     console.print(ev.pooled_markdown(), soft_wrap=True)  # pooled statistics and paired comparisons
     for note in ev.notes:
-        console.print(f"note: {note}")
+        console.print(f"note: {note}", soft_wrap=True)
     if args.markdown:
         from ..utilities.io import atomic_write_text, check_output
 
@@ -330,8 +330,8 @@ def _parser() -> argparse.ArgumentParser:
         metavar="LEVEL",
         help="noise level of the held-out responses, repeatable: 0 (noise-free), a σ such as 0.005 "
         "(constant, white = 1), or SHOT:READ variances per unit response as 'zonotope correct "
-        "--noise' takes them; every estimator is fitted for each level (default: 0, 4e-6:0 and "
-        "2.5e-5:0, i.e. noise-free and shot noise of σ 0.002 and 0.005 at white)",
+        "--noise' takes them; every estimator is fitted for each level (default: 0, 4e-06:0 and "
+        "2.5e-05:0, i.e. noise-free and shot noise of σ 0.002 and 0.005 at white)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the atypical spectra and the noise draws")
     p.add_argument("--markdown", help="also write the table to this Markdown file (must not exist)")

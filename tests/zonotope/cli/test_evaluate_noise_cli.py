@@ -42,3 +42,14 @@ def test_bad_noise_is_a_one_line_error(bad, tmp_path, capsys):
 def test_repeated_level_is_refused(capsys):
     assert main(["evaluate", *FAST, "--noise", "0.002", "--noise", "2e-3"]) == 2
     assert "repeat" in capsys.readouterr().err
+
+
+def test_help_states_the_default_levels(capsys):
+    from zonotope.evaluate import DEFAULT_NOISE
+
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert DEFAULT_NOISE[0] == 0.0 and "default: 0," in text
+    for level in DEFAULT_NOISE[1:]:
+        assert f"{level.shot[0]:g}:{level.read[0]:g}" in text
