@@ -554,8 +554,9 @@ class Evaluation:
 
     def noise_markdown(self) -> str:
         """ΔE00 mean / p95 / max of every method (columns) per camera set, test set and noise level
-        (rows): the table that compares the estimators across noise levels at a glance."""
-        if not self.rows:
+        (rows): the table that compares the estimators across noise levels at a glance ("" for one
+        level, which the per-row table already shows)."""
+        if len(self.noise_levels) < 2:
             return ""
         methods = list(dict.fromkeys(r.method for r in self.rows))
         cell = {(r.cameras, r.test_set, r.noise, r.method): r for r in self.rows}
