@@ -517,14 +517,15 @@ class Evaluation:
         return {m: (a[0] / a[1], a[2]) for m, a in acc.items()}
 
     def to_markdown(self) -> str:
-        """The table as GitHub Markdown."""
+        """The table as GitHub Markdown (a ``noise`` column unless every row is noise-free)."""
+        col = self._noise_column()
         head = (
-            "| cameras | test set | noise | estimator | n | mean | median | p95 | max | in MMV "
+            f"| cameras | test set |{col('noise')} estimator | n | mean | median | p95 | max | in MMV "
             "| outside MMV (exact) | radius (95 %) | covered |\n"
-            "|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+            f"|---|---|{col('---')}---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         )
         body = "".join(
-            f"| {r.cameras} | {r.test_set} | {r.noise} | {r.method} | {r.n} | {r.mean:.3f} | "
+            f"| {r.cameras} | {r.test_set} |{col(r.noise)} {r.method} | {r.n} | {r.mean:.3f} | "
             f"{r.median:.3f} | "
             f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} | "
             f"{'' if r.outside is None else f'{100 * r.outside:.1f} %'} | "
@@ -535,10 +536,10 @@ class Evaluation:
         vol = ""
         if self.volumes:
             vol = (
-                "\n| cameras | test set | noise | MMV volume mean | median | max |\n"
-                "|---|---|---|---:|---:|---:|\n"
+                f"\n| cameras | test set |{col('noise')} MMV volume mean | median | max |\n"
+                f"|---|---|{col('---')}---:|---:|---:|\n"
                 + "".join(
-                    f"| {c} | {t} | {z} | {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
+                    f"| {c} | {t} |{col(z)} {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
                     for (c, t, z), v in self.volumes.items()
                 )
             )
@@ -551,6 +552,12 @@ class Evaluation:
             + vol
             + (f"\nNotes:{notes}\n" if notes else "")
         )
+
+    def _noise_column(self):
+        """``cell(text) → " text |"`` when some row is noisy, else ``""``: noise-free tables keep their
+        columns."""
+        noisy = any(z != "0" for z in self.noise_levels)
+        return (lambda text: f" {text} |") if noisy else (lambda text: "")
 
     def noise_markdown(self) -> str:
         """ΔE00 mean / p95 / max of every method (columns) per camera set, test set and noise level
@@ -586,10 +593,11 @@ class Evaluation:
         methods = list(dict.fromkeys(r.method for r in self.rows))
         if reference is None:
             reference = "Prior" if "Prior" in methods else methods[0]
+        col = self._noise_column()
         lines = [
-            "\n| cameras | kind | noise | estimator | n | pooled mean | p95 | max |"
+            f"\n| cameras | kind |{col('noise')} estimator | n | pooled mean | p95 | max |"
             f" {reference} better | worse | mean diff | p95 diff |\n"
-            "|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+            f"|---|---|{col('---')}---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         ]
         groups = dict.fromkeys((r.cameras, r.kind, r.noise) for r in self.rows)
         first = {g[:2]: i for i, g in reversed(list(enumerate(groups)))}  # a kind's levels together
@@ -606,7 +614,7 @@ class Evaluation:
                     except SpectralDataError:
                         pc = ""
                 lines.append(
-                    f"| {cams} | {kind} | {z} | {m} | {n} | {mean:.3f} | {p95:.3f} | {mx:.2f} | "
+                    f"| {cams} | {kind} |{col(z)} {m} | {n} | {mean:.3f} | {p95:.3f} | {mx:.2f} | "
                     + (pc or " | | | ")
                     + " |\n"
                 )

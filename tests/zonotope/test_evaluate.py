@@ -42,7 +42,7 @@ def test_evaluate_table():
     assert all(r.outside is not None and 0.0 <= r.outside <= 1.0 for r in ev.rows)
     assert set(ev.summary("atypical")) == methods
     md = ev.to_markdown()
-    assert "| cameras | test set | noise | estimator |" in md and "Prior" in md
+    assert "| cameras | test set | estimator |" in md and "Prior" in md  # noise-free: no noise column
     assert "outside MMV (exact)" in md
 
 
