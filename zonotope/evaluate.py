@@ -73,7 +73,6 @@ from .utilities.progress import ProgressCallback
 __all__ = [
     "ATYPICAL_SEED",
     "DEFAULT_METHODS",
-    "DEFAULT_NOISE",
     "Evaluation",
     "EvaluationConfig",
     "EvaluationRow",
