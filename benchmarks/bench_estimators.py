@@ -54,7 +54,7 @@ def main() -> None:
         w = shape.wavelengths
         sets = natural_test_sets(w, data_dir=DATA if DATA.is_dir() else None, size=args.size)
         sets += atypical_test_sets(w, args.atypical)
-        ev = evaluate([cams], methods=METHODS, shape=shape, test_sets=sets)
+        ev = evaluate([cams], methods=METHODS, shape=shape, test_sets=sets, noise=0.0)
         label = ev.rows[0].cameras
         problem = correction_problem(cams, shape=shape)
         current = fit_correction(problem, method="Prior")

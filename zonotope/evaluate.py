@@ -7,7 +7,17 @@ colours, the fraction of regression estimates that lie inside the metamer mismat
 the share of every estimator's answers that lie outside the MMV of its input (physically impossible
 colours: no reflectance gives both, by the exact test
 :func:`zonotope.mismatch.membership.outside_mmv_fraction`;
-noise-free runs only) and MMV volume statistics (XYZ units, Y_white = 1).
+noise-free level only) and MMV volume statistics (XYZ units, Y_white = 1).
+
+Noise levels
+------------
+Every row belongs to one noise level: noise-free, a constant σ, or a shot + read
+:class:`~zonotope.correct.NoiseModel` (default :data:`DEFAULT_NOISE`: noise-free and two shot-limited
+levels, low and high ISO). At each level every estimator is fitted for that noise through
+:func:`zonotope.correct.noise_options` (so the regressions "Cheung 2004" and "Finlayson 2015" are the
+noise-aware baselines) and applied to noisy held-out responses. The noise draws are seeded per camera
+set and test set and shared by every method and every level (the same standard normal draws, scaled by
+each level's σ per response): comparisons between methods and between levels are paired.
 
 Test sets
 ---------
@@ -47,8 +57,10 @@ from .correct.methods import (
     CORRECTION_METHODS,
     DELTA_SIGMAS,
     CorrectionProblem,
+    NoiseModel,
     correction_problem,
     fit_correction,
+    noise_model,
     noise_options,
 )
 from .correct.prior import project_to_mmv
@@ -79,6 +91,79 @@ ATYPICAL_SEED = 0
 
 #: Estimators evaluated by default (every one of CORRECTION_METHODS).
 DEFAULT_METHODS: tuple[str, ...] = tuple(CORRECTION_METHODS)
+
+#: Noise levels evaluated by default: noise-free, and shot-limited noise of σ 0.002 and 0.005 at white
+#: (low and high ISO of a current sensor, white-balanced; variance σ² · c per channel), the levels of
+#: the decision record on the correction defaults, so that its table can be reproduced.
+DEFAULT_NOISE: tuple = (
+    0.0,
+    NoiseModel.shot_limited(0.002, 1, source="shot-limited, σ 0.002 at white"),
+    NoiseModel.shot_limited(0.005, 1, source="shot-limited, σ 0.005 at white"),
+)
+
+
+def noise_label(level) -> str:
+    """Short name of a noise level in tables: ``"0"``, ``"σ 0.005"`` (constant σ), ``"shot σw 0.005"``
+    (shot-limited, σ at white) or ``"SHOT:READ"`` (the ``--noise`` syntax), per channel if they differ."""
+    if level is None or (isinstance(level, NoiseModel) and level.is_zero):
+        return "0"
+    if not isinstance(level, NoiseModel):
+        s = np.atleast_1d(np.asarray(level, dtype=np.float64))
+        return "0" if not np.any(s > 0) else "σ " + "/".join(f"{x:g}" for x in np.unique(s))
+    shot, read = np.unique(level.shot), np.unique(level.read)
+    if shot.size == 1 and read.size == 1:
+        if read[0] == 0:
+            return f"shot σw {np.sqrt(shot[0]):.3g}"
+        if shot[0] == 0:
+            return f"σ {np.sqrt(read[0]):.3g}"
+        return f"{shot[0]:.3g}:{read[0]:.3g}"
+    return "/".join(f"{a:.3g}:{b:.3g}" for a, b in zip(level.shot, level.read, strict=True))
+
+
+def _noise_levels(what: str, noise) -> tuple:
+    """``noise`` (one level: a number, a mapping, a NoiseModel; or a sequence of them) as a tuple of
+    levels: None (noise-free), a σ or σ per channel, a NoiseModel. ``what`` names it in errors."""
+    from .correct.noise import NoiseModelError
+
+    single = noise is None or isinstance(noise, int | float | dict | NoiseModel | np.ndarray)
+    levels = [noise] if single else list(noise) if isinstance(noise, Sequence) else None
+    if not levels or isinstance(noise, str):
+        raise OptionError(
+            f"{what}={noise!r}: give a noise level (0, a σ, a NoiseModel or "
+            "{'shot': .., 'read': ..}) or a non-empty list of them."
+        )
+    out = []
+    for level in levels:
+        try:
+            if isinstance(level, NoiseModel):
+                k = level.k
+            elif isinstance(level, dict):
+                k = np.broadcast(
+                    np.atleast_1d(level.get("shot", 0)), np.atleast_1d(level.get("read", 0))
+                ).size
+            else:
+                k = max(np.size(level), 1)
+            model = noise_model(level, k)
+        except (TypeError, ValueError) as error:
+            name = f"{what} {level!r}" if what.startswith("--") else f"{what}={level!r}"
+            raise NoiseModelError(f"{name}: {str(error).split(': ', 1)[-1]}") from None
+        if model is None:
+            out.append(None)
+        elif isinstance(level, NoiseModel | dict):
+            out.append(model)
+        else:
+            out.append(float(level) if np.ndim(level) == 0 else np.asarray(level, dtype=np.float64))
+    labels = [noise_label(level) for level in out]
+    if len(set(labels)) != len(labels):
+        raise OptionError(f"{what}: the levels {labels} repeat one; give each level once.")
+    return tuple(out)
+
+
+def _seed_of(seed: int, *names: str) -> list[int]:
+    """Seed sequence of one (camera set, test set): stable across runs, methods and noise levels."""
+    import zlib
+
+    return [seed, *(zlib.crc32(n.encode()) for n in names)]
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,9 +332,10 @@ def natural_test_sets(
 class EvaluationRow:
     """ΔE00 statistics of one estimator on one test set.
 
+    ``noise``: the noise level's label (:func:`noise_label`);
     ``inside``: fraction of its estimates in the MMV (regressions, tolerant projection test);
     ``outside``: exact share of its estimates outside the MMV of their responses (every estimator,
-    noise-free runs; :func:`zonotope.mismatch.membership.outside_mmv_fraction`); ``radius`` and
+    noise-free level; :func:`zonotope.mismatch.membership.outside_mmv_fraction`); ``radius`` and
     ``coverage``: for
     estimators with an uncertainty model (:meth:`~zonotope.correct.Corrector.with_uncertainty`),
     the median 95 % credible radius (ΔE00) and the fraction of samples whose true error is within it.
@@ -269,13 +355,15 @@ class EvaluationRow:
     radius: float | None = None
     coverage: float | None = None
     outside: float | None = None
+    noise: str = "0"
 
     def cells(self) -> tuple[str, ...]:
-        """The row as the ``zonotope evaluate`` and report tables print it: cameras, test set,
+        """The row as the ``zonotope evaluate`` and report tables print it: cameras, test set, noise,
         estimator, n, mean, median, p95, max, in MMV, radius, covered."""
         return (
             self.cameras,
             self.test_set,
+            self.noise,
             self.method,
             str(self.n),
             f"{self.mean:.3f}",
@@ -326,12 +414,12 @@ class Evaluation:
     ----------
     rows : list of EvaluationRow
     volumes : dict
-        ``(cameras, test_set) → (mean, median, max)`` MMV volume (XYZ units, Y_white = 1).
+        ``(cameras, test_set, noise) → (mean, median, max)`` MMV volume (XYZ units, Y_white = 1).
     notes : list of str
         Estimators skipped and why, infeasible responses, settings.
     errors : dict
-        ``(cameras, test_set, method) → ndarray`` of per-sample ΔE00 (same sample order for every
-        method), for pooled statistics and paired comparisons.
+        ``(cameras, test_set, method, noise) → ndarray`` of per-sample ΔE00 (same sample order, and
+        the same noise draws, for every method), for pooled statistics and paired comparisons.
     """
 
     rows: list[EvaluationRow]
@@ -339,27 +427,46 @@ class Evaluation:
     notes: list[str] = field(default_factory=list)
     errors: dict = field(default_factory=dict)
 
-    def _pooled_errors(self, method: str, kind: str | None, cameras: str | None) -> np.ndarray:
+    @property
+    def noise_levels(self) -> list[str]:
+        """Labels of the noise levels evaluated, in order."""
+        return list(dict.fromkeys(r.noise for r in self.rows))
+
+    def _pooled_errors(
+        self, method: str, kind: str | None, cameras: str | None, noise: str | None
+    ) -> np.ndarray:
         kinds = {r.test_set: r.kind for r in self.rows}
         parts = [
             e
-            for (c, t, m), e in self.errors.items()
-            if m == method and (cameras is None or c == cameras) and (kind is None or kinds.get(t) == kind)
+            for (c, t, m, z), e in self.errors.items()
+            if m == method
+            and (cameras is None or c == cameras)
+            and (kind is None or kinds.get(t) == kind)
+            and (noise is None or z == noise)
         ]
         return np.concatenate(parts) if parts else np.zeros(0)
 
-    def pooled_stats(self, kind: str | None = None, cameras: str | None = None) -> dict[str, tuple]:
+    def pooled_stats(
+        self, kind: str | None = None, cameras: str | None = None, noise: str | None = None
+    ) -> dict[str, tuple]:
         """Pooled ``(n, mean, p95, max)`` ΔE00 of each method over every sample of the test sets of
-        one kind (``None``: all kinds) and camera set (``None``: all)."""
+        one kind (``None``: all kinds), camera set and noise level (label; ``None``: all)."""
         out = {}
         for m in dict.fromkeys(r.method for r in self.rows):
-            e = self._pooled_errors(m, kind, cameras)
+            e = self._pooled_errors(m, kind, cameras, noise)
             if e.size:
                 out[m] = (int(e.size), float(e.mean()), float(np.percentile(e, 95)), float(e.max()))
         return out
 
     def paired(
-        self, a: str, b: str, *, kind: str | None = None, cameras: str | None = None, tie: float = 0.01
+        self,
+        a: str,
+        b: str,
+        *,
+        kind: str | None = None,
+        cameras: str | None = None,
+        noise: str | None = None,
+        tie: float = 0.01,
     ) -> PairedComparison:
         """Compare methods ``a`` and ``b`` sample by sample (ties: ``|difference| ≤ tie`` ΔE00).
 
@@ -368,11 +475,12 @@ class Evaluation:
         SpectralDataError
             When either method has no samples in the selection.
         """
-        ea, eb = self._pooled_errors(a, kind, cameras), self._pooled_errors(b, kind, cameras)
+        ea, eb = self._pooled_errors(a, kind, cameras, noise), self._pooled_errors(b, kind, cameras, noise)
         if ea.size == 0 or ea.size != eb.size:
             raise SpectralDataError(
                 f"paired: methods {a!r} and {b!r} were not both evaluated on the selected sets "
-                f"(kind={kind!r}, cameras={cameras!r}); evaluated: {sorted({m for *_, m in self.errors})}."
+                f"(kind={kind!r}, cameras={cameras!r}, noise={noise!r}); evaluated: "
+                f"{sorted({k[2] for k in self.errors})}."
             )
         d = ea - eb
         return PairedComparison(
@@ -387,19 +495,20 @@ class Evaluation:
             float(d.min()),
         )
 
-    def summary(self, kind: str, cameras: str | None = None) -> dict[str, float]:
-        """Mean of the per-set ΔE00 means of each method over test sets of one kind."""
+    def summary(self, kind: str, cameras: str | None = None, noise: str | None = None) -> dict[str, float]:
+        """Mean of the per-set ΔE00 means of each method over test sets of one kind (and noise level)."""
         out: dict[str, list[float]] = {}
         for r in self.rows:
-            if r.kind == kind and (cameras is None or r.cameras == cameras):
+            if r.kind == kind and (cameras is None or r.cameras == cameras) and noise in (None, r.noise):
                 out.setdefault(r.method, []).append(r.mean)
         return {m: float(np.mean(v)) for m, v in out.items()}
 
-    def pooled(self, kind: str, cameras: str) -> dict[str, tuple[float, float]]:
-        """Sample-weighted mean and the max ΔE00 of each method over test sets of one kind."""
+    def pooled(self, kind: str, cameras: str, noise: str | None = None) -> dict[str, tuple[float, float]]:
+        """Sample-weighted mean and the max ΔE00 of each method over test sets of one kind (and noise
+        level)."""
         acc: dict[str, list] = {}
         for r in self.rows:
-            if r.kind == kind and r.cameras == cameras:
+            if r.kind == kind and r.cameras == cameras and noise in (None, r.noise):
                 a = acc.setdefault(r.method, [0.0, 0, 0.0])
                 a[0] += r.mean * r.n
                 a[1] += r.n
@@ -407,13 +516,16 @@ class Evaluation:
         return {m: (a[0] / a[1], a[2]) for m, a in acc.items()}
 
     def to_markdown(self) -> str:
-        """The table as GitHub Markdown."""
+        """The table as GitHub Markdown (a ``noise`` column unless every row is noise-free)."""
+        col = self._noise_column()
         head = (
-            "| cameras | test set | estimator | n | mean | median | p95 | max | in MMV | outside MMV (exact) "
-            "| radius (95 %) | covered |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+            f"| cameras | test set |{col('noise')} estimator | n | mean | median | p95 | max | in MMV "
+            "| outside MMV (exact) | radius (95 %) | covered |\n"
+            f"|---|---|{col('---')}---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         )
         body = "".join(
-            f"| {r.cameras} | {r.test_set} | {r.method} | {r.n} | {r.mean:.3f} | {r.median:.3f} | "
+            f"| {r.cameras} | {r.test_set} |{col(r.noise)} {r.method} | {r.n} | {r.mean:.3f} | "
+            f"{r.median:.3f} | "
             f"{r.p95:.3f} | {r.max:.2f} | {'' if r.inside is None else f'{100 * r.inside:.0f} %'} | "
             f"{'' if r.outside is None else f'{100 * r.outside:.1f} %'} | "
             f"{'' if r.radius is None else f'{r.radius:.2f}'} | "
@@ -423,14 +535,54 @@ class Evaluation:
         vol = ""
         if self.volumes:
             vol = (
-                "\n| cameras | test set | MMV volume mean | median | max |\n|---|---|---:|---:|---:|\n"
+                f"\n| cameras | test set |{col('noise')} MMV volume mean | median | max |\n"
+                f"|---|---|{col('---')}---:|---:|---:|\n"
                 + "".join(
-                    f"| {c} | {t} | {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
-                    for (c, t), v in self.volumes.items()
+                    f"| {c} | {t} |{col(z)} {v[0]:.3g} | {v[1]:.3g} | {v[2]:.3g} |\n"
+                    for (c, t, z), v in self.volumes.items()
                 )
             )
         notes = "".join(f"\n- {n}" for n in self.notes)
-        return head + body + self.pooled_markdown() + vol + (f"\nNotes:{notes}\n" if notes else "")
+        return (
+            head
+            + body
+            + self.noise_markdown()
+            + self.pooled_markdown()
+            + vol
+            + (f"\nNotes:{notes}\n" if notes else "")
+        )
+
+    def _noise_column(self):
+        """``cell(text) → " text |"`` when some row is noisy, else ``""``: noise-free tables keep their
+        columns."""
+        noisy = any(z != "0" for z in self.noise_levels)
+        return (lambda text: f" {text} |") if noisy else (lambda text: "")
+
+    def noise_markdown(self) -> str:
+        """ΔE00 mean / p95 / max of every method (columns) per camera set, test set and noise level
+        (rows): the table that compares the estimators across noise levels at a glance ("" for one
+        level, which the per-row table already shows)."""
+        if len(self.noise_levels) < 2:
+            return ""
+        methods = list(dict.fromkeys(r.method for r in self.rows))
+        cell = {(r.cameras, r.test_set, r.noise, r.method): r for r in self.rows}
+        keys = dict.fromkeys((r.cameras, r.test_set, r.kind, r.noise) for r in self.rows)
+        first = {k[:2]: i for i, k in reversed(list(enumerate(keys)))}  # a set's rows together
+        order = sorted(keys, key=lambda k: first[k[:2]])
+        lines = [
+            "\n| cameras | test set | kind | noise | "
+            + " | ".join(methods)
+            + " |\n|---|---|---|---|"
+            + "---|" * len(methods)
+            + "\n"
+        ]
+        for c, t, kind, z in order:
+            vals = []
+            for m in methods:
+                r = cell.get((c, t, z, m))
+                vals.append("" if r is None else f"{r.mean:.3f}/{r.p95:.2f}/{r.max:.1f}")
+            lines.append(f"| {c} | {t} | {kind} | {z} | " + " | ".join(vals) + " |\n")
+        return "".join(lines) + "\n(mean / p95 / max ΔE00)\n"
 
     def pooled_markdown(self, reference: str | None = None) -> str:
         """Pooled statistics per camera set and kind, and paired comparisons of ``reference`` (default:
@@ -440,29 +592,31 @@ class Evaluation:
         methods = list(dict.fromkeys(r.method for r in self.rows))
         if reference is None:
             reference = "Prior" if "Prior" in methods else methods[0]
+        col = self._noise_column()
         lines = [
-            "\n| cameras | kind | estimator | n | pooled mean | p95 | max |"
+            f"\n| cameras | kind |{col('noise')} estimator | n | pooled mean | p95 | max |"
             f" {reference} better | worse | mean diff | p95 diff |\n"
-            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+            f"|---|---|{col('---')}---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
         ]
-        for cams in dict.fromkeys(r.cameras for r in self.rows):
-            for kind in dict.fromkeys(r.kind for r in self.rows if r.cameras == cams):
-                for m, (n, mean, p95, mx) in self.pooled_stats(kind, cams).items():
-                    pc = ""
-                    if m != reference and reference in methods:
-                        try:
-                            p = self.paired(reference, m, kind=kind, cameras=cams)
-                            pc = (
-                                f"{100 * p.a_better:.0f} % | {100 * p.b_better:.0f} % | {p.mean_diff:+.3f} | "
-                                f"{p.p95_diff:+.2f}"
-                            )
-                        except SpectralDataError:
-                            pc = ""
-                    lines.append(
-                        f"| {cams} | {kind} | {m} | {n} | {mean:.3f} | {p95:.3f} | {mx:.2f} | "
-                        + (pc or " | | | ")
-                        + " |\n"
-                    )
+        groups = dict.fromkeys((r.cameras, r.kind, r.noise) for r in self.rows)
+        first = {g[:2]: i for i, g in reversed(list(enumerate(groups)))}  # a kind's levels together
+        for cams, kind, z in sorted(groups, key=lambda g: first[g[:2]]):
+            for m, (n, mean, p95, mx) in self.pooled_stats(kind, cams, z).items():
+                pc = ""
+                if m != reference and reference in methods:
+                    try:
+                        p = self.paired(reference, m, kind=kind, cameras=cams, noise=z)
+                        pc = (
+                            f"{100 * p.a_better:.0f} % | {100 * p.b_better:.0f} % | {p.mean_diff:+.3f} | "
+                            f"{p.p95_diff:+.2f}"
+                        )
+                    except SpectralDataError:
+                        pc = ""
+                lines.append(
+                    f"| {cams} | {kind} |{col(z)} {m} | {n} | {mean:.3f} | {p95:.3f} | {mx:.2f} | "
+                    + (pc or " | | | ")
+                    + " |\n"
+                )
         return "".join(lines)
 
 
@@ -507,11 +661,15 @@ class EvaluationConfig:
         Default: :func:`natural_test_sets` (built-ins) and ``atypical`` atypical spectra.
     atypical : int
         Number of atypical spectra added when ``test_sets`` is None (0 for none).
-    noise : float
-        Gaussian response noise σ (white = 1), seeded; the estimators and the MMV (tolerance
-        ``delta = DELTA_SIGMAS · σ``) are told about it.
+    noise : noise level or sequence of noise levels
+        Each level: 0 (noise-free), a σ (constant Gaussian noise, white = 1; one or one per channel),
+        a :class:`~zonotope.correct.NoiseModel` or ``{"shot": .., "read": ..}`` (variance
+        ``shot · c + read`` per channel). Default :data:`DEFAULT_NOISE`. At each level the estimators
+        are fitted for that noise (:func:`~zonotope.correct.noise_options` of the σ as given, or of
+        the model; the MMVs with tolerance ``delta = DELTA_SIGMAS · σ`` at white) and applied to
+        noisy held-out responses.
     seed : int
-        Seed of the atypical spectra and of the noise.
+        Seed of the atypical spectra and of the noise (the same draws for every method and level).
     centroid_eps : float
         Certification tolerance of the MMVs.
     exclude_within : float or None
@@ -533,7 +691,7 @@ class EvaluationConfig:
     training: object = "rawtoaces 190"
     test_sets: tuple[TestSet, ...] | None = None
     atypical: int = 100
-    noise: float = 0.0
+    noise: object = DEFAULT_NOISE
     seed: int = 0
     centroid_eps: float = 1e-3
     exclude_within: float | None = 0.02
@@ -556,7 +714,7 @@ class EvaluationConfig:
         _check_shape(name, self.shape)
         check_count(name, "atypical", self.atypical)
         check_count(name, "seed", self.seed)
-        object.__setattr__(self, "noise", check_nonnegative(name, "noise", self.noise))
+        object.__setattr__(self, "noise", _noise_levels(f"{name}.noise", self.noise))
         object.__setattr__(self, "centroid_eps", check_nonnegative(name, "centroid_eps", self.centroid_eps))
         object.__setattr__(
             self,
@@ -650,7 +808,6 @@ def evaluate(
     notes: list[str] = []
     errors: dict = {}
     all_sets = list(test_sets)
-    rng = np.random.default_rng(seed)
     for cams in camera_sets:
         cams = [cams] if isinstance(cams, str) or not isinstance(cams, Sequence) else list(cams)
         problem = correction_problem(
@@ -659,73 +816,105 @@ def evaluate(
         label = " + ".join(problem.sources)
         test_sets, split_notes = source_split(all_sets, problem.training, exclude_within=exclude_within)
         notes.extend(n for n in split_notes if n not in notes)
-        fitted = {}
-        for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
-            opts = noise_options(m, noise)
-            if CORRECTION_METHODS.properties(m)["centroid"]:
-                opts = {"delta": DELTA_SIGMAS * noise, "eps": centroid_eps}
-            if executor is not None and "executor" in inspect.signature(CORRECTION_METHODS[m]).parameters:
-                opts["executor"] = executor
-            try:
-                fitted[m] = fit_correction(problem, method=m, **opts)
-            except ZonotopeError as error:
-                notes.append(f"{label}: {m} skipped ({error})")
+        data = []  # per test set: noise-free responses, targets, the shared standard normal draws
         for ts in test_sets:
-            X = ts.reflectances
-            C, T = problem.source_of(X), problem.target_of(X)
-            if noise > 0:
-                C = C + rng.normal(0.0, noise, C.shape)
-                far = _outside_solid(problem, C)
-                if far.any():
-                    notes.append(
-                        f"{label} · {ts.name}: {int(far.sum())} of {len(C)} noisy responses lie outside the "
-                        "camera's object-colour solid (no reflectance produces them); the MMV estimators "
-                        f"used the nearest feasible response (delta = {DELTA_SIGMAS:g}σ), the others "
-                        "extrapolate."
+            C, T = problem.source_of(ts.reflectances), problem.target_of(ts.reflectances)
+            z = np.random.default_rng(_seed_of(seed, label, ts.name)).standard_normal(C.shape)
+            data.append((ts, C, T, z))
+        fits: dict = {}  # (method, level) → Corrector; a fit that noise does not change is made once
+        for level in noise:
+            model = noise_model(level, problem.k)  # what the responses get
+            told = model if isinstance(level, NoiseModel) else level  # a σ is passed as given
+            zlabel = noise_label(level)
+            fitted = {}
+            for m in dict.fromkeys(CORRECTION_METHODS.resolve(m) for m in methods):
+                opts = noise_options(m, told)
+                if CORRECTION_METHODS.properties(m)["centroid"]:
+                    opts["eps"] = centroid_eps
+                key = (m, zlabel if noise_options(m, told) else "0")
+                if key not in fits:
+                    if (
+                        executor is not None
+                        and "executor" in inspect.signature(CORRECTION_METHODS[m]).parameters
+                    ):
+                        opts["executor"] = executor
+                    try:
+                        fits[key] = fit_correction(problem, method=m, **opts)
+                    except ZonotopeError as error:
+                        fits[key] = None
+                        notes.append(f"{label} · noise {zlabel}: {m} skipped ({error})")
+                if fits[key] is not None:
+                    fitted[m] = fits[key]
+            for ts, C0, T, z in data:
+                C = C0 if model is None else C0 + z * model.sigma(C0)
+                if model is not None:
+                    far = _outside_solid(problem, C)
+                    if far.any():
+                        notes.append(
+                            f"{label} · {ts.name} · noise {zlabel}: {int(far.sum())} of {len(C)} noisy "
+                            "responses lie outside the camera's object-colour solid (no reflectance "
+                            "produces them); the MMV estimators used the nearest feasible response "
+                            f"(delta = {DELTA_SIGMAS:g}σ), the others extrapolate."
+                        )
+                sigma = 0.0 if model is None else model.effective_sigma(C0)
+                where = f"{label} · {ts.name} · noise {zlabel}"
+                centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
+                if centroid is not None:
+                    if progress:
+                        progress(f"{where}: MMVs", 0, len(C))
+                    t0 = time.perf_counter()
+                    delta = noise_options(centroid, told).get("delta", 0.0)
+                    cents, vols = _mmv_batch(problem, C, eps=centroid_eps, delta=delta, executor=executor)
+                    if progress:
+                        progress(f"{where}: MMVs", len(C), len(C))
+                    volumes[label, ts.name, zlabel] = (
+                        float(np.mean(vols)),
+                        float(np.median(vols)),
+                        float(np.max(vols)),
                     )
-            centroid = next((m for m in fitted if CORRECTION_METHODS.properties(m)["centroid"]), None)
-            if centroid is not None:
-                if progress:
-                    progress(f"{label} · {ts.name}: MMVs", 0, len(C))
-                t0 = time.perf_counter()
-                cents, vols = _mmv_batch(
-                    problem, C, eps=centroid_eps, delta=DELTA_SIGMAS * noise, executor=executor
-                )
-                if progress:
-                    progress(f"{label} · {ts.name}: MMVs", len(C), len(C))
-                volumes[label, ts.name] = (float(np.mean(vols)), float(np.median(vols)), float(np.max(vols)))
-                mmv_time = time.perf_counter() - t0
-            for m, est in fitted.items():
-                if progress:
-                    progress(f"{label} · {ts.name}: {m}", 0, len(C))
-                t0 = time.perf_counter()
-                radius = None
-                if m == centroid:
-                    E = cents
-                elif est.predict_with_radius is not None:
-                    E, radius = est.with_uncertainty(C)
-                else:
-                    E = est(C)
-                if progress:
-                    progress(f"{label} · {ts.name}: {m}", len(C), len(C))
-                secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
-                dE = problem.delta_E(E, T)
-                errors[label, ts.name, m] = np.asarray(dE, dtype=np.float64)
-                unc = {}
-                if radius is not None:
-                    unc = {"radius": float(np.median(radius)), "coverage": float(np.mean(dE <= radius))}
-                inside = None
-                if CORRECTION_METHODS.properties(m)["closed_form"]:
-                    inside = float(np.mean(project_to_mmv(problem, C, E, noise=noise)[1]))
-                if noise == 0:  # exact responses: is each answer possible at all?
-                    unc["outside"] = outside_mmv_fraction(problem.Phi, problem.Psi, C, E)
-                rows.append(
-                    EvaluationRow(
-                        label, ts.name, ts.kind, m, len(C), *_stats(dE), inside=inside, seconds=secs, **unc
+                    mmv_time = time.perf_counter() - t0
+                for m, est in fitted.items():
+                    if progress:
+                        progress(f"{where}: {m}", 0, len(C))
+                    t0 = time.perf_counter()
+                    radius = None
+                    if m == centroid:
+                        E = cents
+                    elif est.predict_with_radius is not None:
+                        E, radius = est.with_uncertainty(C)
+                    else:
+                        E = est(C)
+                    if progress:
+                        progress(f"{where}: {m}", len(C), len(C))
+                    secs = time.perf_counter() - t0 + (mmv_time if m == centroid else 0.0)
+                    dE = problem.delta_E(E, T)
+                    errors[label, ts.name, m, zlabel] = np.asarray(dE, dtype=np.float64)
+                    unc = {}
+                    if radius is not None:
+                        unc = {"radius": float(np.median(radius)), "coverage": float(np.mean(dE <= radius))}
+                    inside = None
+                    if CORRECTION_METHODS.properties(m)["closed_form"]:
+                        inside = float(np.mean(project_to_mmv(problem, C, E, noise=sigma)[1]))
+                    if model is None:  # exact responses: is each answer possible at all?
+                        unc["outside"] = outside_mmv_fraction(problem.Phi, problem.Psi, C, E)
+                    rows.append(
+                        EvaluationRow(
+                            label,
+                            ts.name,
+                            ts.kind,
+                            m,
+                            len(C),
+                            *_stats(dE),
+                            inside=inside,
+                            seconds=secs,
+                            noise=zlabel,
+                            **unc,
+                        )
                     )
-                )
+    levels = ", ".join(noise_label(level) for level in noise)
     notes.append(
         f"grid {w[0]:g}–{w[-1]:g} nm / {w[1] - w[0]:g} nm, illuminant {illuminant}, target "
-        f"{target} (XYZ, Y_white = 1), training {training}, noise σ = {noise:g}."
+        f"{target} (XYZ, Y_white = 1), training {training}, noise levels {levels} (shot σw: "
+        "shot-limited noise of that σ at white; the same seeded draws for every method and level)."
     )
     return Evaluation(rows, volumes, notes, errors)

@@ -296,6 +296,7 @@ def write_report(
             illuminant=illuminant,
             shape=shape,
             test_sets=tests,
+            noise=0.0,  # the report's tables are noise-free; 'zonotope evaluate' compares noise levels
         )
         md.append("\n## Colour-correction evaluation (CIEDE2000)\n\n" + ev.to_markdown())
         rows = [r.cells() for r in ev.rows]
@@ -305,6 +306,7 @@ def write_report(
                 (
                     "cameras",
                     "test set",
+                    "noise",
                     "estimator",
                     "n",
                     "mean",

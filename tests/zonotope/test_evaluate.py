@@ -28,7 +28,11 @@ def test_evaluate_table():
     A, _ = atypical_reflectances(GRID, 6, seed=1)
     sets = [natural_test_sets(GRID)[0], TestSet("atypical", A, "atypical")]
     ev = evaluate(
-        [["Nikon 5100 (NPL)"]], methods=["Finlayson 2015", "idt", "MAP", "Prior"], shape=GRID, test_sets=sets
+        [["Nikon 5100 (NPL)"]],
+        methods=["Finlayson 2015", "idt", "MAP", "Prior"],
+        shape=GRID,
+        test_sets=sets,
+        noise=0,
     )
     methods = {r.method for r in ev.rows}
     assert {"Finlayson 2015", "Dyer 2017", "MAP", "Prior"} <= methods
@@ -38,7 +42,7 @@ def test_evaluate_table():
     assert all(r.outside is not None and 0.0 <= r.outside <= 1.0 for r in ev.rows)
     assert set(ev.summary("atypical")) == methods
     md = ev.to_markdown()
-    assert "| cameras | test set | estimator |" in md and "Prior" in md
+    assert "| cameras | test set | estimator |" in md and "Prior" in md  # noise-free: no noise column
     assert "outside MMV (exact)" in md
 
 
@@ -49,6 +53,7 @@ def test_evaluate_skips_idt_for_two_cameras_and_rejects_empty_sets():
         methods=["idt", "least squares"],
         shape=GRID,
         test_sets=sets,
+        noise=0,
     )
     assert [r.method for r in ev.rows] == ["Cheung 2004"]
     assert any("Dyer 2017 skipped" in n for n in ev.notes)
@@ -120,7 +125,11 @@ def test_pooled_and_paired_statistics_from_samples():
     nat = natural_test_sets(GRID)
     sets = [nat[0], nat[1], TestSet("atyp", atypical_reflectances(GRID, 8, seed=2)[0], "atypical")]
     ev = evaluate(
-        ["Nikon 5100 (NPL)"], methods=["least squares", "root-polynomial"], shape=GRID, test_sets=sets
+        ["Nikon 5100 (NPL)"],
+        methods=["least squares", "root-polynomial"],
+        shape=GRID,
+        test_sets=sets,
+        noise=0,
     )
     assert any("spectra removed" in n for n in ev.notes)  # ColorChecker patches are in rawtoaces 190
     cams = ev.rows[0].cameras
@@ -144,7 +153,7 @@ def test_evaluate_with_an_executor_equals_serial():
     from concurrent.futures import ThreadPoolExecutor
 
     sets = [TestSet("cc", natural_test_sets(GRID)[2].reflectances[:4])]
-    kw = dict(methods=["Centroid", "Prior"], shape=GRID, test_sets=sets)
+    kw = dict(methods=["Centroid", "Prior"], shape=GRID, test_sets=sets, noise=0)
     serial = evaluate(["Nikon 5100 (NPL)"], **kw)
     with ThreadPoolExecutor(2) as pool:
         par = evaluate(["Nikon 5100 (NPL)"], executor=pool, **kw)
@@ -154,3 +163,81 @@ def test_evaluate_with_an_executor_equals_serial():
     prior = next(r for r in serial.rows if r.method == "Prior")
     assert prior.radius > 0 and 0 <= prior.coverage <= 1  # the uncertainty columns
     assert "covered" in serial.to_markdown()
+
+
+@pytest.fixture
+def recorders(monkeypatch):
+    """Two dummy estimators ("Dummy A", "Dummy B": least-squares matrices with ``noise_option="noise"``)
+    registered for one test; yields ``{name: {"fits": [options], "seen": [responses]}}``."""
+    from zonotope.correct import CORRECTION_METHODS, fit_Cheung2004
+
+    monkeypatch.setattr(CORRECTION_METHODS, "_methods", dict(CORRECTION_METHODS._methods))
+    monkeypatch.setattr(CORRECTION_METHODS, "_keys", dict(CORRECTION_METHODS._keys))
+    log: dict = {}
+    for name in ("Dummy A", "Dummy B"):
+        log[name] = {"fits": [], "seen": []}
+
+        def fit(problem, _name=name, **options):
+            log[_name]["fits"].append(dict(options))
+            fitted = fit_Cheung2004(problem, **options)
+
+            def predict(C, _predict=fitted.predict):
+                log[_name]["seen"].append(np.array(C, dtype=np.float64))
+                return _predict(C)
+
+            return type(fitted)(_name, problem, predict, fitted.params)
+
+        CORRECTION_METHODS.register(
+            name, fit, closed_form=True, needs_mmv=False, centroid=False, noise_option="noise"
+        )
+    return log
+
+
+def test_noise_levels_fit_every_method_for_its_noise_on_paired_draws(recorders):
+    from zonotope.correct import NoiseModel, correction_problem
+    from zonotope.evaluate import DEFAULT_NOISE
+
+    sets = [TestSet("cqs", natural_test_sets(GRID)[2].reflectances[:6])]
+    ev = evaluate(["Nikon 5100 (NPL)"], methods=["Dummy A", "Dummy B"], shape=GRID, test_sets=sets)
+    assert ev.noise_levels == ["0", "shot σw 0.002", "shot σw 0.005"] and len(DEFAULT_NOISE) == 3
+    assert [(r.noise, r.method) for r in ev.rows] == [
+        (z, m) for z in ev.noise_levels for m in ("Dummy A", "Dummy B")
+    ]
+    # each method fitted once per level, for that level's noise model (σ at white per channel)
+    fits = recorders["Dummy A"]["fits"]
+    assert fits[0] == {} and all(isinstance(f["noise"], NoiseModel) for f in fits[1:])
+    assert [f["noise"].sigma_white.tolist() for f in fits[1:]] == [[0.002] * 3, [0.005] * 3]
+    # paired: both methods see the same responses at every level; the levels share the draws
+    seen_a, seen_b = recorders["Dummy A"]["seen"], recorders["Dummy B"]["seen"]
+    assert len(seen_a) == 3 and all(np.array_equal(a, b) for a, b in zip(seen_a, seen_b, strict=True))
+    C0 = correction_problem("Nikon 5100 (NPL)", shape=GRID).source_of(sets[0].reflectances)
+    np.testing.assert_array_equal(seen_a[0], C0)  # the noise-free level: exact responses
+    z = [(C - C0) / (s * np.sqrt(np.maximum(C0, 0))) for C, s in zip(seen_a[1:], (0.002, 0.005), strict=True)]
+    np.testing.assert_allclose(z[0], z[1], rtol=1e-9)
+    assert 0.3 < np.std(z[0]) < 3  # standard normal draws, scaled by the level's σ per response
+    # the noise is part of the result: errors keyed by level, seeded, noisier is worse on average
+    again = evaluate(["Nikon 5100 (NPL)"], methods=["Dummy A"], shape=GRID, test_sets=sets)
+    for key, e in again.errors.items():
+        np.testing.assert_array_equal(ev.errors[key], e)
+    means = [ev.pooled_stats("natural", noise=z)["Dummy A"][1] for z in ev.noise_levels]
+    assert means[0] < means[2]
+    assert ev.paired("Dummy A", "Dummy B", noise="shot σw 0.005").mean_diff == 0.0
+    md = ev.to_markdown()
+    assert "| cameras | test set | noise | estimator |" in md and "| shot σw 0.005 | Dummy A |" in md
+    assert "| cameras | test set | kind | noise | Dummy A | Dummy B |" in ev.noise_markdown()
+
+
+def test_noise_levels_given_as_sigma_model_or_mapping_and_bad_ones():
+    from zonotope._errors import OptionError
+    from zonotope.correct import NoiseModel, NoiseModelError
+    from zonotope.evaluate import EvaluationConfig, noise_label
+
+    cfg = EvaluationConfig(noise=[0, 0.003, {"shot": 2.5e-5, "read": 0.0}, NoiseModel(1e-5, 1e-6)])
+    assert [noise_label(z) for z in cfg.noise] == ["0", "σ 0.003", "shot σw 0.005", "1e-05:1e-06"]
+    assert EvaluationConfig(noise=0.01).noise == (0.01,)
+    for bad, error in (("loud", OptionError), ([], OptionError), ([0.01, 0.01], OptionError)):
+        with pytest.raises(error, match="noise"):
+            EvaluationConfig(noise=bad)
+    for bad in (-0.01, float("nan"), {"shot": -1.0, "read": 0.0}):
+        with pytest.raises(NoiseModelError, match=r"EvaluationConfig\.noise"):
+            EvaluationConfig(noise=bad)

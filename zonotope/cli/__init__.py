@@ -162,9 +162,21 @@ def _evaluate(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from ..evaluate import DEFAULT_METHODS, TestSet, atypical_test_sets, evaluate, natural_test_sets
+    from ..evaluate import (
+        DEFAULT_METHODS,
+        DEFAULT_NOISE,
+        TestSet,
+        _noise_levels,
+        atypical_test_sets,
+        evaluate,
+        natural_test_sets,
+    )
+    from .batch import parse_noise
 
     console = Console(width=max(Console().width, 130))
+    # bad --noise (text or values) is refused in one line before any work
+    noise = DEFAULT_NOISE if not args.noise else [parse_noise(t, auto=False) for t in args.noise]
+    noise = _noise_levels("--noise", noise)
     if args.markdown:  # refuse a bad output path before the long run, never an input file
         from ..utilities.io import check_output
 
@@ -202,12 +214,12 @@ def _evaluate(args: argparse.Namespace) -> int:
             shape=shape,
             training=args.training,
             test_sets=sets,
-            noise=args.noise,
+            noise=noise,
             seed=args.seed,
             progress=callback,
         )
     table = Table(title="CIEDE2000 per estimator")
-    cols = ("cameras", "test set", "estimator", "n", "mean", "median", "p95", "max", "in MMV")
+    cols = ("cameras", "test set", "noise", "estimator", "n", "mean", "median", "p95", "max", "in MMV")
     cols += ("radius", "covered")
     for col in cols:
         table.add_column(col, justify="left" if col in ("cameras", "test set", "estimator") else "right")
@@ -215,17 +227,19 @@ def _evaluate(args: argparse.Namespace) -> int:
         table.add_row(*r.cells())
     console.print(table)
     console.print("radius: median 95 % credible radius (ΔE00); covered: share of true colours within it")
+    console.print(ev.noise_markdown(), soft_wrap=True)  # methods side by side per noise level
     for cams in dict.fromkeys(r.cameras for r in ev.rows):
         for kind in ("natural", "atypical"):
-            pooled = ev.pooled_stats(kind, cams)
-            if pooled:
-                console.print(
-                    f"{cams} · {kind} (pooled mean / p95 / max): "
-                    + ", ".join(f"{m} {v[1]:.3f}/{v[2]:.2f}/{v[3]:.1f}" for m, v in pooled.items())
-                )
+            for z in ev.noise_levels:
+                pooled = ev.pooled_stats(kind, cams, z)
+                if pooled:
+                    console.print(
+                        f"{cams} · {kind} · noise {z} (pooled mean / p95 / max): "
+                        + ", ".join(f"{m} {v[1]:.3f}/{v[2]:.2f}/{v[3]:.1f}" for m, v in pooled.items())
+                    )
     console.print(ev.pooled_markdown(), soft_wrap=True)  # pooled statistics and paired comparisons
     for note in ev.notes:
-        console.print(f"note: {note}")
+        console.print(f"note: {note}", soft_wrap=True)
     if args.markdown:
         from ..utilities.io import atomic_write_text, check_output
 
@@ -310,8 +324,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--method", action="append", help="estimator (repeatable; default all)")
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
     p.add_argument("--test-set", action="append", help="extra test reflectance file (repeatable)")
-    p.add_argument("--noise", type=float, default=0.0, help="response noise σ (white = 1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--noise",
+        action="append",
+        metavar="LEVEL",
+        help="noise level of the held-out responses, repeatable: 0 (noise-free), a σ such as 0.005 "
+        "(constant, white = 1), or SHOT:READ variances per unit response as 'zonotope correct "
+        "--noise' takes them; every estimator is fitted for each level (default: 0, 4e-06:0 and "
+        "2.5e-05:0, i.e. noise-free and shot noise of σ 0.002 and 0.005 at white)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the atypical spectra and the noise draws")
     p.add_argument("--markdown", help="also write the table to this Markdown file (must not exist)")
     p.add_argument(
         "--force",

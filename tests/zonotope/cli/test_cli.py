@@ -54,6 +54,8 @@ def test_evaluate_command(tmp_path, capsys):
                 "root-polynomial",
                 "--method",
                 "prior",
+                "--noise",
+                "0",
                 "--atypical",
                 "4",
                 "--markdown",
