@@ -211,6 +211,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "mmv_centroids",
             "noise_from_profile",
             "noise_model",
+            "parse_noise",
             "noise_options",
             "root_polynomial_terms",
             "select_regression",

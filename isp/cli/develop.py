@@ -39,17 +39,14 @@ _METAMER_OPTIONS = {
 def _noise_request(text: str | None):
     """``(noise, None)`` from ``--noise`` (``"auto"``, a NoiseModel, or None for noise-free), or
     ``(None, message)``; the syntax is ``zonotope correct --noise``'s, parsed by zonotope."""
-    import argparse as _argparse
-
-    from zonotope.cli.batch import _noise_argument  # one --noise syntax for both commands
-    from zonotope.correct import NoiseModel, NoiseModelError, noise_model
+    from zonotope.correct import NoiseModel, NoiseModelError, noise_model, parse_noise
 
     if text is None:
         return "auto", None
     try:
-        value = _noise_argument(text)
-    except _argparse.ArgumentTypeError as exc:
-        return None, f"--noise {exc}"
+        value = parse_noise(text)  # one --noise syntax for every command
+    except NoiseModelError as exc:
+        return None, str(exc)
     if value == "auto":
         return "auto", None
     try:

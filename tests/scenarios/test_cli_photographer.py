@@ -71,6 +71,8 @@ def test_report_and_evaluate_draw_the_same_atypical_set(tmp_path, capsys):
                 "Finlayson 2015",
                 "--atypical",
                 "5",
+                "--noise",
+                "0",
                 "--markdown",
                 str(md),
             ]

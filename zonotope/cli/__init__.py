@@ -162,6 +162,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
+    from ..correct.noise import parse_noise
     from ..evaluate import (
         DEFAULT_METHODS,
         DEFAULT_NOISE,
@@ -171,7 +172,6 @@ def _evaluate(args: argparse.Namespace) -> int:
         evaluate,
         natural_test_sets,
     )
-    from .batch import parse_noise
 
     console = Console(width=max(Console().width, 130))
     # bad --noise (text or values) is refused in one line before any work

@@ -15,7 +15,7 @@ import numpy as np
 
 from .._tol import DELTA_SIGMAS
 
-__all__ = ["add_commands", "default_method", "parse_noise"]
+__all__ = ["add_commands", "default_method"]
 
 _IMAGE_SUFFIXES = (".tif", ".tiff")
 
@@ -197,37 +197,9 @@ def correct_file(src: str, tmp_out: str, options) -> None:
     tifffile.imwrite(tmp_out, xyz.astype(np.float32), photometric="minisblack", planarconfig="contig")
 
 
-def parse_noise(text: str, *, auto: bool = True):
-    """A ``--noise`` value: ``"auto"`` (if allowed), a σ (float), or ``"SHOT:READ"`` →
-    ``{"shot": .., "read": ..}``; the one parser of every command that takes ``--noise``.
-
-    Raises
-    ------
-    NoiseModelError
-        Text that is none of these (one line naming the value and the accepted forms).
-    """
-    from ..correct.noise import NoiseModelError
-
-    forms = ("'auto', " if auto else "0, ") + "a σ such as 0.005, or SHOT:READ such as 2.5e-5:0"
-    if auto and text.strip().lower() == "auto":
-        return "auto"
-    if ":" in text:
-        shot, _, read = text.partition(":")
-        try:
-            return {"shot": float(shot), "read": float(read)}
-        except ValueError:
-            raise NoiseModelError(
-                f"--noise {text!r}: give SHOT:READ as two numbers, e.g. 2e-5:1e-7."
-            ) from None
-    try:
-        return float(text)
-    except ValueError:
-        raise NoiseModelError(f"--noise {text!r}: give {forms}.") from None
-
-
 def _noise_argument(text: str):
     """The argparse type of ``zonotope correct --noise`` (:func:`parse_noise`)."""
-    from ..correct.noise import NoiseModelError
+    from ..correct.noise import NoiseModelError, parse_noise
 
     try:
         return parse_noise(text)

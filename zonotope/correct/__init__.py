@@ -33,6 +33,7 @@ from .methods import (
     noise_from_profile,
     noise_model,
     noise_options,
+    parse_noise,
     root_polynomial_terms,
     select_regression,
 )
@@ -80,6 +81,7 @@ __all__ = [
     "mmv_centroids",
     "noise_from_profile",
     "noise_model",
+    "parse_noise",
     "noise_options",
     "root_polynomial_terms",
     "select_regression",

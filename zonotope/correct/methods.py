@@ -77,7 +77,14 @@ from .mmv import (
     mmv_centroids,
     select_regression,
 )
-from .noise import NoiseModel, NoiseModelError, estimate_noise, noise_from_profile, noise_model
+from .noise import (
+    NoiseModel,
+    NoiseModelError,
+    estimate_noise,
+    noise_from_profile,
+    noise_model,
+    parse_noise,
+)
 from .problem import CorrectionProblem, Corrector, check_reflectances, correction_problem
 from .regressions import (
     REGRESSIONS,
@@ -113,6 +120,7 @@ __all__ = [
     "noise_from_profile",
     "noise_model",
     "noise_options",
+    "parse_noise",
     "root_polynomial_terms",
     "select_regression",
 ]

@@ -14,7 +14,14 @@ import numpy as np
 
 from .._errors import OptionError
 
-__all__ = ["NoiseModel", "NoiseModelError", "estimate_noise", "noise_from_profile", "noise_model"]
+__all__ = [
+    "NoiseModel",
+    "NoiseModelError",
+    "estimate_noise",
+    "noise_from_profile",
+    "noise_model",
+    "parse_noise",
+]
 
 #: σ at white above this (half the white level) is not noise a photograph could carry: a
 #: ``NoiseProfile`` or an estimate that implies it is reported and ignored.
@@ -361,3 +368,29 @@ def scalar_sigma(noise, responses) -> float:
     if isinstance(noise, NoiseModel):
         return noise.effective_sigma(responses)
     return float(noise)
+
+
+def parse_noise(text: str, *, auto: bool = True):
+    """A ``--noise`` value: ``"auto"`` (if allowed), a σ (float), or ``"SHOT:READ"`` →
+    ``{"shot": .., "read": ..}``; the one parser of every command that takes ``--noise``.
+
+    Raises
+    ------
+    NoiseModelError
+        Text that is none of these (one line naming the value and the accepted forms).
+    """
+    forms = ("'auto', " if auto else "0, ") + "a σ such as 0.005, or SHOT:READ such as 2.5e-5:0"
+    if auto and text.strip().lower() == "auto":
+        return "auto"
+    if ":" in text:
+        shot, _, read = text.partition(":")
+        try:
+            return {"shot": float(shot), "read": float(read)}
+        except ValueError:
+            raise NoiseModelError(
+                f"--noise {text!r}: give SHOT:READ as two numbers, e.g. 2e-5:1e-7."
+            ) from None
+    try:
+        return float(text)
+    except ValueError:
+        raise NoiseModelError(f"--noise {text!r}: give {forms}.") from None
