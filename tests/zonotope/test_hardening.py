@@ -3,10 +3,17 @@ bound what they build, and each bad input is one project error that names it."""
 
 from __future__ import annotations
 
+import io
+import json
 import os
+import time
+import tracemalloc
+import zipfile
 
+import numpy as np
 import pytest
 
+from zonotope import ZonotopeError
 from zonotope.parallel import SECURITY_ENV_VAR, ParallelError, executor
 
 # --------------------------------------------------------------------------------------------------
@@ -66,3 +73,149 @@ def test_security_file_errors_name_the_file_and_key(tmp_path, monkeypatch):
     (tmp_path / "ca.pem").write_text("-")
     bad.write_text("tls_ca_file: ca.pem\n")  # relative to the file
     assert _client_security(bad).tls_ca_file == str(tmp_path / "ca.pem")
+
+
+# --------------------------------------------------------------------------------------------------
+# saved corrections: every member checked before it is decompressed, damaged values refused
+
+GRID = np.arange(400.0, 701.0, 10.0)
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    """A real saved correction (linear, 3 channels) and its members."""
+    from zonotope.correct import fit_correction, save_correction
+
+    path = tmp_path_factory.mktemp("saved") / "cheung.npz"
+    save_correction(path, fit_correction("Nikon 5100 (NPL)", method="Cheung 2004", shape=GRID))
+    with np.load(path) as z:
+        members = {name: z[name] for name in z.files}
+    return path, members
+
+
+def _rewrite(path, members, **changes):
+    """``members`` with ``changes`` (None removes one) written uncompressed to ``path``."""
+    out = {k: v for k, v in {**members, **changes}.items() if v is not None}
+    np.savez(path, **out)
+    return path
+
+
+def _meta(members, **changes):
+    meta = json.loads(str(members["meta"]))
+    return np.array(json.dumps({**meta, **changes}))
+
+
+def test_load_correction_refuses_an_archive_that_inflates_past_the_bound(tmp_path, saved):
+    """A ~1 MB archive declaring more than SAVED_CORRECTION_MAX_BYTES is refused before it is read."""
+    from zonotope.correct.profile import SAVED_CORRECTION_MAX_BYTES, load_correction
+
+    path = _rewrite(tmp_path / "bomb.npz", saved[1], Phi=None)
+    n = (SAVED_CORRECTION_MAX_BYTES + 2**20) // 8
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
+        with zf.open("Phi.npy", "w", force_zip64=True) as fh:
+            np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False, "shape": (n,)})
+            block = bytes(2**24)
+            for _ in range(n * 8 // len(block)):
+                fh.write(block)
+            fh.write(bytes(n * 8 % len(block)))
+    assert path.stat().st_size < 4 * 2**20
+    t0 = time.perf_counter()
+    with pytest.raises(ZonotopeError, match=r"bomb\.npz: declares .* MiB .*SAVED_CORRECTION_MAX_BYTES"):
+        load_correction(path)
+    assert time.perf_counter() - t0 < 2.0
+
+
+def test_load_correction_checks_each_member_header_before_allocating(tmp_path, saved):
+    """A member whose .npy header declares 2 GiB over a few stored bytes allocates nothing."""
+    from zonotope.correct.profile import load_correction
+
+    _, members = saved
+    path = tmp_path / "liar.npz"
+    np.savez(path, **members)
+    with zipfile.ZipFile(path, "a") as zf:  # a second 'training' member: a header and 8 bytes
+        buf = io.BytesIO()
+        np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (2**28,)})
+        zf.writestr("Psi_big.npy", b"")  # an unexpected name is refused too
+    tracemalloc.start()
+    try:
+        with pytest.raises(ZonotopeError, match=r"liar\.npz: not a saved correction \(member 'Psi_big\.npy'"):
+            load_correction(path)
+    finally:
+        tracemalloc.stop()
+    liar = dict(members)
+    liar.pop("training")
+    np.savez(path, **liar)
+    with zipfile.ZipFile(path, "a") as zf:
+        zf.writestr("training.npy", buf.getvalue() + bytes(8))
+    tracemalloc.start()
+    try:
+        with pytest.raises(ZonotopeError, match=r"member 'training' declares shape \(268435456,\), larger"):
+            load_correction(path)
+        assert tracemalloc.get_traced_memory()[1] < 64 * 2**20
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("pickle", r"member 'Phi' has dtype object; .*pickled objects are never loaded"),
+        ("nan_M", r"array 'param_M' contains NaN or inf"),
+        ("inf_Phi", r"array 'Phi' contains NaN or inf"),
+        ("meta_list", r"format 'list'; this version reads"),
+        ("options_list", r"header 'meta' needs .* scalar options"),
+        ("sources_int", r"header 'meta' needs .* a list of source names"),
+        ("M_shape", r"param_M has shape \(2, 3\); 'Cheung 2004' on 3 channels needs \(3, 3\)"),
+        ("Psi_rows", r"array 'Psi' has shape \(5, 3\); expected \(31, 3\)"),
+        ("truncated", r"not a saved correction \(an \.npz written by save_correction\)"),
+        ("text", r"not a saved correction"),
+        ("no_meta", r"no JSON header 'meta'"),
+        ("bad_degree", r"option degree='x'"),
+    ],
+)
+def test_load_correction_hostile_corpus(tmp_path, saved, case, message):
+    """Each damaged or hostile saved correction is one ZonotopeError naming the file and the member."""
+    from zonotope.correct.profile import load_correction
+
+    good, m = saved
+    path = tmp_path / f"{case}.npz"
+    if case == "pickle":
+        with zipfile.ZipFile(_rewrite(path, m, Phi=None), "a") as zf:
+            buf = io.BytesIO()
+            np.save(buf, np.array([{"x": 1}], dtype=object), allow_pickle=True)
+            zf.writestr("Phi.npy", buf.getvalue())
+    elif case == "nan_M":
+        _rewrite(path, m, param_M=np.full((3, 3), np.nan))
+    elif case == "inf_Phi":
+        _rewrite(
+            path, m, Phi=np.where(np.arange(m["Phi"].size).reshape(m["Phi"].shape) == 4, np.inf, m["Phi"])
+        )
+    elif case == "meta_list":
+        _rewrite(path, m, meta=np.array("[1, 2]"))
+    elif case == "options_list":
+        _rewrite(path, m, meta=_meta(m, options=["x"]))
+    elif case == "sources_int":
+        _rewrite(path, m, meta=_meta(m, sources=5))
+    elif case == "M_shape":
+        _rewrite(path, m, param_M=np.ones((2, 3)))
+    elif case == "Psi_rows":
+        _rewrite(path, m, Psi=m["Psi"][:5])
+    elif case == "truncated":
+        data = good.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+    elif case == "text":
+        path.write_text("not an archive\n")
+    elif case == "no_meta":
+        _rewrite(path, m, meta=None)
+    elif case == "bad_degree":
+        _rewrite(path, m, meta=_meta(m, method="Finlayson 2015", options={"degree": "x"}))
+    with pytest.raises(ZonotopeError, match=rf"{case}\.npz: .*{message}"):
+        load_correction(path)
+
+
+def test_load_correction_still_loads_what_save_correction_wrote(saved):
+    from zonotope.correct.profile import load_correction
+
+    path, members = saved
+    loaded = load_correction(path)
+    np.testing.assert_array_equal(loaded.params["M"], members["param_M"])
