@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from zonotope import ZonotopeError
+from zonotope._errors import GeometryError, SpectralDataError
 from zonotope.parallel import SECURITY_ENV_VAR, ParallelError, executor
 
 # --------------------------------------------------------------------------------------------------
@@ -219,3 +220,60 @@ def test_load_correction_still_loads_what_save_correction_wrote(saved):
     path, members = saved
     loaded = load_correction(path)
     np.testing.assert_array_equal(loaded.params["M"], members["param_M"])
+
+
+# --------------------------------------------------------------------------------------------------
+# solids and grids: guarded like the k-D path, no silent 0 volume, no NaN direction
+
+
+def test_zonotope_3d_refuses_more_facets_than_facets_max():
+    """5,000 directions in 3-D (≈ 2.5·10⁷ facets) are refused at once, as the k-D volume is."""
+    from zonotope import Zonotope
+    from zonotope.geometry.solid import FACETS_MAX
+
+    G = np.random.default_rng(0).random((5000, 3))
+    t0 = time.perf_counter()
+    with pytest.raises(GeometryError, match=r"5000 generator directions .* FACETS_MAX.* coarser grid"):
+        _ = Zonotope(G).volume
+    with pytest.raises(GeometryError, match="FACETS_MAX"):
+        Zonotope(G).contains([0.1, 0.1, 0.1])
+    assert time.perf_counter() - t0 < 5.0
+    assert FACETS_MAX >= 401 * 400  # a 1 nm grid over 380–780 nm stays exact
+
+
+def test_tiny_generators_volume_is_an_error_not_zero():
+    from zonotope import Zonotope
+
+    G = np.random.default_rng(1).random((6, 3))
+    with pytest.raises(GeometryError, match=r"magnitude .* below float64's range.*rescale"):
+        _ = Zonotope(G * 1e-120).volume
+    assert Zonotope(G * 1e-60).volume == pytest.approx(Zonotope(G).volume * 1e-180, rel=1e-9)
+    with pytest.raises(GeometryError, match="below float64's range"):
+        _ = Zonotope(np.random.default_rng(2).random((6, 4)) * 1e-90).volume  # the k-D path too
+    assert Zonotope(np.zeros((4, 3))).volume == 0.0  # flat: a true zero
+
+
+@pytest.mark.parametrize("bad", [[np.nan, 0, 0], [np.inf, 1, 0]])
+def test_support_refuses_a_non_finite_direction(bad):
+    from zonotope import Zonotope
+
+    with pytest.raises(GeometryError, match="directions contain NaN or inf"):
+        Zonotope(np.eye(3)).support(bad)
+
+
+def test_common_shape_refuses_a_grid_past_grid_points_max():
+    import colour
+
+    from zonotope.spectra import common_shape, generators
+    from zonotope.spectra.builtin import GRID_POINTS_MAX
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    t0 = time.perf_counter()
+    with pytest.raises(SpectralDataError, match=r"interval=.*1e-06 nm grid .* GRID_POINTS_MAX"):
+        common_shape(cmfs, interval=1e-6)
+    with pytest.raises(SpectralDataError, match="finite"):
+        common_shape(cmfs, interval=float("inf"))
+    with pytest.raises(SpectralDataError, match=r"shape: a 0\.0001 nm grid"):
+        generators("Nikon 5100 (NPL)", shape=colour.SpectralShape(400, 700, 1e-4))
+    assert time.perf_counter() - t0 < 2.0
+    assert len(common_shape(cmfs, interval=0.1).wavelengths) <= GRID_POINTS_MAX

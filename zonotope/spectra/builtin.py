@@ -45,8 +45,14 @@ from .._errors import SpectralDataError
 from .._errors import float_array as float_array  # used as spectra.float_array by other modules
 from .._tol import GRID, NEGATIVE_NOISE
 
+#: The most wavelengths a grid built here may have: 20,000 steps of 0.02 nm cover 380–780 nm, five
+#: times finer than any spectroradiometer resolves; a finer step only multiplies memory (every
+#: spectral matrix, training set and solid grows with it) — 1e-6 nm would be 4·10⁸ points.
+GRID_POINTS_MAX = 20_001
+
 __all__ = [
     "CAMERAS",
+    "GRID_POINTS_MAX",
     "ILLUMINANTS",
     "OBSERVERS",
     "REFLECTANCES",
@@ -185,6 +191,9 @@ def common_shape(*curves: Curve, interval: float | None = None) -> colour.Spectr
     step = float(interval) if interval is not None else max(float(np.max(np.diff(w))) for w in arrays)
     if not step > 0:
         raise SpectralDataError(f"interval must be positive, got {interval}.")
+    if not math.isfinite(step):
+        raise SpectralDataError(f"interval must be a finite number of nm, got {interval}.")
+    _check_grid_size(start, end, step, "common_shape(interval=...)")
     lo = math.ceil(start / step - GRID) * step
     hi = math.floor(end / step + GRID) * step
     if hi - lo < step:
@@ -198,8 +207,26 @@ def common_shape(*curves: Curve, interval: float | None = None) -> colour.Spectr
     return colour.SpectralShape(lo, hi, step)
 
 
+def _check_grid_size(start: float, end: float, step: float, what: str) -> None:
+    """Refuse a grid of more than :data:`GRID_POINTS_MAX` wavelengths before it is built.
+
+    Raises
+    ------
+    SpectralDataError
+        Naming ``what``, the number of points and the finest step allowed over that range.
+    """
+    points = (end - start) / step + 1 if step > 0 else math.inf
+    if not points <= GRID_POINTS_MAX:
+        finest = (end - start) / (GRID_POINTS_MAX - 1)
+        raise SpectralDataError(
+            f"{what}: a {step:g} nm grid over {start:g}–{end:g} nm has {points:.3g} wavelengths "
+            f"(> GRID_POINTS_MAX = {GRID_POINTS_MAX}); use an interval of at least {finest:.2g} nm."
+        )
+
+
 def _grid(shape: colour.SpectralShape | Sequence[float] | np.ndarray) -> np.ndarray:
     if isinstance(shape, colour.SpectralShape):
+        _check_grid_size(float(shape.start), float(shape.end), float(shape.interval), "shape")
         return np.asarray(shape.wavelengths, dtype=np.float64)
     w = np.asarray(shape, dtype=np.float64)
     if w.ndim != 1 or w.size < 2 or not np.all(np.diff(w) > 0) or not np.all(np.isfinite(w)):
