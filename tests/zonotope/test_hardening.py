@@ -277,3 +277,39 @@ def test_common_shape_refuses_a_grid_past_grid_points_max():
         generators("Nikon 5100 (NPL)", shape=colour.SpectralShape(400, 700, 1e-4))
     assert time.perf_counter() - t0 < 2.0
     assert len(common_shape(cmfs, interval=0.1).wavelengths) <= GRID_POINTS_MAX
+
+
+@pytest.mark.parametrize("name", [None, 5, 1.5])
+def test_camera_of_a_non_name_is_a_project_error(name):
+    from zonotope.spectra import camera
+
+    with pytest.raises(SpectralDataError, match=r"camera must be a built-in name or spectral data"):
+        camera(name)
+
+
+@pytest.mark.parametrize(
+    ("text", "names", "width"),
+    [
+        ("wavelength,r,g,b\n400,0.1\n410,0.2\n420,0.3\n", 4, 2),  # would load as 1 channel
+        ("Wavelength (nm),r,g,b,x\n400,1,2,3\n410,1,2,3\n420,1,2,3\n", 5, 4),  # labels would be 1, 2, 3
+    ],
+)
+def test_a_header_that_does_not_fit_the_rows_is_refused(tmp_path, text, names, width):
+    from zonotope.spectra import load_camera
+
+    path = tmp_path / "cam.csv"
+    path.write_text(text)
+    with pytest.raises(
+        SpectralDataError, match=rf"line 1: the header names {names} columns .* have {width} values"
+    ):
+        load_camera(path)
+
+
+def test_a_text_preamble_above_the_header_is_still_skipped(tmp_path):
+    from zonotope.spectra import load_camera
+
+    path = tmp_path / "cam.csv"
+    path.write_text(
+        "Measured 2020, by lab\nwavelength,r,g,b\n400,0.1,0.2,0.3\n410,0.2,0.2,0.3\n420,0.3,0.2,0.3\n"
+    )
+    assert list(load_camera(path).labels) == ["r", "g", "b"]

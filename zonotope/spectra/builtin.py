@@ -345,6 +345,11 @@ _REFLECTANCE_ALIASES = {
 
 
 def _resolve(name: str, table: Iterable[str], aliases: dict[str, str], kind: str) -> str:
+    if not isinstance(name, str):
+        raise SpectralDataError(
+            f"{kind} must be a built-in name or spectral data (colour MultiSpectralDistributions); "
+            f"got {type(name).__name__} {name!r:.40}."
+        )
     keys = {_key(k): k for k in table}
     k = _key(name)
     if k in keys:
@@ -460,6 +465,10 @@ def _float(cell, path: Path, where: str) -> float:
         ) from None
 
 
+#: A header cell naming the wavelength column (``wavelength``, ``Wavelength (nm)``, ``nm``, ``λ``).
+_WAVELENGTH_HEADER = re.compile(r"^\s*(wave\s*length|wl|nm|lambda|λ)\b", re.IGNORECASE)
+
+
 def read_spectral_csv(
     path: str | Path, *, name: str | None = None, allow_negative: bool = False
 ) -> colour.MultiSpectralDistributions:
@@ -510,6 +519,14 @@ def read_spectral_csv(
     header = None if all(_is_number(c) for c in rows[start]) else rows[start]
     first = start + (header is not None)
     width = len(rows[start])
+    above = rows[start - 1] if start else []
+    if header is None and len(above) >= 2 and _WAVELENGTH_HEADER.match(above[0]):
+        # a header whose width differs from the rows' would otherwise pass for a free-text preamble
+        raise SpectralDataError(
+            f"{path}: line {lines[start - 1]}: the header names {len(above)} columns "
+            f"({','.join(above)[:60]!r}) but the rows below have {width} values. Fix the header or the "
+            "rows; columns are never guessed."
+        )
     for r, n in zip(rows[first:], lines[first:]):
         if len(r) != width:
             raise SpectralDataError(
