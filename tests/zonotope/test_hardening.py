@@ -313,3 +313,46 @@ def test_a_text_preamble_above_the_header_is_still_skipped(tmp_path):
         "Measured 2020, by lab\nwavelength,r,g,b\n400,0.1,0.2,0.3\n410,0.2,0.2,0.3\n420,0.3,0.2,0.3\n"
     )
     assert list(load_camera(path).labels) == ["r", "g", "b"]
+
+
+# --------------------------------------------------------------------------------------------------
+# correctors: responses that are not numbers or beyond float64's working range
+
+
+@pytest.fixture(scope="module")
+def correctors():
+    from zonotope.correct import fit_correction
+
+    return {
+        m: fit_correction("Nikon 5100 (NPL)", method=m, shape=GRID) for m in ("Finlayson 2015", "Projection")
+    }
+
+
+@pytest.mark.parametrize("method", ["Finlayson 2015", "Projection"])
+@pytest.mark.parametrize(
+    ("responses", "match"),
+    [
+        ("abc", r"responses must be numbers, an array_like of shape \(\.\.\., 3\); got dtype <U3"),
+        ([["a", "b", "c"]], r"responses must be numbers"),
+        (np.full((1, 3), 1e200), r"responses of magnitude 1e\+200 exceed 1e\+150"),
+        (np.array([[np.inf, 1, 1], [1e200, 1, 1]]), r"magnitude 1e\+200"),
+    ],
+)
+def test_corrector_refuses_non_numbers_and_huge_responses(correctors, method, responses, match):
+    with pytest.raises(SpectralDataError, match=match):
+        correctors[method](responses)
+
+
+def test_root_polynomial_of_huge_responses_is_exact_not_nan(correctors):
+    from zonotope.correct.regressions import root_polynomial_terms
+
+    x = np.array([[0.2, 0.5, 0.3]])
+    for degree in (2, 3, 4):
+        np.testing.assert_allclose(
+            root_polynomial_terms(x * 1e140, degree=degree),
+            root_polynomial_terms(x, degree=degree) * 1e140,
+            rtol=1e-12,
+        )
+    big = correctors["Finlayson 2015"](x * 1e120)
+    np.testing.assert_allclose(big, correctors["Finlayson 2015"](x) * 1e120, rtol=1e-9)
+    assert np.isnan(correctors["Finlayson 2015"](np.array([[np.nan, 1, 1]]))).all()  # a NaN pixel stays NaN

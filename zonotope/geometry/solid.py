@@ -38,7 +38,7 @@ from .._tol import MAGNITUDE_MAX, MAGNITUDE_MIN, TOL, Tolerances
 from . import zonohedron as _zh
 from .lp import distance_to_zonotope
 
-__all__ = ["FACETS_MAX", "Parallelograms", "Support", "Zonotope"]
+__all__ = ["FACETS_MAX", "Parallelograms", "Support", "VolumeUnderflowError", "Zonotope"]
 
 #: The exact 3-D path builds every facet of the zonohedron: p(p − 1) of them for p distinct
 #: generator directions, each with its vertices, so time and memory grow as p² log p. Refused
@@ -50,6 +50,10 @@ FACETS_MAX = 4_000_000
 #: Volumes below this are refused, not returned: each term of the volume is a product of k
 #: lengths, and under ``tiny / eps`` (≈ 1e-292) float64 keeps fewer than its 53 bits (down to 0).
 _VOLUME_MIN = float(np.finfo(np.float64).tiny / np.finfo(np.float64).eps)
+
+
+class VolumeUnderflowError(GeometryError):
+    """:attr:`Zonotope.volume` of a full-dimensional solid whose volume is below float64's range."""
 
 
 @dataclass(frozen=True)
@@ -413,7 +417,7 @@ class Zonotope:
         volume = self._facets.volume if self.ambient_dim == 3 else self.volume_nd()
         if volume < _VOLUME_MIN:  # full-dimensional, so the true volume is > 0: it left float64
             peak = float(np.abs(self.generators).max())
-            raise GeometryError(
+            raise VolumeUnderflowError(
                 f"the volume of generators of magnitude {peak:.3g} in {self.ambient_dim} dimensions "
                 f"is below float64's range (< {_VOLUME_MIN:.0e}); rescale the generators (e.g. "
                 "generators(..., normalise=1)) and multiply the volume by the scale's power."
