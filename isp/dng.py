@@ -313,6 +313,12 @@ def matrix_interpolated(CCT: float, CCT_1: float, CCT_2: float, M_1, M_2) -> np.
     return g * M_1 + (1.0 - g) * M_2
 
 
+#: DNG colour matrices are inverted (camera → XYZ); one whose condition number reaches this is
+#: singular to float64 for practical purposes (real ColorMatrix tags measure ≈ 3–30) and would turn
+#: noise into colour, so it is refused as damaged metadata.
+MATRIX_CONDITION_MAX = 1e8
+
+
 def _matrix3(value, name: str) -> np.ndarray | None:
     if value is None:
         return None
@@ -358,7 +364,15 @@ class DNGProfile:
             "forward_matrix_1",
             "forward_matrix_2",
         ):
-            object.__setattr__(self, name, _matrix3(getattr(self, name), name))
+            m = _matrix3(getattr(self, name), name)
+            if m is not None and not np.linalg.cond(m) < MATRIX_CONDITION_MAX:
+                tag = "".join(w.capitalize() for w in name.split("_")[:-1]) + name[-1]
+                raise RawFormatError(
+                    f"{tag} ({name}) is singular or nearly so (condition number "
+                    f"{np.linalg.cond(m):.3g}): the colour calibration is damaged; convert the "
+                    "camera's original RAW again or correct the tag (exiftool)."
+                )
+            object.__setattr__(self, name, m)
         ab = np.ones(3) if self.analog_balance is None else np.asarray(self.analog_balance, np.float64)
         if ab.shape != (3,) or not np.all(np.isfinite(ab)) or np.any(ab <= 0):
             raise RawFormatError(f"analog_balance: expected 3 positive gains, got {ab}.")

@@ -20,6 +20,11 @@ from ._tol import STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .cfa import check_cfa
 from .dng import DNGProfile, read_dng_tags
 
+#: Smallest channel of an as-shot neutral relative to its largest: the white-balance gain is the
+#: inverse, and 1/NEUTRAL_MIN = 1000 (10 stops) is far past any light (tungsten needs ≈ 2–4 on blue);
+#: smaller values are damaged metadata that would develop a colourless or clipped image.
+NEUTRAL_MIN = 1e-3
+
 __all__ = ["RawImage", "read_raw"]
 
 
@@ -91,9 +96,7 @@ class RawImage:
         if not float(self.white_level) > black.max():
             raise RawFormatError(f"white_level={self.white_level} must exceed the black level {black.max()}.")
         object.__setattr__(self, "black_level", black)
-        n = np.asarray(self.as_shot_neutral, dtype=np.float64)
-        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.any(n <= 0):
-            raise RawFormatError(f"as_shot_neutral: expected 3 positive values, got {n}.")
+        n = _checked_neutral(self.as_shot_neutral, f"{self.path}: " if self.path else "", "as_shot_neutral")
         object.__setattr__(self, "as_shot_neutral", n / n.max())
 
     @property
@@ -124,6 +127,69 @@ class RawImage:
 
 
 _COLOUR_LETTER = {0: "R", 1: "G", 2: "B", 3: "G"}
+
+
+def _checked_neutral(neutral, where: str, name: str) -> np.ndarray:
+    """``neutral`` as 3 finite positive values whose smallest is ≥ NEUTRAL_MIN × the largest.
+
+    Raises
+    ------
+    RawFormatError
+        ``where`` (the file) and ``name`` (the tag) in the message, with what to do.
+    """
+    n = np.asarray(neutral, dtype=np.float64).reshape(-1)
+    shown = "(" + ", ".join(f"{v:.3g}" for v in n[:4]) + ")"
+    if n.shape != (3,) or not np.all(np.isfinite(n)) or np.any(n <= 0):
+        raise RawFormatError(
+            f"{where}{name} = {shown}: expected 3 positive finite values; the white-balance metadata is "
+            "damaged: convert the camera's original RAW again or correct the tag (exiftool)."
+        )
+    if n.min() < NEUTRAL_MIN * n.max():
+        raise RawFormatError(
+            f"{where}{name} = {shown}: a channel below {NEUTRAL_MIN:g} × the largest would need a gain of "
+            f"{n.max() / n.min():.3g}; the white-balance metadata is damaged: convert the camera's "
+            "original RAW again or correct the tag (exiftool)."
+        )
+    return n
+
+
+def _check_layout_tags(path: Path, width: int, height: int, bits: int, active) -> None:
+    """Refuse raw-IFD layout tags LibRaw would accept and decode into garbage.
+
+    Raises
+    ------
+    RawFormatError
+        Naming the file and the tag: image dimensions below 2 × 2 (no CFA period), BitsPerSample
+        outside 1–32, or an ActiveArea that is empty or leaves the image.
+    """
+
+    def bad(tag: str, value, detail: str) -> RawFormatError:
+        return RawFormatError(
+            f"{path}: {tag} = {value}: {detail}; the file is damaged: convert the camera's "
+            "original RAW again."
+        )
+
+    if width < 2 or height < 2:
+        raise bad(
+            "ImageWidth × ImageLength", f"{width} × {height}", "a CFA mosaic needs at least 2 × 2 pixels"
+        )
+    if not 1 <= bits <= 32:
+        raise bad("BitsPerSample", bits, "raw samples have 1 to 32 bits")
+    if active is not None:
+        a = [int(x) for x in np.ravel(active)]
+        if len(a) != 4:
+            raise bad("ActiveArea", a, "expected 4 values (top, left, bottom, right)")
+        top, left, bottom, right = a
+        if (
+            not (0 <= top < bottom <= height and 0 <= left < right <= width)
+            or min(bottom - top, right - left) < 2
+        ):
+            raise bad(
+                "ActiveArea",
+                tuple(a),
+                f"(top, left, bottom, right) must be a non-empty area of at least 2 × 2 pixels "
+                f"inside the {width} × {height} image",
+            )
 
 
 def _cfa_from_rawpy(raw) -> str:
@@ -223,6 +289,7 @@ def _check_dng_data(path: Path, size: int) -> None:
             width, height = int(raw_ifd.imagewidth), int(raw_ifd.imagelength)
             bits = int(np.ravel(t[258].value)[0]) if 258 in t else 16
             spp = int(t[277].value) if 277 in t else 1
+            active = t[50829].value if 50829 in t else ifd0.tags[50829].value if 50829 in ifd0.tags else None
             heads = []
             with open(path, "rb") as fh:
                 for off in offsets[:4096]:
@@ -232,6 +299,8 @@ def _check_dng_data(path: Path, size: int) -> None:
         return
     finally:
         log.setLevel(level)
+
+    _check_layout_tags(path, width, height, bits, active)
 
     def bad(detail: str) -> RawFormatError:
         return RawFormatError(
@@ -342,7 +411,10 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
     try:  # a damaged file can carry tags of the wrong type or shape
         if tags:
-            profile = DNGProfile.from_tags(tags)
+            try:
+                profile = DNGProfile.from_tags(tags)
+            except RawFormatError as exc:  # names the tag; add the file
+                raise RawFormatError(f"{path}: {exc}") from exc
             source = "AsShotNeutral" if "AsShotNeutral" in tags else "AsShotWhiteXY"
             if "AsShotNeutral" in tags:
                 neutral = np.asarray(tags["AsShotNeutral"], dtype=np.float64)
@@ -354,6 +426,8 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             else:
                 source = "camera" if np.all(cam_wb > 0) else "none"
                 neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
+            if source != "none":
+                neutral = _checked_neutral(neutral, f"{path}: ", source)
             capture.update(_capture_from_tags(tags))
             table = tags.get("LinearizationTable")
             table = None if table is None else np.asarray(table, dtype=np.float64)
@@ -372,6 +446,8 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
             wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
             neutral = 1.0 / wb
             table, make, model, baseline = None, "", "", 0.0
+    except RawFormatError:
+        raise
     except (ValueError, TypeError, IndexError, KeyError, ZeroDivisionError, np.linalg.LinAlgError) as exc:
         raise RawFormatError(
             f"{path}: malformed DNG metadata ({type(exc).__name__}: {exc}); the file may be damaged."

@@ -157,9 +157,10 @@ def _read_text(folder: Path) -> ColmapModel:
         try:
             if t[1] not in CAMERA_MODELS:
                 raise ValueError(f"unknown model {t[1]!r}")
-            cameras[int(t[0])] = ColmapCamera(int(t[0]), t[1], int(t[2]), int(t[3]), tuple(map(float, t[4:])))
+            camera = ColmapCamera(int(t[0]), t[1], int(t[2]), int(t[3]), tuple(map(float, t[4:])))
         except (ValueError, IndexError) as e:
             _fail(path, n, "a camera", e)
+        _put(cameras, camera.id, camera, f"{path}:{n}", "camera")
     path = folder / "images.txt"
     lines = [(n, line) for n, line in _lines_keep_empty(path)]
     for k in range(0, len(lines), 2):
@@ -167,6 +168,8 @@ def _read_text(folder: Path) -> ColmapModel:
         try:
             t = head.split()
             p = np.array(pts.split(), dtype=float).reshape(-1, 3)
+            if int(t[0]) in images:
+                _put(images, int(t[0]), None, f"{path}:{n}", "image")
             images[int(t[0])] = ColmapImage(
                 int(t[0]),
                 np.array(t[1:5], float),
@@ -183,6 +186,8 @@ def _read_text(folder: Path) -> ColmapModel:
         for n, t in _lines(path):
             try:
                 track = np.array(t[8:], dtype=np.int64).reshape(-1, 2)
+                if int(t[0]) in points:
+                    _put(points, int(t[0]), None, f"{path}:{n}", "3-D point")
                 points[int(t[0])] = ColmapPoint3D(
                     int(t[0]),
                     np.array(t[1:4], float),
@@ -316,6 +321,23 @@ class _Reader:
         self.pos += dt.itemsize * count
         return out
 
+    def count(self, what: str, record_bytes: int) -> int:
+        """The record count of a file's header, refused when its records cannot fit the file."""
+        n = self("Q")[0]
+        if n * record_bytes > len(self.buf) - self.pos:
+            raise DataFormatError(
+                f"{self.path}: declares {n} {what}, more than its {len(self.buf)} bytes can hold."
+            )
+        return n
+
+    def end(self, n: int, what: str) -> None:
+        """Refuse bytes after the last declared record (a count one too low, or appended garbage)."""
+        if self.pos != len(self.buf):
+            raise DataFormatError(
+                f"{self.path}: {len(self.buf) - self.pos} bytes follow the {n} {what} its header "
+                "declares; the count is wrong or the file is damaged: export the model again."
+            )
+
     def string(self) -> str:
         end = self.buf.find(b"\0", self.pos)
         if end < 0:
@@ -325,21 +347,35 @@ class _Reader:
         return s
 
 
+def _put(table: dict, key: int, value, path: Path | str, what: str) -> None:
+    """``table[key] = value``, refusing a second record with the same id (it would replace the first)."""
+    if key in table:
+        raise DataFormatError(
+            f"{path}: {what} id {key} appears twice; ids must be unique: export the model again."
+        )
+    table[key] = value
+
+
 def _read_binary(folder: Path) -> ColmapModel:
     cameras, images, points, rigs, frames = {}, {}, {}, {}, {}
     r = _Reader(folder / "cameras.bin")
-    for _ in range(r("Q")[0]):
+    count = r.count("cameras", 24)
+    for _ in range(count):
         cid, mid, w, h = r("iiQQ")
         if mid not in _MODEL_BY_ID:
             raise DataFormatError(f"{r.path}: camera {cid} has unknown model id {mid}.")
         name, n = _MODEL_BY_ID[mid]
-        cameras[cid] = ColmapCamera(cid, name, w, h, r(f"{n}d"))
+        _put(cameras, cid, ColmapCamera(cid, name, w, h, r(f"{n}d")), r.path, "camera")
+    r.end(count, "cameras")
     r = _Reader(folder / "images.bin")
-    for _ in range(r("Q")[0]):
+    count = r.count("images", 73)
+    for _ in range(count):
         iid, *pose, cid = r("I7dI")
         name = r.string()
         n = r("Q")[0]
         raw = np.frombuffer(r.array(np.uint8, 24 * n).tobytes(), dtype=_POINT2D)
+        if iid in images:
+            _put(images, iid, None, r.path, "image")
         images[iid] = ColmapImage(
             iid,
             np.array(pose[:4]),
@@ -349,13 +385,15 @@ def _read_binary(folder: Path) -> ColmapModel:
             np.stack([raw["x"], raw["y"]], -1),
             raw["id"].astype(np.int64),
         )
+    r.end(count, "images")
     path = folder / "points3D.bin"
     if path.exists():
         r = _Reader(path)
-        for _ in range(r("Q")[0]):
+        count = r.count("points", 51)
+        for _ in range(count):
             pid, x, y, z, cr, cg, cb, err = r("Q3d3Bd")
             track = r.array(np.uint32, 2 * r("Q")[0]).reshape(-1, 2)
-            points[pid] = ColmapPoint3D(
+            point = ColmapPoint3D(
                 pid,
                 np.array([x, y, z]),
                 np.array([cr, cg, cb], np.uint8),
@@ -363,10 +401,12 @@ def _read_binary(folder: Path) -> ColmapModel:
                 track[:, 0].astype(np.int64),
                 track[:, 1].astype(np.int64),
             )
+            _put(points, pid, point, r.path, "3-D point")
+        r.end(count, "points")
     path = folder / "rigs.bin"
     if path.exists():
         r = _Reader(path)
-        for _ in range(r("Q")[0]):
+        for _ in range(r.count("rigs", 8)):
             rid, ns = r("II")
             sensors = []
             if ns:
@@ -379,7 +419,7 @@ def _read_binary(folder: Path) -> ColmapModel:
     path = folder / "frames.bin"
     if path.exists():
         r = _Reader(path)
-        for _ in range(r("Q")[0]):
+        for _ in range(r.count("frames", 68)):
             fid, rid, *pose, nd = r("II7dI")
             ids = tuple((lambda t, s, d: (_SENSOR_BY_ID.get(t, str(t)), s, d))(*r("iIQ")) for _ in range(nd))
             frames[fid] = ColmapFrame(fid, rid, tuple(pose), ids)

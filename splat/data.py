@@ -239,6 +239,13 @@ def write_transforms(capture: Capture, path: str | Path) -> Path:
     return atomic_write_text(path, json.dumps(doc, indent=1))
 
 
+def _pixels(value, name: str) -> int:
+    """An image size in pixels: a whole number (``16`` or ``16.0``), never rounded from ``15.7``."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value) or value < 1:
+        raise ValueError(f"{name} = {value!r}: an image size is a whole number of pixels ≥ 1")
+    return int(value)
+
+
 def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | None = None) -> Capture:
     """Read a nerfstudio ``transforms.json`` (global intrinsics with per-frame overrides).
 
@@ -256,7 +263,8 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
     Raises
     ------
     DataFormatError
-        Invalid JSON, or a frame without a pose or intrinsics.
+        Invalid JSON, a missing or empty ``frames`` list, a frame without a pose or intrinsics, or
+        an image size (``w``, ``h``) that is not a whole number of pixels.
     """
     path = Path(path)
     try:
@@ -265,10 +273,9 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
         raise DataFormatError(f"{path}: not valid JSON ({e}).") from None
     except OSError as e:
         raise DataFormatError(f"{path}: cannot read ({e.strerror or e}).") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("frames", []), list):
-        raise DataFormatError(
-            f"{path}: expected a JSON object with a 'frames' list, got {type(doc).__name__}."
-        )
+    if not isinstance(doc, dict) or not isinstance(doc.get("frames"), list) or not doc["frames"]:
+        got = type(doc).__name__ if not isinstance(doc, dict) else f"frames = {doc.get('frames')!r:.40}"
+        raise DataFormatError(f"{path}: expected a JSON object with a non-empty 'frames' list, got {got}.")
     views = []
     for k, fr in enumerate(doc.get("frames", [])):
         if not isinstance(fr, dict):
@@ -287,8 +294,8 @@ def read_transforms(path: str | Path, *, channels: dict[int, tuple[int, ...]] | 
                 float(get("fl_y") or get("fl_x")),
                 float(get("cx")),
                 float(get("cy")),
-                int(get("w")),
-                int(get("h")),
+                _pixels(get("w"), "w"),
+                _pixels(get("h"), "h"),
             )
             view = View(
                 str(fr.get("file_path", f"frame_{k}")),

@@ -604,6 +604,22 @@ def read_arrays(path: str | Path, *, what: str) -> dict[str, np.ndarray]:
         ) from e
 
 
+def _check_values(path, arrays: dict[str, np.ndarray], dtypes: list) -> None:
+    """Refuse stored arrays of another dtype than the state's (an int where floats train) or with
+    NaN/inf: either would resume training on values no step of it produces."""
+    for (name, a), dtype in zip(arrays.items(), dtypes):
+        if a.dtype != dtype:
+            raise SplatError(
+                f"{path}: {name} has dtype {a.dtype} where {dtype} is expected: the file is damaged "
+                "or from another program, remove it to train afresh."
+            )
+        if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+            raise SplatError(
+                f"{path}: {name} contains NaN or inf: the training it holds diverged or the file is "
+                "damaged, remove it to train afresh (or resume from an earlier checkpoint)."
+            )
+
+
 def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
     """Load a checkpoint into the structure of ``like`` (a fresh state from :func:`init_state`).
 
@@ -611,6 +627,12 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
     loads into a state that refines poses with the corrections of ``like`` (zero); one with pose
     corrections does not load into a state without them (the Gaussians were fitted to the corrected
     poses).
+
+    Raises
+    ------
+    SplatError
+        Not a splat checkpoint, arrays of another shape or dtype than ``like``'s, NaN or inf
+        values, a step that is not a non-negative integer, or a key of another shape.
     """
     like_tree = (
         like.params,
@@ -631,14 +653,27 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
             f"checkpoint {path} has {len(stored)} arrays; this configuration needs "
             f"{len(leaves)} (capacity, channels or refine_exposure changed?)."
         )
-    new = [jnp.asarray(f[k]) for k in stored]
-    for a, b in zip(new, leaves):
-        if a.shape != np.shape(b):
+    for k, b in zip(stored, leaves):
+        if f[k].shape != np.shape(b):
             raise SplatError(
-                f"checkpoint {path} holds an array of shape {a.shape} where {np.shape(b)} "
+                f"checkpoint {path} holds an array of shape {f[k].shape} where {np.shape(b)} "
                 "is expected (capacity or channels changed?)."
             )
-    step, key = int(f["step"]), jax.random.wrap_key_data(jnp.asarray(f["key"]))
+    _check_values(path, {k: f[k] for k in stored}, [np.asarray(b).dtype for b in leaves])
+    new = [jnp.asarray(f[k]) for k in stored]
+    step_value, key_data = f["step"], f["key"]
+    if step_value.shape != () or step_value.dtype.kind not in "iu" or int(step_value) < 0:
+        raise SplatError(
+            f"{path}: step = {step_value.tolist()!r} ({step_value.dtype}); a checkpoint's step is a "
+            "non-negative integer: the file is damaged, remove it to train afresh."
+        )
+    like_key = np.asarray(jax.random.key_data(like.key))
+    if key_data.shape != like_key.shape or key_data.dtype != like_key.dtype:
+        raise SplatError(
+            f"{path}: key of shape {key_data.shape} ({key_data.dtype}) where {like_key.shape} "
+            f"({like_key.dtype}) is expected: the file is damaged, remove it to train afresh."
+        )
+    step, key = int(step_value), jax.random.wrap_key_data(jnp.asarray(key_data))
     pose_leaves, pose_def = jax.tree.flatten((like.pose_delta, like.pose_opt))
     stored_pose = sorted(k for k in f if k.startswith("pose_"))
     if stored_pose and not pose_leaves:
@@ -653,6 +688,7 @@ def load_checkpoint(path: str | Path, like: TrainState) -> TrainState:
                 f"checkpoint {path} holds pose corrections for a different number of views; expected "
                 f"{np.shape(like.pose_delta)}."
             )
+        _check_values(path, {k: f[k] for k in stored_pose}, [np.asarray(b).dtype for b in pose_leaves])
         pose_leaves = got
     params, opt_state, alive, ga, gc, log_e, e_opt = jax.tree.unflatten(treedef, new)
     pose, pose_opt = jax.tree.unflatten(pose_def, pose_leaves)

@@ -19,6 +19,16 @@ is None):
 - None and no environment variable (the default): serial for small jobs (fewer than ``min_tasks``
   items, one core, or Dask not installed), a local cluster for large ones.
 
+Trust model. Whoever can talk to a Dask scheduler can run any code as the workers' user
+(``Client.run``). A local cluster is therefore bound to 127.0.0.1 and speaks TLS with certificates
+made for it alone (``Security.temporary()``): only this process holds the key, so another local user
+given the port is refused. A running cluster is trusted as it is: a ``tcp://`` scheduler has no
+authentication, so use one only on a network where everyone who reaches it may run code as its
+workers, or run it with TLS (``dask scheduler --tls-ca-file … --tls-cert … --tls-key …``,
+``tls://`` address) and give the client's certificates with ``security=`` (a
+``distributed.security.Security`` or a YAML/JSON file of its ``tls_*`` keywords), or in the
+``ZONOTOPE_SCHEDULER_SECURITY`` environment variable (that file's path) when the argument is None.
+
 Dask is an optional extra (``pip install "zonotope[dask]"``); nothing here imports it until a
 cluster is asked for, and single-image use never needs it.
 
@@ -50,6 +60,7 @@ __all__ = [
     "ENV_VAR",
     "FILE_MIN_TASKS",
     "MANIFEST_COLUMNS",
+    "SECURITY_ENV_VAR",
     "DaskExecutor",
     "Executor",
     "FileTask",
@@ -65,6 +76,12 @@ __all__ = [
 
 #: Environment variable read when ``scheduler=None``.
 ENV_VAR = "ZONOTOPE_SCHEDULER"
+
+#: Environment variable read when ``security=None``: a YAML/JSON file of the client's TLS settings.
+SECURITY_ENV_VAR = "ZONOTOPE_SCHEDULER_SECURITY"
+
+#: Keys a security file may hold: the client's side of ``distributed.security.Security``.
+_SECURITY_KEYS = ("tls_ca_file", "tls_client_cert", "tls_client_key", "tls_ciphers", "require_encryption")
 
 _ADDRESS = re.compile(r"^([a-z0-9+]+://.+|[A-Za-z0-9_.\-]+:\d+)$")
 
@@ -303,9 +320,89 @@ def _parse_scheduler(scheduler, cores: int) -> str:
     )
 
 
+def _local_security():
+    """TLS settings for a cluster this process starts: a key and certificate made for it alone.
+
+    Raises
+    ------
+    ParallelError
+        ``cryptography`` (part of the ``zonotope[dask]`` extra) is missing.
+    """
+    from distributed.security import Security
+
+    try:
+        return Security.temporary()
+    except ImportError as error:
+        raise ParallelError(
+            "a local Dask cluster is started with TLS certificates, which needs the 'cryptography' "
+            "package: pip install 'zonotope[dask]' (or use scheduler='serial')."
+        ) from error
+
+
+def _client_security(security):
+    """``security=`` (a ``Security``, a file, or None: the environment variable) → ``Security`` or None.
+
+    A file is a YAML or JSON mapping of the client's ``Security`` keywords (:data:`_SECURITY_KEYS`);
+    the certificate values are paths or PEM text, as ``Security`` takes them.
+
+    Raises
+    ------
+    ParallelError
+        Unreadable file, not a mapping, an unknown key, or a named certificate file that is missing.
+    """
+    from_env = security is None and bool(os.environ.get(SECURITY_ENV_VAR))
+    if security is None:
+        security = os.environ.get(SECURITY_ENV_VAR) or None
+    if security is None:
+        return None
+    from distributed.security import Security
+
+    if isinstance(security, Security):
+        return security
+    where = f"{SECURITY_ENV_VAR}={security}" if from_env else f"security={security}"
+    if not isinstance(security, (str, os.PathLike)):
+        raise ParallelError(
+            "security must be a distributed.security.Security or a YAML/JSON file; "
+            f"got {type(security).__name__}."
+        )
+    import yaml
+
+    try:
+        text = Path(security).read_text(encoding="utf-8")
+        data = yaml.safe_load(text)
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
+        raise ParallelError(
+            f"{where}: unreadable security file ({type(error).__name__}: {error})."
+        ) from error
+    if not isinstance(data, dict):
+        raise ParallelError(f"{where}: a security file is a mapping of {', '.join(_SECURITY_KEYS)}.")
+    unknown = sorted(str(k) for k in data if k not in _SECURITY_KEYS)
+    if unknown:
+        raise ParallelError(
+            f"{where}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(_SECURITY_KEYS)}."
+        )
+    for key in ("tls_ca_file", "tls_client_cert", "tls_client_key"):
+        value = data.get(key)
+        if value is not None and not isinstance(value, str):
+            raise ParallelError(f"{where}: {key} must be a file path or PEM text; got {value!r}.")
+        if isinstance(value, str) and "-----BEGIN" not in value:
+            path = Path(value).expanduser()
+            if not path.is_absolute():  # relative to the security file, as users write them beside it
+                path = Path(security).resolve().parent / path
+            if not path.is_file():
+                raise ParallelError(f"{where}: {key} file {value} does not exist.")
+            data[key] = str(path)
+    return Security(**data)
+
+
 @contextmanager
 def executor(
-    scheduler: str | None = None, *, tasks: int | None = None, min_tasks: int = 2, timeout: float = 30.0
+    scheduler: str | None = None,
+    *,
+    tasks: int | None = None,
+    min_tasks: int = 2,
+    timeout: float = 30.0,
+    security=None,
 ) -> Iterator[Executor]:
     """An executor for one batch, closed (with any cluster it started) when the block ends.
 
@@ -320,6 +417,12 @@ def executor(
         few seconds; see ``benchmarks/bench_parallel.py``).
     timeout : float
         Seconds to wait for a running cluster to answer.
+    security : distributed.security.Security or path, optional
+        The client's TLS settings for a running cluster (a ``Security`` or a YAML/JSON file of its
+        ``tls_ca_file``, ``tls_client_cert``, ``tls_client_key`` keywords); None reads the
+        ``ZONOTOPE_SCHEDULER_SECURITY`` environment variable, then Dask's own configuration. A
+        local cluster always gets its own temporary certificates and listens on 127.0.0.1 only,
+        since anyone who reaches a scheduler can run code as its workers' user.
 
     Yields
     ------
@@ -328,7 +431,8 @@ def executor(
     Raises
     ------
     ParallelError
-        Bad ``scheduler``, Dask not installed for a cluster, or the cluster did not answer.
+        Bad ``scheduler`` or ``security``, Dask not installed for a cluster, or the cluster did not
+        answer.
 
     Examples
     --------
@@ -350,21 +454,30 @@ def executor(
     cluster = None
     try:
         if where.startswith("local:"):
+            secure = _local_security()
             cluster = LocalCluster(
                 n_workers=int(where.split(":")[1]),
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=":0",
+                host="127.0.0.1",
+                protocol="tls://",
+                security=secure,
+                dashboard_address="127.0.0.1:0",
                 silence_logs=logging.CRITICAL,
             )
-            client = Client(cluster)
+            client = Client(cluster, security=secure)
             kind = "local"
         elif Path(where).is_file():
-            client = Client(scheduler_file=where, timeout=timeout)
+            client = Client(scheduler_file=where, timeout=timeout, security=_client_security(security))
             kind = "cluster"
         else:
-            client = Client(where, timeout=timeout)
+            client = Client(where, timeout=timeout, security=_client_security(security))
             kind = "cluster"
+    except TypeError as error:  # Dask's word for a tls:// address with no client certificates
+        raise ParallelError(
+            f"scheduler {where!r} speaks TLS: give the client's certificates with security=FILE "
+            f"or {SECURITY_ENV_VAR}=FILE (YAML with {', '.join(_SECURITY_KEYS[:3])}); {error}"
+        ) from error
     except (OSError, TimeoutError) as error:
         if cluster is not None:
             cluster.close()

@@ -116,9 +116,13 @@ def _subsets(n: int, k: int, seed: int) -> np.ndarray:
 def _log_volume_uncached(Phi: np.ndarray, *, max_terms: int, seed: int) -> float:
     n, k = Phi.shape
     if k == 3 or math.comb(n, k) <= max_terms:
-        from ..geometry.solid import Zonotope
+        from ..geometry.solid import VolumeUnderflowError, Zonotope
 
-        return float(np.log(max(Zonotope(Phi).volume, VOLUME_FLOOR)))
+        try:
+            volume = Zonotope(Phi).volume
+        except VolumeUnderflowError:  # below float64's range: the floor, as for the sampled estimate
+            volume = 0.0
+        return float(np.log(max(volume, VOLUME_FLOOR)))
     idx = _subsets(n, k, seed)  # unbiased estimate: C(n, k) × mean |det| of random k-subsets
     dets = np.abs(np.linalg.det(Phi[idx]))
     return float(np.log(math.comb(n, k)) + np.log(max(dets.mean(), VOLUME_FLOOR)))

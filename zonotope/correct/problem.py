@@ -12,12 +12,24 @@ import colour
 import numpy as np
 
 from .._errors import SpectralDataError
-from .._tol import LAB_STEP, REFLECTANCE_MAX, REFLECTANCE_MIN
+from .._tol import LAB_STEP, MAGNITUDE_MAX, REFLECTANCE_MAX, REFLECTANCE_MIN
 from ..spectra import builtin as spectra
 from ..spectra.loading import load_camera, load_reflectances
 from ..spectra.pair import GeneratorPair
 
 __all__ = ["CorrectionProblem", "Corrector", "check_reflectances", "correction_problem"]
+
+
+def _finite_peak(c: np.ndarray) -> float:
+    """Largest finite ``|c|`` (0 for none), without a full-size temporary in the common case:
+    ``fmax``/``fmin`` skip NaN; only an infinite entry costs a masked pass."""
+    if c.size == 0:
+        return 0.0
+    flat = c.reshape(-1)
+    peak = max(abs(float(np.fmax.reduce(flat))), abs(float(np.fmin.reduce(flat))))
+    if np.isinf(peak):
+        peak = float(np.max(np.abs(flat), initial=0.0, where=np.isfinite(flat)))
+    return 0.0 if np.isnan(peak) else peak
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -266,13 +278,24 @@ class Corrector:
         """The responses as an array and its ``(N, k)`` view (not yet converted to float64: chunks
         are, one at a time), or the channel-count error."""
         c = np.asarray(responses)
-        if not np.issubdtype(c.dtype, np.floating):
-            c = c.astype(np.float64)
         k = self.problem.k
+        if not np.issubdtype(c.dtype, np.floating):
+            if c.dtype.kind not in "biu":
+                raise SpectralDataError(
+                    f"responses must be numbers, an array_like of shape (..., {k}); got dtype {c.dtype} "
+                    f"({str(responses)[:40]!r})."
+                )
+            c = c.astype(np.float64)
         if c.shape[-1:] != (k,):
             raise SpectralDataError(
                 f"responses: last axis must have the {k} source channels "
                 f"({', '.join(self.problem.sources)}); got shape {c.shape}."
+            )
+        peak = _finite_peak(c)
+        if peak > MAGNITUDE_MAX:
+            raise SpectralDataError(
+                f"responses of magnitude {peak:.3g} exceed {MAGNITUDE_MAX:g}; give them on the scale "
+                "the correction was fitted on (the white ≈ 1)."
             )
         return c, c.reshape(-1, k)
 

@@ -354,6 +354,14 @@ def write_correction_LUT(
 
 _PROBLEM_ARRAYS = ("Phi", "Psi", "wavelengths", "training", "XYZ_from_target")
 
+#: The largest saved correction :func:`load_correction` decompresses (all members, as declared in
+#: the archive). A correction on a 1 nm grid with 10⁵ training spectra is ≈ 380 MB; 512 MiB keeps
+#: that and refuses a few-MB archive that would inflate to gigabytes before being found wrong.
+SAVED_CORRECTION_MAX_BYTES = 512 * 2**20
+
+#: The members a saved correction holds (``meta`` is the JSON header as a 0-d text array).
+_MEMBERS = ("meta", *_PROBLEM_ARRAYS, "param_M")
+
 
 def _option_keys(method: str) -> tuple[str, ...]:
     """The fitting options a saved correction records: shape options and the method's noise option
@@ -416,6 +424,95 @@ def save_correction(
     return path
 
 
+def _read_members(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a saved correction, each checked before it is decompressed.
+
+    Every member must be one of :data:`_MEMBERS` (``.npy``), all of them together at most
+    :data:`SAVED_CORRECTION_MAX_BYTES` as declared by the archive, each a float (or, for ``meta``,
+    text) array whose header's shape fits its declared size: a hostile archive is refused before
+    it allocates, since zip members declare sizes that ``np.load`` would otherwise trust.
+    """
+    import zipfile
+    import zlib
+
+    fmt = np.lib.format
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            total = sum(info.file_size for info in infos)
+            if total > SAVED_CORRECTION_MAX_BYTES:
+                raise ZonotopeError(
+                    f"{path}: declares {total / 2**20:.0f} MiB of arrays, more than a saved correction "
+                    f"holds (SAVED_CORRECTION_MAX_BYTES = {SAVED_CORRECTION_MAX_BYTES // 2**20} MiB); "
+                    "refused unread."
+                )
+            out = {}
+            for info in infos:
+                name = info.filename.removesuffix(".npy")
+                if name not in _MEMBERS or name in out:
+                    raise ZonotopeError(
+                        f"{path}: not a saved correction (member {info.filename!r}); one holds "
+                        f"{', '.join(_MEMBERS)} (.npy) once each."
+                    )
+                with zf.open(info) as fh:
+                    version = fmt.read_magic(fh)
+                    read_header = (
+                        fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+                    )
+                    shape, _, dtype = read_header(fh)
+                kinds = "U" if name == "meta" else "fiu"
+                if dtype.hasobject or dtype.kind not in kinds:
+                    raise ZonotopeError(
+                        f"{path}: member {name!r} has dtype {dtype}; a saved correction stores "
+                        f"{'text' if name == 'meta' else 'numbers'} only (pickled objects are never loaded)."
+                    )
+                if math.prod(shape) * dtype.itemsize > info.file_size:
+                    raise ZonotopeError(
+                        f"{path}: member {name!r} declares shape {shape}, larger than its stored "
+                        f"{info.file_size} bytes; the file is damaged."
+                    )
+                with zf.open(info) as fh:
+                    out[name] = fmt.read_array(fh, allow_pickle=False)
+    except ZonotopeError:
+        raise
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error, NotImplementedError) as exc:
+        raise ZonotopeError(
+            f"{path}: not a saved correction (an .npz written by save_correction): "
+            f"{type(exc).__name__}: {exc}."
+        ) from exc
+    return out
+
+
+def _checked_arrays(path: Path, members: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The problem's arrays (and ``param_M``) as float64, finite and of consistent shapes.
+
+    Why: a NaN or inf in any of them would make every corrected response NaN without an error.
+    """
+    arrays = {name: np.asarray(a, dtype=np.float64) for name, a in members.items()}
+    for name, a in arrays.items():
+        if not np.all(np.isfinite(a)):
+            raise SpectralDataError(
+                f"{path}: array {name!r} contains NaN or inf; the saved correction is damaged, "
+                "fit and save it again."
+            )
+    n = arrays["wavelengths"].shape[0] if arrays["wavelengths"].ndim == 1 else -1
+    m = arrays["Psi"].shape[1] if arrays["Psi"].ndim == 2 else -1
+    want = {
+        "wavelengths": (n,),
+        "Phi": (n, arrays["Phi"].shape[-1] if arrays["Phi"].ndim == 2 else -1),
+        "Psi": (n, m),
+        "training": (arrays["training"].shape[0] if arrays["training"].ndim == 2 else -1, n),
+        "XYZ_from_target": (m, 3),
+    }
+    for name, shape in want.items():
+        if arrays[name].shape != shape or min(shape) < 1:
+            raise SpectralDataError(
+                f"{path}: array {name!r} has shape {arrays[name].shape}; expected {shape} "
+                f"(n = {n} wavelengths, m = {m} target channels)."
+            )
+    return arrays
+
+
 def load_correction(path: str | os.PathLike):
     """Load an estimator saved by :func:`save_correction`.
 
@@ -427,7 +524,11 @@ def load_correction(path: str | os.PathLike):
     Raises
     ------
     ZonotopeError
-        Not a saved correction (missing arrays or header, unknown format version or method).
+        Not a saved correction (not a zip archive, missing arrays or header, unknown format version
+        or method), a member that is not a plain numeric array (pickles are never loaded), or an
+        archive larger than :data:`SAVED_CORRECTION_MAX_BYTES` once decompressed.
+    SpectralDataError
+        Arrays of inconsistent shapes, NaN or inf values, or a damaged header.
     """
     from .methods import (
         CORRECTION_METHODS,
@@ -439,34 +540,70 @@ def load_correction(path: str | os.PathLike):
     path = Path(path)
     if not path.is_file():
         raise SavedCorrectionNotFoundError(f"saved correction {path} not found.")
+    members = _read_members(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            arrays = {name: np.array(z[name]) for name in _PROBLEM_ARRAYS}
-            M = np.array(z["param_M"]) if "param_M" in z.files else None
-    except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
-        raise ZonotopeError(f"{path}: not a saved correction ({type(exc).__name__}: {exc}).") from exc
-    if meta.get("format") != _FORMAT:
-        raise ZonotopeError(f"{path}: format {meta.get('format')!r}; this version reads {_FORMAT!r}.")
+        meta = json.loads(str(members.pop("meta")))
+    except (KeyError, ValueError) as exc:
+        raise ZonotopeError(f"{path}: not a saved correction (no JSON header 'meta': {exc}).") from exc
+    if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
+        found = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise ZonotopeError(f"{path}: format {found!r}; this version reads {_FORMAT!r}.")
     method = meta.get("method")
-    if method not in CORRECTION_METHODS:
+    if not isinstance(method, str) or method not in CORRECTION_METHODS:
         raise ZonotopeError(f"{path}: method {method!r} is not one of {list(CORRECTION_METHODS)}.")
+    missing = [name for name in _PROBLEM_ARRAYS if name not in members]
+    if missing:
+        raise ZonotopeError(f"{path}: not a saved correction (array(s) {', '.join(missing)} missing).")
+    arrays = _checked_arrays(path, members)
+    M = arrays.pop("param_M", None)
+    names = {key: meta.get(key) for key in ("target", "illuminant", "training")}
+    sources = meta.get("sources")
+    opts = meta.get("options", {})
+    if (
+        not all(isinstance(v, str) for v in names.values())
+        or not isinstance(sources, list)
+        or not all(isinstance(v, str) for v in sources)
+        or not isinstance(opts, dict)
+        or not all(isinstance(v, int | float | str | bool) for v in opts.values())
+    ):
+        raise SpectralDataError(
+            f"{path}: header 'meta' needs text target, illuminant, training, a list of source names "
+            "and scalar options; the file is damaged or was not written by save_correction."
+        )
     try:
         prob = CorrectionProblem(
             **arrays,
-            sources=tuple(meta["sources"]),
-            target=meta["target"],
-            illuminant=meta["illuminant"],
-            training_name=meta["training"],
+            sources=tuple(sources),
+            target=names["target"],
+            illuminant=names["illuminant"],
+            training_name=names["training"],
         )
     except (TypeError, KeyError) as exc:
         raise SpectralDataError(f"{path}: incomplete problem ({exc}).") from exc
-    opts = dict(meta.get("options", {}))
+    opts = dict(opts)
+    degree = opts.get("degree", 2)
+    if isinstance(degree, bool) or not isinstance(degree, int | float) or degree != int(degree) or degree < 1:
+        raise SpectralDataError(f"{path}: option degree={degree!r}; a polynomial degree is an integer ≥ 1.")
+    degree = int(degree)
+    if M is not None and method in ("Cheung 2004", "Dyer 2017", "Finlayson 2015"):
+        k = prob.k
+        rows = k
+        if method == "Finlayson 2015":  # channels + the mixed products of each degree d ≤ degree
+            rows += sum(math.comb(k + d - 1, d) - k for d in range(2, degree + 1))
+        if M.shape != (rows, prob.m):
+            raise SpectralDataError(
+                f"{path}: param_M has shape {M.shape}; {method!r} on {k} channels needs ({rows}, {prob.m})."
+            )
     if method in ("Cheung 2004", "Dyer 2017") and M is not None:
         return Corrector(method, prob, lambda c: c @ M, {"M": M, **opts})
     if method == "Finlayson 2015" and M is not None:
-        degree = int(opts.get("degree", 2))
         return Corrector(
             method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, **opts}
         )
-    return CORRECTION_METHODS[method](prob, **opts)
+    try:
+        return CORRECTION_METHODS[method](prob, **opts)
+    except TypeError as exc:  # an option the method does not take
+        raise SpectralDataError(
+            f"{path}: options {sorted(opts)} do not fit {method!r} ({exc}); the file is damaged "
+            "or was written by another version."
+        ) from exc

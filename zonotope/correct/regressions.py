@@ -48,12 +48,20 @@ def root_polynomial_terms(responses, *, degree: int = 2) -> np.ndarray:
     return _terms_by_row(c.reshape(-1, c.shape[-1]), degree).T.reshape(*c.shape[:-1], -1)
 
 
+#: Products of root-polynomial terms stay below this (float64 overflows at ≈ 1.8e308); larger
+#: responses are scaled down first, which changes nothing since every term has degree 1.
+_PRODUCT_SAFE = 1e300
+
+
 def _terms_by_row(c: np.ndarray, degree: int) -> np.ndarray:
     """The root-polynomial terms of ``c (N, k)`` as ``(n_terms, N)``: every channel and product is a
     contiguous row, which keeps the products of photo-sized chunks cache-friendly."""
     if degree < 1:
         raise OptionError(f"degree={degree!r}: give a polynomial degree ≥ 1.")
     ct = np.maximum(np.ascontiguousarray(c.T), 0.0)  # (k, N)
+    peak = float(np.max(ct, initial=0.0, where=np.isfinite(ct)))
+    if peak > _PRODUCT_SAFE ** (1.0 / degree):  # products of `degree` channels would overflow;
+        return _terms_by_row(c / peak, degree) * peak  # every term is homogeneous of degree 1
     rows = [ct[i] for i in range(ct.shape[0])]
     for d in range(2, degree + 1):
         for combo in itertools.combinations_with_replacement(range(ct.shape[0]), d):

@@ -45,8 +45,14 @@ from .._errors import SpectralDataError
 from .._errors import float_array as float_array  # used as spectra.float_array by other modules
 from .._tol import GRID, NEGATIVE_NOISE
 
+#: The most wavelengths a grid built here may have: 20,000 steps of 0.02 nm cover 380–780 nm, five
+#: times finer than any spectroradiometer resolves; a finer step only multiplies memory (every
+#: spectral matrix, training set and solid grows with it) — 1e-6 nm would be 4·10⁸ points.
+GRID_POINTS_MAX = 20_001
+
 __all__ = [
     "CAMERAS",
+    "GRID_POINTS_MAX",
     "ILLUMINANTS",
     "OBSERVERS",
     "REFLECTANCES",
@@ -185,6 +191,9 @@ def common_shape(*curves: Curve, interval: float | None = None) -> colour.Spectr
     step = float(interval) if interval is not None else max(float(np.max(np.diff(w))) for w in arrays)
     if not step > 0:
         raise SpectralDataError(f"interval must be positive, got {interval}.")
+    if not math.isfinite(step):
+        raise SpectralDataError(f"interval must be a finite number of nm, got {interval}.")
+    _check_grid_size(start, end, step, "common_shape(interval=...)")
     lo = math.ceil(start / step - GRID) * step
     hi = math.floor(end / step + GRID) * step
     if hi - lo < step:
@@ -198,8 +207,26 @@ def common_shape(*curves: Curve, interval: float | None = None) -> colour.Spectr
     return colour.SpectralShape(lo, hi, step)
 
 
+def _check_grid_size(start: float, end: float, step: float, what: str) -> None:
+    """Refuse a grid of more than :data:`GRID_POINTS_MAX` wavelengths before it is built.
+
+    Raises
+    ------
+    SpectralDataError
+        Naming ``what``, the number of points and the finest step allowed over that range.
+    """
+    points = (end - start) / step + 1 if step > 0 else math.inf
+    if not points <= GRID_POINTS_MAX:
+        finest = (end - start) / (GRID_POINTS_MAX - 1)
+        raise SpectralDataError(
+            f"{what}: a {step:g} nm grid over {start:g}–{end:g} nm has {points:.3g} wavelengths "
+            f"(> GRID_POINTS_MAX = {GRID_POINTS_MAX}); use an interval of at least {finest:.2g} nm."
+        )
+
+
 def _grid(shape: colour.SpectralShape | Sequence[float] | np.ndarray) -> np.ndarray:
     if isinstance(shape, colour.SpectralShape):
+        _check_grid_size(float(shape.start), float(shape.end), float(shape.interval), "shape")
         return np.asarray(shape.wavelengths, dtype=np.float64)
     w = np.asarray(shape, dtype=np.float64)
     if w.ndim != 1 or w.size < 2 or not np.all(np.diff(w) > 0) or not np.all(np.isfinite(w)):
@@ -318,6 +345,11 @@ _REFLECTANCE_ALIASES = {
 
 
 def _resolve(name: str, table: Iterable[str], aliases: dict[str, str], kind: str) -> str:
+    if not isinstance(name, str):
+        raise SpectralDataError(
+            f"{kind} must be a built-in name or spectral data (colour MultiSpectralDistributions); "
+            f"got {type(name).__name__} {name!r:.40}."
+        )
     keys = {_key(k): k for k in table}
     k = _key(name)
     if k in keys:
@@ -433,6 +465,10 @@ def _float(cell, path: Path, where: str) -> float:
         ) from None
 
 
+#: A header cell naming the wavelength column (``wavelength``, ``Wavelength (nm)``, ``nm``, ``λ``).
+_WAVELENGTH_HEADER = re.compile(r"^\s*(wave\s*length|wl|nm|lambda|λ)\b", re.IGNORECASE)
+
+
 def read_spectral_csv(
     path: str | Path, *, name: str | None = None, allow_negative: bool = False
 ) -> colour.MultiSpectralDistributions:
@@ -483,6 +519,14 @@ def read_spectral_csv(
     header = None if all(_is_number(c) for c in rows[start]) else rows[start]
     first = start + (header is not None)
     width = len(rows[start])
+    above = rows[start - 1] if start else []
+    if header is None and len(above) >= 2 and _WAVELENGTH_HEADER.match(above[0]):
+        # a header whose width differs from the rows' would otherwise pass for a free-text preamble
+        raise SpectralDataError(
+            f"{path}: line {lines[start - 1]}: the header names {len(above)} columns "
+            f"({','.join(above)[:60]!r}) but the rows below have {width} values. Fix the header or the "
+            "rows; columns are never guessed."
+        )
     for r, n in zip(rows[first:], lines[first:]):
         if len(r) != width:
             raise SpectralDataError(
