@@ -13,6 +13,7 @@ from __future__ import annotations
 __all__ = [
     "EXPOSURE_NOMINAL",
     "EXPOSURE_RECIPROCAL",
+    "NEUTRAL_MIN",
     "NEUTRAL_MISMATCH",
     "NEUTRAL_XY_STEP",
     "STRIPPED_BITS_PER_PIXEL",
@@ -23,6 +24,11 @@ __all__ = [
     "TABLE_RING_ROUNDING",
     "WHITE_XY",
 ]
+
+#: Smallest channel of an as-shot neutral relative to its largest: the white-balance gain is the
+#: inverse, and 1/NEUTRAL_MIN = 1000 (10 stops) is far past any light (tungsten needs ≈ 2–4 on blue);
+#: smaller values are damaged metadata that would develop a colourless or clipped image.
+NEUTRAL_MIN = 1e-3
 
 #: ``isp develop --correction metamer`` warns when the file's AsShotNeutral and the camera's white
 #: under ``--illuminant`` (both green-normalised) differ by more than this in some channel. Measured

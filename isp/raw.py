@@ -16,14 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ._errors import InputFileNotFoundError, RawFormatError
-from ._tol import STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
+from ._tol import NEUTRAL_MIN, STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .cfa import check_cfa
 from .dng import DNGProfile, read_dng_tags
-
-#: Smallest channel of an as-shot neutral relative to its largest: the white-balance gain is the
-#: inverse, and 1/NEUTRAL_MIN = 1000 (10 stops) is far past any light (tungsten needs ≈ 2–4 on blue);
-#: smaller values are damaged metadata that would develop a colourless or clipped image.
-NEUTRAL_MIN = 1e-3
 
 __all__ = ["RawImage", "read_raw"]
 
