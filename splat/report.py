@@ -232,8 +232,9 @@ def _figure(out: Path, path: Path | None, title: str, caption: str, missing: str
     )
 
 
-def _coverage(render_dir: Path, k: int) -> float | None:
-    """Share of the view's pixels that at least one other camera's photograph sees, or None."""
+def _coverage(render_dir: Path, k: int | None) -> float | None:
+    """Share of the view's pixels that at least one photograph of a camera other than ``k`` (of any
+    camera when ``k`` is None) sees, or None when the render step wrote no counts."""
     import tifffile
 
     p = render_dir / "reprojected_count.tiff"
@@ -393,9 +394,10 @@ def _next(run: _Run, name: str, info: dict, answer: Path | None, coverage: float
             "brightest neutral surface, and the card gives this report a reference."
         )
     if coverage is not None and coverage < 0.5:
+        whose = "the other cameras" if info["kind"] != "novel" else "every camera"
         todo.append(
-            f"Take more photographs of this part of the scene with the other cameras: their photographs "
-            f"see {coverage:.0%} of this one; elsewhere their channels come from the model."
+            f"Take more photographs of this part of the scene with {whose}: photographs see "
+            f"{coverage:.0%} of this view; elsewhere its channels come from the model."
         )
     sat = (run.poses or {}).get("saturated", {}).get(name)
     if sat:
@@ -476,7 +478,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             "No development of this view.",
         )
     photo = _size(answer) if answer is not None else None
-    coverage = _coverage(rdir, k)
+    coverage = _coverage(rdir, k if photographed else None)
     check = None
     if answer is not None and photographed and run.correct is not None:
         check = card_check(
@@ -488,7 +490,8 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
         )
     made = _made(run, k, photo)
     if coverage is not None:
-        made += f" Other cameras' photographs see {coverage:.0%} of this view."
+        whose = "Other cameras' photographs" if photographed else "Photographs"
+        made += f" {whose} see {coverage:.0%} of this view."
     todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage))
     facts = (
         f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused)}</div>"
@@ -552,12 +555,12 @@ def _page(run: _Run) -> str:
     spec = run.spec
     n_photo = sum(1 for v in run.index.values() if v["kind"] != "novel")
     n_novel = len(run.index) - n_photo
-    method = _e(run.correct["method"]) if run.correct is not None else "no estimator yet"
+    method = f"corrected with {_e(run.correct['method'])}" if run.correct is not None else "not corrected yet"
     lead = (
         f"{n_photo} photograph{'s' if n_photo != 1 else ''}"
         + (f" and {n_novel} novel view{'s' if n_novel != 1 else ''}" if n_novel else "")
         + f" from {len(spec.cameras)} cameras ({', '.join(_e(c.folder) for c in spec.cameras)}), "
-        f"corrected with {method}. In each section the corrected image (left, the file to use) stands "
+        f"{method}. In each section the corrected image (left, the file to use) stands "
         "beside the camera's own development (right). Time: " + _times(run) + "."
     )
     nav = " ".join(f"<a href='#view-{i}'>{_e(n)}</a>" for i, n in enumerate(run.index))
