@@ -338,6 +338,16 @@ def _noise(run: _Run, name: str, fused: bool) -> str:
             f"render σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
             "<p>No per-pixel uncertainty map is written.</p>"
         )
+    if fused and f.get("reprojected_sigma"):  # a novel view corrected from the photographs
+        every = [
+            f"{float(x):.2g} ({_e(run.spec.cameras[j].folder)})" for j, x in enumerate(f["reprojected_sigma"])
+        ]
+        return (
+            "<p>Noise assumed (white = 1): the photographs reprojected here σ = "
+            f"{', '.join(every)}, from their error against each camera's own views; the model's render "
+            f"σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
+            "<p>No per-pixel uncertainty map is written.</p>"
+        )
     return (
         f"<p>Noise tolerance δ = {float(c['delta']):.3g} (white = 1): the "
         f"{_e(c['noise'].get('rule', ''))}; the model's training residual "

@@ -172,7 +172,7 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
-    assert "δ = 0.011" in sections[2]  # the novel view: no photograph, the render's tolerance
+    assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels
 
 
 def test_the_marked_card_is_measured_only_where_it_is(page):
@@ -269,3 +269,16 @@ def test_screenshot_shows_both_images(page, tmp_path):
     chroma = img.max(-1) - img.min(-1) > 60
     left, right = chroma[:, :700], chroma[:, 700:]
     assert left.mean() > 0.08 and right.mean() > 0.08
+
+
+def test_a_view_corrected_from_the_render_only(cap, tmp_path):
+    """Without a fused correction the answer is the render's, with the render's noise tolerance δ."""
+    from splat.report import report_html
+
+    spec = make_out(cap, tmp_path / "out")
+    name = "nikon/novel_000"
+    (tmp_path / "out" / "correct" / spec.out_stem(name) / "Prior_fused_sRGB.png").unlink()
+    index = json.loads((tmp_path / "out" / "render" / "index.json").read_text())
+    sec = _sections(report_html(spec, tmp_path / "out", index))[2]
+    assert re.search(r"<img[^>]* src='correct/nikon/novel_000/Prior_sRGB.png'", sec)
+    assert "from the model's render" in sec and "δ = 0.011" in sec
