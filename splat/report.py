@@ -290,7 +290,7 @@ def _times(run: _Run) -> str:
     return " · ".join(parts)
 
 
-def _made(run: _Run, k: int, photo: tuple[int, int] | None) -> str:
+def _made(run: _Run, photo: tuple[int, int] | None) -> str:
     spec = run.spec
     cams = []
     for c in spec.cameras:
@@ -498,7 +498,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             cdir / "raw_dng_XYZ.tiff",
             run.correct["white_XYZ"],
         )
-    made = _made(run, k, photo)
+    made = _made(run, photo)
     if coverage is not None:
         whose = "Other cameras' photographs" if photographed else "Photographs"
         made += f" {whose} see {coverage:.0%} of this view."
