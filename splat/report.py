@@ -378,10 +378,18 @@ def _reference(run: _Run, name: str, check: CardCheck | None) -> str:
         f"of this photograph), known L*a*b* {L:.1f}, {a:+.1f}, {b:+.1f}:</p>"
         "<table><tr><th>image</th><th>card mean L*a*b*</th><th>ΔE00</th></tr>"
         + "".join(rows)
-        + "</table><p>The card also set this camera's white, so its development is neutral there by "
-        "construction. One white card measures greys, not other colours: no gain on colours is "
-        "stated.</p>"
+        + f"</table><p>{_gain(check)}The card set the white of both images, and it is one grey patch: it "
+        "measures how neutral a white stays, not how accurate other colours are.</p>"
     )
+
+
+def _gain(check: CardCheck) -> str:
+    """The corrected image's ΔE00 on the card as a multiple of the camera development's, when both exist
+    and the latter is not ~0 (a ratio to nothing says nothing)."""
+    d = check.delta_E
+    if "corrected" not in d or "camera" not in d or d["camera"] < 0.05:
+        return ""
+    return f"On the card the corrected image's ΔE00 is {d['corrected'] / d['camera']:.2f}× the camera's. "
 
 
 def _next(run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None) -> list[str]:

@@ -183,6 +183,23 @@ def test_the_marked_card_is_measured_only_where_it_is(page):
     rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
     assert float(rows["camera's development (right)"]) == pytest.approx(0, abs=0.01)
     assert float(rows["corrected (left)"]) > 0.3
+    assert "The card set the white of both images" in card and "× the camera's" not in card  # 0: no ratio
+
+
+def test_the_card_ratio_when_the_camera_misses_it(cap, tmp_path):
+    import tifffile
+
+    from splat.report import report_html
+
+    spec = make_out(cap, tmp_path / "out")
+    p = tmp_path / "out" / "correct" / spec.out_stem(CARD) / "raw_dng_XYZ.tiff"
+    cam = tifffile.imread(p)
+    cam[BOX[1] : BOX[3], BOX[0] : BOX[2]] *= TINT**2  # twice the corrected image's tint
+    tifffile.imwrite(p, cam, photometric="minisblack")
+    index = json.loads((tmp_path / "out" / "render" / "index.json").read_text())
+    card = _sections(report_html(spec, tmp_path / "out", index))[0]
+    ratio = float(re.search(r"ΔE00 is ([0-9.]+)× the camera's", card).group(1))
+    assert 0.4 < ratio < 0.6
 
 
 def test_card_check_against_colour_science(cap, tmp_path):
