@@ -90,7 +90,9 @@ section.photo h2{font-size:19px;margin:4px 0 8px}
 section.photo h2 small{font-weight:normal;color:#555}
 .pair{display:grid;grid-template-columns:1fr 1fr;gap:14px;align-items:start}
 .pair figure{margin:0}
-.pair img{display:block;width:100%;height:auto;max-height:48vh;object-fit:contain;background:#f3f3f3}
+.frame{position:relative;margin:0 auto}
+.frame img{display:block;width:100%;height:100%}
+span.card{position:absolute;outline:2px solid #d00;box-shadow:0 0 0 3px rgba(255,255,255,.8)}
 img.small{image-rendering:pixelated}
 figcaption{font-size:14px;margin-top:4px}
 figcaption b{display:block}
@@ -217,18 +219,34 @@ def _size(p: Path) -> tuple[int, int] | None:
         return None
 
 
-def _figure(out: Path, path: Path | None, title: str, caption: str, missing: str) -> str:
+def _figure(
+    out: Path, path: Path | None, title: str, caption: str, missing: str, *, card=None, base=None
+) -> str:
+    """One image of a pair, as large as fits half the page and 48 % of the window's height; ``card``
+    (x0, y0, x1, y1 in an image of size ``base``, W × H) is outlined on it."""
     if path is None or not path.is_file():
         return (
             f"<figure><div class='missing'>{_e(missing)}</div>"
             f"<figcaption><b>{_e(title)}</b></figcaption></figure>"
         )
     size = _size(path)
-    cls = " class='small'" if size is not None and size[0] < 600 else ""
-    dims = f" ({size[0]}×{size[1]} px)" if size is not None else ""
+    if size is None:
+        return f"<figure><div class='missing'>{_e(path.name)} is not a readable image.</div></figure>"
+    W, H = size
+    cls = " class='small'" if W < 600 else ""
+    mark = ""
+    if card is not None:
+        bw, bh = base or size
+        x0, y0, x1, y1 = (c * f for c, f in zip(card, (W / bw, H / bh, W / bw, H / bh)))
+        mark = (
+            f"<span class='card' title='marked white card' style='left:{100 * x0 / W:.3f}%;"
+            f"top:{100 * y0 / H:.3f}%;width:{100 * (x1 - x0) / W:.3f}%;height:{100 * (y1 - y0) / H:.3f}%'>"
+            "</span>"
+        )
+    frame = f"aspect-ratio:{W}/{H};width:min(100%,calc(48vh*{W}/{H}))"
     return (
-        f"<figure><img{cls} src='{_src(out, path)}' alt='{_e(title)}'><figcaption><b>{_e(title)}{dims}</b>"
-        f"{caption}</figcaption></figure>"
+        f"<figure><div class='frame' style='{frame}'><img{cls} src='{_src(out, path)}' alt='{_e(title)}'>"
+        f"{mark}</div><figcaption><b>{_e(title)} ({W}×{H} px)</b>{caption}</figcaption></figure>"
     )
 
 
@@ -374,8 +392,8 @@ def _reference(run: _Run, name: str, check: CardCheck | None) -> str:
             )
     L, a, b = np.round(check.expected_Lab, 1) + 0.0
     return (
-        f"<p>Marked white card (reflectance {check.reflectance:g}, box {list(run.spec.white.box)} px "
-        f"of this photograph), known L*a*b* {L:.1f}, {a:+.1f}, {b:+.1f}:</p>"
+        f"<p>Marked white card (outlined in red; reflectance {check.reflectance:g}, box "
+        f"{list(run.spec.white.box)} px of this photograph), known L*a*b* {L:.1f}, {a:+.1f}, {b:+.1f}:</p>"
         "<table><tr><th>image</th><th>card mean L*a*b*</th><th>ΔE00</th></tr>"
         + "".join(rows)
         + f"</table><p>{_gain(check)}The card set the white of both images, and it is one grey patch: it "
@@ -476,25 +494,6 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
         how = f"{_e(run.correct['method'])}, from the model's render."
     else:
         how = ""
-    left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.")
-    if photographed:
-        right_p = cdir / "raw_dng_sRGB.png"
-        right = _figure(
-            out,
-            right_p,
-            f"The camera's own development ({info['camera']})",
-            " This RAW file, its DNG colour matrix, the same white.",
-            "No camera development: the RAW file carries no colour matrix.",
-        )
-    else:
-        right_p = cdir / f"dng_{spec.label(k)}_sRGB.png"
-        right = _figure(
-            out,
-            right_p,
-            f"The model seen as {info['camera']}",
-            " Its channels for this camera, developed with that camera's colour matrix.",
-            "No development of this view.",
-        )
     photo = _size(answer) if answer is not None else None
     coverage = _coverage(rdir, k if photographed else None)
     check = None
@@ -505,6 +504,28 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff")),
             cdir / "raw_dng_XYZ.tiff",
             run.correct["white_XYZ"],
+        )
+    right_p = cdir / ("raw_dng_sRGB.png" if photographed else f"dng_{spec.label(k)}_sRGB.png")
+    card = {}
+    if check is not None:  # the box is given in the RAW file's pixels: its development's grid
+        card = {"card": spec.white.box, "base": _size(right_p) if right_p.is_file() else photo}
+    left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.", **card)
+    if photographed:
+        right = _figure(
+            out,
+            right_p,
+            f"The camera's own development ({info['camera']})",
+            " This RAW file, its DNG colour matrix, the same white.",
+            "No camera development: the RAW file carries no colour matrix.",
+            **card,
+        )
+    else:
+        right = _figure(
+            out,
+            right_p,
+            f"The model seen as {info['camera']}",
+            " Its channels for this camera, developed with that camera's colour matrix.",
+            "No development of this view.",
         )
     made = _made(run, photo)
     if coverage is not None:

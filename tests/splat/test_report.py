@@ -179,6 +179,9 @@ def test_the_marked_card_is_measured_only_where_it_is(page):
     _out, _, html = page
     card, other, _novel = _sections(html)
     assert "<table>" in card and "<table>" not in other
+    marks = re.findall(r"<span class='card'[^>]*style='([^']+)'", card)
+    assert len(marks) == 2 and "<span class='card'" not in other  # outlined on both images of its pair
+    assert marks[0].startswith(f"left:{100 * BOX[0] / 48:.3f}%;top:{100 * BOX[1] / 36:.3f}%")
     assert f"the marked white card is in <code>{CARD}</code>" in other
     rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
     assert float(rows["camera's development (right)"]) == pytest.approx(0, abs=0.01)
