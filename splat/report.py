@@ -71,7 +71,7 @@ DIAGNOSTICS = (
     ),
     (
         "score.json",
-        "Score against the simulator's ground truth (written by `splat score`): exists only for "
+        "Score against the simulator's ground truth (written by splat.scoring.score): exists only for "
         "simulated captures; the pipeline never reads it and nothing above is computed from it.",
     ),
 )
