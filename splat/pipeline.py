@@ -22,7 +22,7 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
            also ``<method>_fused_XYZ.tiff`` / ``_sRGB.tiff`` / ``.png`` (:mod:`splat.fusion`: the view's
            own channels and the other cameras' reprojected photographs — the better estimate wherever
            the view was photographed), ``correct/fusion.json`` (their noise levels)
-report     ``report.html``
+report     ``report.html`` (:mod:`splat.report`)
 =========  ==========================================================================================
 
 ``<folder>`` is the camera's folder, or ``camera<k>-<name>`` for a folder outside the capture
@@ -1616,48 +1616,17 @@ def report_step(
     config: PipelineConfig = PipelineConfig(),
     progress: ProgressCallback | None = None,
 ) -> Path:
-    """Write ``OUT/report.html``: summaries of every step and, per rendered view, the corrected image,
-    each camera's DNG-matrix development, the PCA false colour (and ``score.json`` if a scoring run
-    left one)."""
-    import html
+    """Write ``OUT/report.html`` (:mod:`splat.report`): per photograph the corrected image beside the
+    camera's own development, the marked card's ΔE00 where there is one, what was done, how long it took
+    and what to do next; the step summaries collapsed below."""
+    from .report import write_report
 
     spec, ws = _workspace(capture, out, config, "report", lambda spec: {})
     out = ws.root
-    parts = [
-        "<!doctype html><meta charset='utf-8'><title>splat capture report</title>",
-        "<style>body{font-family:sans-serif} img{width:240px;image-rendering:pixelated;margin:2px}"
-        " figure{display:inline-block;margin:4px} pre{background:#f4f4f4;padding:6px}</style>",
-        f"<h1>splat: {html.escape(str(spec.root))}</h1>",
-    ]
-    for step in ("poses", "train", "correct"):
-        p = out / step / "summary.json"
-        if p.is_file():
-            doc = read_json(p)
-            doc.pop("exposures", None)
-            doc.pop("views", None) if step == "correct" else None
-            parts.append(f"<h2>{step}</h2><pre>{html.escape(json.dumps(doc, indent=1))}</pre>")
-    if (out / "score.json").is_file():
-        parts.append(
-            "<h2>score (ground truth, computed outside the pipeline)</h2><pre>"
-            + html.escape((out / "score.json").read_text())
-            + "</pre>"
-        )
     index = (
         read_index(spec, out / "render" / "index.json") if (out / "render" / "index.json").is_file() else {}
     )
-    for name, info in index.items():
-        parts.append(f"<h3>{html.escape(name)} ({info['kind']})</h3>")
-        for base, label in ((out / "correct" / info["dir"], None), (out / "render" / info["dir"], None)):
-            for png in sorted(base.glob("*.png")):
-                rel = png.relative_to(out).as_posix()
-                parts.append(
-                    f"<figure><img src='{html.escape(rel)}'><figcaption>{html.escape(png.stem)}"
-                    "</figcaption></figure>"
-                )
-            _ = label
-    path = out / "report.html"
-    _atomic(path, lambda p: p.write_text("\n".join(parts)))
-    return path
+    return write_report(spec, out, index, default_steps=PipelineConfig.steps)
 
 
 def run(

@@ -1,0 +1,635 @@
+"""The capture report ``OUT/report.html``: per photograph, the corrected image beside the camera's own
+development, how far a marked reference lies from its known colour, what was done, how long it took and
+what to do next; the step summaries collapsed below, each explained in a sentence.
+
+The page reads only what the pipeline wrote into ``OUT`` (and the capture's ``[white]`` card, which the
+pipeline used too): a figure computed from a simulator's ground truth (``score.json``) appears only in the
+diagnostics, labelled as such. Images are referenced relatively inside ``OUT``; the page needs no network
+and no JavaScript (collapsed parts are ``<details>`` elements).
+
+Why: a photographer opening the folder must see at once which image is the answer, how good it is where
+that can be known, and what to do to make it better.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import quote
+
+import numpy as np
+
+from .capture import CaptureSpec
+from .workspace import read_json
+
+__all__ = ["DIAGNOSTICS", "CardCheck", "card_check", "report_html", "write_report"]
+
+#: The JSON files of ``OUT`` shown collapsed in the report, each with the sentence that explains it.
+DIAGNOSTICS = (
+    (
+        "poses/summary.json",
+        "Poses: how many photographs of each camera were placed in 3-D and from what source (COLMAP on "
+        "the previews, or the capture's own poses), each photograph's relative exposure and its "
+        "saturated or dead pixels.",
+    ),
+    (
+        "train/summary.json",
+        "Training: the Gaussian model fitted to every camera's RAW mosaics — steps, working size, "
+        "Gaussians, the loss at the start and the end, and the residual noise per channel.",
+    ),
+    (
+        "render/index.json",
+        "Rendered views: each view's camera, kind (held-out photograph, photograph, novel view) and "
+        "folder under render/ and correct/.",
+    ),
+    (
+        "correct/summary.json",
+        "Correction: the estimator, the noise tolerance δ and the rule that chose it, the white scale "
+        "and the scene white (Y = 1).",
+    ),
+    (
+        "correct/white.json",
+        "White scale: per camera, the divisor that puts raw responses on the scale where a perfect white "
+        "gives 1, and how it was found (a marked card, or the brightest neutral surface).",
+    ),
+    (
+        "correct/delta.json",
+        "Noise tolerance δ: how far a sample of the rendered responses lies from the colours real "
+        "surfaces can give (the object-colour solid), and the percentile that set δ.",
+    ),
+    (
+        "correct/fusion.json",
+        "Noise levels of the fused correction: each photograph's own sensor noise, the error of every "
+        "camera's photographs reprojected into another view, and the render's error.",
+    ),
+    (
+        "settings.json",
+        "Settings record: per step, the options and inputs its results were made from; a change "
+        "recomputes that step and the ones after it.",
+    ),
+    (
+        "score.json",
+        "Score against the simulator's ground truth (written by splat.scoring.score): exists only for "
+        "simulated captures; the pipeline never reads it and nothing above is computed from it.",
+    ),
+)
+
+_KIND = {"holdout": "photograph, held out of training", "view": "photograph", "novel": "novel view"}
+
+_CSS = """
+body{font:15px/1.4 system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;max-width:1400px;
+ padding:0 20px;color:#1d1d1f;background:#fff}
+header{padding:10px 0 6px;border-bottom:1px solid #ddd}
+header h1{font-size:22px;margin:0 0 4px}
+header p{margin:2px 0}
+nav a{margin-right:10px}
+section.photo{padding:10px 0 18px;border-bottom:1px solid #ddd}
+section.photo h2{font-size:19px;margin:4px 0 8px}
+section.photo h2 small{font-weight:normal;color:#555}
+.pair{display:grid;grid-template-columns:1fr 1fr;gap:14px;align-items:start}
+.pair figure{margin:0}
+.frame{position:relative;margin:0 auto}
+.frame img{display:block;width:100%;height:100%}
+span.card{position:absolute;outline:2px solid #d00;box-shadow:0 0 0 3px rgba(255,255,255,.8)}
+img.small{image-rendering:pixelated}
+figcaption{font-size:14px;margin-top:4px}
+figcaption b{display:block}
+.missing{display:flex;align-items:center;justify-content:center;min-height:200px;background:#f3f3f3;
+ color:#555;padding:12px;text-align:center}
+.facts{display:grid;grid-template-columns:1fr 1fr;gap:14px;margin:8px 0 4px}
+.facts h3{font-size:15px;margin:6px 0 2px}
+.facts p{margin:2px 0}
+.facts ul{margin:0;padding-left:1.2em}
+table{border-collapse:collapse;margin:2px 0}
+td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
+th{background:#f3f3f3}
+td:first-child,th:first-child{text-align:left}
+code{font-size:13px;background:#f3f3f3;padding:0 3px}
+details{margin:6px 0}
+summary{cursor:pointer}
+pre{background:#f6f6f6;padding:8px;overflow:auto;font-size:12px;max-height:480px}
+.others figure{display:inline-block;margin:4px 8px 4px 0;vertical-align:top;width:300px}
+.others img{width:300px;height:auto}
+"""
+
+
+@dataclass
+class CardCheck:
+    """ΔE00 (CIE 2000) of the marked white card's mean colour against its known colour (the card's
+    reflectance × the scene white), in the corrected image and in the camera's own development.
+
+    Attributes
+    ----------
+    reflectance : float
+    expected_Lab : ndarray of shape (3,)
+    Lab, delta_E : dict
+        ``"corrected"`` / ``"camera"`` → the box's mean L*a*b* (3,) and its ΔE00; a key is absent when
+        that image is not in ``OUT``.
+    """
+
+    reflectance: float
+    expected_Lab: np.ndarray
+    Lab: dict = field(default_factory=dict)
+    delta_E: dict = field(default_factory=dict)
+
+
+def _read_tiff(path: Path) -> np.ndarray:
+    import tifffile
+
+    return np.asarray(tifffile.imread(path), np.float64)
+
+
+def card_check(spec: CaptureSpec, name: str, corrected: Path, camera: Path, white_XYZ) -> CardCheck | None:
+    """The marked card of ``[white] method = "patch"`` seen in view ``name``, or None when no card was
+    marked there.
+
+    Parameters
+    ----------
+    corrected, camera : Path
+        Linear XYZ images (H, W, 3), scene white at Y = 1: the corrected photograph and the camera's own
+        development of its RAW file (whose pixel grid the box is given in; an image of another size
+        gets the box scaled to it).
+    white_XYZ : array_like of shape (3,)
+
+    Why: the card is the one reference a real capture has; its colour is known from its reflectance
+    alone, without any ground truth.
+    """
+    import colour
+
+    w = spec.white
+    if w.method != "patch" or w.image is None or Path(w.image).as_posix() != name:
+        return None
+    white_XYZ = np.asarray(white_XYZ, float)
+    xy = colour.XYZ_to_xy(white_XYZ)
+    expected = np.asarray(colour.XYZ_to_Lab(w.reflectance * white_XYZ, illuminant=xy))
+    check = CardCheck(w.reflectance, expected)
+    base = _read_tiff(camera).shape[:2] if camera.is_file() else None
+    for key, path in (("corrected", corrected), ("camera", camera)):
+        if not path.is_file():
+            continue
+        img = _read_tiff(path)
+        H, W = img.shape[:2]
+        h0, w0 = base if base is not None else (H, W)
+        x0, y0, x1, y1 = w.box
+        sx, sy = W / w0, H / h0
+        box = img[
+            int(y0 * sy) : max(int(np.ceil(y1 * sy)), int(y0 * sy) + 1),
+            int(x0 * sx) : max(int(np.ceil(x1 * sx)), int(x0 * sx) + 1),
+        ]
+        mean = box.reshape(-1, 3).mean(0)
+        lab = np.asarray(colour.XYZ_to_Lab(mean, illuminant=xy))
+        check.Lab[key] = lab
+        check.delta_E[key] = float(colour.delta_E(lab, expected, method="CIE 2000"))
+    return check
+
+
+# ------------------------------------------------------------------------------------------- helpers
+
+
+def _e(x) -> str:
+    return html.escape(str(x))
+
+
+def _src(out: Path, p: Path) -> str:
+    return _e(quote(p.relative_to(out).as_posix()))
+
+
+def _rel(out: Path, p: Path) -> str:
+    return f"<code>{_e(p.relative_to(out).as_posix())}</code>"
+
+
+def _duration(seconds) -> str:
+    s = float(seconds)
+    if s < 60:
+        return f"{s:.0f} s" if s >= 10 else f"{s:.1f} s"
+    if s < 3600:
+        return f"{int(s // 60)} min {int(s % 60):02d} s"
+    return f"{int(s // 3600)} h {int(s % 3600 // 60):02d} min"
+
+
+def _size(p: Path) -> tuple[int, int] | None:
+    from PIL import Image
+
+    try:
+        with Image.open(p) as im:
+            return im.size
+    except OSError:
+        return None
+
+
+def _figure(
+    out: Path, path: Path | None, title: str, caption: str, missing: str, *, card=None, base=None
+) -> str:
+    """One image of a pair, as large as fits half the page and 48 % of the window's height; ``card``
+    (x0, y0, x1, y1 in an image of size ``base``, W × H) is outlined on it."""
+    if path is None or not path.is_file():
+        return (
+            f"<figure><div class='missing'>{_e(missing)}</div>"
+            f"<figcaption><b>{_e(title)}</b></figcaption></figure>"
+        )
+    size = _size(path)
+    if size is None:
+        return f"<figure><div class='missing'>{_e(path.name)} is not a readable image.</div></figure>"
+    W, H = size
+    cls = " class='small'" if W < 600 else ""
+    mark = ""
+    if card is not None:
+        bw, bh = base or size
+        x0, y0, x1, y1 = (c * f for c, f in zip(card, (W / bw, H / bh, W / bw, H / bh)))
+        mark = (
+            f"<span class='card' title='marked white card' style='left:{100 * x0 / W:.3f}%;"
+            f"top:{100 * y0 / H:.3f}%;width:{100 * (x1 - x0) / W:.3f}%;height:{100 * (y1 - y0) / H:.3f}%'>"
+            "</span>"
+        )
+    frame = f"aspect-ratio:{W}/{H};width:min(100%,calc(48vh*{W}/{H}))"
+    return (
+        f"<figure><div class='frame' style='{frame}'><img{cls} src='{_src(out, path)}' alt='{_e(title)}'>"
+        f"{mark}</div><figcaption><b>{_e(title)} ({W}×{H} px)</b>{caption}</figcaption></figure>"
+    )
+
+
+def _coverage(render_dir: Path, k: int | None) -> float | None:
+    """Share of the view's pixels that at least one photograph of a camera other than ``k`` (of any
+    camera when ``k`` is None) sees, or None when the render step wrote no counts."""
+    import tifffile
+
+    p = render_dir / "reprojected_count.tiff"
+    if not p.is_file():
+        return None
+    try:
+        count = tifffile.memmap(p, mode="r")
+    except (ValueError, OSError):
+        count = tifffile.imread(p)
+    count = np.asarray(count[::2, ::2])  # every 4th pixel: a share to the percent
+    others = [c for c in range(count.shape[-1]) if c != k]
+    return float((count[..., others] > 0).any(-1).mean()) if others else None
+
+
+def _fmt_sigma(s) -> str:
+    return "(" + ", ".join(f"{float(x):.2g}" for x in np.ravel(s)) + ")"
+
+
+def _json_or_none(path: Path):
+    return read_json(path) if path.is_file() else None
+
+
+# ---------------------------------------------------------------------------------------------- page
+
+
+@dataclass
+class _Run:
+    """What the report reads once from ``OUT``."""
+
+    spec: CaptureSpec
+    out: Path
+    poses: dict | None
+    train: dict | None
+    correct: dict | None
+    fusion: dict | None
+    index: dict
+    default_steps: int
+
+    @property
+    def mname(self) -> str | None:
+        return None if self.correct is None else str(self.correct["method"]).replace(" ", "")
+
+
+def _times(run: _Run) -> str:
+    parts = []
+    for step, doc in (("poses", run.poses), ("train", run.train)):
+        if doc is not None and doc.get("seconds") is not None:
+            parts.append(f"{step} {_duration(doc['seconds'])}")
+        else:
+            parts.append(f"{step} not run")
+    for step, done in (("render", bool(run.index)), ("correct", run.correct is not None)):
+        parts.append(f"{step} {'time not recorded' if done else 'not run'}")
+    return " · ".join(parts)
+
+
+def _made(run: _Run, photo: tuple[int, int] | None) -> str:
+    spec = run.spec
+    cams = []
+    for c in spec.cameras:
+        reg = (run.poses or {}).get("cameras", {}).get(c.folder)
+        cams.append(f"{_e(c.folder)} ({reg['registered']} of {reg['views']} placed)" if reg else _e(c.folder))
+    bits = [f"{len(spec.cameras)} cameras: " + ", ".join(cams) + "."]
+    if run.train is not None:
+        W, H = run.train.get("size", [None, None])
+        bits.append(
+            f"Model: {run.train.get('gaussians')} Gaussians, {run.train.get('steps')} training steps on "
+            f"{run.train.get('views')} photographs at {W}×{H} px, {run.train.get('channels')} channels."
+        )
+    if photo is not None:
+        bits.append(f"This output: {photo[0]}×{photo[1]} px.")
+    if run.correct is not None:
+        bits.append(
+            f"Colour: {_e(run.correct['method'])} estimator for the {_e(spec.observer)}, white from "
+            + (
+                "the marked card"
+                if spec.white.method == "patch"
+                else "the brightest neutral surface (assumed a perfect white)"
+            )
+            + "."
+        )
+    return " ".join(bits)
+
+
+def _noise(run: _Run, name: str, fused: bool) -> str:
+    c = run.correct
+    if c is None:
+        return "Not corrected yet."
+    f = run.fusion or {}
+    v = f.get("views", {}).get(name)
+    if fused and v is not None:
+        k = v["camera"]
+        others = [
+            f"{float(s):.2g} ({_e(run.spec.cameras[j].folder)})"
+            for j, s in enumerate(f.get("reprojected_sigma") or [])
+            if j != k
+        ]
+        return (
+            f"<p>Noise assumed (white = 1): own channels σ = {_fmt_sigma(v['own_sigma'])}, measured in "
+            "this RAW file; the other cameras' photographs reprojected here σ = "
+            f"{', '.join(others) or 'none'}, from their error against each camera's own views; the model's "
+            f"render σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
+            "<p>No per-pixel uncertainty map is written.</p>"
+        )
+    if fused and f.get("reprojected_sigma"):  # a novel view corrected from the photographs
+        every = [
+            f"{float(x):.2g} ({_e(run.spec.cameras[j].folder)})" for j, x in enumerate(f["reprojected_sigma"])
+        ]
+        return (
+            "<p>Noise assumed (white = 1): the photographs reprojected here σ = "
+            f"{', '.join(every)}, from their error against each camera's own views; the model's render "
+            f"σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
+            "<p>No per-pixel uncertainty map is written.</p>"
+        )
+    return (
+        f"<p>Noise tolerance δ = {float(c['delta']):.3g} (white = 1): the "
+        f"{_e(c['noise'].get('rule', ''))}; the model's training residual "
+        f"{float(c.get('training_residual', float('nan'))):.2g}.</p>"
+        "<p>No per-pixel uncertainty map is written.</p>"
+    )
+
+
+def _reference(run: _Run, name: str, check: CardCheck | None) -> str:
+    if check is None:
+        if run.spec.white.method == "patch":
+            return (
+                "<p>No reference in this photograph (the marked white card is in "
+                f"<code>{_e(run.spec.white.image)}</code>): accuracy here is not measured.</p>"
+            )
+        return "<p>No reference in the capture (no marked white card): accuracy is not measured.</p>"
+    rows = []
+    for key, label in (("corrected", "corrected (left)"), ("camera", "camera's development (right)")):
+        if key in check.delta_E:
+            L, a, b = np.round(check.Lab[key], 1) + 0.0  # no "-0.0"
+            rows.append(
+                f"<tr><td>{label}</td><td>{L:.1f}, {a:+.1f}, {b:+.1f}</td>"
+                f"<td>{check.delta_E[key]:.2f}</td></tr>"
+            )
+    L, a, b = np.round(check.expected_Lab, 1) + 0.0
+    return (
+        f"<p>Marked white card (outlined in red; reflectance {check.reflectance:g}, box "
+        f"{list(run.spec.white.box)} px of this photograph), known L*a*b* {L:.1f}, {a:+.1f}, {b:+.1f}:</p>"
+        "<table><tr><th>image</th><th>card mean L*a*b*</th><th>ΔE00</th></tr>"
+        + "".join(rows)
+        + f"</table><p>{_gain(check)}The card set the white of both images, and it is one grey patch: it "
+        "measures how neutral a white stays, not how accurate other colours are.</p>"
+    )
+
+
+def _gain(check: CardCheck) -> str:
+    """The corrected image's ΔE00 on the card as a multiple of the camera development's, when both exist
+    and the latter is not ~0 (a ratio to nothing says nothing)."""
+    d = check.delta_E
+    if "corrected" not in d or "camera" not in d or d["camera"] < 0.05:
+        return ""
+    return f"On the card the corrected image's ΔE00 is {d['corrected'] / d['camera']:.2f}× the camera's. "
+
+
+def _next(run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None) -> list[str]:
+    todo = []
+    if answer is not None:
+        tiff = answer.with_suffix(".tiff")
+        xyz = answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff"))
+        todo.append(
+            f"Use {_rel(run.out, tiff)} (16-bit sRGB) or, for further editing, {_rel(run.out, xyz)} "
+            "(linear XYZ, scene white Y = 1)."
+        )
+    else:
+        todo.append("Run <code>splat correct</code> (or <code>splat run</code>) to correct this view.")
+    if info["kind"] == "novel":
+        todo.append("This view was not photographed: for accurate colour use the photographs' sections.")
+    if run.spec.white.method != "patch":
+        todo.append(
+            'Mark a white card in <code>capture.toml</code> (<code>[white] method = "patch"</code>, '
+            "<code>image</code>, <code>box</code>, <code>reflectance</code>): the white is now the "
+            "brightest neutral surface, and the card gives this report a reference."
+        )
+    if coverage is not None and coverage < 0.5:
+        whose = "the other cameras" if info["kind"] != "novel" else "every camera"
+        todo.append(
+            f"Take more photographs of this part of the scene with {whose}: photographs see "
+            f"{coverage:.0%} of this view; elsewhere its channels come from the model."
+        )
+    sat = (run.poses or {}).get("saturated", {}).get(name)
+    if sat:
+        todo.append(f"Expose less: {sat} pixels of this photograph are saturated.")
+    steps = (run.train or {}).get("steps")
+    if steps is not None and steps < run.default_steps:
+        todo.append(f"Train longer (<code>--steps {run.default_steps}</code>): the model had {steps} steps.")
+    return todo
+
+
+def _others(run: _Run, cdir: Path, rdir: Path, used: set) -> str:
+    figs = []
+    m = run.mname
+    candidates = []
+    if m is not None:
+        candidates.append(
+            (cdir / f"{m}_sRGB.png", "Corrected from the model's render alone (no photograph).")
+        )
+    for k, c in enumerate(run.spec.cameras):
+        candidates.append(
+            (
+                cdir / f"dng_{run.spec.label(k)}_sRGB.png",
+                f"The model's {c.folder} channels developed with that camera's colour matrix.",
+            )
+        )
+    candidates.append((rdir / "pca.png", "False colour of the model's channels (their 3 main components)."))
+    for p, text in candidates:
+        if p.is_file() and p not in used:
+            figs.append(
+                f"<figure><img class='small' src='{_src(run.out, p)}' alt='{_e(p.name)}'><figcaption>"
+                f"{_e(text)} {_rel(run.out, p)}</figcaption></figure>"
+            )
+    if not figs:
+        return ""
+    return (
+        f"<details class='others'><summary>Other images of this view ({len(figs)})</summary>"
+        f"{''.join(figs)}</details>"
+    )
+
+
+def _section(run: _Run, i: int, name: str, info: dict) -> str:
+    spec, out = run.spec, run.out
+    cdir, rdir = out / "correct" / info["dir"], out / "render" / info["dir"]
+    k = spec.camera_index(info["camera"])
+    m = run.mname
+    answer, fused = None, False
+    if m is not None:
+        for stem, is_fused in ((f"{m}_fused", True), (m, False)):
+            if (cdir / f"{stem}_sRGB.png").is_file():
+                answer, fused = cdir / f"{stem}_sRGB.png", is_fused
+                break
+    photographed = info["kind"] != "novel"
+    if fused and photographed:
+        how = f"{_e(run.correct['method'])}, from this RAW file and the other cameras' photographs."
+    elif fused:
+        how = f"{_e(run.correct['method'])}, from the photographs reprojected into this view."
+    elif answer is not None:
+        how = f"{_e(run.correct['method'])}, from the model's render."
+    else:
+        how = ""
+    photo = _size(answer) if answer is not None else None
+    coverage = _coverage(rdir, k if photographed else None)
+    check = None
+    if answer is not None and photographed and run.correct is not None:
+        check = card_check(
+            spec,
+            name,
+            answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff")),
+            cdir / "raw_dng_XYZ.tiff",
+            run.correct["white_XYZ"],
+        )
+    right_p = cdir / ("raw_dng_sRGB.png" if photographed else f"dng_{spec.label(k)}_sRGB.png")
+    card = {}
+    if check is not None:  # the box is given in the RAW file's pixels: its development's grid
+        card = {"card": spec.white.box, "base": _size(right_p) if right_p.is_file() else photo}
+    left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.", **card)
+    if photographed:
+        right = _figure(
+            out,
+            right_p,
+            f"The camera's own development ({info['camera']})",
+            " This RAW file, its DNG colour matrix, the same white.",
+            "No camera development: the RAW file carries no colour matrix.",
+            **card,
+        )
+    else:
+        right = _figure(
+            out,
+            right_p,
+            f"The model seen as {info['camera']}",
+            " Its channels for this camera, developed with that camera's colour matrix.",
+            "No development of this view.",
+        )
+    made = _made(run, photo)
+    if coverage is not None:
+        whose = "Other cameras' photographs" if photographed else "Photographs"
+        made += f" {whose} see {coverage:.0%} of this view."
+    todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage))
+    facts = (
+        f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused)}</div>"
+        f"<div><h3>Next</h3><ul>{todo}</ul><h3>What was done</h3><p>{made}</p>"
+        f"<h3>Time</h3><p>{_times(run)}</p></div>"
+    )
+    used = {p for p in (answer, right_p) if p is not None}
+    return (
+        f"<section class='photo' id='view-{i}'><h2>{_e(name)} "
+        f"<small>{_e(_KIND.get(info['kind'], info['kind']))}</small></h2>"
+        f"<div class='pair'>{left}{right}</div><div class='facts'>{facts}</div>"
+        f"{_others(run, cdir, rdir, used)}</section>"
+    )
+
+
+def _diagnostics(out: Path) -> str:
+    parts = ["<section id='diagnostics'><h2>Diagnostics</h2>"]
+    for rel, text in DIAGNOSTICS:
+        p = out / rel
+        if not p.is_file():
+            continue
+        try:
+            body = json.dumps(json.loads(p.read_text()), indent=1)
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            body = "(not readable as JSON)"
+        parts.append(
+            f"<details><summary><code>{_e(rel)}</code> — {_e(text)}</summary><pre>{_e(body)}</pre></details>"
+        )
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def report_html(spec: CaptureSpec, out: str | Path, index: dict, *, default_steps: int = 3000) -> str:
+    """The report page of the run in ``out`` (see the module notes).
+
+    Parameters
+    ----------
+    spec : CaptureSpec
+    out : path
+        The run's output folder; image sources are relative to it.
+    index : dict
+        The checked render index (view name → {camera, kind, dir}); empty when nothing was rendered.
+    default_steps : int
+        Training steps below which the page advises training longer (the pipeline's default).
+    """
+    out = Path(out)
+    run = _Run(
+        spec,
+        out,
+        _json_or_none(out / "poses" / "summary.json"),
+        _json_or_none(out / "train" / "summary.json"),
+        _json_or_none(out / "correct" / "summary.json"),
+        _json_or_none(out / "correct" / "fusion.json"),
+        index,
+        default_steps,
+    )
+    return _page(run)
+
+
+def _page(run: _Run) -> str:
+    spec = run.spec
+    n_photo = sum(1 for v in run.index.values() if v["kind"] != "novel")
+    n_novel = len(run.index) - n_photo
+    method = f"corrected with {_e(run.correct['method'])}" if run.correct is not None else "not corrected yet"
+    lead = (
+        f"{n_photo} photograph{'s' if n_photo != 1 else ''}"
+        + (f" and {n_novel} novel view{'s' if n_novel != 1 else ''}" if n_novel else "")
+        + f" from {len(spec.cameras)} cameras ({', '.join(_e(c.folder) for c in spec.cameras)}), "
+        f"{method}. In each section the corrected image (left, the file to use) stands "
+        "beside the camera's own development (right). Time: " + _times(run) + "."
+    )
+    nav = " ".join(f"<a href='#view-{i}'>{_e(n)}</a>" for i, n in enumerate(run.index))
+    body = [
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
+        f"<title>splat report: {_e(spec.root.name)}</title><style>{_CSS}</style></head><body>",
+        f"<header><h1>Capture report: {_e(spec.root)}</h1><p>{lead}</p>",
+        f"<nav><details><summary>All views ({len(run.index)})</summary>{nav}</details></nav>"
+        if len(run.index) > 1
+        else "",
+        "</header>",
+    ]
+    if not run.index:
+        body.append(
+            "<section class='photo'><h2>Nothing rendered yet</h2><p>Run "
+            "<code>splat run CAPTURE -o OUT</code> (or the render and correct steps) and then this "
+            "report again.</p></section>"
+        )
+    for i, (name, info) in enumerate(run.index.items()):
+        body.append(_section(run, i, name, info))
+    body.append(_diagnostics(run.out))
+    body.append("</body></html>")
+    return "\n".join(body)
+
+
+def write_report(spec: CaptureSpec, out: str | Path, index: dict, *, default_steps: int = 3000) -> Path:
+    """Write :func:`report_html` to ``out/report.html`` atomically (a reader never sees half a page);
+    returns the path."""
+    from zonotope.utilities import atomic_write_text
+
+    path = Path(out) / "report.html"
+    atomic_write_text(path, report_html(spec, out, index, default_steps=default_steps))
+    return path

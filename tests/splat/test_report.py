@@ -1,0 +1,304 @@
+"""splat.report: the page built from an output folder written in the step summaries' formats — a section per
+view with the corrected image beside the camera's own development, the marked card's ΔE00 from the data
+the pipeline had, the summaries collapsed below; and a headless Chromium screenshot of it."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from .capture_helpers import write_capture
+
+CARD = "nikon/IMG_0001.dng"
+BOX = (8, 6, 24, 18)
+VIEWS = {  # name → kind; the card photograph held out, one photograph trained on, one novel view
+    CARD: "holdout",
+    "nikon/IMG_0000.dng": "view",
+    "nikon/novel_000": "novel",
+}
+WHITE_XYZ = np.array([0.95047, 1.0, 1.08883])
+TINT = np.array([0.98, 1.0, 1.0])  # the corrected card's XYZ is the known white times this
+
+
+@pytest.fixture(scope="module")
+def cap(tmp_path_factory):
+    root = tmp_path_factory.mktemp("report") / "cap"
+    card = f'\n[white]\nmethod = "patch"\nimage = "{CARD}"\nbox = {list(BOX)}\nreflectance = 0.9\n'
+    write_capture(root, views=1, holdout=1, extra_toml=card)
+    return root
+
+
+def _pattern(H, W, phase):
+    """A colourful test image (H, W, 3) in [0, 1]; ``phase`` makes the two of a pair differ."""
+    y, x = np.mgrid[0:H, 0:W] / max(H, W)
+    return np.stack([0.5 + 0.5 * np.sin(6 * x + phase), 0.5 + 0.5 * np.cos(5 * y - phase), 0.3 + 0 * x], -1)
+
+
+def _png(path, rgb):
+    from PIL import Image
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray((np.clip(rgb, 0, 1) * 255).astype(np.uint8)).save(path)
+
+
+def _tiff(path, a):
+    import tifffile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tifffile.imwrite(path, np.asarray(a, np.float32), photometric="minisblack")
+
+
+def _json(path, doc):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc))
+
+
+def make_out(cap, out, *, score=False):
+    """An output folder as poses → train → render → correct leave it (their file names and summary
+    keys), with synthetic images, for the nikon views of :data:`VIEWS` (48 × 36 px)."""
+    from splat.capture import read_capture
+    from splat.workspace import Workspace
+
+    spec = read_capture(cap)
+    Workspace(spec, out)
+    H, W = 36, 48
+    folders = [c.folder for c in spec.cameras]
+    _json(
+        out / "poses" / "summary.json",
+        {
+            "source": "colmap",
+            "cameras": {f: {"views": 2, "registered": 2} for f in folders},
+            "registered": 6,
+            "views": 6,
+            "seconds": 4.25,
+            "saturated": {"nikon/IMG_0000.dng": 17},
+            "dead": {},
+            "exposures": {},
+        },
+    )
+    _json(
+        out / "train" / "summary.json",
+        {
+            "steps": 200,
+            "views": 3,
+            "size": [56, 42],
+            "channels": 9,
+            "gaussians": 1234,
+            "seconds": 754.0,
+            "residual_sigma_raw": [0.01] * 9,
+        },
+    )
+    index = {n: {"camera": "nikon", "kind": k, "dir": spec.out_stem(n)} for n, k in VIEWS.items()}
+    _json(out / "render" / "index.json", index)
+    for i, info in enumerate(index.values()):
+        r, c = out / "render" / info["dir"], out / "correct" / info["dir"]
+        _png(r / "pca.png", _pattern(H, W, 2.0 + i))
+        count = np.zeros((H, W, 3), np.float32)
+        count[:, : W // 4, 1] = 1  # another camera sees a quarter of the view
+        _tiff(r / "reprojected_count.tiff", count)
+        _png(c / "Prior_sRGB.png", _pattern(H, W, 1.0 + i))
+        _png(c / "dng_nikon_sRGB.png", _pattern(H, W, 3.0 + i))
+        _png(c / "Prior_fused_sRGB.png", _pattern(H, W, 0.0 + i))
+        xyz = np.broadcast_to(0.5 * WHITE_XYZ, (H, W, 3)).copy()
+        xyz[BOX[1] : BOX[3], BOX[0] : BOX[2]] = 0.9 * WHITE_XYZ * TINT
+        _tiff(c / "Prior_fused_XYZ.tiff", xyz)
+        if info["kind"] != "novel":
+            _png(c / "raw_dng_sRGB.png", _pattern(H, W, 4.0 + i)[..., ::-1])
+            cam = xyz.copy()
+            cam[BOX[1] : BOX[3], BOX[0] : BOX[2]] = 0.9 * WHITE_XYZ
+            _tiff(c / "raw_dng_XYZ.tiff", cam)
+    _json(
+        out / "correct" / "summary.json",
+        {
+            "method": "Prior",
+            "delta": 0.011,
+            "noise": {"delta": 0.011, "rule": "95th percentile of the distances of 200 sampled responses"},
+            "training_residual": 0.004,
+            "white": {"method": "patch"},
+            "white_XYZ": WHITE_XYZ.tolist(),
+            "views": list(index),
+        },
+    )
+    _json(
+        out / "correct" / "fusion.json",
+        {
+            "render_sigma": 0.02,
+            "reprojected_sigma": [0.011, 0.012, 0.013],
+            "views": {n: {"camera": 0, "own_sigma": [0.003, 0.002, 0.004]} for n in list(VIEWS)[:2]},
+        },
+    )
+    if score:
+        _json(out / "score.json", {"flat_dE00": 123.456})
+    return spec
+
+
+@pytest.fixture(scope="module")
+def page(cap, tmp_path_factory):
+    from splat.pipeline import report_step
+
+    out = tmp_path_factory.mktemp("report_out") / "out"
+    make_out(cap, out, score=True)
+    path = report_step(cap, out)
+    return out, path, path.read_text()
+
+
+def _sections(html):
+    return re.findall(r"<section class='photo'.*?</section>", html, flags=re.S)
+
+
+def test_a_section_per_view_with_the_pair_of_images(page):
+    out, path, html = page
+    assert path == out / "report.html" and html.startswith("<!doctype html>")
+    sections = _sections(html)
+    assert len(sections) == len(VIEWS)
+    for (name, kind), sec in zip(VIEWS.items(), sections):
+        assert re.search(rf"<h2>{re.escape(name)} ", sec)
+        pair = re.search(r"<div class='pair'>(.*?)</div><div class='facts'>", sec, flags=re.S).group(1)
+        srcs = re.findall(r"<img[^>]* src='([^']+)'", pair)
+        assert len(srcs) == 2 and srcs[0].endswith("Prior_fused_sRGB.png")  # the answer on the left
+        right = "raw_dng_sRGB.png" if kind != "novel" else "dng_nikon_sRGB.png"
+        assert srcs[1].endswith(right)
+        assert all((out / s).is_file() for s in srcs)  # relative to OUT
+        for what in ("Accuracy", "What was done", "Time", "Next"):
+            assert f"<h3>{what}</h3>" in sec
+        assert "Prior_fused_sRGB.tiff" in sec  # which file to use
+        assert "No per-pixel uncertainty map is written" in sec
+        assert "train 12 min 34 s" in sec and "correct time not recorded" in sec
+        assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec
+    assert "17 pixels of this photograph are saturated" in sections[1]
+    assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
+    assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels
+
+
+def test_the_marked_card_is_measured_only_where_it_is(page):
+    _out, _, html = page
+    card, other, _novel = _sections(html)
+    assert "<table>" in card and "<table>" not in other
+    marks = re.findall(r"<span class='card'[^>]*style='([^']+)'", card)
+    assert len(marks) == 2 and "<span class='card'" not in other  # outlined on both images of its pair
+    assert marks[0].startswith(f"left:{100 * BOX[0] / 48:.3f}%;top:{100 * BOX[1] / 36:.3f}%")
+    assert f"the marked white card is in <code>{CARD}</code>" in other
+    rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
+    assert float(rows["camera's development (right)"]) == pytest.approx(0, abs=0.01)
+    assert float(rows["corrected (left)"]) > 0.3
+    assert "The card set the white of both images" in card and "× the camera's" not in card  # 0: no ratio
+
+
+def test_the_card_ratio_when_the_camera_misses_it(cap, tmp_path):
+    import tifffile
+
+    from splat.report import report_html
+
+    spec = make_out(cap, tmp_path / "out")
+    p = tmp_path / "out" / "correct" / spec.out_stem(CARD) / "raw_dng_XYZ.tiff"
+    cam = tifffile.imread(p)
+    cam[BOX[1] : BOX[3], BOX[0] : BOX[2]] *= TINT**2  # twice the corrected image's tint
+    tifffile.imwrite(p, cam, photometric="minisblack")
+    index = json.loads((tmp_path / "out" / "render" / "index.json").read_text())
+    card = _sections(report_html(spec, tmp_path / "out", index))[0]
+    ratio = float(re.search(r"ΔE00 is ([0-9.]+)× the camera's", card).group(1))
+    assert 0.4 < ratio < 0.6
+
+
+def test_card_check_against_colour_science(cap, tmp_path):
+    import colour
+
+    from splat.report import card_check
+
+    spec = make_out(cap, tmp_path / "out")
+    d = tmp_path / "out" / "correct" / spec.out_stem(CARD)
+    check = card_check(spec, CARD, d / "Prior_fused_XYZ.tiff", d / "raw_dng_XYZ.tiff", WHITE_XYZ)
+    xy = colour.XYZ_to_xy(WHITE_XYZ)
+    want = colour.delta_E(
+        colour.XYZ_to_Lab(0.9 * WHITE_XYZ * TINT, xy),
+        colour.XYZ_to_Lab(0.9 * WHITE_XYZ, xy),
+        method="CIE 2000",
+    )
+    assert check.delta_E["corrected"] == pytest.approx(want, rel=1e-4)
+    assert check.delta_E["camera"] == pytest.approx(0, abs=1e-3)
+    assert card_check(spec, "nikon/IMG_0000.dng", d / "x.tiff", d / "y.tiff", WHITE_XYZ) is None
+
+
+def test_diagnostics_collapsed_and_explained_ground_truth_only_there(page):
+    _out, _, html = page
+    diag = html[html.index("<section id='diagnostics'>") :]
+    for rel in ("poses/summary.json", "train/summary.json", "correct/summary.json", "correct/fusion.json"):
+        assert re.search(rf"<details><summary><code>{re.escape(rel)}</code> — \w[^<]+\.</summary><pre>", diag)
+    assert "ground truth" in diag and "123.456" in diag
+    assert "123.456" not in html[: html.index("<section id='diagnostics'>")]
+
+
+def test_self_contained(page):
+    _out, _, html = page
+    assert "<script" not in html and "http://" not in html and "https://" not in html
+    assert "<link" not in html and "@import" not in html
+
+
+def test_nothing_rendered_says_so(cap, tmp_path):
+    from splat.pipeline import report_step
+
+    html = report_step(cap, tmp_path / "out").read_text()
+    assert "Nothing rendered yet" in html
+
+
+def _chromium():
+    """A Chromium that runs here (a distribution's stub that only points to another installer does not),
+    or None."""
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        exe = shutil.which(name)
+        if exe is None:
+            continue
+        try:
+            if subprocess.run([exe, "--version"], capture_output=True, timeout=30).returncode == 0:
+                return exe
+        except (OSError, subprocess.TimeoutExpired):
+            continue
+    return None
+
+
+CHROMIUM = _chromium()
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on this machine")
+def test_screenshot_shows_both_images(page, tmp_path):
+    from PIL import Image
+
+    _out, path, _ = page
+    shot = tmp_path / "shot.png"
+    cmd = [
+        CHROMIUM,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        f"--screenshot={shot}",
+        "--window-size=1400,1000",
+        path.as_uri(),
+    ]
+    subprocess.run(cmd, check=False, capture_output=True, timeout=120)
+    assert shot.is_file(), "Chromium wrote no screenshot"
+    img = np.asarray(Image.open(shot).convert("RGB"), float)
+    assert img.shape[:2] == (1000, 1400) and img.std() > 10  # not blank
+    # the test images are saturated colours; the page around them is black, grey and white
+    chroma = img.max(-1) - img.min(-1) > 60
+    left, right = chroma[:, :700], chroma[:, 700:]
+    assert left.mean() > 0.08 and right.mean() > 0.08
+
+
+def test_a_view_corrected_from_the_render_only(cap, tmp_path):
+    """Without a fused correction the answer is the render's, with the render's noise tolerance δ."""
+    from splat.report import report_html
+
+    spec = make_out(cap, tmp_path / "out")
+    name = "nikon/novel_000"
+    (tmp_path / "out" / "correct" / spec.out_stem(name) / "Prior_fused_sRGB.png").unlink()
+    index = json.loads((tmp_path / "out" / "render" / "index.json").read_text())
+    sec = _sections(report_html(spec, tmp_path / "out", index))[2]
+    assert re.search(r"<img[^>]* src='correct/nikon/novel_000/Prior_sRGB.png'", sec)
+    assert "from the model's render" in sec and "δ = 0.011" in sec
