@@ -10,6 +10,7 @@ from __future__ import annotations
 
 __all__ = [
     "ANCHOR_EPS",
+    "CARD_DELTA_E_FLOOR",
     "FEASIBLE_DISTANCE",
     "GRID_NM",
     "GUIDE_RADIUS",
@@ -152,3 +153,8 @@ GUIDE_RELIABILITY = 0.1
 TRACK_VISIBLE_RTOL = 1e-4
 #: See :data:`TRACK_VISIBLE_RTOL` (m; for points next to a camera, far below any occluder's distance).
 TRACK_VISIBLE_ATOL = 1e-6
+
+#: The report states the corrected image's ΔE00 on the marked card as a ratio to the camera
+#: development's only when the latter is at least this: 0.05 ΔE00 is far below a visible difference,
+#: and a ratio to ~0 says nothing.
+CARD_DELTA_E_FLOOR = 0.05

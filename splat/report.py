@@ -21,6 +21,7 @@ from urllib.parse import quote
 
 import numpy as np
 
+from ._tol import CARD_DELTA_E_FLOOR
 from .capture import CaptureSpec
 from .workspace import read_json
 
@@ -405,7 +406,7 @@ def _gain(check: CardCheck) -> str:
     """The corrected image's ΔE00 on the card as a multiple of the camera development's, when both exist
     and the latter is not ~0 (a ratio to nothing says nothing)."""
     d = check.delta_E
-    if "corrected" not in d or "camera" not in d or d["camera"] < 0.05:
+    if "corrected" not in d or "camera" not in d or d["camera"] < CARD_DELTA_E_FLOOR:
         return ""
     return f"On the card the corrected image's ΔE00 is {d['corrected'] / d['camera']:.2f}× the camera's. "
 
