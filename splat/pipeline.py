@@ -65,6 +65,7 @@ if TYPE_CHECKING:
 __all__ = [
     "STEPS",
     "PipelineConfig",
+    "XYZ_to_sRGB",
     "check_run",
     "correct_step",
     "depth_targets",
@@ -74,7 +75,6 @@ __all__ = [
     "report_step",
     "run",
     "views_to_render",
-    "xyz_to_srgb",
 ]
 
 STEPS = ("poses", "train", "render", "correct", "report")
@@ -297,7 +297,7 @@ def read_index(spec: CaptureSpec, path: Path) -> dict:
     return index
 
 
-def xyz_to_srgb(XYZ, white_XYZ) -> np.ndarray:
+def XYZ_to_sRGB(XYZ, white_XYZ) -> np.ndarray:
     """XYZ (white ``white_XYZ``, Y = 1) → sRGB-encoded values in [0, 1] (Bradford to D65, clipped).
 
     Parameters
@@ -1405,7 +1405,7 @@ def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
     from isp import write_image
 
     _write_tiff(o / f"{stem}_XYZ.tiff", XYZ)
-    rgb = xyz_to_srgb(XYZ, white_XYZ)
+    rgb = XYZ_to_sRGB(XYZ, white_XYZ)
     write_image(o / f"{stem}_sRGB.tiff", rgb, overwrite=True)
     _write_png8(o / f"{stem}_sRGB.png", rgb)
 
@@ -1565,7 +1565,7 @@ def correct_step(
                 continue
             X = dng_matrix_XYZ(np.maximum(img[..., 3 * k : 3 * k + 3], 0), prof, neutral, wXYZ)
             _write_tiff(f, X)
-            _write_png8(o / f"dng_{spec.label(k)}_sRGB.png", xyz_to_srgb(X, wXYZ))
+            _write_png8(o / f"dng_{spec.label(k)}_sRGB.png", XYZ_to_sRGB(X, wXYZ))
         r = raws.get(name)
         rep = reprojected_of(d, scale)
         novel = name not in fusion["views"] and rep is not None and fusion["reprojected_sigma"] is not None
@@ -1582,7 +1582,7 @@ def correct_step(
             bal = np.maximum(measured(r, white["scale"][r.camera]), 0)
             X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
             _write_tiff(o / "raw_dng_XYZ.tiff", X)
-            _write_png8(o / "raw_dng_sRGB.png", xyz_to_srgb(X, wXYZ))
+            _write_png8(o / "raw_dng_sRGB.png", XYZ_to_sRGB(X, wXYZ))
         if progress is not None:
             progress("correct", i + 1, len(index))
     summary = {
