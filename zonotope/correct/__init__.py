@@ -8,35 +8,8 @@ Why one folder: every estimator, and every consumer that fits one, goes through 
 from __future__ import annotations
 
 from ..utilities.lazy import lazy_exports
-from .methods import (
-    CORRECTION_METHODS,
-    DELTA_SIGMAS,
-    CorrectionProblem,
-    Corrector,
-    NoiseModel,
-    NoiseModelError,
-    PriorConfig,
-    check_reflectances,
-    correct,
-    correction_problem,
-    estimate_noise,
-    expected_normal_equations,
-    fit_Centroid,
-    fit_Cheung2004,
-    fit_correction,
-    fit_Dyer2017,
-    fit_Finlayson2015,
-    fit_MAP,
-    fit_Prior,
-    fit_Projection,
-    mmv_centroids,
-    noise_from_profile,
-    noise_model,
-    noise_options,
-    parse_noise,
-    root_polynomial_terms,
-    select_regression,
-)
+from . import methods
+from .methods import *  # noqa: F403  (the registry's public names, listed once in methods.__all__)
 
 __getattr__, __dir__, _LAZY = lazy_exports(
     __name__,
@@ -57,33 +30,4 @@ __getattr__, __dir__, _LAZY = lazy_exports(
     },
 )
 
-__all__ = [
-    "CORRECTION_METHODS",
-    "DELTA_SIGMAS",
-    "CorrectionProblem",
-    "Corrector",
-    "NoiseModel",
-    "NoiseModelError",
-    "PriorConfig",
-    "check_reflectances",
-    "correct",
-    "correction_problem",
-    "estimate_noise",
-    "expected_normal_equations",
-    "fit_Centroid",
-    "fit_Cheung2004",
-    "fit_Dyer2017",
-    "fit_Finlayson2015",
-    "fit_MAP",
-    "fit_Prior",
-    "fit_Projection",
-    "fit_correction",
-    "mmv_centroids",
-    "noise_from_profile",
-    "noise_model",
-    "parse_noise",
-    "noise_options",
-    "root_polynomial_terms",
-    "select_regression",
-    *_LAZY,
-]
+__all__ = [*methods.__all__, *_LAZY]
