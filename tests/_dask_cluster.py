@@ -54,7 +54,7 @@ class LocalDaskCluster:
             env=self.env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
-            start_new_session=True,
+            process_group=0,  # its own group: a Ctrl-C of the test run reaches pytest, not the workers
         )
         self.procs.append(p)
         return p

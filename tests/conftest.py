@@ -24,7 +24,7 @@ SHARED_DATA = Path(
 )
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def shared_data() -> Path:
     """Path of ../shared/data; skips the test when the folder is absent."""
     if not SHARED_DATA.is_dir():
@@ -32,7 +32,7 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def dask_cluster():
     """A real ``dask scheduler`` + 2 ``dask worker`` processes on localhost, shared by the batch tests
     (tests/_dask_cluster.py; a test that kills a worker gets a replacement started)."""

@@ -15,7 +15,7 @@ if _ROOT not in sys.path:
     sys.path.append(_ROOT)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def raw_dir(shared_data):
     d = shared_data / "raw_samples"
     if not d.is_dir():
@@ -23,22 +23,22 @@ def raw_dir(shared_data):
     return d
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def dng_550d(raw_dir):
     return raw_dir / "tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def crw_d30(raw_dir):
     return raw_dir / "rawsamples_RAW_CANON_D30_SRGB.CRW"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def dng_350d(raw_dir):
     return raw_dir / "exiftool_DNG_Canon_EOS_350D_metadata_only.dng"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def raw_550d(dng_550d):
     from isp import read_raw
 

@@ -38,13 +38,13 @@ def random_gaussians(G=120, N=4, *, seed=0, spread=1.0, dtype=None):
     )
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def make_gaussians():
     """The factory :func:`random_gaussians` (G=120, N=4, *, seed, spread, dtype)."""
     return random_gaussians
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def small_scene():
     from splat import look_at
 
