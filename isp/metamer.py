@@ -208,7 +208,7 @@ class MetamerConfig:
         Scene illuminant of the fit (name or SD); should match the light the file's white balance
         was set for.
     training : str, path or colour.MultiSpectralDistributions
-        Training reflectances: built-in set name, a file readable by ``zonotope.read_reflectances``
+        Training reflectances: built-in set name, a file readable by ``zonotope.load_reflectances``
         or an MSDS.
     target : str
         Observer of the XYZ output: CIE 1931 2° (the default, and the only one accepted: it is the
@@ -302,7 +302,7 @@ def metamer_correction(
     ----------
     camera
         Built-in camera name (``zonotope.list_builtin()["cameras"]``), a camera file readable by
-        ``zonotope.read_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
+        ``zonotope.load_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
     config
         The options (:class:`MetamerConfig`: method, illuminant, training, target, shape,
         white_level, quantum, batch_size, noise, estimator_options); default all defaults.

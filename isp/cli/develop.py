@@ -101,7 +101,7 @@ def _metamer_options(args: argparse.Namespace):
             "--correction metamer needs --camera NAME_OR_FILE (the camera's spectral "
             "sensitivities: a built-in name — "
             + ", ".join(zonotope.list_builtin()["cameras"])
-            + " — or a file zonotope.read_camera reads)."
+            + " — or a file zonotope.load_camera reads)."
         )
     if args.quantum is not None and not args.quantum >= 0:
         return None, f"--quantum {args.quantum}: must be ≥ 0."

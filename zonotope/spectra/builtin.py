@@ -358,7 +358,8 @@ def _resolve(name: str, table: Iterable[str], aliases: dict[str, str], kind: str
         return aliases[k]
     raise SpectralDataError(
         f"unknown {kind} {name!r}. Built-in {kind}s: {', '.join(table)}. "
-        f"Load your own with zonotope.read_{'camera' if kind == 'camera' else 'reflectances'}(path)."
+        f"Give a file path instead "
+        f"(zonotope.load_{'camera' if kind == 'camera' else 'reflectances'} reads it)."
         if kind in ("camera", "reflectance set")
         else f"unknown {kind} {name!r}. Built-in {kind}s: {', '.join(table)}."
     )
