@@ -470,7 +470,7 @@ class MetamerMismatch:
         Built-in name, file, colour MSDS, or ``(wavelengths, values)``; a list stacks the channels
         (two cameras give k = 6). A :class:`~zonotope.GeneratorPair` (e.g. a
         :class:`~zonotope.correct.CorrectionProblem`) is used as it is (``target``,
-        ``illuminant`` and ``shape`` are then ignored).
+        ``illuminant``, ``target_illuminant`` and ``shape`` are then ignored).
     target : observer or camera
         Default ``"Stockman & Sharpe 2°"`` (LMS).
     illuminant : str or SpectralDistribution
@@ -478,13 +478,18 @@ class MetamerMismatch:
     shape : colour.SpectralShape or array_like of shape (n,), optional
         Wavelength grid; default the common shape of every curve (sources, target, illuminant).
     oracle : {"walk", "fast", "highs"}
+    target_illuminant : str or SpectralDistribution, optional
+        The light the target sees when it differs from ``illuminant``: the MMV is then every
+        colour under that light of a reflectance the sources saw as ``c`` under ``illuminant``
+        (observer- and illuminant-induced mismatch combined; see
+        :mod:`zonotope.mismatch.illuminant`). Default: the same light.
 
     Attributes
     ----------
     Phi : ndarray of shape (n, k)
         Source generators, per-channel normalised (white → 1).
     Psi : ndarray of shape (n, m)
-        Target generators, per-channel normalised.
+        Target generators, per-channel normalised (white under the target's light → 1).
     wavelengths : ndarray of shape (n,)
 
     Examples
@@ -498,7 +503,14 @@ class MetamerMismatch:
     """
 
     def __init__(
-        self, source, target="Stockman & Sharpe 2°", illuminant="D65", shape=None, *, oracle: str = "walk"
+        self,
+        source,
+        target="Stockman & Sharpe 2°",
+        illuminant="D65",
+        shape=None,
+        *,
+        oracle: str = "walk",
+        target_illuminant=None,
     ) -> None:
         from ..spectra.pair import GeneratorPair, generator_pair
 
@@ -506,7 +518,11 @@ class MetamerMismatch:
             pair = source
         else:
             pair = generator_pair(
-                list(source) if isinstance(source, list | tuple) else source, target, illuminant, shape
+                list(source) if isinstance(source, list | tuple) else source,
+                target,
+                illuminant,
+                shape,
+                target_illuminant=target_illuminant,
             )
         self.generators = pair
         self.Phi, self.Psi, self.wavelengths = pair.Phi, pair.Psi, pair.wavelengths

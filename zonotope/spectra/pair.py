@@ -36,7 +36,11 @@ class GeneratorPair:
     sources : tuple of str
         Names of the source cameras, in stacking order.
     target, illuminant : str
-        Names, for reports.
+        Names, for reports (``illuminant``: the light the sources see).
+    target_illuminant : str
+        Name of the light the target sees when it differs from ``illuminant`` (an
+        illuminant-induced, or combined observer- and illuminant-induced, mismatch); ``""`` when
+        both see ``illuminant``.
     source_channels, target_channels : tuple of str
         Channel labels (k and m of them), empty when unknown.
     """
@@ -47,6 +51,7 @@ class GeneratorPair:
     sources: tuple[str, ...] = ()
     target: str = ""
     illuminant: str = ""
+    target_illuminant: str = ""
     source_channels: tuple[str, ...] = ()
     target_channels: tuple[str, ...] = ()
 
@@ -102,6 +107,7 @@ def generator_pair(
     shape=None,
     *,
     target_normalise: str | int | None = "channel",
+    target_illuminant=None,
 ) -> GeneratorPair:
     """Build the source and target generators of cameras and an observer on one grid.
 
@@ -120,6 +126,12 @@ def generator_pair(
         ``normalise=`` of :func:`zonotope.generators` for the target: ``"channel"`` (default)
         scales each channel so the white gives 1; ``1`` scales all channels by one factor so that
         Y of the white is 1 (XYZ targets).
+    target_illuminant : str or colour.SpectralDistribution, optional
+        The light the target sees, when it is not ``illuminant``: Φ is built under
+        ``illuminant`` and Ψ under ``target_illuminant`` (camera under light 1 → eye under
+        light 2; Logvinenko et al. 2014's illuminant-induced mismatch when the source is the
+        observer itself). ``target_normalise`` then applies to the target's white *under that
+        light*. None (default): the target sees ``illuminant``.
 
     Returns
     -------
@@ -139,11 +151,14 @@ def generator_pair(
     curves = [load_camera(c) if isinstance(c, str | os.PathLike) else c for c in items]
     if shape is None:
         grid = spectra.generators([*curves, target], illuminant).wavelengths
+        if target_illuminant is not None:  # measured under both lights: the common points
+            grid = np.intersect1d(grid, spectra.generators([*curves, target], target_illuminant).wavelengths)
     else:
         grid = getattr(shape, "wavelengths", shape)
     grid = np.asarray(grid, dtype=np.float64)
     G = spectra.generators(curves, illuminant, grid)
-    T = spectra.generators(target, illuminant, grid, normalise=target_normalise)
+    lit = illuminant if target_illuminant is None else target_illuminant
+    T = spectra.generators(target, lit, grid, normalise=target_normalise)
     return GeneratorPair(
         Phi=np.array(G.values, dtype=np.float64),
         Psi=np.array(T.values, dtype=np.float64),
@@ -151,6 +166,7 @@ def generator_pair(
         sources=tuple(_name(c, "camera") for c in curves),
         target=_name(target, "target"),
         illuminant=_name(illuminant, "illuminant"),
+        target_illuminant="" if target_illuminant is None else _name(target_illuminant, "illuminant"),
         source_channels=tuple(G.labels),
         target_channels=tuple(T.labels),
     )
