@@ -156,6 +156,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
     {
         "geometry.polytope": ["Polytope"],
         "mismatch.membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
+        "mismatch.illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
         "geometry.macadam": [
             "MacAdamLimits",
             "invert",

@@ -50,6 +50,9 @@ class CorrectionProblem(GeneratorPair):
         ``XYZ = target @ XYZ_from_target`` (identity for an XYZ target).
     sources, target, illuminant, training_name : str
         Names, for reports.
+    target_illuminant : str
+        The reference light the target sees (``correction_problem(reference=...)``); ``""`` when
+        it is ``illuminant``.
     """
 
     training: np.ndarray
@@ -108,6 +111,7 @@ def correction_problem(
     illuminant: str | colour.SpectralDistribution = "D65",
     shape: colour.SpectralShape | np.ndarray | None = None,
     training: str | colour.MultiSpectralDistributions | np.ndarray = "rawtoaces 190",
+    reference: str | colour.SpectralDistribution | None = None,
 ) -> CorrectionProblem:
     """Build the generator matrices and training set of a correction task.
 
@@ -120,12 +124,19 @@ def correction_problem(
         Observer: an XYZ colour-matching function set (default CIE 2015 2°) or LMS cone
         fundamentals (mapped to XYZ for ΔE, see module notes).
     illuminant
-        Scene illuminant (name or SD).
+        Scene illuminant (name or SD): the light the cameras saw (their white → 1 under it).
     shape
         Wavelength grid; default the common range of all curves (see :func:`zonotope.common_shape`).
     training
         Training reflectances: a built-in name, a file path, an MSDS or an array ``(N, n)`` already
         on ``shape``.
+    reference
+        Reference light (name or SD) whose colours the estimates are: the target is the observer
+        under ``reference`` (XYZ with Y_white = 1 under it, ΔE relative to its white), while the
+        responses are the cameras' under ``illuminant``; every estimator of
+        :data:`~zonotope.correct.CORRECTION_METHODS` then fits scene light → reference light
+        unchanged (and its MMVs are the combined observer- and illuminant-induced ones). None
+        (default): the scene illuminant itself.
 
     Returns
     -------
@@ -150,6 +161,7 @@ def correction_problem(
         )
     obs = spectra.observer(target)
     light = spectra.illuminant(illuminant)
+    seen = light if reference is None else spectra.illuminant(reference)
     train_curve = None
     if isinstance(training, str | os.PathLike):
         train_curve = load_reflectances(training)
@@ -157,16 +169,16 @@ def correction_problem(
         train_curve = training
     if shape is None:
         extra = [train_curve] if train_curve is not None else []
-        shape = spectra.common_shape(*curves, obs, light, *extra)
+        shape = spectra.common_shape(*curves, obs, light, *([seen] if reference is not None else []), *extra)
     G = spectra.generators(curves, light, shape)
     Phi = G.values
     w = np.asarray(shape.wavelengths if isinstance(shape, colour.SpectralShape) else shape, float)
     tname = _label(target) if isinstance(target, str) else getattr(target, "name", "target")
     is_lms = any(s in str(getattr(obs, "name", tname)).lower() for s in ("cone", "lms", "stockman"))
-    T = spectra.generators(obs, light, shape, normalise=(2 if is_lms else 1))
+    T = spectra.generators(obs, seen, shape, normalise=(2 if is_lms else 1))
     Psi = T.values
     if is_lms:
-        xyz = spectra.generators("CIE 2015 2°", light, shape, normalise=1).values
+        xyz = spectra.generators("CIE 2015 2°", seen, shape, normalise=1).values
         M = np.linalg.lstsq(Psi, xyz, rcond=None)[0]
     else:
         M = np.eye(Psi.shape[1], 3) if Psi.shape[1] == 3 else None
@@ -192,6 +204,9 @@ def correction_problem(
         sources=tuple(labels),
         target=tname,
         illuminant=_label(illuminant) if isinstance(illuminant, str) else getattr(illuminant, "name", "?"),
+        target_illuminant=""
+        if reference is None
+        else (reference if isinstance(reference, str) else getattr(reference, "name", "?")),
         training_name=tr_name,
         source_channels=tuple(G.labels),
         target_channels=tuple(T.labels),

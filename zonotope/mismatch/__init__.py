@@ -1,6 +1,7 @@
 """Metamer mismatch volumes: :class:`MetamerMismatch` and :func:`metamer_mismatch` (``volume``), the
 exact vertex walk and its numba kernel (``walk``, ``walk_kernel``), facet refinement (``refine``), the
-support-LP oracles (``oracle``) and membership tests (``membership``).
+support-LP oracles (``oracle``), membership tests (``membership``) and the generators of a change of
+light (``illuminant``: illuminant-induced MMVs).
 
 Why one folder: these modules are the steps of one computation, the MMV of a response.
 """
@@ -21,7 +22,11 @@ from .volume import (
 )
 
 __getattr__, __dir__, _LAZY = lazy_exports(
-    __name__, {"membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"]}
+    __name__,
+    {
+        "membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
+        "illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
+    },
 )
 
 __all__ = [
