@@ -501,3 +501,17 @@ __all__ += [
     "SHARPEN_CLIP",
     "VOLUME_FLOOR",
 ]
+
+# -- illuminants: choosing the scene light among candidates (zonotope.spectra.illuminant_estimate) --
+
+#: Response noise σ (relative to the white's mean response) of the illuminant likelihood: a few times
+#: raw shot noise at mid-grey, so that the likelihood does not hinge on differences the data cannot
+#: resolve (and keeps the response covariance invertible when the prior is nearly flat along a channel).
+ESTIMATE_NOISE = 0.01
+
+#: Diagonal added to the training reflectances' covariance (reflectance² units): 190 spectra on 31
+#: wavelengths give a rank-deficient covariance; 1e-4 (σ = 0.01 per wavelength) is below the spread of
+#: any natural set and makes it positive definite.
+ESTIMATE_COVARIANCE_JITTER = 1e-4
+
+__all__ += ["ESTIMATE_COVARIANCE_JITTER", "ESTIMATE_NOISE"]
