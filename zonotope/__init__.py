@@ -157,6 +157,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         "geometry.polytope": ["Polytope"],
         "mismatch.membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
         "mismatch.illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
+        "spectra.illuminant_estimate": ["IlluminantEstimate", "candidate_illuminants", "estimate_illuminant"],
         "geometry.macadam": [
             "MacAdamLimits",
             "invert",

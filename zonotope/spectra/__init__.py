@@ -1,5 +1,6 @@
 """Spectral curves on one grid: built-in cameras, observers, illuminants and reflectance sets, file
-readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra.
+readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra, and the
+choice of a scene light among candidate illuminants (``illuminant_estimate``).
 
 Why one folder: every other part of ``zonotope`` starts from curves resampled onto one
 :class:`~zonotope._tol` grid, so reading, resampling and combining them live together.
@@ -35,7 +36,20 @@ _DEPRECATED = {
     "read_reflectances": ("builtin", "load_reflectances"),
     "read_sfu1995": ("builtin", "load_reflectances"),
 }
-__getattr__, __dir__, _ = lazy_exports(__name__, {}, deprecated=_DEPRECATED)
+__getattr__, __dir__, _LAZY = lazy_exports(
+    __name__,
+    {
+        "illuminant_estimate": [
+            "CANDIDATE_KINDS",
+            "IlluminantEstimate",
+            "candidate_illuminants",
+            "estimate_illuminant",
+            "grey_world",
+            "white_patch",
+        ]
+    },
+    deprecated=_DEPRECATED,
+)
 
 __all__ = [
     "ATYPICAL_KINDS",
@@ -61,4 +75,5 @@ __all__ = [
     "resample",
     "spectral_matrix",
     "structured_reflectances",
+    *_LAZY,
 ]
