@@ -157,7 +157,14 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         "geometry.polytope": ["Polytope"],
         "mismatch.membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
         "mismatch.illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
-        "spectra.illuminant_estimate": ["IlluminantEstimate", "candidate_illuminants", "estimate_illuminant"],
+        "spectra.illuminant_estimate": [
+            "CANDIDATE_KINDS",
+            "IlluminantEstimate",
+            "candidate_illuminants",
+            "estimate_illuminant",
+            "grey_world",
+            "white_patch",
+        ],
         "geometry.macadam": [
             "MacAdamLimits",
             "invert",
