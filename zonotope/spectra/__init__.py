@@ -1,5 +1,6 @@
 """Spectral curves on one grid: built-in cameras, observers, illuminants and reflectance sets, file
-readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra.
+readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra, and
+sensitivities estimated for cameras nobody measured (:mod:`~zonotope.spectra.estimate`).
 
 Why one folder: every other part of ``zonotope`` starts from curves resampled onto one
 :class:`~zonotope._tol` grid, so reading, resampling and combining them live together.
@@ -35,7 +36,25 @@ _DEPRECATED = {
     "read_reflectances": ("builtin", "load_reflectances"),
     "read_sfu1995": ("builtin", "load_reflectances"),
 }
-__getattr__, __dir__, _ = lazy_exports(__name__, {}, deprecated=_DEPRECATED)
+__getattr__, __dir__, _LAZY = lazy_exports(
+    __name__,
+    {
+        "estimate": [
+            "SSF_SHAPE",
+            "Chart",
+            "DNGMatrices",
+            "SSFBasis",
+            "SSFEstimate",
+            "estimate_ssf",
+            "learn_ssf_basis",
+            "read_dng_matrices",
+            "ssf_basis",
+            "synthesise_dng_matrices",
+            "write_ssf_json",
+        ]
+    },
+    deprecated=_DEPRECATED,
+)
 
 __all__ = [
     "ATYPICAL_KINDS",
@@ -62,3 +81,4 @@ __all__ = [
     "spectral_matrix",
     "structured_reflectances",
 ]
+__all__ += _LAZY
