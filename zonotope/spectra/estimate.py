@@ -606,6 +606,25 @@ class SSFEstimate:
         """(lower, upper) curves ``values ∓ k·uncertainty``, the lower clipped at 0; each (n, 3)."""
         return np.maximum(self.values - k * self.uncertainty, 0.0), self.values + k * self.uncertainty
 
+    def response_sigma(self, illuminant="D65", reflectances="rawtoaces 190") -> np.ndarray:
+        """What the uncertainty band does to white-balanced responses: a noise σ per channel, shape (3,).
+
+        The RMS over ``reflectances`` of ``R·diag(E)·u_c / (white_c)`` (``u`` the band, one standard
+        deviation, taken as fully correlated over wavelengths: an upper bound). Give it to the
+        correction as its noise (``noise_options(method, sigma)``) so that the fit does not trust
+        channel differences finer than the curves are known. Why: a regression fitted noise-free on
+        estimated curves of several cameras amplifies their errors (docs/benchmarks.md).
+        """
+        w = self.wavelengths
+        E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
+        R = _training(reflectances, tuple(w)) if isinstance(reflectances, str) else None
+        if R is None:
+            from .loading import load_reflectances
+
+            R = spectra.resample(load_reflectances(reflectances), w).T
+        white = E @ self.values
+        return np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
+
 
 @functools.lru_cache(maxsize=8)
 def _training(name: str, w: tuple[float, ...]) -> np.ndarray:
