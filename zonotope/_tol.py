@@ -532,10 +532,21 @@ SSF_CHART_DARK = 0.01
 #: Fewest chart patches for a chart estimate: 3 channels × basis components must be outnumbered.
 SSF_CHART_MIN_PATCHES = 8
 
+#: A chart with more than this fraction of negative patch means had its black level subtracted twice
+#: (noise alone makes a few dark patches negative, never a quarter of them).
+SSF_CHART_NEGATIVE = 0.25
+
+#: Relative ridge added to the normal equations of the SSF fit so that their Cholesky factor exists
+#: when the smoothness/subspace weights are set to 0; 1e-12 of the mean diagonal changes no digit that
+#: matters (curves are O(1)).
+SSF_CHOLESKY_JITTER = 1e-12
+
 __all__ += [
     "SSF_CHART_CLIP",
     "SSF_CHART_DARK",
     "SSF_CHART_MIN_PATCHES",
+    "SSF_CHART_NEGATIVE",
+    "SSF_CHOLESKY_JITTER",
     "SSF_MATRIX_CONDITION_MAX",
     "SSF_PRIOR",
     "SSF_SMOOTHNESS",

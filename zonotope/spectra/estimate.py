@@ -48,6 +48,8 @@ from .._tol import (
     SSF_CHART_CLIP,
     SSF_CHART_DARK,
     SSF_CHART_MIN_PATCHES,
+    SSF_CHART_NEGATIVE,
+    SSF_CHOLESKY_JITTER,
     SSF_MATRIX_CONDITION_MAX,
     SSF_PRIOR,
     SSF_SMOOTHNESS,
@@ -212,9 +214,10 @@ def learn_ssf_basis(
     """
     w = np.asarray(shape.wavelengths, dtype=np.float64)
     names = list(cameras)
-    if len(names) < n_components + 1:
+    need = n_components + (spread is None)  # the leave-one-out spread learns from one camera fewer
+    if len(names) < need:
         raise SpectralDataError(
-            f"learn_ssf_basis: {len(names)} cameras for {n_components} components; give more cameras."
+            f"learn_ssf_basis: {len(names)} cameras for {n_components} components; give at least {need}."
         )
     curves = np.stack([_on_grid(cameras[k], w, k) for k in names])  # (m, n, 3)
     V, sigma = _components(curves, n_components)
@@ -235,7 +238,7 @@ def _components(curves: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     for c in range(3):
         U, sv, _ = np.linalg.svd(curves[:, :, c].T, full_matrices=False)
         U = U[:, :k]
-        out.append(U * np.sign(U.sum(axis=0, keepdims=True) + 1e-300))  # positive-lobed first component
+        out.append(U * np.where(U.sum(axis=0, keepdims=True) < 0, -1.0, 1.0))  # positive-lobed first
         sig.append(sv[:k] / sv[0])
     return np.stack(out), np.stack(sig)
 
@@ -557,7 +560,7 @@ def _chart_terms(chart: Chart, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             f"{chart.name}: too dark (brightest patch mean {C.max():.3g} of saturation, below "
             f"{SSF_CHART_DARK:g}); photograph the chart with more exposure."
         )
-    if (C < 0).mean() > 0.25:
+    if (C < 0).mean() > SSF_CHART_NEGATIVE:
         raise SpectralDataError(
             f"{chart.name}: most patch means are negative; subtract the black level once."
         )
@@ -766,7 +769,7 @@ def estimate_ssf(
     lower[3 * n :] = -np.inf
     # the same least-squares problem in n_var rows (Cholesky factor of the normal equations): fast BVLS
     H = M.T @ M
-    L = np.linalg.cholesky(H + np.eye(n_var) * (1e-12 * np.trace(H) / n_var))
+    L = np.linalg.cholesky(H + np.eye(n_var) * (SSF_CHOLESKY_JITTER * np.trace(H) / n_var))
     sol = lsq_linear(L.T, np.linalg.solve(L, M.T @ b), bounds=(lower, np.inf), method="bvls")
     S = sol.x[: 3 * n].reshape(3, n).T
     peak = S.max()
