@@ -90,3 +90,21 @@ def test_a_foreign_file_is_never_replaced(tmp_path, capsys):
     assert foreign.read_text() == "{}\n"
     assert main(["ssf", "estimate", dng, "-o", dng, "--force"]) == 2  # the input itself
     assert main(["ssf", "estimate", "-o", str(tmp_path / "y.json")]) == 2  # nothing to estimate from
+
+
+def test_capture_toml_ssf_estimate_uses_the_first_dng(tmp_path):
+    """``ssf = "estimate"`` in capture.toml: the camera's curves from its folder's first DNG."""
+    capture = pytest.importorskip("splat.capture")
+    (tmp_path / "cam").mkdir()
+    _dng(tmp_path / "cam" / "a.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "b.nef").write_bytes(b"not read here")  # a RAW file, but no DNG
+    (tmp_path / "capture.toml").write_text(
+        'illuminant = "D65"\n[[camera]]\nfolder = "cam"\nssf = "estimate"\n'
+        '[[camera]]\nfolder = "empty"\nssf = "estimate"\n'
+    )
+    spec = capture.read_capture(tmp_path / "capture.toml")
+    cam = spec.load_ssf(0)
+    assert cam.values.shape == (len(SSF_SHAPE.wavelengths), 3) and cam.values.min() >= 0
+    with pytest.raises(capture.CaptureError, match="needs a DNG file"):
+        spec.load_ssf(1)
