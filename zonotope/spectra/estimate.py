@@ -741,8 +741,10 @@ def estimate_ssf(
     n_scales = max([b[2] for b in blocks if b[2] is not None], default=-1)  # k_0 = 1 fixed
     n_var = 3 * n + max(n_scales, 0)
     rows, rhs = [], []
+    n_dng = sum(key is not None for _, _, key in blocks)
     for A, T, key in blocks:
-        scale = 1.0 / max(np.linalg.norm(T), 1e-300)
+        # the DNG blocks share one unit of weight, the chart has another
+        scale = 1.0 / max(np.linalg.norm(T), 1e-300) / np.sqrt(n_dng if key is not None else 1.0)
         for c in range(3):
             M = np.zeros((A.shape[0], n_var))
             M[:, c * n : (c + 1) * n] = A * scale
