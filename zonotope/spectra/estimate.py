@@ -5,9 +5,9 @@ low-dimensional space learned from measured cameras (:class:`SSFBasis`, shipped 
 one bounded least-squares problem (:func:`scipy.optimize.lsq_linear`) whose data terms are
 
 * **DNG matrices** (Solomatov & Akkaynak 2023): for each calibration illuminant ``E_i`` the matrix
-  ``A_i`` (camera from XYZ: ColorMatrix1/2, and ForwardMatrix1/2 turned round) must reproduce the
-  camera's responses to training reflectances ``R``: ``R·diag(E_i)·S ≈ k_i · R·diag(E_i)·x̄·A_iᵀ``,
-  ``k_i`` an unknown exposure per illuminant;
+  ``A_i`` (camera from XYZ: ColorMatrix1/2, and ForwardMatrix1/2 turned round) must be what a least
+  squares fit of the camera's responses to training reflectances ``R`` on their XYZ would give: its
+  normal equations are linear in ``S`` (``k_i`` an unknown exposure per illuminant);
 * **a chart photograph** (Jiang et al. 2013): the raw patch means ``C`` of chart reflectances ``R_c``
   under a known light ``E``: ``R_c·diag(E)·S ≈ C``;
 
@@ -671,9 +671,10 @@ def estimate_ssf(
     training : str or colour.MultiSpectralDistributions
         Reflectances on which the DNG matrices' mapping is reproduced (default the 190 rawtoaces
         training patches).
-    smoothness, subspace : float
-        Weights of the second-difference penalty and of each channel's distance to its basis span,
-        relative to the data (defaults chosen by leave-one-camera-out, see the benchmark).
+    smoothness, subspace, prior : float
+        Weights of the second-difference penalty, of each channel's distance to its basis span, and of
+        the Gaussian prior on the basis coefficients beyond the first, relative to the data (defaults
+        chosen leaving one camera model out, docs/notes/2026-11-29-ssf-estimation.md).
     name : str, optional
         Name of the estimated camera (default the DNG's make and model).
 
@@ -690,10 +691,15 @@ def estimate_ssf(
     Notes
     -----
     Unknowns: the curves ``S`` (``n × 3``, bounded below by 0) and one exposure ``k_i`` per DNG
-    illuminant after the first. Rows, each block scaled to unit norm of its target: the DNG terms
-    ``R·diag(E_i)·S − k_i·T_i``, the chart terms ``R_c·diag(E)·S − C``, ``√smoothness · D₂ s_c`` and
-    ``√subspace · (I − V_c V_cᵀ) s_c``. Solved by :func:`scipy.optimize.lsq_linear` (bounded least
-    squares); the result is scaled so that its largest channel peaks at 1.
+    illuminant after the first. Each matrix ``A_i`` (camera from XYZ) is the least-squares fit of the
+    camera's responses on XYZ over ``R`` under ``E_i``, so its normal equations hold:
+    ``x̄ᵀ·W_i·(s_c − k_i·x̄·a_c) = 0`` with ``W_i = diag(E_i)·RᵀR·diag(E_i)`` (9 rows per matrix,
+    whitened by the Cholesky factor of ``x̄ᵀ·W_i·x̄``). The chart adds ``R_c·diag(E)·S − C``. Each block
+    is scaled to unit norm of its target (the DNG blocks share one unit); the regularisers
+    ``√smoothness · D₂ s_c``, ``√subspace · (I − V_c V_cᵀ) s_c`` and ``√prior · (V_c / σ_c)ᵀ s_c``
+    (components beyond the first) are scaled by the data's column norm. Solved by
+    :func:`scipy.optimize.lsq_linear` (bounded least squares); the result is scaled so that its
+    largest channel peaks at 1.
 
     Examples
     --------
