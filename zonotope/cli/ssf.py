@@ -76,7 +76,7 @@ def _estimate(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     """Register ``ssf`` (with its ``estimate`` action) on the ``zonotope`` sub-parser collection."""
     p = sub.add_parser("ssf", help="spectral sensitivities of cameras nobody measured")
-    actions = p.add_subparsers(dest="ssf_command", required=True)
+    actions = p.add_subparsers(dest="ssf_command", metavar="estimate", required=True)
     e = actions.add_parser(
         "estimate",
         help="estimate a camera's sensitivities from its DNG colour matrices and/or a chart photograph",

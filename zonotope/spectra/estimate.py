@@ -549,6 +549,11 @@ def _chart_terms(chart: Chart, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise SpectralDataError(
             f"{chart.name}: {C.shape[0]} patches; at least {SSF_CHART_MIN_PATCHES} are needed."
         )
+    if C.max() > 1.0 / SSF_CHART_CLIP:
+        raise SpectralDataError(
+            f"{chart.name}: patch means up to {C.max():.4g}; give them as fractions of saturation "
+            "(black subtracted, divided by WhiteLevel − BlackLevel)."
+        )
     clipped = np.flatnonzero((C >= SSF_CHART_CLIP).any(axis=1))
     if clipped.size:
         raise SpectralDataError(

@@ -256,6 +256,7 @@ def test_a_file_that_is_not_a_dng_is_refused(tmp_path):
     [
         (lambda C: np.where(np.arange(24)[:, None] == 18, SSF_CHART_CLIP, C), r"patches \[19\] are clipped"),
         (lambda C: C * 0.001, "too dark"),
+        (lambda C: C * 4000, "fractions of saturation"),
         (lambda C: C[:20], "20 patch means for a chart of 24"),
         (lambda C: C[:, :2], r"expected \(patches, 3\)"),
         (lambda C: np.where(C > 0.5, np.nan, C), "NaN"),
