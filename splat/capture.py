@@ -77,7 +77,9 @@ class CameraSpec:
     folder : str
         Folder of this camera's RAW files, relative to the capture file.
     ssf : str
-        Built-in camera name of :func:`zonotope.camera` or a path (resolved) to an SSF file.
+        Built-in camera name of :func:`zonotope.camera`, a path (resolved) to an SSF file, or
+        ``"estimate"``: estimated from the colour matrices of the folder's first DNG
+        (:func:`zonotope.estimate_ssf`).
     cfa : str or None
         Bayer pattern override (default: from the file).
     black_level, white_level : float or None
@@ -177,6 +179,17 @@ class CaptureSpec:
         import zonotope
 
         s = self.cameras[k].ssf
+        if s == "estimate":  # estimated from the colour matrices of the camera's first DNG
+            dngs = [f for f in self.raw_files(k) if f.suffix.lower() == ".dng"]
+            if not dngs:
+                raise CaptureError(
+                    f'{self.file}: camera {self.cameras[k].folder!r}: ssf = "estimate" needs a DNG file in '
+                    "the folder (its colour matrices); convert one RAW with Adobe DNG Converter."
+                )
+            try:
+                return zonotope.estimate_ssf(dngs[0]).sensitivities
+            except zonotope.ZonotopeError as e:
+                raise CaptureError(f"{self.file}: camera {self.cameras[k].folder!r}: {e}") from e
         try:
             cam = zonotope.load_camera(s)
         except (OSError, KeyError, TypeError, ValueError) as e:

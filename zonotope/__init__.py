@@ -11,7 +11,7 @@ Module map, in data-flow order (each layer imports only the layers above it; the
                           table, atomic output files, config checks, progress callbacks, lazy exports
 ``spectra``               spectral curves on one grid: built-in cameras, observers, illuminants,
                           reflectance sets; file readers; :func:`generators`; :class:`GeneratorPair`;
-                          atypical test spectra
+                          atypical test spectra; :func:`estimate_ssf` for cameras nobody measured
 ``geometry``              :class:`Zonotope` (object-colour solid, exact), :class:`Polytope`, MacAdam limits
 ``mismatch``              metamer mismatch volumes (:func:`metamer_mismatch`, :class:`MetamerMismatch`):
                           vertex walk, facet refinement, oracles, membership
@@ -262,6 +262,19 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "plot_vora_chain",
         ],
         "geometry.lp": ["distance_to_zonotope"],
+        "spectra.estimate": [
+            "SSF_SHAPE",
+            "Chart",
+            "DNGMatrices",
+            "SSFBasis",
+            "SSFEstimate",
+            "estimate_ssf",
+            "learn_ssf_basis",
+            "read_dng_matrices",
+            "ssf_basis",
+            "synthesise_dng_matrices",
+            "write_ssf_json",
+        ],
     },
     eager=__all__,
     deprecated={

@@ -515,3 +515,53 @@ ESTIMATE_NOISE = 0.01
 ESTIMATE_COVARIANCE_JITTER = 1e-4
 
 __all__ += ["ESTIMATE_COVARIANCE_JITTER", "ESTIMATE_NOISE"]
+# --- spectral sensitivity estimation (zonotope.spectra.estimate) ------------------------------
+
+#: :func:`zonotope.spectra.estimate.estimate_ssf`: weight of the second-difference smoothness penalty
+#: relative to the data (per unit column norm); chosen by leave-one-camera-out over the measured
+#: cameras (docs/notes/2026-11-29-ssf-estimation.md): smaller lets ripples through, larger flattens peaks.
+SSF_SMOOTHNESS = 0.01
+
+#: Weight of each channel's distance to its basis span, relative to the data; chosen with
+#: SSF_SMOOTHNESS by leave-one-camera-out (same note).
+SSF_SUBSPACE = 10.0
+
+#: Weight of the Gaussian prior on each channel's basis coefficients beyond the first (in units of the
+#: measured cameras' spread along them), relative to the data; chosen by leave-one-camera-out.
+SSF_PRIOR = 1e-4
+
+#: A colour matrix whose condition number reaches this is singular for practical purposes (real
+#: ColorMatrix tags measure ≈ 3–30; an all-zero or damaged tag is far above), as isp.dng refuses it.
+SSF_MATRIX_CONDITION_MAX = 1e8
+
+#: A chart patch with a channel at or above this fraction of saturation is clipped (raw highlights
+#: bend well before the white level on many sensors; 0.98 keeps ≥ 2 % headroom).
+SSF_CHART_CLIP = 0.98
+
+#: A chart whose brightest patch mean is below this fraction of saturation is too dark: at 1 % the
+#: darkest patches sit within a few read-noise σ of black on a 12–14 bit sensor.
+SSF_CHART_DARK = 0.01
+
+#: Fewest chart patches for a chart estimate: 3 channels × basis components must be outnumbered.
+SSF_CHART_MIN_PATCHES = 8
+
+#: A chart with more than this fraction of negative patch means had its black level subtracted twice
+#: (noise alone makes a few dark patches negative, never a quarter of them).
+SSF_CHART_NEGATIVE = 0.25
+
+#: Relative ridge added to the normal equations of the SSF fit so that their Cholesky factor exists
+#: when the smoothness/subspace weights are set to 0; 1e-12 of the mean diagonal changes no digit that
+#: matters (curves are O(1)).
+SSF_CHOLESKY_JITTER = 1e-12
+
+__all__ += [
+    "SSF_CHART_CLIP",
+    "SSF_CHART_DARK",
+    "SSF_CHART_MIN_PATCHES",
+    "SSF_CHART_NEGATIVE",
+    "SSF_CHOLESKY_JITTER",
+    "SSF_MATRIX_CONDITION_MAX",
+    "SSF_PRIOR",
+    "SSF_SMOOTHNESS",
+    "SSF_SUBSPACE",
+]

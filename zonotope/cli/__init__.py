@@ -6,7 +6,8 @@
 - ``zonotope evaluate``: ΔE00 of every colour-correction estimator on natural and atypical sets;
 - ``zonotope report``: HTML + Markdown report (Vora table, MMVs, evaluation, pictures) for a camera set;
 - ``zonotope correct``: colour-correct folders of N-band float TIFFs to XYZ (serial or Dask);
-- ``zonotope survey``: rank camera sets by MMV volume, Vora value and regression ΔE00 (serial or Dask).
+- ``zonotope survey``: rank camera sets by MMV volume, Vora value and regression ΔE00 (serial or Dask);
+- ``zonotope ssf estimate``: a camera's sensitivities from its DNG colour matrices and/or a chart photo.
 """
 
 from __future__ import annotations
@@ -353,6 +354,9 @@ def _parser() -> argparse.ArgumentParser:
     from .batch import add_commands  # correct (image folders) and survey: zonotope.parallel batches
 
     add_commands(sub)
+    from .ssf import add_commands as add_ssf  # ssf estimate: sensitivities of cameras nobody measured
+
+    add_ssf(sub)
     return parser
 
 

@@ -1,6 +1,7 @@
 """Spectral curves on one grid: built-in cameras, observers, illuminants and reflectance sets, file
-readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra, and the
-choice of a scene light among candidate illuminants (``illuminant_estimate``).
+readers (one ``load_*`` per kind), generators and generator pairs, atypical test spectra, the
+choice of a scene light among candidate illuminants (``illuminant_estimate``), and sensitivities
+estimated for cameras nobody measured (:mod:`~zonotope.spectra.estimate`).
 
 Why one folder: every other part of ``zonotope`` starts from curves resampled onto one
 :class:`~zonotope._tol` grid, so reading, resampling and combining them live together.
@@ -46,7 +47,20 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "estimate_illuminant",
             "grey_world",
             "white_patch",
-        ]
+        ],
+        "estimate": [
+            "SSF_SHAPE",
+            "Chart",
+            "DNGMatrices",
+            "SSFBasis",
+            "SSFEstimate",
+            "estimate_ssf",
+            "learn_ssf_basis",
+            "read_dng_matrices",
+            "ssf_basis",
+            "synthesise_dng_matrices",
+            "write_ssf_json",
+        ],
     },
     deprecated=_DEPRECATED,
 )

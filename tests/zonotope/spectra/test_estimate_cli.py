@@ -1,0 +1,110 @@
+"""``zonotope ssf estimate``: rawtoaces JSON out, one-line errors, no file replaced that it did not write."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import zonotope
+from zonotope.cli import main
+from zonotope.spectra import builtin as spectra
+from zonotope.spectra.estimate import SSF_SHAPE, synthesise_dng_matrices
+
+
+def _srational(m) -> tuple[int, ...]:
+    out = []
+    for x in np.ravel(m):
+        f = Fraction(float(x)).limit_denominator(10000)
+        out += [f.numerator, f.denominator]
+    return tuple(out)
+
+
+def _dng(path, matrices=None) -> str:
+    """A tiny DNG (8 × 8 CFA) with the given ColorMatrix1/2 under A and D65 (none: no colour tags)."""
+    tifffile = pytest.importorskip("tifffile")
+    tags = [(50706, "B", 4, (1, 4, 0, 0), True), (271, "s", 0, "Test", True), (272, "s", 0, "Test Cam", True)]
+    if matrices is not None:
+        for i, (cm, light) in enumerate(zip(matrices.color_matrices, (17, 21), strict=True)):
+            tags += [(50721 + i, "2i", 9, _srational(cm), True), (50778 + i, "H", 1, light, True)]
+    tifffile.imwrite(path, np.zeros((8, 8), np.uint16), photometric=32803, extratags=tags)
+    return str(path)
+
+
+def test_estimate_writes_json_that_load_camera_reads(tmp_path, capsys):
+    dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    out = tmp_path / "cam.json"
+    assert main(["ssf", "estimate", dng, "-o", str(out)]) == 0
+    assert "Test Cam" in capsys.readouterr().out
+    cam = zonotope.load_camera(out)
+    assert cam.values.shape == (len(SSF_SHAPE.wavelengths), 3) and cam.values.min() >= 0
+    truth = spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), SSF_SHAPE.wavelengths)
+    rmse = np.sqrt(np.mean((cam.values / cam.values.max(0) - truth / truth.max(0)) ** 2, axis=0))
+    assert np.all(rmse < 0.06), rmse
+    G = zonotope.generators(cam, "D65")  # usable downstream as any camera file
+    assert G.values.shape[1] == 3
+    # refuses to overwrite without --force; replaces its own output with it
+    assert main(["ssf", "estimate", dng, "-o", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert main(["ssf", "estimate", dng, "-o", str(out), "--force"]) == 0
+
+
+def test_chart_csv_alone_and_with_the_dng(tmp_path):
+    w = SSF_SHAPE.wavelengths
+    R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T
+    E = spectra.resample(zonotope.illuminant("D65"), w)[:, 0]
+    C = (R * E) @ spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), w)
+    C = 0.8 * C / C.max()
+    csv = tmp_path / "chart.csv"
+    csv.write_text("R,G,B\n" + "\n".join(",".join(f"{x:.6f}" for x in row) for row in C) + "\n")
+    assert main(["ssf", "estimate", "--chart", str(csv), "-o", str(tmp_path / "a.json")]) == 0
+    dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    assert main(["ssf", "estimate", dng, "--chart", str(csv), "-o", str(tmp_path / "b.json")]) == 0
+    assert zonotope.load_camera(tmp_path / "b.json").values.shape[1] == 3
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda d: _dng(d / "x.dng"), "no usable ColorMatrix1/ColorMatrix2"),
+        (lambda d: (d / "x.dng").write_text("text") and str(d / "x.dng"), "not a readable DNG"),
+        (lambda d: str(d / "missing.dng"), "no such file"),
+    ],
+)
+def test_errors_are_one_line_and_write_nothing(tmp_path, capsys, make, match):
+    src = make(tmp_path)
+    out = tmp_path / "cam.json"
+    assert main(["ssf", "estimate", src, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_a_foreign_file_is_never_replaced(tmp_path, capsys):
+    dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    foreign = tmp_path / "notes.json"
+    foreign.write_text("{}\n")
+    assert main(["ssf", "estimate", dng, "-o", str(foreign), "--force"]) == 2
+    assert "never replaced" in capsys.readouterr().err
+    assert foreign.read_text() == "{}\n"
+    assert main(["ssf", "estimate", dng, "-o", dng, "--force"]) == 2  # the input itself
+    assert main(["ssf", "estimate", "-o", str(tmp_path / "y.json")]) == 2  # nothing to estimate from
+
+
+def test_capture_toml_ssf_estimate_uses_the_first_dng(tmp_path):
+    """``ssf = "estimate"`` in capture.toml: the camera's curves from its folder's first DNG."""
+    capture = pytest.importorskip("splat.capture")
+    (tmp_path / "cam").mkdir()
+    _dng(tmp_path / "cam" / "a.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "b.nef").write_bytes(b"not read here")  # a RAW file, but no DNG
+    (tmp_path / "capture.toml").write_text(
+        'illuminant = "D65"\n[[camera]]\nfolder = "cam"\nssf = "estimate"\n'
+        '[[camera]]\nfolder = "empty"\nssf = "estimate"\n'
+    )
+    spec = capture.read_capture(tmp_path / "capture.toml")
+    cam = spec.load_ssf(0)
+    assert cam.values.shape == (len(SSF_SHAPE.wavelengths), 3) and cam.values.min() >= 0
+    with pytest.raises(capture.CaptureError, match="needs a DNG file"):
+        spec.load_ssf(1)

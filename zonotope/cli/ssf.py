@@ -1,0 +1,101 @@
+"""``zonotope ssf estimate``: spectral sensitivities of a camera from its DNG and/or a chart photograph."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["add_commands"]
+
+
+def _read_chart_csv(path: str):
+    """Patch means (N, 3) from a CSV/TXT file: one row per patch, R, G, B (a header line is skipped)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from .._errors import SpectralDataError
+
+    p = Path(path)
+    if not p.is_file():
+        raise SpectralDataError(
+            f"--chart {path}: no such file; give a CSV of raw patch means (R,G,B per row)."
+        )
+    rows = []
+    try:
+        lines = p.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as error:
+        raise SpectralDataError(f"--chart {path}: cannot read it ({error}).") from None
+    for i, line in enumerate(lines):
+        cells = [c for c in line.replace(";", ",").replace("\t", ",").split(",") if c.strip()]
+        if not cells or line.lstrip().startswith("#"):
+            continue
+        try:
+            rows.append([float(c) for c in cells[-3:]])
+        except ValueError:
+            if rows or i > 0:
+                raise SpectralDataError(
+                    f"--chart {path}, line {i + 1}: not three numbers ({line.strip()!r})."
+                ) from None
+    if not rows or any(len(r) != 3 for r in rows):
+        raise SpectralDataError(f"--chart {path}: expected one row of three numbers (R, G, B) per patch.")
+    return np.array(rows)
+
+
+def _estimate(args: argparse.Namespace) -> int:
+    from .._errors import SpectralDataError
+    from ..spectra.estimate import Chart, estimate_ssf, write_ssf_json
+    from ..utilities.io import check_output
+
+    if args.file is None and args.chart is None:
+        raise SpectralDataError("give a DNG file, --chart CSV, or both.")
+    inputs = [args.file, args.chart]
+    check_output(
+        args.output,
+        overwrite=args.force,
+        signature='"document_creator": "zonotope.estimate_ssf"',
+        what="-o",
+        inputs=inputs,
+    )
+    chart = None
+    if args.chart is not None:
+        chart = Chart(
+            _read_chart_csv(args.chart), args.reflectances, args.illuminant, name=f"--chart {args.chart}"
+        )
+    est = estimate_ssf(args.file, chart=chart, name=args.name)
+    write_ssf_json(est, args.output, overwrite=args.force)
+    peaks = est.wavelengths[est.values.argmax(axis=0)]
+    print(
+        f"{est.name}: sensitivities from {' + '.join(est.sources)} (peaks R {peaks[0]:g}, G {peaks[1]:g}, "
+        f"B {peaks[2]:g} nm; relative misfit {est.residual:.3g}) → {args.output}",
+        file=sys.stdout,
+    )
+    return 0
+
+
+def add_commands(sub) -> None:
+    """Register ``ssf`` (with its ``estimate`` action) on the ``zonotope`` sub-parser collection."""
+    p = sub.add_parser("ssf", help="spectral sensitivities of cameras nobody measured")
+    actions = p.add_subparsers(dest="ssf_command", metavar="estimate", required=True)
+    e = actions.add_parser(
+        "estimate",
+        help="estimate a camera's sensitivities from its DNG colour matrices and/or a chart photograph",
+        description="Write rawtoaces JSON sensitivities (zonotope.load_camera reads them) estimated from a "
+        "DNG's ColorMatrix/ForwardMatrix tags, from raw patch means of a photographed chart, or both.",
+    )
+    e.add_argument(
+        "file", nargs="?", help="a DNG file of the camera (Adobe DNG Converter writes one from any RAW)"
+    )
+    e.add_argument("-o", "--output", required=True, help="output JSON file (must not exist unless --force)")
+    e.add_argument(
+        "--chart",
+        help="CSV of raw patch means, one row R,G,B per patch in chart order, black subtracted and divided "
+        "by WhiteLevel − BlackLevel",
+    )
+    e.add_argument(
+        "--reflectances", default="ColorChecker N Ohta", help="the chart's reflectances (name or file)"
+    )
+    e.add_argument("--illuminant", default="D65", help="the light the chart was photographed under")
+    e.add_argument("--name", help="camera name written into the file (default the DNG's make and model)")
+    e.add_argument("--force", action="store_true", help="replace an output file an earlier estimate wrote")
+    e.set_defaults(func=_estimate)

@@ -1,0 +1,854 @@
+"""Spectral sensitivities of cameras nobody measured: from DNG colour matrices, a chart photograph, or both.
+
+Every camera's sensitivities ``S`` (shape ``(n, 3)``) are sought as non-negative, smooth curves near a
+low-dimensional space learned from measured cameras (:class:`SSFBasis`, shipped with the package), by
+one bounded least-squares problem (:func:`scipy.optimize.lsq_linear`) whose data terms are
+
+* **DNG matrices** (Solomatov & Akkaynak 2023): for each calibration illuminant ``E_i`` the matrix
+  ``A_i`` (camera from XYZ: ColorMatrix1/2, and ForwardMatrix1/2 turned round) must be what a least
+  squares fit of the camera's responses to training reflectances ``R`` on their XYZ would give: its
+  normal equations are linear in ``S`` (``k_i`` an unknown exposure per illuminant);
+* **a chart photograph** (Jiang et al. 2013): the raw patch means ``C`` of chart reflectances ``R_c``
+  under a known light ``E``: ``R_c·diag(E)·S ≈ C``;
+
+and whose regularisers are a second-difference smoothness penalty and the distance of each channel
+to its span in the basis. Why: a 3 × 3 matrix or 24 patches constrain far fewer numbers than a curve
+has samples; measured cameras say which of the many consistent curves are plausible.
+
+The per-wavelength uncertainty is the spread of the same estimate over measured cameras held out of
+the basis (stored with the basis; see :func:`learn_ssf_basis`).
+
+The DNG tags are read here with tifffile (rawpy's ``rgb_xyz_matrix`` is all zeros for DNG files);
+``isp.read_dng_tags`` output can be given instead of a path, as can a :class:`DNGMatrices`.
+
+References
+----------
+.. [1] Solomatov, G. & Akkaynak, D. (2023). Spectral sensitivity estimation without a camera.
+   IEEE International Conference on Computational Photography (ICCP).
+.. [2] Jiang, J., Liu, D., Gu, J. & Süsstrunk, S. (2013). What is the space of spectral sensitivity
+   functions for digital color cameras? IEEE WACV, 168–179, doi:10.1109/WACV.2013.6475015.
+.. [3] Adobe Systems (2012). Digital Negative (DNG) Specification 1.4.0.0, chapter 6.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import colour
+import numpy as np
+
+from .._errors import SpectralDataError
+from .._tol import (
+    SSF_CHART_CLIP,
+    SSF_CHART_DARK,
+    SSF_CHART_MIN_PATCHES,
+    SSF_CHART_NEGATIVE,
+    SSF_CHOLESKY_JITTER,
+    SSF_MATRIX_CONDITION_MAX,
+    SSF_PRIOR,
+    SSF_SMOOTHNESS,
+    SSF_SUBSPACE,
+)
+from . import builtin as spectra
+
+__all__ = [
+    "SSF_SHAPE",
+    "Chart",
+    "DNGMatrices",
+    "SSFBasis",
+    "SSFEstimate",
+    "estimate_ssf",
+    "learn_ssf_basis",
+    "read_dng_matrices",
+    "ssf_basis",
+    "synthesise_dng_matrices",
+    "write_ssf_json",
+]
+
+#: The grid every estimate lives on: 400–700 nm / 10 nm, the range every measured set covers.
+SSF_SHAPE = colour.SpectralShape(400, 700, 10)
+
+#: EXIF LightSource codes (CalibrationIlluminant1/2) → colour-science illuminant names, where the
+#: code names a CIE illuminant whose spectrum is known (DNG spec 1.4, p. 47).
+LIGHT_SOURCES: dict[int, str] = {
+    17: "A",
+    18: "B",
+    19: "C",
+    20: "D55",
+    21: "D65",
+    22: "D75",
+    23: "D50",
+    2: "FL2",
+    3: "A",  # tungsten
+    12: "FL1",  # daylight fluorescent (D 5700–7100 K)
+    13: "FL8",  # day white fluorescent (N 4600–5400 K)
+    14: "FL2",  # cool white fluorescent (W 3900–4500 K)
+    15: "FL3",  # white fluorescent (WW 3200–3700 K)
+    1: "D55",  # daylight
+    9: "D55",  # fine weather
+    10: "D65",  # cloudy weather
+    11: "D75",  # shade
+    24: "A",  # ISO studio tungsten (3200 K; A is the nearest CIE illuminant)
+}
+
+_BASIS_FILE = "ssf_basis.json"
+
+#: What the first line of every file :func:`write_ssf_json` writes contains.
+_SIGNATURE = '"document_creator": "zonotope.estimate_ssf"'
+
+
+# ---------------------------------------------------------------------------------------------
+# Basis
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SSFBasis:
+    """A low-dimensional space of camera sensitivities, per channel, learned from measured cameras.
+
+    Attributes
+    ----------
+    wavelengths : ndarray of shape (n,)
+    components : ndarray of shape (3, n, K)
+        Orthonormal columns per channel (R, G, B), uncentred principal components of peak-normalised
+        measured curves, so any scale of a curve in their span is in their span.
+    spread : ndarray of shape (n, 3)
+        Root-mean-square error, per wavelength, of the DNG-matrix estimate of held-out cameras
+        (curves with peak 1): the uncertainty band of an estimate.
+    sigma : ndarray of shape (3, K)
+        Singular value of each component relative to the first (how far the measured curves spread
+        along it): the prior of the estimate.
+    sources : tuple of str
+        The measured cameras (and their data sets) the basis was learned from.
+    licence : str
+        The licence statement of the data it was learned from.
+    """
+
+    wavelengths: np.ndarray
+    components: np.ndarray
+    spread: np.ndarray
+    sigma: np.ndarray
+    sources: tuple[str, ...] = ()
+    licence: str = ""
+
+    @property
+    def n_components(self) -> int:
+        """Components per channel (K)."""
+        return int(self.components.shape[2])
+
+    def to_json(self) -> dict:
+        """The basis as a JSON-ready document (what ``ssf_basis.json`` holds)."""
+        return {
+            "description": "Camera spectral sensitivity basis of zonotope.estimate_ssf: per channel "
+            "(R, G, B) the uncentred principal components of peak-normalised measured curves, and the "
+            "RMS error of the estimate of held-out cameras (spread, peak = 1).",
+            "licence": self.licence,
+            "sources": list(self.sources),
+            "wavelengths": self.wavelengths.tolist(),
+            "components": np.round(self.components, 8).tolist(),
+            "spread": np.round(self.spread, 6).tolist(),
+            "sigma": np.round(self.sigma, 8).tolist(),
+        }
+
+    @classmethod
+    def from_json(cls, doc: Mapping) -> SSFBasis:
+        """Read :meth:`to_json` output back; a malformed document raises SpectralDataError."""
+        try:
+            w = np.asarray(doc["wavelengths"], dtype=np.float64)
+            V = np.asarray(doc["components"], dtype=np.float64)
+            spread = np.asarray(doc["spread"], dtype=np.float64)
+            sigma = np.asarray(doc["sigma"], dtype=np.float64)
+        except (KeyError, TypeError, ValueError) as error:
+            raise SpectralDataError(f"SSF basis: malformed document ({error}).") from None
+        if (
+            V.ndim != 3
+            or V.shape[:2] != (3, w.size)
+            or spread.shape != (w.size, 3)
+            or sigma.shape != (3, V.shape[2])
+        ):
+            raise SpectralDataError(
+                f"SSF basis: components {V.shape} and spread {spread.shape} do not fit {w.size} wavelengths."
+            )
+        return cls(w, V, spread, sigma, tuple(doc.get("sources", ())), str(doc.get("licence", "")))
+
+
+def _peak_normalised(values: np.ndarray) -> np.ndarray:
+    peak = values.max(axis=0, keepdims=True)
+    return values / np.where(peak > 0, peak, 1.0)
+
+
+def learn_ssf_basis(
+    cameras: Mapping[str, colour.MultiSpectralDistributions | np.ndarray],
+    *,
+    n_components: int = 5,
+    shape: colour.SpectralShape = SSF_SHAPE,
+    spread: np.ndarray | None = None,
+    licence: str = "",
+) -> SSFBasis:
+    """Learn the per-channel basis from measured cameras (uncentred PCA of peak-normalised curves).
+
+    Parameters
+    ----------
+    cameras : mapping of str to colour.MultiSpectralDistributions or ndarray of shape (n, 3)
+        Measured RGB sensitivities by name (arrays must already lie on ``shape``).
+    n_components : int
+        Components kept per channel.
+    shape : colour.SpectralShape
+        The grid.
+    spread : ndarray of shape (n, 3), optional
+        The uncertainty band to store; default: the leave-one-out residual of the basis itself
+        (RMS over cameras of each held-out curve minus its projection on the others' basis), a lower
+        bound of the estimate's error.
+    licence : str
+        The licence statement of the data, stored with the basis.
+
+    Returns
+    -------
+    SSFBasis
+    """
+    w = np.asarray(shape.wavelengths, dtype=np.float64)
+    names = list(cameras)
+    need = n_components + (spread is None)  # the leave-one-out spread learns from one camera fewer
+    if len(names) < need:
+        raise SpectralDataError(
+            f"learn_ssf_basis: {len(names)} cameras for {n_components} components; give at least {need}."
+        )
+    curves = np.stack([_on_grid(cameras[k], w, k) for k in names])  # (m, n, 3)
+    V, sigma = _components(curves, n_components)
+    if spread is None:
+        res = []
+        for j in range(len(names)):
+            Vj, _ = _components(np.delete(curves, j, axis=0), n_components)
+            s = curves[j]
+            res.append(np.stack([s[:, c] - Vj[c] @ (Vj[c].T @ s[:, c]) for c in range(3)], axis=1))
+        spread = np.sqrt(np.mean(np.square(res), axis=0))
+    return SSFBasis(w, V, np.asarray(spread, dtype=np.float64), sigma, tuple(names), licence)
+
+
+def _components(curves: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(3, n, k) leading left singular vectors of each channel's (n, m) stack of curves, and their
+    (3, k) singular values relative to the first."""
+    out, sig = [], []
+    for c in range(3):
+        U, sv, _ = np.linalg.svd(curves[:, :, c].T, full_matrices=False)
+        U = U[:, :k]
+        out.append(U * np.where(U.sum(axis=0, keepdims=True) < 0, -1.0, 1.0))  # positive-lobed first
+        sig.append(sv[:k] / sv[0])
+    return np.stack(out), np.stack(sig)
+
+
+def _on_grid(curve, w: np.ndarray, name: str) -> np.ndarray:
+    if isinstance(curve, colour.MultiSpectralDistributions):
+        values = spectra.resample(curve, w)
+    else:
+        values = np.asarray(curve, dtype=np.float64)
+    if values.shape != (w.size, 3):
+        raise SpectralDataError(
+            f"camera {name!r}: expected 3 channels on {w.size} wavelengths, got {values.shape}."
+        )
+    return _peak_normalised(values)
+
+
+@functools.cache
+def _shipped_basis() -> SSFBasis:
+    text = (resources.files("zonotope.spectra") / "data" / _BASIS_FILE).read_text(encoding="utf-8")
+    return SSFBasis.from_json(json.loads(text))
+
+
+def ssf_basis() -> SSFBasis:
+    """The basis shipped with ``zonotope`` (``zonotope/spectra/data/ssf_basis.json``).
+
+    Learned from the rawtoaces cameras (Apache-2.0) and colour-science's NPL Nikon D5100 (BSD-3) by
+    ``benchmarks/bench_ssf.py --write-basis``; its ``sources`` and ``licence`` say which.
+    """
+    return _shipped_basis()
+
+
+# ---------------------------------------------------------------------------------------------
+# DNG matrices
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class DNGMatrices:
+    """The colour matrices of a DNG (reference camera), per calibration illuminant.
+
+    Attributes
+    ----------
+    color_matrices : tuple of ndarray of shape (3, 3)
+        XYZ → camera (ColorMatrix1, ColorMatrix2, ...).
+    illuminants : tuple of str
+        The colour-science illuminant of each calibration illuminant (``"A"``, ``"D65"``).
+    forward_matrices : tuple of (ndarray of shape (3, 3) or None)
+        White-balanced camera → XYZ D50 (ForwardMatrix1/2), None where the file has none.
+    name : str
+        Make and model, where the file names them.
+    """
+
+    color_matrices: tuple[np.ndarray, ...]
+    illuminants: tuple[str, ...]
+    forward_matrices: tuple[np.ndarray | None, ...] = ()
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        cms = tuple(_matrix(m, f"ColorMatrix{i + 1}") for i, m in enumerate(self.color_matrices))
+        if not cms:
+            raise SpectralDataError("DNG matrices: no ColorMatrix1/2; the camera's colour is unknown.")
+        if len(self.illuminants) != len(cms):
+            raise SpectralDataError(
+                f"DNG matrices: {len(cms)} colour matrices but {len(self.illuminants)} illuminants."
+            )
+        fms = tuple(self.forward_matrices) + (None,) * (len(cms) - len(self.forward_matrices))
+        fms = tuple(None if m is None else _matrix(m, f"ForwardMatrix{i + 1}") for i, m in enumerate(fms))
+        for light in self.illuminants:
+            spectra.illuminant(light)  # an unknown name is refused here, listing the valid ones
+        object.__setattr__(self, "color_matrices", cms)
+        object.__setattr__(self, "forward_matrices", fms[: len(cms)])
+        object.__setattr__(self, "illuminants", tuple(self.illuminants))
+
+
+def _matrix(m, name: str) -> np.ndarray:
+    a = np.asarray(m, dtype=np.float64)
+    if a.size != 9 or not np.all(np.isfinite(a)):
+        raise SpectralDataError(f"{name}: expected 9 finite values (a 3 × 3 matrix), got {a.ravel()[:12]}.")
+    a = a.reshape(3, 3)
+    if not np.linalg.cond(a) < SSF_MATRIX_CONDITION_MAX:
+        raise SpectralDataError(f"{name} is singular (all zeros or damaged); the camera's colour is unknown.")
+    return a
+
+
+def _dng_tags(path: Path) -> dict:
+    """ColorMatrix1/2, ForwardMatrix1/2, CalibrationIlluminant1/2, Make, Model of IFD 0 (tifffile)."""
+    import tifffile
+
+    codes = {
+        50721: "ColorMatrix1",
+        50722: "ColorMatrix2",
+        50964: "ForwardMatrix1",
+        50965: "ForwardMatrix2",
+        50778: "CalibrationIlluminant1",
+        50779: "CalibrationIlluminant2",
+        50706: "DNGVersion",
+        271: "Make",
+        272: "Model",
+        50708: "UniqueCameraModel",
+    }
+    try:
+        with tifffile.TiffFile(path) as tif:
+            tags = {}
+            for tag in tif.pages[0].tags.values():
+                if tag.code in codes:
+                    value = tag.value
+                    if int(tag.dtype) in (5, 10):  # RATIONAL, SRATIONAL: (num, den) pairs
+                        v = np.asarray(value, dtype=np.float64).reshape(-1, 2)
+                        value = v[:, 0] / np.where(v[:, 1] != 0, v[:, 1], 1.0)
+                    tags[codes[tag.code]] = value
+    except (tifffile.TiffFileError, OSError, ValueError, IndexError, KeyError, TypeError) as exc:
+        raise SpectralDataError(
+            f"{path}: not a readable DNG file ({type(exc).__name__}: {exc}); convert the RAW to DNG "
+            "(Adobe DNG Converter) first."
+        ) from None
+    if "DNGVersion" not in tags:
+        raise SpectralDataError(f"{path}: a TIFF file but not a DNG (no DNGVersion tag); give a DNG.")
+    return tags
+
+
+def read_dng_matrices(source) -> DNGMatrices:
+    """The colour matrices and calibration illuminants of a DNG file.
+
+    Parameters
+    ----------
+    source : path, mapping or DNGMatrices
+        A DNG file, or tags by name as ``isp.read_dng_tags`` returns them (ColorMatrix1, ...).
+
+    Returns
+    -------
+    DNGMatrices
+
+    Raises
+    ------
+    SpectralDataError
+        Not a DNG, or no usable ColorMatrix (absent, all zeros, singular), or a calibration
+        illuminant whose spectrum is unknown (the message names the tag and what to do).
+    """
+    if isinstance(source, DNGMatrices):
+        return source
+    where = "DNG tags"
+    if isinstance(source, str | os.PathLike):
+        path = Path(source)
+        if not path.is_file():
+            raise SpectralDataError(f"{path}: no such file; give a DNG file.")
+        tags, where = _dng_tags(path), str(path)
+    elif isinstance(source, Mapping):
+        tags = dict(source)
+    else:
+        raise SpectralDataError(
+            f"read_dng_matrices: expected a DNG path or a tag mapping, got {type(source).__name__}."
+        )
+    cms, lights, fms = [], [], []
+    for i in (1, 2):
+        cm = tags.get(f"ColorMatrix{i}")
+        if cm is None or np.asarray(cm).size != 9 or not np.any(np.asarray(cm, dtype=np.float64)):
+            continue
+        code = int(np.ravel(tags.get(f"CalibrationIlluminant{i}", 0) or 0)[0])
+        if code not in LIGHT_SOURCES:
+            if code == 0 and tags.get("ColorMatrix2") is None:
+                code = 21  # a single matrix of an unknown illuminant: DNG writers calibrate it for D65
+            else:
+                raise SpectralDataError(
+                    f"{where}: CalibrationIlluminant{i} = {code} has no known spectrum (known EXIF codes: "
+                    f"{sorted(LIGHT_SOURCES)}); the ColorMatrix{i} cannot be used."
+                )
+        cms.append(cm)
+        lights.append(LIGHT_SOURCES[code])
+        fm = tags.get(f"ForwardMatrix{i}")
+        fms.append(fm if fm is not None and np.any(np.asarray(fm, dtype=np.float64)) else None)
+    if not cms:
+        raise SpectralDataError(
+            f"{where}: no usable ColorMatrix1/ColorMatrix2 (absent or all zeros); the DNG says nothing about "
+            "the camera's colour. Convert the RAW with Adobe DNG Converter, or photograph a chart (--chart)."
+        )
+    make, model = (str(tags.get(k) or "").strip("\x00 ") for k in ("Make", "Model"))
+    name = model if model.lower().startswith(make.lower()) else f"{make} {model}".strip()
+    try:
+        return DNGMatrices(
+            tuple(cms), tuple(lights), tuple(fms), name or str(tags.get("UniqueCameraModel", ""))
+        )
+    except SpectralDataError as error:
+        raise SpectralDataError(f"{where}: {error}") from None
+
+
+def _camera_from_XYZ(dng: DNGMatrices, w: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(E_i on ``w``, camera-from-XYZ A_i) pairs: each ColorMatrix, and each ForwardMatrix turned round."""
+    out = []
+    for cm, light, fm in zip(dng.color_matrices, dng.illuminants, dng.forward_matrices, strict=True):
+        E = spectra.resample(spectra.illuminant(light), w)[:, 0]
+        out.append((E, cm))
+        if fm is not None:
+            cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
+            white = cmfs.T @ E
+            white = white / white[1]
+            neutral = cm @ white
+            D50 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"])
+            cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(white, D50, transform="Bradford")
+            # XYZ_D50 = FM · diag(1/neutral) · camera  →  camera = diag(neutral) · FM⁻¹ · CAT · XYZ
+            out.append((E, np.diag(neutral) @ np.linalg.inv(fm) @ cat))
+    return out
+
+
+def synthesise_dng_matrices(
+    camera, *, reflectances="BabelColor Average", illuminants: Sequence[str] = ("A", "D65"), name: str = ""
+) -> DNGMatrices:
+    """The ColorMatrix/ForwardMatrix pairs a DNG converter would write for measured sensitivities.
+
+    For each illuminant: the least-squares camera → XYZ matrix over ``reflectances`` (ColorMatrix =
+    its inverse, scaled so that the illuminant's white gives a largest camera value of 1, as the DNG
+    specification normalises it), and the white-preserving white-balanced camera → XYZ D50 matrix
+    (ForwardMatrix: Bradford-adapted targets, least squares with the white mapped exactly).
+
+    Parameters
+    ----------
+    camera : str, path or colour.MultiSpectralDistributions
+        Measured sensitivities (``zonotope.load_camera`` resolves it).
+    reflectances : str or colour.MultiSpectralDistributions
+        The calibration chart (default the 24 ColorChecker patches, BabelColor average).
+    illuminants : sequence of str
+        The calibration illuminants (default A and D65, as Adobe's DNG Converter profiles).
+    name : str
+
+    Returns
+    -------
+    DNGMatrices
+    """
+    from .loading import load_camera, load_reflectances
+
+    w = np.asarray(SSF_SHAPE.wavelengths)
+    S = spectra.resample(load_camera(camera), w)
+    R = spectra.resample(load_reflectances(reflectances), w).T
+    cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
+    D50 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"])
+    cms, fms = [], []
+    for light in illuminants:
+        E = spectra.resample(spectra.illuminant(light), w)[:, 0]
+        white = cmfs.T @ E
+        XYZ = (R * E) @ cmfs / white[1]
+        cam = (R * E) @ S
+        M = np.linalg.lstsq(cam, XYZ, rcond=None)[0].T  # XYZ ≈ M · camera
+        cm = np.linalg.inv(M)
+        cm = cm / (cm @ (white / white[1])).max()
+        cms.append(cm)
+        # ForwardMatrix: XYZ_D50 ≈ FM · (camera / neutral'), FM · 1 = D50 white exactly
+        n_cam = S.T @ E
+        wb = cam / n_cam
+        cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+            white / white[1], D50, transform="Bradford"
+        )
+        target = XYZ @ cat.T
+        # constrained least squares: FM = FM0 + Δ with Δ · 1 = 0 (each row), FM0 = D50 · 1ᵀ / 3
+        FM0 = np.outer(D50, np.ones(3)) / 3.0
+        N = np.array([[1.0, -1.0, 0.0], [1.0, 1.0, -2.0]]).T  # basis of {v : 1ᵀ v = 0}
+        coef = np.linalg.lstsq(wb @ N, target - wb @ FM0.T, rcond=None)[0]
+        fms.append(FM0 + (N @ coef).T)
+    return DNGMatrices(
+        tuple(cms), tuple(illuminants), tuple(fms), name or getattr(camera, "name", str(camera))
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Chart
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Chart:
+    """A photographed chart: raw patch means, the chart's reflectances, the light.
+
+    Attributes
+    ----------
+    rgb : array_like of shape (N, 3)
+        Linear raw means per patch (black subtracted), scaled so that 1 is the sensor's saturation
+        (divide by WhiteLevel − BlackLevel).
+    reflectances : str, path or colour.MultiSpectralDistributions
+        The chart's N reflectances in patch order (default the 24-patch ColorChecker).
+    illuminant : str or colour.SpectralDistribution
+        The light the chart was photographed under.
+    name : str
+    """
+
+    rgb: np.ndarray
+    reflectances: object = "ColorChecker N Ohta"
+    illuminant: object = "D65"
+    name: str = "chart"
+
+
+def _chart_terms(chart: Chart, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A, C) with A = R·diag(E) (patches × wavelengths) and C the checked patch means."""
+    from .loading import load_reflectances
+
+    try:
+        C = np.asarray(chart.rgb, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SpectralDataError(f"{chart.name}: the patch means are not numbers.") from None
+    if C.ndim != 2 or C.shape[1] != 3:
+        raise SpectralDataError(f"{chart.name}: patch means of shape {C.shape}; expected (patches, 3) RGB.")
+    if not np.all(np.isfinite(C)):
+        raise SpectralDataError(f"{chart.name}: patch means hold NaN or infinite values.")
+    R = spectra.resample(load_reflectances(chart.reflectances), w).T
+    if R.shape[0] != C.shape[0]:
+        raise SpectralDataError(
+            f"{chart.name}: {C.shape[0]} patch means for a chart of {R.shape[0]} reflectances; "
+            "give one mean per patch of a known chart, in the chart's patch order."
+        )
+    if C.shape[0] < SSF_CHART_MIN_PATCHES:
+        raise SpectralDataError(
+            f"{chart.name}: {C.shape[0]} patches; at least {SSF_CHART_MIN_PATCHES} are needed."
+        )
+    if C.max() > 1.0 / SSF_CHART_CLIP:
+        raise SpectralDataError(
+            f"{chart.name}: patch means up to {C.max():.4g}; give them as fractions of saturation "
+            "(black subtracted, divided by WhiteLevel − BlackLevel)."
+        )
+    clipped = np.flatnonzero((C >= SSF_CHART_CLIP).any(axis=1))
+    if clipped.size:
+        raise SpectralDataError(
+            f"{chart.name}: patches {(clipped + 1).tolist()} are clipped (a channel ≥ {SSF_CHART_CLIP:g} of "
+            "saturation); photograph the chart with less exposure."
+        )
+    if C.max() < SSF_CHART_DARK:
+        raise SpectralDataError(
+            f"{chart.name}: too dark (brightest patch mean {C.max():.3g} of saturation, below "
+            f"{SSF_CHART_DARK:g}); photograph the chart with more exposure."
+        )
+    if (C < 0).mean() > SSF_CHART_NEGATIVE:
+        raise SpectralDataError(
+            f"{chart.name}: most patch means are negative; subtract the black level once."
+        )
+    E = spectra.resample(spectra.illuminant(chart.illuminant), w)[:, 0]
+    return R * E, C
+
+
+# ---------------------------------------------------------------------------------------------
+# Estimate
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SSFEstimate:
+    """Estimated sensitivities with their uncertainty band.
+
+    Attributes
+    ----------
+    sensitivities : colour.MultiSpectralDistributions
+        R, G, B on :data:`SSF_SHAPE`, non-negative, the largest channel peaking at 1.
+    uncertainty : ndarray of shape (n, 3)
+        One standard deviation per wavelength and channel, on the same scale.
+    sources : tuple of str
+        What the estimate used: ``"dng"``, ``"chart"``.
+    residual : float
+        Relative RMS misfit of the data terms (0: reproduced exactly).
+    """
+
+    sensitivities: colour.MultiSpectralDistributions
+    uncertainty: np.ndarray
+    sources: tuple[str, ...]
+    residual: float
+    name: str = field(default="estimated camera")
+
+    @property
+    def values(self) -> np.ndarray:
+        """The curves, shape (n, 3)."""
+        return np.asarray(self.sensitivities.values)
+
+    @property
+    def wavelengths(self) -> np.ndarray:
+        """The grid (nm), shape (n,)."""
+        return np.asarray(self.sensitivities.wavelengths)
+
+    def band(self, k: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) curves ``values ∓ k·uncertainty``, the lower clipped at 0; each (n, 3)."""
+        return np.maximum(self.values - k * self.uncertainty, 0.0), self.values + k * self.uncertainty
+
+    def response_sigma(self, illuminant="D65", reflectances="rawtoaces 190") -> np.ndarray:
+        """What the uncertainty band does to white-balanced responses: a noise σ per channel, shape (3,).
+
+        The RMS over ``reflectances`` of ``R·diag(E)·u_c / (white_c)`` (``u`` the band, one standard
+        deviation, taken as fully correlated over wavelengths: an upper bound). Give it to the
+        correction as its noise (``noise_options(method, sigma)``) so that the fit does not trust
+        channel differences finer than the curves are known. Why: a regression fitted noise-free on
+        estimated curves of several cameras amplifies their errors (docs/benchmarks.md).
+        """
+        w = self.wavelengths
+        E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
+        R = _training(reflectances, tuple(w)) if isinstance(reflectances, str) else None
+        if R is None:
+            from .loading import load_reflectances
+
+            R = spectra.resample(load_reflectances(reflectances), w).T
+        white = E @ self.values
+        return np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
+
+
+@functools.lru_cache(maxsize=8)
+def _training(name: str, w: tuple[float, ...]) -> np.ndarray:
+    """A named reflectance set on a grid (read once: the built-in rawtoaces set takes a second)."""
+    from .loading import load_reflectances
+
+    R = spectra.resample(load_reflectances(name), np.asarray(w)).T
+    R.setflags(write=False)
+    return R
+
+
+def _second_difference(n: int) -> np.ndarray:
+    D = np.zeros((n - 2, n))
+    for i in range(n - 2):
+        D[i, i : i + 3] = (1.0, -2.0, 1.0)
+    return D
+
+
+def estimate_ssf(
+    dng=None,
+    *,
+    chart: Chart | None = None,
+    basis: SSFBasis | None = None,
+    training="rawtoaces 190",
+    smoothness: float = SSF_SMOOTHNESS,
+    subspace: float = SSF_SUBSPACE,
+    prior: float = SSF_PRIOR,
+    name: str | None = None,
+) -> SSFEstimate:
+    """Estimate a camera's RGB spectral sensitivities from its DNG colour matrices, a chart, or both.
+
+    Parameters
+    ----------
+    dng : path, mapping or DNGMatrices, optional
+        A DNG file (its ColorMatrix1/2, ForwardMatrix1/2 and CalibrationIlluminant1/2 are read),
+        ``isp.read_dng_tags`` output, or :class:`DNGMatrices`.
+    chart : Chart, optional
+        A photographed chart (raw patch means, reflectances, light).
+    basis : SSFBasis, optional
+        Default :func:`ssf_basis`.
+    training : str or colour.MultiSpectralDistributions
+        Reflectances on which the DNG matrices' mapping is reproduced (default the 190 rawtoaces
+        training patches).
+    smoothness, subspace, prior : float
+        Weights of the second-difference penalty, of each channel's distance to its basis span, and of
+        the Gaussian prior on the basis coefficients beyond the first, relative to the data (defaults
+        chosen leaving one camera model out, docs/notes/2026-11-29-ssf-estimation.md).
+    name : str, optional
+        Name of the estimated camera (default the DNG's make and model).
+
+    Returns
+    -------
+    SSFEstimate
+
+    Raises
+    ------
+    SpectralDataError
+        Neither a DNG nor a chart; a DNG without usable colour matrices; a clipped or too dark chart,
+        or a chart whose patch count is not the reflectance set's (each names what is missing).
+
+    Notes
+    -----
+    Unknowns: the curves ``S`` (``n × 3``, bounded below by 0) and one exposure ``k_i`` per DNG
+    illuminant after the first. Each matrix ``A_i`` (camera from XYZ) is the least-squares fit of the
+    camera's responses on XYZ over ``R`` under ``E_i``, so its normal equations hold:
+    ``x̄ᵀ·W_i·(s_c − k_i·x̄·a_c) = 0`` with ``W_i = diag(E_i)·RᵀR·diag(E_i)`` (9 rows per matrix,
+    whitened by the Cholesky factor of ``x̄ᵀ·W_i·x̄``). The chart adds ``R_c·diag(E)·S − C``. Each block
+    is scaled to unit norm of its target (the DNG blocks share one unit); the regularisers
+    ``√smoothness · D₂ s_c``, ``√subspace · (I − V_c V_cᵀ) s_c`` and ``√prior · (V_c / σ_c)ᵀ s_c``
+    (components beyond the first) are scaled by the data's column norm. Solved by
+    :func:`scipy.optimize.lsq_linear` (bounded least squares); the result is scaled so that its
+    largest channel peaks at 1.
+
+    Examples
+    --------
+    >>> import zonotope
+    >>> from zonotope.spectra.estimate import estimate_ssf, synthesise_dng_matrices
+    >>> est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    >>> est.values.shape, bool(est.values.min() >= 0)
+    ((31, 3), True)
+    """
+    from scipy.optimize import lsq_linear
+
+    from .loading import load_reflectances
+
+    if dng is None and chart is None:
+        raise SpectralDataError(
+            "estimate_ssf: give a DNG (its colour matrices), a chart photograph, or both."
+        )
+    basis = ssf_basis() if basis is None else basis
+    w = np.asarray(basis.wavelengths, dtype=np.float64)
+    n = w.size
+    blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []  # (A per channel, target (N,3), scale index)
+    matrices = None
+    if dng is not None:
+        matrices = read_dng_matrices(dng)
+        R = _training(training, tuple(w)) if isinstance(training, str) else None
+        if R is None:
+            R = spectra.resample(load_reflectances(training), w).T
+        cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
+        lights = []
+        for E, A in _camera_from_XYZ(matrices, w):
+            key = next((j for j, e in enumerate(lights) if np.array_equal(e, E)), None)
+            if key is None:
+                lights.append(E)
+                key = len(lights) - 1
+            # the matrix is the least-squares fit of camera on XYZ over R: its normal equations
+            # x̄ᵀ·W·(s_c − k·x̄·a_c) = 0 (W = diag(E)·RᵀR·diag(E)), whitened, hold for every channel
+            RE = R * E / (cmfs[:, 1] @ E)
+            G = (RE @ cmfs).T @ RE  # (3, n)
+            L = np.linalg.cholesky(G @ cmfs)
+            G = np.linalg.solve(L, G)
+            blocks.append((G, G @ cmfs @ A.T, key))
+    if chart is not None:
+        A_c, C = _chart_terms(chart, w)
+        blocks.append((A_c, C, None))
+    n_scales = max([b[2] for b in blocks if b[2] is not None], default=-1)  # k_0 = 1 fixed
+    n_var = 3 * n + max(n_scales, 0)
+    rows, rhs = [], []
+    n_dng = sum(key is not None for _, _, key in blocks)
+    for A, T, key in blocks:
+        # the DNG blocks share one unit of weight, the chart has another
+        scale = 1.0 / max(np.linalg.norm(T), 1e-300) / np.sqrt(n_dng if key is not None else 1.0)
+        for c in range(3):
+            M = np.zeros((A.shape[0], n_var))
+            M[:, c * n : (c + 1) * n] = A * scale
+            t = T[:, c] * scale
+            if key is not None and key > 0:
+                M[:, 3 * n + key - 1] = -t  # R·E·s_c − k·t
+                t = np.zeros_like(t)
+            rows.append(M)
+            rhs.append(t)
+    # regularisers, relative to the data's scale: curves are O(1 / column norm of the data)
+    data = np.vstack(rows)
+    col = np.sqrt(np.mean(np.square(data[:, : 3 * n]).sum(axis=0)))
+    D2 = _second_difference(n)
+    for c in range(3):
+        V = basis.components[c]
+        ridge = (V[:, 1:] / basis.sigma[c, 1:]).T  # components beyond the first, in units of their spread
+        for weight, P in ((smoothness, D2), (subspace, np.eye(n) - V @ V.T), (prior, ridge)):
+            M = np.zeros((P.shape[0], n_var))
+            M[:, c * n : (c + 1) * n] = np.sqrt(weight) * col * P
+            rows.append(M)
+            rhs.append(np.zeros(P.shape[0]))
+    M, b = np.vstack(rows), np.concatenate(rhs)
+    lower = np.zeros(n_var)
+    lower[3 * n :] = -np.inf
+    # the same least-squares problem in n_var rows (Cholesky factor of the normal equations): fast BVLS
+    H = M.T @ M
+    L = np.linalg.cholesky(H + np.eye(n_var) * (SSF_CHOLESKY_JITTER * np.trace(H) / n_var))
+    sol = lsq_linear(L.T, np.linalg.solve(L, M.T @ b), bounds=(lower, np.inf), method="bvls")
+    S = sol.x[: 3 * n].reshape(3, n).T
+    peak = S.max()
+    if not peak > 0:
+        raise SpectralDataError(
+            "estimate_ssf: the data give all-zero sensitivities; check the matrices or chart."
+        )
+    fit = data @ sol.x - np.concatenate(rhs[: len(blocks) * 3])
+    residual = float(np.linalg.norm(fit) / np.sqrt(len(blocks)))
+    S = S / peak
+    spread = np.asarray(basis.spread, dtype=np.float64) * S.max(axis=0, keepdims=True)
+    label = name or (matrices.name if matrices is not None and matrices.name else "estimated camera")
+    msds = colour.MultiSpectralDistributions(S, w, labels=["red", "green", "blue"], name=label)
+    sources = tuple(s for s, given in (("dng", dng is not None), ("chart", chart is not None)) if given)
+    return SSFEstimate(msds, spread, sources, residual, label)
+
+
+# ---------------------------------------------------------------------------------------------
+# Output
+# ---------------------------------------------------------------------------------------------
+
+
+def ssf_json(estimate: SSFEstimate) -> dict:
+    """The estimate as a rawtoaces / AMPAS spectral JSON document (``zonotope.load_camera`` reads it).
+
+    The uncertainty (one standard deviation) travels in ``spectral_data.data.uncertainty``, which
+    rawtoaces ignores.
+    """
+    make, _, model = estimate.name.partition(" ")
+    return {
+        "header": {
+            "schema_version": "1.0.0",
+            "manufacturer": make or "unknown",
+            "model": model or estimate.name,
+            "description": "camera spectral sensitivity data, estimated by zonotope.estimate_ssf from "
+            + " and ".join(
+                {"dng": "DNG colour matrices", "chart": "a chart photograph"}[s] for s in estimate.sources
+            ),
+            "document_creator": "zonotope.estimate_ssf",
+            "comments": f"relative misfit {estimate.residual:.3g}; 'uncertainty' is one standard deviation",
+        },
+        "spectral_data": {
+            "units": "relative",
+            "index": {"main": ["R", "G", "B"]},
+            "data": {
+                "main": {
+                    f"{w:g}": [round(float(v), 6) for v in row]
+                    for w, row in zip(estimate.wavelengths, estimate.values, strict=True)
+                },
+                "uncertainty": {
+                    f"{w:g}": [round(float(v), 6) for v in row]
+                    for w, row in zip(estimate.wavelengths, estimate.uncertainty, strict=True)
+                },
+            },
+        },
+    }
+
+
+def write_ssf_json(estimate: SSFEstimate, path, *, overwrite: bool = False) -> Path:
+    """Write :func:`ssf_json` atomically; an existing file is replaced only with ``overwrite`` and only
+    when an earlier estimate wrote it."""
+    from ..utilities.io import atomic_write_text, check_output
+
+    dest = check_output(path, overwrite=overwrite, signature=_SIGNATURE, what="output")
+    doc = ssf_json(estimate)
+    # the header on the first line: it carries the signature that marks a file this function wrote
+    text = '{"header": ' + json.dumps(doc["header"], ensure_ascii=False) + ',\n"spectral_data": '
+    text += json.dumps(doc["spectral_data"]) + "}\n"
+    return atomic_write_text(dest, text)
