@@ -198,7 +198,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         with bar:
-            results = run(args.capture, args.out, config=config, steps=steps, progress=progress)
+            before = tuple(s for s in steps if s != "report")
+            results = run(args.capture, args.out, config=config, steps=before, progress=progress)
+            if "report" in steps:
+                from .export import prepare_scene
+
+                prepare_scene(args.capture, args.out)  # the report's 3-D view: every Gaussian corrected
+                results.update(run(args.capture, args.out, config=config, steps=("report",)))
     except KeyboardInterrupt:  # one line, no traceback; outputs are written atomically
         print("splat: interrupted", file=sys.stderr)
         return 130

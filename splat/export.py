@@ -36,10 +36,12 @@ import numpy as np
 
 from ._errors import DataFormatError, SplatError
 from .capture import CaptureError, CaptureSpec, read_capture
+from .viewer import SCENE
 from .workspace import MARKER as OUT_MARKER
 from .workspace import read_json
 
 __all__ = [
+    "SCENE",
     "SH_C0",
     "SIGNATURE",
     "SceneColours",
@@ -48,6 +50,8 @@ __all__ = [
     "export_scene",
     "gaussians_from_ply",
     "ply_properties",
+    "posed_capture",
+    "prepare_scene",
     "read_ply",
     "rgb_from_sh_dc",
     "sh_dc_from_rgb",
@@ -59,8 +63,6 @@ SH_C0 = 0.28209479177387814
 #: What marks a file or folder written by :func:`export_scene` (a PLY comment; the COLMAP folder's
 #: marker; a key of ``transforms.json``): only those are replaced, and only when asked to.
 SIGNATURE = "written by splat export"
-#: The corrected Gaussian colours, cached next to the correct step's results (removed with them).
-CACHE = "correct/gaussians.npz"
 
 
 def sh_dc_from_rgb(rgb) -> np.ndarray:
@@ -298,8 +300,9 @@ def corrected_colours(
 ) -> SceneColours:
     """Each Gaussian's N-channel colour corrected as the correct step corrects a rendered view: divided
     by the white scale (white → 1), through :func:`splat.pipeline.fit_corrector` with the step's method
-    and δ (cameras stacked), deduplicated at the step's ``quantum``; cached in ``OUT/correct/gaussians.npz``
-    (removed with the correct step's results, and recomputed when the model, method, δ or white changed).
+    and δ (cameras stacked), deduplicated at the step's ``quantum``; cached in :data:`SCENE` with the
+    registered cameras (the report's viewer reads it), recomputed when the model, method, δ or white
+    changed.
 
     Parameters
     ----------
@@ -314,6 +317,8 @@ def corrected_colours(
     CaptureError
         Not corrected yet, or the model's channel count is not three per camera.
     """
+    import hashlib
+
     import jax
 
     from zonotope.correct.image import correct_image
@@ -331,34 +336,63 @@ def corrected_colours(
             f"capture's {len(spec.cameras)} cameras need {k}; run the train and correct steps again."
         )
     key = np.concatenate([colours.ravel(), c["scale"], c["white_XYZ"], [c["delta"], _quantum(out)]])
-    digest = __import__("hashlib").sha256(key.tobytes() + c["method"].encode()).hexdigest()
-    cache = out / CACHE
+    digest = hashlib.sha256(key.tobytes() + c["method"].encode()).hexdigest()
+    done = lambda XYZ: SceneColours(  # noqa: E731
+        XYZ, XYZ_to_sRGB(XYZ, c["white_XYZ"]), c["white_XYZ"], c["scale"], c["method"], c["delta"]
+    )
+    cache = out / SCENE
     if cache.is_file():
         try:
-            with np.load(cache) as z:
+            with np.load(cache, allow_pickle=False) as z:
                 if str(z["key"]) == digest:
-                    XYZ = np.asarray(z["XYZ"], float)
-                    return SceneColours(
-                        XYZ,
-                        XYZ_to_sRGB(XYZ, c["white_XYZ"]),
-                        c["white_XYZ"],
-                        c["scale"],
-                        c["method"],
-                        c["delta"],
-                    )
+                    return done(np.asarray(z["XYZ"], float))
         except (OSError, ValueError, KeyError):
             pass  # unreadable or foreign: recomputed and replaced (the file is splat's own cache name)
     corrector = fit_corrector(spec, list(range(len(spec.cameras))), c["method"], c["delta"])
     balanced = np.maximum(colours / c["scale"], 0)
-    XYZ = (
-        correct_image(balanced[:, None], corrector, quantum=_quantum(out))[:, 0]
-        if len(balanced)
-        else np.zeros((0, 3))
-    )
-    atomic_path(cache, lambda p: np.savez(p, key=np.asarray(digest), XYZ=XYZ))
-    return SceneColours(
-        XYZ, XYZ_to_sRGB(XYZ, c["white_XYZ"]), c["white_XYZ"], c["scale"], c["method"], c["delta"]
-    )
+    XYZ = np.zeros((0, 3))
+    if len(balanced):
+        XYZ = correct_image(balanced[:, None], corrector, quantum=_quantum(out))[:, 0]
+    result = done(XYZ)
+    cams = posed_capture(spec, out).views if (out / "poses" / "summary.json").is_file() else ()
+    model = out / "train" / "model.npz"
+    doc = {
+        "key": np.asarray(digest),
+        "model_stamp": np.asarray([model.stat().st_size, model.stat().st_mtime_ns], np.int64),
+        "XYZ": XYZ,
+        "sRGB": result.sRGB,
+        "white_XYZ": result.white_XYZ,
+        "method": np.asarray(result.method),
+        "camera_names": np.asarray([v.name for v in cams], dtype=str),
+        "camera_R": np.asarray([np.asarray(v.camera.R, float) for v in cams]).reshape(-1, 3, 3),
+        "camera_t": np.asarray([np.asarray(v.camera.t, float) for v in cams]).reshape(-1, 3),
+        "camera_focal": np.asarray([np.asarray(v.camera.focal, float) for v in cams]).reshape(-1, 2),
+        "camera_principal": np.asarray([np.asarray(v.camera.principal, float) for v in cams]).reshape(-1, 2),
+        "camera_size": np.asarray([(v.camera.width, v.camera.height) for v in cams], np.int64).reshape(-1, 2),
+    }
+    atomic_path(cache, lambda p: np.savez(p, **doc))
+    return result
+
+
+def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike) -> Path | None:
+    """Write :data:`SCENE` (the corrected colour of every alive Gaussian and the registered cameras, which
+    the report's viewer shows) when ``out`` holds a trained and corrected run; returns its path, or None
+    when the run is not that far yet.
+
+    Why here and not in the report: the colours need the correct step's estimator, and the report is a
+    reader of ``OUT`` that never fits one."""
+    from .pipeline import load_gaussians
+    from .workspace import Workspace
+
+    spec, out = read_capture(capture), Path(out)
+    if not (out / OUT_MARKER).is_file():
+        return None
+    Workspace(spec, out)  # the capture's and OUT's checks before anything is written there
+    if not ((out / "train" / "model.npz").is_file() and (out / "correct" / "summary.json").is_file()):
+        return None
+    g, alive = load_gaussians(out)
+    corrected_colours(spec, out, {k: v[np.asarray(alive, bool)] for k, v in g.to_numpy().items()})
+    return out / SCENE
 
 
 # ----------------------------------------------------------------------------------------- export
@@ -410,7 +444,7 @@ def _channel_names(spec: CaptureSpec) -> list[str]:
     return names
 
 
-def _posed_capture(spec: CaptureSpec, out: Path):
+def posed_capture(spec: CaptureSpec, out: Path):
     """The registered views (learned pose corrections applied) as a :class:`splat.data.Capture`."""
     from .colmap import read_colmap
     from .data import Capture, capture_from_colmap
@@ -536,7 +570,7 @@ def export_scene(
                 "gaussians": len(arrays["means"]),
             }
     if "transforms" in dests or "colmap" in dests:
-        cap = _posed_capture(spec, out)
+        cap = posed_capture(spec, out)
         if "transforms" in dests:
             p = _write_transforms(cap, dests["transforms"])
             done["transforms"] = {"path": str(p), "bytes": p.stat().st_size, "views": len(cap.views)}

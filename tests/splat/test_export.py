@@ -53,6 +53,9 @@ def make_run(root, *, G=150, dead=20):
     g = random_gaussians(G, 9, seed=3)
     arrays = g.to_numpy()
     arrays["colour_params"] = arrays["colour_params"] + np.log(SCALE.ravel())  # roughly raw units
+    r = np.random.default_rng(2)
+    aniso = r.uniform(-0.8, 0.3, (G, 3)).astype(np.float32)  # anisotropic: the rotations matter
+    arrays["log_scales"] = arrays["log_scales"] + aniso
     alive = np.ones(G, bool)
     alive[np.random.default_rng(1).choice(G, dead, replace=False)] = False
     (out / "train").mkdir()
