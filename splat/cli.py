@@ -103,7 +103,7 @@ def _export_parser(sub) -> None:
 def _export(args) -> int:
     from zonotope import ZonotopeError
 
-    from .export import export_scene
+    from .export import PlyOptions, export_scene
 
     try:
         done = export_scene(
@@ -113,8 +113,7 @@ def _export(args) -> int:
             ply_channels=args.ply_channels,
             transforms=args.transforms,
             colmap=args.colmap,
-            sh_degree=args.sh_degree,
-            xyz=not args.no_xyz,
+            options=PlyOptions(sh_degree=args.sh_degree, xyz=not args.no_xyz),
             force=args.force,
         )
     except (ZonotopeError, FileNotFoundError, ValueError, OSError) as exc:

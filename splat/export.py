@@ -44,6 +44,7 @@ __all__ = [
     "SCENE",
     "SH_C0",
     "SIGNATURE",
+    "PlyOptions",
     "SceneColours",
     "check_export_path",
     "corrected_colours",
@@ -232,6 +233,27 @@ def gaussians_from_ply(properties: dict[str, np.ndarray], *, channels: list[str]
     except KeyError as e:
         raise DataFormatError(f"not a 3DGS PLY: no property {e.args[0]!r}.") from None
     return Gaussians.from_numpy(arrays)
+
+
+@dataclass(frozen=True)
+class PlyOptions:
+    """What an exported ``.ply`` holds besides the reference properties.
+
+    Attributes
+    ----------
+    sh_degree : int
+        SH degree (0: no ``f_rest_*``; 3, the default, 45 zeros: the reference code's loader insists).
+    xyz : bool
+        Whether to add ``XYZ_X XYZ_Y XYZ_Z`` (readers with a fixed record layout, such as the reference
+        code's SIBR viewer, need False).
+    """
+
+    sh_degree: int = 3
+    xyz: bool = True
+
+    def __post_init__(self):
+        if self.sh_degree not in (0, 1, 2, 3):
+            raise SplatError(f"sh_degree={self.sh_degree!r}: 3DGS files have SH degree 0, 1, 2 or 3.")
 
 
 # ---------------------------------------------------------------------------------------- colours
@@ -471,8 +493,7 @@ def export_scene(
     ply_channels: str | os.PathLike | None = None,
     transforms: str | os.PathLike | None = None,
     colmap: str | os.PathLike | None = None,
-    sh_degree: int = 3,
-    xyz: bool = True,
+    options: PlyOptions = PlyOptions(),
     force: bool = False,
 ) -> dict[str, dict]:
     """Write the run's scene and poses in other tools' formats (see the module notes).
@@ -490,11 +511,8 @@ def export_scene(
         nerfstudio ``transforms.json`` of the registered views (:func:`splat.data.write_transforms`).
     colmap : path, optional
         A folder for the COLMAP binary model of the registered views (PINHOLE cameras, no points).
-    sh_degree : int
-        SH degree of the ``.ply`` files (0: no ``f_rest_*``; 3, the default, 45 zeros).
-    xyz : bool
-        Whether the ``.ply`` files carry ``XYZ_X XYZ_Y XYZ_Z`` (readers with a fixed record layout, such
-        as the reference code's SIBR viewer, need False).
+    options : PlyOptions
+        What the ``.ply`` files hold besides the reference properties.
     force : bool
         Replace outputs of an earlier ``splat export`` (never other files).
 
@@ -534,7 +552,7 @@ def export_scene(
         if "ply_channels" not in dests:
             _correct_summary(out)  # before the long work
         colours = corrected_colours(spec, out, arrays)
-        props = ply_properties(arrays, colours.sRGB, sh_degree=sh_degree)
+        props = ply_properties(arrays, colours.sRGB, sh_degree=options.sh_degree)
         w = colours.white_XYZ
         comments = [
             f"zonotope version {_version()}",
@@ -544,7 +562,7 @@ def export_scene(
             f"colour scene white XYZ {w[0]:.6f} {w[1]:.6f} {w[2]:.6f} (observer {spec.observer}, illuminant "
             f"{spec.illuminant}), adapted to D65 by Bradford",
         ]
-        if xyz:
+        if options.xyz:
             comments.append("colour XYZ_X XYZ_Y XYZ_Z are linear CIE XYZ of that observer, scene white Y = 1")
             props.update({f"XYZ_{a}": colours.XYZ[:, i].astype(np.float32) for i, a in enumerate("XYZ")})
         if "ply" in dests:

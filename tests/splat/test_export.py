@@ -266,17 +266,17 @@ def test_sh_dc_round_trip(rgb):
 
 
 def test_sh_degree_zero_and_no_xyz(run, tmp_path):
-    from splat.export import export_scene
+    from splat.export import PlyOptions, export_scene
 
     cap, out, *_ = run
-    export_scene(cap, out, ply=tmp_path / "s.ply", sh_degree=0, xyz=False)
+    export_scene(cap, out, ply=tmp_path / "s.ply", options=PlyOptions(sh_degree=0, xyz=False))
     v = plyfile.PlyData.read(str(tmp_path / "s.ply"))["vertex"]
     assert [p.name for p in v.properties] == [n for n in INRIA if not n.startswith("f_rest")]
     assert (tmp_path / "s.ply").stat().st_size - len(v.data) * 17 * 4 < 2000  # 68 bytes a Gaussian + header
 
 
 def test_refusals_before_work(run, tmp_path):
-    from splat.export import export_scene
+    from splat.export import PlyOptions, export_scene
     from zonotope import ZonotopeError
 
     cap, out, *_ = run
@@ -295,7 +295,7 @@ def test_refusals_before_work(run, tmp_path):
         export_scene(cap, tmp_path, ply=tmp_path / "x.ply")
     assert not (cap / "scene.ply").exists() and not (tmp_path / "x.ply").exists()
     ours = tmp_path / "ours.ply"
-    export_scene(cap, out, ply=ours, sh_degree=0)
+    export_scene(cap, out, ply=ours, options=PlyOptions(sh_degree=0))
     export_scene(cap, out, ply=ours, force=True)  # a previous export is replaced when asked
     assert len(plyfile.PlyData.read(str(ours))["vertex"].properties) == len(INRIA) + 3
 
