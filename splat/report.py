@@ -5,7 +5,9 @@ what to do next; the step summaries collapsed below, each explained in a sentenc
 The page reads only what the pipeline wrote into ``OUT`` (and the capture's ``[white]`` card, which the
 pipeline used too): a figure computed from a simulator's ground truth (``score.json``) appears only in the
 diagnostics, labelled as such. Images are referenced relatively inside ``OUT``; the page needs no network
-and no JavaScript (collapsed parts are ``<details>`` elements).
+(collapsed parts are ``<details>`` elements). Below the photographs, the corrected scene in 3-D: the one
+script of the page, :mod:`splat.viewer`, with the scene packed inside it (from ``OUT/correct/scene.npz``,
+:func:`splat.export.prepare_scene`).
 
 Why: a photographer opening the folder must see at once which image is the answer, how good it is where
 that can be known, and what to do to make it better.
