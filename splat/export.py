@@ -546,11 +546,12 @@ def export_scene(
     if len({d.resolve() for d in dests.values()}) != len(dests):
         raise SplatError(f"two exports name the same path: {sorted(map(str, dests.values()))}.")
     done: dict[str, dict] = {}
+    if ("transforms" in dests or "colmap" in dests) and not (out / "poses" / "summary.json").is_file():
+        raise CaptureError(f"{out}: no poses yet; run the poses step first (splat poses CAPTURE -o OUT).")
     if "ply" in dests or "ply_channels" in dests:
+        _correct_summary(out)  # these three before the long work
         g, alive = load_gaussians(out)
         arrays = {k: v[np.asarray(alive, bool)] for k, v in g.to_numpy().items()}
-        if "ply_channels" not in dests:
-            _correct_summary(out)  # before the long work
         colours = corrected_colours(spec, out, arrays)
         props = ply_properties(arrays, colours.sRGB, sh_degree=options.sh_degree)
         w = colours.white_XYZ

@@ -337,6 +337,9 @@ def test_the_report_embeds_the_viewer_of_the_corrected_scene(scene_run):
     sec = html[html.index("<section id='scene'>") :]
     frag = _viewer(sec)
     assert "src=" not in frag and "http" not in frag.split("<script>", 1)[0]
+    from splat.viewer import viewer_script
+
+    assert "</" not in viewer_script()  # nothing in the inline script can close its element
     doc = json.loads(
         re.search(r"<script type='application/json' class='splat-scene'>(.*?)</script>", frag).group(1)
     )
