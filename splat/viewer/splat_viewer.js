@@ -211,7 +211,10 @@ void main() {
       view.c = mv(Q, d).map((v, k) => v + target[k]);
       view.R = mul(view.R, T(Q));
     }
-    canvas.addEventListener("pointerdown", (e) => { drag = [e.clientX, e.clientY]; canvas.setPointerCapture(e.pointerId); });
+    canvas.addEventListener("pointerdown", (e) => {
+      drag = [e.clientX, e.clientY];
+      try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* a synthetic pointer */ }
+    });
     canvas.addEventListener("pointerup", () => { drag = null; });
     canvas.addEventListener("pointermove", (e) => {
       if (!drag) return;

@@ -384,7 +384,17 @@ def test_viewer_first_frame_matches_the_renderer(scene_run, tmp_path):
 
     out, arrays, alive, views, html = scene_run
     report = tmp_path / "report.html"
-    report.write_text(html)
+    # after the first frame: the next photograph, a drag and a wheel turn, as a user would
+    user = (
+        "<script>const v = document.querySelector('.splat-viewer'), c = v.querySelector('canvas');"
+        "document.body.dataset.first = c.dataset.frames; v.querySelector('.splat-next').click();"
+        "document.body.dataset.next = c.dataset.frames;"
+        "document.body.dataset.label = v.querySelector('.splat-label').textContent;"
+        "c.dispatchEvent(new PointerEvent('pointerdown', {clientX: 100, clientY: 100, pointerId: 1}));"
+        "c.dispatchEvent(new PointerEvent('pointermove', {clientX: 160, clientY: 80, pointerId: 1}));"
+        "c.dispatchEvent(new WheelEvent('wheel', {deltaY: 200, cancelable: true}));</script>"
+    )
+    report.write_text(html.replace("</body>", user + "</body>"))
     flags = ["--headless", "--no-sandbox", "--hide-scrollbars", "--use-angle=swiftshader"]
     flags += [
         "--enable-unsafe-swiftshader",
@@ -394,7 +404,9 @@ def test_viewer_first_frame_matches_the_renderer(scene_run, tmp_path):
     dom = subprocess.run(
         [CHROMIUM, *flags, "--dump-dom", report.as_uri()], capture_output=True, text=True, timeout=120
     ).stdout
-    assert re.search(r"data-frames=\"1\"", dom), "the viewer drew no frame in the report"
+    assert 'data-first="1"' in dom, "the viewer drew no frame in the report"
+    assert 'data-next="2"' in dom and f'data-label="2 / {len(views)}: {views[1].name}"' in dom  # ▶
+    assert 'data-frames="3"' in dom and "free view" in dom  # drag and wheel: one more frame
     page = tmp_path / "viewer.html"
     page.write_text(viewer_page(_viewer(html)))
     shot = tmp_path / "shot.png"
