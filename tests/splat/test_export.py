@@ -320,3 +320,56 @@ def test_cli(run, tmp_path, capsys):
     assert main(["export", str(out), "--capture", str(cap), "--ply", str(tmp_path / "a.ply")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("splat: error:") and "already exists" in err and "\n" not in err
+
+
+def test_read_ply_and_gaussians_from_ply_agree_with_plyfile(run, exported, tmp_path):
+    from splat import DataFormatError, render_reference
+    from splat.export import gaussians_from_ply, read_ply
+
+    _cap, _out, _, _, views = run
+    d, _ = exported
+    props, comments = read_ply(d / "scene_n.ply")
+    ply = plyfile.PlyData.read(str(d / "scene_n.ply"))
+    assert list(props) == [p.name for p in ply["vertex"].properties] and comments == list(ply.comments)
+    for p in ply["vertex"].properties:
+        np.testing.assert_array_equal(props[p.name], ply["vertex"][p.name])
+    cam = views[0].camera
+    for channels in (["f_dc_0", "f_dc_1", "f_dc_2"], ["f_sigma_R", "f_canon_B"]):
+        a = render_reference(
+            gaussians_from_ply(props, channels=None if channels[0] == "f_dc_0" else channels), cam
+        )
+        b = render_reference(_gaussians(ply, channels), cam)
+        np.testing.assert_allclose(np.asarray(a.image), np.asarray(b.image), atol=1e-6)
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"not a ply")
+    with pytest.raises(DataFormatError, match=r"bad\.ply: not a PLY file"):
+        read_ply(bad)
+    with pytest.raises(DataFormatError, match="no property 'f_dc_0'"):
+        gaussians_from_ply({"y": np.zeros(1)})
+
+
+@settings(max_examples=20, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.lists(
+        st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,8}", fullmatch=True), min_size=1, max_size=5, unique=True
+    ),
+    st.integers(0, 6),
+    st.integers(0, 2**32 - 1),
+)
+def test_write_ply_read_ply_round_trip(names, n, seed):
+    import tempfile
+    from pathlib import Path
+
+    from splat.export import read_ply, write_ply
+
+    r = np.random.default_rng(seed)
+    props = {k: r.normal(size=n).astype(np.float32) for k in names}
+    with tempfile.TemporaryDirectory() as d:
+        p = write_ply(Path(d) / "a.ply", props, comments=["hello world"])
+        back, comments = read_ply(p)
+        ply = plyfile.PlyData.read(str(p))
+    assert list(back) == names and comments[1:] == ["hello world"]
+    assert len(ply["vertex"].data) == n
+    for k in names:
+        np.testing.assert_array_equal(back[k], props[k])
+        np.testing.assert_array_equal(ply["vertex"][k], props[k])
