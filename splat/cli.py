@@ -202,7 +202,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             if "report" in steps:
                 from .export import prepare_scene
 
-                prepare_scene(args.capture, args.out)  # the report's 3-D view: every Gaussian corrected
+                # the report's 3-D view: every Gaussian's colour corrected
+                prepare_scene(args.capture, args.out, progress=progress)
                 results.update(run(args.capture, args.out, config=config, steps=("report",)))
     except KeyboardInterrupt:  # one line, no traceback; outputs are written atomically
         print("splat: interrupted", file=sys.stderr)

@@ -318,7 +318,7 @@ def _quantum(out: Path) -> float:
 
 
 def corrected_colours(
-    spec: CaptureSpec, out: str | os.PathLike, arrays: dict[str, np.ndarray]
+    spec: CaptureSpec, out: str | os.PathLike, arrays: dict[str, np.ndarray], *, progress=None
 ) -> SceneColours:
     """Each Gaussian's N-channel colour corrected as the correct step corrects a rendered view: divided
     by the white scale (white → 1), through :func:`splat.pipeline.fit_corrector` with the step's method
@@ -333,6 +333,9 @@ def corrected_colours(
         The run's output folder (trained and corrected).
     arrays : dict
         The Gaussians' raw parameters (:meth:`splat.Gaussians.to_numpy`), alive ones only: G rows.
+    progress : zonotope.utilities.ProgressCallback, optional
+        Called as ``progress("scene", done, total)``: 0 and G Gaussians at the start and the end, the
+        distinct colours done in between where the estimator solves per colour.
 
     Raises
     ------
@@ -374,7 +377,12 @@ def corrected_colours(
     balanced = np.maximum(colours / c["scale"], 0)
     XYZ = np.zeros((0, 3))
     if len(balanced):
-        XYZ = correct_image(balanced[:, None], corrector, quantum=_quantum(out))[:, 0]
+        tell = None if progress is None else (lambda _stage, d, n: progress("scene", d, n))
+        if tell is not None:
+            tell("", 0, len(balanced))
+        XYZ = correct_image(balanced[:, None], corrector, quantum=_quantum(out), progress=tell)[:, 0]
+        if tell is not None:
+            tell("", len(balanced), len(balanced))
     result = done(XYZ)
     cams = posed_capture(spec, out).views if (out / "poses" / "summary.json").is_file() else ()
     model = out / "train" / "model.npz"
@@ -396,10 +404,10 @@ def corrected_colours(
     return result
 
 
-def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike) -> Path | None:
+def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike, *, progress=None) -> Path | None:
     """Write :data:`SCENE` (the corrected colour of every alive Gaussian and the registered cameras, which
     the report's viewer shows) when ``out`` holds a trained and corrected run; returns its path, or None
-    when the run is not that far yet.
+    when the run is not that far yet. ``progress``: as :func:`corrected_colours`'.
 
     Why here and not in the report: the colours need the correct step's estimator, and the report is a
     reader of ``OUT`` that never fits one."""
@@ -413,7 +421,9 @@ def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike) -> Path | 
     if not ((out / "train" / "model.npz").is_file() and (out / "correct" / "summary.json").is_file()):
         return None
     g, alive = load_gaussians(out)
-    corrected_colours(spec, out, {k: v[np.asarray(alive, bool)] for k, v in g.to_numpy().items()})
+    corrected_colours(
+        spec, out, {k: v[np.asarray(alive, bool)] for k, v in g.to_numpy().items()}, progress=progress
+    )
     return out / SCENE
 
 

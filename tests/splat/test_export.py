@@ -302,10 +302,14 @@ def test_refusals_before_work(run, tmp_path):
 
 def test_not_corrected_yet(tmp_path):
     from splat.capture import CaptureError
-    from splat.export import export_scene
+    from splat.export import export_scene, prepare_scene
 
     cap, out, *_ = make_run(tmp_path, G=10, dead=0)
+    calls = []
+    assert prepare_scene(cap, out, progress=lambda *a: calls.append(a)) == out / "correct" / "scene.npz"
+    assert calls[0] == ("scene", 0, 10) and calls[-1] == ("scene", 10, 10)
     (out / "correct" / "summary.json").unlink()
+    assert prepare_scene(cap, out) is None  # not that far: nothing to prepare
     with pytest.raises(CaptureError, match="run the correct step first"):
         export_scene(cap, out, ply=tmp_path / "s.ply")
     assert not (tmp_path / "s.ply").exists()
