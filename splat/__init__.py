@@ -11,6 +11,8 @@ is fitted to all the images, then renders pixel-aligned N-channel images from an
   :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`;
 - training: :func:`train` with :class:`TrainConfig`; outputs: :func:`render_views`,
   :func:`render_depth`, :func:`split_cameras`, :func:`pca_false_colour`, :func:`correct_image`;
+- export: :func:`export_scene` (a 3DGS ``.ply`` of the corrected colours, an N-channel ``.ply``, the
+  poses as ``transforms.json`` and COLMAP), :func:`read_ply`;
 - a synthetic capture to try it all: :func:`synthetic_scene`.
 
 ``import splat`` is cheap: the submodules (and JAX) load on first use of a public name.
@@ -70,6 +72,7 @@ _EXPORTS = {
     ],
     "outputs": ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"],
     "poses": ["PoseConfig", "recover_poses"],
+    "export": ["PlyOptions", "export_scene", "gaussians_from_ply", "prepare_scene", "read_ply", "write_ply"],
     "sim.capture": [
         "SimCamera",
         "SimCaptureConfig",

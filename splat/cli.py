@@ -81,12 +81,56 @@ def _parser() -> argparse.ArgumentParser:
             help="weight of the sparse depth term from the COLMAP points each view observes "
             "(0: off; default: PipelineConfig.depth_weight)",
         )
+    _export_parser(sub)
     return p
+
+
+def _export_parser(sub) -> None:
+    e = sub.add_parser("export", help="the trained scene as .ply files and the poses for other tools")
+    e.add_argument("out", help="the output folder of splat run (read; the exports go where named)")
+    e.add_argument("--capture", required=True, help="the capture folder (or capture.toml) of that run")
+    e.add_argument("--ply", help="3DGS .ply of the corrected colours (sRGB f_dc, linear XYZ kept)")
+    e.add_argument("--ply-channels", help="the same with the model's channels as f_<camera>_<channel>")
+    e.add_argument("--transforms", help="nerfstudio transforms.json of the registered views")
+    e.add_argument("--colmap", help="folder for a COLMAP binary model of the registered views")
+    e.add_argument(
+        "--sh-degree", type=int, choices=(0, 1, 2, 3), default=3, help="f_rest_* zeros (default 3)"
+    )
+    e.add_argument("--no-xyz", action="store_true", help="leave out XYZ_X/Y/Z (fixed-layout readers)")
+    e.add_argument("--force", action="store_true", help="replace the outputs of an earlier splat export")
+
+
+def _export(args) -> int:
+    from zonotope import ZonotopeError
+
+    from .export import PlyOptions, export_scene
+
+    try:
+        done = export_scene(
+            args.capture,
+            args.out,
+            ply=args.ply,
+            ply_channels=args.ply_channels,
+            transforms=args.transforms,
+            colmap=args.colmap,
+            options=PlyOptions(sh_degree=args.sh_degree, xyz=not args.no_xyz),
+            force=args.force,
+        )
+    except (ZonotopeError, FileNotFoundError, ValueError, OSError) as exc:
+        print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    for what, d in done.items():
+        n = d.get("gaussians", d.get("views"))
+        unit = "Gaussians" if "gaussians" in d else "views"
+        print(f"{what}: {d['path']} ({n} {unit}, {d['bytes'] / max(n, 1):.0f} bytes each)")
+    return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``splat`` command; returns the exit status (2 for bad input)."""
     args = _parser().parse_args(argv)
+    if args.step == "export":
+        return _export(args)
     import os
 
     os.environ.setdefault("GLOG_minloglevel", "2")  # COLMAP's own log lines would drown the progress bars
@@ -153,7 +197,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         with bar:
-            results = run(args.capture, args.out, config=config, steps=steps, progress=progress)
+            before = tuple(s for s in steps if s != "report")
+            results = run(args.capture, args.out, config=config, steps=before, progress=progress)
+            if "report" in steps:
+                from .export import prepare_scene
+
+                # the report's 3-D view: every Gaussian's colour corrected
+                prepare_scene(args.capture, args.out, progress=progress)
+                results.update(run(args.capture, args.out, config=config, steps=("report",)))
     except KeyboardInterrupt:  # one line, no traceback; outputs are written atomically
         print("splat: interrupted", file=sys.stderr)
         return 130

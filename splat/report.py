@@ -5,7 +5,9 @@ what to do next; the step summaries collapsed below, each explained in a sentenc
 The page reads only what the pipeline wrote into ``OUT`` (and the capture's ``[white]`` card, which the
 pipeline used too): a figure computed from a simulator's ground truth (``score.json``) appears only in the
 diagnostics, labelled as such. Images are referenced relatively inside ``OUT``; the page needs no network
-and no JavaScript (collapsed parts are ``<details>`` elements).
+(collapsed parts are ``<details>`` elements). Below the photographs, the corrected scene in 3-D: the one
+script of the page, :mod:`splat.viewer`, with the scene packed inside it (from ``OUT/correct/scene.npz``,
+:func:`splat.export.prepare_scene`).
 
 Why: a photographer opening the folder must see at once which image is the answer, how good it is where
 that can be known, and what to do to make it better.
@@ -22,7 +24,7 @@ from urllib.parse import quote
 import numpy as np
 
 from ._tol import CARD_DELTA_E_FLOOR
-from .capture import CaptureSpec
+from .capture import CaptureError, CaptureSpec
 from .workspace import read_json
 
 __all__ = ["DIAGNOSTICS", "CardCheck", "card_check", "report_html", "write_report"]
@@ -297,15 +299,36 @@ class _Run:
         return None if self.correct is None else str(self.correct["method"]).replace(" ", "")
 
 
+def _step_doc(run: _Run, step: str) -> dict | None:
+    """The step's summary JSON (``<step>/summary.json``), or None."""
+    known = {"poses": run.poses, "train": run.train, "correct": run.correct}
+    if step in known:
+        return known[step]
+    p = run.out / step / "summary.json"
+    try:
+        return _json_or_none(p)
+    except CaptureError:
+        return None
+
+
 def _times(run: _Run) -> str:
+    """Per step "took N s, peak M MiB" from its summary's ``duration_s`` (or ``seconds``) and
+    ``peak_rss_mib``, whichever are recorded."""
     parts = []
-    for step, doc in (("poses", run.poses), ("train", run.train)):
-        if doc is not None and doc.get("seconds") is not None:
-            parts.append(f"{step} {_duration(doc['seconds'])}")
+    for step in ("poses", "train", "render", "correct"):
+        doc = _step_doc(run, step)
+        done = doc is not None or (step == "render" and bool(run.index))
+        took = None if doc is None else doc.get("duration_s", doc.get("seconds"))
+        rss = None if doc is None else doc.get("peak_rss_mib")
+        bits = []
+        if isinstance(took, int | float):
+            bits.append(f"took {_duration(took)}")
+        if isinstance(rss, int | float):
+            bits.append(f"peak {float(rss):.0f} MiB")
+        if bits:
+            parts.append(f"{step} {', '.join(bits)}")
         else:
-            parts.append(f"{step} not run")
-    for step, done in (("render", bool(run.index)), ("correct", run.correct is not None)):
-        parts.append(f"{step} {'time not recorded' if done else 'not run'}")
+            parts.append(f"{step} {'time not recorded' if done else 'not run'}")
     return " · ".join(parts)
 
 
@@ -547,6 +570,56 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
     )
 
 
+def _scene(run: _Run) -> str:
+    """The section with the interactive view of the corrected scene (:mod:`splat.viewer`), from
+    :data:`splat.viewer.SCENE` when it belongs to the trained model; otherwise how to make it."""
+    from .viewer import SCENE, viewer_html
+
+    out = run.out
+    model = out / "train" / "model.npz"
+    if not model.is_file() or run.correct is None:
+        return ""
+    head = "<section id='scene'><h2>The corrected scene in 3-D</h2>"
+    hint = (
+        f"{head}<p>No interactive view yet: <code>splat export OUT --capture CAPTURE --ply scene.ply</code> "
+        "corrects every Gaussian's colour (as <code>splat run</code> does before the report), writes the "
+        "scene for any 3DGS viewer, and the next report shows it here.</p></section>"
+    )
+    try:
+        with np.load(out / SCENE, allow_pickle=False) as z:
+            doc = {k: z[k] for k in z.files}
+        st = model.stat()
+        if [int(v) for v in doc["model_stamp"]] != [st.st_size, st.st_mtime_ns]:
+            return hint  # made from another model
+        with np.load(model, allow_pickle=False) as m:
+            alive = np.asarray(m["alive"], bool)
+            arrays = {k: np.asarray(m[k])[alive] for k in ("means", "quats", "log_scales", "opacity_logits")}
+        rgb = np.asarray(doc["sRGB"], float)
+        cams = [
+            {"name": n, "R": R, "t": t, "focal": f, "principal": c, "size": s}
+            for n, R, t, f, c, s in zip(
+                doc["camera_names"],
+                doc["camera_R"],
+                doc["camera_t"],
+                doc["camera_focal"],
+                doc["camera_principal"],
+                doc["camera_size"],
+            )
+        ]
+    except (OSError, ValueError, KeyError):
+        return hint
+    if len(rgb) != len(arrays["means"]) or not cams:
+        return hint
+    caption = (
+        f"The {len(rgb)} Gaussians of the model, each coloured by its own channels corrected with "
+        f"{_e(str(doc['method']))} (the estimator of the images above) and shown in sRGB; the view starts "
+        f"at {_e(cams[0]['name'])} and the arrows step through the {len(cams)} placed photographs. A splat "
+        "viewer blends the Gaussians' corrected colours, not corrected pixels: for colour, use the images "
+        "above."
+    )
+    return f"{head}{viewer_html(arrays, rgb, cams, caption=caption)}</section>"
+
+
 def _diagnostics(out: Path) -> str:
     parts = ["<section id='diagnostics'><h2>Diagnostics</h2>"]
     for rel, text in DIAGNOSTICS:
@@ -621,6 +694,7 @@ def _page(run: _Run) -> str:
         )
     for i, (name, info) in enumerate(run.index.items()):
         body.append(_section(run, i, name, info))
+    body.append(_scene(run))
     body.append(_diagnostics(run.out))
     body.append("</body></html>")
     return "\n".join(body)

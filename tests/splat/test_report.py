@@ -76,6 +76,8 @@ def make_out(cap, out, *, score=False):
             "registered": 6,
             "views": 6,
             "seconds": 4.25,
+            "duration_s": 4.25,
+            "peak_rss_mib": 512.4,
             "saturated": {"nikon/IMG_0000.dng": 17},
             "dead": {},
             "exposures": {},
@@ -95,6 +97,7 @@ def make_out(cap, out, *, score=False):
     )
     index = {n: {"camera": "nikon", "kind": k, "dir": spec.out_stem(n)} for n, k in VIEWS.items()}
     _json(out / "render" / "index.json", index)
+    _json(out / "render" / "summary.json", {"duration_s": 3.0})
     for i, info in enumerate(index.values()):
         r, c = out / "render" / info["dir"], out / "correct" / info["dir"]
         _png(r / "pca.png", _pattern(H, W, 2.0 + i))
@@ -168,7 +171,8 @@ def test_a_section_per_view_with_the_pair_of_images(page):
             assert f"<h3>{what}</h3>" in sec
         assert "Prior_fused_sRGB.tiff" in sec  # which file to use
         assert "No per-pixel uncertainty map is written" in sec
-        assert "train 12 min 34 s" in sec and "correct time not recorded" in sec
+        assert "poses took 4.2 s, peak 512 MiB" in sec and "train took 12 min 34 s" in sec
+        assert "render took 3.0 s ·" in sec and "correct time not recorded" in sec
         assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
@@ -235,7 +239,8 @@ def test_diagnostics_collapsed_and_explained_ground_truth_only_there(page):
 
 def test_self_contained(page):
     _out, _, html = page
-    assert "<script" not in html and "http://" not in html and "https://" not in html
+    assert "<script" not in html  # no model here, so no viewer (and no script of any kind)
+    assert "http://" not in html and "https://" not in html
     assert "<link" not in html and "@import" not in html
 
 
@@ -302,3 +307,128 @@ def test_a_view_corrected_from_the_render_only(cap, tmp_path):
     sec = _sections(report_html(spec, tmp_path / "out", index))[2]
     assert re.search(r"<img[^>]* src='correct/nikon/novel_000/Prior_sRGB.png'", sec)
     assert "from the model's render" in sec and "δ = 0.011" in sec
+
+
+# ------------------------------------------------------------------ the interactive view of the scene
+
+
+@pytest.fixture(scope="module")
+def scene_run(tmp_path_factory):
+    """A trained and corrected run (tests/splat/test_export.py's) with its corrected scene prepared, and
+    the report written from it."""
+    from splat.capture import read_capture
+    from splat.export import prepare_scene
+    from splat.report import report_html
+
+    from .test_export import make_run
+
+    cap, out, arrays, alive, views = make_run(tmp_path_factory.mktemp("scene"))
+    assert prepare_scene(cap, out) == out / "correct" / "scene.npz"
+    html = report_html(read_capture(cap), out, {})
+    return out, arrays, alive, views, html
+
+
+def _viewer(html):
+    return re.search(r"<figure class='splat-viewer'.*?</script></figure>", html, flags=re.S).group(0)
+
+
+def test_the_report_embeds_the_viewer_of_the_corrected_scene(scene_run):
+    _out, _arrays, alive, views, html = scene_run
+    sec = html[html.index("<section id='scene'>") :]
+    frag = _viewer(sec)
+    assert "src=" not in frag and "http" not in frag.split("<script>", 1)[0]
+    from splat.viewer import viewer_script
+
+    assert "</" not in viewer_script()  # nothing in the inline script can close its element
+    doc = json.loads(
+        re.search(r"<script type='application/json' class='splat-scene'>(.*?)</script>", frag).group(1)
+    )
+    assert doc["count"] == alive.sum() and len(doc["cameras"]) == len(views)
+    assert doc["cameras"][0]["name"] == views[0].name
+    import base64
+
+    assert len(base64.b64decode(doc["data"])) == 40 * alive.sum()
+    assert f"{alive.sum()} Gaussians of the model" in sec and "Cheung 2004" in sec
+
+
+def test_the_viewer_waits_for_no_scene(page):
+    """Without a trained model and its corrected scene there is no 3-D section."""
+    _out, _, html = page
+    assert "<section id='scene'>" not in html
+
+
+def test_a_stale_scene_is_not_shown(scene_run, tmp_path):
+    import shutil
+
+    from splat.capture import read_capture
+    from splat.report import report_html
+
+    out, *_ = scene_run
+    o2 = tmp_path / "out"
+    shutil.copytree(out, o2)  # copies keep the files but not the model's stamp (its time)
+    (o2 / "train" / "model.npz").touch()
+    cap = out.parent / "cap"
+    html = report_html(read_capture(cap), o2, {})
+    assert "No interactive view yet" in html and "splat-viewer" not in html
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on this machine")
+def test_viewer_first_frame_matches_the_renderer(scene_run, tmp_path):
+    """Headless Chromium (WebGL 2 by SwiftShader) draws the first frame; the screenshot is the renderer's
+    image of the same view with the same corrected colours, to 8-bit rounding and per-Gaussian sorting."""
+    import jax.numpy as jnp
+    from PIL import Image
+
+    from splat import Gaussians, inverse_softplus, render_reference
+    from splat.viewer import viewer_page
+
+    out, arrays, alive, views, html = scene_run
+    report = tmp_path / "report.html"
+    # after the first frame: the next photograph, a drag and a wheel turn, as a user would
+    user = (
+        "<script>const v = document.querySelector('.splat-viewer'), c = v.querySelector('canvas');"
+        "document.body.dataset.first = c.dataset.frames; v.querySelector('.splat-next').click();"
+        "document.body.dataset.next = c.dataset.frames;"
+        "document.body.dataset.label = v.querySelector('.splat-label').textContent;"
+        "c.dispatchEvent(new PointerEvent('pointerdown', {clientX: 100, clientY: 100, pointerId: 1}));"
+        "c.dispatchEvent(new PointerEvent('pointermove', {clientX: 160, clientY: 80, pointerId: 1}));"
+        "c.dispatchEvent(new WheelEvent('wheel', {deltaY: 200, cancelable: true}));</script>"
+    )
+    report.write_text(html.replace("</body>", user + "</body>"))
+    flags = ["--headless", "--no-sandbox", "--hide-scrollbars", "--use-angle=swiftshader"]
+    flags += [
+        "--enable-unsafe-swiftshader",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--virtual-time-budget=5000",
+    ]
+    dom = subprocess.run(
+        [CHROMIUM, *flags, "--dump-dom", report.as_uri()], capture_output=True, text=True, timeout=120
+    ).stdout
+    assert 'data-first="1"' in dom, "the viewer drew no frame in the report"
+    assert 'data-next="2"' in dom and f'data-label="2 / {len(views)}: {views[1].name}"' in dom  # ▶
+    assert 'data-frames="3"' in dom and "free view" in dom  # drag and wheel: one more frame
+    page = tmp_path / "viewer.html"
+    page.write_text(viewer_page(_viewer(html)))
+    shot = tmp_path / "shot.png"
+    subprocess.run(
+        [CHROMIUM, *flags, f"--screenshot={shot}", "--window-size=640,520", page.as_uri()],
+        capture_output=True,
+        timeout=120,
+    )
+    assert shot.is_file(), "Chromium wrote no screenshot"
+    img = np.asarray(Image.open(shot).convert("RGB"), float)[:480, :640] / 255
+    assert img.std() > 0.05  # not blank
+    with np.load(out / "correct" / "scene.npz") as z:
+        rgb = np.asarray(z["sRGB"], float)
+    a = {k: v[alive] for k, v in arrays.items()}
+    a["colour_params"] = np.asarray(inverse_softplus(rgb))
+    g = Gaussians(*(jnp.asarray(a[k], jnp.float32) for k in Gaussians.__dataclass_fields__))
+    want = np.clip(np.asarray(render_reference(g, views[0].camera.scaled(16)).image), 0, 1)
+    assert want.shape == img.shape
+
+    def down(x):
+        return x.reshape(60, 8, 80, 8, 3).mean((1, 3))
+
+    np.testing.assert_allclose(img.mean((0, 1)), want.mean((0, 1)), atol=0.01)  # mean colour
+    assert np.corrcoef(down(img).ravel(), down(want).ravel())[0, 1] > 0.98  # structure
+    assert np.abs(down(img) - down(want)).mean() < 0.01
