@@ -254,6 +254,7 @@ def _correct(args: argparse.Namespace) -> int:
         FILE_MIN_TASKS,
         FileTask,
         _check_tasks,
+        check_batch_folder,
         check_settings,
         resolve_scheduler,
         run_files,
@@ -269,6 +270,7 @@ def _correct(args: argparse.Namespace) -> int:
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
+    check_batch_folder(tasks, out_dir / "manifest.csv")  # a user's file is never replaced nor counted done
     # a bad --scheduler is refused before the fit; a cluster only for FILE_MIN_TASKS files or more
     where = resolve_scheduler(args.scheduler, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
     from ..correct import correction_problem
