@@ -107,3 +107,8 @@ STRIP_PIXELS = 2**20
 #: Same: the chunk, in pixels, in which :func:`isp.tonemap_Reinhard2002` and :func:`isp.to_uint16`
 #: work through a whole image (their float64 temporaries stay ≈ 50 MB whatever the image size).
 CHUNK_PIXELS = 2**20
+
+# --- hardening: absurd options --------------------------------------------------------------------
+#: :func:`isp.tonemap_clip` / ``isp develop --exposure``: a gain of at most this many stops either
+#: way. 2³² ≈ 4·10⁹ is far beyond any sensor's dynamic range (≤ 2²⁰) and 2**1e6 overflows a float.
+EXPOSURE_STOPS_MAX = 32.0

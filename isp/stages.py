@@ -545,13 +545,21 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
     ----------
     rgb : array_like of shape (..., 3)
     exposure
-        Gain in stops.
+        Gain in stops (finite, at most ±``isp._tol.EXPOSURE_STOPS_MAX``).
 
     Returns
     -------
     ndarray of shape (..., 3)
     """
-    return np.clip(_image_array(rgb, "rgb") * 2.0**exposure, 0.0, 1.0)
+    from ._tol import EXPOSURE_STOPS_MAX
+
+    if isinstance(exposure, bool) or not isinstance(exposure, int | float | np.number):
+        raise PipelineError(f"exposure={exposure!r}: expected a number of stops.")
+    if not abs(float(exposure)) <= EXPOSURE_STOPS_MAX:  # NaN fails too
+        raise PipelineError(
+            f"exposure={exposure!r}: a gain in stops must be finite and within ±{EXPOSURE_STOPS_MAX:g}."
+        )
+    return np.clip(_image_array(rgb, "rgb") * 2.0 ** float(exposure), 0.0, 1.0)
 
 
 #: Global tone-mapping operators by name (``tonemap(..., method=name)``); ``default=True`` marks the

@@ -61,6 +61,7 @@ __all__ = [
     "ENV_VAR",
     "FILE_MIN_TASKS",
     "MANIFEST_COLUMNS",
+    "SCHEDULER_HELP",
     "SECURITY_ENV_VAR",
     "DaskExecutor",
     "Executor",
@@ -81,6 +82,17 @@ ENV_VAR = "ZONOTOPE_SCHEDULER"
 
 #: Environment variable read when ``security=None``: a YAML/JSON file of the client's TLS settings.
 SECURITY_ENV_VAR = "ZONOTOPE_SCHEDULER_SECURITY"
+
+#: What a command line's ``--scheduler`` accepts and whom each choice trusts (one text for every command).
+SCHEDULER_HELP = (
+    "'serial' (this process); 'local' or 'local:N' (a Dask cluster of N worker processes on this "
+    "machine, default one per core, on 127.0.0.1 with TLS certificates made for this run, so no other "
+    "user can reach it); a running Dask scheduler's address: 'tcp://host:8786' has no authentication, "
+    "so anyone who reaches that port can run code as its workers (use it only on a trusted network), "
+    "'tls://host:8786' with the client's certificates in a YAML/JSON file named by "
+    f"${SECURITY_ENV_VAR} (tls_ca_file, tls_client_cert, tls_client_key); or a scheduler file "
+    f"(default ${ENV_VAR}, else serial for small jobs and a local cluster for large ones)"
+)
 
 #: Keys a security file may hold: the client's side of ``distributed.security.Security``.
 _SECURITY_KEYS = ("tls_ca_file", "tls_client_cert", "tls_client_key", "tls_ciphers", "require_encryption")

@@ -21,11 +21,11 @@ _IMAGE_SUFFIXES = (".tif", ".tiff")
 
 
 def _scheduler_option(p: argparse.ArgumentParser) -> None:
+    from ..parallel import SCHEDULER_HELP
+
     p.add_argument(
         "--scheduler",
-        help="where to run: serial, local, local:N, a Dask scheduler address "
-        "(tcp://host:8786) or scheduler file (default $ZONOTOPE_SCHEDULER, "
-        "else serial for small jobs and a local cluster for large ones)",
+        help="where to run; " + SCHEDULER_HELP,
     )
 
 
