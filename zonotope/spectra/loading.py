@@ -66,14 +66,9 @@ def _check_nanometres(curves, path: Path, what: str) -> None:
 
     w = np.asarray(curves.wavelengths, dtype=np.float64)
     if w.size and float(np.max(w)) < WAVELENGTH_NM_MIN:
-        unit = (
-            "µm (multiply the wavelength column by 1000)"
-            if 0.1 <= float(np.max(w)) <= 30
-            else "a unit other than nm"
-        )
         raise SpectralDataError(
-            f"{what} file {path}: wavelengths {float(w.min()):g}–{float(w.max()):g} look like {unit}; "
-            "zonotope reads wavelengths in nanometres."
+            f"{what} file {path}: wavelengths {float(w.min()):g}–{float(w.max()):g} are not in nanometres, "
+            "which zonotope reads (a table in µm, such as 0.38–0.78: multiply the wavelength column by 1000)."
         )
 
 
