@@ -112,3 +112,9 @@ CHUNK_PIXELS = 2**20
 #: :func:`isp.tonemap_clip` / ``isp develop --exposure``: a gain of at most this many stops either
 #: way. 2³² ≈ 4·10⁹ is far beyond any sensor's dynamic range (≤ 2²⁰) and 2**1e6 overflows a float.
 EXPOSURE_STOPS_MAX = 32.0
+
+# --- white balance of files that record none ------------------------------------------------------
+#: :func:`isp.raw.auto_white_balance`: an 8 × 8 block with a raw value above ``white − black −`` this is
+#: left out of the grey-world average (it holds clipped pixels, whose colour is the clip's, not the
+#: scene's); 25 raw units is LibRaw's (dcraw's ``maximum − 25``), so the two choose the same white.
+AUTO_WB_MARGIN = 25
