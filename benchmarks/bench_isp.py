@@ -19,13 +19,16 @@ C. Colour correction on patch responses: DNG ColorMatrix path vs correction call
 D. Demosaicing: PSNR on simulated scenes made of real reflectances, and time per megapixel.
 E. ``--memory [MP ...]``: peak RSS of a whole development (read, default pipeline, 16-bit TIFF) of
    synthetic DNGs written to /tmp, each in a fresh process: strip-wise (what ``isp develop`` does) and,
-   as the baseline, every stage on the whole image in float64 (``keep=True``, as every stage ran
-   before) at the smaller sizes. Only this table runs when ``--memory`` is given.
+   as the baseline, every stage on the whole image in float64 (one strip, as every stage ran before)
+   at the smaller sizes. Only this table runs when ``--memory`` is given.
+F. ``--brightness``: median displayed luminance (sRGB EOTF) of isp's development of the shared RAW
+   files against rawpy's default ``postprocess()``, for isp's default tone curve and two alternatives.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -48,7 +51,7 @@ from isp.simulate import (  # noqa: E402
     true_XYZ,
 )
 
-DATA = ROOT.parent / "shared" / "data"
+DATA = Path(os.environ.get("ZONOTOPE_SHARED_DATA", ROOT.parent / "shared" / "data"))
 D50_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
 D65_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
 CAMERAS = [
@@ -403,7 +406,9 @@ from isp.raw import read_raw
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 t0 = time.perf_counter()
 raw = read_raw(sys.argv[1])
-dev = isp.default_pipeline()(raw, keep=sys.argv[3] == "whole")
+if sys.argv[3] == "whole":  # one strip: every stage on the whole image in float64, as before strips
+    isp._tol.STRIP_PIXELS = 2**62
+dev = isp.default_pipeline()(raw, keep=False)
 write_image(sys.argv[2], dev.image, overwrite=True, icc_profile=srgb_icc_profile())
 print(rss0, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter() - t0)
 """
@@ -451,7 +456,7 @@ def bench_memory(sizes: list[float], baseline_max: float = 12.0) -> None:
                     [sys.executable, "-c", _MEMORY_CHILD, str(dng), str(Path(tmp) / "out.tif"), mode],
                     capture_output=True,
                     text=True,
-                    env={**__import__("os").environ, "PYTHONPATH": str(ROOT)},
+                    env={**os.environ, "PYTHONPATH": str(ROOT)},
                 )
                 if out.returncode:
                     error = out.stderr.strip().splitlines()[-1][:60]
@@ -467,6 +472,39 @@ def bench_memory(sizes: list[float], baseline_max: float = 12.0) -> None:
         ["MP", "stages", "peak MB", "after imports MB", "seconds"],
         rows,
         fmt="{:>16}",
+    )
+
+
+def bench_brightness() -> None:
+    """Table F: isp's brightness against rawpy's default rendering, in stops of median luminance."""
+    import rawpy
+
+    Y = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
+    files = ["tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng", "rawsamples_RAW_CANON_D30_SRGB.CRW"]
+    rows = []
+    for name in files:
+        path = DATA / "raw_samples" / name
+        if not path.is_file():
+            print(f"F. skipped: {path} not present")
+            return
+        raw = isp.read_raw(path)
+        with rawpy.imread(str(path)) as r:  # as a viewer shows the 8-bit file: sRGB EOTF
+            shown = np.median(colour.models.eotf_sRGB(r.postprocess(user_flip=0) / 255.0) @ Y)
+
+        def stops(image, shown=shown) -> str:
+            value = np.median(colour.models.eotf_sRGB(np.clip(image.astype(np.float64), 0, 1)) @ Y)
+            return f"{np.log2(value / shown):+.2f}"
+
+        default = isp.default_pipeline()(raw, keep=False).image
+        kept = isp.default_pipeline(tonemap_options={"key": None})(raw, keep=False).image
+        lin = isp.default_pipeline(tonemap=None, encode=False)(raw, keep=False).image.astype(np.float64)
+        scale = 1.0 / np.percentile(lin.max(axis=-1), 99.0)  # 1 % of pixels reach white, as LibRaw
+        bright = colour.models.eotf_inverse_sRGB(np.clip(lin * scale, 0, 1))
+        rows.append([name[:28], raw.white_balance_source, stops(default), stops(kept), stops(bright)])
+    _table(
+        "F. Median displayed luminance against rawpy's default postprocess (stops)",
+        ["file", "white", "isp default", "key None", "1 % to white"],
+        rows,
     )
 
 
@@ -486,10 +524,14 @@ def main() -> None:
         metavar="MP",
         help="only table E, at these sizes in megapixels (default 6 60); whole-image baseline up to 12 MP",
     )
+    parser.add_argument("--brightness", action="store_true", help="only table F (shared data)")
     args = parser.parse_args()
     import tempfile
 
     t0 = time.perf_counter()
+    if args.brightness:
+        bench_brightness()
+        return
     if args.memory is not None:
         bench_memory(args.memory or [6.0, 60.0])
         print(f"\ntotal {time.perf_counter() - t0:.0f} s")
