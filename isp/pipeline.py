@@ -348,6 +348,7 @@ def correction_stage(
     *,
     balanced: bool = True,
     name: str = "camera_to_XYZ",
+    reach: int | None = None,
 ) -> Stage:
     """A stage that replaces the DNG ColorMatrix by any ``(N, k) → (N, 3)`` estimator.
 
@@ -360,6 +361,11 @@ def correction_stage(
         RGB, the white being the image's AsShotNeutral (remove the ``white_balance`` stage).
     name
         Stage name (default replaces ``"camera_to_XYZ"``).
+    reach
+        None (default): the estimator sees the whole image at once, so that an estimator that
+        corrects each distinct colour once (``zonotope.correct_image``'s ``quantum``) does not
+        correct a colour again in every strip; 0: per pixel, run strip by strip with the stages
+        around it (less memory, for estimators whose cost is per pixel).
 
     Returns
     -------
@@ -370,7 +376,7 @@ def correction_stage(
         white = None if balanced else raw.as_shot_neutral
         return st.apply_correction(x, XYZ_from_responses=XYZ_from_responses, white_response=white)
 
-    return Stage(name, fn, reach=0)  # per pixel: the estimator maps each response on its own
+    return Stage(name, fn, reach=reach)
 
 
 def default_pipeline(

@@ -110,3 +110,23 @@ def test_to_uint16_in_chunks(monkeypatch):
     a[4, 6, 2] = np.nan
     with pytest.raises(PipelineError, match="NaN or inf"):
         to_uint16(a)
+
+
+def test_a_correction_sees_the_whole_image_unless_it_says_it_is_per_pixel(textured, small_strips):
+    """An estimator that corrects each distinct colour once must not be called once per strip (it
+    would correct a colour again in every strip); a per-pixel one may opt in with reach=0."""
+    from isp import correction_stage
+
+    calls = []
+
+    def estimator(rgb):
+        calls.append(rgb.shape[0])
+        return rgb @ np.diag([0.9, 1.0, 1.1])
+
+    p = default_pipeline().replace("camera_to_XYZ", correction_stage(estimator))
+    whole = p(textured, keep=False).image
+    assert calls[0] == 62 * 90  # one call: the whole image
+    calls.clear()
+    strips = default_pipeline().replace("camera_to_XYZ", correction_stage(estimator, reach=0))
+    np.testing.assert_allclose(strips(textured, keep=False).image, whole, rtol=0, atol=2e-6)
+    assert max(calls) < 62 * 90
