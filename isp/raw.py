@@ -470,6 +470,9 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
         except RawFormatError:
             tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
     try:  # a damaged file can carry tags of the wrong type or shape
+        if stripped:  # LibRaw's black of a file without pixels is whatever its buffers held: the tag's
+            level = np.ravel(np.asarray(tags.get("BlackLevel", [0.0]), dtype=np.float64))
+            black = np.broadcast_to(level.reshape(2, 2) if level.size == 4 else level[:1], (2, 2)).copy()
         if tags:
             try:
                 profile = DNGProfile.from_tags(tags)
