@@ -17,11 +17,18 @@ C. Colour correction on patch responses: DNG ColorMatrix path vs correction call
    (least-squares 3 × 3 from the SSF; zonotope.correct root-polynomial; the metamer-based
    estimators Prior and Centroid on the simulation's grid, and Prior as the CLI fits it).
 D. Demosaicing: PSNR on simulated scenes made of real reflectances, and time per megapixel.
+E. ``--memory [MP ...]``: peak RSS of a whole development (read, default pipeline, 16-bit TIFF) of
+   synthetic DNGs written to /tmp, each in a fresh process: strip-wise (what ``isp develop`` does) and,
+   as the baseline, every stage on the whole image in float64 (one strip, as every stage ran before)
+   at the smaller sizes. Only this table runs when ``--memory`` is given.
+F. ``--brightness``: median displayed luminance (sRGB EOTF) of isp's development of the shared RAW
+   files against rawpy's default ``postprocess()``, for isp's default tone curve and two alternatives.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -44,7 +51,7 @@ from isp.simulate import (  # noqa: E402
     true_XYZ,
 )
 
-DATA = ROOT.parent / "shared" / "data"
+DATA = Path(os.environ.get("ZONOTOPE_SHARED_DATA", ROOT.parent / "shared" / "data"))
 D50_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
 D65_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
 CAMERAS = [
@@ -390,6 +397,117 @@ def bench_demosaic(repeats: int, size: int) -> None:
     )
 
 
+_MEMORY_CHILD = """
+import resource, sys, time
+import isp
+from isp.exif import srgb_icc_profile
+from isp.io import write_image
+from isp.raw import read_raw
+rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+raw = read_raw(sys.argv[1])
+if sys.argv[3] == "whole":  # one strip: every stage on the whole image in float64, as before strips
+    isp._tol.STRIP_PIXELS = 2**62
+dev = isp.default_pipeline()(raw, keep=False)
+write_image(sys.argv[2], dev.image, overwrite=True, icc_profile=srgb_icc_profile())
+print(rss0, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter() - t0)
+"""
+
+
+def _synthetic_dng(path: Path, megapixels: float) -> tuple[int, int]:
+    """A 3:2 Bayer DNG of smooth colour ramps with noise, written in row blocks (no full float copy)."""
+    from isp.dng import write_dng
+
+    W = round((megapixels * 1e6 * 1.5) ** 0.5 / 2) * 2
+    H = round(megapixels * 1e6 / W / 2) * 2
+    rng = np.random.default_rng(0)
+    x = np.linspace(0, 1, W, dtype=np.float32)[None, :]
+    m = np.empty((H, W), np.uint16)
+    for r0 in range(0, H, 512):
+        y = np.linspace(0, 1, H, dtype=np.float32)[r0 : r0 + 512, None]
+        block = 64 + 3000 * (0.2 + 0.6 * y * x) + rng.normal(0, 8, (y.shape[0], W))
+        m[r0 : r0 + 512] = np.clip(block, 0, 4095).astype(np.uint16)
+    cm = np.array([[0.9, -0.3, -0.1], [-0.4, 1.2, 0.2], [-0.1, 0.2, 0.6]])
+    write_dng(
+        path,
+        m,
+        cfa="RGGB",
+        black_level=64,
+        white_level=4095,
+        color_matrix_1=cm,
+        as_shot_neutral=[0.5, 1.0, 0.7],
+        overwrite=True,
+    )
+    return H, W
+
+
+def bench_memory(sizes: list[float], baseline_max: float = 12.0) -> None:
+    """Table E: peak RSS of a development, strip-wise and (up to ``baseline_max`` MP) whole-image."""
+    import subprocess
+    import tempfile
+
+    rows = []
+    with tempfile.TemporaryDirectory(dir="/tmp") as tmp:
+        for mp in sizes:
+            dng = Path(tmp) / f"{mp:g}MP.dng"
+            H, W = _synthetic_dng(dng, mp)
+            for mode in ("strips", "whole") if mp <= baseline_max else ("strips",):
+                out = subprocess.run(
+                    [sys.executable, "-c", _MEMORY_CHILD, str(dng), str(Path(tmp) / "out.tif"), mode],
+                    capture_output=True,
+                    text=True,
+                    env={**os.environ, "PYTHONPATH": str(ROOT)},
+                )
+                if out.returncode:
+                    error = out.stderr.strip().splitlines()[-1][:60]
+                    rows.append([f"{mp:g} ({H}×{W})", mode, "failed", "", error])
+                    continue
+                rss0, rss, seconds = (float(v) for v in out.stdout.split())
+                rows.append(
+                    [f"{mp:g} ({H}×{W})", mode, f"{rss / 1024:.0f}", f"{rss0 / 1024:.0f}", f"{seconds:.1f}"]
+                )
+            dng.unlink()
+    _table(
+        "E. Peak RSS of a development (read + default pipeline + 16-bit TIFF), fresh process each",
+        ["MP", "stages", "peak MB", "after imports MB", "seconds"],
+        rows,
+        fmt="{:>16}",
+    )
+
+
+def bench_brightness() -> None:
+    """Table F: isp's brightness against rawpy's default rendering, in stops of median luminance."""
+    import rawpy
+
+    Y = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
+    files = ["tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng", "rawsamples_RAW_CANON_D30_SRGB.CRW"]
+    rows = []
+    for name in files:
+        path = DATA / "raw_samples" / name
+        if not path.is_file():
+            print(f"F. skipped: {path} not present")
+            return
+        raw = isp.read_raw(path)
+        with rawpy.imread(str(path)) as r:  # as a viewer shows the 8-bit file: sRGB EOTF
+            shown = np.median(colour.models.eotf_sRGB(r.postprocess(user_flip=0) / 255.0) @ Y)
+
+        def stops(image, shown=shown) -> str:
+            value = np.median(colour.models.eotf_sRGB(np.clip(image.astype(np.float64), 0, 1)) @ Y)
+            return f"{np.log2(value / shown):+.2f}"
+
+        default = isp.default_pipeline()(raw, keep=False).image
+        kept = isp.default_pipeline(tonemap_options={"key": None})(raw, keep=False).image
+        lin = isp.default_pipeline(tonemap=None, encode=False)(raw, keep=False).image.astype(np.float64)
+        scale = 1.0 / np.percentile(lin.max(axis=-1), 99.0)  # 1 % of pixels reach white, as LibRaw
+        bright = colour.models.eotf_inverse_sRGB(np.clip(lin * scale, 0, 1))
+        rows.append([name[:28], raw.white_balance_source, stops(default), stops(kept), stops(bright)])
+    _table(
+        "F. Median displayed luminance against rawpy's default postprocess (stops)",
+        ["file", "white", "isp default", "key None", "1 % to white"],
+        rows,
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -399,10 +517,25 @@ def main() -> None:
         help="smaller demosaic scenes, coarser colour deduplication of the metamer "
         "correction in table B, 200 of the Munsell chips in table C",
     )
+    parser.add_argument(
+        "--memory",
+        type=float,
+        nargs="*",
+        metavar="MP",
+        help="only table E, at these sizes in megapixels (default 6 60); whole-image baseline up to 12 MP",
+    )
+    parser.add_argument("--brightness", action="store_true", help="only table F (shared data)")
     args = parser.parse_args()
     import tempfile
 
     t0 = time.perf_counter()
+    if args.brightness:
+        bench_brightness()
+        return
+    if args.memory is not None:
+        bench_memory(args.memory or [6.0, 60.0])
+        print(f"\ntotal {time.perf_counter() - t0:.0f} s")
+        return
     bench_rawpy()
     with tempfile.TemporaryDirectory() as tmp:
         bench_simulated_chart(Path(tmp), quantum=1e-2 if args.quick else 2e-3)

@@ -96,3 +96,25 @@ TABLE_HARD_WEIGHT = 1e3
 #: 4–5 decimals (0.3127, 0.3290), so distinct whites differ by ≥ 1e-5; an adaptation between whites
 #: 1e-6 apart would be the identity to ≈ 1e-6 anyway.
 WHITE_XY = 1e-6
+
+# --- memory at real sizes (strip-wise development) ---------------------------------------------
+#: :meth:`isp.Pipeline.__call__` with ``keep=False`` runs runs of local stages on strips of rows of
+#: about this many pixels (2²⁰ ≈ 1 MP): a stage's float64 temporaries (a demosaicing kernel holds
+#: ≈ 10 planes) then take tens of MB instead of GB at 60 MP, and a strip is still large enough that
+#: numpy's per-call overhead stays below 1 % of the work.
+STRIP_PIXELS = 2**20
+
+#: Same: the chunk, in pixels, in which :func:`isp.tonemap_Reinhard2002` and :func:`isp.to_uint16`
+#: work through a whole image (their float64 temporaries stay ≈ 50 MB whatever the image size).
+CHUNK_PIXELS = 2**20
+
+# --- hardening: absurd options --------------------------------------------------------------------
+#: :func:`isp.tonemap_clip` / ``isp develop --exposure``: a gain of at most this many stops either
+#: way. 2³² ≈ 4·10⁹ is far beyond any sensor's dynamic range (≤ 2²⁰) and 2**1e6 overflows a float.
+EXPOSURE_STOPS_MAX = 32.0
+
+# --- white balance of files that record none ------------------------------------------------------
+#: :func:`isp.raw.auto_white_balance`: an 8 × 8 block with a raw value above ``white − black −`` this is
+#: left out of the grey-world average (it holds clipped pixels, whose colour is the clip's, not the
+#: scene's); 25 raw units is LibRaw's (dcraw's ``maximum − 25``), so the two choose the same white.
+AUTO_WB_MARGIN = 25

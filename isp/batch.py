@@ -3,7 +3,8 @@
 :func:`develop_folder` is the library side of ``isp develop DIR -o OUTDIR``. A metamer correction is
 fitted once, after the folder checks, and sent to the workers once with the pipeline. Outputs are
 ``OUTDIR/<stem>.tif`` (16-bit TIFF), written atomically and at most once; a rerun skips outputs that
-exist (resume) and refuses other settings than the first run's; a file that fails is listed with its
+exist and that it wrote (resume; a user's file with an output's name is refused, never counted)
+and refuses other settings than the first run's; a file that fails is listed with its
 error and the others go on; ``OUTDIR/manifest.csv`` lists every input, its output, status, time and
 worker. Where the work runs is :func:`zonotope.parallel.executor`'s choice (``executor=``,
 ``ZONOTOPE_SCHEDULER``, or serial for one file and a local Dask cluster for more).
@@ -162,10 +163,20 @@ def develop_folder(
     ------
     PipelineError
         ``out`` is a file or the input folder, no RAW files, or two inputs share a stem.
+    zonotope.parallel.ParallelError
+        ``out`` holds a ``manifest.csv`` or a file with an output's name that no folder batch wrote
+        (:func:`zonotope.parallel.check_batch_folder`): it is never replaced nor counted done.
     TypeError
         An option other than ``crop`` and ``save_stages``.
     """
-    from zonotope.parallel import FILE_MIN_TASKS, FileTask, check_settings, resolve_scheduler, run_files
+    from zonotope.parallel import (
+        FILE_MIN_TASKS,
+        FileTask,
+        check_batch_folder,
+        check_settings,
+        resolve_scheduler,
+        run_files,
+    )
 
     unknown = sorted(set(options) - {"crop", "save_stages"})
     if unknown:
@@ -194,6 +205,7 @@ def develop_folder(
     if settings is not None and metamer is not None:
         noise = getattr(metamer[1], "noise", None)
         settings = {**settings, "noise": "none" if noise is None else repr(noise.key())}
+    check_batch_folder(tasks, out_dir / "manifest.csv")  # a user's file is never replaced nor counted done
     if settings is not None:
         check_settings(out_dir / "manifest.csv", settings)
     if metamer is not None:  # fitted once, sent to every worker once

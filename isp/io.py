@@ -35,10 +35,21 @@ def to_uint16(image) -> np.ndarray:
     -------
     ndarray of the same shape, uint16
     """
-    a = np.asarray(image, dtype=np.float64)
-    if not np.all(np.isfinite(a)):
-        raise PipelineError("image: contains NaN or inf; it cannot be written.")
-    return np.round(np.clip(a, 0.0, 1.0) * 65535.0).astype(np.uint16)
+    from ._config import float_array
+    from ._tol import CHUNK_PIXELS
+
+    a = np.asarray(image)
+    if a.dtype not in (np.float32, np.float64):
+        a = float_array(a, "image")
+    out = np.empty(a.shape, dtype=np.uint16)
+    flat, flat_out = a.reshape(-1), out.reshape(-1)
+    step = 3 * CHUNK_PIXELS  # in chunks: float64 temporaries of one chunk, whatever the image size
+    for i in range(0, flat.size, step):
+        c = flat[i : i + step].astype(np.float64, copy=False)
+        if not np.all(np.isfinite(c)):
+            raise PipelineError("image: contains NaN or inf; it cannot be written.")
+        flat_out[i : i + step] = np.round(np.clip(c, 0.0, 1.0) * 65535.0)
+    return out
 
 
 SOFTWARE = "isp (zonotope)"  # written into every image, so that --overwrite recognises our own outputs

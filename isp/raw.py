@@ -20,7 +20,7 @@ from ._tol import NEUTRAL_MIN, STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .cfa import check_cfa
 from .dng import DNGProfile, read_dng_tags
 
-__all__ = ["RawImage", "read_raw"]
+__all__ = ["RawImage", "auto_white_balance", "read_raw"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,8 +56,10 @@ class RawImage:
         Every tag read (DNG files), for inspection.
     white_balance_source : str
         Where :attr:`as_shot_neutral` came from: ``"AsShotNeutral"``, ``"AsShotWhiteXY"`` (DNG tags),
-        ``"camera"`` (the camera's as-shot multipliers, non-DNG), ``"daylight"`` (LibRaw's daylight
-        multipliers: the file records no usable as-shot white balance) or ``"none"`` (unit gains).
+        ``"camera"`` (the camera's as-shot multipliers, non-DNG), ``"auto"`` (the file records no
+        as-shot white: LibRaw's automatic grey world, :func:`auto_white_balance`, which LibRaw's camera
+        white balance also falls back to), ``"daylight"`` (LibRaw's daylight multipliers, when no
+        block is unclipped) or ``"none"`` (unit gains).
     orientation : int
         TIFF/EXIF Orientation code 1–8 of the picture (1 = as stored, 6 = rotate 90° clockwise).
     capture : dict
@@ -325,6 +327,69 @@ def _check_dng_data(path: Path, size: int) -> None:
         raise bad("Compression=8 (Deflate) but the data are not a zlib stream")
 
 
+def auto_white_balance(mosaic, cfa: str, black_level, white_level: float) -> np.ndarray | None:
+    """The camera neutral LibRaw's automatic white balance picks: a grey-world mean per channel.
+
+    As dcraw/LibRaw's ``use_auto_wb`` (and ``use_camera_wb`` on a file without an as-shot white):
+    the mosaic is cut into 8 × 8 blocks from its top-left corner; a block holding any raw value above
+    ``white_level − black −`` :data:`isp._tol.AUTO_WB_MARGIN` is left out (LibRaw compares the raw
+    value with its maximum less the black level); in the others every value minus its site's black
+    level (negative → 0) is summed per channel. The neutral is the per-channel mean.
+
+    Parameters
+    ----------
+    mosaic : array_like of shape (H, W)
+        Raw values (black level included).
+    cfa
+        2 × 2 pattern.
+    black_level : float or array_like of shape (2, 2)
+        Black level per CFA site.
+    white_level
+        Saturation value.
+
+    Returns
+    -------
+    ndarray of shape (3,) or None
+        The neutral normalised to max 1; None when no block is unsaturated or a channel sums to 0.
+    """
+    from ._tol import AUTO_WB_MARGIN
+    from .cfa import CHANNEL_INDEX, check_cfa
+
+    m = np.asarray(mosaic)
+    H, W = m.shape
+    black = np.broadcast_to(np.asarray(black_level, dtype=np.float64), (2, 2))
+    site = np.array([CHANNEL_INDEX[c] for c in check_cfa(cfa)]).reshape(2, 2)
+    Wp = -(-W // 8) * 8
+    sums, counts = np.zeros(3), np.zeros(3)
+    # LibRaw compares the raw value (black included) with its maximum after the black was taken off it
+    limit = float(white_level) - float(black.max()) - AUTO_WB_MARGIN
+    for r0 in range(0, H, 512):  # 8-row multiples: bounded temporaries at any size
+        rows = m[r0 : r0 + 512]
+        h = rows.shape[0]
+        Hp = -(-h // 8) * 8
+        sat = np.zeros((Hp, Wp), bool)
+        sat[:h, :W] = rows > limit
+        keep = ~sat.reshape(Hp // 8, 8, Wp // 8, 8).any(axis=(1, 3))  # unsaturated blocks
+        keep_px = np.repeat(np.repeat(keep, 8, axis=0), 8, axis=1)[:h, :W]
+        for dy in (0, 1):
+            for dx in (0, 1):
+                v = rows[dy::2, dx::2].astype(np.float64) - black[(r0 + dy) % 2, dx]
+                k = keep_px[dy::2, dx::2]
+                c = site[(r0 + dy) % 2, dx]
+                sums[c] += np.maximum(v, 0.0)[k].sum()
+                counts[c] += k.sum()
+    if np.any(counts == 0) or np.any(sums <= 0):
+        return None
+    neutral = sums / counts
+    return neutral / neutral.max()
+
+
+def _auto_or_none(mosaic, cfa: str, black, white: float) -> np.ndarray | None:
+    if not np.any(mosaic):  # metadata-only files: no pixels to average
+        return None
+    return auto_white_balance(mosaic, cfa, black, white)
+
+
 def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImage:
     """Read a RAW or DNG file.
 
@@ -405,6 +470,9 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
         except RawFormatError:
             tags = {}  # a TIFF-based RAW (CR2, NEF, ...) that is not DNG
     try:  # a damaged file can carry tags of the wrong type or shape
+        if stripped:  # LibRaw's black of a file without pixels is whatever its buffers held: the tag's
+            level = np.ravel(np.asarray(tags.get("BlackLevel", [0.0]), dtype=np.float64))
+            black = np.broadcast_to(level.reshape(2, 2) if level.size == 4 else level[:1], (2, 2)).copy()
         if tags:
             try:
                 profile = DNGProfile.from_tags(tags)
@@ -419,8 +487,10 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
                 xy = np.asarray(tags["AsShotWhiteXY"], dtype=np.float64)
                 neutral = profile.XYZ_to_camera(xy) @ colour.xy_to_XYZ(xy)
             else:
-                source = "camera" if np.all(cam_wb > 0) else "none"
-                neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else np.ones(3)
+                source = "camera" if np.all(cam_wb > 0) else "auto"
+                neutral = 1.0 / cam_wb if np.all(cam_wb > 0) else _auto_or_none(mosaic, cfa, black, white)
+                source = "none" if neutral is None else source
+                neutral = np.ones(3) if neutral is None else neutral
             if source != "none":
                 neutral = _checked_neutral(neutral, f"{path}: ", source)
             capture.update(_capture_from_tags(tags))
@@ -436,10 +506,23 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
                     "or use a correction callable."
                 )
             profile = DNGProfile(color_matrix_1=libraw_cm, calibration_illuminant_1=21)
-            # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW)
-            source = "camera" if np.all(cam_wb > 0) else "daylight" if np.all(day_wb > 0) else "none"
-            wb = {"camera": cam_wb, "daylight": day_wb, "none": np.ones(3)}[source]
-            neutral = 1.0 / wb
+            # LibRaw marks a missing as-shot white balance with cam_mul[0] = -1 (e.g. the EOS D30's CRW);
+            # then LibRaw's camera white balance is its automatic one (a grey world), and so is ours
+            auto = None if np.all(cam_wb > 0) else _auto_or_none(mosaic, cfa, black, white)
+            source = (
+                "camera"
+                if np.all(cam_wb > 0)
+                else "auto"
+                if auto is not None
+                else "daylight"
+                if np.all(day_wb > 0)
+                else "none"
+            )
+            neutral = (
+                auto
+                if source == "auto"
+                else 1.0 / {"camera": cam_wb, "daylight": day_wb}.get(source, np.ones(3))
+            )
             table, make, model, baseline = None, "", "", 0.0
     except RawFormatError:
         raise

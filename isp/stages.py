@@ -12,6 +12,7 @@ sensor's saturation (1.0) or to the white (Y = 1).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import colour
@@ -496,18 +497,45 @@ def tonemap_Reinhard2002(
     Reinhard, E., Stark, M., Shirley, P., & Ferwerda, J. (2002). Photographic tone reproduction for
     digital images. ACM TOG 21(3), 267–276, equations 1, 2 and 4.
     """
-    a = _image_array(rgb, "rgb")
-    Y = np.maximum(a @ _Y_sRGB, 0.0)
-    scale = 1.0 if key is None else key / float(np.exp(np.mean(np.log(log_offset + Y))))
-    L = scale * Y
-    Lw = float(L.max()) if white is None else float(white)
+    from ._tol import CHUNK_PIXELS
+
+    a = np.asarray(rgb)
+    a = a if a.dtype in (np.float32, np.float64) else _image_array(rgb, "rgb")
+    if a.ndim < 1 or a.shape[-1] != 3:
+        _image_array(a, "rgb")  # the one message for a wrong shape
+    flat = a.reshape(-1, 3)
+    out = np.empty(a.shape, dtype=a.dtype)
+    flat_out = out.reshape(-1, 3)
+    # in chunks of pixels, in float64: temporaries of one chunk whatever the image size; a float32
+    # image stays float32 (the pipeline's images between global stages)
+    chunks = [slice(i, i + CHUNK_PIXELS) for i in range(0, flat.shape[0], CHUNK_PIXELS)]
+
+    def luminance(c: slice) -> np.ndarray:
+        return np.maximum(flat[c].astype(np.float64, copy=False) @ _Y_sRGB, 0.0)
+
+    n = flat.shape[0]
+    if key is None:
+        scale = 1.0
+    else:
+        log_sum = math.fsum(float(np.sum(np.log(log_offset + luminance(c)))) for c in chunks)
+        scale = key / float(np.exp(log_sum / n)) if n else 1.0
+    Lw = (
+        float(white)
+        if white is not None
+        else max((scale * float(luminance(c).max()) for c in chunks), default=0.0)
+    )
     if Lw <= 0:
         return np.zeros_like(a)
-    Ld = (L + (L / Lw) ** 2) / (1.0 + L)  # = L (1 + L / Lw²) / (1 + L), without underflowing Lw²
-    # a / Y first (chromaticity-like, O(1)), then × Ld: Ld / Y overflows when a whole image is
-    # subnormal (its brightest pixel still maps to 1; found by hypothesis)
-    chroma = np.divide(a, Y[..., None], out=np.zeros_like(a), where=Y[..., None] > 0)
-    return chroma * Ld[..., None]
+    for c in chunks:
+        Y = luminance(c)
+        L = scale * Y
+        Ld = (L + (L / Lw) ** 2) / (1.0 + L)  # = L (1 + L / Lw²) / (1 + L), without underflowing Lw²
+        # a / Y first (chromaticity-like, O(1)), then × Ld: Ld / Y overflows when a whole image is
+        # subnormal (its brightest pixel still maps to 1; found by hypothesis)
+        x = flat[c].astype(np.float64, copy=False)
+        chroma = np.divide(x, Y[:, None], out=np.zeros_like(x), where=Y[:, None] > 0)
+        flat_out[c] = chroma * Ld[:, None]
+    return out
 
 
 def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
@@ -517,13 +545,21 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
     ----------
     rgb : array_like of shape (..., 3)
     exposure
-        Gain in stops.
+        Gain in stops (finite, at most ±``isp._tol.EXPOSURE_STOPS_MAX``).
 
     Returns
     -------
     ndarray of shape (..., 3)
     """
-    return np.clip(_image_array(rgb, "rgb") * 2.0**exposure, 0.0, 1.0)
+    from ._tol import EXPOSURE_STOPS_MAX
+
+    if isinstance(exposure, bool) or not isinstance(exposure, int | float | np.number):
+        raise PipelineError(f"exposure={exposure!r}: expected a number of stops.")
+    if not abs(float(exposure)) <= EXPOSURE_STOPS_MAX:  # NaN fails too
+        raise PipelineError(
+            f"exposure={exposure!r}: a gain in stops must be finite and within ±{EXPOSURE_STOPS_MAX:g}."
+        )
+    return np.clip(_image_array(rgb, "rgb") * 2.0 ** float(exposure), 0.0, 1.0)
 
 
 #: Global tone-mapping operators by name (``tonemap(..., method=name)``); ``default=True`` marks the
@@ -531,8 +567,8 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
 TONEMAP_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
     "tone-mapping", error=PipelineMethodError
 )
-TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002, default=True)
-TONEMAP_METHODS.register("clip", tonemap_clip)
+TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002, default=True, reach=None)  # global: a mean
+TONEMAP_METHODS.register("clip", tonemap_clip, reach=0)  # per pixel: strip-wise in a pipeline
 
 
 def tonemap(rgb, *, method: str = default_method(TONEMAP_METHODS), **options) -> np.ndarray:

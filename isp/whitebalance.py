@@ -2,7 +2,8 @@
 
 :func:`white_balance_neutral` turns a choice into a neutral for a :class:`~isp.raw.RawImage`:
 
-* ``"as-shot"``: the file's (DNG AsShotNeutral / AsShotWhiteXY, or the camera's multipliers);
+* ``"as-shot"``: the file's (DNG AsShotNeutral / AsShotWhiteXY, or the camera's multipliers; for a
+  file that records none, LibRaw's automatic grey-world white, :func:`isp.raw.auto_white_balance`);
 * ``"daylight"``: a white of 5500 K on the Planckian locus, the DNG SDK's temperature of the EXIF
   light source "Daylight" (:data:`isp.dng.LIGHT_SOURCE_CCT`);
 * ``"5000K"``: a colour temperature in kelvin on the Planckian locus (tint 0), placed with the
@@ -200,6 +201,8 @@ def describe_white_balance(raw: RawImage, choice="as-shot") -> str:
             "AsShotNeutral": "as shot (DNG AsShotNeutral)",
             "AsShotWhiteXY": "as shot (DNG AsShotWhiteXY)",
             "camera": "as shot (the camera's multipliers)",
+            "auto": "automatic (grey world over unclipped 8×8 blocks, as LibRaw's camera/auto white balance; "
+            "the file records no as-shot white)",
             "daylight": "daylight multipliers of LibRaw (the file records no as-shot white balance)",
             "none": "unit gains (the file records no white balance)",
         }.get(raw.white_balance_source, raw.white_balance_source)

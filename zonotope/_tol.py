@@ -565,3 +565,11 @@ __all__ += [
     "SSF_SMOOTHNESS",
     "SSF_SUBSPACE",
 ]
+# --- hardening: units of spectral files ---------------------------------------------------------
+#: :func:`zonotope.load_camera` / :func:`zonotope.load_reflectances`: a file whose largest wavelength
+#: is below this is not in nanometres (visible and near-IR data end above 680 nm; a table in µm, such
+#: as 0.38–0.78, ends below 3) and is refused with the factor to apply, instead of building a grid
+#: nobody meant (or failing deep inside as an AssertionError).
+WAVELENGTH_NM_MIN = 100.0
+
+__all__ += ["WAVELENGTH_NM_MIN"]

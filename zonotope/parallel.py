@@ -57,9 +57,11 @@ from ._errors import ZonotopeError
 from .utilities.progress import ProgressCallback
 
 __all__ = [
+    "BATCH_RECORD",
     "ENV_VAR",
     "FILE_MIN_TASKS",
     "MANIFEST_COLUMNS",
+    "SCHEDULER_HELP",
     "SECURITY_ENV_VAR",
     "DaskExecutor",
     "Executor",
@@ -67,6 +69,7 @@ __all__ = [
     "ParallelError",
     "SerialExecutor",
     "TaskFailure",
+    "check_batch_folder",
     "check_settings",
     "dask_available",
     "executor",
@@ -79,6 +82,17 @@ ENV_VAR = "ZONOTOPE_SCHEDULER"
 
 #: Environment variable read when ``security=None``: a YAML/JSON file of the client's TLS settings.
 SECURITY_ENV_VAR = "ZONOTOPE_SCHEDULER_SECURITY"
+
+#: What a command line's ``--scheduler`` accepts and whom each choice trusts (one text for every command).
+SCHEDULER_HELP = (
+    "'serial' (this process); 'local' or 'local:N' (a Dask cluster of N worker processes on this "
+    "machine, default one per core, on 127.0.0.1 with TLS certificates made for this run, so no other "
+    "user can reach it); a running Dask scheduler's address: 'tcp://host:8786' has no authentication, "
+    "so anyone who reaches that port can run code as its workers (use it only on a trusted network), "
+    "'tls://host:8786' with the client's certificates in a YAML/JSON file named by "
+    f"${SECURITY_ENV_VAR} (tls_ca_file, tls_client_cert, tls_client_key); or a scheduler file "
+    f"(default ${ENV_VAR}, else serial for small jobs and a local cluster for large ones)"
+)
 
 #: Keys a security file may hold: the client's side of ``distributed.security.Security``.
 _SECURITY_KEYS = ("tls_ca_file", "tls_client_cert", "tls_client_key", "tls_ciphers", "require_encryption")
@@ -508,6 +522,74 @@ class FileTask:
 #: Columns of the manifest CSV written by :func:`run_files`.
 MANIFEST_COLUMNS = ("input", "output", "status", "seconds", "worker", "error")
 
+#: Folder, beside a batch's outputs, that records what the batch wrote: one empty file
+#: ``<output name>.<size>-<mtime_ns>`` per output, made by the worker just before it publishes it.
+#: An existing output is the batch's (``done``) only if it still has a recorded size and time; the
+#: folder's presence also says that the manifest and settings record beside it are the batch's.
+BATCH_RECORD = ".zonotope-batch"
+
+
+def _stamp(path: Path, st: os.stat_result | None = None) -> str:
+    st = path.stat() if st is None else st
+    return f"{path.name}.{st.st_size}-{st.st_mtime_ns}"
+
+
+def _recorded(path: Path) -> bool:
+    """Whether ``path`` is an output this batch tool wrote (its size and time are recorded)."""
+    try:
+        return (path.parent / BATCH_RECORD / _stamp(path)).is_file()
+    except OSError:
+        return False
+
+
+def check_batch_folder(tasks: Iterable[FileTask], manifest: str | os.PathLike) -> None:
+    """Refuse a folder batch that would replace or count as its own a file it did not write.
+
+    Run before any long work (a fit). The manifest, its settings record and every existing output
+    must have been written by a folder batch (:data:`BATCH_RECORD`): a user's ``manifest.csv`` is
+    never replaced, and a user's file that merely has an output's name is never counted ``done``.
+
+    Raises
+    ------
+    ParallelError
+        Naming the first such file and what to do.
+    """
+    manifest = Path(manifest)
+    owned = (manifest.parent / BATCH_RECORD).is_dir()
+    for p in (manifest, _settings_path(manifest)):
+        if p.exists() and not owned:
+            raise ParallelError(
+                f"{p} was not written by a folder batch (no {BATCH_RECORD} record beside it); move it "
+                "out of the folder or choose another output folder."
+            )
+    for t in tasks:
+        out = Path(t.output)
+        if out.exists() and not _recorded(out):
+            raise ParallelError(
+                f"{out} exists but was not written by this batch (no record in "
+                f"{out.parent / BATCH_RECORD}); move it out of the folder or choose another output folder."
+            )
+
+
+def _forget_stale(tasks: list[FileTask]) -> None:
+    """Remove record entries of outputs that no longer match them (another attempt, a removed file)."""
+    by_folder: dict[Path, dict[str, str | None]] = {}
+    for t in tasks:
+        out = Path(t.output)
+        try:
+            current = _stamp(out) if out.is_file() else None
+        except OSError:
+            current = None
+        by_folder.setdefault(out.parent, {})[out.name] = current
+    for folder, names in by_folder.items():
+        record = folder / BATCH_RECORD
+        if not record.is_dir():
+            continue
+        for entry in record.iterdir():
+            name, _, stamp = entry.name.rpartition(".")
+            if name in names and entry.name != names[name] and re.fullmatch(r"\d+-\d+", stamp):
+                entry.unlink(missing_ok=True)
+
 
 def _publish(tmp: Path, dest: Path) -> bool:
     """Make ``tmp`` appear at ``dest`` atomically, only if nothing is there yet; True if it was ours.
@@ -548,16 +630,29 @@ def _file_task(task: FileTask, shared) -> dict:
         "error": "",
     }
     if dest.exists():  # a re-run of a task whose first attempt finished (its worker then died)
-        return {**row, "status": "done"}
+        if _recorded(dest):
+            return {**row, "status": "done"}
+        return {
+            **row,
+            "status": "failed",
+            "error": f"{dest} appeared during the batch and was not written by it; it was left as it is.",
+        }
     tmp = _temp_for(dest)
     t0 = time.perf_counter()
+    entry = None
     try:
         work(task.input, str(tmp), options)
         if not tmp.is_file():
             raise ZonotopeError(f"the task wrote nothing for {task.input}")
-        _publish(tmp, dest)
+        # recorded before it appears, so that a kill between the two never leaves an output unrecorded
+        entry = dest.parent / BATCH_RECORD / _stamp(dest, tmp.stat())
+        entry.touch()
+        if not _publish(tmp, dest):  # another attempt published first: its entry is the one that counts
+            entry.unlink(missing_ok=True)
     except Exception as error:  # one bad file is reported, the batch goes on
         tmp.unlink(missing_ok=True)
+        if entry is not None and not dest.exists():
+            entry.unlink(missing_ok=True)
         return {
             **row,
             "status": "failed",
@@ -697,19 +792,30 @@ def run_files(
     -------
     list of dict
         One row per task, in input order: ``status`` is ``ok`` (made now), ``done`` (the output
-        already existed: skipped, which is how a rerun resumes) or ``failed`` (``error`` says why).
+        already existed and was written by this batch tool: skipped, which is how a rerun resumes) or
+        ``failed`` (``error`` says why).
+
+    Raises
+    ------
+    ParallelError
+        Two inputs share an output, or the folder holds a manifest, settings record or output that
+        a folder batch did not write (:func:`check_batch_folder`): it is never replaced or counted.
 
     Notes
     -----
     Each output is written to a temporary file and published with a hard link, so it appears
     complete or not at all, and a task run twice (its worker killed after writing) never writes it
-    a second time. Inputs are only read.
+    a second time. What was written is recorded in :data:`BATCH_RECORD` before it appears, so a
+    rerun after a kill still resumes. Inputs are only read.
     """
     import time
 
     tasks = list(tasks)
     _check_tasks(tasks)
     manifest = Path(manifest)
+    check_batch_folder(tasks, manifest)
+    for folder in {manifest.parent, *(Path(t.output).parent for t in tasks)}:
+        (folder / BATCH_RECORD).mkdir(parents=True, exist_ok=True)
     if settings is not None:
         import json
 
@@ -761,6 +867,7 @@ def run_files(
                     last = time.monotonic()
     finally:
         _remove_temporaries(tasks)
+        _forget_stale(tasks)
         _write_manifest(manifest, rows)
     return rows
 

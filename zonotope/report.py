@@ -13,7 +13,8 @@ Everything is written into a temporary folder next to the output, which is renam
 only when complete (:func:`zonotope.utilities.io.atomic_dir`): an interrupted run never replaces (or
 half-writes) a good report and leaves no temporary folder behind. An existing folder is replaced only
 with ``force=True`` and only if it is a report (it holds the ``.zonotope-output`` marker this function
-writes); any other folder is never touched. Both are checked before the long computation starts.
+writes) that holds only what the report wrote (listed in :data:`FILES`); any other folder, or a report
+to which a file was added, is never touched. Both are checked before the long computation starts.
 """
 
 from __future__ import annotations
@@ -40,9 +41,42 @@ GREY_LEVELS = (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 0.9)
 #: First line of the marker file inside every report folder (what ``force`` may replace).
 SIGNATURE = "zonotope report"
 
+#: File inside every report folder listing the paths the report wrote (one per line, relative):
+#: ``force`` replaces a report only when it holds nothing else, so a user's added file is never deleted.
+FILES = ".zonotope-report-files"
+
 
 class ReportExistsError(OutputExistsError):
     """The output folder exists and ``force`` was not given, or it exists and is not a report."""
+
+
+def _written_by_report(folder: Path) -> set[str]:
+    """The paths (relative, POSIX) that the report in ``folder`` wrote: its :data:`FILES` list, or, for
+    a report written before that list existed, the marker, the two pages and the pictures the page shows."""
+    listed = folder / FILES
+    if listed.is_file():
+        return {line for line in listed.read_text(encoding="utf-8").splitlines() if line} | {FILES}
+    import re
+
+    from .utilities.io import MARKER
+
+    page = folder / "index.html"
+    text = page.read_text(encoding="utf-8", errors="replace") if page.is_file() else ""
+    return {MARKER, "index.html", "report.md", *re.findall(r"<img src='([^'<>]+)'", text)}
+
+
+def _check_only_report_files(folder: Path) -> None:
+    """Refuse to replace ``folder`` when it holds a path the report did not write (a user's file)."""
+    if not folder.is_dir():
+        return
+    ours = _written_by_report(folder)
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder).as_posix()
+        if rel not in ours:
+            raise ReportExistsError(
+                f"{p}: not written by zonotope report, so --force would delete it; move it out of "
+                f"{folder} or choose another output folder."
+            )
 
 
 def _num(x: float) -> str:
@@ -158,7 +192,8 @@ def write_report(
         What the report contains (illuminant, grid, test data, estimators, pictures, volume
         tables); default ``ReportConfig()``.
     force
-        Replace an existing ``output``.
+        Replace an existing ``output`` that an earlier report wrote and that holds nothing else (a
+        file added to it is never deleted: the call is refused).
     progress
         ``progress(stage, 0, n)`` as each step starts (:class:`~zonotope.utilities.ProgressCallback`; a new
         stage name closes the previous one).
@@ -176,7 +211,7 @@ def write_report(
     OptionError
         An unknown option or a value out of range (before anything is written).
     ReportExistsError
-        ``output`` exists and ``force`` is False.
+        ``output`` exists and ``force`` is False, or it holds a file the report did not write.
     SpectralDataError
         No camera, duplicated cameras, or curves without a common range.
     """
@@ -203,6 +238,8 @@ def write_report(
         )
     except OutputExistsError as error:
         raise ReportExistsError(str(error)) from None
+    if force:
+        _check_only_report_files(output)
     if not cameras:
         raise SpectralDataError("write_report needs at least one camera.")
     shape = colour.SpectralShape(400, 700, 10) if shape is None else shape
@@ -350,6 +387,12 @@ def write_report(
             f"<style>{style}</style></head><body>{''.join(parts)}</body></html>",
             encoding="utf-8",
         )
+        from .utilities.io import MARKER
+
+        written = sorted(p.relative_to(tmp).as_posix() for p in tmp.rglob("*"))
+        (tmp / FILES).write_text("\n".join([MARKER, *written]) + "\n", encoding="utf-8")
+        if force:  # a file added to the old report during the computation is kept too
+            _check_only_report_files(output)
     return output
 
 

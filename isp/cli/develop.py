@@ -103,8 +103,8 @@ def _metamer_options(args: argparse.Namespace):
             + ", ".join(zonotope.list_builtin()["cameras"])
             + " — or a file zonotope.load_camera reads)."
         )
-    if args.quantum is not None and not args.quantum >= 0:
-        return None, f"--quantum {args.quantum}: must be ≥ 0."
+    if args.quantum is not None and not 0 <= args.quantum < float("inf"):
+        return None, f"--quantum {args.quantum}: must be a finite number ≥ 0."
     if args.scene_white is not None and not 0 < args.scene_white < float("inf"):
         return None, (
             f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just saturates)."
@@ -135,6 +135,12 @@ def _pipeline(args: argparse.Namespace):
             return None, (
                 "--exposure applies to --tonemap clip only "
                 "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
+            )
+        from .._tol import EXPOSURE_STOPS_MAX
+
+        if not abs(args.exposure) <= EXPOSURE_STOPS_MAX:  # NaN fails too
+            return None, (
+                f"--exposure {args.exposure:g}: give a finite gain within ±{EXPOSURE_STOPS_MAX:g} stops."
             )
         options = {"exposure": args.exposure}
     pipeline = default_pipeline(
@@ -241,6 +247,19 @@ def _folder_noise(args: argparse.Namespace, config, noise):
 
 
 def _develop(args: argparse.Namespace) -> int:
+    """``isp develop``; running out of memory is a one-line error naming the file, not a traceback."""
+    from .._errors import PipelineError
+
+    try:
+        return _develop_one_or_folder(args)
+    except MemoryError:
+        raise PipelineError(
+            f"{args.input}: out of memory while developing it; close other programs, develop a part "
+            "of it with --crop, or use a machine with more memory."
+        ) from None
+
+
+def _develop_one_or_folder(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..exif import output_tags, srgb_icc_profile
@@ -455,7 +474,9 @@ def _profile_camera_mismatch(profile, raw) -> str | None:
 def add_develop(sub) -> None:
     """Register ``develop`` on the ``isp`` sub-parser collection."""
     from zonotope.correct import CORRECTION_METHODS
+    from zonotope.parallel import SCHEDULER_HELP
 
+    from .._tol import EXPOSURE_STOPS_MAX
     from ..metamer import photograph_method
     from ..stages import DEMOSAIC_METHODS, TONEMAP_METHODS, default_method
 
@@ -464,8 +485,7 @@ def add_develop(sub) -> None:
     d.add_argument("-o", "--output", required=True, help="output .tif/.tiff/.png (never the input)")
     d.add_argument(
         "--scheduler",
-        help="folders only: 'serial', 'local[:N]' or a Dask scheduler address "
-        "(default $ZONOTOPE_SCHEDULER, else a local cluster)",
+        help="folders only: where to run; " + SCHEDULER_HELP,
     )
     d.add_argument(
         "--demosaic",
@@ -548,7 +568,7 @@ def add_develop(sub) -> None:
         "--exposure",
         type=float,
         default=None,
-        help="gain in stops before clipping (with --tonemap clip only)",
+        help=f"gain in stops before clipping, within ±{EXPOSURE_STOPS_MAX:g} (with --tonemap clip only)",
     )
     d.add_argument(
         "--crop",

@@ -45,6 +45,7 @@ def _digest(folder: Path) -> dict:
             tifffile.imread(p).tobytes() if p.suffix == ".tif" else p.read_bytes()
         ).hexdigest()
         for p in sorted(folder.iterdir())
+        if p.is_file()  # not the batch's record of what it wrote
     }
 
 
@@ -109,6 +110,42 @@ def test_folder_progress_is_plain_lines_when_piped(dng_folder, tmp_path, capsys)
     assert main(["develop", str(raws), "-o", str(tmp_path / "dev"), "--scheduler", "serial"]) == 0
     err = capsys.readouterr().err
     assert "s] developing (serial)" in err and "developing (serial): 1/1" in err and "━" not in err
+
+
+def test_folder_never_replaces_nor_counts_a_users_files(dng_folder, tmp_path, capsys):
+    """A user's ``manifest.csv`` in OUT was replaced, and a user's file with an output's name was
+    counted ``done``; both are now refused in one line before any work, and left as they were."""
+    raws = tmp_path / "raws"
+    raws.mkdir()
+    for name in ("shot0.dng", "shot1.dng"):
+        (raws / name).write_bytes((dng_folder / name).read_bytes())
+    run = ["develop", str(raws), "--scheduler", "serial", "-q", "-o"]
+
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "manifest.csv").write_text("my,own,notes\n")
+    assert main([*run, str(theirs)]) == 2
+    err = capsys.readouterr().err
+    assert "manifest.csv was not written by a folder batch" in err and len(err.strip().splitlines()) == 1
+    assert (theirs / "manifest.csv").read_text() == "my,own,notes\n"
+    assert sorted(p.name for p in theirs.iterdir()) == ["manifest.csv"]
+
+    named = tmp_path / "named"
+    named.mkdir()
+    (named / "shot0.tif").write_bytes(b"a picture of mine")
+    assert main([*run, str(named)]) == 2
+    assert "shot0.tif exists but was not written by this batch" in capsys.readouterr().err
+    assert sorted(p.name for p in named.iterdir()) == ["shot0.tif"]
+    assert (named / "shot0.tif").read_bytes() == b"a picture of mine"
+
+    out = tmp_path / "dev"  # the batch's own outputs still resume ...
+    assert main([*run, str(out)]) == 0
+    assert main([*run, str(out)]) == 0 and [r["status"] for r in _manifest(out)] == ["done", "done"]
+    (out / "shot1.tif").unlink()  # ... and a user's file put in place of one of them is refused
+    (out / "shot1.tif").write_bytes(b"another picture of mine")
+    assert main([*run, str(out)]) == 2
+    assert "shot1.tif exists but was not written by this batch" in capsys.readouterr().err
+    assert (out / "shot1.tif").read_bytes() == b"another picture of mine"
 
 
 @pytest.mark.slow

@@ -128,20 +128,70 @@ def test_illuminant_and_spot_white_balance_neutralise_grey(chart, tmp_path):
         white_balance_neutral(bright, "spot:" + ",".join(map(str, white)))
 
 
-def test_crw_says_where_its_white_balance_came_from(crw_d30, tmp_path, capsys):
+def test_crw_without_as_shot_white_uses_libraws_automatic_white(crw_d30, tmp_path, capsys):
+    """The D30 CRW records no as-shot white; isp took LibRaw's daylight multipliers and developed it
+    orange, where rawpy's ``use_camera_wb`` (and RawTherapee) fall back to the automatic grey world.
+    The truth is rawpy itself: its output with isp's neutral as ``user_wb`` equals its output with
+    ``use_camera_wb=True``."""
     import rawpy
 
     raw = isp.read_raw(crw_d30, metadata_only=True)
     with rawpy.imread(str(crw_d30)) as r:
         assert r.camera_whitebalance[0] == -1  # LibRaw: no as-shot white balance in this file
-        day = 1.0 / np.asarray(r.daylight_whitebalance[:3])
-    assert raw.white_balance_source == "daylight"
-    np.testing.assert_allclose(raw.as_shot_neutral, day / day.max(), rtol=1e-6)
-    assert "daylight multipliers" in describe_white_balance(raw)
+        opts = dict(gamma=(1, 1), no_auto_bright=True, output_bps=16, output_color=rawpy.ColorSpace.raw)
+        camera = r.postprocess(use_camera_wb=True, **opts).reshape(-1, 3).mean(0)
+        g = 1.0 / raw.as_shot_neutral
+        ours = r.postprocess(user_wb=[g[0], g[1], g[2], g[1]], **opts).reshape(-1, 3).mean(0)
+        daylight = r.postprocess(**opts).reshape(-1, 3).mean(0)
+    assert raw.white_balance_source == "auto"
+    np.testing.assert_allclose(ours / ours[1], camera / camera[1], rtol=5e-3)
+    assert abs(daylight[0] / daylight[1] - camera[0] / camera[1]) > 0.5  # the old choice was far off
+    assert "automatic (grey world" in describe_white_balance(raw)
     assert main(["info", str(crw_d30), "--metadata-only"]) == 0
     out = " ".join(capsys.readouterr().out.split())
-    assert "white balance source" in out and "daylight" in out and "AsShotNeutral" not in out
+    assert "white balance source" in out and "automatic" in out and "AsShotNeutral" not in out
     assert raw.capture["iso"] == 100 and raw.capture["datetime"] == "2002:11:24 15:11:22"
+
+
+def _dcraw_auto_wb(m, cfa, black, white):
+    """dcraw's scale_colors auto white balance, loop for loop (the reference twin)."""
+    from isp.cfa import CHANNEL_INDEX
+
+    H, W = m.shape
+    dsum = np.zeros(6)
+    for row in range(0, H, 8):
+        for col in range(0, W, 8):
+            s = np.zeros(6)
+            skip = False
+            for y in range(row, min(row + 8, H)):
+                for x in range(col, min(col + 8, W)):
+                    c = CHANNEL_INDEX[cfa[2 * (y % 2) + x % 2]]
+                    val = float(m[y, x])
+                    if val > white - black - 25:
+                        skip = True
+                        break
+                    s[c] += max(val - black, 0.0)
+                    s[c + 3] += 1
+                if skip:
+                    break
+            if not skip:
+                dsum += s
+    n = dsum[:3] / dsum[3:]
+    return n / n.max()
+
+
+@pytest.mark.parametrize("cfa", ["RGGB", "BGGR", "GRBG", "GBRG"])
+@pytest.mark.parametrize("shape", [(40, 56), (45, 61)])
+def test_auto_white_balance_equals_dcraws_loop(cfa, shape):
+    from isp.raw import auto_white_balance
+
+    rng = np.random.default_rng(len(cfa) + shape[0])
+    m = rng.integers(60, 3000, shape).astype(np.uint16)
+    m[rng.random(shape) < 0.002] = 4095  # clipped pixels: their blocks are left out
+    m[rng.random(shape) < 0.002] = 4040  # above white − black − 25: left out too, as LibRaw does
+    got = auto_white_balance(m, cfa, 64.0, 4095.0)
+    np.testing.assert_allclose(got, _dcraw_auto_wb(m, cfa, 64.0, 4095.0), rtol=1e-12)
+    assert auto_white_balance(np.full(shape, 4095, np.uint16), cfa, 64.0, 4095.0) is None  # all clipped
 
 
 # -- orientation --------------------------------------------------------------------------------

@@ -56,11 +56,14 @@ def test_d30_crw_uses_libraw_matrix(crw_d30):
     with rawpy.imread(str(crw_d30)) as ref:
         np.testing.assert_allclose(raw.profile.color_matrix_1, ref.rgb_xyz_matrix[:3])
         np.testing.assert_array_equal(raw.mosaic, ref.raw_image_visible)
-        wb = np.asarray(ref.daylight_whitebalance[:3])  # the D30's camera WB is not recorded (-1)
+        assert ref.camera_whitebalance[0] == -1  # the D30's camera WB is not recorded
     assert raw.cfa == "RGGB" and raw.white_level == 4095
     np.testing.assert_array_equal(raw.black_level, np.full((2, 2), 126.0))
     assert raw.profile.calibration_illuminant_1 == 21
-    np.testing.assert_allclose(raw.as_shot_neutral, (1 / wb) / (1 / wb).max(), rtol=1e-6)
+    from isp.raw import auto_white_balance  # LibRaw's automatic white, as rawpy's use_camera_wb
+
+    assert raw.white_balance_source == "auto"
+    np.testing.assert_allclose(raw.as_shot_neutral, auto_white_balance(raw.mosaic, "RGGB", 126.0, 4095.0))
     assert not raw.is_dng
 
 

@@ -371,3 +371,102 @@ def test_root_polynomial_of_huge_responses_is_exact_not_nan(correctors):
     big = correctors["Finlayson 2015"](x * 1e120)
     np.testing.assert_allclose(big, correctors["Finlayson 2015"](x) * 1e120, rtol=1e-9)
     assert np.isnan(correctors["Finlayson 2015"](np.array([[np.nan, 1, 1]]))).all()  # a NaN pixel stays NaN
+
+
+# --------------------------------------------------------------------------------------------------
+# Folder batches: a file the batch did not write is never replaced nor counted done
+
+
+def _copy_task(src: str, tmp: str, plant: dict) -> None:
+    """A folder-batch task: copies its input; ``plant`` maps an input to a foreign file it drops."""
+    from pathlib import Path
+
+    if src in plant:  # a user's file appears under another task's output name during the batch
+        Path(plant[src]).write_bytes(b"theirs")
+    Path(tmp).write_bytes(Path(src).read_bytes())
+
+
+@pytest.fixture
+def batch(tmp_path):
+    from zonotope.parallel import FileTask
+
+    src = tmp_path / "in"
+    src.mkdir()
+    tasks = []
+    for i in range(3):
+        (src / f"f{i}.bin").write_bytes(os.urandom(32))
+        tasks.append(FileTask(str(src / f"f{i}.bin"), str(tmp_path / "out" / f"f{i}.out")))
+    return tasks, tmp_path / "out"
+
+
+def test_run_files_refuses_a_users_manifest_and_outputs(batch):
+    from pathlib import Path
+
+    from zonotope.parallel import run_files
+
+    tasks, out = batch
+    out.mkdir()
+    (out / "manifest.csv").write_text("mine\n")
+    with pytest.raises(ParallelError, match=r"manifest\.csv was not written by a folder batch"):
+        run_files(tasks, _copy_task, {}, manifest=out / "manifest.csv", scheduler="serial")
+    (out / "manifest.csv").unlink()
+    (out / "manifest.settings.json").write_text("{}")
+    with pytest.raises(ParallelError, match=r"manifest\.settings\.json was not written by a folder batch"):
+        run_files(tasks, _copy_task, {}, manifest=out / "manifest.csv", scheduler="serial")
+    (out / "manifest.settings.json").unlink()
+    Path(tasks[1].output).write_bytes(b"mine")
+    with pytest.raises(ParallelError, match=r"f1\.out exists but was not written by this batch"):
+        run_files(tasks, _copy_task, {}, manifest=out / "manifest.csv", scheduler="serial")
+    assert sorted(p.name for p in out.iterdir()) == ["f1.out"]  # nothing written, nothing replaced
+    assert Path(tasks[1].output).read_bytes() == b"mine"
+
+
+def test_run_files_counts_only_what_it_wrote(batch):
+    from pathlib import Path
+
+    from zonotope.parallel import run_files
+
+    tasks, out = batch
+    plant = {tasks[0].input: tasks[2].output}  # appears while the batch runs
+    rows = run_files(tasks, _copy_task, plant, manifest=out / "manifest.csv", scheduler="serial")
+    assert [r["status"] for r in rows] == ["ok", "ok", "failed"]
+    assert "appeared during the batch" in rows[2]["error"]
+    assert Path(tasks[2].output).read_bytes() == b"theirs"
+    Path(tasks[2].output).unlink()
+    (out / "manifest.csv").unlink()  # as after a kill before the manifest was written: the record resumes
+    rows = run_files(tasks, _copy_task, {}, manifest=out / "manifest.csv", scheduler="serial")
+    assert [r["status"] for r in rows] == ["done", "done", "ok"]
+    for t in tasks:
+        assert Path(t.output).read_bytes() == Path(t.input).read_bytes()
+    Path(tasks[0].output).write_bytes(b"edited")  # changed after the batch wrote it: no longer the batch's
+    with pytest.raises(ParallelError, match=r"f0\.out exists but was not written by this batch"):
+        run_files(tasks, _copy_task, {}, manifest=out / "manifest.csv", scheduler="serial")
+
+
+def test_zonotope_correct_refuses_a_users_manifest_before_the_fit(tmp_path, capsys):
+    import tifffile
+
+    from zonotope.cli import main
+
+    src, out = tmp_path / "renders", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    tifffile.imwrite(src / "view.tif", np.full((4, 4, 3), 0.5, np.float32), photometric="minisblack")
+    (out / "manifest.csv").write_text("mine\n")
+    (out / "view_XYZ.tif").write_bytes(b"mine")
+    args = [
+        "correct",
+        str(src),
+        "-o",
+        str(out),
+        "--camera",
+        "Nikon 5100 (NPL)",
+        "--scheduler",
+        "serial",
+        "-q",
+    ]
+    t0 = time.perf_counter()
+    assert main(args) == 2
+    assert time.perf_counter() - t0 < 5  # refused before the fit
+    assert "manifest.csv was not written by a folder batch" in capsys.readouterr().err
+    assert (out / "manifest.csv").read_text() == "mine\n" and (out / "view_XYZ.tif").read_bytes() == b"mine"

@@ -17,6 +17,7 @@ import pytest
 
 from zonotope.mismatch import metamer_mismatch_batch
 from zonotope.parallel import (
+    BATCH_RECORD,
     ENV_VAR,
     FileTask,
     ParallelError,
@@ -223,7 +224,7 @@ def test_folder_batch_survives_a_killed_worker(cluster, tmp_path):
             assert Path(t.output).read_text() == hashlib.sha256(Path(t.input).read_bytes()).hexdigest()
     out_dir = tmp_path / "out"
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
-        ["manifest.csv"] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5]
+        ["manifest.csv", BATCH_RECORD] + [Path(t.output).name for i, t in enumerate(tasks) if i != 5]
     )  # no temporaries
     with open(manifest, newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(tasks)  # one row per input, each written once

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from zonotope._errors import SpectralDataError
-from zonotope.report import ReportExistsError, write_report
+from zonotope.report import FILES, ReportExistsError, write_report
 from zonotope.utilities.io import MARKER
 
 GRID = np.arange(400.0, 701.0, 10.0)
@@ -62,22 +62,56 @@ def test_failed_report_never_replaces_a_good_one(tmp_path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["rep"]
 
 
-def test_force_replaces(tmp_path):
+_QUICK = {"atypical": 0, "pictures": False, "methods": ["least squares"], "volumes": False}
+
+
+def test_force_replaces_only_what_the_report_wrote(tmp_path):
+    """``--force`` deleted every file a user had added inside an earlier report folder; now a report
+    lists what it wrote and ``force`` refuses (before the work) a folder holding anything else."""
+    out = tmp_path / "rep"
+    write_report(["Nikon 5100 (NPL)"], out, **_QUICK)
+    first = sorted(p.name for p in out.iterdir())
+    assert FILES in first and "index.html" in first
+    write_report(["Nikon 5100 (NPL)"], out, force=True, **_QUICK)  # only its own files: replaced
+    assert sorted(p.name for p in out.iterdir()) == first
+    (out / "notes").mkdir()
+    (out / "notes" / "mine.txt").write_text("my notes")
+    with pytest.raises(ReportExistsError, match=r"notes: not written by zonotope report.*move it out"):
+        write_report(["Nikon 5100 (NPL)"], out, force=True, **_QUICK)
+    assert (out / "notes" / "mine.txt").read_text() == "my notes"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_force_keeps_a_file_added_during_the_computation(tmp_path, monkeypatch):
+    out = tmp_path / "rep"
+    write_report(["Nikon 5100 (NPL)"], out, **_QUICK)
+    import zonotope.evaluate
+
+    evaluate = zonotope.evaluate.evaluate
+
+    def add_then_evaluate(*args, **kwargs):
+        (out / "added.txt").write_text("mine")
+        return evaluate(*args, **kwargs)
+
+    monkeypatch.setattr(zonotope.evaluate, "evaluate", add_then_evaluate)
+    with pytest.raises(ReportExistsError, match=r"added\.txt: not written by zonotope report"):
+        write_report(["Nikon 5100 (NPL)"], out, force=True, **_QUICK)
+    assert (out / "added.txt").read_text() == "mine" and (out / "index.html").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temporary left
+
+
+def test_force_replaces_a_report_written_before_the_file_list(tmp_path):
     out = tmp_path / "rep"
     out.mkdir()
-    (out / "stale.txt").write_text("old")
     (out / MARKER).write_text("zonotope report\n")
-    write_report(
-        ["Nikon 5100 (NPL)"],
-        out,
-        force=True,
-        atypical=0,
-        pictures=False,
-        methods=["least squares"],
-        volumes=False,
-    )
-    assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+    (out / "index.html").write_text("<img src='solid.png' alt='x'>")
+    (out / "solid.png").write_bytes(b"png")
+    (out / "report.md").write_text("old")
+    write_report(["Nikon 5100 (NPL)"], out, force=True, **_QUICK)
+    assert not (out / "solid.png").exists() and (out / FILES).is_file()
+    (out / "stale.txt").write_text("old")
+    with pytest.raises(ReportExistsError, match=r"stale\.txt"):
+        write_report(["Nikon 5100 (NPL)"], out, force=True, **_QUICK)
 
 
 def test_report_errors(tmp_path):

@@ -21,11 +21,11 @@ _IMAGE_SUFFIXES = (".tif", ".tiff")
 
 
 def _scheduler_option(p: argparse.ArgumentParser) -> None:
+    from ..parallel import SCHEDULER_HELP
+
     p.add_argument(
         "--scheduler",
-        help="where to run: serial, local, local:N, a Dask scheduler address "
-        "(tcp://host:8786) or scheduler file (default $ZONOTOPE_SCHEDULER, "
-        "else serial for small jobs and a local cluster for large ones)",
+        help="where to run; " + SCHEDULER_HELP,
     )
 
 
@@ -254,6 +254,7 @@ def _correct(args: argparse.Namespace) -> int:
         FILE_MIN_TASKS,
         FileTask,
         _check_tasks,
+        check_batch_folder,
         check_settings,
         resolve_scheduler,
         run_files,
@@ -269,6 +270,7 @@ def _correct(args: argparse.Namespace) -> int:
         raise ZonotopeError(f"-o {out_dir}: must be a folder.")
     tasks = [FileTask(str(f), str(out_dir / f"{f.stem}_XYZ.tif")) for f in files]
     _check_tasks(tasks)  # two inputs with one output name: refused before the fit (minutes), not after
+    check_batch_folder(tasks, out_dir / "manifest.csv")  # a user's file is never replaced nor counted done
     # a bad --scheduler is refused before the fit; a cluster only for FILE_MIN_TASKS files or more
     where = resolve_scheduler(args.scheduler, tasks=len(tasks), min_tasks=FILE_MIN_TASKS)
     from ..correct import correction_problem

@@ -5,7 +5,8 @@ Every entry point that accepts a camera or a reflectance set (``zonotope.correct
 
 1. a colour ``MultiSpectralDistributions`` is returned as it is;
 2. an existing file is read (the readers ``read_camera`` / ``read_reflectances`` of
-   ``zonotope.spectra.builtin``);
+   ``zonotope.spectra.builtin``); wavelengths must be in nanometres (a file in µm, 0.38–0.78, is
+   refused with the factor to apply rather than guessed);
 3. a string that looks like a path (a spectral-file suffix or a path separator) but names no file
    raises :class:`SpectralFileNotFoundError`;
 4. anything else is looked up among the built-in curves (:func:`zonotope.camera` /
@@ -44,15 +45,31 @@ def _load(source, builtin: Callable, read: Callable, what: str):
     path = Path(source)
     if path.is_file():
         try:
-            return read(path)
+            curves = read(path)
         except (OSError, KeyError, TypeError, ValueError, UnicodeDecodeError) as exc:
             raise SpectralDataError(f"cannot read {what} file {path}: {exc}") from exc
+        _check_nanometres(curves, path, what)
+        return curves
     if path.suffix.lower() in SPECTRAL_SUFFIXES or os.sep in str(source) or isinstance(source, os.PathLike):
         raise SpectralFileNotFoundError(
             f"{what} file {path} not found; give an existing file or a "
             f"built-in name (zonotope.list_builtin())."
         )
     return builtin(str(source))
+
+
+def _check_nanometres(curves, path: Path, what: str) -> None:
+    """Refuse a file whose wavelengths are not in nanometres (e.g. µm: 0.38–0.78), naming the file."""
+    import numpy as np
+
+    from .._tol import WAVELENGTH_NM_MIN
+
+    w = np.asarray(curves.wavelengths, dtype=np.float64)
+    if w.size and float(np.max(w)) < WAVELENGTH_NM_MIN:
+        raise SpectralDataError(
+            f"{what} file {path}: wavelengths {float(w.min()):g}–{float(w.max()):g} are not in nanometres, "
+            "which zonotope reads (a table in µm, such as 0.38–0.78: multiply the wavelength column by 1000)."
+        )
 
 
 def load_camera(source) -> colour.MultiSpectralDistributions:
@@ -74,7 +91,8 @@ def load_camera(source) -> colour.MultiSpectralDistributions:
     SpectralFileNotFoundError
         A path-like string that names no file.
     SpectralDataError
-        A file that cannot be read, or an unknown built-in name (the message lists the valid ones).
+        A file that cannot be read or whose wavelengths are not in nm (e.g. µm), or an unknown
+        built-in name (the message lists the valid ones).
 
     Examples
     --------
@@ -104,7 +122,8 @@ def load_reflectances(source) -> colour.MultiSpectralDistributions:
     SpectralFileNotFoundError
         A path-like string that names no file.
     SpectralDataError
-        A file that cannot be read, or an unknown built-in name.
+        A file that cannot be read or whose wavelengths are not in nm (e.g. µm), or an unknown
+        built-in name.
 
     Examples
     --------

@@ -266,7 +266,10 @@ def test_develop_metamer_warns_on_another_illuminant(simulated, tmp_path, capsys
         (["--correction", "metamer", "--camera", CAMERA, "--method", "best"], "not a correction method"),
         (["--correction", "metamer", "--camera", CAMERA, "--illuminant", "D66"], "unknown illuminant 'D66'"),
         (["--correction", "metamer", "--camera", CAMERA, "--training", "nope"], "unknown reflectance set"),
-        (["--correction", "metamer", "--camera", CAMERA, "--quantum", "-1"], "--quantum -1.0: must be ≥ 0"),
+        (
+            ["--correction", "metamer", "--camera", CAMERA, "--quantum", "-1"],
+            "--quantum -1.0: must be a finite number ≥ 0",
+        ),
         (
             ["--correction", "metamer", "--camera", CAMERA, "--scene-white", "0"],
             "--scene-white 0.0: must be > 0",
