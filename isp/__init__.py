@@ -50,7 +50,7 @@ from .exif import output_tags, srgb_icc_profile
 from .io import write_image
 from .metamer import MetamerConfig, MetamerCorrection, metamer_correction, metamer_noise, photograph_method
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
-from .raw import RawImage, read_raw
+from .raw import RawImage, auto_white_balance, read_raw
 from .stages import (
     DEMOSAIC_METHODS,
     TONEMAP_METHODS,
@@ -86,6 +86,7 @@ __all__ = [
     "Stage",
     "XYZ_to_linear_sRGB",
     "apply_correction",
+    "auto_white_balance",
     "camera_neutral_to_xy",
     "camera_to_XYZ",
     "cfa_masks",
