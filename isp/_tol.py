@@ -11,6 +11,10 @@ are parameters, not here.
 from __future__ import annotations
 
 __all__ = [
+    "CHART_BOX",
+    "CHART_CLIP_FRACTION",
+    "CHART_CLIP_LEVEL",
+    "CHART_MIN_SIGNAL",
     "EXPOSURE_NOMINAL",
     "EXPOSURE_RECIPROCAL",
     "NEUTRAL_MIN",
@@ -96,3 +100,29 @@ TABLE_HARD_WEIGHT = 1e3
 #: 4–5 decimals (0.3127, 0.3290), so distinct whites differ by ≥ 1e-5; an adaptation between whites
 #: 1e-6 apart would be the identity to ≈ 1e-6 anyway.
 WHITE_XY = 1e-6
+
+
+# --- camera profiles: charts, ICC and LUT (isp.profiles.chart, isp.profiles.icc, isp.profiles.lut) ---
+
+#: :func:`isp.profiles.chart.read_chart`: half side of a patch's measuring box as a fraction of the
+#: patch pitch. A ColorChecker patch covers ≈ 0.85 of its pitch, so a box of 0.5 pitch stays inside
+#: the patch with 0.17 pitch to spare on each side for corners clicked a few pixels off or a slight
+#: lens distortion the homography does not model.
+CHART_BOX = 0.25
+
+#: :func:`isp.profiles.chart.read_chart`: a raw value at or above this fraction of the white level is
+#: clipped. Sensors saturate a little below the nominal white level (the 550D DNG's brightest pixel
+#: is 0.81 of it on an unclipped chart; clipped sensels sit within ≈ 1 % of it), so 0.98 catches
+#: saturation without taking bright but linear sensels for clipped.
+CHART_CLIP_LEVEL = 0.98
+
+#: :func:`isp.profiles.chart.read_chart`: a patch with more than this fraction of clipped sensels is
+#: refused. One hot pixel in a 40 × 40 box is 0.06 %; a clipped patch has most of its sensels at
+#: the white level, so 1 % separates the two.
+CHART_CLIP_FRACTION = 0.01
+
+#: :func:`isp.profiles.chart.read_chart`: the brightest neutral patch must reach this fraction of
+#: the raw range. Below it (≈ 7 stops under clipping) a 14-bit sensor's read noise and quantisation
+#: are several percent of the dark patches' signal and the fit is noise (the 550D chart's white
+#: patch is at 9 %).
+CHART_MIN_SIGNAL = 0.01
