@@ -18,12 +18,9 @@ import numpy as np
 
 from zonotope import ZonotopeError
 
-__all__ = ["add_command"]
+from .._tol import LUT_QUANTUM
 
-#: ``--lut``: the estimator is evaluated exactly on every LUT_STRIDE-th lattice node per axis, its
-#: residual over the closed form interpolated between (:func:`isp.profiles.lut.profile_LUT`;
-#: measured in docs/notes/2026-11-29-profiles.md); ``--lut-exact`` evaluates every node.
-LUT_STRIDE = 4
+__all__ = ["add_command"]
 
 
 def _status(console, message: str):
@@ -316,13 +313,13 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
     if args.lut:
         from ._console import _progress  # rich's bar on a terminal, plain timed lines when piped
 
-        stride = 1 if args.lut_exact else LUT_STRIDE
+        quantum = 0.0 if args.lut_exact else LUT_QUANTUM
         with _progress(console, quiet=False) as bar:
             task = bar.add_task(f"sampling a {args.lut_size}³ LUT", total=1)
             lut = profile_LUT(
                 mc,
                 lut_config,
-                stride=stride,
+                quantum=quantum,
                 progress=lambda _, done, total: bar.update(task, completed=done, total=total),
             )
         lut_header(
@@ -332,7 +329,7 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
             illuminant=fit.illuminants[which],
             space=lut_config.space,
             headroom=args.headroom,
-            stride=stride,
+            quantum=quantum,
         )
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
@@ -484,8 +481,8 @@ def add_command(sub) -> None:
     p.add_argument(
         "--lut-exact",
         action="store_true",
-        help=f"evaluate the estimator on every LUT node (default: every {LUT_STRIDE}th per axis, the rest "
-        "interpolated over its closed form; minutes instead of seconds for MMV estimators)",
+        help=f"solve the estimator on every LUT node (default: nodes within {LUT_QUANTUM:g} of each other "
+        "solved once; several times slower for MMV-based estimators)",
     )
     p.add_argument("--save-correction", metavar="FILE.npz", help="also save the fitted estimator")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
