@@ -277,6 +277,10 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
             raise
         raise type(error)(f"--illuminants {' '.join(args.illuminants)}: {error}") from error
     lut_config = None
+    if not (args.lut_quantum >= 0 and np.isfinite(args.lut_quantum)):
+        raise ZonotopeError(
+            f"--lut-quantum {args.lut_quantum:g}: give a grouping radius ≥ 0 (0: every node)."
+        )
     if args.lut:
         try:
             lut_config = LUTConfig(size=args.lut_size, space=args.lut_space, headroom=args.headroom)
@@ -313,7 +317,7 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
     if args.lut:
         from ._console import _progress  # rich's bar on a terminal, plain timed lines when piped
 
-        quantum = 0.0 if args.lut_exact else LUT_QUANTUM
+        quantum = args.lut_quantum
         with _progress(console, quiet=False) as bar:
             task = bar.add_task(f"sampling a {args.lut_size}³ LUT", total=1)
             lut = profile_LUT(
@@ -479,10 +483,13 @@ def add_command(sub) -> None:
         help="largest LUT input in units of the white (default 16 = 4 stops)",
     )
     p.add_argument(
-        "--lut-exact",
-        action="store_true",
-        help=f"solve the estimator on every LUT node (default: nodes within {LUT_QUANTUM:g} of each other "
-        "solved once; several times slower for MMV-based estimators)",
+        "--lut-quantum",
+        type=float,
+        default=LUT_QUANTUM,
+        metavar="Q",
+        help=f"LUT nodes that need a solver within Q of each other are solved once (default {LUT_QUANTUM:g}; "
+        "0: every node, several times slower for MMV-based estimators; 0.005: faster, less exact on "
+        "atypical colours)",
     )
     p.add_argument("--save-correction", metavar="FILE.npz", help="also save the fitted estimator")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
