@@ -40,6 +40,7 @@ __all__ = [
     "ChartType",
     "chart_dcp",
     "chart_patch_centres",
+    "chart_reference",
     "fit_chart",
     "read_chart",
     "write_chart_report",

@@ -33,7 +33,7 @@ import numpy as np
 from .._config import float_array
 from .._errors import RawFormatError
 
-__all__ = ["ICCError", "icc_profile", "read_icc_matrix", "write_icc"]
+__all__ = ["ICC_CREATOR", "ICC_D50", "ICCError", "icc_profile", "read_icc_matrix", "write_icc"]
 
 #: The PCS illuminant of every ICC profile: D50 as the ICC specification rounds it (s15Fixed16).
 ICC_D50 = np.array([0.9642, 1.0, 0.8249])
