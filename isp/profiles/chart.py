@@ -47,9 +47,9 @@ __all__ = [
 ]
 
 
-#: The CSV report's header line and the HTML report's generator tag: how ``isp profile --overwrite``
-#: recognises the reports it wrote (it replaces no other file).
+#: The CSV report's header line: how ``isp profile --overwrite`` recognises a report it wrote.
 REPORT_CSV_HEADER = "patch,name,raw_R,raw_G,raw_B,ref_L,ref_a,ref_b,fit_L,fit_a,fit_b,dE00_linear,dE00"
+#: The HTML report's generator tag, for the same purpose (``--overwrite`` replaces no other file).
 REPORT_MARK = '<meta name="generator" content="isp profile chart report">'
 
 
@@ -66,7 +66,7 @@ class ChartType:
     rows, cols : int
         Patch grid, patches numbered row by row from the top-left one.
     reference : str
-        Key of :data:`colour.SDS_COLOURCHECKERS` (spectral reflectances: any illuminant).
+        Key of ``colour.SDS_COLOURCHECKERS`` (spectral reflectances: any illuminant).
     neutrals : tuple of int
         0-based indices of the neutral patches (the white balance is measured on them).
     """

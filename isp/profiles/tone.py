@@ -37,7 +37,7 @@ def camera_tone_curve(points: int = 65) -> np.ndarray:
     -------
     ndarray of shape (points, 2)
         x increasing from 0 to 1, ``y = f(x)`` (see the module notes), ready for
-        :attr:`isp.profiles.dcp.DCPProfile.tone_curve`.
+        ``DCPProfile.tone_curve`` (:class:`isp.profiles.dcp.DCPProfile`).
     """
     x = np.linspace(0.0, 1.0, int(points)) ** 2  # the readers' cubic spline needs nodes in the toe
     g = 0.18**TOE_POWER
