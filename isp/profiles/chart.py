@@ -258,9 +258,11 @@ def chart_reference(chart: str, illuminant: str) -> tuple[np.ndarray, list[str],
             f"illuminant {illuminant!r}: give a CIE illuminant colour-science tabulates "
             "(e.g. D50, D65, A, FL2)."
         )
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    shape = next(iter(sds.values())).shape  # the reference's range: nothing trimmed or extrapolated
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
+    ill = ill.copy().align(shape)
     XYZ = np.array([colour.sd_to_XYZ(sd, cmfs, ill) for sd in sds.values()]) / 100.0
-    white = colour.sd_to_XYZ(colour.sd_ones(ill.shape), cmfs, ill) / 100.0
+    white = colour.sd_to_XYZ(colour.sd_ones(shape), cmfs, ill) / 100.0
     return XYZ, list(sds), white
 
 
