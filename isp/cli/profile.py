@@ -167,7 +167,7 @@ def _chart_profile(args: argparse.Namespace, console) -> int:
     raw = read_raw(args.chart)
     reading = read_chart(raw, corners, chart=args.chart_type)
     fit = fit_chart(reading, illuminant=illuminant)
-    model = args.unique_camera_model or canonical_model(reading.camera)
+    model = canonical_model(args.unique_camera_model or reading.camera)  # Adobe's name: what readers match
     dcp = chart_dcp(
         fit, unique_camera_model=model, profile_name=args.profile_name or "", copyright=args.copyright or ""
     )
@@ -231,6 +231,7 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
     from ..profiles.dcp import write_dcp
     from ..profiles.fitting import ProfileConfig, fit_dcp
     from ..profiles.lut import lut_header, profile_LUT
+    from ..profiles.models import canonical_model
 
     out = Path(args.output)
     targets = [out] + [Path(p) for p in (args.lut, args.save_correction, args.icc) if p]
@@ -267,7 +268,9 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
             training=args.training,
             dims=dims,
             look_table_dims=look,
-            unique_camera_model=args.unique_camera_model,
+            unique_camera_model=canonical_model(args.unique_camera_model)
+            if args.unique_camera_model
+            else None,
             profile_name=args.profile_name,
             copyright=args.copyright or "",
             embed_policy=args.embed_policy,
@@ -433,7 +436,8 @@ def add_command(sub) -> None:
     p.add_argument(
         "--unique-camera-model",
         help="UniqueCameraModel, the string a raw developer matches to "
-        "the file's camera (e.g. 'Canon EOS 550D'); default the name",
+        "the file's camera (e.g. 'Canon EOS 550D'; regional names such as 'Kiss X4' are written as "
+        "Adobe's); default the name",
     )
     p.add_argument("--profile-name", help="ProfileName (default '<camera> <method> (zonotope)')")
     p.add_argument("--copyright", help="ProfileCopyright")

@@ -59,8 +59,10 @@ def test_cli_icc_lut_and_tone_curve(tmp_path, capsys):
 
     argv = ["profile", "--camera", CAMERA, "--method", "root-polynomial", "--matrix-only"]
     argv += ["-o", str(tmp_path / "cam.dcp"), "--icc", str(tmp_path / "cam.icc"), "--illuminant", "A"]
-    assert main([*argv, "--lut", str(tmp_path / "cam.cube"), "--lut-size", "3"]) == 0
+    lut = ["--lut", str(tmp_path / "cam.cube"), "--lut-size", "3"]
+    assert main([*argv, *lut, "--unique-camera-model", "Canon EOS REBEL T2i"]) == 0
     dcp = read_dcp(tmp_path / "cam.dcp")
+    assert dcp.unique_camera_model == "Canon EOS 550D"  # the name raw developers match
     M, chad = read_icc_matrix(tmp_path / "cam.icc")
     FM = np.diag(ICC_D50 / (dcp.forward_matrix_1 @ np.ones(3))) @ dcp.forward_matrix_1  # A: matrix 1
     np.testing.assert_allclose(M, FM, atol=2e-4)  # the DCP stores the matrix to 1e-4
