@@ -132,6 +132,6 @@ CHART_MIN_SIGNAL = 0.01
 #: (response units, white = 1), the grouping :class:`isp.MetamerCorrection` uses on photographs.
 #: Measured on a 17³ Prior LUT (Nikon 5100, D65) against every node solved: natural colours
 #: (ColorChecker, CIE 1995 TCS, NIST CQS) unchanged, 100 atypical spectra ΔE00 0.004 mean / 0.37
-#: max, 3.5× fewer solves; 5e-3 saves 5.6× at 33³ but errs by 0.13 mean / 6.7 max on the atypical
-#: colours an MMV estimator is chosen for (docs/notes/2026-11-29-profiles.md).
+#: max; at 33³ 3.7× faster, all unchanged. 5e-3 is 6× faster at 33³ but errs by up to 4–7 ΔE00 on
+#: the atypical colours an MMV estimator is chosen for (docs/notes/2026-11-29-profiles.md).
 LUT_QUANTUM = 2e-3

@@ -4,7 +4,7 @@
 :func:`zonotope.correct.profile.correction_LUT` (same lattice, shaper, output space and
 clamping). An MMV-based estimator such as Prior solves one problem per lattice node that its
 closed form does not cover (98 % of a 33³ lattice: the nodes outside the object-colour solid and
-above the white), ≈ 9 CPU-ms each. The whole lattice goes to the estimator in one call, so that
+above the white), ≈ 7 CPU-ms each. The whole lattice goes to the estimator in one call, so that
 :func:`zonotope.correct.correct_image` groups the nodes that need a solver across the lattice
 (greedy leader clustering within ``quantum`` of a leader response in every channel, each group
 solved once and carried to its members with the estimator's closed form, as it does for
