@@ -1,7 +1,8 @@
 """Camera profiles benchmark: our DCP vs the DNG ColorMatrix, in our pipeline and in RawTherapee.
 
-Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQRS]``.
-Prints four tables (no timings); ``--quick`` fits the DCPs on 300 instead of 1,500 random spectra.
+Run: ``.venv/bin/python benchmarks/bench_profile.py [--quick] [--camera NAME ...] [--tables PQRSTU]``.
+Prints up to six tables (timings only in T); ``--quick`` fits the DCPs on 300 instead of 1,500 random
+spectra and samples table T's LUT at 17³ instead of 33³.
 The DCPs are fitted without the ColorChecker sets (``isp.profiles.fitting.profile_reflectances``), so the
 chart every table evaluates on is held out.
 Needs ``rawtherapee-cli`` for the RawTherapee columns (skipped otherwise) and ../shared/data for
@@ -32,11 +33,19 @@ S. Why the profile is fitted as it is (noise-free spectra, D65, ColorChecker N O
    HueSatMap fitted on all colours, random smooth spectra 87 % of them; with and without the
    ColorChecker in the fit), matrices + HueSatMap on natural colours only, and that + the 3-D
    LookTable (what ``fit_dcp`` ships); and each profile's encoding error on the random spectra.
+T. ``isp profile --lut`` sampling of the Prior estimator (Nikon 5100, D65): every lattice node solved
+   (the baseline, ``quantum=0``) vs the nodes that need a solver grouped across the lattice
+   (``isp.profiles.lut.profile_LUT``, default ``quantum`` and 5e-3), in one process: CPU seconds,
+   solver groups, and ΔE00 (mean / max) against the exact LUT on natural sets and 100 atypical spectra.
+U. Chart fit on the real 550D DNG (needs ../shared/data): per shoot illuminant, mean / max ΔE00 of
+   colour-science's least squares (``matrix_colour_correction``, Cheung 2004, 3 terms, white free),
+   our white-preserving least squares, and that refined for ΔE00 (what ``isp profile --chart`` writes).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -54,7 +63,7 @@ from isp.profiles.fitting import fit_dcp  # noqa: E402
 from isp.profiles.rawtherapee import develop_rawtherapee, patch_delta_E, rawtherapee_cli  # noqa: E402
 from isp.simulate import chart_image, simulate_capture, simulate_dng, spectral_setup  # noqa: E402
 
-DATA = ROOT.parent / "shared" / "data"
+DATA = Path(os.environ.get("ZONOTOPE_SHARED_DATA", ROOT.parent / "shared" / "data"))
 D50_xy = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D50"]
 D50 = colour.xy_to_XYZ(D50_xy)
 CHART_ROWS = (624, 724, 822, 930)  # patch centres in the 550D file (from bench_isp.py)
@@ -326,11 +335,86 @@ def table_S(cameras, quick: bool) -> None:
     )
 
 
+def table_T(quick: bool) -> None:
+    import time
+
+    from isp._tol import LUT_QUANTUM
+    from isp.profiles.lut import profile_LUT
+    from zonotope.correct.image import _leader_groups
+    from zonotope.correct.profile import apply_correction_LUT, shaper_decode, white_node_toe
+    from zonotope.spectra.atypical import atypical_reflectances
+
+    size = 17 if quick else 33
+    mc = isp.metamer_correction(
+        "Nikon 5100 (NPL)", method="Prior", illuminant="D65", quantum=0.0, target="CIE 1931 2°"
+    )
+    prob = mc.corrector.problem
+    sets = {
+        n: np.clip(zonotope.resample(zonotope.reflectances(n), prob.wavelengths).T, 0, 1)
+        for n in ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0")
+    }
+    sets["atypical (100)"] = atypical_reflectances(prob.wavelengths, 100)[0]
+    D65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    luts, rows = {}, []
+    for q in (0.0, LUT_QUANTUM, 5e-3):
+        t = time.process_time()
+        luts[q] = profile_LUT(mc, size=size, space="XYZ", quantum=q)
+        dt = time.process_time() - t
+        toe = white_node_toe(16.0, size)  # count the solver groups on the scaled lattice
+        nodes = shaper_decode(np.linspace(0, 1, size), headroom=16.0, shaper="log2", toe=toe)
+        grid = np.stack(np.meshgrid(nodes, nodes, nodes, indexing="ij"), -1).reshape(-1, 3)
+        s = grid / np.maximum(grid.max(-1, keepdims=True), 1)
+        slow = mc.corrector.params["closed_form"](s)[1]
+        groups = int(slow.sum()) if q == 0 else len(_leader_groups(s[slow], q)[0])
+        row = [f"{q:g}" + (" (baseline)" if q == 0 else ""), f"{dt:.0f}", groups]
+        for R in sets.values():
+            c = R @ prob.Phi
+            a = colour.XYZ_to_Lab(apply_correction_LUT(luts[0.0], c), D65)
+            b = colour.XYZ_to_Lab(apply_correction_LUT(luts[q], c), D65)
+            d = colour.delta_E(a, b, method="CIE 2000")
+            row.append(f"{d.mean():.3f} / {d.max():.2f}")
+        rows.append(row)
+    base = float(rows[0][1])
+    for r in rows:
+        r.insert(2, f"{base / max(float(r[1]), 1e-9):.1f}×")
+    _table(
+        f"T. Prior LUT {size}³ (Nikon 5100, D65): CPU s, speed-up, solver groups, ΔE00 vs every node solved",
+        ["quantum", "CPU s", "speed-up", "groups", *sets],
+        rows,
+    )
+
+
+def table_U() -> None:
+    from isp.profiles.chart import chart_reference, fit_chart, read_chart
+
+    path = DATA / "raw_samples" / "tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng"
+    if not path.is_file():
+        print("\nU. skipped: needs the 550D DNG in ../shared/data")
+        return
+    corners = [(CHART_COLS[0], CHART_ROWS[0]), (CHART_COLS[-1], CHART_ROWS[0])]
+    corners += [(CHART_COLS[-1], CHART_ROWS[-1]), (CHART_COLS[0], CHART_ROWS[-1])]
+    reading = read_chart(isp.read_raw(path), corners)
+    rows = []
+    for ill in ("D50", "D65", "A", "FL2"):
+        fit = fit_chart(reading, illuminant=ill)
+        ref, _, white = chart_reference("colorchecker", ill)
+        c = reading.rgb / fit.neutral
+        M = colour.characterisation.matrix_colour_correction(c, ref, method="Cheung 2004", terms=3)
+        wxy = colour.XYZ_to_xy(white)
+        d = colour.delta_E(colour.XYZ_to_Lab(c @ M.T, wxy), colour.XYZ_to_Lab(ref, wxy), method="CIE 2000")
+        rows.append([ill] + [f"{e.mean():.2f} / {e.max():.2f}" for e in (d, fit.delta_E_linear, fit.delta_E)])
+    _table(
+        "U. Real 550D chart, ΔE00 mean / max over 24 patches (CIELAB of the shoot illuminant's white)",
+        ["illuminant", "colour LS (white free)", "white-preserving LS", "+ ΔE00 refinement (ours)"],
+        rows,
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer fitting colours (300 random, not 1,500)")
     ap.add_argument("--camera", action="append", help="table P for these cameras (default all built-in)")
-    ap.add_argument("--tables", default="PQRS", help="which tables to print (default PQRS)")
+    ap.add_argument("--tables", default="PQRSTU", help="which tables to print (default PQRSTU)")
     args = ap.parse_args()
     cameras = args.camera or zonotope.list_builtin()["cameras"]
     if "P" in args.tables:
@@ -341,6 +425,10 @@ def main() -> None:
         table_R(args.quick)
     if "S" in args.tables:
         table_S(cameras, args.quick)
+    if "T" in args.tables:
+        table_T(args.quick)
+    if "U" in args.tables:
+        table_U()
 
 
 if __name__ == "__main__":

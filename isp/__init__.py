@@ -19,8 +19,10 @@ Module map, in data-flow order (``isp`` uses only public ``zonotope`` names and 
   :data:`TONEMAP_METHODS` registries), white-balance choices;
 - ``pipeline``: :class:`Pipeline` / :func:`default_pipeline` / :func:`develop`;
 - ``metamer``: the bridge to ``zonotope.correct`` (:func:`metamer_correction`);
-- ``profiles``: DNG camera profiles (``profiles.dcp`` read/write/apply, ``profiles.fitting`` fit,
-  ``profiles.rawtherapee`` check against RawTherapee);
+- ``profiles``: camera profiles (``profiles.dcp`` read/write/apply DCPs, ``profiles.fitting`` fit
+  them to sensitivities, ``profiles.chart`` to a photographed chart, ``profiles.icc`` ICC profiles,
+  ``profiles.lut`` 3-D LUTs, ``profiles.tone`` the default tone curve, ``profiles.models`` camera
+  model aliases, ``profiles.rawtherapee`` check against RawTherapee);
 - ``io``, ``batch``: atomic image files, folders of RAW files;
 - ``cli``: the ``isp`` command, on top of the library (no library module imports it);
 - ``simulate``: the spectral forward model (reflectances → RAW mosaic → DNG).
@@ -152,6 +154,25 @@ _LAZY = {
         "fit_hue_sat_map",
         "profile_reflectances",
     ],
+    "profiles.chart": [
+        "CHART_TYPES",
+        "REPORT_CSV_HEADER",
+        "REPORT_MARK",
+        "ChartError",
+        "ChartFit",
+        "ChartReading",
+        "ChartType",
+        "chart_dcp",
+        "chart_patch_centres",
+        "chart_reference",
+        "fit_chart",
+        "read_chart",
+        "write_chart_report",
+    ],
+    "profiles.icc": ["ICC_CREATOR", "ICC_D50", "ICCError", "icc_profile", "read_icc_matrix", "write_icc"],
+    "profiles.lut": ["lut_header", "profile_LUT"],
+    "profiles.models": ["CAMERA_ALIASES", "canonical_model", "same_camera"],
+    "profiles.tone": ["MID_GREY_OUT", "TOE_POWER", "camera_tone_curve"],
     "batch": ["RAW_SUFFIXES", "develop_file", "develop_folder", "raw_files"],
     "whitebalance": ["CCT_RANGE", "describe_white_balance", "white_balance_xy"],
     "dng": ["DNG_TAGS", "LIGHT_SOURCE_CCT", "xy_to_CCT_DNG"],

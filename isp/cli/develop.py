@@ -449,11 +449,13 @@ def _profile_camera_mismatch(profile, raw) -> str | None:
     Raw developers offer a DCP only for the camera named by its UniqueCameraModel; ``--profile``
     applies any file, so a Nikon profile on a Canon file would go unnoticed. Names are compared
     without case and spacing, and one may contain the other ("Canon EOS 550D" in "Canon Canon EOS
-    550D"); files without a recorded model (non-DNG RAW) are not checked.
+    550D") or be its regional name (Kiss X4, Rebel T2i: :func:`isp.profiles.models.same_camera`); files
+    without a recorded model (non-DNG RAW) are not checked.
     """
     if not profile or str(profile).lower() == "embedded":
         return None
     from ..profiles.dcp import read_dcp
+    from ..profiles.models import same_camera
 
     made_for = read_dcp(profile).unique_camera_model
     tags = getattr(raw, "tags", None) or {}
@@ -463,7 +465,7 @@ def _profile_camera_mismatch(profile, raw) -> str | None:
         return "".join(name.lower().split())
 
     a, b = norm(made_for), norm(model)
-    if not a or not b or a in b or b in a:
+    if not a or not b or a in b or b in a or same_camera(made_for, model):  # regional names too
         return None
     return (
         f"{profile} is a profile for {made_for!r} (its UniqueCameraModel) but this file is from "
