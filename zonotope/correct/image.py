@@ -18,7 +18,7 @@ import numpy as np
 from .._errors import OptionError, SpectralDataError
 from ..spectra.builtin import float_array
 from ..utilities.progress import ProgressCallback
-from .methods import CORRECTION_METHODS, Corrector, fit_correction, noise_options
+from .methods import CORRECTION_METHODS, IMAGE_METHOD, Corrector, fit_correction, noise_options
 from .noise import NoiseModelError, estimate_noise, noise_model
 
 __all__ = ["correct_image"]
@@ -70,7 +70,7 @@ def correct_image(
     image,
     cameras_or_corrector,
     *,
-    method: str = "Finlayson 2015",
+    method: str = IMAGE_METHOD,
     noise="auto",
     quantum: float = 2e-3,
     base: Corrector | str | None = "auto",
@@ -91,9 +91,11 @@ def correct_image(
         A fitted :class:`~zonotope.correct.Corrector`, or the camera(s) to fit one for (with
         ``method`` and ``**options``, see :func:`~zonotope.correct.fit_correction`).
     method
-        Estimator when cameras are given: default the root-polynomial regression fitted for the
-        image's noise, the estimator that corrects a photograph in seconds (``"Prior"`` is as
-        accurate on natural colours and better on atypical ones, at a per-colour cost).
+        Estimator when cameras are given: default :data:`~zonotope.correct.IMAGE_METHOD`
+        (``"Guarded"``: the noise-aware root-polynomial with a linear fallback outside its
+        training support, fitted for the image's noise; it corrects a photograph in seconds;
+        ``"Prior"`` is as accurate on natural colours and better on atypical ones, at a per-colour
+        cost).
     noise
         Noise of the image's responses, which the estimator is fitted for when cameras are given:
         ``"auto"`` (default) estimates it from the image's flat regions
