@@ -133,3 +133,40 @@ def test_the_photo_default_is_the_registry_default_fitted_for_the_estimated_nois
     assert info["method"] == IMAGE_METHOD and info["noise_source"] == "estimated from image"
     want = fit_correction(problem2, method=IMAGE_METHOD, noise=info["noise"])(noisy)
     np.testing.assert_array_equal(out, want)
+
+
+def test_correct_image_in_chunks_computes_each_colour_once_with_bounded_memory(problem2, monkeypatch):
+    """Images beyond one chunk: same result as one chunk, each distinct colour solved once over all
+    chunks, and working memory (beyond input and output) that does not grow with the pixel count."""
+    import dataclasses
+    import tracemalloc
+
+    from zonotope.correct import image
+
+    rng = np.random.default_rng(8)
+    colours = problem2.source_of(rng.uniform(0.05, 0.95, (20, W.size)) ** 2)
+    fitted = fit_correction(problem2, method="MAP")
+    seen = []
+    est = dataclasses.replace(fitted, predict=lambda c: seen.append(len(c)) or fitted.predict(c))
+
+    def image_of(n):
+        return colours[rng.integers(0, colours.shape[0], n)][:, None, :]
+
+    img = image_of(3000)
+    whole = correct_image(img, est, quantum=0)
+    monkeypatch.setattr(image, "_PIXEL_CHUNK", 256)
+    seen.clear()
+    np.testing.assert_array_equal(correct_image(img, est, quantum=0), whole)
+    assert sum(seen) == colours.shape[0]
+
+    def extra(n):
+        pixels = image_of(n)
+        tracemalloc.start()
+        start = tracemalloc.get_traced_memory()[0]
+        out = correct_image(pixels, est, quantum=0)
+        peak = tracemalloc.get_traced_memory()[1] - start - out.nbytes
+        tracemalloc.stop()
+        return peak
+
+    small, large = extra(2048), extra(16384)
+    assert large < 1.5 * small + 2**18, (small, large)
