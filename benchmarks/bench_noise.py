@@ -11,7 +11,8 @@ in this one process.
 Methods: ``naive linear`` / ``naive root-poly`` (fitted noise-free), ``NA linear`` / ``NA root-poly``
 (fitted for the noise model: noise-averaged normal equations), ``aug root-poly`` (10 noisy replicas of
 the training set at the model's root mean σ), ``Guarded`` (the default of ``correct_image``: NA
-root-poly with a linear fallback outside the training support, fitted for the noise model), ``Prior`` (told the noise model), ``Prior naive`` (σ = 0).
+root-poly with a linear fallback outside the training support, fitted for the noise model), ``Prior``
+(told the noise model), ``Prior naive`` (σ = 0).
 
 With ``--coverage`` the estimators that know their uncertainty (``Prior``) are applied through
 ``with_uncertainty``: the median 95 % credible radius and the share of test responses within it.
