@@ -80,8 +80,9 @@ def fit_Guarded(
     Returns
     -------
     Corrector
-        ``params``: ``"root"``, ``"linear"``, ``"fallback"`` (the three fitted regressions),
-        ``"threshold"``, ``"guard"`` (whether the fallback is used), ``"degree"``, ``"noise"``.
+        ``params``: ``"root"`` (the root-polynomial), ``"guard"`` (whether the fallback is used),
+        ``"degree"``, ``"noise"``; with the fallback also ``"linear"`` and ``"fallback"`` (the two
+        matrices' correctors) and ``"threshold"``.
 
     Raises
     ------
@@ -98,6 +99,9 @@ def fit_Guarded(
             raise OptionError(f"guard={guard!r}: give 'auto', True or False.")
         guard = problem.k > problem.m
     root = fit_Finlayson2015(problem, degree=degree, noise=noise)
+    params = {"root": root, "guard": bool(guard), "degree": degree, "noise": noise}
+    if not guard:  # the root-polynomial itself: nothing else to fit
+        return Corrector("Guarded", problem, root.predict, params)
     linear = fit_Cheung2004(problem, noise=noise)
     wide = dataclasses.replace(
         problem,
@@ -116,16 +120,8 @@ def fit_Guarded(
         est[outside] = c[outside] @ M_fb.astype(c.dtype, copy=False)
         return est
 
-    params = {
-        "root": root,
-        "linear": linear,
-        "fallback": fallback,
-        "threshold": threshold,
-        "guard": bool(guard),
-        "degree": degree,
-        "noise": noise,
-    }
-    return Corrector("Guarded", problem, guarded if guard else root.predict, params)
+    params.update(linear=linear, fallback=fallback, threshold=threshold)
+    return Corrector("Guarded", problem, guarded, params)
 
 
 def _noise_free(noise) -> bool:
