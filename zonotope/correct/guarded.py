@@ -41,19 +41,15 @@ def fit_Guarded(
 ) -> Corrector:
     """Root-polynomial regression with a linear fallback for responses outside its training support.
 
-    A root-polynomial (Finlayson 2015) fitted on natural spectra is the most accurate regression on
-    natural colours but extrapolates badly on saturated, narrow-band or spiky ones, where a matrix is
-    safer. This estimator computes both the root-polynomial ``R(c)`` and the least-squares matrix
-    ``L(c)`` of the training set (both fitted for ``noise``), and where they disagree more than the
-    ``quantile`` of their disagreement on (noisy) training responses it returns instead a matrix
-    ``W(c)`` fitted on the training spectra plus ``augment`` contrast-stretched copies of them
-    (:func:`~zonotope.spectra.atypical.sharpened_reflectances`: saturated, band-like spectra made from
-    the training set, no test generator involved). The disagreement is measured in XYZ relative to
-    Y^(2/3), a cheap stand-in for ΔE. The fallback is used with stacked cameras (more source channels
-    than target ones), where the root-polynomial's cross-camera terms extrapolate worst; with one
-    camera its root-polynomial beats every matrix on atypical colours too, and the estimator is the
-    root-polynomial itself. Fitting costs tens of milliseconds; applying it costs about three small
-    matrix products per response more than the root-polynomial. Measurements:
+    Per response, the root-polynomial ``R(c)`` (Finlayson 2015) and the least-squares matrix ``L(c)``
+    of the training set, both fitted for ``noise``. Where they disagree (‖ΔXYZ‖ / Y^(2/3), a cheap
+    stand-in for ΔE) more than the ``quantile`` of their disagreement on noisy training responses, the
+    estimate is instead a matrix ``W(c)`` fitted for ``noise`` on the training spectra plus ``augment``
+    contrast-stretched copies of them (:func:`~zonotope.spectra.atypical.sharpened_reflectances`; no
+    test generator involved). Why: the root-polynomial is the best regression on natural colours and
+    the worst on saturated, narrow-band ones with stacked cameras, where a matrix is safer; with one
+    camera it beats every matrix on both, so there the estimator is ``R`` itself. Fit: tens of
+    milliseconds; apply: three small matrix products per response more than ``R``. Measurements:
     ``docs/notes/2026-11-29-noise-default.md``.
 
     Parameters
@@ -63,8 +59,8 @@ def fit_Guarded(
         Root-polynomial degree.
     noise
         σ or :class:`~zonotope.correct.NoiseModel` the three regressions are fitted for (see
-        :func:`~zonotope.correct.fit_Cheung2004`); the threshold and the validation use responses with
-        that noise.
+        :func:`~zonotope.correct.fit_Cheung2004`); the threshold is taken over training responses
+        with that noise.
     quantile
         Share of (noisy) training responses kept on the root-polynomial; the rest of the
         disagreement range goes to the fallback.
