@@ -10,7 +10,9 @@ in this one process.
 
 Methods: ``naive linear`` / ``naive root-poly`` (fitted noise-free), ``NA linear`` / ``NA root-poly``
 (fitted for the noise model: noise-averaged normal equations), ``aug root-poly`` (10 noisy replicas of
-the training set at the model's root mean σ), ``Prior`` (told the noise model), ``Prior naive`` (σ = 0).
+the training set at the model's root mean σ), ``Guarded`` (the default of ``correct_image``: NA
+root-poly with a linear fallback outside the training support, fitted for the noise model), ``Prior``
+(told the noise model), ``Prior naive`` (σ = 0).
 
 With ``--coverage`` the estimators that know their uncertainty (``Prior``) are applied through
 ``with_uncertainty``: the median 95 % credible radius and the share of test responses within it.
@@ -51,6 +53,7 @@ def methods(model: NoiseModel | None, sigma_rms: float) -> dict[str, tuple[str, 
         "NA linear": ("Cheung 2004", na),
         "NA root-poly": ("Finlayson 2015", na),
         "aug root-poly": ("Finlayson 2015", {"noise": sigma_rms} if model is not None else {}),
+        "Guarded": ("Guarded", na),
         "Prior": ("Prior", na),
         "Prior naive": ("Prior", {}),
     }

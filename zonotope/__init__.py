@@ -200,6 +200,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         "correct.methods": [
             "CORRECTION_METHODS",
             "DELTA_SIGMAS",
+            "IMAGE_METHOD",
             "CorrectionProblem",
             "Corrector",
             "NoiseModel",
@@ -213,6 +214,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "fit_Cheung2004",
             "fit_Dyer2017",
             "fit_Finlayson2015",
+            "fit_Guarded",
             "fit_MAP",
             "fit_Prior",
             "fit_Projection",

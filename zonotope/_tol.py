@@ -573,3 +573,17 @@ __all__ += [
 WAVELENGTH_NM_MIN = 100.0
 
 __all__ += ["WAVELENGTH_NM_MIN"]
+# --- Default image estimator and bounded memory (correction under noise) ---
+
+#: Share of (noisy) natural training responses that the guarded regression keeps on its
+#: root-polynomial (``zonotope.correct.fit_Guarded``): the disagreement with the matrix beyond this
+#: quantile marks a response outside the training support. At 0.95 every natural cell of the
+#: evaluation stays within +0.03 ΔE00 of the best method and every atypical one beats the best
+#: regression (docs/notes/2026-11-29-noise-default.md); 0.97 missed one atypical cell, 0.90 natural ones.
+GUARD_QUANTILE = 0.95
+
+#: Relative luminance below which the guarded regression's disagreement stops growing (Y / Y_white):
+#: the ΔXYZ / Y^(2/3) scale would otherwise send every near-black noisy response to the fallback.
+GUARD_Y_FLOOR = 1e-3
+
+__all__ += ["GUARD_QUANTILE", "GUARD_Y_FLOOR"]

@@ -241,3 +241,41 @@ def test_noise_levels_given_as_sigma_model_or_mapping_and_bad_ones():
     for bad in (-0.01, float("nan"), {"shot": -1.0, "read": 0.0}):
         with pytest.raises(NoiseModelError, match=r"EvaluationConfig\.noise"):
             EvaluationConfig(noise=bad)
+
+
+def test_cli_grid_over_the_cap_is_a_one_line_error_before_any_work(capsys):
+    """``--interval 0.001`` used to build test sets on 300,001 wavelengths until a MemoryError."""
+    import resource
+
+    from zonotope.cli import main
+
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert main(["evaluate", "--camera", "Nikon 5100 (NPL)", "--interval", "0.001"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "GRID_POINTS_MAX" in err and "interval" in err, err
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KiB: nothing built
+
+
+def test_cli_camera_in_micrometres_is_a_one_line_error(tmp_path, capsys):
+    from zonotope.cli import main
+
+    w = np.arange(400, 701, 10)
+    path = tmp_path / "cam_um.csv"
+    lines = ["wavelength,r,g,b"]
+    for x in w:
+        r, g, b = (np.exp(-(((x - c) / 40) ** 2)) for c in (600, 540, 460))
+        lines.append(f"{x / 1000:.3f},{r:.4f},{g:.4f},{b:.4f}")
+    path.write_text("\n".join(lines) + "\n")
+    assert main(["evaluate", "--camera", str(path), "--atypical", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    # the loader names the file (zonotope.spectra.loading), the evaluation names the option: either is one line
+    assert err.count("\n") == 0 and ("--camera" in err or str(path) in err) and "µm" in err, err
+
+
+def test_library_test_sets_refuse_an_oversized_grid():
+    from zonotope.evaluate import atypical_test_set
+
+    w = np.linspace(400, 700, 300_001)
+    for build in (lambda: natural_test_sets(w), lambda: atypical_test_set(w, 3)):
+        with pytest.raises(SpectralDataError, match="GRID_POINTS_MAX"):
+            build()

@@ -101,18 +101,11 @@ def _version() -> str:
 
 
 def _shape(args: argparse.Namespace):
-    """The grid: 400–700 nm by default, narrowed to the range every camera is measured on."""
-    import colour
+    """The grid: 400–700 nm by default, narrowed to the range every camera is measured on (one-line
+    errors for cameras off that range, e.g. in µm, and for grids over the size cap)."""
+    from ..evaluate.sets import _evaluation_shape
 
-    from ..spectra import builtin as spectra
-    from ..spectra.loading import load_camera
-
-    start, end = args.start, args.end
-    if start is None or end is None:
-        common = spectra.common_shape(*(load_camera(c) for c in args.camera))
-        start = max(400.0, common.start) if start is None else start
-        end = min(700.0, common.end) if end is None else end
-    return colour.SpectralShape(start, end, args.interval)
+    return _evaluation_shape(args.camera, start=args.start, end=args.end, interval=args.interval)
 
 
 def _rich_progress(console):

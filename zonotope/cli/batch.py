@@ -42,9 +42,9 @@ def add_commands(sub) -> None:
     )
     p.add_argument(
         "--method",
-        help="zonotope.correct estimator (default: that of zonotope.correct_image, the root-polynomial "
-        "'Finlayson 2015' fitted for the noise, fast on photographs; 'Prior' is better on atypical "
-        "colours and costs seconds to minutes per image)",
+        help="zonotope.correct estimator (default: that of zonotope.correct_image, 'Guarded': the "
+        "root-polynomial fitted for the noise with a linear fallback outside its training support, fast "
+        "on photographs; 'Prior' is better on atypical colours and costs seconds to minutes per image)",
     )
     p.add_argument("--illuminant", default="D65")
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")

@@ -18,7 +18,7 @@ import numpy as np
 from .._errors import OptionError, SpectralDataError
 from ..spectra.builtin import float_array
 from ..utilities.progress import ProgressCallback
-from .methods import CORRECTION_METHODS, Corrector, fit_correction, noise_options
+from .methods import CORRECTION_METHODS, IMAGE_METHOD, Corrector, fit_correction, noise_options
 from .noise import NoiseModelError, estimate_noise, noise_model
 
 __all__ = ["correct_image"]
@@ -70,7 +70,7 @@ def correct_image(
     image,
     cameras_or_corrector,
     *,
-    method: str = "Finlayson 2015",
+    method: str = IMAGE_METHOD,
     noise="auto",
     quantum: float = 2e-3,
     base: Corrector | str | None = "auto",
@@ -91,9 +91,11 @@ def correct_image(
         A fitted :class:`~zonotope.correct.Corrector`, or the camera(s) to fit one for (with
         ``method`` and ``**options``, see :func:`~zonotope.correct.fit_correction`).
     method
-        Estimator when cameras are given: default the root-polynomial regression fitted for the
-        image's noise, the estimator that corrects a photograph in seconds (``"Prior"`` is as
-        accurate on natural colours and better on atypical ones, at a per-colour cost).
+        Estimator when cameras are given: default :data:`~zonotope.correct.IMAGE_METHOD`
+        (``"Guarded"``: the noise-aware root-polynomial with a linear fallback outside its
+        training support, fitted for the image's noise; it corrects a photograph in seconds;
+        ``"Prior"`` is as accurate on natural colours and better on atypical ones, at a per-colour
+        cost).
     noise
         Noise of the image's responses, which the estimator is fitted for when cameras are given:
         ``"auto"`` (default) estimates it from the image's flat regions
@@ -239,38 +241,70 @@ def _correct_image(img, corrector, quantum, base, batch_size, cache_dir, progres
                 corrector.problem, method="Finlayson 2015"
             )
     flat = img.reshape(-1, k)
-    ok = np.all(np.isfinite(flat), axis=1)
     out = np.full((flat.shape[0], m), np.nan)
-    if not ok.any():
-        return out.reshape(*img.shape[:-1], m)
-    pixels = np.asarray(flat[ok], dtype=np.float64)
     closed_form = corrector.params.get("closed_form")
     needs_solver = corrector.params.get("needs_solver")
-    if (closed_form is not None or needs_solver is not None) and quantum > 0:
+    leaders = (closed_form is not None or needs_solver is not None) and quantum > 0
+    tag = ("leaders", quantum) if leaders else quantum
+    cache_path = Path(cache_dir) / f"{_fingerprint(corrector, tag)}.npz" if cache_dir else None
+    memo = _Memo(_load_cache(cache_path, k, m) if cache_path else {}, cache_path, k, m, progress)
+    for i in range(0, flat.shape[0], _PIXEL_CHUNK):  # working memory: one chunk, whatever the image size
+        rows = flat[i : i + _PIXEL_CHUNK]
+        ok = np.all(np.isfinite(rows), axis=1)
+        if not ok.any():
+            continue
+        pixels = np.asarray(rows[ok], dtype=np.float64)
+        if not leaders:
+            out[i : i + rows.shape[0]][ok] = _grouped(pixels, corrector, quantum, base, batch_size, memo)
+            continue
         # exact per pixel where the estimator is a closed form; grouping only where it solves
         res = np.empty((pixels.shape[0], m))
         slow = np.empty(pixels.shape[0], dtype=bool)
-        for i in range(0, pixels.shape[0], _CHUNK):
+        for j in range(0, pixels.shape[0], _CHUNK):
+            part = pixels[j : j + _CHUNK]
             if closed_form is not None:  # estimates and solver rows in one vectorised pass
-                res[i : i + _CHUNK], slow[i : i + _CHUNK] = closed_form(pixels[i : i + _CHUNK])
+                res[j : j + _CHUNK], slow[j : j + _CHUNK] = closed_form(part)
             else:
-                slow[i : i + _CHUNK] = needs_solver(pixels[i : i + _CHUNK])
-        if closed_form is None:
-            fast = np.flatnonzero(~slow)
-            for i in range(0, fast.size, _CHUNK):
-                res[fast[i : i + _CHUNK]] = corrector(pixels[fast[i : i + _CHUNK]])
+                slow[j : j + _CHUNK] = needs_solver(part)
+                fast = np.flatnonzero(~slow[j : j + _CHUNK])
+                res[j + fast] = corrector(part[fast])
         if slow.any():
-            res[slow] = _grouped(
-                pixels[slow], corrector, quantum, base, batch_size, cache_dir, progress, leaders=True
-            )
-        out[ok] = res
-        return out.reshape(*img.shape[:-1], m)
-    out[ok] = _grouped(pixels, corrector, quantum, base, batch_size, cache_dir, progress)
+            res[slow] = _grouped(pixels[slow], corrector, quantum, base, batch_size, memo, leaders=True)
+        out[i : i + rows.shape[0]][ok] = res
     return out.reshape(*img.shape[:-1], m)
 
 
+#: Pixels per chunk of :func:`correct_image` for estimators that are not closed forms: bounds the
+#: working memory of deduplication and grouping (about 200 MiB per 2²⁰ pixels of two cameras)
+#: whatever the image size, while large enough that a noise cloud is rarely split across chunks.
+_PIXEL_CHUNK = 1 << 20
+
 #: Pixels per vectorised call of the closed-form path (bounds the memory of (N, n) reflectances).
 _CHUNK = 65_536
+
+#: Distinct colours kept in memory between chunks (about 50 MiB; beyond it the in-memory results are
+#: dropped and recomputed when met again; a ``cache_dir`` file keeps them all).
+_MEMO_MAX = 1 << 18
+
+
+class _Memo:
+    """Per-colour results shared by the chunks of one :func:`correct_image` call: the ``cache_dir``
+    file's content (written back atomically after each batch) or an in-memory dict of bounded size,
+    plus the progress counts over all chunks."""
+
+    def __init__(self, cache: dict, path: Path | None, k: int, m: int, progress):
+        self.cache, self.path, self.k, self.m, self.progress = cache, path, k, m, progress
+        self.done = self.total = 0
+
+    def get(self, key: bytes):
+        return self.cache.get(key)
+
+    def add(self, keys, values) -> None:
+        if self.path is None and len(self.cache) + len(keys) > _MEMO_MAX:
+            self.cache.clear()
+        self.cache.update(zip(keys, values))
+        if self.path is not None:
+            _save_cache(self.path, self.cache, self.k, self.m)
 
 
 def _leader_groups(pixels: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -296,12 +330,11 @@ def _leader_groups(pixels: np.ndarray, radius: float) -> tuple[np.ndarray, np.nd
     return np.asarray(first, dtype=np.intp), label
 
 
-def _grouped(
-    pixels, corrector, quantum, base, batch_size, cache_dir, progress, leaders: bool = False
-) -> np.ndarray:
+def _grouped(pixels, corrector, quantum, base, batch_size, memo: _Memo, leaders: bool = False) -> np.ndarray:
     """Correct ``pixels (N, k)`` once per group of responses equal after rounding to ``quantum``
-    (``leaders``: within ``quantum`` of a leader response, :func:`_leader_groups`)."""
-    k, m = corrector.problem.k, corrector.problem.m
+    (``leaders``: within ``quantum`` of a leader response, :func:`_leader_groups`), reusing the results
+    in ``memo``."""
+    k = corrector.problem.k
     if leaders:
         first, inverse = _leader_groups(pixels, quantum)
         keys = np.ascontiguousarray(pixels).view(np.int64)  # cache key: the leader's exact response
@@ -315,30 +348,28 @@ def _grouped(
         rows = np.ascontiguousarray(keys).view(np.dtype((np.void, 8 * k))).reshape(-1)
         _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
         uniq = keys[first]
+    del keys
     # each group is corrected at one of its actual responses, not at the rounded one: rounding
     # every channel independently would leave the (low-dimensional) set of real responses and
     # change estimators that weigh how plausible a response is.
     colours = pixels[first]
-    tag = ("leaders", quantum) if leaders else quantum
-    cache_path = Path(cache_dir) / f"{_fingerprint(corrector, tag)}.npz" if cache_dir else None
-    cache = _load_cache(cache_path, k, m) if cache_path else {}
-    result = np.empty((uniq.shape[0], m))
+    result = np.empty((uniq.shape[0], corrector.problem.m))
     todo = []
     for i, row in enumerate(uniq):
-        hit = cache.get(row.tobytes())
+        hit = memo.get(row.tobytes())
         if hit is None:
             todo.append(i)
         else:
             result[i] = hit
     todo = np.asarray(todo, dtype=np.intp)
+    memo.total += todo.size
     for start in range(0, todo.size, batch_size):
         idx = todo[start : start + batch_size]
         result[idx] = corrector(colours[idx])
-        if cache_path is not None:
-            cache.update({uniq[i].tobytes(): result[i] for i in idx})
-            _save_cache(cache_path, cache, k, m)
-        if progress is not None:
-            progress("distinct colours", min(start + batch_size, todo.size), todo.size)
+        memo.add([uniq[i].tobytes() for i in idx], result[idx].copy())
+        memo.done += idx.size
+        if memo.progress is not None:
+            memo.progress("distinct colours", memo.done, memo.total)
     inverse = inverse.reshape(-1)
     res = result[inverse]
     if base is not None and quantum > 0:

@@ -15,6 +15,12 @@ Which estimator when
 ``"Centroid"``
     The volume centroid of the metamer mismatch volume (MMV): the best guess when nothing is known
     about the reflectance. Robust on atypical spectra, 3–5× worse than regression on natural ones.
+``"Guarded"`` (default of :func:`~zonotope.correct.correct_image`)
+    Noise-aware root-polynomial whose responses outside the training support (where it disagrees
+    with the matrix more than on 97 % of the training responses) go to a matrix fitted on
+    contrast-stretched training spectra; kept only where that helps on further stretched spectra
+    (with one camera it is the root-polynomial). As good as the root-polynomial on natural colours
+    and better than every regression on atypical ones with stacked cameras, at regression cost.
 ``"Projection"``
     Root-polynomial estimate moved onto the MMV (closest point in a locally linearised CIELAB
     metric) when it lies outside. Caps regression blow-ups; otherwise identical to regression.
@@ -68,6 +74,7 @@ import numpy as np
 from .._errors import OptionError
 from .._tol import DELTA_SIGMAS
 from ..utilities.registry import MethodRegistry
+from .guarded import fit_Guarded
 from .mmv import (
     PriorConfig,
     fit_Centroid,
@@ -98,6 +105,7 @@ from .regressions import (
 __all__ = [
     "CORRECTION_METHODS",
     "DELTA_SIGMAS",
+    "IMAGE_METHOD",
     "CorrectionProblem",
     "Corrector",
     "NoiseModel",
@@ -112,6 +120,7 @@ __all__ = [
     "fit_Cheung2004",
     "fit_Dyer2017",
     "fit_Finlayson2015",
+    "fit_Guarded",
     "fit_MAP",
     "fit_Prior",
     "fit_Projection",
@@ -142,10 +151,24 @@ __all__ = [
 #:     How it is told the responses' noise σ (:func:`noise_options`): ``"noise"`` (it accepts
 #:     ``noise=σ``: training on noisy replicas / noisy evidence), ``"delta"`` (the MMV's response
 #:     tolerance ``delta = DELTA_SIGMAS · σ``) or ``None`` (it ignores noise).
+#: ``image_default``
+#:     True for exactly one entry: the estimator :func:`~zonotope.correct.correct_image` and
+#:     ``zonotope correct`` fit when none is named (:data:`IMAGE_METHOD`), chosen by the evaluation
+#:     table of ``docs/notes/2026-11-29-noise-default.md``.
 CORRECTION_METHODS: MethodRegistry[Callable[..., Corrector]] = MethodRegistry("correction")
 for _name in REGRESSIONS:
     _entry = REGRESSIONS.method(_name)
     CORRECTION_METHODS.register(_name, _entry.function, aliases=_entry.aliases, **_entry.properties)
+CORRECTION_METHODS.register(
+    "Guarded",
+    fit_Guarded,
+    aliases=("guarded root-polynomial", "guarded regression"),
+    closed_form=True,
+    needs_mmv=False,
+    centroid=False,
+    noise_option="noise",
+    image_default=True,
+)
 CORRECTION_METHODS.register(
     "Centroid",
     fit_Centroid,
@@ -170,6 +193,9 @@ CORRECTION_METHODS.register(
     centroid=False,
     noise_option="noise",
 )
+
+#: The estimator of whole images when none is named: the one registry entry with ``image_default``.
+(IMAGE_METHOD,) = CORRECTION_METHODS.names(image_default=True)
 
 
 def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None) -> dict:

@@ -68,25 +68,25 @@ def test_shot_read_noise_and_bad_values(tmp_path, capsys):
 
 def test_default_method_is_that_of_correct_image(tmp_path, capsys):
     """``zonotope correct`` corrects folders of photographs: its default estimator is the photo default
-    of ``correct_image`` (the noise-aware root-polynomial), said in ``--help``."""
+    of ``correct_image`` (the registry's ``image_default`` entry), said in ``--help``."""
     import inspect
 
     import tifffile
 
     from zonotope.cli.batch import default_method
-    from zonotope.correct import correct_image
+    from zonotope.correct import IMAGE_METHOD, correct_image
 
     assert default_method() == inspect.signature(correct_image).parameters["method"].default
-    assert default_method() == "Finlayson 2015"
+    assert default_method() == IMAGE_METHOD == "Guarded"
     folder, img = _write(tmp_path)
     argv = ["correct", str(folder), "-o", str(tmp_path / "out"), "--camera", "Nikon 5100 (NPL)"]
     assert main([*argv, "--scheduler", "serial"]) == 0
-    assert "fitting Finlayson 2015" in capsys.readouterr().err
+    assert "fitting Guarded" in capsys.readouterr().err
     got = tifffile.imread(tmp_path / "out" / "a_XYZ.tif")
-    want = fit_correction("Nikon 5100 (NPL)", method="Finlayson 2015", noise=estimate_noise(img))(img)
+    want = fit_correction("Nikon 5100 (NPL)", method=IMAGE_METHOD, noise=estimate_noise(img))(img)
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
     try:
         main(["correct", "--help"])
     except SystemExit:
         pass
-    assert "'Finlayson 2015'" in " ".join(capsys.readouterr().out.split())
+    assert "'Guarded'" in " ".join(capsys.readouterr().out.split())

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from zonotope.correct import NoiseModel, NoiseModelError, correction_problem, fit_correction
+from zonotope.correct import IMAGE_METHOD, NoiseModel, NoiseModelError, correction_problem, fit_correction
 from zonotope.correct.image import correct_image
 
 W = np.arange(400, 701, 10)
@@ -103,7 +103,7 @@ def test_float32_input_is_accepted_chunk_by_chunk(problem2):
     assert problem2.delta_E(a, b).max() < 0.01  # the float32 budget (measured 1.2e-3 noise-free)
 
 
-@pytest.mark.parametrize("method", ["Finlayson 2015", "MAP", "Projection"])
+@pytest.mark.parametrize("method", ["Finlayson 2015", "Guarded", "MAP", "Projection"])
 def test_working_memory_does_not_grow_with_the_number_of_responses(problem2, method):
     """Beyond its input and output, a corrector's peak memory is that of one chunk."""
     import tracemalloc
@@ -126,10 +126,47 @@ def test_working_memory_does_not_grow_with_the_number_of_responses(problem2, met
     assert large < 1.5 * small + 2**20, (small, large)
 
 
-def test_the_photo_default_is_the_regression_fitted_for_the_estimated_noise(problem2):
+def test_the_photo_default_is_the_registry_default_fitted_for_the_estimated_noise(problem2):
     img, _ = _patch_image(problem2)
     noisy = NoiseModel.shot_limited(0.005, problem2.k).sample(img, np.random.default_rng(4))
     out, info = correct_image(noisy, problem2, return_info=True)
-    assert info["method"] == "Finlayson 2015" and info["noise_source"] == "estimated from image"
-    want = fit_correction(problem2, method="Finlayson 2015", noise=info["noise"])(noisy)
+    assert info["method"] == IMAGE_METHOD and info["noise_source"] == "estimated from image"
+    want = fit_correction(problem2, method=IMAGE_METHOD, noise=info["noise"])(noisy)
     np.testing.assert_array_equal(out, want)
+
+
+def test_correct_image_in_chunks_computes_each_colour_once_with_bounded_memory(problem2, monkeypatch):
+    """Images beyond one chunk: same result as one chunk, each distinct colour solved once over all
+    chunks, and working memory (beyond input and output) that does not grow with the pixel count."""
+    import dataclasses
+    import tracemalloc
+
+    from zonotope.correct import image
+
+    rng = np.random.default_rng(8)
+    colours = problem2.source_of(rng.uniform(0.05, 0.95, (20, W.size)) ** 2)
+    fitted = fit_correction(problem2, method="MAP")
+    seen = []
+    est = dataclasses.replace(fitted, predict=lambda c: seen.append(len(c)) or fitted.predict(c))
+
+    def image_of(n):
+        return colours[rng.integers(0, colours.shape[0], n)][:, None, :]
+
+    img = image_of(3000)
+    whole = correct_image(img, est, quantum=0)
+    monkeypatch.setattr(image, "_PIXEL_CHUNK", 256)
+    seen.clear()
+    np.testing.assert_array_equal(correct_image(img, est, quantum=0), whole)
+    assert sum(seen) == colours.shape[0]
+
+    def extra(n):
+        pixels = image_of(n)
+        tracemalloc.start()
+        start = tracemalloc.get_traced_memory()[0]
+        out = correct_image(pixels, est, quantum=0)
+        peak = tracemalloc.get_traced_memory()[1] - start - out.nbytes
+        tracemalloc.stop()
+        return peak
+
+    small, large = extra(2048), extra(16384)
+    assert large < 1.5 * small + 2**18, (small, large)
