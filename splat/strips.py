@@ -1,0 +1,266 @@
+"""Every photograph corrected at its full resolution, strip by strip, with memory bounded by the strip.
+
+The train and render steps work at the working resolution (:mod:`splat.resolution`); the fused
+responses of a photographed view (``pipeline.fused_view``: its own channels, the other cameras'
+photographs reprojected into it through the splat's depth, the render anchored to it where no
+photograph sees a pixel) are made there too. This module carries them to the photograph's full size,
+one strip of ``STRIP_ROWS`` rows at a time:
+
+1. **Own channels**: the view's RAW rows, read from the file's samples (:meth:`splat.capture.RawSource.rows`)
+   with a margin of :data:`HALO` rows, demosaiced by isp (Malvar 2004, as :func:`splat.fusion.measured`)
+   and cut to the strip: the same values as demosaicing the whole image (the margin covers the 5 × 5
+   filter), at exposure 1 on the white → 1 scale.
+2. **The other channels**: the working-resolution fused responses upsampled bilinearly (pixel centres
+   aligned: full-resolution centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the
+   borders), then sharpened by the photograph itself — every channel times the ratio of the own
+   channels' full-resolution sum to their upsampled working-resolution sum (the Brovey transform of
+   :func:`splat.fusion.anchor`, Gillespie et al. 1987): an edge the photograph shows within a working
+   pixel appears in every channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose
+   own site is saturated or dead keep the upsampled values.
+3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
+   in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
+   noise the ratio carries into them; one noise-aware closed-form regression is fitted per pattern on
+   the channel-whitened problem (``pipeline.fused_fitter``) and applied in chunks of
+   :data:`splat._tol.CORRECT_CHUNK` pixels.
+
+Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips), so the
+peak memory is the file's samples (2 bytes a pixel) plus one strip's work, whatever the image size.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import SplatError
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, STRIP_ROWS
+
+__all__ = [
+    "FULL_METHOD",
+    "HALO",
+    "demosaic_rows",
+    "full_resolution_view",
+    "nearest_rows",
+    "upsample_rows",
+    "write_full",
+]
+
+#: Rows read above and below a strip for demosaicing: Malvar 2004's 5 × 5 filters and isp's mirror pad
+#: of 4 reach 2 + 4 rows; 8 (even, so a strip's margin starts on the file's own CFA phase) covers both.
+HALO = 8
+
+#: The estimator of the full-resolution correction: the root-polynomial regression fitted for the
+#: responses' noise, :func:`zonotope.correct.image.correct_image`'s default for photographs (closed form:
+#: a few µs a pixel). The MMV-based estimators cost milliseconds per distinct colour, and a
+#: full-resolution photograph has as many distinct colours as pixels.
+FULL_METHOD = "Finlayson 2015"
+
+
+def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``r0:r1`` of a RAW file demosaiced (linear, exposure of the file, white scale 1) and their
+    validity (the pixel's own site neither saturated nor dead), each (r1 − r0, W, ·): the same values as
+    demosaicing the whole file and cutting the rows out.
+
+    Parameters
+    ----------
+    source : splat.capture.RawSource
+    r0, r1 : int
+    method : str
+        :func:`isp.stages.demosaic` method.
+    """
+    from isp.stages import demosaic
+
+    H = source.shape[0]
+    a = max(0, r0 - HALO)
+    a -= a % 2
+    b = min(H, r1 + HALO)
+    values, weight = source.rows(a, b)
+    if source.full_colour:
+        lin = values.astype(np.float64)
+    else:
+        lin = demosaic(values.sum(-1), cfa=source.cfa, method=method)
+    return lin[r0 - a : r1 - a], weight[r0 - a : r1 - a].sum(-1) > 0
+
+
+def _axis(n_full: int, f: int, n_work: int, lo: int, hi: int):
+    """Bilinear taps along one axis: for full-resolution indices ``lo:hi``, the two working indices and
+    the weight of the second (centre ``i + ½`` at ``(i + ½)/f − ½`` in working pixels, clamped)."""
+    x = (np.arange(lo, hi) + 0.5) / f - 0.5
+    x = np.clip(x, 0, n_work - 1)
+    i0 = np.floor(x).astype(np.int64)
+    i1 = np.minimum(i0 + 1, n_work - 1)
+    return i0, i1, (x - i0)
+
+
+def upsample_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.ndarray:
+    """Rows ``r0:r1`` of ``img`` (h, w, C) upsampled bilinearly by ``f`` to ``width`` columns
+    (pixel centres aligned, borders clamped): (r1 − r0, width, C), the same whatever the strip."""
+    img = np.asarray(img)
+    h, w = img.shape[:2]
+    i0, i1, ty = _axis(0, f, h, r0, r1)
+    j0, j1, tx = _axis(0, f, w, 0, width)
+    top = img[i0]
+    bot = img[i1]
+    rows = top + (bot - top) * ty[:, None, None]
+    return rows[:, j0] * (1 - tx)[None, :, None] + rows[:, j1] * tx[None, :, None]
+
+
+def nearest_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.ndarray:
+    """Rows ``r0:r1`` of ``img`` (h, w, ...) repeated ``f × f`` (each full-resolution pixel takes the
+    working pixel it lies in; clamped beyond the binned area)."""
+    h, w = img.shape[:2]
+    i = np.minimum(np.arange(r0, r1) // f, h - 1)
+    j = np.minimum(np.arange(width) // f, w - 1)
+    return img[i][:, j]
+
+
+def full_resolution_view(
+    source,
+    exposure: float,
+    own_scale: np.ndarray,
+    f: int,
+    fused: np.ndarray,
+    code: np.ndarray,
+    sigma: dict,
+    own: slice,
+    own_sigma: np.ndarray,
+    fit: Callable,
+    *,
+    strip_rows: int = STRIP_ROWS,
+    progress: Callable | None = None,
+):
+    """Yield the corrected full-resolution XYZ of a photograph, strip by strip.
+
+    Parameters
+    ----------
+    source : splat.capture.RawSource
+        The photograph's RAW file.
+    exposure : float
+        Its relative exposure.
+    own_scale : ndarray of shape (3,)
+        Its camera's white scale.
+    f : int
+        The working resolution's binning factor.
+    fused : ndarray of shape (h, w, k)
+        The view's fused responses at the working resolution (white → 1).
+    code : ndarray of shape (h, w), int
+        Their noise pattern per pixel; ``sigma[code]`` the σ per channel (k,).
+    own : slice
+        Where the view's own channels sit among the ``k``.
+    own_sigma : ndarray of shape (3,)
+        The full-resolution sensor noise of the own channels (white → 1).
+    fit : callable
+        ``fit(σ (k,)) → (corrector, scale)``: a fitted closed-form estimator and the channel scale to
+        apply to responses first (``pipeline.fused_fitter`` with :data:`FULL_METHOD`).
+    strip_rows : int
+        Rows per strip (even on a Bayer mosaic): memory only, the output does not depend on it.
+    progress : callable, optional
+        ``progress("full resolution", rows done, rows)`` after each strip.
+
+    Yields
+    ------
+    ndarray of shape (rows, W, 3), float32
+        XYZ of consecutive strips, top to bottom.
+    """
+    H, W = source.shape
+    if strip_rows < 2 or strip_rows % 2:
+        raise SplatError(f"strip_rows={strip_rows}: must be an even number ≥ 2.")
+    fused = np.asarray(fused, np.float64)
+    own_up_sum_floor = ANCHOR_EPS
+    patterns = {int(c): _full_sigma(np.asarray(s, float), own, own_sigma, fused) for c, s in sigma.items()}
+    fitted: dict = {}
+    for r0 in range(0, H, strip_rows):
+        r1 = min(H, r0 + strip_rows)
+        lin, valid = demosaic_rows(source, r0, r1)
+        photo = lin / exposure / np.asarray(own_scale, float)
+        up = upsample_rows(fused, f, r0, r1, W)
+        ratio = (np.maximum(photo, 0).sum(-1, keepdims=True) + own_up_sum_floor) / (
+            np.maximum(up[..., own], 0).sum(-1, keepdims=True) + own_up_sum_floor
+        )
+        resp = np.maximum(up, 0) * ratio
+        resp[..., own] = photo
+        resp = np.where(valid[..., None], resp, up)
+        cd = nearest_rows(code, f, r0, r1, W)
+        XYZ = np.zeros((r1 - r0, W, 3))
+        for c in np.unique(cd):
+            sel = cd == c
+            if int(c) not in fitted:
+                fitted[int(c)] = fit(patterns[int(c)])
+            cor, scale = fitted[int(c)]
+            XYZ[sel] = _apply(cor, np.maximum(resp[sel], 0) * scale)
+        if progress is not None:
+            progress("full resolution", r1, H)
+        yield XYZ.astype(np.float32)
+
+
+def _apply(corrector, responses: np.ndarray) -> np.ndarray:
+    """A closed-form corrector on (N, k) responses, :data:`CORRECT_CHUNK` at a time."""
+    out = np.empty((len(responses), 3))
+    for a in range(0, len(responses), CORRECT_CHUNK):
+        out[a : a + CORRECT_CHUNK] = corrector.predict(responses[a : a + CORRECT_CHUNK])
+    return out
+
+
+def _full_sigma(s: np.ndarray, own: slice, own_sigma: np.ndarray, fused: np.ndarray) -> np.ndarray:
+    """σ per channel at full resolution for a working pattern ``s``: the own channels the sensor's
+    full-resolution σ; each other channel its working σ and, in quadrature, the noise the Brovey ratio
+    carries into it (the channel's median level times the own sum's relative σ)."""
+    out = s.copy()
+    own_level = max(float(np.median(np.maximum(fused[..., own], 0).sum(-1))), ANCHOR_EPS)
+    rel = float(np.sqrt(np.sum(np.square(own_sigma)))) / own_level
+    level = np.median(np.maximum(fused, 0).reshape(-1, fused.shape[-1]), axis=0)
+    out = np.hypot(out, rel * level)
+    out[own] = own_sigma
+    return np.maximum(out, 1e-6)
+
+
+def write_full(
+    xyz_path: Path,
+    png_path: Path,
+    strips,
+    shape: tuple[int, int],
+    to_sRGB: Callable,
+    *,
+    rows: int = STRIP_ROWS,
+) -> None:
+    """Write a full-resolution image given as an iterator of XYZ strips (:func:`full_resolution_view`):
+    ``xyz_path`` a float32 TIFF written strip by strip (never whole in memory), ``png_path`` its 8-bit
+    sRGB (``to_sRGB(XYZ) → [0, 1]``; the PNG encoder needs the whole 8-bit image, 3 bytes a pixel).
+    ``rows``: the strips' height (the last may be shorter), the TIFF's RowsPerStrip.
+    Both atomically; NaN or infinite values are refused before either file appears."""
+    import tifffile
+    from PIL import Image
+
+    from zonotope.utilities import atomic_path
+
+    H, W = shape
+    rgb8 = np.zeros((H, W, 3), np.uint8)
+    done = [0]
+
+    def segments():
+        for s in strips:
+            if not np.all(np.isfinite(s)):
+                raise SplatError(f"{xyz_path}: refusing to write NaN/inf values.")
+            a = done[0]
+            rgb8[a : a + len(s)] = (np.clip(to_sRGB(s), 0, 1) * 255 + 0.5).astype(np.uint8)
+            done[0] += len(s)
+            yield np.ascontiguousarray(s, np.float32).tobytes()
+
+    def write(p):
+        with tifffile.TiffWriter(p) as tif:
+            tif.write(
+                segments(),
+                shape=(H, W, 3),
+                dtype=np.float32,
+                photometric="minisblack",
+                planarconfig="contig",
+                rowsperstrip=rows,
+                metadata=None,
+            )
+
+    atomic_path(xyz_path, write)
+    if done[0] != H:
+        raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
+    atomic_path(png_path, lambda p: Image.fromarray(rgb8).save(p, format="PNG"))
