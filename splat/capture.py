@@ -127,6 +127,9 @@ class CaptureSpec:
         ``"<folder>/<file>"`` names kept out of training.
     colmap, transforms : Path or None
         User-supplied poses.
+    train_size : int or None
+        Longer side (pixels) of the working resolution of training (``train_size = 640`` at the top
+        level; ``--train-size`` overrides it); None: automatic (:mod:`splat.resolution`).
     """
 
     root: Path
@@ -137,6 +140,7 @@ class CaptureSpec:
     holdout: tuple[str, ...] = ()
     colmap: Path | None = None
     transforms: Path | None = None
+    train_size: int | None = None
 
     @property
     def file(self) -> Path:
@@ -215,7 +219,7 @@ class CaptureSpec:
             ) from e
 
 
-_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses")
+_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses", "train_size")
 _CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
 _WHITE_KEYS = ("method", "image", "box", "reflectance")
 _HOLDOUT_KEYS = ("images",)
@@ -422,7 +426,17 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
         transforms = root / _need(poses, "transforms", str, "[poses]", file)
         if not transforms.is_file():
             raise CaptureError(f"{file}: [poses].transforms = {poses['transforms']!r} does not exist.")
-    spec = CaptureSpec(root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms)
+    train_size = doc.get("train_size")
+    if train_size is not None and (
+        isinstance(train_size, bool) or not isinstance(train_size, int) or train_size < 16
+    ):
+        raise CaptureError(
+            f"{file}: train_size = {train_size!r} must be a whole number of pixels ≥ 16 (the longer side of "
+            "the working resolution of training), e.g. train_size = 640; leave it out for the automatic one."
+        )
+    spec = CaptureSpec(
+        root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms, train_size
+    )
     for k, c in enumerate(specs):
         files = spec.raw_files(k)
         if not files:

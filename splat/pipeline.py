@@ -202,12 +202,19 @@ def _noise_of(noise):
     return noise
 
 
-def working_binning(config: PipelineConfig):
+def train_size_of(spec: CaptureSpec, config: PipelineConfig) -> int | None:
+    """The working resolution's longer side: ``config.train_size`` (``--train-size``), else the capture
+    file's ``train_size``, else None (automatic)."""
+    return config.train_size if config.train_size is not None else spec.train_size
+
+
+def working_binning(config: PipelineConfig, spec: CaptureSpec | None = None):
     """``binning(k, shape, full_colour) → f`` of the train, render and correct steps
-    (:func:`splat.resolution.working_factor` with ``config.train_size``)."""
+    (:func:`splat.resolution.working_factor` with :func:`train_size_of`)."""
     from .resolution import working_factor
 
-    return lambda k, shape, full: working_factor(shape, full, size=config.train_size)
+    size = config.train_size if spec is None else train_size_of(spec, config)
+    return lambda k, shape, full: working_factor(shape, full, size=size)
 
 
 def preview_binning(k, shape, full) -> int:
@@ -354,6 +361,7 @@ def _workspace(capture, out, config: PipelineConfig, step: str | None = None, se
 def _train_settings(spec: CaptureSpec, config: PipelineConfig) -> dict:
     return {
         "holdout": sorted(spec.holdout),
+        "train_size": train_size_of(spec, config),
         **{
             f: getattr(config, f)
             for f in (
@@ -364,7 +372,6 @@ def _train_settings(spec: CaptureSpec, config: PipelineConfig) -> dict:
                 "refine_exposure",
                 "refine_poses",
                 "depth_weight",
-                "train_size",
             )
         },
     }
@@ -640,7 +647,7 @@ def training_inputs(
 
     model, cap = _load_model_capture(spec, out)
     # each file read and binned to the working resolution in turn (never all mosaics whole at once)
-    raws = {v.name: v for v in load_views(spec, binning=working_binning(config))}
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
     hold = set(spec.holdout)
     views = [v for v in working_views(cap.views, raws) if v.name not in hold]
     if not views:
@@ -858,7 +865,7 @@ def fit_step(
         # steps (0 with the CPU back-end): above 0, RenderConfig.tile_capacity is too small for the model
         "dropped_per_step": float(np.mean(res.history["n_dropped"][-100:])) if loss.size else 0.0,
         "working": inp.working,
-        "train_size": config.train_size,
+        "train_size": train_size_of(spec, config),
     }
     if tc.refine_poses:
         summary.update(_pose_summary(train_cap, res, float(np.linalg.norm(bounds[1] - bounds[0]))))
@@ -1065,7 +1072,7 @@ def render_step(
     reset_peak_rss()
     _, cap = _load_model_capture(spec, out)
     g, alive = load_gaussians(out)
-    raws = {v.name: v for v in load_views(spec, binning=working_binning(config))}
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
     # at the working resolution; training views with their learned pose corrections, if any
     views = refined_views(working_views(cap.views, raws), out)
     todo = views_to_render(spec, views, config)
@@ -1645,7 +1652,7 @@ def correct_step(
     index = read_index(spec, index_path)
     t0 = time.perf_counter()
     reset_peak_rss()
-    raws = {v.name: v for v in load_views(spec, binning=working_binning(config))}
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
     # white, δ and the fusion noise levels are functions of these (δ pools the photographed views only,
     # so that novel views rendered later do not change it): a change recomputes every corrected image
     photographed = {k: v for k, v in index.items() if k in raws}
@@ -1681,6 +1688,18 @@ def correct_step(
     fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
     full_info = {}
+    # one progress bar over the rows of every photograph still to correct at full resolution
+    todo_rows = {
+        m: raws[m].size[0]
+        for m, info in index.items()
+        if m in fusion["views"] and not (out / "correct" / info["dir"] / "full_XYZ.tiff").is_file()
+    }
+    rows_done = [0]
+
+    def full_progress(what, done, total, _name=None):
+        if progress is not None:
+            progress("full resolution rows", rows_done[0] + done, sum(todo_rows.values()))
+
     for i, (name, info) in enumerate(index.items()):
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
@@ -1721,8 +1740,9 @@ def correct_step(
                     noise_used[name],
                     fit_full,
                     wXYZ,
-                    progress,
+                    full_progress,
                 )
+                rows_done[0] += todo_rows.get(name, 0)
         if (o / f"{mname}_fused_XYZ.tiff").is_file():
             n_fused["views" if name in fusion["views"] else "novel"] += 1
         if (o / "full_XYZ.tiff").is_file():
@@ -1834,15 +1854,10 @@ def _full_resolution(
     H, W = source.shape
     rows = _strips.STRIP_ROWS
     strips = _strips.full_resolution_view(
-        source,
-        view.exif,
-        np.asarray(own_scale, float),
-        view.binning,
-        fused,
-        code,
-        sigma,
-        slice(3 * k, 3 * k + 3),
-        np.asarray(noise["sigma_full"], float),
+        _strips.Photograph(
+            source, view.exif, np.asarray(own_scale, float), np.asarray(noise["sigma_full"], float)
+        ),
+        _strips.WorkingFusion(fused, code, sigma, slice(3 * k, 3 * k + 3), view.binning),
         fit,
         strip_rows=rows,
         progress=progress,

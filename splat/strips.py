@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -40,6 +41,8 @@ from ._tol import ANCHOR_EPS, CORRECT_CHUNK, STRIP_ROWS
 __all__ = [
     "FULL_METHOD",
     "HALO",
+    "Photograph",
+    "WorkingFusion",
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
@@ -116,16 +119,32 @@ def nearest_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.nd
     return img[i][:, j]
 
 
+class Photograph(NamedTuple):
+    """A photographed view at full resolution: its RAW file (:class:`splat.capture.RawSource`), relative
+    exposure, its camera's white scale (3,) and its own channels' full-resolution noise σ (3,), white → 1."""
+
+    source: object
+    exposure: float
+    white_scale: np.ndarray
+    sigma: np.ndarray
+
+
+class WorkingFusion(NamedTuple):
+    """A view's fused responses at the working resolution (``pipeline.fused_view``): ``fused`` (h, w, k),
+    white → 1; ``code`` (h, w), the noise pattern per pixel, ``sigma[code]`` its σ per channel (k,);
+    ``own``, where the view's own channels sit among the ``k``; ``binning``, the working resolution's
+    factor."""
+
+    fused: np.ndarray
+    code: np.ndarray
+    sigma: dict
+    own: slice
+    binning: int
+
+
 def full_resolution_view(
-    source,
-    exposure: float,
-    own_scale: np.ndarray,
-    f: int,
-    fused: np.ndarray,
-    code: np.ndarray,
-    sigma: dict,
-    own: slice,
-    own_sigma: np.ndarray,
+    photo: Photograph,
+    working: WorkingFusion,
     fit: Callable,
     *,
     strip_rows: int = STRIP_ROWS,
@@ -135,22 +154,8 @@ def full_resolution_view(
 
     Parameters
     ----------
-    source : splat.capture.RawSource
-        The photograph's RAW file.
-    exposure : float
-        Its relative exposure.
-    own_scale : ndarray of shape (3,)
-        Its camera's white scale.
-    f : int
-        The working resolution's binning factor.
-    fused : ndarray of shape (h, w, k)
-        The view's fused responses at the working resolution (white → 1).
-    code : ndarray of shape (h, w), int
-        Their noise pattern per pixel; ``sigma[code]`` the σ per channel (k,).
-    own : slice
-        Where the view's own channels sit among the ``k``.
-    own_sigma : ndarray of shape (3,)
-        The full-resolution sensor noise of the own channels (white → 1).
+    photo : Photograph
+    working : WorkingFusion
     fit : callable
         ``fit(σ (k,)) → (corrector, scale)``: a fitted closed-form estimator and the channel scale to
         apply to responses first (``pipeline.fused_fitter`` with :data:`FULL_METHOD`).
@@ -164,11 +169,14 @@ def full_resolution_view(
     ndarray of shape (rows, W, 3), float32
         XYZ of consecutive strips, top to bottom.
     """
+    source, exposure, own_scale, own_sigma = photo
+    fused, code, sigma, own, f = working
     H, W = source.shape
     if strip_rows < 2 or strip_rows % 2:
         raise SplatError(f"strip_rows={strip_rows}: must be an even number ≥ 2.")
     fused = np.asarray(fused, np.float64)
     own_up_sum_floor = ANCHOR_EPS
+    own_sigma = np.asarray(own_sigma, float)
     patterns = {int(c): _full_sigma(np.asarray(s, float), own, own_sigma, fused) for c, s in sigma.items()}
     fitted: dict = {}
     for r0 in range(0, H, strip_rows):
