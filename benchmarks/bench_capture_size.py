@@ -18,7 +18,7 @@ Measured, in one process:
   ``--runs`` runs, its peak RSS (Linux ``VmHWM`` reset before each run), and at ``--scale`` / 4 and / 2 for
   the growth with pixels;
 * **baseline** (the previous path: every pixel of the fused responses corrected by Prior with colour
-  deduplication, ``pipeline.correct_fused``) on a 256 × 256 crop of the same 24 MP responses, timed and
+  deduplication, ``pipeline.correct_fused``) on a 96 × 96 crop of the same 24 MP responses, timed and
   extrapolated linearly to the whole photograph; and the plain development of the same photograph
   (isp's Malvar demosaic of the whole mosaic in one piece and the camera's DNG matrix), the cheapest
   thing a user could run.
@@ -106,7 +106,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=int, default=44, help="upsampling of the 128 × 96 photograph (even)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--steps", type=int, default=150, help="training steps of the small model")
-    ap.add_argument("--crop", type=int, default=256, help="side of the baseline's crop")
+    ap.add_argument("--crop", type=int, default=96, help="side of the baseline's crop")
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
                 args.work / "full_sRGB.png",
                 gen,
                 (H, W),
-                lambda X: P.XYZ_to_sRGB(X, wXYZ),
+                strips.sRGB8_encoder(wXYZ),
             )
             times.append(time.perf_counter() - t)
             peaks.append(peak_rss_mib())

@@ -1863,7 +1863,7 @@ def _full_resolution(
         progress=progress,
     )
     _strips.write_full(
-        o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), lambda X: XYZ_to_sRGB(X, wXYZ), rows=rows
+        o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), _strips.sRGB8_encoder(wXYZ), rows=rows
     )
     return {"size": [W, H], "binning": view.binning, "seconds": time.perf_counter() - t}
 

@@ -46,6 +46,7 @@ __all__ = [
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
+    "sRGB8_encoder",
     "upsample_rows",
     "write_full",
 ]
@@ -174,38 +175,48 @@ def full_resolution_view(
     H, W = source.shape
     if strip_rows < 2 or strip_rows % 2:
         raise SplatError(f"strip_rows={strip_rows}: must be an even number ≥ 2.")
-    fused = np.asarray(fused, np.float64)
-    own_up_sum_floor = ANCHOR_EPS
     own_sigma = np.asarray(own_sigma, float)
     patterns = {int(c): _full_sigma(np.asarray(s, float), own, own_sigma, fused) for c, s in sigma.items()}
+    fused = np.asarray(fused, np.float32)  # float32 from here on: the responses carry ≥ 1e-3 noise
+    code = np.asarray(code)
+    k = fused.shape[-1]
+    divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
     fitted: dict = {}
     for r0 in range(0, H, strip_rows):
         r1 = min(H, r0 + strip_rows)
         lin, valid = demosaic_rows(source, r0, r1)
-        photo = lin / exposure / np.asarray(own_scale, float)
-        up = upsample_rows(fused, f, r0, r1, W)
-        ratio = (np.maximum(photo, 0).sum(-1, keepdims=True) + own_up_sum_floor) / (
-            np.maximum(up[..., own], 0).sum(-1, keepdims=True) + own_up_sum_floor
-        )
-        resp = np.maximum(up, 0) * ratio
-        resp[..., own] = photo
-        resp = np.where(valid[..., None], resp, up)
-        cd = nearest_rows(code, f, r0, r1, W)
-        XYZ = np.zeros((r1 - r0, W, 3))
-        for c in np.unique(cd):
-            sel = cd == c
+        photo = np.maximum(lin.astype(np.float32) / divisor, 0)
+        up = np.maximum(upsample_rows(fused, f, r0, r1, W), 0)
+        ratio = (photo.sum(-1) + np.float32(ANCHOR_EPS)) / (up[..., own].sum(-1) + np.float32(ANCHOR_EPS))
+        resp = up * np.where(valid, ratio, 1)[..., None]
+        resp[..., own] = np.where(valid[..., None], photo, up[..., own])
+        del up, photo, lin
+        # pixels grouped by noise pattern: one gather and one scatter per strip
+        cd = nearest_rows(code, f, r0, r1, W).ravel()
+        order = np.argsort(cd, kind="stable")
+        counts = np.bincount(cd, minlength=int(cd.max()) + 1) if cd.size else np.zeros(0, int)
+        flat = resp.reshape(-1, k)[order]
+        out = np.empty((len(flat), 3), np.float32)
+        a = 0
+        for c in np.flatnonzero(counts):
+            b = a + int(counts[c])
             if int(c) not in fitted:
-                fitted[int(c)] = fit(patterns[int(c)])
+                cor, scale = fit(patterns[int(c)])
+                fitted[int(c)] = cor, np.asarray(scale, np.float32)
             cor, scale = fitted[int(c)]
-            XYZ[sel] = _apply(cor, np.maximum(resp[sel], 0) * scale)
+            out[a:b] = _apply(cor, flat[a:b] * scale)
+            a = b
+        XYZ = np.empty_like(out)
+        XYZ[order] = out
         if progress is not None:
             progress("full resolution", r1, H)
-        yield XYZ.astype(np.float32)
+        yield XYZ.reshape(r1 - r0, W, 3)
 
 
 def _apply(corrector, responses: np.ndarray) -> np.ndarray:
-    """A closed-form corrector on (N, k) responses, :data:`CORRECT_CHUNK` at a time."""
-    out = np.empty((len(responses), 3))
+    """A closed-form corrector on (N, k) float32 responses, :data:`CORRECT_CHUNK` at a time (regressions
+    compute in float32 on float32 input)."""
+    out = np.empty((len(responses), 3), np.float32)
     for a in range(0, len(responses), CORRECT_CHUNK):
         out[a : a + CORRECT_CHUNK] = corrector.predict(responses[a : a + CORRECT_CHUNK])
     return out
@@ -224,18 +235,44 @@ def _full_sigma(s: np.ndarray, own: slice, own_sigma: np.ndarray, fused: np.ndar
     return np.maximum(out, 1e-6)
 
 
+def sRGB8_encoder(white_XYZ) -> Callable[[np.ndarray], np.ndarray]:
+    """``XYZ (..., 3) → 8-bit sRGB (..., 3)``, as ``pipeline.XYZ_to_sRGB`` (Bradford from the scene white
+    ``white_XYZ`` to D65, clipped, sRGB-encoded) rounded to 8 bits: the linear map taken once from
+    colour-science, the encoding through a table of 2¹⁶ linear levels (8-bit output differs from the
+    exact curve by at most one level in the darkest shades)."""
+    import colour
+
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    w = np.asarray(white_XYZ, float)
+    # XYZ_to_RGB is linear in XYZ: its matrix is its image of the identity
+    M = colour.XYZ_to_RGB(
+        np.eye(3), srgb, illuminant=colour.XYZ_to_xy(w), chromatic_adaptation_transform="Bradford"
+    )
+    levels = np.linspace(0, 1, 2**16)
+    lut = (np.asarray(colour.models.eotf_inverse_sRGB(levels)) * 255 + 0.5).astype(np.uint8)
+    M32 = np.asarray(M, np.float32)
+
+    def encode(XYZ):
+        rgb = np.asarray(XYZ, np.float32) @ M32
+        idx = (np.clip(rgb, 0, 1) * np.float32(2**16 - 1) + np.float32(0.5)).astype(np.uint16)
+        return lut[idx]
+
+    return encode
+
+
 def write_full(
     xyz_path: Path,
     png_path: Path,
     strips,
     shape: tuple[int, int],
-    to_sRGB: Callable,
+    to_sRGB8: Callable,
     *,
     rows: int = STRIP_ROWS,
 ) -> None:
     """Write a full-resolution image given as an iterator of XYZ strips (:func:`full_resolution_view`):
     ``xyz_path`` a float32 TIFF written strip by strip (never whole in memory), ``png_path`` its 8-bit
-    sRGB (``to_sRGB(XYZ) → [0, 1]``; the PNG encoder needs the whole 8-bit image, 3 bytes a pixel).
+    sRGB (``to_sRGB8(XYZ) → uint8``, :func:`sRGB8_encoder`; the PNG encoder needs the whole 8-bit image,
+    3 bytes a pixel, compressed at zlib level 1: a 24 MP PNG at the default level took seconds).
     ``rows``: the strips' height (the last may be shorter), the TIFF's RowsPerStrip.
     Both atomically; NaN or infinite values are refused before either file appears."""
     import tifffile
@@ -252,7 +289,7 @@ def write_full(
             if not np.all(np.isfinite(s)):
                 raise SplatError(f"{xyz_path}: refusing to write NaN/inf values.")
             a = done[0]
-            rgb8[a : a + len(s)] = (np.clip(to_sRGB(s), 0, 1) * 255 + 0.5).astype(np.uint8)
+            rgb8[a : a + len(s)] = to_sRGB8(s)
             done[0] += len(s)
             yield np.ascontiguousarray(s, np.float32).tobytes()
 
@@ -271,4 +308,4 @@ def write_full(
     atomic_path(xyz_path, write)
     if done[0] != H:
         raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
-    atomic_path(png_path, lambda p: Image.fromarray(rgb8).save(p, format="PNG"))
+    atomic_path(png_path, lambda p: Image.fromarray(rgb8).save(p, format="PNG", compress_level=1))

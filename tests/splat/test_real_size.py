@@ -245,7 +245,12 @@ def test_full_resolution_strips_give_the_same_image_at_any_strip_height(raw_file
         strip_rows=4,
     )
     strips.write_full(
-        tmp_path / "x.tiff", tmp_path / "x.png", gen, (H, W), lambda X: np.clip(X, 0, 1), rows=4
+        tmp_path / "x.tiff",
+        tmp_path / "x.png",
+        gen,
+        (H, W),
+        lambda X: (np.clip(X, 0, 1) * 255).astype(np.uint8),
+        rows=4,
     )
     np.testing.assert_array_equal(tifffile.imread(tmp_path / "x.tiff"), outs[0])
     from PIL import Image
@@ -283,3 +288,102 @@ def test_full_resolution_own_channels_are_the_photograph(raw_file):
     assert not valid[10, 10]  # the saturated site keeps the upsampled fused values
     up = strips.upsample_rows(fused, 2, 10, 11, src.shape[1])[0, 10]
     np.testing.assert_allclose(XYZ[10, 10], up, rtol=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# the pipeline at a working resolution
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_capture(tmp_path_factory):
+    """The test capture of capture_helpers (real DNG files, a COLMAP model), its images smooth random
+    fields instead of renders of the Gaussian scene (no renderer to compile: these tests read files)."""
+    import splat
+    from tests.splat.capture_helpers import write_capture
+
+    class Image:
+        def __init__(self, cam):
+            yy, xx = np.mgrid[: cam.height, : cam.width]
+            ph = np.arange(9)[None, None] * 0.7
+            self.image = 0.1 + 0.08 * np.sin(xx[..., None] / 4.0 + ph) * np.cos(yy[..., None] / 5.0 + ph)
+
+    root = tmp_path_factory.mktemp("rs") / "cap"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(splat, "render_reference", lambda g, cam: Image(cam))
+        write_capture(root, views=2, holdout=1)
+    return root
+
+
+def test_training_inputs_are_binned_and_their_cameras_scaled(small_capture, tmp_path):
+    """train_size 24: every camera binned (Bayer by an even factor, whole quads), the training cameras'
+    intrinsics divided by the factor, the poses model kept at full resolution; the poses summary says
+    how long it took and its peak memory."""
+    from splat.capture import load_views, read_capture
+    from splat.pipeline import PipelineConfig, _load_model_capture, poses_step, training_inputs
+
+    out = tmp_path / "out"
+    s = poses_step(small_capture, out, config=PipelineConfig())
+    assert s["duration_s"] > 0 and s["peak_rss_mib"] > 0
+    spec = read_capture(small_capture)
+    _, cap = _load_model_capture(spec, out)
+    full = {v.name: v.camera for v in cap.views}
+    raws = {v.name: v for v in load_views(spec)}
+    assert all((c.height, c.width) == raws[n].shape for n, c in full.items())  # model at full size
+    inp = training_inputs(spec, out, PipelineConfig(train_size=24))
+    for v in inp.views:
+        f = inp.working[spec.cameras[v.camera_id - 1].folder]["binning"]
+        assert f > 1 and (f % 2 == 0 or raws[v.name].full_colour)
+        c = full[v.name]
+        np.testing.assert_allclose(np.asarray(v.camera.focal) * f, np.asarray(c.focal), rtol=1e-6)
+        np.testing.assert_allclose(np.asarray(v.camera.principal) * f, np.asarray(c.principal), rtol=1e-6)
+        assert (v.camera.height, v.camera.width) == (c.height // f, c.width // f)
+        assert max(v.camera.width, v.camera.height) <= 24
+    # binned views are full colour: each of the view's own channels measured at (nearly) every pixel
+    for i, v in enumerate(inp.views):
+        k, h, w = v.camera_id - 1, v.camera.height, v.camera.width
+        assert (inp.weights[i, :h, :w, 3 * k : 3 * k + 3] > 0).mean() > 0.9
+        assert not inp.weights[i, h:].any() and not inp.weights[i, :, w:].any()
+
+
+def test_train_size_and_noise_are_checked_before_work(small_capture, tmp_path, capsys):
+    from splat.capture import CaptureError, read_capture
+    from splat.cli import main
+    from splat.pipeline import PipelineConfig
+
+    for bad in (0, 8, 3.5, True):
+        with pytest.raises(ValueError, match="train_size"):
+            PipelineConfig(train_size=bad)
+    for bad in ("loud", -1.0, {"shot": 1.0}):
+        with pytest.raises(ValueError, match="noise"):
+            PipelineConfig(noise=bad)
+    PipelineConfig(noise={"shot": 2e-5, "read": 0.0})
+    toml = small_capture / "capture.toml"
+    text = toml.read_text()
+    import shutil
+
+    c = tmp_path / "cap"
+    shutil.copytree(small_capture, c)
+    (c / "capture.toml").write_text('train_size = "big"\n' + text)
+    with pytest.raises(CaptureError, match="train_size"):
+        read_capture(c)
+    (c / "capture.toml").write_text("train_size = 32\n" + text)
+    assert read_capture(c).train_size == 32
+    assert main(["poses", str(c), "-o", str(tmp_path / "o"), "--noise", "1e-3:x"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--noise" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_8_bit_encoder_is_XYZ_to_sRGB_rounded():
+    """The table-driven 8-bit sRGB of the full-resolution PNG against colour-science's exact conversion
+    (``pipeline.XYZ_to_sRGB``): within one level everywhere, equal on most pixels."""
+    from splat.pipeline import XYZ_to_sRGB
+    from splat.strips import sRGB8_encoder
+
+    rng = np.random.default_rng(5)
+    XYZ = rng.uniform(0, 1.1, (4000, 3)) * np.array([0.95, 1.0, 1.09])
+    white = np.array([0.9505, 1.0, 1.089])
+    exact = np.round(XYZ_to_sRGB(XYZ, white) * 255)
+    got = sRGB8_encoder(white)(XYZ).astype(float)
+    assert got.dtype == float and np.abs(got - exact).max() <= 1 and (got == exact).mean() > 0.95
