@@ -21,9 +21,16 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
            DNG-matrix development of the view), ``correct/summary.json``; for views with a RAW file
            also ``<method>_fused_XYZ.tiff`` / ``_sRGB.tiff`` / ``.png`` (:mod:`splat.fusion`: the view's
            own channels and the other cameras' reprojected photographs — the better estimate wherever
-           the view was photographed), ``correct/fusion.json`` (their noise levels)
+           the view was photographed), ``correct/fusion.json`` (their noise levels), and
+           ``full_XYZ.tiff`` + ``full_sRGB.png``: the photograph corrected at its RAW file's full size
+           (:mod:`splat.strips`)
 report     ``report.html`` (:mod:`splat.report`)
 =========  ==========================================================================================
+
+Train, render and the working-resolution part of correct run on every photograph binned to a working
+resolution (:mod:`splat.resolution`; ``train_size``); the poses step on previews binned to the automatic
+one. Each step's ``summary.json`` (render: ``render/summary.json``) records ``duration_s`` and
+``peak_rss_mib``.
 
 ``<folder>`` is the camera's folder, or ``camera<k>-<name>`` for a folder outside the capture
 (:meth:`splat.capture.CaptureSpec.label`). Ground truth (``truth/``) is never read here;
@@ -1079,9 +1086,11 @@ def render_step(
     n = len(spec.cameras)
     depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
     index = {}
+    rendered = 0  # views rendered or reprojected by this call
     for i, (name, cam, cid, kind) in enumerate(todo):
         d = ws.view_dir("render", name)
         files = {"render": d / "render.tiff", "pca": d / "pca.png"}
+        rendered += not all(p.is_file() for p in [*files.values(), d / "reprojected_count.tiff"])
         if not all(p.is_file() for p in files.values()):
             img = render_views(g, [cam], mask=alive)[0]
             _write_tiff(files["render"], img)
@@ -1096,15 +1105,17 @@ def render_step(
         if progress is not None:
             progress("render", i + 1, len(todo))
     _write_json(out / "render" / "index.json", index)
-    _write_json(
-        out / "render" / "summary.json",
-        {
-            "views": len(index),
-            "working": working_summary(spec, list(raws.values())),
-            "duration_s": time.perf_counter() - t0,
-            "peak_rss_mib": peak_rss_mib(),
-        },
-    )
+    if rendered or not (out / "render" / "summary.json").is_file():  # a call that reused every view
+        _write_json(  # keeps the summary of the call that did the work
+            out / "render" / "summary.json",
+            {
+                "views": len(index),
+                "rendered": rendered,
+                "working": working_summary(spec, list(raws.values())),
+                "duration_s": time.perf_counter() - t0,
+                "peak_rss_mib": peak_rss_mib(),
+            },
+        )
     return index
 
 
