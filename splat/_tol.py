@@ -158,3 +158,26 @@ TRACK_VISIBLE_ATOL = 1e-6
 #: development's only when the latter is at least this: 0.05 ΔE00 is far below a visible difference,
 #: and a ratio to ~0 says nothing.
 CARD_DELTA_E_FLOOR = 0.05
+
+# --- working resolution and full-resolution outputs (splat.resolution, splat.strips) ---------------
+
+#: The automatic working resolution of the train and render steps: each photograph is binned
+#: (:func:`splat.resolution.working_factor`) until it holds at most this many pixels. 2¹⁸ = 262 144 px
+#: is 3.4 × the 320 × 240 views of the benchmark capture (the largest trained so far: 3000 steps of the
+#: CPU rasteriser take minutes there, and time grows with pixels × views), 600 × 400 for a 24 MP
+#: 6000 × 4000 photograph (binned 10 × 10); a 4096-Gaussian splat holds far less detail than that, and
+#: every output is made at full resolution from the photographs themselves (:mod:`splat.strips`).
+TRAIN_PIXEL_BUDGET = 2**18
+
+#: Full-resolution rows read per strip when binning a RAW mosaic (memory only: ~70 MB of float64 per
+#: strip of a 6000-px-wide image; the binned result does not depend on it).
+BIN_ROWS = 512
+
+#: Full-resolution rows per strip of :mod:`splat.strips` (memory only: the strip's responses, noise
+#: codes and correction at 6000 px wide are ~100–200 MB; tests check that the result is the same at
+#: any strip height).
+STRIP_ROWS = 128
+
+#: Pixels corrected per call of the regression within a strip (memory only: a root-polynomial of nine
+#: channels has 45 terms, 2¹⁷ pixels × 45 × 8 B = 47 MB).
+CORRECT_CHUNK = 2**17

@@ -51,13 +51,18 @@ __all__ = [
     "CameraSpec",
     "CaptureError",
     "CaptureSpec",
+    "RawSource",
     "RawView",
     "WhiteSpec",
     "check_white_box",
     "exif_exposure",
+    "load_view",
     "load_views",
+    "open_raw",
     "read_capture",
     "read_linear",
+    "relative_exposures",
+    "white_box",
     "white_scale",
 ]
 
@@ -124,6 +129,9 @@ class CaptureSpec:
         ``"<folder>/<file>"`` names kept out of training.
     colmap, transforms : Path or None
         User-supplied poses.
+    train_size : int or None
+        Longer side (pixels) of the working resolution of training (``train_size = 640`` at the top
+        level; ``--train-size`` overrides it); None: automatic (:mod:`splat.resolution`).
     """
 
     root: Path
@@ -134,6 +142,7 @@ class CaptureSpec:
     holdout: tuple[str, ...] = ()
     colmap: Path | None = None
     transforms: Path | None = None
+    train_size: int | None = None
 
     @property
     def file(self) -> Path:
@@ -223,7 +232,7 @@ class CaptureSpec:
             ) from e
 
 
-_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses")
+_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses", "train_size")
 _CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
 _WHITE_KEYS = ("method", "image", "box", "reflectance")
 _HOLDOUT_KEYS = ("images",)
@@ -430,7 +439,17 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
         transforms = root / _need(poses, "transforms", str, "[poses]", file)
         if not transforms.is_file():
             raise CaptureError(f"{file}: [poses].transforms = {poses['transforms']!r} does not exist.")
-    spec = CaptureSpec(root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms)
+    train_size = doc.get("train_size")
+    if train_size is not None and (
+        isinstance(train_size, bool) or not isinstance(train_size, int) or train_size < 16
+    ):
+        raise CaptureError(
+            f"{file}: train_size = {train_size!r} must be a whole number of pixels ≥ 16 (the longer side of "
+            "the working resolution of training), e.g. train_size = 640; leave it out for the automatic one."
+        )
+    spec = CaptureSpec(
+        root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms, train_size
+    )
     for k, c in enumerate(specs):
         files = spec.raw_files(k)
         if not files:
@@ -479,6 +498,16 @@ class RawView:
         The file's DNG NoiseProfile as rows ``(S, O)`` for R, G, B: the noise variance of
         :attr:`values` is ``S·x + O`` at value ``x`` (a single pair in the file is repeated). None when
         the file has none.
+    binning : int
+        The file's mosaic binned by this factor (:mod:`splat.resolution`; 1: the mosaic itself). A
+        binned view is full-colour: each channel the mean of its block's valid sites, the weight the
+        valid fraction, the noise profile scaled to the mean.
+    full_shape : tuple of int or None
+        ``(H, W)`` of the file at full resolution (None: :attr:`shape`).
+    path : Path or None
+        The file (for full-resolution work).
+    source_cfa : str or None
+        The file's 2 × 2 Bayer pattern (None: a full-colour file), also once binned.
     """
 
     name: str
@@ -492,11 +521,20 @@ class RawView:
     n_saturated: int = 0
     n_dead: int = 0
     noise_profile: np.ndarray | None = None
+    binning: int = 1
+    full_shape: tuple[int, int] | None = None
+    path: Path | None = None
+    source_cfa: str | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
         """Image size ``(H, W)``."""
         return self.values.shape[:2]
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """Image size ``(H, W)`` of the file at full resolution."""
+        return self.shape if self.full_shape is None else tuple(self.full_shape)
 
     @property
     def cfa(self) -> str:
@@ -584,6 +622,133 @@ def _read_linear_raw_dng(path: Path):
     return data, black, white, tags
 
 
+@dataclass(frozen=True, eq=False)
+class RawSource:
+    """One RAW file as stored (its samples kept in the file's own integer type) and what turns any rows
+    of it into the linear values and weights of :class:`RawView`: full-resolution work reads it strip by
+    strip (:meth:`rows`), so that memory holds the file's samples once, never the float mosaic whole.
+
+    Attributes
+    ----------
+    path : Path
+    data : ndarray of shape (H, W) (Bayer) or (H, W, 3) (full colour)
+        The samples, black level included.
+    black : ndarray of shape (2, 2) (per CFA site) or (3,) (per channel)
+    white : float
+    cfa : str or None
+        The 2 × 2 Bayer pattern of the top-left corner; None for a full-colour file.
+    info : dict
+        ``profile``, ``neutral`` (max 1), ``full_colour``, ``cfa``, ``noise_profile`` (see
+        :class:`RawView`).
+    """
+
+    path: Path
+    data: np.ndarray
+    black: np.ndarray
+    white: float
+    cfa: str | None
+    info: dict
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Image size ``(H, W)``."""
+        return self.data.shape[:2]
+
+    @property
+    def full_colour(self) -> bool:
+        """Whether every pixel measures all three channels."""
+        return self.cfa is None
+
+    def rows(self, r0: int, r1: int, *, counts: bool = False):
+        """Linear values and weights (each (r1 − r0, W, 3), float32) of rows ``r0:r1``, exactly as
+        :func:`read_linear` gives them for the whole file; ``r0`` even on a Bayer mosaic (so that the
+        rows start with the file's own pattern). With ``counts``, also the numbers of saturated and dead
+        pixels among them."""
+        if self.cfa is not None and r0 % 2:
+            raise SplatError(f"{self.path}: rows of a Bayer mosaic start at an even row, got {r0}.")
+        raw_dn = self.data[r0:r1].astype(np.float64)
+        white = self.white
+        if self.cfa is None:
+            black = self.black
+            values = (raw_dn - black) / (white - black)
+            measured = np.ones(values.shape, bool)
+            saturated = np.any(raw_dn >= white, axis=-1, keepdims=True) & measured
+            dead = np.all(raw_dn <= 0, axis=-1, keepdims=True) & bool(np.all(black > 0)) & measured
+        else:
+            from isp.cfa import cfa_masks
+
+            H, W = raw_dn.shape
+            black_px = np.tile(self.black, ((H + 1) // 2, (W + 1) // 2))[:H, :W]
+            v = (raw_dn - black_px) / (white - black_px)
+            measured = cfa_masks((H, W), self.cfa)
+            values = v[..., None] * measured
+            saturated = (raw_dn >= white)[..., None] & measured
+            dead = ((raw_dn <= 0) & (black_px > 0))[..., None] & measured
+        weight = measured & ~saturated & ~dead
+        values = np.where(measured, np.clip(values, -0.05, 1.0), 0.0)
+        out = values.astype(np.float32), weight.astype(np.float32)
+        if counts:
+            return (*out, int(np.any(saturated, -1).sum()), int(np.any(dead, -1).sum()))
+        return out
+
+
+def open_raw(path: str | os.PathLike, camera: CameraSpec | None = None) -> RawSource:
+    """Read one RAW file's samples and levels (:class:`RawSource`), the capture file's black and white
+    level overrides applied; :meth:`RawSource.rows` gives its linear values.
+
+    Raises
+    ------
+    CaptureError
+        An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
+    """
+    from isp import DNGProfile, RawFormatError, noise_profile, read_raw
+
+    path = Path(path)
+    camera = camera or CameraSpec("", "")
+    lin = _read_linear_raw_dng(path) if path.suffix.lower() == ".dng" else None
+    if lin is not None:
+        data, black, white, tags = lin
+        if camera.black_level is not None:
+            black = np.full(3, float(camera.black_level))
+        if camera.white_level is not None:
+            white = float(camera.white_level)
+        try:
+            profile = DNGProfile.from_tags(tags)
+        except RawFormatError:
+            profile = None
+        neutral = np.asarray(tags.get("AsShotNeutral", np.ones(3)), float)
+        cfa = None
+        levels = (float(np.mean(lin[1])), lin[2], float(np.mean(black)), white)
+    else:
+        try:
+            raw = read_raw(path)
+        except (RawFormatError, FileNotFoundError) as e:
+            raise CaptureError(
+                f"{path}: cannot read this RAW file ({e}). Remove it from the folder or convert it to DNG."
+            ) from e
+        cfa = camera.cfa or raw.cfa
+        black = raw.black_level if camera.black_level is None else np.full((2, 2), float(camera.black_level))
+        white = raw.white_level if camera.white_level is None else float(camera.white_level)
+        data = raw.mosaic
+        profile, neutral = raw.profile, raw.as_shot_neutral
+        tags = raw.tags
+        levels = (float(np.mean(raw.black_level)), float(raw.white_level), float(np.mean(black)), white)
+    try:
+        noise = noise_profile(tags, path)
+    except RawFormatError as e:
+        raise CaptureError(str(e)) from e
+    if noise is not None and levels[:2] != levels[2:]:
+        noise = _relevel_noise(noise, *levels)
+    info = dict(
+        profile=profile,
+        neutral=neutral / np.max(neutral),
+        full_colour=cfa is None,
+        cfa=cfa,
+        noise_profile=noise,
+    )
+    return RawSource(path, data, np.asarray(black, float), float(white), cfa, info)
+
+
 def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
     """Read one RAW file as a linear mosaic (see :class:`RawView` for the fields).
 
@@ -599,69 +764,9 @@ def read_linear(path: str | os.PathLike, camera: CameraSpec | None = None):
     CaptureError
         An unreadable file, or a malformed NoiseProfile tag (the message says which and why).
     """
-    from isp import DNGProfile, RawFormatError, noise_profile, read_raw
-    from isp.cfa import cfa_masks
-
-    path = Path(path)
-    camera = camera or CameraSpec("", "")
-    lin = _read_linear_raw_dng(path) if path.suffix.lower() == ".dng" else None
-    if lin is not None:
-        data, black, white, tags = lin
-        if camera.black_level is not None:
-            black = np.full(3, float(camera.black_level))
-        if camera.white_level is not None:
-            white = float(camera.white_level)
-        raw_dn = data.astype(np.float64)
-        values = (raw_dn - black) / (white - black)
-        measured = np.ones(values.shape, bool)
-        saturated = np.any(raw_dn >= white, axis=-1, keepdims=True) & measured
-        dead = np.all(raw_dn <= 0, axis=-1, keepdims=True) & bool(np.all(black > 0)) & measured
-        try:
-            profile = DNGProfile.from_tags(tags)
-        except RawFormatError:
-            profile = None
-        neutral = np.asarray(tags.get("AsShotNeutral", np.ones(3)), float)
-        full, cfa = True, None
-        levels = (float(np.mean(lin[1])), lin[2], float(np.mean(black)), white)
-    else:
-        try:
-            raw = read_raw(path)
-        except (RawFormatError, FileNotFoundError) as e:
-            raise CaptureError(
-                f"{path}: cannot read this RAW file ({e}). Remove it from the folder or convert it to DNG."
-            ) from e
-        cfa = camera.cfa or raw.cfa
-        black = raw.black_level if camera.black_level is None else np.full((2, 2), float(camera.black_level))
-        white = raw.white_level if camera.white_level is None else float(camera.white_level)
-        raw_dn = raw.mosaic.astype(np.float64)
-        H, W = raw_dn.shape
-        black_px = np.tile(black, ((H + 1) // 2, (W + 1) // 2))[:H, :W]
-        v = (raw_dn - black_px) / (white - black_px)
-        measured = cfa_masks((H, W), cfa)
-        values = v[..., None] * measured
-        saturated = (raw_dn >= white)[..., None] & measured
-        dead = ((raw_dn <= 0) & (black_px > 0))[..., None] & measured
-        profile, neutral, full = raw.profile, raw.as_shot_neutral, False
-        tags = raw.tags
-        levels = (float(np.mean(raw.black_level)), float(raw.white_level), float(np.mean(black)), white)
-    try:
-        noise = noise_profile(tags, path)
-    except RawFormatError as e:
-        raise CaptureError(str(e)) from e
-    if noise is not None and levels[:2] != levels[2:]:
-        noise = _relevel_noise(noise, *levels)
-    weight = measured & ~saturated & ~dead
-    values = np.where(measured, np.clip(values, -0.05, 1.0), 0.0)
-    info = dict(
-        profile=profile,
-        neutral=neutral / np.max(neutral),
-        full_colour=full,
-        cfa=cfa,
-        n_saturated=int(np.any(saturated, -1).sum()),
-        n_dead=int(np.any(dead, -1).sum()),
-        noise_profile=noise,
-    )
-    return values.astype(np.float32), weight.astype(np.float32), info
+    src = open_raw(path, camera)
+    values, weight, n_sat, n_dead = src.rows(0, src.shape[0], counts=True)
+    return values, weight, dict(src.info, n_saturated=n_sat, n_dead=n_dead)
 
 
 def _relevel_noise(P: np.ndarray, black: float, white: float, new_black: float, new_white: float):
@@ -674,7 +779,56 @@ def _relevel_noise(P: np.ndarray, black: float, white: float, new_black: float, 
     return np.stack([S, np.maximum(O, 0.0)], axis=1)
 
 
-def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
+def load_view(spec: CaptureSpec, k: int, path: Path, *, binning=None) -> RawView:
+    """One RAW file of camera ``k`` as a :class:`RawView`, with its EXIF exposure (not yet relative).
+
+    ``binning``: ``binning(shape, full_colour) → f``, the factor to bin the mosaic by
+    (:func:`splat.resolution.working_factor`); the file is then read and binned strip by strip
+    (:func:`splat.resolution.bin_mosaic`), so memory never holds its float mosaic whole.
+    """
+    from .resolution import bin_mosaic, binned_noise_profile
+
+    cam = spec.cameras[k]
+    src = open_raw(path, cam)
+    f = 1 if binning is None else int(binning(src.shape, src.full_colour))
+    n_sat = n_dead = 0
+    if f == 1:
+        values, weight, n_sat, n_dead = src.rows(0, src.shape[0], counts=True)
+        noise = src.info["noise_profile"]
+    else:
+        tally = [0, 0]
+
+        def rows(r0, r1):
+            v, w, a, b = src.rows(r0, r1, counts=True)
+            tally[0] += a
+            tally[1] += b
+            return v, w
+
+        values, weight = bin_mosaic(rows, src.shape, f, cfa=src.cfa)
+        n_sat, n_dead = tally
+        noise = binned_noise_profile(src.info["noise_profile"], src.cfa, f)
+    e = cam.exposure.get(path.name)
+    e = float(e) if e is not None else exif_exposure(path)
+    return RawView(
+        f"{cam.folder}/{path.name}",
+        k,
+        values,
+        weight,
+        e,
+        src.info["profile"],
+        src.info["neutral"],
+        src.info["full_colour"] or f > 1,
+        n_sat,
+        n_dead,
+        noise,
+        binning=f,
+        full_shape=tuple(src.shape),
+        path=Path(path),
+        source_cfa=src.cfa,
+    )
+
+
+def load_views(spec: CaptureSpec, *, progress=None, binning=None) -> list[RawView]:
     """Read every RAW file of the capture (all cameras), with relative exposures.
 
     Parameters
@@ -682,6 +836,9 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
     spec : CaptureSpec
     progress : callable, optional
         ``progress("read", done, total)`` after each file (:class:`zonotope.ProgressCallback`).
+    binning : callable, optional
+        ``binning(k, shape, full_colour) → f``: read camera ``k``'s files binned by ``f``
+        (:func:`load_view`), one file at a time; default the mosaics themselves.
 
     Returns
     -------
@@ -695,41 +852,28 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
         Unreadable file; files of one camera with different sizes or full-colour/Bayer mixed; some
         files with EXIF exposure and some without (give ``exposure`` overrides for those).
     """
+    import dataclasses
+    import functools
+
     jobs = [(k, p) for k in range(len(spec.cameras)) for p in spec.raw_files(k)]
     views: list[RawView] = []
     for i, (k, p) in enumerate(jobs):
-        cam = spec.cameras[k]
-        values, weight, info = read_linear(p, cam)
-        e = cam.exposure.get(p.name)
-        e = float(e) if e is not None else exif_exposure(p)
         views.append(
-            RawView(
-                f"{cam.folder}/{p.name}",
-                k,
-                values,
-                weight,
-                e,
-                info["profile"],
-                info["neutral"],
-                info["full_colour"],
-                info["n_saturated"],
-                info["n_dead"],
-                info["noise_profile"],
-            )
+            load_view(spec, k, p, binning=None if binning is None else functools.partial(binning, k))
         )
         if progress is not None:
             progress("read", i + 1, len(jobs))
     for k, cam in enumerate(spec.cameras):
         mine = [v for v in views if v.camera == k]
-        sizes = sorted({v.shape for v in mine})
+        sizes = sorted({v.size for v in mine})
         if len(sizes) > 1:
-            ex = {s: next(v.name for v in mine if v.shape == s) for s in sizes}
+            ex = {s: next(v.name for v in mine if v.size == s) for s in sizes}
             raise CaptureError(
                 f"camera folder {cam.folder!r} mixes image sizes {ex}; one physical camera "
                 "has one resolution: move the odd files to a folder of their own (a "
                 "separate [[camera]]) or remove them."
             )
-        if len({v.full_colour for v in mine}) > 1:
+        if len({v.source_cfa is None for v in mine}) > 1:
             raise CaptureError(f"camera folder {cam.folder!r} mixes Bayer and full-colour files.")
     known = [v.exif for v in views if v.exif is not None]
     if known and len(known) < len(views):
@@ -740,22 +884,21 @@ def load_views(spec: CaptureSpec, *, progress=None) -> list[RawView]:
             "time × ISO / f-number²."
         )
     med = float(np.median(known)) if known else 1.0
-    return [
-        RawView(
-            v.name,
-            v.camera,
-            v.values,
-            v.weight,
-            (v.exif / med) if known else 1.0,
-            v.profile,
-            v.neutral,
-            v.full_colour,
-            v.n_saturated,
-            v.n_dead,
-            v.noise_profile,
-        )
-        for v in views
-    ]
+    return [dataclasses.replace(v, exif=(v.exif / med) if known else 1.0) for v in views]
+
+
+def relative_exposures(spec: CaptureSpec) -> dict[str, float]:
+    """Every RAW file's relative exposure as :func:`load_views` gives it (``"<folder>/<file>"`` →
+    exposure), read from the files' tags and the capture file's overrides only (no pixel data)."""
+    names, values = [], []
+    for k, cam in enumerate(spec.cameras):
+        for p in spec.raw_files(k):
+            e = cam.exposure.get(p.name)
+            names.append(f"{cam.folder}/{p.name}")
+            values.append(float(e) if e is not None else exif_exposure(p))
+    known = [e for e in values if e is not None]
+    med = float(np.median(known)) if known else 1.0
+    return {n: (e / med if known and e is not None else 1.0) for n, e in zip(names, values)}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -836,10 +979,11 @@ def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:
         raise CaptureError(
             f"{spec.file}: [white].image {spec.white.image!r} is not one of the capture's views."
         )
+    H, W = v.size
     x0, y0, x1, y1 = spec.white.box
-    H, W = v.shape
     if x1 > W or y1 > H:
         raise CaptureError(f"{spec.file}: [white].box {list(spec.white.box)} lies outside the {W}×{H} image.")
+    x0, y0, x1, y1 = white_box(spec, v)
     wt = v.weight[y0:y1, x0:x1].reshape(-1, 3)
     if np.any(wt.sum(0) == 0):
         raise CaptureError(
@@ -847,6 +991,14 @@ def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:
             "(saturated or too small); choose a larger, unsaturated patch."
         )
     return v
+
+
+def white_box(spec: CaptureSpec, v: RawView) -> tuple[int, int, int, int]:
+    """``[white] box`` (full-resolution pixels) in ``v``'s pixels: the blocks of a binned view that the
+    box touches, the box itself otherwise."""
+    x0, y0, x1, y1 = spec.white.box
+    f = v.binning
+    return x0 // f, y0 // f, max(-(-x1 // f), x0 // f + 1), max(-(-y1 // f), y0 // f + 1)
 
 
 def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
@@ -871,7 +1023,7 @@ def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     if spec.white.method == "patch":
         k0 = spec.camera_index(Path(spec.white.image).parent.as_posix())
         v = check_white_box(spec, views)
-        x0, y0, x1, y1 = spec.white.box
+        x0, y0, x1, y1 = white_box(spec, v)
         val = v.values[y0:y1, x0:x1].reshape(-1, 3)
         wt = v.weight[y0:y1, x0:x1].reshape(-1, 3)
         mean = (val * wt).sum(0) / wt.sum(0)

@@ -81,6 +81,22 @@ def _parser() -> argparse.ArgumentParser:
             help="weight of the sparse depth term from the COLMAP points each view observes "
             "(0: off; default: PipelineConfig.depth_weight)",
         )
+        s.add_argument(
+            "--train-size",
+            type=int,
+            default=None,
+            metavar="PX",
+            help="longer side of the working resolution of training, in pixels (RAW files are binned, "
+            "CFA-aware, to it; outputs stay at full resolution); default: capture.toml's train_size, "
+            "else automatic (at most splat._tol.TRAIN_PIXEL_BUDGET pixels)",
+        )
+        s.add_argument(
+            "--noise",
+            default="auto",
+            metavar="auto|SIGMA|SHOT:READ",
+            help="noise of the photographs' own channels in the correction (white = 1): auto (default: "
+            "the RAW file's NoiseProfile, else estimated from the mosaic), a σ, or shot:read variances",
+        )
     _export_parser(sub)
     return p
 
@@ -138,6 +154,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from zonotope import ZonotopeError
+    from zonotope.correct import parse_noise
 
     from .pipeline import STEPS, PipelineConfig, run
 
@@ -155,6 +172,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             refine_exposure=args.refine_exposure,
             refine_poses=args.refine_poses,
             **({} if args.depth_weight is None else {"depth_weight": args.depth_weight}),
+            train_size=args.train_size,
+            noise=parse_noise(args.noise),
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
@@ -218,6 +237,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"poses ({p['source']}): {p['registered']} of {p['views']} views registered ({cams})")
     if "train" in results:
         t = results["train"]
+        for folder, w in (t.get("working") or {}).items():
+            if w["binning"] == 1:
+                print(f"train: {folder} at full resolution {w['full'][0]}×{w['full'][1]} (the RAW mosaics)")
+            else:
+                n = w["sites_per_channel"]
+                print(
+                    f"train: {folder} {w['full'][0]}×{w['full'][1]} binned {w['binning']}×{w['binning']} to "
+                    f"{w['working'][0]}×{w['working'][1]}: each pixel's R, G, B the mean of {n[0]}, {n[1]}, "
+                    f"{n[2]} sites (noise σ ÷ {', '.join(f'{x:g}' for x in w['noise_sigma_divided_by'])}); "
+                    "outputs at full resolution"
+                )
         import jax
 
         device = jax.devices()[0]  # JAX picks the GPU when the `gpu` extra (jax[cuda12]) is installed
@@ -245,6 +275,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(
                 f"correct: {f['views']} photographed views also fused with their RAW files and the other "
                 f"photographs reprojected into them ({f['files']}; render σ {f['render_sigma']:.3f})"
+            )
+        full = c.get("full_resolution") or {}
+        if full.get("views"):
+            print(
+                f"correct: {full['views']} photographs corrected at their full resolution ({full['files']}; "
+                f"{full['method']}); own-channel noise from "
+                f"{', '.join(sorted({d['source'] for d in c.get('own_noise', {}).values()})) or '-'}"
             )
         if f.get("novel"):
             print(

@@ -21,9 +21,16 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
            DNG-matrix development of the view), ``correct/summary.json``; for views with a RAW file
            also ``<method>_fused_XYZ.tiff`` / ``_sRGB.tiff`` / ``.png`` (:mod:`splat.fusion`: the view's
            own channels and the other cameras' reprojected photographs — the better estimate wherever
-           the view was photographed), ``correct/fusion.json`` (their noise levels)
+           the view was photographed), ``correct/fusion.json`` (their noise levels), and
+           ``full_XYZ.tiff`` + ``full_sRGB.png``: the photograph corrected at its RAW file's full size
+           (:mod:`splat.strips`)
 report     ``report.html`` (:mod:`splat.report`)
 =========  ==========================================================================================
+
+Train, render and the working-resolution part of correct run on every photograph binned to a working
+resolution (:mod:`splat.resolution`; ``train_size``); the poses step on previews binned to the automatic
+one. Each step's ``summary.json`` (render: ``render/summary.json``) records ``duration_s`` and
+``peak_rss_mib``.
 
 ``<folder>`` is the camera's folder, or ``camera<k>-<name>`` for a folder outside the capture
 (:meth:`splat.capture.CaptureSpec.label`). Ground truth (``truth/``) is never read here;
@@ -57,7 +64,8 @@ from .capture import (
     read_capture,
     white_scale,
 )
-from .workspace import Workspace, capture_fingerprint, read_json
+from .strips import FULL_METHOD
+from .workspace import Workspace, capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
 
 if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
@@ -127,6 +135,16 @@ class PipelineConfig:
         each training view's rendered depth is pulled towards the COLMAP points its track says it
         observes (:func:`depth_targets`; a model without tracks gives none, and the term is off). 0 turns
         it off.
+    train_size : int or None
+        Longer side (pixels) of the working resolution of the train and render steps: every photograph
+        is binned (:mod:`splat.resolution`, CFA-aware) until its longer side is at most this; None
+        (default) bins each to at most :data:`splat._tol.TRAIN_PIXEL_BUDGET` pixels. Outputs are made
+        at full resolution either way.
+    noise : str, float or dict
+        Noise of the photographs' own channels in the fused correction: ``"auto"`` (default: the RAW
+        file's DNG NoiseProfile, else an estimate from the mosaic), a σ (white → 1 units), or
+        ``{"shot": .., "read": ..}`` (variance ``shot · x + read`` at the channel's median level
+        ``x``): :func:`zonotope.correct.parse_noise` reads the ``--noise`` text.
     """
 
     steps: int = 3000
@@ -143,6 +161,8 @@ class PipelineConfig:
     refine_exposure: bool = False
     refine_poses: bool = False
     depth_weight: float = 13.0
+    train_size: int | None = None
+    noise: str | float | dict = "auto"
 
     def __post_init__(self):
         positive = {"steps": self.steps, "capacity": self.capacity}
@@ -166,6 +186,88 @@ class PipelineConfig:
         w = self.depth_weight
         if not isinstance(w, int | float) or not np.isfinite(w) or w < 0:
             raise SplatError(f"depth_weight={w!r}: must be a finite number ≥ 0 (0 turns the depth term off).")
+        t = self.train_size
+        if t is not None and (isinstance(t, bool) or not isinstance(t, int) or t < 16):
+            raise SplatError(f"train_size={t!r}: must be a number of pixels ≥ 16 (e.g. --train-size 640).")
+        _noise_of(self.noise)
+
+
+def _noise_of(noise):
+    """The ``noise`` option checked: ``"auto"``, a σ ≥ 0, or shot and read variances ≥ 0."""
+    ok = noise == "auto"
+    if isinstance(noise, int | float) and not isinstance(noise, bool):
+        ok = bool(np.isfinite(noise) and noise >= 0)
+    if isinstance(noise, dict):
+        vals = [noise.get("shot"), noise.get("read")]
+        ok = set(noise) == {"shot", "read"} and all(
+            isinstance(v, int | float) and np.isfinite(v) and v >= 0 for v in vals
+        )
+    if not ok:
+        raise SplatError(
+            f"noise={noise!r}: give 'auto', a σ such as 0.005, or SHOT:READ such as 2.5e-5:0 (--noise)."
+        )
+    return noise
+
+
+def train_size_of(spec: CaptureSpec, config: PipelineConfig) -> int | None:
+    """The working resolution's longer side: ``config.train_size`` (``--train-size``), else the capture
+    file's ``train_size``, else None (automatic)."""
+    return config.train_size if config.train_size is not None else spec.train_size
+
+
+def working_binning(config: PipelineConfig, spec: CaptureSpec | None = None):
+    """``binning(k, shape, full_colour) → f`` of the train, render and correct steps
+    (:func:`splat.resolution.working_factor` with :func:`train_size_of`)."""
+    from .resolution import working_factor
+
+    size = config.train_size if spec is None else train_size_of(spec, config)
+    return lambda k, shape, full: working_factor(shape, full, size=size)
+
+
+def preview_binning(k, shape, full) -> int:
+    """The binning of the poses step's previews: the automatic working resolution (bounded whatever
+    ``train_size`` says, so that poses never depend on it)."""
+    from .resolution import working_factor
+
+    return working_factor(shape, full)
+
+
+def working_views(views, raws: dict) -> list:
+    """``views`` (:class:`splat.data.View`, full-resolution cameras) with each camera scaled to its
+    photograph's working resolution (``raws``: name → :class:`splat.capture.RawView` as read with
+    :func:`working_binning`; :func:`splat.resolution.scale_camera`)."""
+    import dataclasses
+
+    from .resolution import scale_camera
+
+    out = []
+    for v in views:
+        r = raws.get(v.name)
+        f = 1 if r is None else r.binning
+        out.append(v if f == 1 else dataclasses.replace(v, camera=scale_camera(v.camera, f)))
+    return out
+
+
+def working_summary(spec: CaptureSpec, raws) -> dict:
+    """Per camera folder: full and working size, binning factor, sites averaged per channel and how much
+    that lowers each channel's noise σ (√ of the sites), for the step summaries and stdout."""
+    from .resolution import sites_per_block
+
+    doc = {}
+    for v in raws:
+        c = spec.cameras[v.camera].folder
+        if c in doc:
+            continue
+        f = v.binning
+        n = sites_per_block(v.source_cfa, f) if f > 1 else np.ones(3)
+        doc[c] = {
+            "full": [int(v.size[1]), int(v.size[0])],
+            "working": [int(v.shape[1]), int(v.shape[0])],
+            "binning": int(f),
+            "sites_per_channel": [int(x) for x in n],
+            "noise_sigma_divided_by": [round(float(np.sqrt(x)), 2) for x in n],
+        }
+    return doc
 
 
 # ---------------------------------------------------------------------------------------------
@@ -266,6 +368,7 @@ def _workspace(capture, out, config: PipelineConfig, step: str | None = None, se
 def _train_settings(spec: CaptureSpec, config: PipelineConfig) -> dict:
     return {
         "holdout": sorted(spec.holdout),
+        "train_size": train_size_of(spec, config),
         **{
             f: getattr(config, f)
             for f in (
@@ -377,7 +480,9 @@ def poses_step(
     if done.is_file():
         return read_json(done)
     t0 = time.perf_counter()
-    views = load_views(spec, progress=progress)
+    reset_peak_rss()
+    # previews of a bounded size: each file read and binned to the automatic working resolution
+    views = load_views(spec, progress=progress, binning=preview_binning)
     check_white_box(spec, views)
     names = [v.name for v in views]
     if spec.colmap is not None or spec.transforms is not None:
@@ -432,9 +537,14 @@ def poses_step(
                 "texture, or give poses in capture.toml ([poses] colmap = ...)."
             )
         src = model.cameras[by_name[reg[0].name].camera_id]
-        H, W = mine[0].shape
-        f = preview_upscale((H, W)) if source == "pycolmap" else 1
-        if (src.width, src.height) != (W * f, H * f):
+        H, W = mine[0].size  # the model is stored at full resolution
+        if source == "pycolmap":  # preview pixels → full-resolution pixels: × binning / upscale
+            h, w = mine[0].shape
+            u = preview_upscale((h, w))
+            expect, f = (w * u, h * u), u / mine[0].binning
+        else:
+            expect, f = (W, H), 1
+        if (src.width, src.height) != expect:
             raise CaptureError(
                 f"poses give camera {c.folder!r} the size {src.width}×{src.height}; its RAW "
                 f"files are {W}×{H}."
@@ -481,6 +591,9 @@ def poses_step(
         "exposures": {v.name: v.exif for v in views},
         "saturated": {v.name: v.n_saturated for v in views if v.n_saturated},
         "dead": {v.name: v.n_dead for v in views if v.n_dead},
+        "previews": working_summary(spec, views),
+        "duration_s": time.perf_counter() - t0,
+        "peak_rss_mib": peak_rss_mib(),
     }
     _write_json(done, summary)
     return summary
@@ -513,8 +626,9 @@ def _pad(a: np.ndarray, H: int, W: int) -> np.ndarray:
 
 
 class TrainingInputs(NamedTuple):
-    """What the train step fits: the training views (held-out ones excluded, padded to one size), their
-    stacked mosaics and weights, the scene box and the initial points and colours (from COLMAP)."""
+    """What the train step fits: the training views (held-out ones excluded, padded to one size, at the
+    working resolution), their stacked mosaics (binned ones full-colour) and weights, the scene box and
+    the initial points and colours (from COLMAP), and the working resolution per camera."""
 
     capture: object  # splat.data.Capture of the padded training views
     views: list  # the unpadded training views (splat.data.View)
@@ -524,6 +638,7 @@ class TrainingInputs(NamedTuple):
     points: np.ndarray | None  # (P, 3)
     colours: np.ndarray | None  # (P, N)
     depth: tuple | None = None  # (pixel (V, D), depth (V, D), valid (V, D)): see depth_targets
+    working: dict | None = None  # working_summary
 
 
 def training_inputs(
@@ -538,9 +653,10 @@ def training_inputs(
     from .data import Capture
 
     model, cap = _load_model_capture(spec, out)
-    raws = {v.name: v for v in load_views(spec)}
+    # each file read and binned to the working resolution in turn (never all mosaics whole at once)
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
     hold = set(spec.holdout)
-    views = [v for v in cap.views if v.name not in hold]
+    views = [v for v in working_views(cap.views, raws) if v.name not in hold]
     if not views:
         raise CaptureError("every registered view is held out; nothing to train on.")
     H = max(v.camera.height for v in views)
@@ -564,7 +680,8 @@ def training_inputs(
     if xyz is not None:
         xyz, colours = _initial_points(xyz, rgb, level, config.capacity, N, seed=config.seed)
     depth = depth_targets(model, padded)
-    return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours, depth)
+    working = working_summary(spec, list(raws.values()))
+    return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours, depth, working)
 
 
 def depth_targets(model, views) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -699,6 +816,7 @@ def fit_step(
     tc = train_config(config, out / "train" / "checkpoint.npz")
     resume = tc.checkpoint if Path(tc.checkpoint).is_file() else None
     t0 = time.perf_counter()
+    reset_peak_rss()
 
     def cb(step, state, loss):
         if progress is not None and (step % 10 == 0 or step == config.steps):
@@ -753,9 +871,13 @@ def fit_step(
         # Gaussian–tile pairs the "tiled" back-end (on a GPU) left out per step, mean of the last 100
         # steps (0 with the CPU back-end): above 0, RenderConfig.tile_capacity is too small for the model
         "dropped_per_step": float(np.mean(res.history["n_dropped"][-100:])) if loss.size else 0.0,
+        "working": inp.working,
+        "train_size": train_size_of(spec, config),
     }
     if tc.refine_poses:
         summary.update(_pose_summary(train_cap, res, float(np.linalg.norm(bounds[1] - bounds[0]))))
+    summary["duration_s"] = time.perf_counter() - t0
+    summary["peak_rss_mib"] = peak_rss_mib()
     _write_json(done, summary)
     return summary
 
@@ -953,17 +1075,22 @@ def render_step(
 
     spec, ws = _workspace(capture, out, config, "render", lambda spec: {})
     out = ws.root
+    t0 = time.perf_counter()
+    reset_peak_rss()
     _, cap = _load_model_capture(spec, out)
     g, alive = load_gaussians(out)
-    views = refined_views(cap.views, out)  # training views with their learned pose corrections, if any
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
+    # at the working resolution; training views with their learned pose corrections, if any
+    views = refined_views(working_views(cap.views, raws), out)
     todo = views_to_render(spec, views, config)
-    raws = {v.name: v for v in load_views(spec)}
     n = len(spec.cameras)
     depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
     index = {}
+    rendered = 0  # views rendered or reprojected by this call
     for i, (name, cam, cid, kind) in enumerate(todo):
         d = ws.view_dir("render", name)
         files = {"render": d / "render.tiff", "pca": d / "pca.png"}
+        rendered += not all(p.is_file() for p in [*files.values(), d / "reprojected_count.tiff"])
         if not all(p.is_file() for p in files.values()):
             img = render_views(g, [cam], mask=alive)[0]
             _write_tiff(files["render"], img)
@@ -978,6 +1105,17 @@ def render_step(
         if progress is not None:
             progress("render", i + 1, len(todo))
     _write_json(out / "render" / "index.json", index)
+    if rendered or not (out / "render" / "summary.json").is_file():  # a call that reused every view
+        _write_json(  # keeps the summary of the call that did the work
+            out / "render" / "summary.json",
+            {
+                "views": len(index),
+                "rendered": rendered,
+                "working": working_summary(spec, list(raws.values())),
+                "duration_s": time.perf_counter() - t0,
+                "peak_rss_mib": peak_rss_mib(),
+            },
+        )
     return index
 
 
@@ -1523,7 +1661,9 @@ def correct_step(
     if not index_path.is_file():
         raise CaptureError(f"{out}: nothing rendered yet; run the render step first.")
     index = read_index(spec, index_path)
-    raws = {v.name: v for v in load_views(spec)}
+    t0 = time.perf_counter()
+    reset_peak_rss()
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
     # white, δ and the fusion noise levels are functions of these (δ pools the photographed views only,
     # so that novel views rendered later do not change it): a change recomputes every corrected image
     photographed = {k: v for k, v in index.items() if k in raws}
@@ -1535,6 +1675,8 @@ def correct_step(
             "method": CORRECTION_METHODS.resolve(config.method, argument="method"),
             "quantum": config.quantum,
             "photographed": sorted(photographed),
+            "noise": config.noise,
+            "full_resolution": FULL_METHOD,
         },
     )
     white = white_of(spec, out, list(raws.values()))
@@ -1549,8 +1691,26 @@ def correct_step(
     for v in raws.values():
         profiles.setdefault(v.camera, (v.profile, v.neutral))
     fusion = fusion_of(spec, out, index, raws, scale)
+    noise_used = own_noise(fusion, raws, scale, config.noise)
+    fusion = dict(
+        fusion, views={m: dict(d, own_sigma=noise_used[m]["sigma"]) for m, d in fusion["views"].items()}
+    )
     fit = fused_fitter(spec, list(range(n)), config.method)
-    n_fused = {"views": 0, "novel": 0}
+    fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
+    n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
+    full_info = {}
+    # one progress bar over the rows of every photograph still to correct at full resolution
+    todo_rows = {
+        m: raws[m].size[0]
+        for m, info in index.items()
+        if m in fusion["views"] and not (out / "correct" / info["dir"] / "full_XYZ.tiff").is_file()
+    }
+    rows_done = [0]
+
+    def full_progress(what, done, total, _name=None):
+        if progress is not None:
+            progress("full resolution rows", rows_done[0] + done, sum(todo_rows.values()))
+
     for i, (name, info) in enumerate(index.items()):
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
@@ -1569,15 +1729,35 @@ def correct_step(
         r = raws.get(name)
         rep = reprojected_of(d, scale)
         novel = name not in fusion["views"] and rep is not None and fusion["reprojected_sigma"] is not None
-        if (name in fusion["views"] or novel) and not (o / f"{mname}_fused_XYZ.tiff").is_file():
+        want_fused = (name in fusion["views"] or novel) and not (o / f"{mname}_fused_XYZ.tiff").is_file()
+        want_full = name in fusion["views"] and not (o / "full_XYZ.tiff").is_file()
+        if want_fused or want_full:
             if novel:  # no RAW file here: the photographs reprojected into the view, the render elsewhere
                 fused, code, sigma = photographed_view(fusion, img, rep, list(range(n)))
             else:  # a photograph: its RAW file, the others reprojected into it, the render anchored to it
                 fused, code, sigma = fused_view(fusion, name, img, r, scale, list(range(n)), rep)
-            XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
-            _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
+            if want_fused:
+                XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
+                _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
+            if want_full:  # at the photograph's own size, strip by strip (splat.strips)
+                full_info[name] = _full_resolution(
+                    spec,
+                    o,
+                    r,
+                    fused,
+                    code,
+                    sigma,
+                    white["scale"][r.camera],
+                    noise_used[name],
+                    fit_full,
+                    wXYZ,
+                    full_progress,
+                )
+                rows_done[0] += todo_rows.get(name, 0)
         if (o / f"{mname}_fused_XYZ.tiff").is_file():
             n_fused["views" if name in fusion["views"] else "novel"] += 1
+        if (o / "full_XYZ.tiff").is_file():
+            n_fused["full_resolution"] += 1
         if r is not None and r.profile is not None and not (o / "raw_dng_XYZ.tiff").is_file():
             bal = np.maximum(measured(r, white["scale"][r.camera]), 0)
             X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
@@ -1596,12 +1776,107 @@ def correct_step(
             "novel": n_fused["novel"],
             "files": f"{mname}_fused_XYZ.tiff / _sRGB.tiff / .png next to {mname}_XYZ.tiff",
         },
+        "full_resolution": {
+            "views": n_fused["full_resolution"],
+            "method": FULL_METHOD,
+            "files": "full_XYZ.tiff (float32) / full_sRGB.png, each photograph at its RAW file's size",
+            "how": "own channels: the RAW file demosaiced (Malvar 2004) strip by strip; other cameras' "
+            "channels: the working-resolution fused responses (their photographs reprojected through "
+            "the splat's depth, the render where none sees a pixel) upsampled bilinearly and sharpened "
+            "by the photograph (Brovey ratio of its own channels at full to working resolution); "
+            f"{FULL_METHOD} fitted per noise pattern on the channel-whitened problem",
+            "per_view": full_info,
+        },
+        "own_noise": {
+            m: {"sigma": d["sigma"], "sigma_full": d["sigma_full"], "source": d["source"]}
+            for m, d in noise_used.items()
+        },
+        "working": working_summary(spec, list(raws.values())),
         "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
         "white_XYZ": np.asarray(wXYZ).tolist(),
         "views": list(index),
+        "duration_s": time.perf_counter() - t0,
+        "peak_rss_mib": peak_rss_mib(),
     }
     _write_json(out / "correct" / "summary.json", summary)
     return summary
+
+
+def own_noise(fusion: dict, raws: dict, scale: np.ndarray, noise) -> dict:
+    """The noise σ of each photographed view's own channels (white → 1, exposure 1) and where it came
+    from: ``noise = "auto"`` the full-resolution sensor noise of the RAW file (its DNG NoiseProfile at
+    the channel's median level, else the mosaic's own estimate: :func:`splat.fusion.sensor_noise`,
+    at least :data:`splat.fusion.OWN_NOISE_FLOOR`), a σ as given, or ``{"shot", "read"}`` as
+    ``sqrt(shot · x + read)`` at the channel's median level ``x``.
+
+    Returns
+    -------
+    dict
+        View name → ``{"sigma": [3 floats], "sigma_full": [3 floats], "source": str}``: ``sigma`` at the
+        working resolution (what the fused correction uses; ``"auto"`` keeps ``fusion.json``'s),
+        ``sigma_full`` at the photograph's full resolution (binning divides σ by the √ of the sites
+        averaged).
+    """
+    from .fusion import OWN_NOISE_FLOOR
+    from .resolution import sites_per_block
+
+    out = {}
+    for name, d in fusion["views"].items():
+        v = raws[name]
+        k = v.camera
+        ws = scale[3 * k : 3 * k + 3]
+        root = np.sqrt(sites_per_block(v.source_cfa, v.binning)) if v.binning > 1 else np.ones(3)
+        if noise == "auto":
+            sigma = np.asarray(d["own_sigma"], float)
+            full = np.maximum(sigma * root, OWN_NOISE_FLOOR)
+            source = "DNG NoiseProfile" if v.noise_profile is not None else "estimated from the mosaic"
+        else:
+            if isinstance(noise, dict):
+                vals, w = np.asarray(v.values, float) / v.exif / ws, np.asarray(v.weight) > 0
+                x = np.array(
+                    [np.median(vals[..., j][w[..., j]]) if w[..., j].any() else 0.0 for j in range(3)]
+                )
+                full = np.sqrt(noise["shot"] * np.maximum(x, 0) + noise["read"]) * np.ones(3)
+            else:
+                full = np.full(3, float(noise))
+            full = np.maximum(full, OWN_NOISE_FLOOR)
+            sigma = np.maximum(full / root, OWN_NOISE_FLOOR)
+            source = "--noise"
+        out[name] = {
+            "sigma": [_two_digits(x) for x in sigma],
+            "sigma_full": [_two_digits(x) for x in full],
+            "source": source,
+        }
+    return out
+
+
+def _full_resolution(
+    spec: CaptureSpec, o: Path, view: RawView, fused, code, sigma, own_scale, noise: dict, fit, wXYZ, progress
+):
+    """Write ``full_XYZ.tiff`` and ``full_sRGB.png`` of a photographed view at its RAW file's size
+    (:func:`splat.strips.full_resolution_view`); returns what was done, how long it took and the peak
+    memory."""
+    from . import strips as _strips
+    from .capture import open_raw
+
+    t = time.perf_counter()
+    k = view.camera
+    source = open_raw(view.path, spec.cameras[k])
+    H, W = source.shape
+    rows = _strips.STRIP_ROWS
+    strips = _strips.full_resolution_view(
+        _strips.Photograph(
+            source, view.exif, np.asarray(own_scale, float), np.asarray(noise["sigma_full"], float)
+        ),
+        _strips.WorkingFusion(fused, code, sigma, slice(3 * k, 3 * k + 3), view.binning),
+        fit,
+        strip_rows=rows,
+        progress=progress,
+    )
+    _strips.write_full(
+        o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), _strips.sRGB8_encoder(wXYZ), rows=rows
+    )
+    return {"size": [W, H], "binning": view.binning, "seconds": time.perf_counter() - t}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -26,7 +26,16 @@ from pathlib import Path
 
 from .capture import CaptureError, CaptureSpec
 
-__all__ = ["MARKER", "SETTINGS", "STEP_OUTPUTS", "Workspace", "capture_fingerprint", "read_json"]
+__all__ = [
+    "MARKER",
+    "SETTINGS",
+    "STEP_OUTPUTS",
+    "Workspace",
+    "capture_fingerprint",
+    "peak_rss_mib",
+    "read_json",
+    "reset_peak_rss",
+]
 
 #: Marker file: its presence says OUT was made by splat.
 MARKER = ".splat-output.json"
@@ -234,3 +243,29 @@ class Workspace:
         from zonotope.utilities import atomic_path
 
         atomic_path(path, lambda p: p.write_text(json.dumps(doc, indent=1, sort_keys=True, default=str)))
+
+
+def reset_peak_rss() -> None:
+    """Start a new peak-memory measurement (Linux: ``/proc/self/clear_refs`` resets the process's
+    peak resident set size); elsewhere a no-op, and :func:`peak_rss_mib` reports the process's peak."""
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
+def peak_rss_mib() -> float:
+    """Peak resident memory (MiB) since :func:`reset_peak_rss` (Linux ``VmHWM``), else of the process."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return round(int(line.split()[1]) / 1024, 1)
+    except (OSError, ValueError, IndexError):
+        pass
+    import resource
+    import sys
+
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return round(rss / (2**20 if sys.platform == "darwin" else 1024), 1)

@@ -104,6 +104,14 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     assert corr["fusion"]["views"] == len(held) and corr["fusion"]["novel"] == 0
     tol = corr["noise"]  # δ: 95th percentile of the responses' distances to the object-colour solid
     assert corr["delta"] == tol["delta"] > 0 and tol["beyond_delta"] <= 0.06
+    # every photograph also at its RAW file's full size (here the working resolution is the full one)
+    full = tifffile.imread(d / "full_XYZ.tiff")
+    assert full.dtype == np.float32 and full.shape == (96, 128, 3) and np.all(np.isfinite(full))
+    assert corr["full_resolution"]["views"] == len(held)
+    assert set(corr["own_noise"]) == set(held)
+    for step in ("poses", "train", "render", "correct"):  # time and peak memory of every step
+        doc = json.loads((out / step / "summary.json").read_text())
+        assert doc["duration_s"] > 0 and doc["peak_rss_mib"] > 0
     assert not list(out.rglob("*.tmp*"))  # atomic writes leave no temporary files
 
 

@@ -268,7 +268,7 @@ def test_cli_camera_in_micrometres_is_a_one_line_error(tmp_path, capsys):
     path.write_text("\n".join(lines) + "\n")
     assert main(["evaluate", "--camera", str(path), "--atypical", "0"]) == 2
     err = capsys.readouterr().err.strip()
-    # the loader names the file (zonotope.spectra.loading), the evaluation names the option: either is one line
+    # the loader names the file (zonotope.spectra.loading), evaluate the option: either is one line
     assert err.count("\n") == 0 and ("--camera" in err or str(path) in err) and "µm" in err, err
 
 

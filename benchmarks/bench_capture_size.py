@@ -1,0 +1,272 @@
+"""The correct step on a real-size photograph: time, peak memory and how they grow with pixels.
+
+What it builds (state it whenever quoting the numbers): the CI-size simulated capture
+(``splat.sim.capture``, 3 cameras × 8 views at ~128 × 96) runs through poses, train and render; then
+one of its held-out Nikon photographs is **upsampled** ``--scale`` times (its RAW file demosaiced,
+upsampled bilinearly, re-mosaicked and given fresh shot + read noise from its own DNG NoiseProfile,
+written as a DNG by isp's writer): at the default ``--scale 44`` a 5632 × 4224 (23.8 MP) RGGB file with
+no detail finer than the original's 128 × 96 pixels. The full-resolution stage's cost does not depend on
+the content (a closed-form regression, a demosaic, a bilinear upsampling), only on the pixel count and
+the number of noise patterns.
+
+Measured, in one process:
+
+* the working-resolution part of the correct step (fused responses of the view: ``pipeline.fused_view``,
+  at the model's resolution, the same for any photograph size);
+* the full-resolution stage (:func:`splat.strips.full_resolution_view` + :func:`splat.strips.write_full`:
+  read the 24 MP DNG, demosaic, upsample, correct, write the float32 TIFF and the PNG), median of
+  ``--runs`` runs, its peak RSS (Linux ``VmHWM`` reset before each run), and at ``--scale`` / 4 and / 2 for
+  the growth with pixels;
+* **baseline** (the previous path: every pixel of the fused responses corrected by Prior with colour
+  deduplication, ``pipeline.correct_fused``) on a 96 × 96 crop of the same 24 MP responses, timed and
+  extrapolated linearly to the whole photograph; and the plain development of the same photograph
+  (isp's Malvar demosaic of the whole mosaic in one piece and the camera's DNG matrix), the cheapest
+  thing a user could run.
+
+    python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _ci_run(work: Path, steps: int):
+    from splat.capture import read_capture
+    from splat.pipeline import PipelineConfig, run
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
+
+    cap = work / "capture"
+    if not (cap / "capture.toml").is_file():
+        write_synthetic_capture(cap, SimCaptureConfig.ci())
+    spec = read_capture(cap)
+    name = next(h for h in spec.holdout if h.startswith("nikon/"))
+    config = PipelineConfig(steps=steps, capacity=2048, quantum=0.02, threads=2, views=(name,))
+    out = work / "out"
+    res = run(cap, out, config=config, steps=("poses", "train", "render"))
+    return spec, config, out, name, res
+
+
+def _upsampled_dng(view, spec, path: Path, scale: int, seed: int = 0) -> Path:
+    """The view's photograph upsampled ``scale`` × as a new RGGB DNG (see the module notes)."""
+    from isp import read_raw
+    from isp.cfa import cfa_masks
+    from isp.dng import write_dng
+    from splat.capture import open_raw
+    from splat.strips import upsample_rows
+
+    if path.is_file():
+        return path
+    src = open_raw(view.path, spec.cameras[view.camera])
+    raw = read_raw(view.path)
+    H0 = src.shape[0]
+    values, _ = src.rows(0, H0)
+    from isp.stages import demosaic
+
+    lin = np.maximum(demosaic(values.sum(-1), cfa=src.cfa, method="bilinear"), 0)
+    H, W = lin.shape[0] * scale, lin.shape[1] * scale
+    P = src.info["noise_profile"]
+    rng = np.random.default_rng(seed)
+    black = float(np.mean(src.black))
+    dn = np.zeros((H, W), np.uint16)
+    for r0 in range(0, H, 512):
+        r1 = min(H, r0 + 512)
+        up = upsample_rows(lin, scale, r0, r1, W)
+        m = cfa_masks((r1 - r0, W), src.cfa)
+        x = (up * m).sum(-1)
+        if P is not None:
+            var = (m * (P[:, 0] * np.maximum(up, 0) + P[:, 1])).sum(-1)
+            x = x + rng.normal(size=x.shape) * np.sqrt(var)
+        dn[r0:r1] = np.clip(np.round(black + np.clip(x, 0, 1) * (src.white - black)), 0, src.white)
+    p = raw.profile
+    write_dng(
+        path,
+        dn,
+        cfa=src.cfa,
+        black_level=black,
+        white_level=int(src.white),
+        color_matrix_1=p.color_matrix_1,
+        calibration_illuminant_1=int(p.calibration_illuminant_1 or 21),
+        as_shot_neutral=src.info["neutral"],
+        noise_profile=None if P is None else np.asarray(P, float),
+    )
+    return path
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", type=Path, default=Path("/tmp/bench_capture_size"))
+    ap.add_argument("--scale", type=int, default=44, help="upsampling of the 128 × 96 photograph (even)")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--steps", type=int, default=150, help="training steps of the small model")
+    ap.add_argument("--crop", type=int, default=96, help="side of the baseline's crop")
+    args = ap.parse_args(argv)
+    if args.scale % 2:
+        ap.error("--scale must be even (the RGGB pattern keeps its phase)")
+    args.work.mkdir(parents=True, exist_ok=True)
+
+    from splat import pipeline as P
+    from splat import strips
+    from splat.capture import load_views, open_raw
+    from splat.workspace import peak_rss_mib, reset_peak_rss
+
+    spec, config, out, name, _ = _ci_run(args.work, args.steps)
+    steps = {
+        s: {
+            k: json.loads((out / s / "summary.json").read_text()).get(k)
+            for k in ("duration_s", "peak_rss_mib")
+        }
+        for s in ("poses", "train", "render")
+    }
+    print(f"CI capture, one view ({name}), small-model steps (s, MiB): {steps}")
+
+    # the working-resolution part of the correct step, as correct_step does it
+    t, c0 = time.perf_counter(), time.process_time()
+    raws = {v.name: v for v in load_views(spec, binning=P.working_binning(config, spec))}
+    index = P.read_index(spec, out / "render" / "index.json")
+    # the white and noise caches go to a scratch folder beside OUT (OUT's correct step is not run here)
+    scratch = args.work / "scratch"
+    (scratch / "correct").mkdir(parents=True, exist_ok=True)
+    if not (scratch / "render").exists():
+        (scratch / "render").symlink_to(out / "render")
+    white = P.white_of(spec, scratch, list(raws.values()))
+    scale = np.concatenate(white["scale"])
+    n = len(spec.cameras)
+    fusion = P.fusion_of(spec, scratch, index, raws, scale)
+    d = out / "render" / index[name]["dir"]
+    img = P._read_tiff(d / "render.tiff") / scale
+    rep = P.reprojected_of(d, scale)
+    view = raws[name]
+    fused, code, sigma = P.fused_view(fusion, name, img, view, scale, list(range(n)), rep)
+    fit_full = P.fused_fitter(spec, list(range(n)), strips.FULL_METHOD)
+    corrector = P.fit_corrector(spec, list(range(n)), config.method, 0.01)
+    wXYZ = corrector.problem.white_XYZ
+    t_working, cpu_working = time.perf_counter() - t, time.process_time() - c0
+    print(
+        f"working-resolution part ({view.shape[1]}×{view.shape[0]}): {t_working:.1f} s "
+        f"(read, white, fusion noise, fused_view; process CPU {cpu_working:.1f} s)"
+    )
+
+    noise = P.own_noise(fusion, raws, scale, "auto")[name]
+    rows = []
+    for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
+        big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
+        times, peaks, cpus = [], [], []
+        for _ in range(args.runs if s == args.scale else 1):
+            reset_peak_rss()
+            t, c0 = time.perf_counter(), time.process_time()
+            src = open_raw(big, spec.cameras[view.camera])
+            H, W = src.shape
+            gen = strips.full_resolution_view(
+                strips.Photograph(
+                    src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
+                ),
+                strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
+                fit_full,
+            )
+            strips.write_full(
+                args.work / "full_XYZ.tiff",
+                args.work / "full_sRGB.png",
+                gen,
+                (H, W),
+                strips.sRGB8_encoder(wXYZ),
+            )
+            times.append(time.perf_counter() - t)
+            cpus.append(time.process_time() - c0)
+            peaks.append(peak_rss_mib())
+            del src
+        rows.append((s, H * W / 1e6, statistics.median(times), max(peaks), times, statistics.median(cpus)))
+        print(
+            f"  ×{s}: {W}×{H} = {H * W / 1e6:.1f} MP: {statistics.median(times):.1f} s "
+            f"(runs {[round(x, 1) for x in times]}), process CPU {statistics.median(cpus):.1f} s, "
+            f"peak RSS {max(peaks):.0f} MiB"
+        )
+    mp = np.array([r[1] for r in rows])
+    ts = np.array([r[2] for r in rows])
+    slope = float(np.polyfit(np.log(mp), np.log(ts), 1)[0]) if len(rows) > 1 else float("nan")
+    print(f"growth: time ∝ pixels^{slope:.2f}; {ts[-1] / mp[-1]:.2f} s per MP at the largest size")
+    print(f"load average during the run: {os.getloadavg()[0]:.1f} (2 cores)")
+
+    # baseline 1: the previous path (Prior with deduplication, per pixel) on a crop of the same responses
+    s = args.scale
+    src = open_raw(args.work / f"nikon_x{s}.dng", spec.cameras[view.camera])
+    H, W = src.shape
+    c = args.crop
+    r0 = (H // 2) // 2 * 2
+    from splat.strips import demosaic_rows, upsample_rows
+
+    lin, _ = demosaic_rows(src, r0, r0 + c)
+    photo = (lin / view.exif / white["scale"][view.camera])[:, W // 2 : W // 2 + c]
+    up = upsample_rows(fused, s, r0, r0 + c, W)[:, W // 2 : W // 2 + c]
+    own = slice(3 * view.camera, 3 * view.camera + 3)
+    ratio = (np.maximum(photo, 0).sum(-1, keepdims=True) + 1e-6) / (
+        np.maximum(up[..., own], 0).sum(-1, keepdims=True) + 1e-6
+    )
+    resp = np.maximum(up, 0) * ratio
+    resp[..., own] = photo
+    cd = strips.nearest_rows(code, s, r0, r0 + c, W)[:, W // 2 : W // 2 + c]
+    fit_prior = P.fused_fitter(spec, list(range(n)), config.method)
+    for cc in np.unique(np.concatenate([cd.ravel(), code.ravel()])):  # fits: not the per-pixel cost
+        fit_prior(sigma[int(cc)])
+    t, c0 = time.perf_counter(), time.process_time()
+    P.correct_fused(resp, cd, {int(k): sigma[int(k)] for k in np.unique(cd)}, fit_prior, config.quantum)
+    t_crop, cpu_crop = time.perf_counter() - t, time.process_time() - c0
+    t_prior = t_crop * H * W / (c * c)
+    print(
+        f"baseline (previous path, {config.method} per pixel with deduplication, quantum "
+        f"{config.quantum}) on a "
+        f"{c}×{c} crop: {t_crop:.1f} s (process CPU {cpu_crop:.1f} s) → {t_prior:.0f} s for "
+        f"{H * W / 1e6:.1f} MP by extrapolation"
+    )
+    # baseline 1b: the same previous path on the view's own working-resolution responses (real texture:
+    # every pixel a distinct colour, as on a real photograph), per pixel, extrapolated
+    t, c0 = time.perf_counter(), time.process_time()
+    P.correct_fused(fused, code, sigma, fit_prior, config.quantum)
+    t_real, cpu_real = time.perf_counter() - t, time.process_time() - c0
+    n_px = fused.shape[0] * fused.shape[1]
+    print(
+        f"baseline on the view's {fused.shape[1]}×{fused.shape[0]} textured responses: {t_real:.1f} s "
+        f"(process CPU "
+        f"{cpu_real:.1f} s) → {t_real * H * W / n_px:.0f} s (CPU {cpu_real * H * W / n_px:.0f} s) for "
+        f"{H * W / 1e6:.1f} MP by extrapolation"
+    )
+    # baseline 2: the plain development of the same photograph in one piece (Malvar + DNG matrix)
+    from isp.stages import demosaic
+
+    reset_peak_rss()
+    t, c0 = time.perf_counter(), time.process_time()
+    values, _ = src.rows(0, H)
+    lin = demosaic(values.sum(-1), cfa=src.cfa, method="Malvar 2004")
+    del values
+    raw = __import__("isp").read_raw(args.work / f"nikon_x{s}.dng")
+    X = P.dng_matrix_XYZ(
+        np.maximum(lin / view.exif / white["scale"][view.camera], 0), raw.profile, raw.as_shot_neutral, wXYZ
+    )
+    t_dev, cpu_dev = time.perf_counter() - t, time.process_time() - c0
+    print(
+        "plain development of the same photograph (whole image, Malvar + DNG matrix): "
+        f"{t_dev:.1f} s (process CPU {cpu_dev:.1f} s), peak RSS {peak_rss_mib():.0f} MiB"
+    )
+    del X, lin
+    full = rows[-1]
+    print(
+        f"correct step on one {full[1]:.1f} MP three-camera photograph: {t_working + full[2]:.1f} s "
+        f"(working part {t_working:.1f} s + full resolution {full[2]:.1f} s, median of {len(full[4])}); "
+        f"{t_prior / (t_working + full[2]):.0f}× faster than the previous path's extrapolated "
+        f"{t_prior:.0f} s; "
+        f"process CPU {cpu_working + full[5]:.1f} s; "
+        f"goal ≤ 60 s (wall): {'met' if t_working + full[2] <= 60 else 'NOT met'}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,311 @@
+"""Every photograph corrected at its full resolution, strip by strip, with memory bounded by the strip.
+
+The train and render steps work at the working resolution (:mod:`splat.resolution`); the fused
+responses of a photographed view (``pipeline.fused_view``: its own channels, the other cameras'
+photographs reprojected into it through the splat's depth, the render anchored to it where no
+photograph sees a pixel) are made there too. This module carries them to the photograph's full size,
+one strip of ``STRIP_ROWS`` rows at a time:
+
+1. **Own channels**: the view's RAW rows, read from the file's samples (:meth:`splat.capture.RawSource.rows`)
+   with a margin of :data:`HALO` rows, demosaiced by isp (Malvar 2004, as :func:`splat.fusion.measured`)
+   and cut to the strip: the same values as demosaicing the whole image (the margin covers the 5 × 5
+   filter), at exposure 1 on the white → 1 scale.
+2. **The other channels**: the working-resolution fused responses upsampled bilinearly (pixel centres
+   aligned: full-resolution centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the
+   borders), then sharpened by the photograph itself — every channel times the ratio of the own
+   channels' full-resolution sum to their upsampled working-resolution sum (the Brovey transform of
+   :func:`splat.fusion.anchor`, Gillespie et al. 1987): an edge the photograph shows within a working
+   pixel appears in every channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose
+   own site is saturated or dead keep the upsampled values.
+3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
+   in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
+   noise the ratio carries into them; one noise-aware closed-form regression is fitted per pattern on
+   the channel-whitened problem (``pipeline.fused_fitter``) and applied in chunks of
+   :data:`splat._tol.CORRECT_CHUNK` pixels.
+
+Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips), so the
+peak memory is the file's samples (2 bytes a pixel) plus one strip's work, whatever the image size.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ._errors import SplatError
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, STRIP_ROWS
+
+__all__ = [
+    "FULL_METHOD",
+    "HALO",
+    "Photograph",
+    "WorkingFusion",
+    "demosaic_rows",
+    "full_resolution_view",
+    "nearest_rows",
+    "sRGB8_encoder",
+    "upsample_rows",
+    "write_full",
+]
+
+#: Rows read above and below a strip for demosaicing: Malvar 2004's 5 × 5 filters and isp's mirror pad
+#: of 4 reach 2 + 4 rows; 8 (even, so a strip's margin starts on the file's own CFA phase) covers both.
+HALO = 8
+
+#: The estimator of the full-resolution correction: the root-polynomial regression fitted for the
+#: responses' noise, :func:`zonotope.correct.image.correct_image`'s default for photographs (closed form:
+#: a few µs a pixel). The MMV-based estimators cost milliseconds per distinct colour, and a
+#: full-resolution photograph has as many distinct colours as pixels.
+FULL_METHOD = "Finlayson 2015"
+
+
+def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``r0:r1`` of a RAW file demosaiced (linear, exposure of the file, white scale 1) and their
+    validity (the pixel's own site neither saturated nor dead), each (r1 − r0, W, ·): the same values as
+    demosaicing the whole file and cutting the rows out.
+
+    Parameters
+    ----------
+    source : splat.capture.RawSource
+    r0, r1 : int
+    method : str
+        :func:`isp.stages.demosaic` method.
+    """
+    from isp.stages import demosaic
+
+    H = source.shape[0]
+    a = max(0, r0 - HALO)
+    a -= a % 2
+    b = min(H, r1 + HALO)
+    values, weight = source.rows(a, b)
+    if source.full_colour:
+        lin = values.astype(np.float64)
+    else:
+        lin = demosaic(values.sum(-1), cfa=source.cfa, method=method)
+    return lin[r0 - a : r1 - a], weight[r0 - a : r1 - a].sum(-1) > 0
+
+
+def _axis(n_full: int, f: int, n_work: int, lo: int, hi: int):
+    """Bilinear taps along one axis: for full-resolution indices ``lo:hi``, the two working indices and
+    the weight of the second (centre ``i + ½`` at ``(i + ½)/f − ½`` in working pixels, clamped)."""
+    x = (np.arange(lo, hi) + 0.5) / f - 0.5
+    x = np.clip(x, 0, n_work - 1)
+    i0 = np.floor(x).astype(np.int64)
+    i1 = np.minimum(i0 + 1, n_work - 1)
+    return i0, i1, (x - i0)
+
+
+def upsample_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.ndarray:
+    """Rows ``r0:r1`` of ``img`` (h, w, C) upsampled bilinearly by ``f`` to ``width`` columns
+    (pixel centres aligned, borders clamped): (r1 − r0, width, C), the same whatever the strip."""
+    img = np.asarray(img)
+    h, w = img.shape[:2]
+    i0, i1, ty = _axis(0, f, h, r0, r1)
+    j0, j1, tx = _axis(0, f, w, 0, width)
+    top = img[i0]
+    bot = img[i1]
+    rows = top + (bot - top) * ty[:, None, None]
+    return rows[:, j0] * (1 - tx)[None, :, None] + rows[:, j1] * tx[None, :, None]
+
+
+def nearest_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.ndarray:
+    """Rows ``r0:r1`` of ``img`` (h, w, ...) repeated ``f × f`` (each full-resolution pixel takes the
+    working pixel it lies in; clamped beyond the binned area)."""
+    h, w = img.shape[:2]
+    i = np.minimum(np.arange(r0, r1) // f, h - 1)
+    j = np.minimum(np.arange(width) // f, w - 1)
+    return img[i][:, j]
+
+
+class Photograph(NamedTuple):
+    """A photographed view at full resolution: its RAW file (:class:`splat.capture.RawSource`), relative
+    exposure, its camera's white scale (3,) and its own channels' full-resolution noise σ (3,), white → 1."""
+
+    source: object
+    exposure: float
+    white_scale: np.ndarray
+    sigma: np.ndarray
+
+
+class WorkingFusion(NamedTuple):
+    """A view's fused responses at the working resolution (``pipeline.fused_view``): ``fused`` (h, w, k),
+    white → 1; ``code`` (h, w), the noise pattern per pixel, ``sigma[code]`` its σ per channel (k,);
+    ``own``, where the view's own channels sit among the ``k``; ``binning``, the working resolution's
+    factor."""
+
+    fused: np.ndarray
+    code: np.ndarray
+    sigma: dict
+    own: slice
+    binning: int
+
+
+def full_resolution_view(
+    photo: Photograph,
+    working: WorkingFusion,
+    fit: Callable,
+    *,
+    strip_rows: int = STRIP_ROWS,
+    progress: Callable | None = None,
+):
+    """Yield the corrected full-resolution XYZ of a photograph, strip by strip.
+
+    Parameters
+    ----------
+    photo : Photograph
+    working : WorkingFusion
+    fit : callable
+        ``fit(σ (k,)) → (corrector, scale)``: a fitted closed-form estimator and the channel scale to
+        apply to responses first (``pipeline.fused_fitter`` with :data:`FULL_METHOD`).
+    strip_rows : int
+        Rows per strip (even on a Bayer mosaic): memory only, the output does not depend on it.
+    progress : callable, optional
+        ``progress("full resolution", rows done, rows)`` after each strip.
+
+    Yields
+    ------
+    ndarray of shape (rows, W, 3), float32
+        XYZ of consecutive strips, top to bottom.
+    """
+    source, exposure, own_scale, own_sigma = photo
+    fused, code, sigma, own, f = working
+    H, W = source.shape
+    if strip_rows < 2 or strip_rows % 2:
+        raise SplatError(f"strip_rows={strip_rows}: must be an even number ≥ 2.")
+    own_sigma = np.asarray(own_sigma, float)
+    patterns = {int(c): _full_sigma(np.asarray(s, float), own, own_sigma, fused) for c, s in sigma.items()}
+    fused = np.asarray(fused, np.float32)  # float32 from here on: the responses carry ≥ 1e-3 noise
+    code = np.asarray(code)
+    k = fused.shape[-1]
+    divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
+    fitted: dict = {}
+    for r0 in range(0, H, strip_rows):
+        r1 = min(H, r0 + strip_rows)
+        lin, valid = demosaic_rows(source, r0, r1)
+        photo = np.maximum(lin.astype(np.float32) / divisor, 0)
+        up = np.maximum(upsample_rows(fused, f, r0, r1, W), 0)
+        ratio = (photo.sum(-1) + np.float32(ANCHOR_EPS)) / (up[..., own].sum(-1) + np.float32(ANCHOR_EPS))
+        resp = up * np.where(valid, ratio, 1)[..., None]
+        resp[..., own] = np.where(valid[..., None], photo, up[..., own])
+        del up, photo, lin
+        # pixels grouped by noise pattern: one gather and one scatter per strip
+        cd = nearest_rows(code, f, r0, r1, W).ravel()
+        order = np.argsort(cd, kind="stable")
+        counts = np.bincount(cd, minlength=int(cd.max()) + 1) if cd.size else np.zeros(0, int)
+        flat = resp.reshape(-1, k)[order]
+        out = np.empty((len(flat), 3), np.float32)
+        a = 0
+        for c in np.flatnonzero(counts):
+            b = a + int(counts[c])
+            if int(c) not in fitted:
+                cor, scale = fit(patterns[int(c)])
+                fitted[int(c)] = cor, np.asarray(scale, np.float32)
+            cor, scale = fitted[int(c)]
+            out[a:b] = _apply(cor, flat[a:b] * scale)
+            a = b
+        XYZ = np.empty_like(out)
+        XYZ[order] = out
+        if progress is not None:
+            progress("full resolution", r1, H)
+        yield XYZ.reshape(r1 - r0, W, 3)
+
+
+def _apply(corrector, responses: np.ndarray) -> np.ndarray:
+    """A closed-form corrector on (N, k) float32 responses, :data:`CORRECT_CHUNK` at a time (regressions
+    compute in float32 on float32 input)."""
+    out = np.empty((len(responses), 3), np.float32)
+    for a in range(0, len(responses), CORRECT_CHUNK):
+        out[a : a + CORRECT_CHUNK] = corrector.predict(responses[a : a + CORRECT_CHUNK])
+    return out
+
+
+def _full_sigma(s: np.ndarray, own: slice, own_sigma: np.ndarray, fused: np.ndarray) -> np.ndarray:
+    """σ per channel at full resolution for a working pattern ``s``: the own channels the sensor's
+    full-resolution σ; each other channel its working σ and, in quadrature, the noise the Brovey ratio
+    carries into it (the channel's median level times the own sum's relative σ)."""
+    out = s.copy()
+    own_level = max(float(np.median(np.maximum(fused[..., own], 0).sum(-1))), ANCHOR_EPS)
+    rel = float(np.sqrt(np.sum(np.square(own_sigma)))) / own_level
+    level = np.median(np.maximum(fused, 0).reshape(-1, fused.shape[-1]), axis=0)
+    out = np.hypot(out, rel * level)
+    out[own] = own_sigma
+    return np.maximum(out, 1e-6)
+
+
+def sRGB8_encoder(white_XYZ) -> Callable[[np.ndarray], np.ndarray]:
+    """``XYZ (..., 3) → 8-bit sRGB (..., 3)``, as ``pipeline.XYZ_to_sRGB`` (Bradford from the scene white
+    ``white_XYZ`` to D65, clipped, sRGB-encoded) rounded to 8 bits: the linear map taken once from
+    colour-science, the encoding through a table of 2¹⁶ linear levels (8-bit output differs from the
+    exact curve by at most one level in the darkest shades)."""
+    import colour
+
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    w = np.asarray(white_XYZ, float)
+    # XYZ_to_RGB is linear in XYZ: its matrix is its image of the identity
+    M = colour.XYZ_to_RGB(
+        np.eye(3), srgb, illuminant=colour.XYZ_to_xy(w), chromatic_adaptation_transform="Bradford"
+    )
+    levels = np.linspace(0, 1, 2**16)
+    lut = (np.asarray(colour.models.eotf_inverse_sRGB(levels)) * 255 + 0.5).astype(np.uint8)
+    M32 = np.asarray(M, np.float32)
+
+    def encode(XYZ):
+        rgb = np.asarray(XYZ, np.float32) @ M32
+        idx = (np.clip(rgb, 0, 1) * np.float32(2**16 - 1) + np.float32(0.5)).astype(np.uint16)
+        return lut[idx]
+
+    return encode
+
+
+def write_full(
+    xyz_path: Path,
+    png_path: Path,
+    strips,
+    shape: tuple[int, int],
+    to_sRGB8: Callable,
+    *,
+    rows: int = STRIP_ROWS,
+) -> None:
+    """Write a full-resolution image given as an iterator of XYZ strips (:func:`full_resolution_view`):
+    ``xyz_path`` a float32 TIFF written strip by strip (never whole in memory), ``png_path`` its 8-bit
+    sRGB (``to_sRGB8(XYZ) → uint8``, :func:`sRGB8_encoder`; the PNG encoder needs the whole 8-bit image,
+    3 bytes a pixel, compressed at zlib level 1: a 24 MP PNG at the default level took seconds).
+    ``rows``: the strips' height (the last may be shorter), the TIFF's RowsPerStrip.
+    Both atomically; NaN or infinite values are refused before either file appears."""
+    import tifffile
+    from PIL import Image
+
+    from zonotope.utilities import atomic_path
+
+    H, W = shape
+    rgb8 = np.zeros((H, W, 3), np.uint8)
+    done = [0]
+
+    def segments():
+        for s in strips:
+            if not np.all(np.isfinite(s)):
+                raise SplatError(f"{xyz_path}: refusing to write NaN/inf values.")
+            a = done[0]
+            rgb8[a : a + len(s)] = to_sRGB8(s)
+            done[0] += len(s)
+            yield np.ascontiguousarray(s, np.float32).tobytes()
+
+    def write(p):
+        with tifffile.TiffWriter(p) as tif:
+            tif.write(
+                segments(),
+                shape=(H, W, 3),
+                dtype=np.float32,
+                photometric="minisblack",
+                planarconfig="contig",
+                rowsperstrip=rows,
+                metadata=None,
+            )
+
+    atomic_path(xyz_path, write)
+    if done[0] != H:
+        raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
+    atomic_path(png_path, lambda p: Image.fromarray(rgb8).save(p, format="PNG", compress_level=1))
