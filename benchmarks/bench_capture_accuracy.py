@@ -130,10 +130,13 @@ def main(argv=None) -> int:
     held = tuple(spec.holdout)
     cfg = PipelineConfig(steps=steps, capacity=capacity, threads=args.threads, views=held)
     times = {"simulate": time.perf_counter() - t0}
-    for step in ("poses", "train", "render"):
-        t0 = time.perf_counter()
-        run(capture, out, config=cfg, steps=(step,))
-        times[step] = time.perf_counter() - t0
+    # scoring writes its white, δ and fusion caches into OUT/correct, which the pipeline's workspace
+    # then refuses as foreign: a scored work folder is scored again without rerunning the steps
+    if not (out / "render" / "index.json").is_file():
+        for step in ("poses", "train", "render"):
+            t0 = time.perf_counter()
+            run(capture, out, config=cfg, steps=(step,))
+            times[step] = time.perf_counter() - t0
     t0 = time.perf_counter()
     folders = [c.folder for c in spec.cameras]
     n = len(folders)

@@ -150,13 +150,17 @@ def develop(view, white_scale, M, *, demosaic: str = "Menon 2007") -> np.ndarray
     return measured(view, white_scale, method=demosaic) @ M
 
 
-def region_labels(XYZ, chart_XYZ=None, *, rtol: float = REGION_RTOL, min_pixels: int = REGION_MIN_PIXELS):
+def region_labels(
+    XYZ, chart_XYZ=None, *, radius: int = 2, rtol: float = REGION_RTOL, min_pixels: int = REGION_MIN_PIXELS
+):
     """Uniform regions of a true XYZ image, and which of them show a chart patch.
 
-    A region is a connected set of pixels whose true XYZ is constant over their 3 × 3 neighbourhood
-    (:func:`flat_mask` with ``radius=1``; two such neighbours always share their colour), of at least
-    ``min_pixels`` pixels. A region shows chart patch ``j`` when its mean XYZ matches ``chart_XYZ[j]``
-    within ``rtol`` (relative, per channel, floor 0.01).
+    A region is a connected set of pixels whose true XYZ is constant over their ``(2 radius + 1)²``
+    neighbourhood (:func:`flat_mask`; two such neighbours always share their colour), of at least
+    ``min_pixels`` pixels: a surface's interior, as one measures a patch's mean colour away from its
+    borders (with ``radius = 1`` the pixels next to a border enter, where the splat's blur and a
+    reprojection's misplacement dominate a small patch's mean). A region shows chart patch ``j`` when
+    its mean XYZ matches ``chart_XYZ[j]`` within ``rtol`` (relative, per channel, floor 0.01).
 
     Parameters
     ----------
@@ -173,7 +177,7 @@ def region_labels(XYZ, chart_XYZ=None, *, rtol: float = REGION_RTOL, min_pixels:
     from scipy.ndimage import label
 
     XYZ = np.asarray(XYZ, float)
-    lab, n = label(flat_mask(XYZ, radius=1, rtol=rtol), structure=np.ones((3, 3)))
+    lab, n = label(flat_mask(XYZ, radius=radius, rtol=rtol), structure=np.ones((3, 3)))
     sizes = np.bincount(lab.ravel(), minlength=n + 1)
     keep = sizes >= min_pixels
     keep[0] = False
@@ -320,21 +324,24 @@ def score(
     n_flat = []
 
     chart_XYZ = _chart_XYZ(spec)
-    regions: dict = {}  # id of a reference image → its region_labels
+    region: list = [None, None]  # the current view's region labels on the stride grid, chart regions
     chart_rows: dict[str, list] = {}
     uniform_rows: dict[str, list] = {}
     per_view: dict[str, dict] = {}
 
-    def add(label, est, ref, flat, table=None):
+    def add(label, est, ref, flat):
         row = {}
         if est.shape == ref.shape:
             row = _dE(problem, est, ref)
             rows.setdefault(label, []).append(row)
-            key = id(ref)
-            if key not in regions:
-                regions[key] = (ref, *region_labels(ref, chart_XYZ))
-            _, lab, chart = regions[key]
-            ch, un = _region_dE(problem, est, ref, lab, chart)
+            # region means on the stride grid for every estimate (the same pixels of the same regions)
+            lab, chart = region
+            e, r = (
+                (est, ref)
+                if est.shape[:2] == lab.shape
+                else (est[::stride, ::stride], ref[::stride, ::stride])
+            )
+            ch, un = _region_dE(problem, e, r, lab, chart)
             chart_rows.setdefault(label, []).extend(ch)
             uniform_rows.setdefault(label, []).extend(un)
             row = dict(
@@ -342,8 +349,9 @@ def score(
             )
             est = est[flat]
         if flat.any():
-            row = dict(row, flat=_dE(problem, est, ref[flat])["mean"])
-            flat_rows.setdefault(label, []).append(_dE(problem, est, ref[flat]))
+            d = _dE(problem, est, ref[flat])
+            row = dict(row, flat=d["mean"])
+            flat_rows.setdefault(label, []).append(d)
         per_view.setdefault(current[0], {})[label] = row
 
     def pick(img, fl):  # the pixels to correct: all, or the flat ones as a (n, 1, k) image
@@ -359,6 +367,8 @@ def score(
         ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_truth_stem(name)}.tiff"), float)
         flat = flat_mask(ref)
         n_flat.append(float(flat.mean()))
+        lab, chart = region_labels(ref, chart_XYZ)  # on all pixels, then read on the stride grid
+        region[:] = [lab[::stride, ::stride], chart]
         d = out / "correct" / spec.out_stem(name)
         raw_dng = d / "raw_dng_XYZ.tiff"
         cam = raws[name].camera

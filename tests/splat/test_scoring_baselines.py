@@ -25,9 +25,9 @@ def spec(tmp_path_factory):
 
 
 @settings(deadline=None)
-@given(widths=st.lists(st.integers(1, 7), min_size=1, max_size=6), height=st.integers(3, 9))
+@given(widths=st.lists(st.integers(1, 9), min_size=1, max_size=6), height=st.integers(3, 9))
 def test_region_labels_find_every_stripe_wide_enough(widths, height):
-    """Vertical stripes of distinct colours: a stripe is one region iff it keeps a column whose 3 × 3
+    """Vertical stripes of distinct colours: a stripe is one region iff it keeps a column whose 5 × 5
     neighbourhood lies inside it (borders extended), and it has at least REGION_MIN_PIXELS pixels."""
     from splat._tol import REGION_MIN_PIXELS
     from splat.scoring import region_labels
@@ -39,7 +39,7 @@ def test_region_labels_find_every_stripe_wide_enough(widths, height):
     expected = 0
     x = 0
     for i, w in enumerate(widths):
-        inner = w - (i > 0) - (i < len(widths) - 1)  # columns one pixel away from another stripe
+        inner = w - 2 * (i > 0) - 2 * (i < len(widths) - 1)  # columns two pixels from another stripe
         if inner > 0 and inner * height >= REGION_MIN_PIXELS:
             expected += 1
             region = labels[:, x : x + w]
@@ -56,12 +56,12 @@ def test_region_means_average_the_noise_and_name_the_chart_patch(spec):
     from splat.scoring import _chart_XYZ, _dE_all, _region_dE, region_labels
 
     C = _chart_XYZ(spec)
-    ref = np.zeros((8, 16, 3))
-    ref[:, :8] = C[7]  # a chart patch
-    ref[:, 8:] = [0.3, 0.2, 0.1]  # a uniform surface of no chart colour
+    ref = np.zeros((8, 20, 3))
+    ref[:, :10] = C[7]  # a chart patch
+    ref[:, 10:] = [0.3, 0.2, 0.1]  # a uniform surface of no chart colour
     labels, chart = region_labels(ref, C)
     assert sorted(chart.values()) == [7] and len(np.unique(labels[labels > 0])) == 2
-    noise = np.where(np.arange(8)[:, None, None] % 2, 0.02, -0.02) * np.ones((1, 16, 3))  # rows: all in
+    noise = np.where(np.arange(8)[:, None, None] % 2, 0.02, -0.02) * np.ones((1, 20, 3))  # rows: all in
     problem = correction_problem_of(spec, [0])
     assert _dE_all(problem, ref + noise, ref).mean() > 1
     ch, un = _region_dE(problem, ref + noise, ref, labels, chart)
