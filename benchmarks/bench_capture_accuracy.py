@@ -160,6 +160,9 @@ def main(argv=None) -> int:
     print(text)
     r = ratios[("all views", "one")]
     for m in ("chart", "uniform"):
+        if not np.isfinite(r[m]):  # e.g. the CI size: chart patches of 3–5 px have no 5 × 5 interior
+            print(f"\n{dict(MEASURES)[m]}: not measured (no such region's interior in every held-out view)")
+            continue
         print(
             f"\n{dict(MEASURES)[m]}: three cameras ÷ one camera (b) = {r[m]:.2f} (goal ≤ 0.5: "
             f"{'met' if r[m] <= 0.5 else 'NOT met'}); ÷ own development (a) = "
