@@ -7,7 +7,8 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
   scale and exposure of the pipeline), only for the camera that took the view;
 - ``dev:<cam>`` the view's own RAW file **developed well** (:func:`develop`), the strongest single-photograph
   baseline: the pipeline's white (the marked card), every demosaicing method of isp's registry (the one
-  with the lowest mean ΔE00 over the camera's held-out views is kept, named in ``dev_demosaic``), no
+  with the lowest mean ΔE00 over the camera's held-out views is kept, named in ``dev_demosaic``; each
+  method's own figures stay as ``dev-<demosaic>:<cam>``), no
   clipping before the matrix, a least-squares 3 × 3 matrix fitted on the ColorChecker through the
   camera's spectral sensitivities (:func:`chart_matrix`; what a chart profile does);
 - ``raw-<method>:<cam>`` the view's own RAW file (demosaiced by isp, Malvar 2004; full-colour files as
