@@ -22,6 +22,8 @@ __all__ = [
     "QUATERNION_NORM_MIN",
     "RAY_SURFACE",
     "RAY_T_MIN",
+    "REGION_MIN_PIXELS",
+    "REGION_RTOL",
     "ROTATION_ATOL",
     "SMOOTH_RTOL",
     "SO3_TAYLOR_THETA2",
@@ -181,3 +183,16 @@ STRIP_ROWS = 128
 #: Pixels corrected per call of the regression within a strip (memory only: a root-polynomial of nine
 #: channels has 45 terms, 2¹⁷ pixels × 45 × 8 B = 47 MB).
 CORRECT_CHUNK = 2**17
+# --- region means in scoring (splat.scoring.region_labels) ---
+
+#: A region of the true image is uniform where its XYZ varies by at most 1 % (relative, floor 0.02 in Y)
+#: over every 3 × 3 neighbourhood, and a region shows a chart patch when its mean XYZ is within 1 % of
+#: the patch's: the simulator's chart sits on the unshaded floor (exactly the patch's XYZ; the truth's
+#: float32 rounding is 1e-7), and the closest two ColorChecker N Ohta patches' XYZ differ by 16 % in
+#: their most different channel.
+REGION_RTOL = 0.01
+
+#: Regions smaller than this many pixels (at full resolution) are left out of the region means: a mean
+#: over fewer pixels averages little noise (σ/2 at four), and on the stride grid of the splat scores a
+#: smaller region often keeps no pixel at all.
+REGION_MIN_PIXELS = 4

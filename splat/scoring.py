@@ -5,6 +5,12 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
 
 - ``dng:<cam>`` the view's own RAW file developed by :mod:`isp` with its DNG ColorMatrix (white → 1
   scale and exposure of the pipeline), only for the camera that took the view;
+- ``dev:<cam>`` the view's own RAW file **developed well** (:func:`develop`), the strongest single-photograph
+  baseline: the pipeline's white (the marked card), every demosaicing method of isp's registry (the one
+  with the lowest mean ΔE00 over the camera's held-out views is kept, named in ``dev_demosaic``; each
+  method's own figures stay as ``dev-<demosaic>:<cam>``), no
+  clipping before the matrix, a least-squares 3 × 3 matrix fitted on the ColorChecker through the
+  camera's spectral sensitivities (:func:`chart_matrix`; what a chart profile does);
 - ``raw-<method>:<cam>`` the view's own RAW file (demosaiced by isp, Malvar 2004; full-colour files as
   they are) corrected by ``<method>`` with that camera alone — the single-camera metamer correction;
 - ``<method>:<cams>`` the splat's render of the view through the channels of ``<cams>`` (one camera,
@@ -12,8 +18,12 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
 - ``<method>-fused:<cams>`` the same view fused with its own RAW file (:mod:`splat.fusion`: its
   measured channels, the other cameras' photographs reprojected into it (:mod:`splat.reproject`) where
   they see the pixel, else the render anchored to the photograph; per-channel noise),
-  for the subsets of two or more cameras that include the view's own — what the correct step writes as
-  ``<method>_fused_*`` for every photographed view;
+  for the subsets that include the view's own — what the correct step writes as ``<method>_fused_*``
+  for every photographed view; with the view's own camera alone this is the **one-camera pipeline**
+  (its photograph averaged with its other photographs reprojected into it, no other camera), which
+  separates the gain of the other cameras' channels from that of averaging more photographs (the
+  depth used to reproject is the jointly trained model's: a one-camera capture would have less
+  geometry, so this baseline is, if anything, favoured);
 - ``<method>-photographed:<cams>`` the same view as if it had no photograph (a novel view): the
   photographs of ``<cams>`` reprojected into it where they see the pixel (its own RAW file is never a
   source), else the render (``pipeline.photographed_view``) — what the correct step writes as
@@ -21,7 +31,12 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
 
 each over all pixels and (``flat_delta_E00``) over the *flat* pixels only: those whose true XYZ is
 constant over their 5 × 5 neighbourhood (every channel's range ≤ 1 % of max(Y, 0.02)), where neither
-demosaicing nor the splat's blur at edges enters and the estimate measures colour alone;
+demosaicing nor the splat's blur at edges enters and the estimate measures colour alone; and, with
+the noise averaged out, per **region mean** (:func:`region_labels`: connected uniform regions of the
+true image): ``chart_delta_E00`` the ΔE00 between the estimate's and the truth's mean XYZ over each
+ColorChecker patch seen, ``uniform_delta_E00`` the same over every other uniform surface (regions
+pooled over the held-out views); ``per_view`` keeps every view's numbers, so that estimates can be
+compared on the same views;
 
 plus the held-out render PSNR per channel (render × exposure against the view's RAW mosaic on its valid
 pixels; peak 1 = saturation; ``psnr_db``) and the same with both divided by the view's relative EXIF
@@ -46,7 +61,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["flat_mask", "raw_balanced", "score", "similarity"]
+from ._tol import REGION_MIN_PIXELS, REGION_RTOL
+
+__all__ = ["chart_matrix", "develop", "flat_mask", "raw_balanced", "region_labels", "score", "similarity"]
 
 
 def similarity(X, Y):
@@ -95,15 +112,116 @@ def raw_balanced(view, scale) -> np.ndarray:
     return measured(view, scale)
 
 
-def _dE(problem, est, ref):
+def _dE_all(problem, est, ref) -> np.ndarray:
+    """ΔE00 per pixel (CIELAB relative to the problem's white), flattened."""
     import colour
 
     w = problem.white_XYZ
     xy = colour.XYZ_to_xy(w)
     lab_e = colour.XYZ_to_Lab(est / w[1], xy)
     lab_r = colour.XYZ_to_Lab(ref / w[1], xy)
-    d = np.asarray(colour.delta_E(lab_e, lab_r, method="CIE 2000")).ravel()
+    return np.asarray(colour.delta_E(lab_e, lab_r, method="CIE 2000")).ravel()
+
+
+def _dE(problem, est, ref):
+    d = _dE_all(problem, est, ref)
     return {"mean": float(np.mean(d)), "p95": float(np.percentile(d, 95))}
+
+
+def chart_matrix(spec, k: int, *, chart: str = "ColorChecker N Ohta") -> np.ndarray:
+    """Least-squares matrix (3, 3) from camera ``k``'s white → 1 responses to XYZ (scene white, Y = 1),
+    fitted on the ``chart``'s reflectances through the capture's spectral sensitivities and illuminant
+    (the grid and normalisation of :func:`splat.pipeline.correction_problem_of`): ``XYZ = c @ M``."""
+    import zonotope
+
+    from .pipeline import correction_problem_of
+
+    problem = correction_problem_of(spec, [k])
+    R = np.asarray(zonotope.resample(zonotope.reflectances(chart), problem.wavelengths), float).T
+    M, *_ = np.linalg.lstsq(R @ problem.Phi, R @ problem.Psi, rcond=None)
+    return M
+
+
+def develop(view, white_scale, M, *, demosaic: str = "Menon 2007") -> np.ndarray:
+    """A RAW view developed as a careful photographer would: demosaiced by isp (``demosaic``; a
+    full-colour file as it is), put on the white → 1 scale of ``white_scale`` (3,) at exposure 1, and
+    ``M`` (:func:`chart_matrix`) applied with no clipping before it; XYZ (H, W, 3)."""
+    from .fusion import measured
+
+    return measured(view, white_scale, method=demosaic) @ M
+
+
+def region_labels(
+    XYZ, chart_XYZ=None, *, radius: int = 2, rtol: float = REGION_RTOL, min_pixels: int = REGION_MIN_PIXELS
+):
+    """Uniform regions of a true XYZ image, and which of them show a chart patch.
+
+    A region is a connected set of pixels whose true XYZ is constant over their ``(2 radius + 1)²``
+    neighbourhood (:func:`flat_mask`; two such neighbours always share their colour), of at least
+    ``min_pixels`` pixels: a surface's interior, as one measures a patch's mean colour away from its
+    borders (with ``radius = 1`` the pixels next to a border enter, where the splat's blur and a
+    reprojection's misplacement dominate a small patch's mean). A region shows chart patch ``j`` when
+    its mean XYZ matches ``chart_XYZ[j]`` within ``rtol`` (relative, per channel, floor 0.01).
+
+    Parameters
+    ----------
+    XYZ : array_like of shape (H, W, 3)
+    chart_XYZ : array_like of shape (P, 3), optional
+
+    Returns
+    -------
+    labels : ndarray of shape (H, W), int
+        0 outside every region, else the region's number (1, 2, …).
+    chart : dict
+        Region number → chart patch index.
+    """
+    from scipy.ndimage import label
+
+    XYZ = np.asarray(XYZ, float)
+    lab, n = label(flat_mask(XYZ, radius=radius, rtol=rtol), structure=np.ones((3, 3)))
+    sizes = np.bincount(lab.ravel(), minlength=n + 1)
+    keep = sizes >= min_pixels
+    keep[0] = False
+    lab = np.where(keep[lab], lab, 0)
+    chart = {}
+    if chart_XYZ is not None:
+        C = np.asarray(chart_XYZ, float)
+        for r in np.flatnonzero(keep):
+            mean = XYZ[lab == r].mean(0)
+            err = np.abs(C - mean) / np.maximum(mean, 0.01)
+            j = int(np.argmin(err.max(-1)))
+            if err[j].max() <= rtol:
+                chart[int(r)] = j
+    return lab, chart
+
+
+def _chart_XYZ(spec, chart: str = "ColorChecker N Ohta") -> np.ndarray:
+    """The chart's XYZ under the capture's illuminant (Y_white = 1), on a 5 nm grid as the truth."""
+    import zonotope
+
+    light = spec.load_illuminant()
+    obs = zonotope.observer(spec.observer)
+    refl = zonotope.reflectances(chart)
+    shape = zonotope.common_shape(obs, light, refl, interval=5)
+    Psi = np.asarray(zonotope.generators(obs, light, shape, normalise=None).values, float)
+    R = np.asarray(zonotope.resample(refl, shape), float).T
+    return R @ Psi / Psi[:, 1].sum()
+
+
+def _region_dE(problem, est, ref, labels, chart) -> tuple[list, list]:
+    """ΔE00 of the mean XYZ over each region: (chart regions, other regions)."""
+    if not labels.any():
+        return [], []
+    idx = labels.ravel()
+    n = idx.max() + 1
+    cnt = np.bincount(idx, minlength=n)
+    ok = np.flatnonzero(cnt > 0)
+    ok = ok[ok > 0]
+    mean_e = np.stack([np.bincount(idx, est.reshape(-1, 3)[:, c], n) for c in range(3)], -1)[ok]
+    mean_r = np.stack([np.bincount(idx, ref.reshape(-1, 3)[:, c], n) for c in range(3)], -1)[ok]
+    d = _dE_all(problem, mean_e / cnt[ok, None], mean_r / cnt[ok, None])
+    is_chart = np.array([int(r) in chart for r in ok])
+    return list(d[is_chart]), list(d[~is_chart])
 
 
 def flat_mask(XYZ, *, radius: int = 2, rtol: float = 0.01) -> np.ndarray:
@@ -159,6 +277,7 @@ def score(
     """
     import tifffile
 
+    from isp.stages import DEMOSAIC_METHODS
     from zonotope.correct import CORRECTION_METHODS
     from zonotope.correct.image import correct_image
 
@@ -205,12 +324,36 @@ def score(
     fitters: dict = {}  # (method, cameras) → splat.pipeline.fused_fitter
     n_flat = []
 
+    chart_XYZ = _chart_XYZ(spec)
+    region: list = [None, None]  # the current view's region labels on the stride grid, chart regions
+    chart_rows: dict[str, list] = {}
+    uniform_rows: dict[str, list] = {}
+    per_view: dict[str, dict] = {}
+
     def add(label, est, ref, flat):
+        row = {}
         if est.shape == ref.shape:
-            rows.setdefault(label, []).append(_dE(problem, est, ref))
+            row = _dE(problem, est, ref)
+            rows.setdefault(label, []).append(row)
+            # region means on the stride grid for every estimate (the same pixels of the same regions)
+            lab, chart = region
+            e, r = (
+                (est, ref)
+                if est.shape[:2] == lab.shape
+                else (est[::stride, ::stride], ref[::stride, ::stride])
+            )
+            ch, un = _region_dE(problem, e, r, lab, chart)
+            chart_rows.setdefault(label, []).extend(ch)
+            uniform_rows.setdefault(label, []).extend(un)
+            row = dict(
+                row, chart=float(np.mean(ch)) if ch else None, uniform=float(np.mean(un)) if un else None
+            )
             est = est[flat]
         if flat.any():
-            flat_rows.setdefault(label, []).append(_dE(problem, est, ref[flat]))
+            d = _dE(problem, est, ref[flat])
+            row = dict(row, flat=d["mean"])
+            flat_rows.setdefault(label, []).append(d)
+        per_view.setdefault(current[0], {})[label] = row
 
     def pick(img, fl):  # the pixels to correct: all, or the flat ones as a (n, 1, k) image
         return img[fl][:, None] if flat_only else img
@@ -218,10 +361,15 @@ def score(
     def unpick(est):
         return est[:, 0] if flat_only else est
 
+    dev_M = {k: chart_matrix(spec, k) for k in range(n)}
+    current = [None]
     for name in held:
+        current[0] = name
         ref = np.asarray(tifffile.imread(truth / "xyz" / f"{_truth_stem(name)}.tiff"), float)
         flat = flat_mask(ref)
         n_flat.append(float(flat.mean()))
+        lab, chart = region_labels(ref, chart_XYZ)  # on all pixels, then read on the stride grid
+        region[:] = [lab[::stride, ::stride], chart]
         d = out / "correct" / spec.out_stem(name)
         raw_dng = d / "raw_dng_XYZ.tiff"
         cam = raws[name].camera
@@ -232,6 +380,12 @@ def score(
             bal = np.maximum(raw_balanced(raws[name], white["scale"][cam]), 0)
             est = dng_matrix_XYZ(bal, raws[name].profile, raws[name].neutral, problem.white_XYZ)
             add(f"dng:{spec.cameras[cam].folder}", est, ref, flat)
+        folder = spec.cameras[cam].folder
+        for dm in ("as is",) if raws[name].full_colour else DEMOSAIC_METHODS:
+            est = develop(
+                raws[name], white["scale"][cam], dev_M[cam], demosaic="Malvar 2004" if dm == "as is" else dm
+            )
+            add(f"dev-{dm}:{folder}", est, ref, flat)
         r, fl = ref[::stride, ::stride], flat[::stride, ::stride]
         if raw_corr:
             bal = raw_balanced(raws[name], white["scale"][cam])[::stride, ::stride]
@@ -249,7 +403,7 @@ def score(
         rep = reprojected_of(out / "render" / spec.out_stem(name), scale)
         for sub in subsets:
             views = []
-            if name in fusion["views"] and cam in sub and len(sub) > 1:  # its RAW, the others reprojected
+            if name in fusion["views"] and cam in sub:  # its RAW, the others reprojected (alone: one camera)
                 f = fused_view(fusion, name, render / scale, raws[name], scale, list(sub), rep)
                 views.append(("fused", f))
             if rep is not None and fusion["reprojected_sigma"] is not None:  # as if it had no photograph
@@ -283,10 +437,37 @@ def score(
             for k, v in table.items()
         }
 
+    # dev: each camera's best demosaicing over its held-out views (the strongest such baseline)
+    dev_demosaic = {}
+    for k in range(n):
+        folder = spec.cameras[k].folder
+        cand = {
+            lb: np.mean([x["mean"] for x in v])
+            for lb, v in rows.items()
+            if lb.startswith("dev-") and lb.endswith(f":{folder}")
+        }
+        if not cand:
+            continue
+        best = min(cand, key=cand.get)
+        dev_demosaic[folder] = best[4 : -len(folder) - 1]
+        for table in (rows, flat_rows, chart_rows, uniform_rows):
+            if best in table:
+                table[f"dev:{folder}"] = table[best]
+        for views_ in per_view.values():
+            if best in views_:
+                views_[f"dev:{folder}"] = views_[best]
+
+    def pooled(table):
+        return {k: {"mean": float(np.mean(v)), "regions": len(v)} for k, v in table.items() if v}
+
     result = {
         "held_out_views": held,
         "delta_E00": summarise(rows),
         "flat_delta_E00": summarise(flat_rows),
+        "chart_delta_E00": pooled(chart_rows),
+        "uniform_delta_E00": pooled(uniform_rows),
+        "dev_demosaic": dev_demosaic,
+        "per_view": per_view,
         "flat_fraction": float(np.mean(n_flat)) if n_flat else 0.0,
         "psnr_db": {k: float(np.mean(v)) for k, v in psnr.items()},
         "psnr_exposure_normalised_db": {k: float(np.mean(v)) for k, v in psnr_norm.items()},
