@@ -259,6 +259,7 @@ def fit_correction(
     illuminant=None,
     shape=None,
     training=None,
+    reference=None,
     **options,
 ) -> Corrector:
     """Fit an estimator (see :data:`CORRECTION_METHODS` and the module notes on which to use).
@@ -271,10 +272,12 @@ def fit_correction(
     method
         Key of :data:`CORRECTION_METHODS` (case and punctuation ignored) or an alias such as
         ``"root-polynomial"``, ``"least squares"``, ``"idt"``.
-    target, illuminant, shape, training
+    target, illuminant, shape, training, reference
         Passed to :func:`correction_problem` when cameras are given (defaults ``"CIE 2015 2°"``,
-        ``"D65"``, the cameras' common grid, ``"rawtoaces 190"``). A :class:`CorrectionProblem`
-        already holds them, so giving them with one is an error rather than silently ignored.
+        ``"D65"``, the cameras' common grid, ``"rawtoaces 190"``, and the target seeing the scene's
+        light; ``reference="D65"`` fits scene light → colours as under D65). A
+        :class:`CorrectionProblem` already holds them, so giving them with one is an error rather
+        than silently ignored.
     **options
         Passed to the fitting function (e.g. ``degree=3``, ``noise=0.01``).
 
@@ -283,10 +286,17 @@ def fit_correction(
     UnknownMethodError
         Unknown method (the message lists the valid ones).
     OptionError
-        ``target``, ``illuminant``, ``shape`` or ``training`` given with a :class:`CorrectionProblem`.
+        ``target``, ``illuminant``, ``shape``, ``training`` or ``reference`` given with a
+        :class:`CorrectionProblem`.
     """
     name = CORRECTION_METHODS.resolve(method)
-    setup = {"target": target, "illuminant": illuminant, "shape": shape, "training": training}
+    setup = {
+        "target": target,
+        "illuminant": illuminant,
+        "shape": shape,
+        "training": training,
+        "reference": reference,
+    }
     if isinstance(cameras_or_problem, CorrectionProblem):
         given = [key for key, value in setup.items() if value is not None]
         if given:

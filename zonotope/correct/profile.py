@@ -408,6 +408,7 @@ def save_correction(
         "sources": list(prob.sources),
         "target": prob.target,
         "illuminant": prob.illuminant,
+        "target_illuminant": prob.target_illuminant,
         "training": prob.training_name,
         "options": {k: (v.item() if isinstance(v, np.generic) else v) for k, v in opts.items()},
     }
@@ -557,6 +558,7 @@ def load_correction(path: str | os.PathLike):
     arrays = _checked_arrays(path, members)
     M = arrays.pop("param_M", None)
     names = {key: meta.get(key) for key in ("target", "illuminant", "training")}
+    names["target_illuminant"] = meta.get("target_illuminant", "")  # absent in files before it existed
     sources = meta.get("sources")
     opts = meta.get("options", {})
     if (
@@ -577,6 +579,7 @@ def load_correction(path: str | os.PathLike):
             target=names["target"],
             illuminant=names["illuminant"],
             training_name=names["training"],
+            target_illuminant=names["target_illuminant"],
         )
     except (TypeError, KeyError) as exc:
         raise SpectralDataError(f"{path}: incomplete problem ({exc}).") from exc

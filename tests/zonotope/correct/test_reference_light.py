@@ -109,3 +109,21 @@ def test_centroid_is_the_illuminant_induced_mmv_centroid(tungsten_to_daylight, c
     np.testing.assert_allclose(mm(c).centroid * scale, mmv.centroid, rtol=1e-7)
     est = fit_correction(p, method="Centroid", eps=0.0)(c)
     np.testing.assert_allclose(est, mmv.centroid, atol=1e-9)
+
+
+def test_fit_correction_and_saved_corrections_keep_the_reference(tmp_path, tungsten_to_daylight, checker):
+    """``fit_correction(cams, reference=...)`` builds the same problem, and a saved correction keeps
+    the light its target sees (a reload that dropped it would still hold the right Ψ but say D65 = A)."""
+    from zonotope.correct import load_correction, save_correction
+
+    direct = fit_correction(tungsten_to_daylight, method="Cheung 2004")
+    by_name = fit_correction(CAM, method="Cheung 2004", illuminant="A", reference="D65", shape=G20)
+    assert by_name.problem.target_illuminant == tungsten_to_daylight.target_illuminant
+    responses = checker @ tungsten_to_daylight.Phi
+    np.testing.assert_allclose(by_name(responses), direct(responses), rtol=1e-12, atol=1e-14)
+    with pytest.raises(Exception, match="reference"):
+        fit_correction(tungsten_to_daylight, method="Cheung 2004", reference="D65")
+    path = save_correction(tmp_path / "a_to_d65.npz", direct)
+    loaded = load_correction(path)
+    assert loaded.problem.target_illuminant == tungsten_to_daylight.target_illuminant != ""
+    np.testing.assert_allclose(loaded(responses), direct(responses), rtol=1e-12, atol=1e-14)
