@@ -23,6 +23,7 @@ __all__ = [
     "mmv_polytope",
     "plot_grey_mmvs",
     "plot_mmv",
+    "plot_mmv_band",
     "plot_mmv_comparison",
     "plot_object_colour_solid",
     "plot_sensitivities",
@@ -392,6 +393,48 @@ def plot_mmv_comparison(
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
     return _finish(p, filename, axes=False)  # every panel already has its labelled grid (plot_mmv)
+
+
+def plot_mmv_band(band, *, filename=None, title: str | None = None, sample_colour: str = "black"):
+    """The MMV of one reflectance with estimated sensitivities (opaque, sRGB) and, as wire frames, the
+    MMVs with cameras drawn within their uncertainty band; the reflectance's true colour is a white
+    sphere.
+
+    Parameters
+    ----------
+    band : zonotope.BandMMVs
+        From :func:`zonotope.band_mmvs`.
+    title : str, optional
+        Default: the number of drawn cameras, the estimate's volume and the samples' volume range.
+    """
+    pv = _pv()
+    problem = band.problem
+    p = _plotter(None)
+    p.add_mesh(_solid_mesh(problem), color="lightgrey", opacity=0.12)
+    p.add_mesh(_mesh(problem, band.mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
+    for m in band.sample_mmvs:
+        p.add_mesh(m.to_pyvista(), style="wireframe", color=sample_colour, line_width=1.5, opacity=0.6)
+    truth = band.reflectance @ problem.Psi
+    scale = float(np.linalg.norm(problem.white_XYZ))
+    p.add_mesh(pv.Sphere(radius=0.008 * scale, center=truth), color="white")
+    box = _mmv_box(problem, [band.mmv, *band.sample_mmvs], [truth])
+    c = np.asarray(band.mmv.centroid)
+    p.camera.focal_point = tuple(c)
+    p.camera.position = tuple(c + scale * np.array([0.9, -0.5, 0.6]))
+    p.camera.up = (0, 0, 1)
+    if title is None:
+        v = band.sample_volumes
+        title = (
+            f"MMV with the estimate (volume {band.volume:.2e}) and {v.size} band samples "
+            f"(wire, {v.min():.2e}-{v.max():.2e})"
+        )
+    return _finish(p, filename, names=_axis_names(problem), title=title, bounds=box)
+
+
+def _solid_mesh(problem):
+    from .geometry.solid import Zonotope
+
+    return Zonotope(problem.Psi).to_pyvista()
 
 
 # -- matplotlib ------------------------------------------------------------------------------------
