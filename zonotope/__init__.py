@@ -19,7 +19,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
                           :func:`correct_image`, saved corrections and 3-D LUTs
 ``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
-``report``, ``viz``
+``report``, ``viz``,
+``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`: the SSF band in noise and MMVs)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 

@@ -437,10 +437,10 @@ def plot_mmv_band(
     c = np.asarray(band.mmv.centroid)
     vertices = np.asarray(band.mmv.vertices, dtype=np.float64)
     thin = np.linalg.eigh(np.cov((vertices - c).T))[1][:, 0]  # the MMVs are plates: look at the face
-    thin = thin if thin @ np.array([0.9, -0.5, 0.6]) >= 0 else -thin
+    thin = thin * np.copysign(1.0, thin @ np.array([0.9, -0.5, 0.6]))  # from the side plot_mmv views
     p.camera.focal_point = tuple(c)
     p.camera.position = tuple(c + scale * thin)
-    p.camera.up = (0, 0, 1) if abs(thin[2]) < 0.9 else (0, 1, 0)
+    p.camera.up = tuple(np.eye(3)[np.argmin(np.abs(thin))])  # the axis most across the view: upright
     if title is None:
         v = band.sample_volumes / band.volume
         title = f"MMV: estimate (sRGB) and {v.size} band samples (volume x{v.min():.2f}-{v.max():.2f})"
