@@ -28,7 +28,7 @@ LAYERS: dict[int, set[str]] = {
     3: {"geometry"},
     4: {"mismatch"},
     5: {"correct"},
-    6: {"vora", "parallel", "evaluate", "report", "survey", "viz"},
+    6: {"vora", "parallel", "evaluate", "report", "survey", "viz", "ssf_band"},
     7: {"cli"},
     8: {"__init__", "__main__"},
 }

@@ -19,7 +19,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
                           :func:`correct_image`, saved corrections and 3-D LUTs
 ``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
-``report``, ``viz``
+``report``, ``viz``,
+``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`: the SSF band in noise and MMVs)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 
@@ -253,10 +254,12 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "source_split",
         ],
         "report": ["ReportConfig", "ReportExistsError", "write_report"],
+        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise"],
         "viz": [
             "mmv_polytope",
             "plot_grey_mmvs",
             "plot_mmv",
+            "plot_mmv_band",
             "plot_mmv_comparison",
             "plot_object_colour_solid",
             "plot_sensitivities",
@@ -273,6 +276,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "estimate_ssf",
             "learn_ssf_basis",
             "read_dng_matrices",
+            "sample_ssfs",
             "ssf_basis",
             "synthesise_dng_matrices",
             "write_ssf_json",

@@ -587,3 +587,15 @@ GUARD_QUANTILE = 0.95
 GUARD_Y_FLOOR = 1e-3
 
 __all__ += ["GUARD_QUANTILE", "GUARD_Y_FLOOR"]
+
+# -- SSF band: sampled cameras and its noise ------------------------------------------------------
+
+#: Correlation length (nm, squared-exponential) of the perturbations drawn by ``sample_ssfs``: the
+#: band comes from 5-component basis residuals, which vary over tens of nanometres, not per sample.
+SSF_SAMPLE_CORRELATION_NM = 40.0
+
+#: Mean of ``sample_ssfs`` draws vs the estimate, as a fraction of the channel peak: the draws are
+#: symmetric about it, so only sampling error (σ/√n ≤ 0.2/√400 = 0.01 at the widest band) remains.
+SSF_SAMPLE_MEAN_ATOL = 0.03
+
+__all__ += ["SSF_SAMPLE_CORRELATION_NM", "SSF_SAMPLE_MEAN_ATOL"]

@@ -23,6 +23,7 @@ __all__ = [
     "mmv_polytope",
     "plot_grey_mmvs",
     "plot_mmv",
+    "plot_mmv_band",
     "plot_mmv_comparison",
     "plot_object_colour_solid",
     "plot_sensitivities",
@@ -392,6 +393,64 @@ def plot_mmv_comparison(
         if i:
             p.camera = p.renderers[0].camera  # same view in every panel
     return _finish(p, filename, axes=False)  # every panel already has its labelled grid (plot_mmv)
+
+
+def plot_mmv_band(
+    band, *, reference=None, filename=None, title: str | None = None, sample_opacity: float = 0.18
+):
+    """The MMV of one reflectance with estimated sensitivities (opaque, sRGB) inside the MMVs with
+    cameras drawn within their uncertainty band (translucent, one colour each), seen along the MMV's
+    thinnest direction; the reflectance's true colour is a white sphere.
+
+    Parameters
+    ----------
+    band : zonotope.BandMMVs
+        From :func:`zonotope.band_mmvs`.
+    reference : Polytope, optional
+        Another MMV of the same reflectance (e.g. with the measured camera), drawn as a black outline.
+    title : str, optional
+        Default: the number of drawn cameras and the samples' volume range relative to the estimate's.
+    """
+    import matplotlib
+
+    pv = _pv()
+    problem = band.problem
+    p = _plotter(None)
+    p.add_mesh(_solid_mesh(problem), color="lightgrey", opacity=0.08)
+    p.add_mesh(_mesh(problem, band.mmv), scalars="sRGB", rgb=True, **_MMV_STYLE)
+    colours = matplotlib.colormaps["tab10"]
+    for i, m in enumerate(band.sample_mmvs):
+        p.add_mesh(m.to_pyvista(), color=colours(i % 10)[:3], opacity=sample_opacity, **_MMV_STYLE)
+    extra = []
+    if reference is not None:
+        p.add_mesh(
+            reference.to_pyvista(),
+            color="white",
+            opacity=0.05,
+            silhouette={"color": "black", "line_width": 3},
+        )
+        extra = [reference]
+    truth = band.reflectance @ problem.Psi
+    scale = float(np.linalg.norm(problem.white_XYZ))
+    p.add_mesh(pv.Sphere(radius=0.006 * scale, center=truth), color="white")
+    box = _mmv_box(problem, [band.mmv, *band.sample_mmvs, *extra], [truth])
+    c = np.asarray(band.mmv.centroid)
+    vertices = np.asarray(band.mmv.vertices, dtype=np.float64)
+    thin = np.linalg.eigh(np.cov((vertices - c).T))[1][:, 0]  # the MMVs are plates: look at the face
+    thin = thin * np.copysign(1.0, thin @ np.array([0.9, -0.5, 0.6]))  # from the side plot_mmv views
+    p.camera.focal_point = tuple(c)
+    p.camera.position = tuple(c + scale * thin)
+    p.camera.up = tuple(np.eye(3)[np.argmin(np.abs(thin))])  # the axis most across the view: upright
+    if title is None:
+        v = band.sample_volumes / band.volume
+        title = f"MMV: estimate (sRGB) and {v.size} band samples (volume x{v.min():.2f}-{v.max():.2f})"
+    return _finish(p, filename, names=_axis_names(problem), title=title, bounds=box)
+
+
+def _solid_mesh(problem):
+    from .geometry.solid import Zonotope
+
+    return Zonotope(problem.Psi).to_pyvista()
 
 
 # -- matplotlib ------------------------------------------------------------------------------------

@@ -52,6 +52,7 @@ from .._tol import (
     SSF_CHOLESKY_JITTER,
     SSF_MATRIX_CONDITION_MAX,
     SSF_PRIOR,
+    SSF_SAMPLE_CORRELATION_NM,
     SSF_SMOOTHNESS,
     SSF_SUBSPACE,
 )
@@ -66,6 +67,7 @@ __all__ = [
     "estimate_ssf",
     "learn_ssf_basis",
     "read_dng_matrices",
+    "sample_ssfs",
     "ssf_basis",
     "synthesise_dng_matrices",
     "write_ssf_json",
@@ -632,6 +634,46 @@ class SSFEstimate:
             R = spectra.resample(load_reflectances(reflectances), w).T
         white = E @ self.values
         return np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
+
+
+def sample_ssfs(
+    estimate: SSFEstimate,
+    n: int,
+    *,
+    seed: int = 0,
+    k: float = 2.0,
+    correlation: float = SSF_SAMPLE_CORRELATION_NM,
+) -> list[colour.MultiSpectralDistributions]:
+    """``n`` cameras drawn within the band of ``estimate``, usable wherever a camera is.
+
+    Each channel is ``values + u·z`` with ``u`` the band (one σ) and ``z`` a smooth Gaussian process
+    (squared-exponential, ``correlation`` nm), the deviation cut symmetrically at
+    ``min(k·u, values)``: the draws are non-negative, inside ``values ± k·u`` and centred on the
+    estimate (where a curve is below ``k·u`` its downward room, and so its upward, is the curve
+    itself). Why: to see what the band does to a result, fit or MMV, one camera at a time.
+
+    Raises
+    ------
+    SpectralDataError
+        ``n`` < 1, ``k`` ≤ 0 or ``correlation`` ≤ 0.
+    """
+    if int(n) != n or n < 1:
+        raise SpectralDataError(f"sample_ssfs n={n!r}: give a whole number of cameras ≥ 1.")
+    if not (np.isfinite(k) and k > 0 and np.isfinite(correlation) and correlation > 0):
+        raise SpectralDataError(f"sample_ssfs k={k!r}, correlation={correlation!r}: give numbers > 0.")
+    w, v, u = estimate.wavelengths, estimate.values, np.asarray(estimate.uncertainty, dtype=np.float64)
+    C = np.exp(-0.5 * ((w[:, None] - w[None, :]) / correlation) ** 2)
+    vals, vecs = np.linalg.eigh(C)
+    L = vecs * np.sqrt(np.maximum(vals, 0.0))  # C = L·Lᵀ, robust to its near-singular tail
+    z = np.einsum("ij,sjc->sic", L, np.random.default_rng(seed).standard_normal((int(n), w.size, 3)))
+    room = np.minimum(k * u, v)
+    draws = v + np.clip(u * z, -room, room)
+    return [
+        colour.MultiSpectralDistributions(
+            d, w, labels=["red", "green", "blue"], name=f"{estimate.name} (band sample {i})"
+        )
+        for i, d in enumerate(draws)
+    ]
 
 
 @functools.lru_cache(maxsize=8)
