@@ -172,7 +172,9 @@ def test_develop_metamer_close_to_truth_and_dng(simulated, tmp_path, capsys):
         == 0
     )
     err = capsys.readouterr().err
-    assert "metamer correction Finlayson 2015" in err and "warning" not in err  # AsShotNeutral matches D65
+    assert (
+        f"metamer correction {zonotope.correct.IMAGE_METHOD}" in err and "warning" not in err
+    )  # AsShotNeutral matches D65
     img = tifffile.imread(metamer)
     assert img.dtype == np.uint16 and img.shape == (24, 36, 3)
     assert sorted(p.name for p in stages.iterdir())[3:5] == ["03_demosaic.tif", "04_camera_to_XYZ.tif"]

@@ -39,7 +39,9 @@ def test_noise_profile_used_and_said(dngs, tmp_path, capsys):
     assert main(["develop", str(dngs["profile"]), "-o", str(tmp_path / "a.tif"), *METAMER]) == 0
     err = _err(capsys)
     assert "noise: σ at white [" in err and "DNG NoiseProfile" in err
-    assert "metamer correction Finlayson 2015" in err and "noise σ at white" in err  # the final line
+    assert (
+        f"metamer correction {zonotope.correct.IMAGE_METHOD}" in err and "noise σ at white" in err
+    )  # the final line
 
 
 def test_implausible_profile_reported_and_estimate_used(dngs, tmp_path, capsys):
@@ -121,4 +123,4 @@ def test_profile_noise_from_a_dng(dngs, tmp_path, capsys):
     assert rc == 0 and out.exists()
     err = _err(capsys)
     assert "noise: σ at white [" in err and "DNG NoiseProfile" in err and "from profile.dng" in err
-    assert "fitting Finlayson 2015" in err
+    assert f"fitting {zonotope.correct.IMAGE_METHOD}" in err  # the photograph default
