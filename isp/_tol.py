@@ -156,3 +156,9 @@ CHART_MIN_SIGNAL = 0.01
 #: max; at 33³ 3.7× faster, all unchanged. 5e-3 is 6× faster at 33³ but errs by up to 4–7 ΔE00 on
 #: the atypical colours an MMV estimator is chosen for (docs/notes/2026-11-29-profiles.md).
 LUT_QUANTUM = 2e-3
+
+# --- reference light (isp develop --correction metamer --reference) ---
+#: Chroma C*ab (CIELAB, D65) a spectrally flat grey may keep in a developed 16-bit sRGB image: the
+#: correction's white is adapted to D50 and then D65 exactly, leaving 16-bit rounding and the
+#: demosaicing of patch interiors (0.01 measured).
+REFERENCE_GREY_CHROMA = 0.3

@@ -207,6 +207,11 @@ class MetamerConfig:
     illuminant : str or colour.SpectralDistribution
         Scene illuminant of the fit (name or SD); should match the light the file's white balance
         was set for.
+    reference : str or colour.SpectralDistribution, optional
+        The light whose colours the output holds (e.g. ``"D65"``): the estimator is fitted scene
+        light → colours as under ``reference`` (``zonotope.correct.correction_problem``), and a
+        neutral under the scene light comes out as that light's white (the pipeline adapts it to
+        sRGB's D65 as it does any white). None (default): the colours as under the scene light.
     training : str, path or colour.MultiSpectralDistributions
         Training reflectances: built-in set name, a file readable by ``zonotope.load_reflectances``
         or an MSDS.
@@ -239,6 +244,7 @@ class MetamerConfig:
 
     method: str | None = None
     illuminant: Any = "D65"
+    reference: Any = None
     training: Any = "rawtoaces 190"
     target: Any = "CIE 1931 2°"
     shape: Any = None
@@ -268,7 +274,8 @@ class MetamerConfig:
         check_int(owner, "batch_size", self.batch_size, minimum=1)
         _check_cie1931(self.target, f"{owner}.target")
         opts = check_options(owner, "estimator_options", self.estimator_options)
-        clash = sorted(set(opts) & {"method", "target", "illuminant", "shape", "training", "noise", "delta"})
+        fields = {"method", "target", "illuminant", "reference", "shape", "training", "noise", "delta"}
+        clash = sorted(set(opts) & fields)
         if clash:
             raise PipelineError(
                 f"{owner}.estimator_options: {', '.join(clash)} are fields of {owner} itself; set them "
@@ -304,7 +311,7 @@ def metamer_correction(
         Built-in camera name (``zonotope.list_builtin()["cameras"]``), a camera file readable by
         ``zonotope.load_camera`` (rawtoaces/camspec JSON, CSV) or a colour MSDS.
     config
-        The options (:class:`MetamerConfig`: method, illuminant, training, target, shape,
+        The options (:class:`MetamerConfig`: method, illuminant, reference, training, target, shape,
         white_level, quantum, batch_size, noise, estimator_options); default all defaults.
     progress
         See :class:`MetamerCorrection`.
@@ -342,6 +349,8 @@ def metamer_correction(
     if shape is None:
         lo, hi, step = METAMER_RANGE
         curves = [cam, zonotope.observer(target), zonotope.illuminant(illuminant)]
+        if cfg.reference is not None:
+            curves.append(zonotope.illuminant(cfg.reference))
         if isinstance(train, colour.MultiSpectralDistributions):
             curves.append(train)
         common = zonotope.common_shape(*curves, interval=step)
@@ -351,6 +360,7 @@ def metamer_correction(
         method=method,
         target=target,
         illuminant=illuminant,
+        reference=cfg.reference,
         shape=shape,
         training=train,
         **noise_options(method, cfg.noise),

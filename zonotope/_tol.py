@@ -599,3 +599,9 @@ SSF_SAMPLE_CORRELATION_NM = 40.0
 SSF_SAMPLE_MEAN_ATOL = 0.03
 
 __all__ += ["SSF_SAMPLE_CORRELATION_NM", "SSF_SAMPLE_MEAN_ATOL"]
+
+# --- reference light on the command line (zonotope correct --reference) ---
+#: Chroma C*ab a spectrally flat grey may keep after a scene light → reference light regression: the
+#: root-polynomial maps the white to the reference white only in least squares (A → D65: 2.2 measured;
+#: 1.5 under one light).
+REFERENCE_CLI_GREY_CHROMA = 3.0

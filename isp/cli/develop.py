@@ -29,6 +29,7 @@ _METAMER_OPTIONS = {
     "camera": "--camera",
     "method": "--method",
     "illuminant": "--illuminant",
+    "reference": "--reference",
     "training": "--training",
     "scene_white": "--scene-white",
     "quantum": "--quantum",
@@ -109,15 +110,32 @@ def _metamer_options(args: argparse.Namespace):
         return None, (
             f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just saturates)."
         )
+    error = _light_error(args)
+    if error:
+        return None, error
     defaults = MetamerConfig()
     config = MetamerConfig(
         method=args.method or defaults.method,
         illuminant=args.illuminant or defaults.illuminant,
+        reference=args.reference,
         training=args.training or defaults.training,
         white_level=defaults.white_level if args.scene_white is None else args.scene_white,
         quantum=defaults.quantum if args.quantum is None else args.quantum,
     )
     return config, None
+
+
+def _light_error(args: argparse.Namespace) -> str | None:
+    """One line for an unknown ``--illuminant`` or ``--reference`` (listing the lights), or None."""
+    import zonotope
+
+    for flag, name in (("--illuminant", args.illuminant), ("--reference", args.reference)):
+        if name is not None:
+            try:
+                zonotope.illuminant(name)
+            except zonotope.ZonotopeError as exc:
+                return f"{flag} {name}: {exc}"
+    return None
 
 
 def _pipeline(args: argparse.Namespace):
@@ -186,6 +204,10 @@ def _develop_folder(args: argparse.Namespace) -> int:
     # what the outputs depend on: a rerun into this folder (which skips finished files) must ask for the same
     ignore = {"func", "scheduler", "quiet", "input", "output", "overwrite", "command"}
     settings = {k: v for k, v in sorted(vars(args).items()) if k not in ignore}
+    if settings.get("reference") is None:  # absent: as under the scene light (older folders resume)
+        settings.pop("reference", None)
+    else:
+        settings["reference"] = f"colours as under {settings['reference']}"
     if config is not None:  # one fit for the folder: the noise of its first file
         config, note, origin = _folder_noise(args, config, noise)  # develop_folder records it in settings
         if not args.quiet or note:
@@ -377,6 +399,7 @@ def _develop_one_or_folder(args: argparse.Namespace) -> int:
     if not args.quiet:
         how = (
             f"metamer correction {metamer.method}, {args.camera}, {args.illuminant or 'D65'}, "
+            f"colours as under {args.reference or args.illuminant or 'D65'}, "
             f"noise {metamer.describe_noise()}"
             if metamer is not None
             else ("DNG ColorMatrix" if raw.is_dng else "LibRaw's built-in camera matrix")
@@ -525,6 +548,12 @@ def add_develop(sub) -> None:
     m.add_argument(
         "--illuminant",
         help="scene illuminant of the fit (default D65); the file's white balance should be for this light",
+    )
+    m.add_argument(
+        "--reference",
+        metavar="LIGHT",
+        help="develop the colours as under this light (e.g. D65: the estimator is fitted scene light "
+        "→ LIGHT; default: as under the scene light, --illuminant); the sRGB output stays D65-referred",
     )
     m.add_argument(
         "--training",

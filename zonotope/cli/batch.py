@@ -46,7 +46,13 @@ def add_commands(sub) -> None:
         "root-polynomial fitted for the noise with a linear fallback outside its training support, fast "
         "on photographs; 'Prior' is better on atypical colours and costs seconds to minutes per image)",
     )
-    p.add_argument("--illuminant", default="D65")
+    p.add_argument("--illuminant", default="D65", help="the scene light the images were taken under")
+    p.add_argument(
+        "--reference",
+        metavar="LIGHT",
+        help="output the colours as under this light (e.g. D65), fitted scene light → LIGHT "
+        "(default: as under the scene light, --illuminant)",
+    )
     p.add_argument("--training", default="rawtoaces 190", help="training reflectances (name or file)")
     p.add_argument("--target", default="CIE 2015 2°", help="observer of the XYZ output")
     p.add_argument(
@@ -194,7 +200,28 @@ def correct_file(src: str, tmp_out: str, options) -> None:
     if not np.all(np.isfinite(img)):
         raise ZonotopeError(f"{src}: the image holds NaN or inf values.")
     xyz = correct_image(img, corrector, quantum=quantum)
-    tifffile.imwrite(tmp_out, xyz.astype(np.float32), photometric="minisblack", planarconfig="contig")
+    p = corrector.problem
+    tifffile.imwrite(
+        tmp_out,
+        xyz.astype(np.float32),
+        photometric="minisblack",
+        planarconfig="contig",
+        description=ascii(f"XYZ, colours as under {p.target_illuminant or p.illuminant}")[1:-1],
+    )
+
+
+def _check_lights(args: argparse.Namespace) -> None:
+    """Refuse an unknown ``--illuminant`` or ``--reference`` in one line that lists the lights, before
+    any file is read or fit made."""
+    from .._errors import ZonotopeError
+    from ..spectra import builtin as spectra
+
+    for flag, name in (("--illuminant", args.illuminant), ("--reference", args.reference)):
+        if name is not None:
+            try:
+                spectra.illuminant(name)
+            except ZonotopeError as error:
+                raise ZonotopeError(f"{flag} {name}: {error}") from None
 
 
 def _noise_argument(text: str):
@@ -264,6 +291,7 @@ def _correct(args: argparse.Namespace) -> int:
     method = args.method or default_method()
     if not (np.isfinite(args.quantum) and args.quantum >= 0):
         raise ZonotopeError(f"--quantum {args.quantum}: must be a finite number ≥ 0.")
+    _check_lights(args)
     files = _image_files(args.inputs)
     out_dir = Path(args.output)
     if out_dir.exists() and not out_dir.is_dir():
@@ -276,7 +304,11 @@ def _correct(args: argparse.Namespace) -> int:
     from ..correct import correction_problem
 
     problem = correction_problem(
-        args.camera, target=args.target, illuminant=args.illuminant, training=args.training
+        args.camera,
+        target=args.target,
+        illuminant=args.illuminant,
+        training=args.training,
+        reference=args.reference,
     )
     model, _, note = _resolve_cli_noise(args.noise, files, problem.k)
     if not args.quiet:
@@ -290,8 +322,12 @@ def _correct(args: argparse.Namespace) -> int:
         "quantum": args.quantum,
         "noise": model if isinstance(model, float) else repr(model.key()) if model is not None else 0.0,
     }
+    if args.reference is not None:  # absent: as under the scene light (folders written before it resume)
+        settings["reference"] = f"colours as under {args.reference}"
     check_settings(out_dir / "manifest.csv", settings)
     corrector = None  # a rerun with every output present (all 'done') needs no fit
+    if not args.quiet:
+        console.print(f"colours as under {args.reference or args.illuminant}", soft_wrap=True)
     if not all(Path(t.output).exists() for t in tasks):
         if not args.quiet:  # the fit takes minutes for MMV estimators; say so before it starts
             console.print(f"fitting {method} for {' + '.join(args.camera)}…")

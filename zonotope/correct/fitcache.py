@@ -2,7 +2,8 @@
 scale chosen by cross-validation (:func:`zonotope.correct.mmv.learn_mix`, hundreds of MMV centroids).
 
 One small JSON file per fit, named by a key of everything the result depends on: the generators Φ and
-Ψ, the training reflectances, the target-to-XYZ map, the fit's options, the noise (σ or model) and
+Ψ (Ψ is the observer under the reference light, so fits for two references never share a file), the
+training reflectances, the target-to-XYZ map, the fit's options, the noise (σ or model) and
 the package and cache-format versions. A damaged or foreign file is refitted, not trusted.
 """
 

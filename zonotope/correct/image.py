@@ -78,6 +78,7 @@ def correct_image(
     cache_dir: str | Path | None = None,
     progress: ProgressCallback | None = None,
     return_info: bool = False,
+    reference=None,
     **options,
 ):
     """Correct a linear multi-camera image to target XYZ.
@@ -132,6 +133,11 @@ def correct_image(
     progress
         Called as ``progress("distinct colours", done, total)`` after each batch
         (:class:`~zonotope.utilities.ProgressCallback`).
+    reference
+        With cameras: the light whose colours the output holds (e.g. ``"D65"``), the estimator being
+        fitted scene light (``illuminant``) → ``reference``
+        (:func:`~zonotope.correct.correction_problem`); None (default): the scene light. A fitted
+        corrector already holds its reference (``corrector.problem.target_illuminant``).
     return_info
         Also return a dict saying what was done: ``"method"``, ``"noise"`` (the
         :class:`~zonotope.correct.NoiseModel` or None), ``"noise_source"`` (where it came from) and
@@ -148,7 +154,7 @@ def correct_image(
         ``image`` is not an array of numbers, has the wrong channel count, or ``batch_size`` is not
         positive.
     OptionError
-        ``quantum`` is negative or not finite.
+        ``quantum`` is negative or not finite, or ``reference`` given with a fitted corrector.
     NoiseModelError
         A given ``noise`` that is negative, NaN or of the wrong channel count.
 
@@ -164,12 +170,22 @@ def correct_image(
     img = float_array(image, "image") if img is None else img  # float32 photos stay float32 (memory)
     if isinstance(cameras_or_corrector, Corrector):
         corrector = cameras_or_corrector
+        if reference is not None:
+            raise OptionError(
+                f"reference={reference!r}: a fitted corrector already holds its reference light "
+                f"({corrector.problem.target_illuminant or corrector.problem.illuminant}); fit one with "
+                "fit_correction(..., reference=...) or pass the cameras."
+            )
         model, source, note = _corrector_noise(corrector, noise)
     else:
         k_img = img.shape[-1] if img.ndim else 0
         model, source, note = _resolve_noise(noise, img, k_img)
         corrector = fit_correction(
-            cameras_or_corrector, method=method, **noise_options(method, model), **options
+            cameras_or_corrector,
+            method=method,
+            reference=reference,
+            **noise_options(method, model),
+            **options,
         )
     info = {"method": corrector.method, "noise": model, "noise_source": source, "noise_note": note}
     out = _correct_image(img, corrector, quantum, base, batch_size, cache_dir, progress)
