@@ -202,3 +202,11 @@ REGION_MIN_PIXELS = 4
 #: must reproduce the ratio of the spectral integrals ∫S R E to 2 %: the wavelength noise of the mean is
 #: about 0.5 %, the 5 nm tables against the SSF table's own grid about 0.5 % (1.0 % seen in red).
 MITSUBA_PATCH_RTOL = 0.02
+
+#: The chart body lies 1 mm above the floor and its patches and the white card 2 mm: flat shapes on one
+#: plane would fight for the same hits (float32 ray tracing), and 1 mm is 0.1 px at the CI size.
+MITSUBA_DECAL_LIFT = 1e-3
+
+#: The white card is named in capture.toml only from a view where its brightest raw channel stays below
+#: 90 % of the range: Monte Carlo noise and shot noise then keep it clear of clipping.
+MITSUBA_WHITE_PEAK = 0.9

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import SplatError
+from .._tol import MITSUBA_DECAL_LIFT, MITSUBA_WHITE_PEAK
 from .capture import (
     _OBSERVER,
     SimCaptureConfig,
@@ -170,13 +171,20 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
             "radius": 0.18,
             "bsdf": {"type": "roughconductor", "material": "Au", "distribution": "ggx", "alpha": 0.2},
         },
-        "card": patch(CARD[0] + CARD[2] / 2, CARD[1] + CARD[2] / 2, CARD[2], CARD[2], 2e-3, diffuse(lib[0])),
+        "card": patch(
+            CARD[0] + CARD[2] / 2,
+            CARD[1] + CARD[2] / 2,
+            CARD[2],
+            CARD[2],
+            2 * MITSUBA_DECAL_LIFT,
+            diffuse(lib[0]),
+        ),
         "chart_body": patch(
             CHART[0] + (6 * (CHART[2] + CHART[3]) + CHART[3]) / 2,
             CHART[1] + (4 * (CHART[2] + CHART[3]) + CHART[3]) / 2,
             6 * (CHART[2] + CHART[3]) + CHART[3],
             4 * (CHART[2] + CHART[3]) + CHART[3],
-            1e-3,
+            MITSUBA_DECAL_LIFT,
             diffuse(lib[1]),
         ),
     }
@@ -186,7 +194,7 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
             k = (3 - j) * 6 + i  # as the ray-caster: row 0 (dark skin …) farthest from the cameras
             cx = x0 + gap + i * (side + gap) + side / 2
             cy = y0 + gap + j * (side + gap) + side / 2
-            d[f"patch{k:02d}"] = patch(cx, cy, side, side, 2e-3, diffuse(lib[cc[k]]))
+            d[f"patch{k:02d}"] = patch(cx, cy, side, side, 2 * MITSUBA_DECAL_LIFT, diffuse(lib[cc[k]]))
     return mi.load_dict(d)
 
 
@@ -349,7 +357,7 @@ def write_mitsuba_capture(
                     x0, y0, x1, y1 = box
                     peak = float(np.max(v.relative_exposure * config.gain * resp[y0:y1, x0:x1]))
                     area = (x1 - x0) * (y1 - y0)
-                    if peak < 0.9 and (white is None or area > white[0]):
+                    if peak < MITSUBA_WHITE_PEAK and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
                 write_dng(
                     tmp / cam.folder / f"{v.stem}.dng",

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import zonotope
+from splat._errors import SplatError
 from splat._tol import MITSUBA_PATCH_RTOL
 from splat.capture import read_capture, read_linear
-from splat._errors import SplatError
 
 mi = pytest.importorskip("mitsuba")
 
