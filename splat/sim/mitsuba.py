@@ -239,13 +239,15 @@ def _card_box(scene, view):
     return [bx0, by0, bx1, by1]
 
 
-def _check(folder: Path, size: float, views: int | None, spp: int) -> None:
+def _check(folder: Path, size: float, views: int | None, holdout: int | None, spp: int) -> None:
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise SplatError(f"folder {folder} exists and is not empty; choose a new or empty folder.")
     if not (np.isfinite(size) and size > 0):
         raise SplatError(f"size={size!r}: must be a positive scale of the CI image sizes (e.g. 0.25).")
     if views is not None and views < 2:
         raise SplatError(f"views={views!r}: need at least 2 training views per camera (or None).")
+    if holdout is not None and holdout < 0:
+        raise SplatError(f"holdout={holdout!r}: must be 0 or more held-out views per camera (or None).")
     if not (isinstance(spp, int | np.integer) and spp >= 1):
         raise SplatError(f"spp={spp!r}: must be a positive whole number of samples per pixel.")
 
@@ -255,7 +257,7 @@ def write_mitsuba_capture(
     *,
     size: float = 1.0,
     views: int | None = None,
-    holdout: int = 1,
+    holdout: int | None = None,
     spp: int = 64,
     seed: int = 0,
     noise: bool = True,
@@ -271,8 +273,8 @@ def write_mitsuba_capture(
         Scale of the CI image sizes (128 × 96, 112 × 84, 136 × 90 at 1); sizes round to even pixels.
     views : int, optional
         Training views per camera (default: the CI configuration's).
-    holdout : int
-        Held-out views per camera (their XYZ truth is rendered).
+    holdout : int, optional
+        Held-out views per camera (their XYZ truth is rendered; default: the CI configuration's).
     spp : int
         Samples per pixel.
     seed : int
@@ -299,7 +301,7 @@ def write_mitsuba_capture(
     from isp.dng import write_dng
 
     out = Path(folder)
-    _check(out, size, views, spp)
+    _check(out, size, views, holdout, spp)
     mi = _mitsuba()
     base = SimCaptureConfig.ci()
     cams = tuple(
@@ -308,9 +310,11 @@ def write_mitsuba_capture(
         )
         for c in base.cameras
     )
-    changes = {"cameras": cams, "seed": seed, "noise": noise, "illuminant": illuminant, "n_holdout": holdout}
+    changes = {"cameras": cams, "seed": seed, "noise": noise, "illuminant": illuminant}
     if views is not None:
         changes["n_train"] = views
+    if holdout is not None:
+        changes["n_holdout"] = holdout
     config = replace(base, **changes)
     scene = build_scene(config)
     grid = scene.wavelengths
@@ -459,7 +463,7 @@ def write_mitsuba_capture(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m splat.sim.mitsuba OUT [--size S] [--spp N] [--views N] [--seed N] [--illuminant NAME]``."""
+    """``python -m splat.sim.mitsuba OUT [--size S] [--spp N] [--views N] [--holdout N] [--seed N] …``."""
     import argparse
     import sys
     import time
@@ -473,6 +477,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=float, default=1.0, help="scale of the CI image sizes (default 1)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     parser.add_argument("--views", type=int, default=None, help="training views per camera")
+    parser.add_argument("--holdout", type=int, default=None, help="held-out views per camera")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--illuminant", default="D65")
     parser.add_argument("--no-noise", action="store_true", help="noise-free forward model")
@@ -483,6 +488,7 @@ def main(argv: list[str] | None = None) -> int:
             args.out,
             size=args.size,
             views=args.views,
+            holdout=args.holdout,
             spp=args.spp,
             seed=args.seed,
             noise=not args.no_noise,
