@@ -5,7 +5,9 @@ the images come from Mitsuba's spectral path tracer (``scalar_spectral`` variant
 ``max_depth`` 6): inter-reflection, soft shadows, a rough-plastic sphere and a rough-conductor (gold)
 sphere beside diffuse boxes, a ColorChecker chart and a white card on a floor inside a three-wall room,
 lit by a rectangular area light and a constant environment that both emit the scene illuminant's
-spectrum. Every diffuse reflectance is a measured spectrum from the simulator's library.
+spectrum. Every diffuse reflectance is a measured spectrum from the simulator's library; the floor and
+walls mix one with the chart's black per point (a seeded two-scale cell texture) so that SIFT finds
+features, as on the ray-caster's capture.
 
 Mitsuba's ``specfilm`` integrates the spectral radiance ``L(λ)`` against any curves, so one render gives
 each camera's raw channels and the XYZ truth at once: the film's channels are ``S_c(λ) / m`` (the
@@ -100,6 +102,16 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
     def diffuse(row):
         return {"type": "diffuse", "reflectance": _spectrum(grid, row)}
 
+    def textured(a, b, key, cells):
+        """A per-point convex mix of two measured reflectances (blend weight: :func:`_texture`)."""
+        weight = mi.Bitmap(_texture(scene.config.seed, key, cells))
+        return {
+            "type": "blendbsdf",
+            "weight": {"type": "bitmap", "bitmap": weight, "raw": True, "filter_type": "nearest"},
+            "bsdf_0": diffuse(lib[a]),
+            "bsdf_1": diffuse(lib[b]),
+        }
+
     def patch(cx, cy, sx, sy, z, bsdf):
         return {
             "type": "rectangle",
@@ -128,21 +140,21 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
             "to_world": T().translate([0.0, -0.5, 3.2]).rotate([1, 0, 0], 180).scale([1.2, 1.2, 1.0]),
             "emitter": {"type": "area", "radiance": _spectrum(grid, 1.5 * light)},
         },
-        "floor": patch(0.0, 0.0, 8.0, 8.0, 0.0, diffuse(lib[wall[3]])),
+        "floor": patch(0.0, 0.0, 8.0, 8.0, 0.0, textured(wall[3], 1, 0, 48)),
         "back": {
             "type": "rectangle",
             "to_world": T().translate([0.0, 2.5, 1.5]).rotate([1, 0, 0], 90).scale([4.0, 1.5, 1.0]),
-            "bsdf": diffuse(lib[wall[7]]),
+            "bsdf": textured(wall[7], 1, 1, 32),
         },
         "left": {
             "type": "rectangle",
             "to_world": T().translate([-3.0, 0.0, 1.5]).rotate([0, 1, 0], 90).scale([1.5, 4.0, 1.0]),
-            "bsdf": diffuse(lib[wall[11]]),
+            "bsdf": textured(wall[11], 1, 2, 32),
         },
         "right": {
             "type": "rectangle",
             "to_world": T().translate([3.0, 0.0, 1.5]).rotate([0, 1, 0], -90).scale([1.5, 4.0, 1.0]),
-            "bsdf": diffuse(lib[wall[19]]),
+            "bsdf": textured(wall[19], 1, 3, 32),
         },
         "box": {
             "type": "cube",
@@ -196,6 +208,17 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
             cy = y0 + gap + j * (side + gap) + side / 2
             d[f"patch{k:02d}"] = patch(cx, cy, side, side, 2 * MITSUBA_DECAL_LIFT, diffuse(lib[cc[k]]))
     return mi.load_dict(d)
+
+
+def _texture(seed: int, key: int, cells: int) -> np.ndarray:
+    """Blend weights in [0, 1] (float32, ``8·cells`` square): random values on a ``cells`` grid plus
+    half as much on a grid twice as fine, constant in each cell. Corners at two scales for SIFT; the same
+    for every view (seeded by the capture's seed and the surface)."""
+    rng = np.random.default_rng([seed, key])
+    n = 8 * cells
+    coarse = np.kron(rng.uniform(0, 1, (cells, cells)), np.ones((8, 8)))
+    fine = np.kron(rng.uniform(0, 1, (2 * cells, 2 * cells)), np.ones((4, 4)))
+    return ((2 * coarse + fine) / 3).reshape(n, n, 1).astype(np.float32)
 
 
 def _card_box(scene, view):
