@@ -196,3 +196,17 @@ REGION_RTOL = 0.01
 #: over fewer pixels averages little noise (σ/2 at four), and on the stride grid of the splat scores a
 #: smaller region often keeps no pixel at all.
 REGION_MIN_PIXELS = 4
+# --- the Mitsuba 3 capture (splat.sim.mitsuba) ---
+
+#: Two flat patches' film channels (16 spp, 12 × 28 pixels each, Mitsuba's Monte Carlo over wavelength)
+#: must reproduce the ratio of the spectral integrals ∫S R E to 2 %: the wavelength noise of the mean is
+#: about 0.5 %, the 5 nm tables against the SSF table's own grid about 0.5 % (1.0 % seen in red).
+MITSUBA_PATCH_RTOL = 0.02
+
+#: The chart body lies 1 mm above the floor and its patches and the white card 2 mm: flat shapes on one
+#: plane would fight for the same hits (float32 ray tracing), and 1 mm is 0.1 px at the CI size.
+MITSUBA_DECAL_LIFT = 1e-3
+
+#: The white card is named in capture.toml only from a view where its brightest raw channel stays below
+#: 90 % of the range: Monte Carlo noise and shot noise then keep it clear of clipping.
+MITSUBA_WHITE_PEAK = 0.9

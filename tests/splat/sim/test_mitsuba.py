@@ -1,0 +1,120 @@
+"""The Mitsuba 3 capture: the spectral film against colour-science integrals, and the files on disk.
+
+Independent truth: a flat patch's camera channels under a uniform sky are ``∫ S_c R E dλ`` up to one
+geometry factor, so the ratio of two patches' channels is computed from colour-science's ColorChecker
+and D65 tables and the camera's measured SSF table (numpy sums on their own 5 nm grid, no library code).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import colour
+import numpy as np
+import pytest
+
+import zonotope
+from splat._errors import SplatError
+from splat._tol import MITSUBA_PATCH_RTOL
+from splat.capture import read_capture, read_linear
+
+mi = pytest.importorskip("mitsuba")
+
+from splat.sim import mitsuba as sm  # noqa: E402
+from splat.sim.capture import SimCaptureConfig, build_scene  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory) -> Path:
+    """32 × 24-ish images, 2 training + 1 held-out view per camera, 4 samples per pixel."""
+    return sm.write_mitsuba_capture(
+        tmp_path_factory.mktemp("mi") / "capture", size=0.25, views=2, holdout=1, spp=4, seed=1
+    )
+
+
+def _two_patches(curves: np.ndarray, grid: np.ndarray, light: np.ndarray, rows: list) -> np.ndarray:
+    """Mean film channels (2, C) of two large flat patches under a uniform sky, seen from straight above."""
+    m = sm._mitsuba()
+    T = m.ScalarTransform4f
+    scene = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": 4},
+        "sensor": {
+            "type": "orthographic",
+            "to_world": T().look_at(origin=[0, 0, 5], target=[0, 0, 0], up=[0, 1, 0]).scale([2, 2, 1]),
+            "sampler": {"type": "independent", "sample_count": 16},
+            "film": sm._film(grid, curves, 32, 16),
+        },
+        "sky": {"type": "constant", "radiance": sm._spectrum(grid, light)},
+    }
+    for k, (x, row) in enumerate(zip((-1.0, 1.0), rows)):
+        scene[f"p{k}"] = {
+            "type": "rectangle",
+            "to_world": T().translate([x, 0, 0]).scale([1.0, 2.0, 1.0]),
+            "bsdf": {"type": "diffuse", "reflectance": sm._spectrum(grid, row)},
+        }
+    img = np.asarray(m.render(m.load_dict(scene)), float)
+    # seen from above with +y up, the patch at x = -1 fills image columns 0..15
+    return np.stack([img[2:-2, 2:14].mean((0, 1)), img[2:-2, 18:30].mean((0, 1))])
+
+
+def test_film_channels_match_the_spectral_integrals():
+    """The film curves the capture uses (G_c / (E Δλ)) give patch ratios ∫S R₁ E / ∫S R₂ E."""
+    scene = build_scene(SimCaptureConfig.ci())
+    grid = scene.wavelengths
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    E = np.interp(grid, d65.wavelengths, d65.values)
+    E = E / E.max()
+    step = grid[1] - grid[0]
+    curves = np.asarray(scene.camera_generators[0]) / (E[:, None] * step)
+    cc = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    names = ["orange", "blue"]
+    refl = [np.interp(grid, cc[n].wavelengths, cc[n].values) for n in names]
+    got = _two_patches(curves, grid, E, refl)
+    # independent: the camera's SSF table, colour-science's D65 and reflectances on the table's own grid
+    ssf = zonotope.camera("Nikon 5100 (NPL)")
+    w = np.asarray(ssf.wavelengths, float)
+    w = w[(w >= grid[0]) & (w <= grid[-1])]
+    S = np.stack([np.interp(w, ssf.wavelengths, ssf.values[:, j]) for j in range(3)], 1)
+    Ew = np.interp(w, d65.wavelengths, d65.values)
+    ref = [np.interp(w, cc[n].wavelengths, cc[n].values) @ (S * Ew[:, None]) for n in names]
+    want = ref[0] / ref[1]
+    ratio = got[0] / got[1]
+    np.testing.assert_allclose(ratio, want, rtol=MITSUBA_PATCH_RTOL)
+
+
+def test_capture_folder_reads_back(capture):
+    spec = read_capture(capture)
+    assert [c.folder for c in spec.cameras] == ["nikon", "sigma", "canon"]
+    truth = tomllib.loads((capture / "truth" / "truth.toml").read_text())
+    assert truth["generator"] == "splat.sim.mitsuba" and truth["spp"] == 4
+    cfas = {c["folder"]: c.get("cfa") for c in truth["camera"]}
+    for folder, cfa in cfas.items():
+        files = sorted((capture / folder).glob("*.dng"))
+        assert len(files) == 3
+        values, weight, info = read_linear(files[0])
+        assert info["full_colour"] == (cfa is None)
+        if cfa is not None:
+            assert info["cfa"] == cfa
+            assert np.all(weight.sum(-1) == 1)  # one colour per pixel: a mosaic
+        assert np.isfinite(values).all() and 0 < np.nanmean(values) < 1
+    # the white card box of capture.toml reads neutral-ish and bright in its raw file
+    white = tomllib.loads((capture / "capture.toml").read_text())["white"]
+    values, weight, info = read_linear(capture / white["image"])
+    x0, y0, x1, y1 = white["box"]
+    sums = (values * weight)[y0:y1, x0:x1].sum((0, 1)) / weight[y0:y1, x0:x1].sum((0, 1)).clip(1)
+    assert sums.max() > 0.1
+    xyz = sorted((capture / "truth" / "xyz").rglob("*.tiff"))
+    assert len(xyz) == 3
+
+
+def test_bad_input_is_refused_before_rendering(tmp_path):
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "keep.txt").write_text("mine")
+    with pytest.raises(SplatError, match="not empty"):
+        sm.write_mitsuba_capture(tmp_path / "full", size=0.25, views=2, spp=1)
+    assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
+    with pytest.raises(SplatError, match="spp"):
+        sm.write_mitsuba_capture(tmp_path / "new", spp=0)
+    assert sm.main([str(tmp_path / "full"), "--spp", "1"]) == 2
