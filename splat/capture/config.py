@@ -28,6 +28,7 @@ __all__ = [
     "working_views",
 ]
 
+#: The steps of a capture run, in the order :func:`splat.capture.run` runs them.
 STEPS = ("poses", "train", "render", "correct", "report")
 
 
@@ -249,8 +250,8 @@ def check_run(spec: CaptureSpec, config: PipelineConfig) -> None:
 
 
 def step_workspace(capture, out, config: PipelineConfig, step: str | None = None, settings=None):
-    """The checked capture and its :class:`splat.workspace.Workspace`, with ``step`` begun there on
-    ``settings(spec)`` when both are given."""
+    """The checked capture and its :class:`~splat.capture.workspace.Workspace`, with ``step`` begun
+    there on ``settings(spec)`` when both are given."""
     spec = read_capture(capture)
     check_run(spec, config)
     ws = Workspace(spec, out)

@@ -16,14 +16,14 @@ import numpy as np
 from .._errors import SplatError
 from .._tol import FEASIBLE_DISTANCE
 from ..strips import FULL_METHOD
-
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import PipelineConfig, step_workspace, working_binning, working_summary
 from .files import read_index, read_tiff, write_json, write_png8, write_tiff
 from .raw import RawView, load_views, open_raw, white_scale
 from .spec import CaptureError, CaptureSpec
 from .workspace import peak_rss_mib, read_json, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "XYZ_to_sRGB",

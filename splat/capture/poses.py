@@ -12,13 +12,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import PipelineConfig, step_workspace, working_summary
 from .files import write_json, write_png8
-from .raw import RawView, check_white_box, load_views
+from .raw import RawView, camera_white, check_white_box, load_views
 from .spec import CaptureError
 from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "poses_step",
@@ -110,8 +111,6 @@ def poses_step(
         by_name = {im.name: im for im in model.images.values()}
     else:
         source = "pycolmap"
-        from .raw import camera_white
-
         whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
         for i, v in enumerate(views):
             path = ws.path("previews", f"{spec.out_stem(v.name)}.png")

@@ -1,11 +1,11 @@
-"""A capture on disk: ``capture.toml`` plus one folder of RAW files per physical camera.
+"""A capture's RAW files as linear mosaics, and the scale that puts a perfect white at 1.
 
-:func:`read_capture` reads and validates the capture file (stdlib ``tomllib``);
-:func:`load_views` turns every RAW file into a linear mosaic through :mod:`isp` — black and white
-level (and the DNG linearisation table, which LibRaw applies), **no** white balance and **no**
-demosaicing — with a per-pixel, per-channel weight that is 0 where a channel is not measured (the
-camera's own CFA phase), where the sensor saturated, and on dead pixels. Full-colour sensors
-(Foveon-type, ``LinearRaw`` DNG) measure all three channels at every pixel.
+A capture on disk is ``capture.toml`` (read by :func:`splat.capture.spec.read_capture`) plus one
+folder of RAW files per physical camera. :func:`load_views` turns every RAW file into a linear mosaic
+through :mod:`isp` — black and white level (and the DNG linearisation table, which LibRaw applies),
+**no** white balance and **no** demosaicing — with a per-pixel, per-channel weight that is 0 where a
+channel is not measured (the camera's own CFA phase), where the sensor saturated, and on dead pixels.
+Full-colour sensors (Foveon-type, ``LinearRaw`` DNG) measure all three channels at every pixel.
 
 Units
 -----
@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from isp.batch import RAW_SUFFIXES  # one list of RAW suffixes for isp folders and captures
+from isp import batch
 
 from .._errors import SplatError
 from .spec import CameraSpec, CaptureError, CaptureSpec
@@ -62,6 +62,10 @@ __all__ = [
     "white_box",
     "white_scale",
 ]
+
+
+#: Suffixes of the RAW files read from a camera folder: isp's one list, for isp folders and captures.
+RAW_SUFFIXES = batch.RAW_SUFFIXES
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,14 +13,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import PipelineConfig, step_workspace, working_binning, working_summary, working_views
 from .files import write_json, write_png8, write_tiff
 from .raw import load_views
 from .spec import CaptureSpec
 from .train import load_gaussians, load_model_capture, refined_views
 from .workspace import peak_rss_mib, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "render_step",

@@ -8,10 +8,11 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import PipelineConfig, step_workspace
 from .files import read_index
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "report_step",

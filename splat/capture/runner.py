@@ -6,15 +6,15 @@ import os
 from typing import TYPE_CHECKING
 
 from .._errors import SplatError
-
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import STEPS, PipelineConfig
 from .correct import correct_step
 from .poses import poses_step
 from .render import render_step
 from .report import report_step
 from .train import fit_step
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "run",

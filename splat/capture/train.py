@@ -11,8 +11,6 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from zonotope.utilities import ProgressCallback
 from .config import (
     PipelineConfig,
     step_workspace,
@@ -25,6 +23,9 @@ from .files import atomic_write, write_json
 from .raw import load_views
 from .spec import CaptureError, CaptureSpec
 from .workspace import peak_rss_mib, read_json, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
 
 __all__ = [
     "TrainingInputs",
