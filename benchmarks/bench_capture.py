@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 STEP_CODE = (
-    "import sys; from splat.pipeline import run, PipelineConfig; "
+    "import sys; from splat.capture import run, PipelineConfig; "
     "cfg = PipelineConfig(steps=int(sys.argv[3]), capacity=int(sys.argv[4]), quantum=float(sys.argv[5]), "
     "threads=int(sys.argv[6]), refine_poses=sys.argv[8] == '1'); "
     "run(sys.argv[1], sys.argv[2], config=cfg, steps=(sys.argv[7],))"
@@ -114,7 +114,7 @@ elif what == "read":
     v = load_views(read_capture(capture))
     res["views"] = len(v); res["pixels"] = int(sum(x.shape[0] * x.shape[1] for x in v))
 elif what in ("poses", "render", "correct"):
-    from splat.pipeline import PipelineConfig, run
+    from splat.capture import PipelineConfig, run
     cfg = PipelineConfig(threads=2, quantum=arg.get("quantum", 0.01))
     s = run(capture, out, config=cfg, steps=(what,))[what]
     n = {"render": lambda: len(s), "correct": lambda: len(s["views"]), "poses": lambda: s["registered"]}
@@ -123,8 +123,8 @@ elif what in ("poses", "render", "correct"):
         import numpy as np
         from splat.capture import read_capture
         from splat.outputs import render_views
-        from splat.pipeline import _load_model_capture, load_gaussians
-        _, cap = _load_model_capture(read_capture(capture), out)
+        from splat.capture import load_model_capture, load_gaussians
+        _, cap = load_model_capture(read_capture(capture), out)
         g, alive = load_gaussians(out)
         cams = [v.camera for v in cap.views if v.name in s]
         ts = []
@@ -134,7 +134,7 @@ elif what in ("poses", "render", "correct"):
             ts.append(time.perf_counter() - t1)
         res["per_view"] = float(np.median(ts))
 elif what == "train":
-    from splat.pipeline import PipelineConfig, run
+    from splat.capture import PipelineConfig, run
     marks = []
     def progress(stage, done, total):
         marks.append((done, time.perf_counter()))
@@ -148,7 +148,7 @@ elif what == "train_gaussians":  # per-step cost against the number of Gaussians
     import numpy as np, jax, jax.numpy as jnp
     from dataclasses import replace
     from splat.capture import read_capture
-    from splat.pipeline import PipelineConfig, training_inputs, train_config
+    from splat.capture import PipelineConfig, training_inputs, train_config
     from splat.training import init_state, train_step
     spec = read_capture(capture)
     inp = training_inputs(spec, out, PipelineConfig())

@@ -109,8 +109,7 @@ def main(argv=None) -> int:
     capacity = args.capacity or (16384 if big else 2048)
     import tempfile
 
-    from splat.capture import read_capture
-    from splat.pipeline import PipelineConfig, run
+    from splat.capture import PipelineConfig, read_capture, run
     from splat.scoring import score
     from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 

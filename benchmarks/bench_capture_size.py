@@ -40,8 +40,7 @@ import numpy as np
 
 
 def _ci_run(work: Path, steps: int):
-    from splat.capture import read_capture
-    from splat.pipeline import PipelineConfig, run
+    from splat.capture import PipelineConfig, read_capture, run
     from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
     cap = work / "capture"
@@ -113,10 +112,10 @@ def main(argv=None) -> int:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
     args.work.mkdir(parents=True, exist_ok=True)
 
-    from splat import pipeline as P
+    from splat import capture as P
     from splat import strips
     from splat.capture import load_views, open_raw
-    from splat.workspace import peak_rss_mib, reset_peak_rss
+    from splat.capture.workspace import peak_rss_mib, reset_peak_rss
 
     spec, config, out, name, _ = _ci_run(args.work, args.steps)
     steps = {
@@ -142,7 +141,7 @@ def main(argv=None) -> int:
     n = len(spec.cameras)
     fusion = P.fusion_of(spec, scratch, index, raws, scale)
     d = out / "render" / index[name]["dir"]
-    img = P._read_tiff(d / "render.tiff") / scale
+    img = P.read_tiff(d / "render.tiff") / scale
     rep = P.reprojected_of(d, scale)
     view = raws[name]
     fused, code, sigma = P.fused_view(fusion, name, img, view, scale, list(range(n)), rep)

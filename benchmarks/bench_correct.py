@@ -22,7 +22,7 @@ objective, and responses the closed form does NOT cover (the only ones that reac
 median of ``--repeats`` runs each, and the largest difference between the two answers.
 
 ``--prior-fit N``: ``fit_correction(method="Prior")`` as ``splat correct`` calls it
-(``splat.pipeline.fit_fused_corrector``: the simulated capture's three cameras' 9 channels, 400–680 nm,
+(``splat.capture.fit_fused_corrector``: the simulated capture's three cameras' 9 channels, 400–680 nm,
 CIE 1931 2° target, rawtoaces 190 — checked equal to ``correction_problem_of`` of the simulated capture —
 whitened by N seeded per-channel noise patterns as ``splat.fusion.whitened`` does, ``noise = σ_ref``,
 ``mix = 1``),
@@ -299,8 +299,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
         cams, shape=shape, training="rawtoaces 190", target="CIE 1931 2 Degree Standard Observer"
     )
     with tempfile.TemporaryDirectory() as tmp:  # the pipeline's problem of the simulated capture
-        from splat.capture import read_capture
-        from splat.pipeline import correction_problem_of
+        from splat.capture import correction_problem_of, read_capture
         from splat.sim.capture import write_synthetic_capture
 
         spec = read_capture(write_synthetic_capture(Path(tmp) / "capture"))
@@ -313,7 +312,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
         sigma = noise * rng.uniform(0.5, 2.0, problem.k)
         ref = float(np.median(sigma))
         problems.append((dataclasses.replace(problem, Phi=problem.Phi * (ref / sigma)), ref, ref / sigma))
-    opts = {"mix": 1.0}  # splat.pipeline.fused_mix("Prior")
+    opts = {"mix": 1.0}  # splat.capture.fused_mix("Prior")
 
     def run(fit):
         mmv._clear_log_volume_caches()  # a fresh `splat correct` process
@@ -356,7 +355,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
         )
     blas = ", ".join(f"{i['internal_api']} {i['num_threads']} threads" for i in threadpool_info())
     print(
-        f"Prior fit as splat.pipeline.fit_fused_corrector calls it ({' + '.join(cams)}, "
+        f"Prior fit as splat.capture.fit_fused_corrector calls it ({' + '.join(cams)}, "
         f"{problem.k} channels, "
         f"{shape.size} bands, {n_patterns} whitened noise patterns, σ ≈ {noise:g}, mix = 1); {blas}; "
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores; median of {repeats}, interleaved "

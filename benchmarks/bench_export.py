@@ -106,7 +106,7 @@ def main(argv=None) -> int:
         spec = read_capture(a.capture)
         index = {}
         if (out / "render" / "index.json").is_file():
-            from splat.pipeline import read_index
+            from splat.capture import read_index
 
             index = read_index(spec, out / "render" / "index.json")
         page = report_html(spec, out, index)

@@ -29,9 +29,8 @@ import numpy as np
 
 def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, views: list[str] | None) -> dict:
     import splat
-    from splat.capture import read_capture
+    from splat.capture import load_model_capture, read_capture
     from splat.colmap import read_colmap
-    from splat.pipeline import _load_model_capture
     from splat.sim.capture import SimCaptureConfig, build_scene
     from splat.sim.geometry import shade
 
@@ -49,7 +48,7 @@ def depth_error(capture: Path, out: Path, *, size: str, model: Path | None, view
                 f"{name}: the rebuilt --size {size} scene does not match truth/images.txt; wrong --size?"
             )
 
-    _, mc = _load_model_capture(read_capture(capture / "capture.toml"), out)
+    _, mc = load_model_capture(read_capture(capture / "capture.toml"), out)
     with np.load(model or out / "train" / "model.npz") as f:
         g = splat.Gaussians.from_numpy({k: f[k] for k in f.files})
         alive = f["alive"]

@@ -9,7 +9,7 @@ machine with nothing but JAX and this repository can train on them::
 
 ``run`` first times training steps of the pure-JAX ``"tiled"`` back-end with the tiles composited one
 after another (``RenderConfig.tile_batch=1``, the baseline) and all at once (``tile_batch=0``) in the same
-process, then trains the pipeline's schedule (:func:`splat.pipeline.train_config`) from the COLMAP points
+process, then trains the pipeline's schedule (:func:`splat.capture.train_config`) from the COLMAP points
 at each capacity that still fits the time budget (largest first), and scores each model as the README's
 PSNR table does: render × EXIF exposure against every held-out RAW mosaic's measured sites, peak 1, the
 mean of the per-view, per-channel PSNRs. Results are written after every phase, so a run stopped at its
@@ -61,13 +61,13 @@ def _cams(cameras) -> dict:
 
 def export(capture: str, out: str, bundle: str) -> None:
     """Write the training inputs (no ground truth) and the held-out views' RAW sites to ``bundle``."""
-    from splat.capture import load_views, read_capture
-    from splat.pipeline import _load_model_capture, _scene_points, training_inputs
+    from splat.capture import load_model_capture, load_views, read_capture, training_inputs
+    from splat.capture.train import _scene_points
 
     spec = read_capture(capture)
     inp = training_inputs(spec, Path(out))
     cap = inp.capture
-    model, mc = _load_model_capture(spec, Path(out))
+    model, mc = load_model_capture(spec, Path(out))
     raws = {v.name: v for v in load_views(spec)}
     hold = [v for v in mc.views if v.name in set(spec.holdout)]
     arrays = {f"train_{k}": v for k, v in _pack(np.asarray(inp.images), np.asarray(inp.weights)).items()}
@@ -78,7 +78,7 @@ def export(capture: str, out: str, bundle: str) -> None:
         "bounds": np.asarray(inp.bounds),
     }
     # every point the pipeline may start from, in its order: run draws a capacity's subset and colours
-    # as training_inputs does (splat.pipeline._initial_points)
+    # as training_inputs does (splat.capture.train._initial_points)
     xyz, rgb, _ = _scene_points(model, [v.camera for v in cap.views])
     valid = np.asarray(inp.weights) > 0
     arrays |= {"points": xyz, "points_rgb": rgb, "level": float(np.median(np.asarray(inp.images)[valid]))}
@@ -134,9 +134,10 @@ def run(
     import jax
     import jax.numpy as jnp
 
+    from splat.capture import PipelineConfig, train_config
+    from splat.capture.train import _initial_points
     from splat.data import Capture, View
     from splat.outputs import render_views
-    from splat.pipeline import PipelineConfig, _initial_points, train_config
     from splat.rendering import RenderConfig
     from splat.training import init_state, train, train_step
 

@@ -87,6 +87,8 @@ _MOVED_MODULES = {
     "splat.scenes": "splat.sim.scenes",
     "splat.simcapture": "splat.sim.capture",
     "splat._simgeometry": "splat.sim.geometry",
+    "splat.pipeline": "splat.capture",
+    "splat.workspace": "splat.capture.workspace",
 }
 
 

@@ -95,7 +95,7 @@ OWN_NOISE_FLOOR = 2e-3
 #: A pixel of a view is *smooth* (:func:`splat.fusion.smooth`) when every channel of the view's render
 #: varies over the pixel's 5 × 5 neighbourhood by at most this fraction of the pixel's mean response
 #: (at least 0.02, white = 1). The reprojected photographs' σ is estimated at smooth pixels only
-#: (``pipeline.fusion_of``): there a photograph is read away from its own edges, where a fraction of a
+#: (``splat.capture.fusion_of``): there a photograph is read away from its own edges, where a fraction of a
 #: pixel of misregistration or the demosaicing's blur would stand in for its error. Over all pixels
 #: the estimate is 4–10 × larger (CI coarse capture with noise: 0.0093–0.0106 against 0.0019–0.0027)
 #: and, as the weight, cost 0.34 → 0.44 ΔE00 on the flat held-out pixels (noise-free, seed 1). The

@@ -156,7 +156,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from zonotope import ZonotopeError
     from zonotope.correct import parse_noise
 
-    from .pipeline import STEPS, PipelineConfig, run
+    from .capture import STEPS, PipelineConfig, run
 
     try:
         config = PipelineConfig(

@@ -36,9 +36,9 @@ import numpy as np
 
 from ._errors import DataFormatError, SplatError
 from .capture import CaptureError, CaptureSpec, read_capture
+from .capture.workspace import MARKER as OUT_MARKER
+from .capture.workspace import read_json
 from .viewer import SCENE
-from .workspace import MARKER as OUT_MARKER
-from .workspace import read_json
 
 __all__ = [
     "SCENE",
@@ -308,7 +308,7 @@ def _correct_summary(out: Path) -> dict:
 
 def _quantum(out: Path) -> float:
     """The correct step's colour deduplication step (its recorded setting; the default otherwise)."""
-    from .pipeline import PipelineConfig
+    from .capture import PipelineConfig
 
     try:
         s = read_json(out / "settings.json", what="settings record")["steps"]["correct"]["settings"]
@@ -321,7 +321,7 @@ def corrected_colours(
     spec: CaptureSpec, out: str | os.PathLike, arrays: dict[str, np.ndarray], *, progress=None
 ) -> SceneColours:
     """Each Gaussian's N-channel colour corrected as the correct step corrects a rendered view: divided
-    by the white scale (white → 1), through :func:`splat.pipeline.fit_corrector` with the step's method
+    by the white scale (white → 1), through :func:`splat.capture.fit_corrector` with the step's method
     and δ (cameras stacked), deduplicated at the step's ``quantum``; cached in :data:`SCENE` with the
     registered cameras (the report's viewer reads it), recomputed when the model, method, δ or white
     changed.
@@ -349,7 +349,7 @@ def corrected_colours(
     from zonotope.correct.image import correct_image
     from zonotope.utilities import atomic_path
 
-    from .pipeline import XYZ_to_sRGB, fit_corrector
+    from .capture import XYZ_to_sRGB, fit_corrector
 
     out = Path(out)
     c = _correct_summary(out)
@@ -411,8 +411,8 @@ def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike, *, progres
 
     Why here and not in the report: the colours need the correct step's estimator, and the report is a
     reader of ``OUT`` that never fits one."""
-    from .pipeline import load_gaussians
-    from .workspace import Workspace
+    from .capture import load_gaussians
+    from .capture.workspace import Workspace
 
     spec, out = read_capture(capture), Path(out)
     if not (out / OUT_MARKER).is_file():
@@ -478,9 +478,9 @@ def _channel_names(spec: CaptureSpec) -> list[str]:
 
 def posed_capture(spec: CaptureSpec, out: Path):
     """The registered views (learned pose corrections applied) as a :class:`splat.data.Capture`."""
+    from .capture import refined_views
     from .colmap import read_colmap
     from .data import Capture, capture_from_colmap
-    from .pipeline import refined_views
 
     if not (out / "poses" / "summary.json").is_file():
         raise CaptureError(f"{out}: no poses yet; run the poses step first (splat poses CAPTURE -o OUT).")
@@ -537,8 +537,8 @@ def export_scene(
         No trained model, poses or correction in ``out``; an output path inside the capture, or one that
         exists (and is not a previous export, or ``force`` is not given) — all before any work.
     """
-    from .pipeline import load_gaussians
-    from .workspace import Workspace
+    from .capture import load_gaussians
+    from .capture.workspace import Workspace
 
     spec = read_capture(capture)
     out = Path(out)

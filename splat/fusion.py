@@ -2,7 +2,7 @@
 
 For a view whose RAW file exists (every photograph the user took, held out from training or not), the
 camera's own channels are *measured*; only the other cameras' channels must come from elsewhere. The
-correct step therefore also corrects such views from fused responses (``pipeline.fused_view``):
+correct step therefore also corrects such views from fused responses (``splat.capture.fused_view``):
 
 1. **Own channels**: the photograph, demosaiced by isp (:func:`measured`) or, for a Bayer view that
    other cameras' photographs see, demosaiced with their help (:func:`guided_demosaic`: each missing
@@ -36,7 +36,7 @@ correct step therefore also corrects such views from fused responses (``pipeline
    others.
 
 Views without a RAW file (novel views) are corrected the same way from the photographs reprojected into
-them (``pipeline.photographed_view``: every camera's channels reprojected where its photographs see the
+them (``splat.capture.photographed_view``: every camera's channels reprojected where its photographs see the
 pixel, re-read by :func:`guided` with the mean of the cameras' channel triples as the guide; elsewhere
 the render anchored to the channels that were).
 
@@ -267,7 +267,7 @@ def guided_demosaic(
     sites as they are (white → 1, exposure 1, as :func:`measured`); at the other pixels the joint
     bilateral mean (:func:`guided`'s weights without the reliability term) of the channel's usable sites
     (neither saturated nor dead) in the ``(2 radius + 1)²`` window, guided by ``guide`` — in
-    ``pipeline.fused_view``, the other cameras' reprojected photographs (re-read by :func:`guided`) next
+    ``splat.capture.fused_view``, the other cameras' reprojected photographs (re-read by :func:`guided`) next
     to the view's own Malvar demosaicing. A site across an edge in the guide weighs little, so an edge
     that the other cameras see is not blurred into the interpolated channels, as it is by a
     demosaicing that sees one mosaic only. Pixels without a usable site of the channel in the window

@@ -25,7 +25,7 @@ import numpy as np
 
 from ._tol import CARD_DELTA_E_FLOOR
 from .capture import CaptureError, CaptureSpec
-from .workspace import read_json
+from .capture.workspace import read_json
 
 __all__ = ["DIAGNOSTICS", "CardCheck", "card_check", "report_html", "write_report"]
 

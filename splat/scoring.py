@@ -26,7 +26,7 @@ with a true XYZ image: ΔE00 (mean, 95th percentile; CIELAB relative to the illu
   geometry, so this baseline is, if anything, favoured);
 - ``<method>-photographed:<cams>`` the same view as if it had no photograph (a novel view): the
   photographs of ``<cams>`` reprojected into it where they see the pixel (its own RAW file is never a
-  source), else the render (``pipeline.photographed_view``) — what the correct step writes as
+  source), else the render (``splat.capture.photographed_view``) — what the correct step writes as
   ``<method>_fused_*`` for every novel view;
 
 each over all pixels and (``flat_delta_E00``) over the *flat* pixels only: those whose true XYZ is
@@ -131,10 +131,10 @@ def _dE(problem, est, ref):
 def chart_matrix(spec, k: int, *, chart: str = "ColorChecker N Ohta") -> np.ndarray:
     """Least-squares matrix (3, 3) from camera ``k``'s white → 1 responses to XYZ (scene white, Y = 1),
     fitted on the ``chart``'s reflectances through the capture's spectral sensitivities and illuminant
-    (the grid and normalisation of :func:`splat.pipeline.correction_problem_of`): ``XYZ = c @ M``."""
+    (the grid and normalisation of :func:`splat.capture.correction_problem_of`): ``XYZ = c @ M``."""
     import zonotope
 
-    from .pipeline import correction_problem_of
+    from .capture import correction_problem_of
 
     problem = correction_problem_of(spec, [k])
     R = np.asarray(zonotope.resample(zonotope.reflectances(chart), problem.wavelengths), float).T
@@ -281,10 +281,7 @@ def score(
     from zonotope.correct import CORRECTION_METHODS
     from zonotope.correct.image import correct_image
 
-    from .capture import load_views, read_capture
-    from .colmap import read_colmap
-    from .data import capture_from_colmap
-    from .pipeline import (
+    from .capture import (
         correct_fused,
         delta_of,
         dng_matrix_XYZ,
@@ -292,11 +289,15 @@ def score(
         fused_fitter,
         fused_view,
         fusion_of,
+        load_views,
         photographed_view,
+        read_capture,
         read_index,
         reprojected_of,
         white_of,
     )
+    from .colmap import read_colmap
+    from .data import capture_from_colmap
 
     spec = read_capture(capture)
     out = Path(out)
@@ -321,7 +322,7 @@ def score(
     raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
     fusion = fusion_of(spec, out, index, raws, scale)
-    fitters: dict = {}  # (method, cameras) → splat.pipeline.fused_fitter
+    fitters: dict = {}  # (method, cameras) → splat.capture.fused_fitter
     n_flat = []
 
     chart_XYZ = _chart_XYZ(spec)
@@ -482,7 +483,7 @@ def score(
         if len(common) >= 3:
             result["pose"] = dict(registered=len(common), of=len(tru), **_pose_error(est, tru, common))
         # with --refine-poses: the training views' poses as recovered and as refined by training
-        from .pipeline import refined_views
+        from .capture import refined_views
 
         refined = {v.name: v for v in refined_views(list(est.values()), out)}
         trained = [k for k in common if refined[k].camera is not est[k].camera]

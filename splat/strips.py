@@ -1,7 +1,7 @@
 """Every photograph corrected at its full resolution, strip by strip, with memory bounded by the strip.
 
 The train and render steps work at the working resolution (:mod:`splat.resolution`); the fused
-responses of a photographed view (``pipeline.fused_view``: its own channels, the other cameras'
+responses of a photographed view (``splat.capture.fused_view``: its own channels, the other cameras'
 photographs reprojected into it through the splat's depth, the render anchored to it where no
 photograph sees a pixel) are made there too. This module carries them to the photograph's full size,
 one strip of ``STRIP_ROWS`` rows at a time:
@@ -20,7 +20,7 @@ one strip of ``STRIP_ROWS`` rows at a time:
 3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
    in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
    noise the ratio carries into them; one noise-aware closed-form regression is fitted per pattern on
-   the channel-whitened problem (``pipeline.fused_fitter``) and applied in chunks of
+   the channel-whitened problem (``splat.capture.fused_fitter``) and applied in chunks of
    :data:`splat._tol.CORRECT_CHUNK` pixels.
 
 Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips), so the
@@ -131,7 +131,7 @@ class Photograph(NamedTuple):
 
 
 class WorkingFusion(NamedTuple):
-    """A view's fused responses at the working resolution (``pipeline.fused_view``): ``fused`` (h, w, k),
+    """A view's fused responses at the working resolution (``splat.capture.fused_view``): ``fused`` (h, w, k),
     white → 1; ``code`` (h, w), the noise pattern per pixel, ``sigma[code]`` its σ per channel (k,);
     ``own``, where the view's own channels sit among the ``k``; ``binning``, the working resolution's
     factor."""
@@ -159,7 +159,7 @@ def full_resolution_view(
     working : WorkingFusion
     fit : callable
         ``fit(σ (k,)) → (corrector, scale)``: a fitted closed-form estimator and the channel scale to
-        apply to responses first (``pipeline.fused_fitter`` with :data:`FULL_METHOD`).
+        apply to responses first (``splat.capture.fused_fitter`` with :data:`FULL_METHOD`).
     strip_rows : int
         Rows per strip (even on a Bayer mosaic): memory only, the output does not depend on it.
     progress : callable, optional
@@ -236,7 +236,7 @@ def _full_sigma(s: np.ndarray, own: slice, own_sigma: np.ndarray, fused: np.ndar
 
 
 def sRGB8_encoder(white_XYZ) -> Callable[[np.ndarray], np.ndarray]:
-    """``XYZ (..., 3) → 8-bit sRGB (..., 3)``, as ``pipeline.XYZ_to_sRGB`` (Bradford from the scene white
+    """``XYZ (..., 3) → 8-bit sRGB (..., 3)``, as ``splat.capture.XYZ_to_sRGB`` (Bradford from the scene white
     ``white_XYZ`` to D65, clipped, sRGB-encoded) rounded to 8 bits: the linear map taken once from
     colour-science, the encoding through a table of 2¹⁶ linear levels (8-bit output differs from the
     exact curve by at most one level in the darkest shades)."""

@@ -123,7 +123,7 @@ class TrainConfig:
         (:doc:`/notes/2026-11-28-scale-learning-rate`).
     depth_weight : float
         λ of a sparse depth term added to the loss (0 turns it off; it acts only where ``train(...,
-        depth=)`` gives targets, e.g. :func:`splat.pipeline.depth_targets`): ``λ · Σ_p |Σ_i w_i z_i − A_p
+        depth=)`` gives targets, e.g. :func:`splat.capture.depth_targets`): ``λ · Σ_p |Σ_i w_i z_i − A_p
         z*_p| / z*_p / (H W)``, summed over the pixels ``p`` where the view observes a COLMAP point, with
         ``w_i`` the compositing weights, ``z_i`` the Gaussians' depths, ``A_p = Σ_i w_i`` and ``z*_p`` the
         point's depth (relative L1, robust to the odd wrong point), divided by the image's pixel count so
@@ -756,7 +756,7 @@ def train(
         the camera centres leaves every image unchanged, so the loss's gradient never points along it.
     depth : tuple of array_like of shape (V, D), optional
         ``(pixel, depth, valid)``: each view's sparse depth, e.g. the COLMAP points it observes
-        (:func:`splat.pipeline.depth_targets`); used when ``config.depth_weight > 0``.
+        (:func:`splat.capture.depth_targets`); used when ``config.depth_weight > 0``.
 
     Returns
     -------

@@ -346,7 +346,7 @@ def test_patch_scale_with_reflectance(tmp_path):
     ],
 )
 def test_pipeline_config_refuses_bad_values(bad):
-    from splat.pipeline import PipelineConfig
+    from splat.capture import PipelineConfig
 
     with pytest.raises(SplatError, match=next(iter(bad))):
         PipelineConfig(**bad)

@@ -4,7 +4,7 @@ The scene is the CI size of :mod:`splat.sim.capture` with the *coarse* texture (
 cell, cells several Bayer periods wide) and no sensor noise. For held-out views the simulator gives each
 camera's exact raw responses, pixel-aligned across cameras — what a perfect N-channel reconstruction
 would render — and the true XYZ. On the *flat* pixels (true colour constant over 5 × 5) the pipeline's own
-correction (:func:`splat.pipeline.fit_corrector`, the capture's SSF files on a 10 nm grid against the
+correction (:func:`splat.capture.fit_corrector`, the capture's SSF files on a 10 nm grid against the
 simulator's 5 nm spectra, training set rawtoaces 190) must get closer to the truth with more cameras:
 every pair at least as close as the better of its two cameras (within 5 %), all three at most half the
 ΔE00 of the best single camera (issue 9's goal), for Prior and for Centroid.
@@ -25,8 +25,7 @@ SUBSETS = [(0,), (1,), (2,), (0, 1), (0, 2), (1, 2), (0, 1, 2)]
 
 @pytest.fixture(scope="module")
 def ideal(tmp_path_factory):
-    from splat.capture import read_capture
-    from splat.pipeline import fit_corrector
+    from splat.capture import fit_corrector, read_capture
     from splat.scoring import _dE, flat_mask
     from splat.sim.capture import SimCaptureConfig, build_scene, write_synthetic_capture
     from zonotope.correct.image import correct_image

@@ -6,7 +6,7 @@ import time
 
 
 def test_progress_lines_estimate_the_time_left(monkeypatch, capsys, tmp_path):
-    import splat.pipeline
+    import splat.capture
     from splat.cli import main
 
     clock = {"t": 1000.0}
@@ -18,7 +18,7 @@ def test_progress_lines_estimate_the_time_left(monkeypatch, capsys, tmp_path):
             clock["t"] += 12.0  # 12 s per view: a line each time
         return {}
 
-    monkeypatch.setattr(splat.pipeline, "run", fake_run)
+    monkeypatch.setattr(splat.capture, "run", fake_run)
     assert main(["correct", str(tmp_path), "-o", str(tmp_path / "out")]) == 0
     lines = [x for x in capsys.readouterr().err.splitlines() if "correct:" in x]
     assert lines[0].endswith("correct: 0/4")

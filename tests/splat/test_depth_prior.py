@@ -1,5 +1,5 @@
 """Sparse depth from COLMAP tracks: the simulator's tracks, the poses step keeping them, the targets each
-view gets (:func:`splat.pipeline.depth_targets`) and the training term (``TrainConfig.depth_weight``)."""
+view gets (:func:`splat.capture.depth_targets`) and the training term (``TrainConfig.depth_weight``)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from splat import RenderConfig, TrainConfig, init_state, look_at, render_depth, train, train_step
+from splat.capture import PipelineConfig, depth_targets
 from splat.colmap import ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, read_colmap
 from splat.data import Capture, View, capture_from_colmap
-from splat.pipeline import PipelineConfig, depth_targets
 
 
 def _qvec(R):
@@ -107,8 +107,7 @@ def test_poses_step_keeps_the_tracks_and_training_inputs_carry_the_depth(ci_capt
     and the tracks follow, so each training view's targets are its own observations."""
     import shutil
 
-    from splat.capture import read_capture
-    from splat.pipeline import poses_step, training_inputs
+    from splat.capture import poses_step, read_capture, training_inputs
 
     cap = tmp_path / "cap"
     shutil.copytree(ci_capture, cap)

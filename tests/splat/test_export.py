@@ -36,9 +36,9 @@ def make_run(root, *, G=150, dead=20):
     alive) and two posed views per camera. Returns (capture, out, model arrays, alive mask, views)."""
     from splat import look_at
     from splat.capture import read_capture
+    from splat.capture.workspace import Workspace
     from splat.colmap import write_colmap
     from splat.data import Capture, View, colmap_from_capture
-    from splat.workspace import Workspace
 
     cap, out = root / "cap", root / "out"
     toml = ['illuminant = "D65"', ""]

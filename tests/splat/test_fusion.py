@@ -489,7 +489,7 @@ NOISE6 = np.array([0.002, 0.003, 0.0025, 0.02, 0.03, 0.015])
 
 @pytest.fixture(scope="module")
 def problem(sim):
-    from splat.pipeline import correction_problem_of
+    from splat.capture import correction_problem_of
 
     return correction_problem_of(sim["spec"], [0, 2])
 
@@ -540,7 +540,7 @@ def test_whitened_with_equal_noise_is_the_identity(problem):
 
 
 def test_fit_fused_corrector_with_equal_noise_is_fit_corrector(sim):
-    from splat.pipeline import fit_corrector, fit_fused_corrector
+    from splat.capture import fit_corrector, fit_fused_corrector
 
     sigma = 0.004
     ref = fit_corrector(sim["spec"], [0], "Prior", 3 * sigma)
@@ -573,7 +573,7 @@ def test_whitened_refuses_bad_noise(problem, noise):
 
 @pytest.mark.parametrize("cameras", [[2, 0], [0, 2], [0, 1, 2]])
 def test_fused_view(sim, cameras):
-    from splat.pipeline import fused_view
+    from splat.capture import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 2)  # canon: a GBRG Bayer mosaic
     H, W = view.shape
@@ -618,8 +618,8 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     photograph), averaged by inverse variance with the own camera's reprojected photographs where those
     see it; every reprojection is finally re-read by ``guided`` with the demosaiced photograph as the
     guide; each pattern gets its own σ."""
+    from splat.capture import fused_view
     from splat.fusion import anchor, guided, guided_demosaic
-    from splat.pipeline import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 2)
     assert not view.full_colour
@@ -671,7 +671,7 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
 
 
 def test_fused_view_refuses_a_subset_without_the_view_camera(sim):
-    from splat.pipeline import fused_view
+    from splat.capture import fused_view
 
     view = next(v for v in sim["views"] if v.camera == 1)
     doc = {"render_sigma": 0.02, "views": {view.name: {"camera": 1, "own_sigma": [0.01] * 3}}}
@@ -695,7 +695,7 @@ def test_photographed_view(cameras, monkeypatch):
     reprojected values are first re-read by ``guided`` (here the identity, then the real filter, guided
     by the mean of the cameras' triples of the first result)."""
     from splat import fusion
-    from splat.pipeline import photographed_view
+    from splat.capture import photographed_view
 
     guided = fusion.guided
     monkeypatch.setattr(fusion, "ANCHOR_EPS", 0.0)
@@ -741,7 +741,7 @@ def test_photographed_view_takes_the_render_where_the_photographs_are_textured(r
     """Where the picture assembled from the photographs (the guide of ``guided``) is not
     ``fusion.smooth`` over 3 × 3 at ``texture_rtol``: the render and code 0 (σ the render's);
     elsewhere exactly the result without the test; the default is ``TEXTURE_RTOL``."""
-    from splat.pipeline import photographed_view
+    from splat.capture import photographed_view
 
     H, W = 24, 30
     rng = np.random.default_rng(8)
@@ -773,7 +773,7 @@ def test_photographed_view_takes_the_render_where_the_photographs_are_textured(r
 
 
 def test_photographed_view_clips_negative_values():
-    from splat.pipeline import photographed_view
+    from splat.capture import photographed_view
 
     render = np.full((4, 5, 9), -0.01)
     render[..., 3:] = 0.3
@@ -792,8 +792,8 @@ def test_fusion_of(sim, tmp_path):
     """Renders whose own channels are the photograph (measured, white → 1) times a per-view factor and
     whose other channels are anything: the render's error after anchoring is ≈ 0 (ε effect only) and does
     not depend on the other channels; the noise-free files' own σ is the floor; the result is cached."""
+    from splat.capture import fusion_of, write_tiff
     from splat.fusion import OWN_NOISE_FLOOR
-    from splat.pipeline import _write_tiff, fusion_of
 
     spec, views, scale = sim["clean_spec"], sim["clean"], sim["scale"]
     rng = np.random.default_rng(14)
@@ -806,7 +806,7 @@ def test_fusion_of(sim, tmp_path):
             img[..., 3 * k : 3 * k + 3] = np.maximum(measured(v, scale[3 * k : 3 * k + 3]), 0) * (
                 0.7 + 0.1 * i
             )
-            _write_tiff(out / "render" / f"v{i}" / "render.tiff", img * scale)
+            write_tiff(out / "render" / f"v{i}" / "render.tiff", img * scale)
             index[v.name] = {"dir": f"v{i}"}
         return index
 
@@ -1173,8 +1173,8 @@ def test_fusion_of_recovers_each_cameras_reprojection_sigma(sim, tmp_path):
     gets the floor. Without the site noise removed, or with one σ per view (its sensor noise at the
     median signal) in place of each site's, the first two would be ≥ 25 % off; with the unseen or the
     edge pixels counted, far more."""
+    from splat.capture import fusion_of, write_tiff
     from splat.fusion import OWN_NOISE_FLOOR
-    from splat.pipeline import _write_tiff, fusion_of
 
     spec = sim["clean_spec"]
     assert len(spec.cameras) == 3
@@ -1216,9 +1216,9 @@ def test_fusion_of_recovers_each_cameras_reprojection_sigma(sim, tmp_path):
             d = tmp_path / "render" / name.replace("/", "_")
             rep = misregistered + rng.normal(0.0, 1.0, (H, W, 9)) * np.repeat(sigma_c, 3)
             rep[:, :8] = 0.0  # unseen
-            _write_tiff(d / "render.tiff", scene * scale)
-            _write_tiff(d / "reprojected.tiff", rep * scale)
-            _write_tiff(d / "reprojected_count.tiff", count)
+            write_tiff(d / "render.tiff", scene * scale)
+            write_tiff(d / "reprojected.tiff", rep * scale)
+            write_tiff(d / "reprojected_count.tiff", count)
             index[name] = {"dir": d.name}
         # the site noise as designed, on the first view's measured sites
         s0 = (
@@ -1579,7 +1579,7 @@ def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textu
     floor): the render anchored to the
     pixel's own site(s), code ``2**m | site bits << (m + 1)``, σ the sensor's on the site's channel and
     the render's elsewhere; every other pixel exactly as with the texture test off."""
-    from splat.pipeline import fused_view
+    from splat.capture import fused_view
 
     doc = {
         "render_sigma": 0.017,

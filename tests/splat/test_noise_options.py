@@ -31,8 +31,7 @@ def dummy(monkeypatch):
 
 
 def test_the_capture_passes_a_new_estimator_its_noise(dummy, tmp_path):
-    from splat.capture import read_capture
-    from splat.pipeline import PipelineConfig, check_run, fit_corrector, fused_fitter
+    from splat.capture import PipelineConfig, check_run, fit_corrector, fused_fitter, read_capture
 
     write_capture(tmp_path / "cap", views=1, holdout=0, colmap=False)
     spec = read_capture(tmp_path / "cap")

@@ -215,8 +215,7 @@ def test_training_inputs_exclude_held_out_views_and_pad_with_zero_weight(ci_run,
     """What the train step fits: only registered, non-held-out views; each view's pixels in its own
     camera's three channels only; smaller views padded right/bottom with weight 0 and unchanged
     intrinsics; and the same arrays when truth/ is absent (the pipeline never reads it)."""
-    from splat.capture import read_capture
-    from splat.pipeline import _load_model_capture, training_inputs
+    from splat.capture import load_model_capture, read_capture, training_inputs
 
     cap, out, *_ = ci_run
     spec = read_capture(cap)
@@ -225,7 +224,7 @@ def test_training_inputs_exclude_held_out_views_and_pad_with_zero_weight(ci_run,
     assert not set(names) & set(spec.holdout) and len(names) == len(set(names)) >= 12
     V, H, W, N = inp.images.shape
     assert (V, H, W, N) == (len(names), 96, 136, 9) and inp.weights.shape == inp.images.shape
-    _, model = _load_model_capture(spec, out)
+    _, model = load_model_capture(spec, out)
     orig = {v.name: v.camera for v in model.views}
     for i, (v, p) in enumerate(zip(inp.views, inp.capture.views)):
         k = v.camera_id - 1

@@ -1,11 +1,11 @@
-"""splat.pipeline's initial points: every COLMAP point starts a Gaussian; the bounds ignore the periphery."""
+"""splat.capture's initial points: every COLMAP point starts a Gaussian; the bounds ignore the periphery."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from splat.capture.train import _scene_points
 from splat.colmap import ColmapModel, ColmapPoint3D
-from splat.pipeline import _scene_points
 
 
 def _model(xyz):

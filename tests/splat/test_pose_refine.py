@@ -286,8 +286,8 @@ def test_default_reference_views_are_the_farthest_pair():
 def test_cli_and_pipeline_plumbing(smooth, tmp_path):
     """--refine-poses reaches TrainConfig; the render step's views get the corrections written to
     train/summary.json, held-out (uncorrected) views keep their poses."""
+    from splat.capture import PipelineConfig, refined_views, train_config
     from splat.cli import _parser
-    from splat.pipeline import PipelineConfig, refined_views, train_config
 
     args = _parser().parse_args(["train", "cap", "-o", "out", "--refine-poses"])
     assert args.refine_poses and not _parser().parse_args(["run", "cap", "-o", "out"]).refine_poses

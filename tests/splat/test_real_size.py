@@ -319,14 +319,20 @@ def test_training_inputs_are_binned_and_their_cameras_scaled(small_capture, tmp_
     """train_size 24: every camera binned (Bayer by an even factor, whole quads), the training cameras'
     intrinsics divided by the factor, the poses model kept at full resolution; the poses summary says
     how long it took and its peak memory."""
-    from splat.capture import load_views, read_capture
-    from splat.pipeline import PipelineConfig, _load_model_capture, poses_step, training_inputs
+    from splat.capture import (
+        PipelineConfig,
+        load_model_capture,
+        load_views,
+        poses_step,
+        read_capture,
+        training_inputs,
+    )
 
     out = tmp_path / "out"
     s = poses_step(small_capture, out, config=PipelineConfig())
     assert s["duration_s"] > 0 and s["peak_rss_mib"] > 0
     spec = read_capture(small_capture)
-    _, cap = _load_model_capture(spec, out)
+    _, cap = load_model_capture(spec, out)
     full = {v.name: v.camera for v in cap.views}
     raws = {v.name: v for v in load_views(spec)}
     assert all((c.height, c.width) == raws[n].shape for n, c in full.items())  # model at full size
@@ -347,9 +353,8 @@ def test_training_inputs_are_binned_and_their_cameras_scaled(small_capture, tmp_
 
 
 def test_train_size_and_noise_are_checked_before_work(small_capture, tmp_path, capsys):
-    from splat.capture import CaptureError, read_capture
+    from splat.capture import CaptureError, PipelineConfig, read_capture
     from splat.cli import main
-    from splat.pipeline import PipelineConfig
 
     for bad in (0, 8, 3.5, True):
         with pytest.raises(ValueError, match="train_size"):
@@ -378,7 +383,7 @@ def test_train_size_and_noise_are_checked_before_work(small_capture, tmp_path, c
 def test_the_8_bit_encoder_is_XYZ_to_sRGB_rounded():
     """The table-driven 8-bit sRGB of the full-resolution PNG against colour-science's exact conversion
     (``pipeline.XYZ_to_sRGB``): within one level everywhere, equal on most pixels."""
-    from splat.pipeline import XYZ_to_sRGB
+    from splat.capture import XYZ_to_sRGB
     from splat.strips import sRGB8_encoder
 
     rng = np.random.default_rng(5)

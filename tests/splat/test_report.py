@@ -62,7 +62,7 @@ def make_out(cap, out, *, score=False):
     """An output folder as poses → train → render → correct leave it (their file names and summary
     keys), with synthetic images, for the nikon views of :data:`VIEWS` (48 × 36 px)."""
     from splat.capture import read_capture
-    from splat.workspace import Workspace
+    from splat.capture.workspace import Workspace
 
     spec = read_capture(cap)
     Workspace(spec, out)
@@ -142,7 +142,7 @@ def make_out(cap, out, *, score=False):
 
 @pytest.fixture(scope="module")
 def page(cap, tmp_path_factory):
-    from splat.pipeline import report_step
+    from splat.capture import report_step
 
     out = tmp_path_factory.mktemp("report_out") / "out"
     make_out(cap, out, score=True)
@@ -245,7 +245,7 @@ def test_self_contained(page):
 
 
 def test_nothing_rendered_says_so(cap, tmp_path):
-    from splat.pipeline import report_step
+    from splat.capture import report_step
 
     html = report_step(cap, tmp_path / "out").read_text()
     assert "Nothing rendered yet" in html

@@ -52,7 +52,7 @@ def test_region_labels_find_every_stripe_wide_enough(widths, height):
 def test_region_means_average_the_noise_and_name_the_chart_patch(spec):
     """An estimate off by zero-mean noise within each region scores ≈ 0 per region mean but not per
     pixel; a region whose true colour is a chart patch's counts as chart, the other as uniform."""
-    from splat.pipeline import correction_problem_of
+    from splat.capture import correction_problem_of
     from splat.scoring import _chart_XYZ, _dE_all, _region_dE, region_labels
 
     C = _chart_XYZ(spec)
@@ -91,7 +91,7 @@ def test_chart_xyz_against_colour_science(spec):
 def test_chart_matrix_is_the_least_squares_fit(spec):
     """Normal equations hold on the chart (independently integrated); it develops the chart well."""
     import zonotope
-    from splat.pipeline import correction_problem_of
+    from splat.capture import correction_problem_of
     from splat.scoring import _dE_all, chart_matrix
 
     M = chart_matrix(spec, 1)

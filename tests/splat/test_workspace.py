@@ -1,4 +1,4 @@
-"""splat.workspace and the checks before work: OUT is marked, recorded and never holds paths outside it;
+"""splat.capture.workspace and the checks before work: OUT is marked, recorded, never holds paths outside it;
 nothing splat did not write is replaced; a changed input or option recomputes the step and its
 dependents; foreign or corrupt files get one-line errors naming them; bad options are refused before any
 file is read."""
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from splat.capture import CaptureError, read_capture
-from splat.workspace import MARKER, SETTINGS, Workspace
+from splat.capture.workspace import MARKER, SETTINGS, Workspace
 
 from .capture_helpers import write_capture
 
@@ -32,7 +32,7 @@ def _copy(cap, tmp_path):
 
 
 def _poses(cap, out, **kw):
-    from splat.pipeline import PipelineConfig, poses_step
+    from splat.capture import PipelineConfig, poses_step
 
     return poses_step(cap, out, config=PipelineConfig(**kw))
 
@@ -86,7 +86,7 @@ def test_capture_inputs_inside_out_are_refused_and_left_alone(cap, tmp_path):
 
 
 def test_a_users_report_is_never_replaced(cap, tmp_path):
-    from splat.pipeline import report_step
+    from splat.capture import report_step
 
     out = tmp_path / "out"
     _poses(cap, out)
@@ -162,7 +162,7 @@ def test_changed_options_recompute_only_what_depends_on_them(cap, tmp_path):
 
 def test_corrupt_summaries_settings_and_checkpoints_are_one_line_errors(cap, tmp_path):
     from splat import TrainConfig, init_state
-    from splat.pipeline import load_gaussians
+    from splat.capture import load_gaussians
     from splat.training import load_checkpoint
 
     out = tmp_path / "out"
@@ -245,12 +245,12 @@ def test_a_white_box_outside_the_image_is_refused_before_the_poses(cap, tmp_path
 
 
 def test_every_photograph_is_rendered_by_default_and_views_selects(cap, tmp_path):
-    from splat.pipeline import PipelineConfig, _load_model_capture, views_to_render
+    from splat.capture import PipelineConfig, load_model_capture, views_to_render
 
     out = tmp_path / "out"
     _poses(cap, out)
     spec = read_capture(cap)
-    views = _load_model_capture(spec, out)[1].views
+    views = load_model_capture(spec, out)[1].views
     every = views_to_render(spec, views, PipelineConfig())
     assert sorted(n for n, *_ in every) == sorted(v.name for v in views) and len(every) == 12
     kinds = [k for *_, k in every]

@@ -100,7 +100,7 @@ STRAY_ALLOWED: dict[tuple[str, float], str] = {
     ("splat/sim/geometry.py", 0.06): "scene design: the dark cell borders' width, a fraction of the cell",
     ("splat/sim/geometry.py", 0.025): "scene design: the ColorChecker's gap between patches (m)",
     ("splat/sim/capture.py", 0.9): "scene design: the white card's flat reflectance",
-    ("splat/capture.py", 1.5): "input range: the largest white reflectance accepted in capture.toml",
+    ("splat/capture/spec.py", 1.5): "input range: the largest white reflectance accepted in capture.toml",
     ("splat/cli.py", 10.0): "UI: seconds between progress lines when stderr is not a terminal",
     ("splat/training.py", 1e-15): "optimiser hyper-parameter: Adam's ε (tiny, so rarely-seen Gaussians "
     "are not damped), not a decision",

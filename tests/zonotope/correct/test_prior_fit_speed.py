@@ -21,7 +21,7 @@ from zonotope.geometry.solid import Zonotope
 
 BANDS = np.arange(400.0, 681.0, 10.0)  # the grid of splat's simulated capture (the Sigma's range)
 CAMERAS = ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"]
-TARGET = "CIE 1931 2 Degree Standard Observer"  # as splat.pipeline.correction_problem_of
+TARGET = "CIE 1931 2 Degree Standard Observer"  # as splat.capture.correction_problem_of
 
 
 @pytest.fixture(autouse=True)
@@ -141,7 +141,7 @@ def responses(problem, scale, seed):
 
 
 def test_whitened_nine_channel_fits_equal_the_reference():
-    """As splat.pipeline.fit_fused_corrector fits them: noise σ_ref, mix 1, one pattern after the
+    """As splat.capture.fit_fused_corrector fits them: noise σ_ref, mix 1, one pattern after the
     other (the second takes the log volume memoised from the first)."""
     problem = correction_problem(CAMERAS, shape=BANDS, training="rawtoaces 190", target=TARGET)
     rng = np.random.default_rng(11)

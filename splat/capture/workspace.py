@@ -24,7 +24,7 @@ import os
 import shutil
 from pathlib import Path
 
-from .capture import CaptureError, CaptureSpec
+from .spec import CaptureError, CaptureSpec
 
 __all__ = [
     "MARKER",

@@ -1,0 +1,816 @@
+"""The correct step: the white scale, noise level and δ (each cached in ``OUT/correct``), the fused and
+photographed responses of a view (:mod:`splat.fusion`), the correction fits and the corrected images,
+at the working resolution and at full size (:mod:`splat.strips`).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._errors import SplatError
+from .._tol import FEASIBLE_DISTANCE
+from ..strips import FULL_METHOD
+from .config import PipelineConfig, step_workspace, working_binning, working_summary
+from .files import read_index, read_tiff, write_json, write_png8, write_tiff
+from .raw import RawView, load_views, open_raw, white_scale
+from .spec import CaptureError, CaptureSpec
+from .workspace import peak_rss_mib, read_json, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
+
+__all__ = [
+    "XYZ_to_sRGB",
+    "choose_delta",
+    "correct_fused",
+    "correct_step",
+    "correction_problem_of",
+    "delta_of",
+    "dng_matrix_XYZ",
+    "fit_corrector",
+    "fit_fused_corrector",
+    "fused_fitter",
+    "fused_mix",
+    "fused_view",
+    "fusion_of",
+    "noise_sigma",
+    "own_noise",
+    "photographed_view",
+    "reprojected_of",
+    "white_of",
+]
+
+
+def XYZ_to_sRGB(XYZ, white_XYZ) -> np.ndarray:
+    """XYZ (white ``white_XYZ``, Y = 1) → sRGB-encoded values in [0, 1] (Bradford to D65, clipped).
+
+    Parameters
+    ----------
+    XYZ : array_like of shape (..., 3)
+    white_XYZ : array_like of shape (3,)
+    """
+    import colour
+
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    w = np.asarray(white_XYZ, float)
+    rgb = colour.XYZ_to_RGB(
+        np.asarray(XYZ, float),
+        srgb,
+        illuminant=colour.XYZ_to_xy(w),
+        chromatic_adaptation_transform="Bradford",
+    )
+    return np.asarray(colour.models.eotf_inverse_sRGB(np.clip(rgb, 0, 1)))
+
+
+def white_of(spec: CaptureSpec, out: Path, views: list[RawView] | None = None) -> dict:
+    """The white → 1 scale (:func:`splat.capture.white_scale`), cached in ``OUT/correct/white.json``."""
+    path = out / "correct" / "white.json"
+    if path.is_file():
+        d = read_json(path, what="white scale")
+        d["scale"] = [np.asarray(s) for s in d["scale"]]
+        return d
+    d = white_scale(spec, views if views is not None else load_views(spec))
+    write_json(
+        path, {k: [np.asarray(x).tolist() for x in v] if isinstance(v, list) else v for k, v in d.items()}
+    )
+    d["scale"] = [np.asarray(s) for s in d["scale"]]
+    return d
+
+
+def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
+    """``zonotope.correct.CorrectionProblem`` of a subset of the capture's cameras (10 nm grid,
+    400–700 nm narrowed to the curves' common range, training set rawtoaces 190)."""
+    import zonotope
+    from zonotope.correct import correction_problem
+
+    curves = [spec.load_ssf(k) for k in cameras]
+    light = spec.load_illuminant()
+    obs = zonotope.observer(spec.observer)
+    common = zonotope.common_shape(*curves, obs, light, interval=10)
+    shape = np.arange(max(common.start, 400.0), min(common.end, 700.0) + 5, 10.0)
+    return correction_problem(
+        curves, target=spec.observer, illuminant=light, shape=shape, training="rawtoaces 190"
+    )
+
+
+def noise_sigma(out: Path, scale: np.ndarray) -> float:
+    """RMS training residual on the white → 1 scale, median over channels (for the report)."""
+    s = read_json(out / "train" / "summary.json").get("residual_sigma_raw")
+    if s is None:
+        raise CaptureError(
+            f"{out / 'train' / 'summary.json'}: not a splat train summary (no residual_sigma_raw)."
+        )
+    return float(np.median(np.asarray(s) / scale))
+
+
+def choose_delta(
+    problem,
+    responses: np.ndarray,
+    *,
+    n: int = 200,
+    percentile: float = 95.0,
+    floor: float = 1e-3,
+    seed: int = 0,
+) -> dict:
+    """The MMV noise tolerance δ: the ``percentile`` of the max-norm distances from a sample of the
+    responses to the object-colour solid (at least ``floor``).
+
+    Stacked cameras' rendered responses are rarely exactly consistent (sensor noise averaged over views,
+    model error, SSF calibration); δ is the smallest tolerance that makes ``percentile`` % of them
+    feasible. The rest (counted in ``beyond_delta``) go to zonotope's ``on_infeasible="nearest"``.
+
+    Parameters
+    ----------
+    problem : zonotope.correct.CorrectionProblem
+    responses : array_like of shape (..., k)
+        White → 1 responses.
+
+    Returns
+    -------
+    dict
+        ``delta``, ``sampled``, ``outside`` (share off the solid), ``beyond_delta``, ``max_distance``.
+    """
+    from zonotope import distance_to_zonotope
+
+    flat = np.asarray(responses, float).reshape(-1, problem.k)
+    rng = np.random.default_rng(seed)
+    pick = flat[rng.choice(len(flat), min(n, len(flat)), replace=False)]
+    d = np.array([distance_to_zonotope(problem.Phi, np.zeros(problem.k), c)[0] for c in pick])
+    delta = max(float(np.percentile(d, percentile)), floor) if d.size else floor
+    return {
+        "delta": delta,
+        "sampled": len(pick),
+        "outside": float(np.mean(d > FEASIBLE_DISTANCE)),
+        "beyond_delta": float(np.mean(d > delta)),
+        "max_distance": float(d.max()) if d.size else 0.0,
+        "rule": f"{percentile:g}th percentile of the distances of {len(pick)} sampled responses to the "
+        f"object-colour solid (max-norm, white = 1), at least {floor:g}",
+    }
+
+
+def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> dict:
+    """δ of :func:`choose_delta` on responses pooled from every rendered view, cached in
+    ``OUT/correct/delta.json`` (so resumed runs and scoring use the same δ)."""
+    path = out / "correct" / "delta.json"
+    if path.is_file():
+        return read_json(path, what="noise tolerance")
+    rng = np.random.default_rng(0)
+    pool = []
+    for info in index.values():
+        img = np.maximum(read_tiff(out / "render" / info["dir"] / "render.tiff") / scale, 0).reshape(
+            -1, scale.size
+        )
+        pool.append(img[rng.choice(len(img), min(len(img), 2000), replace=False)])
+    tol = choose_delta(correction_problem_of(spec, list(range(len(spec.cameras)))), np.concatenate(pool))
+    write_json(path, tol)
+    return tol
+
+
+def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.ndarray) -> dict:
+    """The noise levels of the fused correction (:mod:`splat.fusion`), in ``OUT/correct/fusion.json``.
+
+    Cached, so that resumed runs and scoring use the same; white → 1 units:
+
+    - ``render_sigma``: the render's error after anchoring (:func:`splat.fusion.render_noise` over every
+      rendered view that has a RAW file);
+    - ``reprojected_sigma``: per camera, the error of its photographs reprojected into another of its
+      views (``render/<view>/reprojected.tiff``) against that view's measured sites (the mosaic itself,
+      not demosaiced) where the view's render is smooth (:func:`splat.fusion.smooth`), each site's own
+      noise removed (:func:`splat.fusion.reprojection_noise` with :func:`splat.fusion.site_noise`),
+      pooled over the camera's rendered views; at least :data:`splat.fusion.OWN_NOISE_FLOOR`; a camera
+      without such a view gets the largest of the others; ``reprojected_sites``: how many residuals
+      each estimate rests on (1 300–3 400 per camera on the CI coarse captures);
+    - per view with a RAW file, ``own_sigma``: its sensor noise per channel
+      (:func:`splat.fusion.sensor_noise`, at least :data:`splat.fusion.OWN_NOISE_FLOOR`).
+
+    Each to two significant digits (:func:`_two_digits`).
+
+    Empty ``views`` when no rendered view has a RAW file.
+    """
+    from ..fusion import (
+        OWN_NOISE_FLOOR,
+        measured,
+        render_noise,
+        reprojection_noise,
+        sensor_noise,
+        site_noise,
+        sites,
+        smooth,
+    )
+
+    path = out / "correct" / "fusion.json"
+    if path.is_file():
+        return read_json(path, what="fusion record")
+    n = len(spec.cameras)
+    pairs, views, resid = [], {}, {}
+    for name, info in index.items():
+        v = raws.get(name)
+        if v is None or v.exif is None:
+            continue
+        k = v.camera
+        ws = scale[3 * k : 3 * k + 3]
+        d = out / "render" / info["dir"]
+        img = read_tiff(d / "render.tiff") / scale
+        m = measured(v, ws)
+        pairs.append((img[..., 3 * k : 3 * k + 3], m))
+        own = np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR)
+        views[name] = {"camera": k, "own_sigma": [_two_digits(x) for x in own]}
+        if (d / "reprojected_count.tiff").is_file():
+            seen = read_tiff(d / "reprojected_count.tiff")[..., k] > 0
+            rep = read_tiff(d / "reprojected.tiff")[..., 3 * k : 3 * k + 3] / ws
+            # at the measured sites themselves (no demosaicing), where the render is smooth
+            mosaic, at = sites(v, ws)
+            at &= (seen & smooth(img))[..., None]
+            resid.setdefault(k, []).append(((rep - mosaic)[at], site_noise(v, ws)[at]))
+    rep_sigma = {
+        k: _two_digits(
+            max(
+                reprojection_noise(np.concatenate([a for a, _ in r]), np.concatenate([b for _, b in r])),
+                OWN_NOISE_FLOOR,
+            )
+        )
+        for k, r in resid.items()
+    }
+    worst = max(rep_sigma.values(), default=None)
+    doc = {
+        "render_sigma": _two_digits(render_noise(pairs)) if pairs else None,
+        "reprojected_sigma": [rep_sigma.get(k, worst) for k in range(n)] if rep_sigma else None,
+        "reprojected_sites": [int(sum(a.size for a, _ in resid.get(k, []))) for k in range(n)],
+        "own_noise_floor": OWN_NOISE_FLOOR,
+        "channels": 3 * n,
+        "views": views,
+        "rule": "own channels: the RAW file's sensor noise (at least own_noise_floor); reprojected "
+        "photographs: their error against the measured sites of each camera's own views where the "
+        "render is smooth, less the sites' own noise; rendered channels: the render's "
+        "leave-one-channel-out error after anchoring, pooled over views and cameras",
+    }
+    write_json(path, doc)
+    return doc
+
+
+def _two_digits(x: float) -> float:
+    """``x`` to two significant digits: the noise estimates are no better, and views whose noise agrees
+    to that share one fitted estimator (each fit costs seconds)."""
+    return float(f"{float(x):.2g}")
+
+
+def fused_view(
+    fusion: dict,
+    name: str,
+    render: np.ndarray,
+    view: RawView,
+    scale: np.ndarray,
+    cameras,
+    reprojected=None,
+    *,
+    texture_rtol: float | None = None,
+):
+    """Fused responses of a view with a RAW file, restricted to ``cameras`` (which must include the
+    view's own), and their per-channel noise.
+
+    The own channels are measured (where the camera's other photographs see the pixel, the
+    inverse-variance mean of the measurement and their reprojection: noise is averaged, a noise-free
+    photograph keeps most of its weight); another camera's channels are its photographs reprojected into
+    the view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n),
+    all cameras, as the render step writes them), else the render anchored to the photograph. Every
+    camera's reprojection (the view's own camera's too) is first re-read by
+    :func:`splat.fusion.guided`, guided by the view's photograph. Its σ stays the unfiltered
+    reprojection's (``fusion_of``): an upper bound, as the filter averages noise.
+
+    Where the photograph is **textured** (:func:`splat.fusion.textured`, with the view's ``own_sigma``
+    as the noise) none of that holds: a reprojection misplaced by a fraction of a pixel, or a channel
+    demosaiced across a 1–2 px border, is off by the step itself, not by its σ. There the responses
+    are the render anchored to the pixel's own measured site (:func:`splat.fusion.anchor` with the
+    mosaic's sites: no demosaicing, no reprojection), σ the sensor's for the measured channel(s) and
+    the render's for all others. On the benchmark capture this took the all-pixel ΔE00 of three
+    cameras from 8.08 to 3.90 (README).
+
+    Parameters
+    ----------
+    texture_rtol : float, optional
+        :func:`splat.fusion.textured`'s threshold (default :data:`splat._tol.TEXTURE_RTOL`);
+        ``float("inf")`` turns the texture test off.
+
+    Returns
+    -------
+    fused : ndarray of shape (H, W, 3·len(cameras))
+    code : ndarray of shape (H, W), int
+        Below ``2**m`` (``m = len(cameras)``): bit ``i`` set where ``cameras[i]``'s reprojected
+        photographs enter (for the view's own camera: are averaged with its measurement). A textured
+        pixel has bit ``m`` set and, from bit ``m + 1``, which of the own camera's three channels its
+        site measured.
+    sigma : dict
+        ``code`` → σ per channel (3·len(cameras),).
+    """
+    from ..fusion import TEXTURE_RTOL, anchor, guided, guided_demosaic, measured, sites, textured
+
+    k = view.camera
+    cameras = list(cameras)
+    if k not in cameras:
+        raise SplatError(f"{name}: its camera is not among the cameras {cameras} to fuse.")
+    idx = [3 * c + j for c in cameras for j in range(3)]
+    pos = 3 * cameras.index(k)
+    own = slice(pos, pos + 3)
+    valid = np.asarray(view.weight).sum(-1) > 0  # the pixel's own site is neither saturated nor dead
+    ws = scale[3 * k : 3 * k + 3]
+    photo = measured(view, ws)
+    rep_sigma = fusion.get("reprojected_sigma")
+    use = reprojected is not None and rep_sigma is not None
+    own_photo = photo
+    if use:
+        raw_values, count = reprojected
+        raw_values = np.asarray(raw_values, float)
+
+        seen_by = {c: count[..., c] > 0 for c in cameras if (count[..., c] > 0).any()}
+
+        def reread(c, guide):  # camera c's reprojection re-read where the view's photograph puts it
+            return guided(raw_values[..., 3 * c : 3 * c + 3], seen_by[c], guide)
+
+        others = [c for c in seen_by if c != k]
+        if others and not view.full_colour:  # the own mosaic demosaiced with the other cameras' help
+            seen = np.stack([seen_by[c] for c in others])
+            trip = np.stack([reread(c, photo) for c in others])
+            n_seen = seen.sum(0)[..., None]
+            mean = np.where(n_seen > 0, (trip * seen[..., None]).sum(0) / np.maximum(n_seen, 1), photo)
+            own_photo = guided_demosaic(view, ws, np.concatenate([mean, photo], -1))
+        values = raw_values.copy()  # re-read with the sharpest photograph of the view as the guide
+        for c in seen_by:
+            values[..., 3 * c : 3 * c + 3] = reread(c, own_photo)
+    fused = anchor(render[..., idx], own_photo, own, valid)
+    code = np.zeros(fused.shape[:2], int)
+    if use:
+        m_own = fused[..., own].copy()
+        s_own = np.asarray(fusion["views"][name]["own_sigma"], float)
+        s_rep = float(rep_sigma[k])
+        for i, c in enumerate(cameras):
+            seen = count[..., c] > 0
+            if c == k:  # inverse-variance mean of the measurement and the camera's other photographs
+                wm, wr = 1 / s_own**2, 1 / s_rep**2
+                comb = (wm * m_own + wr * np.maximum(values[..., 3 * c : 3 * c + 3], 0)) / (wm + wr)
+                fused[..., own] = np.where(seen[..., None] & valid[..., None], comb, m_own)
+                code |= (seen & valid).astype(int) << i
+                continue
+            fused[..., 3 * i : 3 * i + 3] = np.where(
+                seen[..., None], np.maximum(values[..., 3 * c : 3 * c + 3], 0), fused[..., 3 * i : 3 * i + 3]
+            )
+            code |= seen.astype(int) << i
+    rtol = TEXTURE_RTOL if texture_rtol is None else texture_rtol
+    m = len(cameras)
+    so = np.asarray(fusion["views"][name]["own_sigma"], float)
+    tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
+    if tex.any():  # the render anchored to the pixel's own site(s): no demosaicing, no reprojection
+        mosaic, at = sites(view, ws)
+        fused[tex] = anchor(render[..., idx], mosaic, own, at)[tex]
+        bits = (at * (1 << np.arange(3))).sum(-1)
+        code = np.where(tex, (1 << m) | (bits << (m + 1)), code)
+    sigma = _sigma_by_code(fusion, code[code < 1 << m], cameras)
+    for cd, s_ in sigma.items():  # the own channels: measured, or averaged with their reprojection
+        s_[own] = 1 / np.sqrt(1 / so**2 + 1 / float(rep_sigma[k]) ** 2) if cd >> (pos // 3) & 1 else so
+    for cd in np.unique(code[code >= 1 << m]):  # textured: the site's channel(s) measured, the rest rendered
+        s_ = np.full(3 * m, float(fusion["render_sigma"]))
+        s_[own] = np.where((cd >> (m + 1)) >> np.arange(3) & 1, so, s_[own])
+        sigma[int(cd)] = s_
+    return fused, code, sigma
+
+
+def _sigma_by_code(fusion: dict, code: np.ndarray, cameras: list) -> dict:
+    """σ per channel of ``cameras`` for each pattern in ``code``: a camera's ``reprojected_sigma`` where
+    its bit is set, ``render_sigma`` elsewhere."""
+    sigma = {}
+    for cd in np.unique(code):
+        s_ = np.full(3 * len(cameras), fusion["render_sigma"], float)
+        for i, c in enumerate(cameras):
+            if cd >> i & 1:
+                s_[3 * i : 3 * i + 3] = fusion["reprojected_sigma"][c]
+        sigma[int(cd)] = s_
+    return sigma
+
+
+def photographed_view(
+    fusion: dict, render: np.ndarray, reprojected, cameras, *, texture_rtol: float | None = None
+):
+    """Responses of a view from the photographs alone, for a view without a RAW file (a novel view):
+    each camera's channels are its photographs reprojected into the view where any sees the pixel
+    (re-read by :func:`splat.fusion.guided`, guided by the mean of the cameras' channel triples); where
+    none of a camera's does, its rendered channels anchored (Brovey, :func:`splat.fusion.anchor`'s rule)
+    to the sum of the channels that were reprojected there, or the render itself where no photograph
+    sees the pixel. Where that picture of the view is **textured** — not :func:`splat.fusion.smooth`
+    over the 3 × 3 neighbourhood at ``texture_rtol`` (default :data:`splat._tol.TEXTURE_RTOL`;
+    ``float("inf")`` turns the test off), before the re-reading — the render itself, as if no
+    photograph saw the pixel: at a 1–2 px border the reprojections are off by the step (as in
+    :func:`fused_view`), and with no photograph of the view there is no site to anchor to. Three
+    cameras, Prior, held-out views as novel views, all | flat pixels ΔE00 without → with the test:
+    benchmark capture (every 4th pixel) 8.68 | 0.726 → 5.83 | 0.594; CI coarse capture (1000 steps,
+    every 2nd) 4.90 | 0.449 → 4.03 | 0.425; CI fine 11.98 | 1.365 → 10.44 | 1.423. The 5 × 5 window of
+    :func:`fused_view`'s test flagged more flat pixels here (the reprojections blur a cell's border into
+    its neighbours): 5.44 | 0.707, 4.41 | 0.472, 10.70 | 1.838.
+
+    Parameters
+    ----------
+    fusion : dict
+        :func:`fusion_of`.
+    render : ndarray of shape (H, W, 3n)
+        The view's render, white → 1.
+    reprojected : tuple
+        Values (H, W, 3n) white → 1 and counts (H, W, n), as the render step writes them.
+    cameras : sequence of int
+
+    Returns
+    -------
+    fused, code, sigma
+        As :func:`fused_view`; bit ``i`` of ``code`` set where ``cameras[i]``'s photographs enter; σ is
+        the camera's ``reprojected_sigma`` there, ``render_sigma`` elsewhere.
+    """
+    from ..fusion import ANCHOR_EPS, TEXTURE_RTOL, guided, smooth
+
+    cameras = list(cameras)
+    values, count = reprojected
+    idx = [3 * c + j for c in cameras for j in range(3)]
+    render = np.maximum(np.asarray(render, np.float64)[..., idx], 0)
+    values = np.maximum(np.asarray(values, np.float64)[..., idx], 0)
+    seen = np.stack([count[..., c] > 0 for c in cameras], -1)  # (H, W, m)
+    code = (seen.astype(int) << np.arange(len(cameras))).sum(-1)
+    chan = np.repeat(seen, 3, -1)
+
+    def assemble(values):  # Brovey per pixel over the channels reprojected there; 1 where none was
+        num = np.where(chan, values, 0).sum(-1) + ANCHOR_EPS
+        den = np.where(chan, render, 0).sum(-1) + ANCHOR_EPS
+        ratio = np.divide(num, den, out=np.ones_like(num), where=chan.any(-1) & (den > 0))
+        return np.where(chan, values, render * ratio[..., None])
+
+    # No photograph of the view itself to guide splat.fusion.guided: the guide is the mean of the
+    # cameras' channel triples (a picture of the view from all photographs, its noise averaged)
+    guide = assemble(values).reshape(*values.shape[:2], len(cameras), 3).mean(-2)
+    for i in range(len(cameras)):
+        if seen[..., i].any():
+            values[..., 3 * i : 3 * i + 3] = guided(values[..., 3 * i : 3 * i + 3], seen[..., i], guide)
+    fused = assemble(values)
+    rtol = TEXTURE_RTOL if texture_rtol is None else texture_rtol
+    if np.isfinite(rtol):  # textured: the render, no photograph
+        tex = ~smooth(guide, rtol=rtol, size=3)
+        fused[tex] = render[tex]
+        code = np.where(tex, 0, code)
+    return fused, code, _sigma_by_code(fusion, code, cameras)
+
+
+def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):
+    """``fit(σ) → (corrector, scale)`` for :func:`correct_fused`: :func:`fit_fused_corrector` with
+    :func:`fused_mix`, once per distinct noise pattern (cached)."""
+    mix = fused_mix(method)
+    cache: dict = {}
+    # the unwhitened problem, built once when first needed (0.04–0.15 s each, ~50 noise patterns a run)
+    problem = functools.cache(lambda: correction_problem_of(spec, list(cameras)))
+
+    def fit(sigma):
+        key = tuple(np.round(sigma, 6))
+        if key not in cache:
+            cache[key] = fit_fused_corrector(spec, list(cameras), method, sigma, mix=mix, problem=problem())
+        return cache[key]
+
+    return fit
+
+
+def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
+    """``<stem>_XYZ.tiff`` (float32), ``<stem>_sRGB.tiff`` (16-bit) and ``<stem>_sRGB.png`` of a view."""
+    from isp import write_image
+
+    write_tiff(o / f"{stem}_XYZ.tiff", XYZ)
+    rgb = XYZ_to_sRGB(XYZ, white_XYZ)
+    write_image(o / f"{stem}_sRGB.tiff", rgb, overwrite=True)
+    write_png8(o / f"{stem}_sRGB.png", rgb)
+
+
+def reprojected_of(d: Path, scale: np.ndarray):
+    """A rendered view's reprojected photographs (white → 1) and counts, or None (not written)."""
+    if not (d / "reprojected_count.tiff").is_file():
+        return None
+    return read_tiff(d / "reprojected.tiff") / scale, read_tiff(d / "reprojected_count.tiff")
+
+
+def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
+    """Correct fused responses pixel group by pixel group (one noise pattern each): ``fit(σ)`` gives
+    ``(corrector, scale)`` (:func:`fused_fitter`); returns XYZ (..., 3)."""
+    from zonotope.correct.image import correct_image
+
+    out = np.zeros((*fused.shape[:-1], 3))
+    for cd, s_ in sigma.items():
+        sel = code == cd
+        if sel.any():
+            cor, w = fit(s_)
+            # whitened units: no channel is quantised more coarsely than ``quantum``
+            out[sel] = correct_image((fused[sel] * w)[:, None], cor, quantum=quantum)[:, 0]
+    return out
+
+
+def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
+    """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
+    passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
+    Centroid ``delta=δ``)."""
+    return _fit_on(correction_problem_of(spec, cameras), method, delta)
+
+
+def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
+    """An estimator for fused responses with per-channel noise ``noise`` (σ per channel of ``cameras``):
+    fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
+    (:func:`splat.fusion.whitened`, δ = ``DELTA_SIGMAS`` · σ_ref); returns it and the scale to apply to
+    responses.
+    ``mix``: Prior's atypical-branch weight (:func:`fused_mix`); without it Prior chooses it by its own
+    cross-validation for every noise pattern (~3–5 s each). ``problem``: the cameras'
+    :func:`correction_problem_of`, when the caller already has it."""
+    from ..fusion import whitened
+
+    if problem is None:
+        problem = correction_problem_of(spec, cameras)
+    problem, scale, ref = whitened(problem, noise)
+    from zonotope.correct import DELTA_SIGMAS
+
+    return _fit_on(problem, method, DELTA_SIGMAS * ref, mix=mix), scale
+
+
+def fused_mix(method: str):
+    """Prior's atypical-branch weight λ for fused responses: 1, the MAP estimate alone (None for other
+    methods). The measured channels' small σ makes the fused MMV thin (δ_k ∝ σ_k), so its centroid
+    adds little to the MAP and cost three quarters of the time: on the CI coarse captures (1000 steps,
+    three cameras, flat held-out pixels) λ chosen by Prior's cross-validation gave 0.500 ΔE00 noise-free
+    and 1.399 noisy, λ = 1 0.497 and 1.392, and a noisy view took 31 s against 7.9 s."""
+    from zonotope.correct import CORRECTION_METHODS
+
+    if CORRECTION_METHODS.resolve(method, argument="method") != "Prior":
+        return None
+    return 1.0
+
+
+def _fit_on(problem, method: str, delta: float, *, mix=None):
+    """``method`` fitted on ``problem`` with the noise of tolerance ``delta`` (σ = δ / DELTA_SIGMAS), told
+    to it as its registry entry says (:func:`zonotope.correct.noise_options`)."""
+    from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
+
+    name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
+    opts = noise_options(name, delta / DELTA_SIGMAS)
+    if name == "Prior" and mix is not None:
+        opts["mix"] = mix
+    return fit_correction(problem, method=name, **opts)
+
+
+def dng_matrix_XYZ(balanced: np.ndarray, profile, neutral, white_XYZ) -> np.ndarray:
+    """A camera's DNG development: white-balanced responses (white → 1) → XYZ of the scene white
+    ``white_XYZ`` (Y = 1): ColorMatrix → XYZ D50 (isp), Bradford back to the scene white."""
+    import colour
+
+    from isp.dng import D50_xy
+    from isp.stages import matrix_XYZ_from_balanced
+
+    M = matrix_XYZ_from_balanced(profile, neutral)
+    cat = colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        colour.xy_to_XYZ(D50_xy), np.asarray(white_XYZ) / white_XYZ[1], transform="Bradford"
+    )
+    return balanced @ (cat @ M).T
+
+
+def correct_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: ProgressCallback | None = None,
+) -> dict:
+    """Colour-correct every rendered view with all cameras (``config.method``), and develop each
+    camera's channels with its own DNG matrix; held-out RAW files are also developed by isp.
+
+    Returns
+    -------
+    dict
+        The summary written to ``correct/summary.json``: method, σ and δ, infeasible shares.
+    """
+    from zonotope.correct import CORRECTION_METHODS
+    from zonotope.correct.image import correct_image
+
+    from ..fusion import measured
+
+    spec, ws = step_workspace(capture, out, config)
+    out = ws.root
+    index_path = out / "render" / "index.json"
+    if not index_path.is_file():
+        raise CaptureError(f"{out}: nothing rendered yet; run the render step first.")
+    index = read_index(spec, index_path)
+    t0 = time.perf_counter()
+    reset_peak_rss()
+    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
+    # white, δ and the fusion noise levels are functions of these (δ pools the photographed views only,
+    # so that novel views rendered later do not change it): a change recomputes every corrected image
+    photographed = {k: v for k, v in index.items() if k in raws}
+    ws.begin(
+        "correct",
+        {
+            "white": [spec.white.method, spec.white.image, spec.white.box, spec.white.reflectance],
+            "observer": spec.observer,
+            "method": CORRECTION_METHODS.resolve(config.method, argument="method"),
+            "quantum": config.quantum,
+            "photographed": sorted(photographed),
+            "noise": config.noise,
+            "full_resolution": FULL_METHOD,
+        },
+    )
+    white = white_of(spec, out, list(raws.values()))
+    scale = np.concatenate(white["scale"])
+    n = len(spec.cameras)
+    tol = delta_of(spec, out, photographed or index, scale)
+    corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"])
+    problem = corrector.problem
+    wXYZ = problem.white_XYZ
+    mname = corrector.method.replace(" ", "")
+    profiles = {}
+    for v in raws.values():
+        profiles.setdefault(v.camera, (v.profile, v.neutral))
+    fusion = fusion_of(spec, out, index, raws, scale)
+    noise_used = own_noise(fusion, raws, scale, config.noise)
+    fusion = dict(
+        fusion, views={m: dict(d, own_sigma=noise_used[m]["sigma"]) for m, d in fusion["views"].items()}
+    )
+    fit = fused_fitter(spec, list(range(n)), config.method)
+    fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
+    n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
+    full_info = {}
+    # one progress bar over the rows of every photograph still to correct at full resolution
+    todo_rows = {
+        m: raws[m].size[0]
+        for m, info in index.items()
+        if m in fusion["views"] and not (out / "correct" / info["dir"] / "full_XYZ.tiff").is_file()
+    }
+    rows_done = [0]
+
+    def full_progress(what, done, total, _name=None):
+        if progress is not None:
+            progress("full resolution rows", rows_done[0] + done, sum(todo_rows.values()))
+
+    for i, (name, info) in enumerate(index.items()):
+        d = out / "render" / info["dir"]
+        o = out / "correct" / info["dir"]
+        img = read_tiff(d / "render.tiff") / scale
+        if not (o / f"{mname}_XYZ.tiff").is_file():
+            XYZ = correct_image(np.maximum(img, 0), corrector, quantum=config.quantum)
+            _write_corrected(o, mname, XYZ, wXYZ)
+        for k in range(n):
+            prof, neutral = profiles[k]
+            f = o / f"dng_{spec.label(k)}_XYZ.tiff"
+            if prof is None or f.is_file():
+                continue
+            X = dng_matrix_XYZ(np.maximum(img[..., 3 * k : 3 * k + 3], 0), prof, neutral, wXYZ)
+            write_tiff(f, X)
+            write_png8(o / f"dng_{spec.label(k)}_sRGB.png", XYZ_to_sRGB(X, wXYZ))
+        r = raws.get(name)
+        rep = reprojected_of(d, scale)
+        novel = name not in fusion["views"] and rep is not None and fusion["reprojected_sigma"] is not None
+        want_fused = (name in fusion["views"] or novel) and not (o / f"{mname}_fused_XYZ.tiff").is_file()
+        want_full = name in fusion["views"] and not (o / "full_XYZ.tiff").is_file()
+        if want_fused or want_full:
+            if novel:  # no RAW file here: the photographs reprojected into the view, the render elsewhere
+                fused, code, sigma = photographed_view(fusion, img, rep, list(range(n)))
+            else:  # a photograph: its RAW file, the others reprojected into it, the render anchored to it
+                fused, code, sigma = fused_view(fusion, name, img, r, scale, list(range(n)), rep)
+            if want_fused:
+                XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
+                _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
+            if want_full:  # at the photograph's own size, strip by strip (splat.strips)
+                full_info[name] = _full_resolution(
+                    spec,
+                    o,
+                    r,
+                    fused,
+                    code,
+                    sigma,
+                    white["scale"][r.camera],
+                    noise_used[name],
+                    fit_full,
+                    wXYZ,
+                    full_progress,
+                )
+                rows_done[0] += todo_rows.get(name, 0)
+        if (o / f"{mname}_fused_XYZ.tiff").is_file():
+            n_fused["views" if name in fusion["views"] else "novel"] += 1
+        if (o / "full_XYZ.tiff").is_file():
+            n_fused["full_resolution"] += 1
+        if r is not None and r.profile is not None and not (o / "raw_dng_XYZ.tiff").is_file():
+            bal = np.maximum(measured(r, white["scale"][r.camera]), 0)
+            X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
+            write_tiff(o / "raw_dng_XYZ.tiff", X)
+            write_png8(o / "raw_dng_sRGB.png", XYZ_to_sRGB(X, wXYZ))
+        if progress is not None:
+            progress("correct", i + 1, len(index))
+    summary = {
+        "method": corrector.method,
+        "delta": tol["delta"],
+        "noise": tol,
+        "training_residual": noise_sigma(out, scale),
+        "fusion": {
+            "render_sigma": fusion["render_sigma"],
+            "views": n_fused["views"],
+            "novel": n_fused["novel"],
+            "files": f"{mname}_fused_XYZ.tiff / _sRGB.tiff / .png next to {mname}_XYZ.tiff",
+        },
+        "full_resolution": {
+            "views": n_fused["full_resolution"],
+            "method": FULL_METHOD,
+            "files": "full_XYZ.tiff (float32) / full_sRGB.png, each photograph at its RAW file's size",
+            "how": "own channels: the RAW file demosaiced (Malvar 2004) strip by strip; other cameras' "
+            "channels: the working-resolution fused responses (their photographs reprojected through "
+            "the splat's depth, the render where none sees a pixel) upsampled bilinearly and sharpened "
+            "by the photograph (Brovey ratio of its own channels at full to working resolution); "
+            f"{FULL_METHOD} fitted per noise pattern on the channel-whitened problem",
+            "per_view": full_info,
+        },
+        "own_noise": {
+            m: {"sigma": d["sigma"], "sigma_full": d["sigma_full"], "source": d["source"]}
+            for m, d in noise_used.items()
+        },
+        "working": working_summary(spec, list(raws.values())),
+        "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
+        "white_XYZ": np.asarray(wXYZ).tolist(),
+        "views": list(index),
+        "duration_s": time.perf_counter() - t0,
+        "peak_rss_mib": peak_rss_mib(),
+    }
+    write_json(out / "correct" / "summary.json", summary)
+    return summary
+
+
+def own_noise(fusion: dict, raws: dict, scale: np.ndarray, noise) -> dict:
+    """The noise σ of each photographed view's own channels (white → 1, exposure 1) and where it came
+    from: ``noise = "auto"`` the full-resolution sensor noise of the RAW file (its DNG NoiseProfile at
+    the channel's median level, else the mosaic's own estimate: :func:`splat.fusion.sensor_noise`,
+    at least :data:`splat.fusion.OWN_NOISE_FLOOR`), a σ as given, or ``{"shot", "read"}`` as
+    ``sqrt(shot · x + read)`` at the channel's median level ``x``.
+
+    Returns
+    -------
+    dict
+        View name → ``{"sigma": [3 floats], "sigma_full": [3 floats], "source": str}``: ``sigma`` at the
+        working resolution (what the fused correction uses; ``"auto"`` keeps ``fusion.json``'s),
+        ``sigma_full`` at the photograph's full resolution (binning divides σ by the √ of the sites
+        averaged).
+    """
+    from ..fusion import OWN_NOISE_FLOOR
+    from ..resolution import sites_per_block
+
+    out = {}
+    for name, d in fusion["views"].items():
+        v = raws[name]
+        k = v.camera
+        ws = scale[3 * k : 3 * k + 3]
+        root = np.sqrt(sites_per_block(v.source_cfa, v.binning)) if v.binning > 1 else np.ones(3)
+        if noise == "auto":
+            sigma = np.asarray(d["own_sigma"], float)
+            full = np.maximum(sigma * root, OWN_NOISE_FLOOR)
+            source = "DNG NoiseProfile" if v.noise_profile is not None else "estimated from the mosaic"
+        else:
+            if isinstance(noise, dict):
+                vals, w = np.asarray(v.values, float) / v.exif / ws, np.asarray(v.weight) > 0
+                x = np.array(
+                    [np.median(vals[..., j][w[..., j]]) if w[..., j].any() else 0.0 for j in range(3)]
+                )
+                full = np.sqrt(noise["shot"] * np.maximum(x, 0) + noise["read"]) * np.ones(3)
+            else:
+                full = np.full(3, float(noise))
+            full = np.maximum(full, OWN_NOISE_FLOOR)
+            sigma = np.maximum(full / root, OWN_NOISE_FLOOR)
+            source = "--noise"
+        out[name] = {
+            "sigma": [_two_digits(x) for x in sigma],
+            "sigma_full": [_two_digits(x) for x in full],
+            "source": source,
+        }
+    return out
+
+
+def _full_resolution(
+    spec: CaptureSpec, o: Path, view: RawView, fused, code, sigma, own_scale, noise: dict, fit, wXYZ, progress
+):
+    """Write ``full_XYZ.tiff`` and ``full_sRGB.png`` of a photographed view at its RAW file's size
+    (:func:`splat.strips.full_resolution_view`); returns what was done, how long it took and the peak
+    memory."""
+    from .. import strips as _strips
+
+    t = time.perf_counter()
+    k = view.camera
+    source = open_raw(view.path, spec.cameras[k])
+    H, W = source.shape
+    rows = _strips.STRIP_ROWS
+    strips = _strips.full_resolution_view(
+        _strips.Photograph(
+            source, view.exif, np.asarray(own_scale, float), np.asarray(noise["sigma_full"], float)
+        ),
+        _strips.WorkingFusion(fused, code, sigma, slice(3 * k, 3 * k + 3), view.binning),
+        fit,
+        strip_rows=rows,
+        progress=progress,
+    )
+    _strips.write_full(
+        o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), _strips.sRGB8_encoder(wXYZ), rows=rows
+    )
+    return {"size": [W, H], "binning": view.binning, "seconds": time.perf_counter() - t}

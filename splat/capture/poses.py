@@ -1,0 +1,212 @@
+"""The poses step: previews of every photograph (developed by :mod:`isp`) and a COLMAP model of the
+capture's poses (recovered, or read from ``[poses]``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .config import PipelineConfig, step_workspace, working_summary
+from .files import write_json, write_png8
+from .raw import RawView, camera_white, check_white_box, load_views
+from .spec import CaptureError
+from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
+
+if TYPE_CHECKING:
+    from zonotope.utilities import ProgressCallback
+
+__all__ = [
+    "poses_step",
+    "preview_binning",
+    "preview_upscale",
+]
+
+
+def preview_binning(k, shape, full) -> int:
+    """The binning of the poses step's previews: the automatic working resolution (bounded whatever
+    ``train_size`` says, so that poses never depend on it)."""
+    from ..resolution import working_factor
+
+    return working_factor(shape, full)
+
+
+def preview_upscale(shape: tuple[int, int]) -> int:
+    """Integer factor that brings a small image's shorter side to ≥ 400 px for SIFT (1 to 4)."""
+    return int(min(4, max(1, np.ceil(400 / min(shape)))))
+
+
+def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
+    """8-bit-ready sRGB-ish preview of a linear mosaic: isp bilinear demosaic, SSF white balance,
+    exposure normalised, sRGB transfer curve."""
+    from isp.stages import demosaic, encode_sRGB
+
+    img = (
+        v.values.astype(np.float64)
+        if v.full_colour
+        else demosaic(v.values.sum(-1), cfa=v.cfa, method="bilinear")
+    )
+    img = np.maximum(img, 0) / white / max(v.exif, 1e-9)
+    img = img / max(np.percentile(img, 99.5), 1e-9)
+    return encode_sRGB(np.clip(img, 0, 1))
+
+
+def poses_step(
+    capture: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: PipelineConfig = PipelineConfig(),
+    progress: ProgressCallback | None = None,
+) -> dict:
+    """Recover (or read) the poses of every RAW file; one COLMAP camera per physical camera.
+
+    Returns
+    -------
+    dict
+        The summary written to ``poses/summary.json``: registered views per camera, source.
+
+    Raises
+    ------
+    CaptureError
+        A camera whose views do not register (fewer than ``min_registered`` of them, or fewer than 2).
+    """
+    from ..colmap import ColmapCamera, ColmapImage, ColmapModel, ColmapPoint3D, read_colmap, write_colmap
+    from ..data import read_transforms
+    from ..poses import PoseConfig, recover_poses
+
+    spec, ws = step_workspace(
+        capture,
+        out,
+        config,
+        "poses",
+        lambda spec: {
+            "capture": capture_fingerprint(spec),
+            "seed": config.seed,
+            "min_registered": config.min_registered,
+        },
+    )
+    out = ws.root
+    done = out / "poses" / "summary.json"
+    if done.is_file():
+        return read_json(done)
+    t0 = time.perf_counter()
+    reset_peak_rss()
+    # previews of a bounded size: each file read and binned to the automatic working resolution
+    views = load_views(spec, progress=progress, binning=preview_binning)
+    check_white_box(spec, views)
+    names = [v.name for v in views]
+    if spec.colmap is not None or spec.transforms is not None:
+        source = "colmap" if spec.colmap is not None else "transforms"
+        if spec.colmap is not None:
+            model = read_colmap(spec.colmap)
+        else:
+            from ..data import colmap_from_capture
+
+            model = colmap_from_capture(read_transforms(spec.transforms))
+        by_name = {im.name: im for im in model.images.values()}
+    else:
+        source = "pycolmap"
+        whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
+        for i, v in enumerate(views):
+            path = ws.path("previews", f"{spec.out_stem(v.name)}.png")
+            if not path.is_file():
+                write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
+            if progress is not None:
+                progress("previews", i + 1, len(views))
+        if progress is not None:
+            progress("colmap", 0, 1)
+        work = out / "poses" / "colmap"
+        model = recover_poses(
+            out / "previews",
+            work,
+            config=PoseConfig(num_threads=config.threads, seed=config.seed, max_image_size=-1),
+        )
+        by_name = {}
+        for im in model.images.values():
+            stem = Path(im.name)
+            raw = next(
+                (n for n in names if spec.out_stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None
+            )
+            if raw is not None:
+                by_name[raw] = im
+        if progress is not None:
+            progress("colmap", 1, 1)
+    # one camera id per physical camera, in the capture's order; COLMAP's own ids are remapped
+    cams, images, counts, new_id = {}, {}, {}, {}  # new_id: the model's image id → ours
+    for k, c in enumerate(spec.cameras):
+        mine = [v for v in views if v.camera == k]
+        reg = [v for v in mine if v.name in by_name]
+        counts[c.folder] = {"views": len(mine), "registered": len(reg)}
+        need = max(2, int(np.ceil(config.min_registered * len(mine)))) if len(mine) >= 2 else 1
+        if len(reg) < need:
+            raise CaptureError(
+                f"only {len(reg)} of the {len(mine)} views of camera {c.folder!r} registered "
+                f"(need {need}); photograph more overlap with the other cameras, add "
+                "texture, or give poses in capture.toml ([poses] colmap = ...)."
+            )
+        src = model.cameras[by_name[reg[0].name].camera_id]
+        H, W = mine[0].size  # the model is stored at full resolution
+        if source == "pycolmap":  # preview pixels → full-resolution pixels: × binning / upscale
+            h, w = mine[0].shape
+            u = preview_upscale((h, w))
+            expect, f = (w * u, h * u), u / mine[0].binning
+        else:
+            expect, f = (W, H), 1
+        if (src.width, src.height) != expect:
+            raise CaptureError(
+                f"poses give camera {c.folder!r} the size {src.width}×{src.height}; its RAW "
+                f"files are {W}×{H}."
+            )
+        fx, fy, cx, cy = (x / f for x in src.pinhole())
+        cams[k + 1] = ColmapCamera(k + 1, "PINHOLE", W, H, (fx, fy, cx, cy))
+        for v in reg:
+            im = by_name[v.name]
+            new_id[im.id] = len(images) + 1
+            images[len(images) + 1] = ColmapImage(
+                len(images) + 1,
+                np.asarray(im.qvec),
+                np.asarray(im.tvec),
+                k + 1,
+                v.name,
+                np.asarray(im.xys, float).reshape(-1, 2) / f,
+                np.asarray(im.point3D_ids, np.int64),
+            )
+    pts = {}  # the tracks follow the renumbered images (the train step's depth targets use them)
+    for i, p in model.points3D.items():
+        keep = np.array([int(j) in new_id for j in p.image_ids], bool)
+        ids = np.array([new_id.get(int(j), 0) for j in p.image_ids], np.int64)
+        pts[i] = ColmapPoint3D(
+            i, p.xyz, p.rgb, p.error, ids[keep], np.asarray(p.point2D_idxs, np.int64)[keep]
+        )
+    final = ColmapModel(cams, images, pts)
+    tmpdir = Path(tempfile.mkdtemp(dir=out, prefix=".poses"))
+    write_colmap(final, tmpdir / "model", binary=False)
+    (out / "poses").mkdir(parents=True, exist_ok=True)
+    if (out / "poses" / "model").exists():
+        import shutil
+
+        shutil.rmtree(out / "poses" / "model")
+    os.replace(tmpdir / "model", out / "poses" / "model")
+    os.rmdir(tmpdir)
+    summary = {
+        "source": source,
+        "cameras": counts,
+        "registered": sum(c["registered"] for c in counts.values()),
+        "views": len(views),
+        "points": len(pts),
+        "seconds": time.perf_counter() - t0,
+        "folders": [c.folder for c in spec.cameras],
+        "exposures": {v.name: v.exif for v in views},
+        "saturated": {v.name: v.n_saturated for v in views if v.n_saturated},
+        "dead": {v.name: v.n_dead for v in views if v.n_dead},
+        "previews": working_summary(spec, views),
+        "duration_s": time.perf_counter() - t0,
+        "peak_rss_mib": peak_rss_mib(),
+    }
+    write_json(done, summary)
+    return summary
