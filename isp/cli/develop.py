@@ -7,6 +7,7 @@ branch shows the development stage by stage.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from ._console import _fail, _progress
@@ -86,6 +87,7 @@ def _metamer_config(args: argparse.Namespace):
 
 def _metamer_options(args: argparse.Namespace):
     """``(MetamerConfig, None)``, ``(None, None)`` or ``(None, message)`` (see :func:`_metamer_config`)."""
+    from .._tol import EXPOSURE_STOPS_MAX
     from ..metamer import MetamerConfig
 
     if args.correction != "metamer":
@@ -106,9 +108,12 @@ def _metamer_options(args: argparse.Namespace):
         )
     if args.quantum is not None and not 0 <= args.quantum < float("inf"):
         return None, f"--quantum {args.quantum}: must be a finite number ≥ 0."
-    if args.scene_white is not None and not 0 < args.scene_white < float("inf"):
+    if args.scene_white is not None and not (
+        0 < args.scene_white < float("inf") and abs(math.log2(args.scene_white)) <= EXPOSURE_STOPS_MAX
+    ):
         return None, (
-            f"--scene-white {args.scene_white}: must be > 0 (1 when a white reflector just saturates)."
+            f"--scene-white {args.scene_white:g}: give a fraction of saturation within "
+            f"±{EXPOSURE_STOPS_MAX:g} stops of 1 (1 when a white reflector just saturates)."
         )
     error = _light_error(args)
     if error:

@@ -74,6 +74,13 @@ def test_quantum_must_be_finite(dng, tmp_path, capsys):
     assert "--quantum inf: must be a finite number" in _one_line(capsys)
 
 
+@pytest.mark.parametrize("white", ["1e308", "1e-300", "0", "nan"])
+def test_scene_white_out_of_range_is_one_line(dng, tmp_path, capsys, white):
+    args = ["develop", str(dng), "-o", str(tmp_path / "o.tif"), "-q", "--correction", "metamer"]
+    assert main([*args, "--camera", "Nikon 5100 (NPL)", f"--scene-white={white}"]) == 2
+    assert "--scene-white" in _one_line(capsys) and not (tmp_path / "o.tif").exists()
+
+
 def test_out_of_memory_is_one_line_naming_the_file(dng, tmp_path, capsys, monkeypatch):
     import isp.pipeline
 
