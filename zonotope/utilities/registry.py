@@ -162,7 +162,7 @@ class MethodRegistry(Mapping[str, F]):
         --------
         >>> from zonotope.correct import CORRECTION_METHODS
         >>> CORRECTION_METHODS.names(needs_mmv=False)
-        ('Cheung 2004', 'Finlayson 2015', 'Dyer 2017', 'MAP')
+        ('Cheung 2004', 'Finlayson 2015', 'Dyer 2017', 'Guarded', 'MAP')
         """
         return tuple(
             n for n, m in self._methods.items() if all(m.properties.get(k) == v for k, v in where.items())

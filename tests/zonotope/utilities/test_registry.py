@@ -62,6 +62,7 @@ def test_correction_registry_properties_match_the_estimators():
         "Cheung 2004",
         "Finlayson 2015",
         "Dyer 2017",
+        "Guarded",
         "Centroid",
         "Projection",
         "MAP",
@@ -71,8 +72,19 @@ def test_correction_registry_properties_match_the_estimators():
     problem = correction_problem("Nikon 5100 (NPL)", shape=np.arange(400.0, 701.0, 20.0))
     c = problem.source_of(problem.training[:5])
     for name in CORRECTION_METHODS.names(closed_form=True):
-        # a closed-form estimator is linear in its fitted terms: the matrix M reproduces it exactly
         est = fit_correction(problem, method=name.upper())
+        if name == "Guarded":  # per response, the root-polynomial it holds or its linear fallback
+            root, fb = (
+                est.params["root"](c),
+                c @ est.params["fallback"].params["M"] if est.params["guard"] else None,
+            )
+            out = est(c)
+            same = np.all(np.isclose(out, root, rtol=1e-12), axis=-1)
+            if fb is not None:
+                same |= np.all(np.isclose(out, fb, rtol=1e-12), axis=-1)
+            assert same.all()
+            continue
+        # a closed-form regression is linear in its fitted terms: the matrix M reproduces it exactly
         terms = (
             c if name != "Finlayson 2015" else zonotope.root_polynomial_terms(c, degree=est.params["degree"])
         )
