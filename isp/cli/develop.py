@@ -112,8 +112,8 @@ def _metamer_options(args: argparse.Namespace):
         0 < args.scene_white < float("inf") and abs(math.log2(args.scene_white)) <= EXPOSURE_STOPS_MAX
     ):
         return None, (
-            f"--scene-white {args.scene_white:g}: give a fraction of saturation within "
-            f"±{EXPOSURE_STOPS_MAX:g} stops of 1 (1 when a white reflector just saturates)."
+            f"--scene-white {args.scene_white:g}: must be > 0 and within ±{EXPOSURE_STOPS_MAX:g} stops of 1 "
+            "(1 when a white reflector just saturates)."
         )
     error = _light_error(args)
     if error:

@@ -274,7 +274,7 @@ def test_develop_metamer_warns_on_another_illuminant(simulated, tmp_path, capsys
         ),
         (
             ["--correction", "metamer", "--camera", CAMERA, "--scene-white", "0"],
-            "--scene-white 0.0: must be > 0",
+            "--scene-white 0: must be > 0",
         ),
         (["--scene-white", "0.5"], "--scene-white applies to --correction metamer only"),
     ],
