@@ -478,20 +478,10 @@ def _channel_names(spec: CaptureSpec) -> list[str]:
 
 def posed_capture(spec: CaptureSpec, out: Path):
     """The registered views (learned pose corrections applied) as a :class:`splat.data.Capture`."""
-    from .capture import refined_views
-    from .colmap import read_colmap
-    from .data import Capture, capture_from_colmap
+    from .capture import load_model_capture, refined_views
+    from .data import Capture
 
-    if not (out / "poses" / "summary.json").is_file():
-        raise CaptureError(f"{out}: no poses yet; run the poses step first (splat poses CAPTURE -o OUT).")
-    model = read_colmap(out / "poses" / "model")
-    n = len(spec.cameras)
-    channels = {k + 1: (3 * k, 3 * k + 1, 3 * k + 2) for k in range(n)}
-    labels = tuple(f"{c.folder}:{ch}" for c in spec.cameras for ch in "RGB")
-    exposures = read_json(out / "poses" / "summary.json").get("exposures")
-    if not isinstance(exposures, dict):
-        raise CaptureError(f"{out / 'poses' / 'summary.json'}: not a splat poses summary (no exposures).")
-    cap = capture_from_colmap(model, channels=channels, exposures=exposures, labels=labels)
+    _, cap = load_model_capture(spec, out)
     return Capture(tuple(refined_views(cap.views, out)), cap.channels, cap.labels)
 
 
