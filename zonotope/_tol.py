@@ -605,3 +605,20 @@ __all__ += ["SSF_SAMPLE_CORRELATION_NM", "SSF_SAMPLE_MEAN_ATOL"]
 #: root-polynomial maps the white to the reference white only in least squares (A → D65: 2.2 measured;
 #: 1.5 under one light).
 REFERENCE_CLI_GREY_CHROMA = 3.0
+
+# --- neutral bias (white-point preserving estimates, zonotope.correct.neutral) ---
+#: CIELAB chroma at which the achromatic-axis offset of ``white_point_preserving`` has fallen to
+#: exp(−½) of itself: chosen on the training set only (rawtoaces 190, noisy replicas, 1–3 cameras):
+#: 2, 4 and 8 tie within 0.001 ΔE00, 1 and 16 lose (docs/notes/2026-11-29-neutral-bias.md).
+NEUTRAL_CHROMA = 4.0
+
+#: Grey levels (fractions of the white's response) at which the achromatic-axis offset is tabulated:
+#: 25 log-spaced from 2⁻¹² to 1 (the offset of noise-aware fits varies smoothly with log luminance).
+NEUTRAL_LEVELS = tuple(2.0 ** (-12.0 + 0.5 * i) for i in range(25))
+
+#: ΔE00 within which a white-point preserving estimate of a response proportional to the white's is the
+#: grey's colour: the offset is exact at the tabulated levels and constant in exposure for the regressions,
+#: so only float rounding (≈ 1e-12 of the values) remains.
+NEUTRAL_GREY_DE00 = 1e-6
+
+__all__ += ["NEUTRAL_CHROMA", "NEUTRAL_GREY_DE00", "NEUTRAL_LEVELS"]

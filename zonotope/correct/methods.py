@@ -84,6 +84,7 @@ from .mmv import (
     mmv_centroids,
     select_regression,
 )
+from .neutral import white_point_option
 from .noise import (
     NoiseModel,
     NoiseModelError,
@@ -151,15 +152,44 @@ __all__ = [
 #:     How it is told the responses' noise σ (:func:`noise_options`): ``"noise"`` (it accepts
 #:     ``noise=σ``: training on noisy replicas / noisy evidence), ``"delta"`` (the MMV's response
 #:     tolerance ``delta = DELTA_SIGMAS · σ``) or ``None`` (it ignores noise).
+#: ``white_point``
+#:     The default of its ``white_point`` option (every entry takes one): True adds the estimator's
+#:     own offset along the achromatic axis near it
+#:     (:func:`~zonotope.correct.neutral.white_point_preserving`), so that a response proportional to
+#:     the white's maps to the white's colour at that luminance however noisy the responses it is
+#:     fitted for (``docs/notes/2026-11-29-neutral-bias.md``).
 #: ``image_default``
 #:     True for exactly one entry: the estimator :func:`~zonotope.correct.correct_image` and
 #:     ``zonotope correct`` fit when none is named (:data:`IMAGE_METHOD`), chosen by the evaluation
 #:     table of ``docs/notes/2026-11-29-noise-default.md``.
 CORRECTION_METHODS: MethodRegistry[Callable[..., Corrector]] = MethodRegistry("correction")
+
+#: Default of each entry's ``white_point`` option (its registry property), from the measurements of
+#: ``docs/notes/2026-11-29-neutral-bias.md``.
+WHITE_POINT_DEFAULTS = {
+    "Cheung 2004": False,
+    "Finlayson 2015": False,
+    "Dyer 2017": False,
+    "Guarded": False,
+    "Centroid": False,
+    "Projection": False,
+    "MAP": False,
+    "Prior": False,
+}
+
+
+def _register(name: str, fit: Callable[..., Corrector], **properties) -> None:
+    """Register ``fit`` under ``name`` with its ``white_point`` option (:func:`white_point_option`)."""
+    default = WHITE_POINT_DEFAULTS[name]
+    CORRECTION_METHODS.register(
+        name, white_point_option(fit, default=default), white_point=default, **properties
+    )
+
+
 for _name in REGRESSIONS:
     _entry = REGRESSIONS.method(_name)
-    CORRECTION_METHODS.register(_name, _entry.function, aliases=_entry.aliases, **_entry.properties)
-CORRECTION_METHODS.register(
+    _register(_name, _entry.function, aliases=_entry.aliases, **_entry.properties)
+_register(
     "Guarded",
     fit_Guarded,
     aliases=("guarded root-polynomial", "guarded regression"),
@@ -169,7 +199,7 @@ CORRECTION_METHODS.register(
     noise_option="noise",
     image_default=True,
 )
-CORRECTION_METHODS.register(
+_register(
     "Centroid",
     fit_Centroid,
     aliases=("mmv centroid",),
@@ -178,13 +208,11 @@ CORRECTION_METHODS.register(
     centroid=True,
     noise_option="delta",
 )
-CORRECTION_METHODS.register(
+_register(
     "Projection", fit_Projection, closed_form=False, needs_mmv=True, centroid=False, noise_option="noise"
 )
-CORRECTION_METHODS.register(
-    "MAP", fit_MAP, closed_form=False, needs_mmv=False, centroid=False, noise_option="noise"
-)
-CORRECTION_METHODS.register(
+_register("MAP", fit_MAP, closed_form=False, needs_mmv=False, centroid=False, noise_option="noise")
+_register(
     "Prior",
     fit_Prior,
     aliases=("prior posterior",),

@@ -45,7 +45,7 @@ import json
 import math
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import colour
@@ -369,7 +369,7 @@ def _option_keys(method: str) -> tuple[str, ...]:
     from .methods import CORRECTION_METHODS
 
     option = CORRECTION_METHODS.properties(method).get("noise_option")
-    return ("degree", "eps", *((option,) if option else ()))
+    return ("degree", "eps", "white_point", *((option,) if option else ()))
 
 
 def save_correction(
@@ -597,12 +597,20 @@ def load_correction(path: str | os.PathLike):
             raise SpectralDataError(
                 f"{path}: param_M has shape {M.shape}; {method!r} on {k} channels needs ({rows}, {prob.m})."
             )
-    if method in ("Cheung 2004", "Dyer 2017") and M is not None:
-        return Corrector(method, prob, lambda c: c @ M, {"M": M, **opts})
-    if method == "Finlayson 2015" and M is not None:
-        return Corrector(
-            method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, **opts}
-        )
+    opts.setdefault("white_point", False)  # files written before the option were not white-point preserving
+    if method in ("Cheung 2004", "Dyer 2017", "Finlayson 2015") and M is not None:
+        from .neutral import white_point_preserving
+
+        white_point = opts.pop("white_point")
+        if method == "Finlayson 2015":
+            corrector = Corrector(
+                method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, **opts}
+            )
+        else:
+            corrector = Corrector(method, prob, lambda c: c @ M, {"M": M, **opts})
+        if white_point:  # the offset is the saved matrix's own: recomputed exactly from it
+            return white_point_preserving(corrector)
+        return replace(corrector, params={**corrector.params, "white_point": False})
     try:
         return CORRECTION_METHODS[method](prob, **opts)
     except TypeError as exc:  # an option the method does not take

@@ -1,0 +1,131 @@
+"""White-point preserving estimates (``white_point=True``): a response proportional to the white's maps to
+the grey's colour however noisy the responses the estimator was fitted for; near-grey estimates of the MMV
+centroid stay inside the δ-widened metamer set; chromatic colours are left alone; the option is a registry
+fact and survives a saved correction."""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from zonotope._errors import OptionError
+from zonotope._tol import NEUTRAL_CHROMA, NEUTRAL_GREY_DE00, NEUTRAL_LEVELS
+from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, correction_problem, fit_correction
+
+GRID = np.arange(400.0, 701.0, 10.0)
+DELTA = 0.13  # the largest tolerance of docs/notes/2026-11-29-neutral-cast.md: the largest bias
+SIGMA = DELTA / DELTA_SIGMAS
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return correction_problem(["Nikon 5100 (NPL)"], shape=GRID)
+
+
+@pytest.fixture(scope="module")
+def fitted(problem):
+    """``(method, white_point) → corrector`` fitted for σ = δ / DELTA_SIGMAS, memoised for the module."""
+    cache = {}
+
+    def fit(method, white_point):
+        if (method, white_point) not in cache:
+            opts = {"delta": DELTA} if method == "Centroid" else {"noise": SIGMA}
+            cache[method, white_point] = fit_correction(
+                problem, method=method, white_point=white_point, **opts
+            )
+        return cache[method, white_point]
+
+    return fit
+
+
+def _grey(problem, s):
+    """Response and colour of the spectrally flat grey of reflectance ``s`` (independent of the offsets)."""
+    x = np.full((1, GRID.size), s)
+    return problem.source_of(x), problem.target_of(x)
+
+
+@pytest.mark.parametrize("method", ["Cheung 2004", "Finlayson 2015", "Guarded"])
+@settings(max_examples=25, deadline=None)
+@given(log2_s=st.floats(min_value=-10.0, max_value=0.0))
+def test_a_scaled_white_maps_to_the_scaled_white(problem, fitted, method, log2_s):
+    c, t = _grey(problem, 2.0**log2_s)
+    est = fitted(method, True)(c)
+    assert problem.delta_E(est, t)[0] <= NEUTRAL_GREY_DE00
+
+
+def test_without_the_option_light_greys_are_biased(problem, fitted):
+    """The control: fitted for δ = 0.13, the default regression moves the 0.9 grey by far more than the
+    tolerance (so the test above can fail), and the option removes it."""
+    c, t = _grey(problem, 0.9)
+    plain = problem.delta_E(fitted("Finlayson 2015", False)(c), t)[0]
+    assert plain > 1e4 * NEUTRAL_GREY_DE00
+    assert problem.delta_E(fitted("Finlayson 2015", True)(c), t)[0] <= NEUTRAL_GREY_DE00
+
+
+def _in_widened_set(problem, c, t, delta) -> bool:
+    """HiGHS: is there a reflectance x in [0, 1]ⁿ with |Φᵀx − c| ≤ δ per channel and Ψᵀx = t?"""
+    Phi, Psi = problem.Phi, problem.Psi
+    res = linprog(
+        np.zeros(Phi.shape[0]),
+        A_ub=np.vstack([Phi.T, -Phi.T]),
+        b_ub=np.concatenate([c + delta, delta - c]),
+        A_eq=Psi.T,
+        b_eq=t,
+        bounds=(0.0, 1.0),
+        method="highs",
+    )
+    return res.status == 0
+
+
+@settings(max_examples=8, deadline=None)
+@given(
+    s=st.floats(min_value=0.05, max_value=0.95),
+    amplitude=st.floats(min_value=0.0, max_value=0.08),
+    cycles=st.floats(min_value=0.5, max_value=3.0),
+    phase=st.floats(min_value=0.0, max_value=6.3),
+)
+def test_near_grey_centroid_estimates_stay_in_the_widened_set(problem, fitted, s, amplitude, cycles, phase):
+    x = np.clip(s * (1.0 + amplitude * np.sin(np.pi * cycles * (GRID - 400.0) / 300.0 + phase)), 0.0, 1.0)
+    c = problem.source_of(x[None])
+    est = fitted("Centroid", True)(c)[0]
+    # a centroid certified to eps = 1e-3 in response units: the set is widened by that much more
+    assert _in_widened_set(problem, c[0], est, DELTA + 1e-3)
+
+
+def test_chromatic_colours_keep_their_estimates(problem, fitted):
+    cc = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    shape = colour.SpectralShape(GRID[0], GRID[-1], 10)
+    X = np.array([cc[name].copy().interpolate(shape).values for name in list(cc)[:18]])
+    c, t = problem.source_of(X), problem.target_of(X)
+    chroma = np.hypot(*problem.to_Lab(t)[:, 1:].T)
+    far = chroma > 8 * NEUTRAL_CHROMA
+    assert far.sum() >= 5
+    plain, white = fitted("Finlayson 2015", False)(c[far]), fitted("Finlayson 2015", True)(c[far])
+    assert np.max(problem.delta_E(plain, white)) < 1e-6
+
+
+def test_white_point_is_a_registry_fact(problem):
+    for name in CORRECTION_METHODS:
+        assert isinstance(CORRECTION_METHODS.properties(name)["white_point"], bool)
+    with pytest.raises(OptionError, match="white_point"):
+        fit_correction(problem, method="Cheung 2004", white_point="yes")
+    cor = fit_correction(problem, method="Cheung 2004", white_point=True)
+    assert cor.params["white_point"] is True
+    assert cor.params["neutral_levels"].tolist() == list(NEUTRAL_LEVELS)
+    assert fit_correction(problem, method="Cheung 2004", white_point=False).params["white_point"] is False
+
+
+def test_saved_white_point_correction_reloads_the_same(problem, fitted, tmp_path):
+    from zonotope.correct import load_correction, save_correction
+
+    cor = fitted("Finlayson 2015", True)
+    c = problem.source_of(np.vstack([np.full(GRID.size, 0.9), np.linspace(0.1, 0.8, GRID.size)]))
+    back = load_correction(save_correction(tmp_path / "wp.npz", cor))
+    assert back.params["white_point"] is True
+    np.testing.assert_allclose(back(c), cor(c), rtol=1e-12, atol=1e-14)
+    plain = load_correction(save_correction(tmp_path / "plain.npz", fitted("Finlayson 2015", False)))
+    assert plain.params["white_point"] is False
