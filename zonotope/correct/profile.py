@@ -597,11 +597,13 @@ def load_correction(path: str | os.PathLike):
             raise SpectralDataError(
                 f"{path}: param_M has shape {M.shape}; {method!r} on {k} channels needs ({rows}, {prob.m})."
             )
-    opts.setdefault("white_point", False)  # files written before the option were not white-point preserving
+    # files written before the option have none: they were not white-point preserving
+    white_point = opts.pop("white_point", False)
+    if not isinstance(white_point, bool):
+        raise SpectralDataError(f"{path}: option white_point={white_point!r}; it is True or False.")
     if method in ("Cheung 2004", "Dyer 2017", "Finlayson 2015") and M is not None:
         from .neutral import white_point_preserving
 
-        white_point = opts.pop("white_point")
         if method == "Finlayson 2015":
             corrector = Corrector(
                 method, prob, lambda c: root_polynomial_terms(c, degree=degree) @ M, {"M": M, **opts}
@@ -611,6 +613,10 @@ def load_correction(path: str | os.PathLike):
         if white_point:  # the offset is the saved matrix's own: recomputed exactly from it
             return white_point_preserving(corrector)
         return replace(corrector, params={**corrector.params, "white_point": False})
+    if "white_point" in CORRECTION_METHODS.properties(method):  # the entry takes the option
+        opts["white_point"] = white_point
+    elif white_point:
+        raise SpectralDataError(f"{path}: white_point=True, but {method!r} has no white_point option.")
     try:
         return CORRECTION_METHODS[method](prob, **opts)
     except TypeError as exc:  # an option the method does not take
