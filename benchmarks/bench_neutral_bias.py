@@ -11,8 +11,8 @@ responses (Gaussian σ = δ / DELTA_SIGMAS per channel, seeded, the same draws f
 
 With ``--all-colours`` it runs instead the cells of ``benchmarks/bench_noise.py`` (natural and atypical
 test sets, 1–3 cameras, shot-limited noise σ at white; same data, draws and code) for every estimator that
-does not preserve the white by default (registry property ``white_point``) as fitted by default and with
-``white_point=True``, in this
+does not preserve the white by default (registry property ``white_point``; plus ``"Centroid"``, told
+δ = DELTA_SIGMAS · σ at white) as fitted by default and with ``white_point=True``, in this
 one process: the labels ``bench_noise.py`` prints, the white-point preserving ones suffixed `` wp``.
 
 Run: ``python benchmarks/bench_neutral_bias.py [--cameras 1 2 3] [--deltas 0.001 0.011 0.03 0.13]
@@ -146,8 +146,10 @@ def all_colours(args) -> list[dict]:
     plain = bench_noise.methods
 
     def methods(model, sigma_rms):
+        rows = dict(plain(model, sigma_rms))
+        rows["Centroid"] = ("Centroid", noise_options("Centroid", model))  # δ from σ at white
         out = {}
-        for label, (name, opts) in plain(model, sigma_rms).items():
+        for label, (name, opts) in rows.items():
             if model is None and label in ("NA linear", "NA root-poly", "aug root-poly", "Prior naive"):
                 continue  # bench_noise skips these without noise (identical to the naive fits)
             out[label] = (name, opts)

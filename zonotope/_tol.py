@@ -613,8 +613,12 @@ REFERENCE_CLI_GREY_CHROMA = 3.0
 NEUTRAL_CHROMA = 4.0
 
 #: Grey levels (fractions of the white's response) at which the achromatic-axis offset is tabulated:
-#: 25 log-spaced from 2⁻¹² to 1 (the offset of noise-aware fits varies smoothly with log luminance).
-NEUTRAL_LEVELS = tuple(2.0 ** (-12.0 + 0.5 * i) for i in range(25))
+#: half stops from 2⁻¹² to ½ (the offset of noise-aware fits varies smoothly with log luminance), then
+#: steps of 0.025 up to 1, where the box face x ≤ 1 bends Prior's and Centroid's offsets (half stops
+#: there left Prior's 0.9 grey 0.60 ΔE00 off at δ = 0.13).
+NEUTRAL_LEVELS = tuple(2.0 ** (-12.0 + 0.5 * i) for i in range(23)) + tuple(
+    0.5 + 0.025 * i for i in range(1, 21)
+)
 
 #: ΔE00 within which a white-point preserving estimate of a response proportional to the white's is the
 #: grey's colour: the offset is exact at the tabulated levels and constant in exposure for the regressions,

@@ -1,6 +1,7 @@
 """Colour correction: the method registry :data:`CORRECTION_METHODS` and :func:`fit_correction`
 (``methods``), the problem (``problem``), regressions, MMV-based estimators (``mmv``), the reflectance
-prior (``prior``, ``bvls``), image correction (``image``) and saved corrections and LUTs (``profile``).
+prior (``prior``, ``bvls``), white-point preserving estimates (``neutral``), image correction (``image``)
+and saved corrections and LUTs (``profile``).
 
 Why one folder: every estimator, and every consumer that fits one, goes through the one registry.
 """
@@ -15,6 +16,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
     __name__,
     {
         "image": ["correct_image"],
+        "neutral": ["neutral_offsets", "white_point_preserving"],
         "prior": ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"],
         "profile": [
             "LUT_SHAPERS",
