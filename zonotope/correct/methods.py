@@ -307,7 +307,10 @@ def fit_correction(
         :class:`CorrectionProblem` already holds them, so giving them with one is an error rather
         than silently ignored.
     **options
-        Passed to the fitting function (e.g. ``degree=3``, ``noise=0.01``).
+        Passed to the fitting function (e.g. ``degree=3``, ``noise=0.01``); every method also takes
+        ``white_point`` (default: its registry property): True maps responses proportional to the
+        white's to the grey's colour (:func:`~zonotope.correct.white_point_preserving`), which removes
+        the cast on greys of fits for noisy responses.
 
     Raises
     ------
