@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from zonotope._errors import OptionError
-from zonotope._tol import NEUTRAL_CHROMA, NEUTRAL_GREY_DE00, NEUTRAL_LEVELS
+from zonotope._tol import NEUTRAL_CHROMA, NEUTRAL_GREY_DE00, NEUTRAL_GREY_SOLVED_DE00, NEUTRAL_LEVELS
 from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, correction_problem, fit_correction
 
 GRID = np.arange(400.0, 701.0, 10.0)
@@ -129,3 +129,21 @@ def test_saved_white_point_correction_reloads_the_same(problem, fitted, tmp_path
     np.testing.assert_allclose(back(c), cor(c), rtol=1e-12, atol=1e-14)
     plain = load_correction(save_correction(tmp_path / "plain.npz", fitted("Finlayson 2015", False)))
     assert plain.params["white_point"] is False
+
+
+def test_prior_image_path_and_radii_follow_the_offset(problem):
+    """Prior's closed-form pass (used by ``correct_image``) and its credible radii get the same offset as
+    its estimates: greys at the tabulated levels come out as the grey's colour on every path."""
+    from zonotope.correct import correct_image
+
+    prior = fit_correction(problem, method="Prior", noise=SIGMA, mix=1.0, white_point=True)
+    s = np.array([v for v in NEUTRAL_LEVELS if v >= 0.05])
+    x = s[:, None] * np.ones(GRID.size)
+    c, t = problem.source_of(x), problem.target_of(x)
+    image = correct_image(c[:, None], prior, quantum=0.0)[:, 0]
+    with_radius, radius = prior.with_uncertainty(c)
+    for est in (prior(c), image, with_radius):
+        assert np.max(problem.delta_E(est, t)) <= NEUTRAL_GREY_SOLVED_DE00
+    assert np.all(np.isfinite(radius))
+    plain = fit_correction(problem, method="Prior", noise=SIGMA, mix=1.0)
+    assert np.max(problem.delta_E(plain(c), t)) > 100 * NEUTRAL_GREY_SOLVED_DE00
