@@ -229,6 +229,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "select_regression",
         ],
         "correct.image": ["correct_image"],
+        "correct.neutral": ["neutral_offsets", "white_point_preserving"],
         "correct.profile": [
             "LUT_SHAPERS",
             "LUT_SPACES",
