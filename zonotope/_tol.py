@@ -605,3 +605,11 @@ __all__ += ["SSF_SAMPLE_CORRELATION_NM", "SSF_SAMPLE_MEAN_ATOL"]
 #: root-polynomial maps the white to the reference white only in least squares (A → D65: 2.2 measured;
 #: 1.5 under one light).
 REFERENCE_CLI_GREY_CHROMA = 3.0
+
+# -- illuminants: the grey-edge baseline (zonotope.spectra.illuminant_estimate.grey_edge) --
+
+#: An image whose largest grey-edge norm is below this fraction of its largest response has no edges
+#: to speak of (a flat field; float noise of the Gaussian derivative is ~1e-16 of it): no estimate.
+GREY_EDGE_FLOOR = 1e-9
+
+__all__ += ["GREY_EDGE_FLOOR"]

@@ -23,6 +23,7 @@ train      step 2, :func:`training_inputs`, :func:`fit_step`, readers of its res
 render     step 3, :func:`render_step`
 correct    step 4, :func:`correct_step`: white, δ and fusion caches, :func:`fused_view`,
            :func:`photographed_view`, the correction fits
+illuminant the scene light of ``illuminant = "estimate"`` (:func:`illuminant_of`), at step 4
 report     step 5, :func:`report_step` (the page itself is :mod:`splat.report`)
 runner     :func:`run`, every step in order
 =========  ==========================================================================================
@@ -47,7 +48,8 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
            own channels and the other cameras' reprojected photographs — the better estimate wherever
            the view was photographed), ``correct/fusion.json`` (their noise levels), and
            ``full_XYZ.tiff`` + ``full_sRGB.png``: the photograph corrected at its RAW file's full size
-           (:mod:`splat.strips`)
+           (:mod:`splat.strips`); ``correct/illuminant.json``: the estimated light of an
+           ``illuminant = "estimate"`` capture
 report     ``report.html`` (:mod:`splat.report`)
 =========  ==========================================================================================
 
@@ -66,7 +68,16 @@ from __future__ import annotations
 from zonotope.utilities.lazy import lazy_exports
 
 _EXPORTS = {
-    "spec": ["CameraSpec", "CaptureError", "CaptureSpec", "WhiteSpec", "read_capture"],
+    "spec": [
+        "ESTIMATE",
+        "PROVISIONAL_LIGHT",
+        "CameraSpec",
+        "CaptureError",
+        "CaptureSpec",
+        "WhiteSpec",
+        "read_capture",
+    ],
+    "illuminant": ["estimate_scene_light", "illuminant_of"],
     "raw": [
         "RAW_SUFFIXES",
         "RawSource",
