@@ -137,9 +137,12 @@ class IlluminantEstimate:
     agreement: float = float("nan")
 
 
-def _camera_generators(cameras, light, grid) -> np.ndarray:
-    """``S·E·Δλ`` (n, k) scaled so the white's mean response is 1 (the exposure absorbs the rest)."""
-    G = np.asarray(spectra.generators(cameras, light, grid, normalise=None).values, dtype=np.float64)
+def _camera_generators(cams, light, grid, base=None) -> np.ndarray:
+    """``S·E·Δλ`` (n, k) scaled so the white's mean response is 1 (the exposure absorbs the rest);
+    ``base``: ``S·Δλ`` on ``grid`` when the caller has it (the cameras resampled once for every light)."""
+    if base is None:
+        base = np.asarray(spectra.generators(cams, None, grid, normalise=None).values, dtype=np.float64)
+    G = base * spectra.resample(spectra.illuminant(light), grid)[:, :1]
     return G / G.sum(axis=0).mean()
 
 
@@ -255,8 +258,9 @@ def estimate_illuminant(
     first = _blocks(cams, grid, "per camera")[0]
     cand = candidate_illuminants() if candidates is None else dict(candidates)
     names, scores, found, whites, moments = [], [], [], [], []
+    base = np.asarray(spectra.generators(cams, None, grid, normalise=None).values, dtype=np.float64)
     for name, light in cand.items():
-        G = _camera_generators(cams, light, grid)
+        G = _camera_generators(cams, light, grid, base)
         ll, s = _loglik(R, G, mu, Sigma, noise, blocks)
         names.append(name)
         scores.append(ll)
@@ -350,8 +354,9 @@ def grey_card(
     blocks = _blocks(cams, grid, "per camera")
     cand = candidate_illuminants() if candidates is None else dict(candidates)
     names, errs, found, whites = [], [], [], []
+    base = np.asarray(spectra.generators(cams, None, grid, normalise=None).values, dtype=np.float64)
     for name, light in cand.items():
-        G = _camera_generators(cams, light, grid)
+        G = _camera_generators(cams, light, grid, base)
         p = refl @ G
         s = np.empty(k)
         angles = []
