@@ -3,10 +3,13 @@ capture's own stacked responses (:mod:`zonotope.spectra.illuminant_estimate`) an
 ``OUT/correct/illuminant.json``.
 
 With ``[white] method = "patch"`` the marked card is read in its view's render (every camera's
-channels at the card, :func:`zonotope.spectra.illuminant_estimate.grey_card`, the card spectrally flat);
-otherwise the light is the most likely candidate for pixels sampled from the photographed views'
-renders (:func:`zonotope.spectra.illuminant_estimate.estimate_illuminant`, one exposure per camera, its
-angular uncertainty by bootstrap over the sampled pixels).
+channels at the card), or in the photograph itself when that view was not rendered (its own camera's
+channels), and the light is the candidate that explains its colour
+(:func:`zonotope.spectra.illuminant_estimate.grey_card`, the card spectrally flat). Otherwise the
+light is the most likely candidate for pixels sampled from the photographed views' renders
+(:func:`zonotope.spectra.illuminant_estimate.estimate_illuminant`, one exposure per camera, its angular
+uncertainty by bootstrap over the sampled pixels: the sampling part only, which a light outside the
+candidates, e.g. CIE A, does not enter).
 
 Why here and not in the spec: the estimate needs the rendered, pixel-aligned responses of every camera,
 which exist only after the render step.
@@ -70,14 +73,27 @@ def estimate_scene_light(spec: CaptureSpec, out: Path, index: dict, raws: dict) 
     grid = _grid(spec, cams)
     k = 3 * len(cams)
     card = spec.white.image if spec.white.method == "patch" else None
-    if card is not None and card in index and card in raws:
-        x0, y0, x1, y1 = white_box(spec, raws[card])
-        img = read_tiff(out / "render" / index[card]["dir"] / "render.tiff")[y0:y1, x0:x1].reshape(-1, k)
+    if card is not None and card in raws:
+        v = raws[card]
+        x0, y0, x1, y1 = white_box(spec, v)
+        if card in index:  # rendered: every camera's channels at the card
+            img = read_tiff(out / "render" / index[card]["dir"] / "render.tiff")[y0:y1, x0:x1].reshape(-1, k)
+            used, where = cams, f"its view's render ({len(img)} pixels, every camera)"
+        else:  # not rendered: the photograph's own channels (valid sites only)
+            val = np.asarray(v.values, float)[y0:y1, x0:x1].reshape(-1, 3)
+            wt = np.asarray(v.weight, float)[y0:y1, x0:x1].reshape(-1, 3)
+            with np.errstate(invalid="ignore", divide="ignore"):  # a channel without a site: refused below
+                img = ((val * wt).sum(0) / wt.sum(0))[None]
+            n = int((wt > 0).any(-1).sum())
+            used, where = (
+                [cams[v.camera]],
+                f"the photograph ({n} sites, {spec.cameras[v.camera].folder} only)",
+            )
         try:
-            est = grey_card(img, cams, reflectance=1.0, shape=grid)
+            est = grey_card(img, used, reflectance=1.0, shape=grid)
         except ValueError as e:
-            raise CaptureError(f"{spec.file}: [white] card {card!r} in its render: {e}") from e
-        return _record(est, "grey card", f"the marked card in {card} (render, {len(img)} pixels)", len(img))
+            raise CaptureError(f"{spec.file}: [white] card in {card!r}: {e}") from e
+        return _record(est, "grey card", f"the marked card in {card}, read in {where}", len(img))
     R = _sample(out, index, k, np.random.default_rng(0))
     if len(R) <= 10 * k:
         raise CaptureError(

@@ -146,3 +146,21 @@ def test_marked_card_gives_the_light(tmp_path):
     assert rec["angular_uncertainty_deg"] < 0.01  # the card's response is the light's white exactly
     truth = G.sum(0)[:3]
     assert white_angle(np.asarray(rec["white"])[:3], truth) < 0.01
+
+
+def test_marked_card_in_a_view_not_rendered_is_read_in_the_photograph(tmp_path):
+    """The card's own camera's channels from the RAW view (valid sites only; a saturated site is left
+    out) when its view was not rendered."""
+    white = WhiteSpec("patch", "c1/p.dng", (0, 0, 4, 4), 1.0)
+    spec = _spec(tmp_path, "estimate", white=white)
+    out, index, _ = _renders(tmp_path, "A", gains=[1, 1])
+    grid = np.arange(400.0, 701.0, 10.0)
+    w = np.asarray(zonotope.generators(CAMS[1], "LED-B3", grid, normalise=None).values).sum(0)
+    values = np.tile(0.2 * w, (6, 6, 1))
+    weight = np.ones((6, 6, 3))
+    values[1, 1] = [9.0, 0.0, 0.0]  # a clipped site, weight 0
+    weight[1, 1] = 0
+    view = SimpleNamespace(binning=1, camera=1, values=values, weight=weight)
+    resolved, rec = illuminant_of(spec, out, index, {"c1/p.dng": view})
+    assert rec["method"] == "grey card" and resolved.illuminant == "LED-B3"
+    assert "photograph" in rec["source"] and rec["angular_uncertainty_deg"] < 0.01
