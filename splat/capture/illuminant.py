@@ -78,7 +78,8 @@ def estimate_scene_light(spec: CaptureSpec, out: Path, index: dict, raws: dict) 
         x0, y0, x1, y1 = white_box(spec, v)
         if card in index:  # rendered: every camera's channels at the card
             img = read_tiff(out / "render" / index[card]["dir"] / "render.tiff")[y0:y1, x0:x1].reshape(-1, k)
-            used, where = cams, f"its view's render ({len(img)} pixels, every camera)"
+            n = len(img)
+            used, where = cams, f"its view's render ({n} pixels, every camera)"
         else:  # not rendered: the photograph's own channels (valid sites only)
             val = np.asarray(v.values, float)[y0:y1, x0:x1].reshape(-1, 3)
             wt = np.asarray(v.weight, float)[y0:y1, x0:x1].reshape(-1, 3)
@@ -93,7 +94,7 @@ def estimate_scene_light(spec: CaptureSpec, out: Path, index: dict, raws: dict) 
             est = grey_card(img, used, reflectance=1.0, shape=grid)
         except ValueError as e:
             raise CaptureError(f"{spec.file}: [white] card in {card!r}: {e}") from e
-        return _record(est, "grey card", f"the marked card in {card}, read in {where}", len(img))
+        return _record(est, "grey card", f"the marked card in {card}, read in {where}", n)
     R = _sample(out, index, k, np.random.default_rng(0))
     if len(R) <= 10 * k:
         raise CaptureError(
@@ -121,12 +122,12 @@ def _record(est, method: str, source: str, n: int) -> dict:
         "angular_uncertainty_deg": None
         if np.isnan(est.angular_uncertainty)
         else round(float(est.angular_uncertainty), 3),
-        "uncertainty": "RMS angle of the first camera's white over "
-        + (
-            f"{LIGHT_BOOTSTRAP} bootstrap resamples of the pixels (sampling only; a light far from every "
-            "candidate is not in it)"
+        "uncertainty": (
+            f"RMS angle of the first camera's white over {LIGHT_BOOTSTRAP} bootstrap resamples of the "
+            "pixels (sampling only; a light far from every candidate is not in it)"
             if method == "likelihood"
-            else "the cameras: the card's response against the chosen light's prediction"
+            else "RMS angle over the cameras read between the card's response and the chosen light's "
+            "prediction of it (what no candidate explains)"
         ),
         "agreement": None if np.isnan(est.agreement) else round(float(est.agreement), 3),
         "best": {est.names[i]: round(float(est.scores[i]), 4) for i in order},
