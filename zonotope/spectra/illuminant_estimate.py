@@ -112,7 +112,8 @@ class IlluminantEstimate:
     scores : ndarray of shape (C,)
         Log-likelihood of the responses per candidate (maximised over the exposure), per response.
     exposure : float
-        The exposure ``s`` of the chosen candidate (raw responses / white-normalised ones).
+        The exposure ``s`` of the chosen candidate (raw responses / white-normalised ones; the first
+        camera's with one exposure per camera).
     white : ndarray of shape (k,)
         The chosen light's white response, normalised to a mean of 1 (divide raw responses by it,
         times ``exposure``, to white-balance them).
