@@ -189,11 +189,20 @@ class CaptureSpec:
     def load_illuminant(self):
         """The capture's illuminant (a colour SD): a built-in or candidate name, or an SPD CSV next to the
         capture file. ``"estimate"`` before the correct step resolved it: :data:`PROVISIONAL_LIGHT`."""
-        return _load_light(self.root, PROVISIONAL_LIGHT if self.estimates_illuminant else self.illuminant)
+        return self._light("illuminant", PROVISIONAL_LIGHT if self.estimates_illuminant else self.illuminant)
 
     def load_reference(self):
         """The light the output colours are for (a colour SD), or None: the scene light itself."""
-        return None if self.reference is None else _load_light(self.root, self.reference)
+        return None if self.reference is None else self._light("reference", self.reference)
+
+    def _light(self, key: str, name: str):
+        try:
+            return _load_light(self.root, name)
+        except (OSError, KeyError, ValueError) as e:
+            raise CaptureError(
+                f"{self.file}: {key} = {name!r} is neither a light name nor a readable SPD CSV "
+                f"({' '.join(str(e).split())[:200]})."
+            ) from e
 
 
 def _load_light(root: Path, name: str):

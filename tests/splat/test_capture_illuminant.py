@@ -164,3 +164,12 @@ def test_marked_card_in_a_view_not_rendered_is_read_in_the_photograph(tmp_path):
     resolved, rec = illuminant_of(spec, out, index, {"c1/p.dng": view})
     assert rec["method"] == "grey card" and resolved.illuminant == "LED-B3"
     assert "photograph" in rec["source"] and rec["angular_uncertainty_deg"] < 0.01
+
+
+def test_a_light_that_went_missing_is_a_capture_error(tmp_path):
+    (tmp_path / "tungsten.csv").write_text("wavelength,value\n400,1\n500,2\n600,3\n700,4\n")
+    spec = read_capture(_capture(tmp_path, 'illuminant = "A"\nreference = "tungsten.csv"'))
+    assert spec.load_reference().values[-1] == 4
+    (tmp_path / "tungsten.csv").unlink()  # removed after the file was read
+    with pytest.raises(CaptureError, match="reference = 'tungsten.csv' is neither"):
+        spec.load_reference()
