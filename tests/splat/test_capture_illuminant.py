@@ -171,5 +171,5 @@ def test_a_light_that_went_missing_is_a_capture_error(tmp_path):
     spec = read_capture(_capture(tmp_path, 'illuminant = "A"\nreference = "tungsten.csv"'))
     assert spec.load_reference().values[-1] == 4
     (tmp_path / "tungsten.csv").unlink()  # removed after the file was read
-    with pytest.raises(CaptureError, match="reference = 'tungsten.csv' is neither"):
+    with pytest.raises(CaptureError, match=r"reference = 'tungsten\.csv' is neither"):
         spec.load_reference()
