@@ -24,15 +24,27 @@ sets (``atypical_test_sets``). Mean and 95th percentile ΔE00 pooled per kind. N
 white), 400–680 nm / 10 nm so that 1, 2 and 3 cameras (Nikon, + Canon, + Sigma) can be stacked. The
 light is chosen among 43 candidates (daylight locus, Planckian, CIE F, CIE LED; A and D50 are not
 among them) by ``zonotope.spectra.illuminant_estimate.estimate_illuminant`` (maximum likelihood under
-a Gaussian reflectance prior) against grey-world and white-patch (max-RGB) estimates of the white, raw
-and snapped to the nearest candidate by angle over all stacked channels. Angular error of camera 1's
-white (degrees); then the ΔE00 to D65 of the pipeline "white-balance by the estimated white, apply the
-root-polynomial fitted for the chosen candidate → D65" (the exposure is taken as known, so the ΔE is
-that of the light estimate alone), against the same pipeline with the true light. Grey-edge needs the
-spatial layout of an image and is not run on sets of surfaces.
+a Gaussian reflectance prior; one exposure for all channels, and one per camera as a capture uses it,
+with its bootstrap angular uncertainty) and by ``grey_card`` (a flat card of reflectance 0.9 in the
+scene, its 8 × 8 pixels averaged), against grey-world, white-patch (max-RGB) and first-order grey-edge
+(van de Weijer et al. 2007; σ = 1 px, p = 1, and σ = 2 px, p = 6 ("p6"), near the paper's best
+first-order setting) estimates of the white, raw and snapped to the nearest candidate by angle over
+all stacked channels. Grey-edge needs an image: it reads a Mondrian of the
+scene's 40 surfaces (5 × 8 blocks of 8 × 8 px, the same pixel noise); the others read the 40
+responses. Angular error of camera 1's white (degrees); then the ΔE00 to D65 of the pipeline
+"white-balance by the estimated white, apply the root-polynomial fitted for the chosen candidate → D65"
+(the exposure is taken as known, so the ΔE is that of the light estimate alone; the card's own
+response is its white), against the same pipeline with the true light.
+
+``--capture FOLDER``: the CI simulated capture lit by CIE A (three cameras, 130 training steps) through
+``splat run`` once, then its correct step four times: the light named (``illuminant = "A"``) or
+estimated (``illuminant = "estimate"``, ``reference = "A"``), with the marked card or the brightest
+neutral surface as the white; ΔE00 of the fused ``Prior`` estimates on the truth's flat pixels of the
+held-out views (about 25 minutes on 2 shared cores).
 
 Run: ``python benchmarks/bench_illuminant.py [--lights A FL2 FL11 LED-B3 D50] [--atypical 150]
-[--no-prior]`` or ``python benchmarks/bench_illuminant.py --estimate 10``
+[--no-prior]``, ``python benchmarks/bench_illuminant.py --estimate 10`` or
+``python benchmarks/bench_illuminant.py --capture /tmp/illuminant-capture``
 """
 
 from __future__ import annotations
@@ -53,7 +65,27 @@ GRID = np.arange(400.0, 701.0, 10.0)
 REFERENCE = "D65"
 NOISE = 0.002  # raw response noise σ of the unknown-light scenes (white mean = 1)
 CAMERA_SETS = (("Nikon 5100 (NPL)",), ("Nikon 5100 (NPL)", "Canon EOS 5D Mark II"))
-METHODS_ESTIMATE = ("ML (ours)", "grey-world", "grey-world → cand.", "white-patch", "white-patch → cand.")
+METHODS_ESTIMATE = (
+    "ML (ours)",
+    "ML, exposure per camera",
+    "grey card",
+    "grey-world",
+    "grey-world → cand.",
+    "white-patch",
+    "white-patch → cand.",
+    "grey-edge",
+    "grey-edge p6",
+    "grey-edge p6 → cand.",
+)
+DE_ESTIMATE = (
+    "ML",
+    "ML, exposure per camera",
+    "grey card",
+    "grey-world",
+    "white-patch",
+    "grey-edge p6",
+    "true light",
+)
 CATS = (("von Kries", "Von Kries"), ("CAT02", "CAT02"), ("CAT16", "CAT16"))
 
 
@@ -112,42 +144,77 @@ def run(lights, n_atypical: int, prior: bool) -> None:
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    cos = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
-    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    from zonotope.spectra.illuminant_estimate import white_angle
+
+    return white_angle(a, b)
 
 
 def run_estimate(n_scenes: int, lights) -> None:
+    from zonotope import reflectances, resample
     from zonotope.spectra.illuminant_estimate import candidate_illuminants
 
     grid = np.arange(400.0, 681.0, 10.0)
     data = DATA if DATA.is_dir() else None
     X_all = np.concatenate([t.reflectances for t in natural_test_sets(grid, data_dir=data)])
+    training = resample(reflectances("rawtoaces 190"), grid).T  # the prior, resampled once
     cands = candidate_illuminants()
     cam_sets = (
         ["Nikon 5100 (NPL)"],
         ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II"],
         ["Nikon 5100 (NPL)", "Canon EOS 5D Mark II", "Sigma SDMerill (NPL)"],
     )
-    methods = METHODS_ESTIMATE
     print(f"\n## unknown scene light: {n_scenes} scenes × {len(lights)} lights, 40 surfaces each")
-    print("angular error of camera 1's white, mean / median (degrees); ΔE00 to D65 mean / p95")
-    print(
-        "| cameras | "
-        + " | ".join(methods)
-        + " | ΔE00: ML | ΔE00: grey-world | ΔE00: white-patch | ΔE00: true light |"
-    )
-    print("|---|" + "---|" * (len(methods) + 4))
+    print("angular error of camera 1's white, mean / median (degrees)")
+    print("| cameras | " + " | ".join(METHODS_ESTIMATE) + " |")
+    print("|---|" + "---|" * len(METHODS_ESTIMATE))
+    rows, calib = [], []
     for cams in cam_sets:
-        ang, dE = _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands)
-        cells = [f"{np.mean(ang[m]):5.2f} / {np.median(ang[m]):5.2f}" for m in ang]
-        cells += [_stats(np.concatenate(dE[m])) for m in dE]
-        print(f"| {' + '.join(c.split(' (')[0] for c in cams)} | " + " | ".join(cells) + " |")
+        ang, dE, unc = _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands, training)
+        label = " + ".join(c.split(" (")[0] for c in cams)
+        cells = [f"{np.mean(ang[m]):5.2f} / {np.median(ang[m]):5.2f}" for m in METHODS_ESTIMATE]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+        rows.append((label, dE))
+        calib.append((label, unc))
+    print(
+        "\nΔE00 to D65 after white balance by the estimate and the correction fitted for its light, "
+        "mean / p95"
+    )
+    print("| cameras | " + " | ".join(DE_ESTIMATE) + " |")
+    print("|---|" + "---|" * len(DE_ESTIMATE))
+    for label, dE in rows:
+        print(f"| {label} | " + " | ".join(_stats(np.concatenate(dE[m])) for m in DE_ESTIMATE) + " |")
+    print("\nML (exposure per camera): bootstrap angular uncertainty against the angular error")
+    print(
+        "| cameras | uncertainty mean | error mean | error ≤ uncertainty | error ≤ 2 × uncertainty + 0.5° |"
+    )
+    print("|---|---|---|---|---|")
+    for label, (u, e) in calib:
+        u, e = np.array(u), np.array(e)
+        print(
+            f"| {label} | {u.mean():.2f}° | {e.mean():.2f}° | {np.mean(e <= u + 1e-9):.0%} | "
+            f"{np.mean(e <= 2 * u + 0.5):.0%} |"
+        )
 
 
-def _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands):
+def mondrian(responses: np.ndarray, rng, *, block: int = 8, noise: float = NOISE) -> np.ndarray:
+    """A Mondrian image (5 × 8 blocks of ``block`` px) of 40 surfaces' noise-free responses (40, k),
+    with independent pixel noise σ = ``noise``: what grey-edge needs (the layout of an image)."""
+    k = responses.shape[1]
+    tiles = responses.reshape(5, 8, k)
+    img = np.kron(tiles, np.ones((block, block, 1)))
+    return img + noise * rng.normal(size=img.shape)
+
+
+def _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands, training):
     """Angular errors and ΔE00 of every estimate for one camera set (see the module notes)."""
     from zonotope import generators, illuminant
-    from zonotope.spectra.illuminant_estimate import estimate_illuminant, grey_world, white_patch
+    from zonotope.spectra.illuminant_estimate import (
+        estimate_illuminant,
+        grey_card,
+        grey_edge,
+        grey_world,
+        white_patch,
+    )
 
     k, names = 3 * len(cams), list(cands)
 
@@ -170,7 +237,8 @@ def _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands):
 
     rng = np.random.default_rng(7)
     ang = {m: [] for m in METHODS_ESTIMATE}
-    dE = {m: [] for m in ("ML", "grey-world", "white-patch", "true")}
+    dE = {m: [] for m in DE_ESTIMATE}
+    unc = ([], [])
     for light in lights:
         G = white(illuminant(light))
         w_true = G.sum(axis=0)
@@ -178,25 +246,104 @@ def _estimate_cameras(cams, lights, n_scenes, grid, X_all, cands):
             x = X_all[rng.choice(len(X_all), 40, replace=False)]
             s = rng.uniform(0.3, 1.0)
             R = s * (x @ G) + NOISE * rng.normal(size=(40, k))
-            est = estimate_illuminant(R, cams, candidates=cands, shape=grid)
-            gw, wp = grey_world(R), white_patch(R)
-            picks = {"ML (ours)": est.white, "grey-world": gw, "grey-world → cand.": cand_white[snap(gw)]}
+            img = mondrian(s * (x @ G), rng)
+            # a flat card of reflectance 0.9 in the scene: the mean of its 8 × 8 pixels
+            card = s * 0.9 * w_true + NOISE / 8 * rng.normal(size=k)
+            opts = {"candidates": cands, "shape": grid, "training": training}
+            est = estimate_illuminant(R, cams, **opts)
+            per = estimate_illuminant(R, cams, exposures="per camera", bootstrap=20, **opts)
+            gc = grey_card(card, cams, candidates=cands, shape=grid)
+            gw, wp, ge, ge6 = grey_world(R), white_patch(R), grey_edge(img), grey_edge(img, sigma=2.0, p=6.0)
+            picks = {"ML (ours)": est.white, "ML, exposure per camera": per.white, "grey card": gc.white}
+            picks |= {"grey-world": gw, "grey-world → cand.": cand_white[snap(gw)]}
             picks |= {"white-patch": wp, "white-patch → cand.": cand_white[snap(wp)]}
+            picks |= {"grey-edge": ge, "grey-edge p6": ge6, "grey-edge p6 → cand.": cand_white[snap(ge6)]}
             for m, w in picks.items():
                 ang[m].append(_angle(w[:3], w_true[:3]))
+            unc[0].append(per.angular_uncertainty)
+            unc[1].append(ang["ML, exposure per camera"][-1])
             truth = None
             for m, name, w in (
                 ("ML", est.name, est.white),
+                ("ML, exposure per camera", per.name, per.white),
+                ("grey card", gc.name, card),
                 ("grey-world", snap(gw), gw),
                 ("white-patch", snap(wp), wp),
-                ("true", light, w_true),
+                ("grey-edge p6", snap(ge6), ge6),
+                ("true light", light, w_true),
             ):
                 prob, cor = corrector(name)
                 if truth is None:
                     truth = prob.target_of(x)
                 c = (R / s) / (w / w.mean())  # white-balanced by the estimate, exposure known
                 dE[m].append(prob.delta_E(cor(c), truth))
-    return ang, dE
+    return ang, dE, unc
+
+
+def run_capture(folder: Path) -> None:
+    """The CI simulated capture under CIE A (three cameras, 130 training steps, the held-out views):
+    the correct step with the light named and with ``illuminant = "estimate"`` (``reference = "A"``, so
+    both are compared with the truth under A), with the marked card and with the brightest neutral
+    surface as the white; ΔE00 of the fused estimates (``Prior``) on the truth's flat pixels."""
+    import json
+    import re
+    import shutil
+
+    import tifffile
+
+    from splat.capture import read_capture
+    from splat.cli import main as splat_main
+    from splat.scoring import flat_mask
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
+
+    if folder.exists():
+        raise SystemExit(f"{folder} exists; give a new folder for the capture and its outputs.")
+    cap0 = write_synthetic_capture(folder / "capture", SimCaptureConfig.ci(illuminant="A"))
+    opts = ["--steps", "130", "--capacity", "2048", "--quantum", "0.02", "--threads", "2"]
+    holdout = list(read_capture(cap0).holdout)
+    assert splat_main(["run", str(cap0), "-o", str(folder / "out"), *opts, "--views", *holdout]) == 0
+    print("\n## a capture under CIE A, light named or estimated; flat pixels of the held-out views, ΔE00")
+    print("| white | light | chosen | uncertainty | mean | median | p95 |")
+    print("|---|---|---|---|---|---|---|")
+    for white in ("marked card", "brightest neutral"):
+        for light, top in (
+            ("A (named)", 'illuminant = "A"'),
+            ("estimate", 'illuminant = "estimate"\nreference = "A"'),
+        ):
+            tag = f"{white}-{light}".replace(" ", "_").replace("(", "").replace(")", "")
+            cap, out = folder / f"cap_{tag}", folder / f"out_{tag}"
+            shutil.copytree(cap0, cap)
+            shutil.copytree(folder / "out", out)
+            shutil.rmtree(out / "correct")
+            (out / "report.html").unlink(missing_ok=True)
+            text = re.sub(
+                r"^illuminant = .*\n", top + "\n", (cap / "capture.toml").read_text(), count=1, flags=re.M
+            )
+            if white == "brightest neutral":
+                text = re.sub(r"\[white\]\n(.*\n)*?(?=\[|\Z)", "", text)
+            (cap / "capture.toml").write_text(text)
+            assert splat_main(["correct", str(cap), "-o", str(out), "--quantum", "0.02"]) == 0
+            s = json.loads((out / "correct" / "summary.json").read_text())
+            w = np.asarray(s["white_XYZ"])
+            xy = colour.XYZ_to_xy(w)
+            flat = []
+            for info in json.loads((out / "render" / "index.json").read_text()).values():
+                truth = np.asarray(tifffile.imread(cap / "truth" / "xyz" / f"{info['dir']}.tiff"), float)
+                est = np.asarray(
+                    tifffile.imread(out / "correct" / info["dir"] / "Prior_fused_XYZ.tiff"), float
+                )
+                dE = colour.delta_E(
+                    colour.XYZ_to_Lab(est, xy), colour.XYZ_to_Lab(truth, xy), method="CIE 2000"
+                )
+                flat.append(dE[flat_mask(truth)])
+            f = np.concatenate(flat)
+            est = s["illuminant"]["estimate"] or {}
+            unc = est.get("angular_uncertainty_deg")
+            print(
+                f"| {white} | {light} | {s['illuminant']['light']} ({est.get('method', 'named')}) | "
+                f"{'' if unc is None else f'{unc:.2f}°'} | {f.mean():.2f} | {np.median(f):.2f} | "
+                f"{np.percentile(f, 95):.2f} |"
+            )
 
 
 def main() -> None:
@@ -205,8 +352,13 @@ def main() -> None:
     ap.add_argument("--atypical", type=int, default=150, help="spectra per atypical set (two sets)")
     ap.add_argument("--no-prior", action="store_true", help="skip the Prior estimator (the slowest fit)")
     ap.add_argument("--estimate", type=int, default=0, help="scenes per light for the unknown-light part")
+    ap.add_argument(
+        "--capture", type=Path, help="new folder: the simulated capture, named vs estimated light"
+    )
     args = ap.parse_args()
-    if args.estimate:
+    if args.capture:
+        run_capture(args.capture)
+    elif args.estimate:
         run_estimate(args.estimate, args.lights)
     else:
         run(args.lights, args.atypical, not args.no_prior)

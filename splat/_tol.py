@@ -210,3 +210,22 @@ MITSUBA_DECAL_LIFT = 1e-3
 #: The white card is named in capture.toml only from a view where its brightest raw channel stays below
 #: 90 % of the range: Monte Carlo noise and shot noise then keep it clear of clipping.
 MITSUBA_WHITE_PEAK = 0.9
+
+# --- the scene light of illuminant = "estimate" (splat.capture.illuminant) ---
+
+#: Rendered pixels sampled for the light's likelihood: the estimate rests on the spread of surfaces,
+#: and a few thousand pixels cover a scene's surfaces many times while the 43 candidates' likelihoods
+#: stay under a second.
+LIGHT_PIXELS = 4000
+
+#: Pixels darker than this fraction of the 99th percentile of brightness are left out of the estimate:
+#: there the render's noise, not the surface, sets the chromaticity.
+LIGHT_DARK = 0.02
+
+#: The brightest per cent of pixels left out of the estimate: highlights and clipped sites carry the
+#: light's colour mixed with the sensor's limits.
+LIGHT_SPECULAR = 0.5
+
+#: Bootstrap resamples for the angular uncertainty of the estimated light: its RMS angle is read to a
+#: tenth of a degree, not more finely.
+LIGHT_BOOTSTRAP = 30

@@ -53,6 +53,11 @@ DIAGNOSTICS = (
         "and the scene white (Y = 1).",
     ),
     (
+        "correct/illuminant.json",
+        'Scene light of illuminant = "estimate": the chosen candidate, from what (a marked card or '
+        "rendered pixels), its angular uncertainty and the runners-up.",
+    ),
+    (
         "correct/white.json",
         "White scale: per camera, the divisor that puts raw responses on the scale where a perfect white "
         "gives 1, and how it was found (a marked card, or the brightest neutral surface).",
@@ -357,6 +362,15 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
             )
             + "."
         )
+        light = run.correct.get("illuminant")
+        if light:
+            est = light.get("estimate")
+            how = ""
+            if est:
+                unc = est.get("angular_uncertainty_deg")
+                src = {"grey card": "the marked card"}.get(est["method"], "the rendered pixels")
+                how = f" (estimated from {src}" + ("" if unc is None else f", ±{unc:.1f}°") + ")"
+            bits.append(f"Light: {_e(light['light'])}{how}; colours as under {_e(light['reference'])}.")
     return " ".join(bits)
 
 

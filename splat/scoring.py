@@ -296,11 +296,13 @@ def score(
         reprojected_of,
         white_of,
     )
+    from .capture.illuminant import illuminant_of
     from .colmap import read_colmap
     from .data import capture_from_colmap
 
     spec = read_capture(capture)
     out = Path(out)
+    spec, _ = illuminant_of(spec, out)  # "estimate": the light the correct step chose
     truth = spec.root / "truth"
     n = len(spec.cameras)
     subsets = subsets or [s for r in range(1, n + 1) for s in itertools.combinations(range(n), r)]

@@ -163,7 +163,10 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "IlluminantEstimate",
             "candidate_illuminants",
             "estimate_illuminant",
+            "grey_card",
+            "grey_edge",
             "grey_world",
+            "white_angle",
             "white_patch",
         ],
         "geometry.macadam": [

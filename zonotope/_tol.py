@@ -631,3 +631,10 @@ NEUTRAL_GREY_DE00 = 1e-6
 NEUTRAL_GREY_SOLVED_DE00 = 2e-3
 
 __all__ += ["NEUTRAL_CHROMA", "NEUTRAL_GREY_DE00", "NEUTRAL_GREY_SOLVED_DE00", "NEUTRAL_LEVELS"]
+# -- illuminants: the grey-edge baseline (zonotope.spectra.illuminant_estimate.grey_edge) --
+
+#: An image whose largest grey-edge norm is below this fraction of its largest response has no edges
+#: to speak of (a flat field; float noise of the Gaussian derivative is ~1e-16 of it): no estimate.
+GREY_EDGE_FLOOR = 1e-9
+
+__all__ += ["GREY_EDGE_FLOOR"]

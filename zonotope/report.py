@@ -365,7 +365,7 @@ def write_report(
 
         # 4. pictures
         if pictures:
-            pics = _pictures(tmp, full, singles, chain, step)
+            pics = _pictures(tmp, curves, full, singles, chain, step)
             md.append("\n## Pictures\n\n" + "".join(f"![{t}]({f})\n\n" for f, t in pics))
             parts.append(
                 "<h2>Pictures</h2>"
@@ -414,7 +414,7 @@ def _pooled_html(ev) -> str:
     return "<h3>Pooled over the test sets, and paired comparisons</h3>" + _table_html(header, rows)
 
 
-def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]:
+def _pictures(folder: Path, curves, full, singles, chain, step) -> list[tuple[str, str]]:
     from . import viz
 
     pics: list[tuple[str, str]] = []
@@ -429,7 +429,7 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
     step("pictures: solid", 1)
     viz.plot_object_colour_solid(full, filename=folder / "solid.png", opacity=0.9).close()
     pics.append(("solid.png", "Object-colour solid (CIE 2015 XYZ) and spectral locus"))
-    step("pictures: MMVs", 2)
+    step("pictures: MMVs", 3)
     viz.plot_grey_mmvs(full, filename=folder / "grey_mmvs.png").close()
     pics.append(("grey_mmvs.png", f"MMVs along the grey axis, {' + '.join(full.sources)}"))
     from .spectra import builtin as spectra
@@ -438,6 +438,14 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
     problems = [singles[0], full] if len(singles) > 1 else [full]
     viz.plot_mmv_comparison(problems, x, filename=folder / "mmv_comparison.png").close()
     pics.append(("mmv_comparison.png", "MMV of ColorChecker 'blue sky': one camera vs all cameras"))
+    light, other = _illuminant_mmvs(curves, full, x, folder / "illuminant_mmv.png")
+    pics.append(
+        (
+            "illuminant_mmv.png",
+            f"MMV of ColorChecker 'blue sky' in XYZ under {light}: observer-induced (the cameras under "
+            f"{light}), illuminant-induced (the eye under {other}) and both (the cameras under {other})",
+        )
+    )
     step("pictures: confidence map", 1)
     _confidence_map(full, folder / "confidence_map.png")
     pics.append(
@@ -448,6 +456,29 @@ def _pictures(folder: Path, full, singles, chain, step) -> list[tuple[str, str]]
         )
     )
     return pics
+
+
+def _illuminant_mmvs(curves, full, x: np.ndarray, filename: Path) -> tuple[str, str]:
+    """The observer-induced MMV of ``x`` next to the illuminant-induced one (the eye under a second
+    light, A, or D65 when the report's light is A) and the combined one (the cameras under it), all in
+    the target's XYZ under the report's light (Logvinenko, Funt & Godau 2014)."""
+    from . import viz
+    from .correct.methods import correction_problem
+    from .spectra import builtin as spectra
+
+    light = full.illuminant
+    other = "D65" if str(light).upper() == "A" else "A"
+    eye = spectra.observer(full.target)
+    shape = full.wavelengths
+    problems = [
+        full,
+        correction_problem(eye, target=full.target, illuminant=other, reference=light, shape=shape),
+        correction_problem(list(curves), target=full.target, illuminant=other, reference=light, shape=shape),
+    ]
+    titles = [f"cameras ({light}) to eye ({light})", f"eye ({other}) to eye ({light})"]
+    titles.append(f"cameras ({other}) to eye ({light})")
+    viz.plot_mmv_comparison(problems, x, titles=titles, filename=filename, window_size=(1500, 560)).close()
+    return str(light), other
 
 
 def _confidence_map(problem, filename: Path) -> None:

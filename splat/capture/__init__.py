@@ -9,23 +9,24 @@ are already there and were made from the same inputs and options:
 every path inside ``OUT``) and removes a step's results, and its dependents', when what they were
 made from changed. :func:`check_run` refuses bad options and captures before any RAW file is read.
 
-=========  ==========================================================================================
-module     contents
-=========  ==========================================================================================
-spec       ``capture.toml``: :func:`read_capture`, :class:`CaptureSpec`, :class:`CaptureError`
-raw        RAW files → linear mosaics: :func:`read_linear`, :func:`load_views`, :class:`RawView`,
-           :class:`RawSource`, the white scale (:func:`white_scale`)
-workspace  the output folder: :class:`Workspace`, :func:`capture_fingerprint`, :func:`read_json`
-config     :class:`PipelineConfig`, :func:`check_run`, the working resolution
-files      atomic writes and reads of the steps' files (JSON, float TIFF, 8-bit PNG)
-poses      step 1, :func:`poses_step`
-train      step 2, :func:`training_inputs`, :func:`fit_step`, readers of its results
-render     step 3, :func:`render_step`
-correct    step 4, :func:`correct_step`: white, δ and fusion caches, :func:`fused_view`,
-           :func:`photographed_view`, the correction fits
-report     step 5, :func:`report_step` (the page itself is :mod:`splat.report`)
-runner     :func:`run`, every step in order
-=========  ==========================================================================================
+==========  ==========================================================================================
+module      contents
+==========  ==========================================================================================
+spec        ``capture.toml``: :func:`read_capture`, :class:`CaptureSpec`, :class:`CaptureError`
+raw         RAW files → linear mosaics: :func:`read_linear`, :func:`load_views`, :class:`RawView`,
+            :class:`RawSource`, the white scale (:func:`white_scale`)
+workspace   the output folder: :class:`Workspace`, :func:`capture_fingerprint`, :func:`read_json`
+config      :class:`PipelineConfig`, :func:`check_run`, the working resolution
+files       atomic writes and reads of the steps' files (JSON, float TIFF, 8-bit PNG)
+poses       step 1, :func:`poses_step`
+train       step 2, :func:`training_inputs`, :func:`fit_step`, readers of its results
+render      step 3, :func:`render_step`
+correct     step 4, :func:`correct_step`: white, δ and fusion caches, :func:`fused_view`,
+            :func:`photographed_view`, the correction fits
+illuminant  the scene light of ``illuminant = "estimate"`` (:func:`illuminant_of`), at step 4
+report      step 5, :func:`report_step` (the page itself is :mod:`splat.report`)
+runner      :func:`run`, every step in order
+==========  ==========================================================================================
 
 Every public name of these modules is importable from ``splat.capture``; the submodules load on first
 use of a name. ``splat.pipeline`` and ``splat.workspace`` are old paths of this package and of
@@ -47,7 +48,8 @@ correct    ``correct/<folder>/<stem>/`` ``<method>_XYZ.tiff`` (float32 linear XY
            own channels and the other cameras' reprojected photographs — the better estimate wherever
            the view was photographed), ``correct/fusion.json`` (their noise levels), and
            ``full_XYZ.tiff`` + ``full_sRGB.png``: the photograph corrected at its RAW file's full size
-           (:mod:`splat.strips`)
+           (:mod:`splat.strips`); ``correct/illuminant.json``: the estimated light of an
+           ``illuminant = "estimate"`` capture
 report     ``report.html`` (:mod:`splat.report`)
 =========  ==========================================================================================
 
@@ -66,7 +68,16 @@ from __future__ import annotations
 from zonotope.utilities.lazy import lazy_exports
 
 _EXPORTS = {
-    "spec": ["CameraSpec", "CaptureError", "CaptureSpec", "WhiteSpec", "read_capture"],
+    "spec": [
+        "ESTIMATE",
+        "PROVISIONAL_LIGHT",
+        "CameraSpec",
+        "CaptureError",
+        "CaptureSpec",
+        "WhiteSpec",
+        "read_capture",
+    ],
+    "illuminant": ["estimate_scene_light", "illuminant_of"],
     "raw": [
         "RAW_SUFFIXES",
         "RawSource",

@@ -18,6 +18,7 @@ from .._tol import FEASIBLE_DISTANCE
 from ..strips import FULL_METHOD
 from .config import PipelineConfig, step_workspace, working_binning, working_summary
 from .files import read_index, read_tiff, write_json, write_png8, write_tiff
+from .illuminant import illuminant_of
 from .raw import RawView, load_views, open_raw, white_scale
 from .spec import CaptureError, CaptureSpec
 from .workspace import peak_rss_mib, read_json, reset_peak_rss
@@ -85,17 +86,25 @@ def white_of(spec: CaptureSpec, out: Path, views: list[RawView] | None = None) -
 
 def correction_problem_of(spec: CaptureSpec, cameras: list[int]):
     """``zonotope.correct.CorrectionProblem`` of a subset of the capture's cameras (10 nm grid,
-    400–700 nm narrowed to the curves' common range, training set rawtoaces 190)."""
+    400–700 nm narrowed to the curves' common range, training set rawtoaces 190): the cameras under
+    the capture's light, the observer under its ``reference`` light (the same light without one)."""
     import zonotope
     from zonotope.correct import correction_problem
 
     curves = [spec.load_ssf(k) for k in cameras]
     light = spec.load_illuminant()
+    reference = spec.load_reference()
     obs = zonotope.observer(spec.observer)
-    common = zonotope.common_shape(*curves, obs, light, interval=10)
+    lights = [light] if reference is None else [light, reference]
+    common = zonotope.common_shape(*curves, obs, *lights, interval=10)
     shape = np.arange(max(common.start, 400.0), min(common.end, 700.0) + 5, 10.0)
     return correction_problem(
-        curves, target=spec.observer, illuminant=light, shape=shape, training="rawtoaces 190"
+        curves,
+        target=spec.observer,
+        illuminant=light,
+        shape=shape,
+        training="rawtoaces 190",
+        reference=reference,
     )
 
 
@@ -610,6 +619,8 @@ def correct_step(
         {
             "white": [spec.white.method, spec.white.image, spec.white.box, spec.white.reflectance],
             "observer": spec.observer,
+            "illuminant": spec.illuminant,
+            "reference": spec.reference,
             "method": CORRECTION_METHODS.resolve(config.method, argument="method"),
             "quantum": config.quantum,
             "photographed": sorted(photographed),
@@ -617,6 +628,7 @@ def correct_step(
             "full_resolution": FULL_METHOD,
         },
     )
+    spec, light = illuminant_of(spec, out, photographed or index, raws)  # "estimate": the light now
     white = white_of(spec, out, list(raws.values()))
     scale = np.concatenate(white["scale"])
     n = len(spec.cameras)
@@ -732,6 +744,11 @@ def correct_step(
         "working": working_summary(spec, list(raws.values())),
         "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
         "white_XYZ": np.asarray(wXYZ).tolist(),
+        "illuminant": {
+            "light": spec.illuminant,
+            "reference": spec.reference or spec.illuminant,
+            "estimate": light,
+        },
         "views": list(index),
         "duration_s": time.perf_counter() - t0,
         "peak_rss_mib": peak_rss_mib(),

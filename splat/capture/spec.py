@@ -15,6 +15,8 @@ from isp.batch import RAW_SUFFIXES, raw_files  # one list of RAW suffixes for is
 from .._errors import SplatError
 
 __all__ = [
+    "ESTIMATE",
+    "PROVISIONAL_LIGHT",
     "CameraSpec",
     "CaptureError",
     "CaptureSpec",
@@ -23,6 +25,14 @@ __all__ = [
 ]
 
 _WHITE_METHODS = ("patch", "brightest-neutral")
+
+#: ``illuminant = "estimate"``: the scene light is estimated from the capture's own responses at the
+#: correct step (:mod:`splat.capture.illuminant`).
+ESTIMATE = "estimate"
+
+#: The light assumed for an ``illuminant = "estimate"`` capture before the correct step estimates it
+#: (the previews' white balance of the poses step; nothing colorimetric).
+PROVISIONAL_LIGHT = "D65"
 
 
 class CaptureError(SplatError):
@@ -76,7 +86,10 @@ class CaptureSpec:
     root : Path
         Folder of the capture file.
     illuminant : str
-        Colour-science illuminant name or a path to an SPD CSV.
+        The scene light: a colour-science illuminant name, a candidate name of
+        :func:`zonotope.spectra.illuminant_estimate.candidate_illuminants` (``"daylight 5500 K"``,
+        ``"Planckian 3000 K"``), a path to an SPD CSV, or ``"estimate"``: estimated from the
+        capture's responses at the correct step (:func:`splat.capture.illuminant_of` resolves it).
     observer : str
         Target observer of colour correction.
     cameras : tuple of CameraSpec
@@ -99,6 +112,7 @@ class CaptureSpec:
     colmap: Path | None = None
     transforms: Path | None = None
     train_size: int | None = None
+    reference: str | None = None
 
     @property
     def file(self) -> Path:
@@ -167,28 +181,75 @@ class CaptureSpec:
             raise CaptureError(f"{self.file}: ssf {s!r} has {len(cam.labels)} channels; RAW cameras have 3.")
         return cam
 
+    @property
+    def estimates_illuminant(self) -> bool:
+        """Whether the scene light is still to be estimated (``illuminant = "estimate"``)."""
+        return self.illuminant == ESTIMATE
+
     def load_illuminant(self):
-        """The capture's illuminant (a colour SD): a built-in name or an SPD CSV next to the capture file."""
-        import zonotope
+        """The capture's illuminant (a colour SD): a built-in or candidate name, or an SPD CSV next to the
+        capture file. ``"estimate"`` before the correct step resolved it: :data:`PROVISIONAL_LIGHT`."""
+        return self._light("illuminant", PROVISIONAL_LIGHT if self.estimates_illuminant else self.illuminant)
 
-        il = self.illuminant
-        p = self.root / il
+    def load_reference(self):
+        """The light the output colours are for (a colour SD), or None: the scene light itself."""
+        return None if self.reference is None else self._light("reference", self.reference)
+
+    def _light(self, key: str, name: str):
         try:
-            if p.is_file():
-                import colour
-
-                m = zonotope.read_spectral_csv(p)
-                if isinstance(m, colour.MultiSpectralDistributions):
-                    m = m.to_sds()[0]
-                return m
-            return zonotope.illuminant(il)
+            return _load_light(self.root, name)
         except (OSError, KeyError, ValueError) as e:
             raise CaptureError(
-                f"{self.file}: illuminant = {il!r} is neither a built-in name nor a readable SPD CSV ({e})."
+                f"{self.file}: {key} = {name!r} is neither a light name nor a readable SPD CSV "
+                f"({' '.join(str(e).split())[:200]})."
             ) from e
 
 
-_TOP_KEYS = ("illuminant", "observer", "camera", "white", "holdout", "poses", "train_size")
+def _load_light(root: Path, name: str):
+    """A light by name (colour-science, then the estimation candidates) or SPD CSV path under ``root``."""
+    import zonotope
+
+    p = root / name
+    if p.is_file():
+        import colour
+
+        m = zonotope.read_spectral_csv(p)
+        if isinstance(m, colour.MultiSpectralDistributions):
+            m = m.to_sds()[0]
+        return m
+    try:
+        return zonotope.illuminant(name)
+    except (KeyError, ValueError):
+        from zonotope.spectra.illuminant_estimate import candidate_illuminants
+
+        cand = candidate_illuminants()
+        if name in cand:
+            return cand[name]
+        raise
+
+
+def _light(doc: dict, key: str, default, root: Path, file: Path, *, estimate: bool):
+    """``doc[key]``: a light by built-in or candidate name or SPD CSV file (``"estimate"`` where
+    allowed), checked now so that a typo fails before any RAW file is read."""
+    name = _optional_str(doc, key, default, "", file)
+    if name is None or (estimate and name == ESTIMATE):
+        return name
+    try:
+        _load_light(root, name)
+    except (OSError, KeyError, ValueError) as e:
+        import zonotope
+
+        also = f'"{ESTIMATE}" (the light estimated from the photographs), ' if estimate else ""
+        raise CaptureError(
+            f"{file}: {key} = {name!r} names no light and no readable SPD CSV next to capture.toml; use "
+            f"{also}a built-in illuminant ({', '.join(zonotope.list_builtin()['illuminants'])}), a "
+            "candidate light ('daylight 4000 K' … 'daylight 10000 K' by 500 K, 'Planckian 2500 K' … "
+            "'Planckian 6500 K' by 500 K) or the path of an SPD CSV."
+        ) from e
+    return name
+
+
+_TOP_KEYS = ("illuminant", "reference", "observer", "camera", "white", "holdout", "poses", "train_size")
 _CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
 _WHITE_KEYS = ("method", "image", "box", "reflectance")
 _HOLDOUT_KEYS = ("images",)
@@ -344,7 +405,8 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
         levels that are not finite, negative, or black ≥ white; exposure overrides that are not finite
         positive numbers or name no file; an unknown white method, a bad box, or ``image``/``box``
         without ``method = "patch"``; a hold-out image that does not exist or is no camera's file; a pose
-        file that does not exist, or both kinds given. Every check runs here, before any RAW file is read.
+        file that does not exist, or both kinds given; an ``illuminant`` or ``reference`` that names no
+        light (``"estimate"`` is an illuminant only). Every check runs here, before any RAW file is read.
     """
     path = Path(path)
     file = path / "capture.toml" if path.is_dir() else path
@@ -358,7 +420,8 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
         raise CaptureError(f"{file}: not valid TOML ({e}).") from e
     root = file.parent
     _known(doc, _TOP_KEYS, "the top level", file)
-    illuminant = _optional_str(doc, "illuminant", "D65", "", file)
+    illuminant = _light(doc, "illuminant", "D65", root, file, estimate=True)
+    reference = _light(doc, "reference", None, root, file, estimate=False)
     observer = _optional_str(doc, "observer", "CIE 1931 2 Degree Standard Observer", "", file)
     cams = doc.get("camera")
     if not isinstance(cams, list) or not cams:
@@ -404,7 +467,7 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
             "the working resolution of training), e.g. train_size = 640; leave it out for the automatic one."
         )
     spec = CaptureSpec(
-        root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms, train_size
+        root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms, train_size, reference
     )
     for k, c in enumerate(specs):
         files = spec.raw_files(k)

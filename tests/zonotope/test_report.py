@@ -130,6 +130,8 @@ def test_report_with_pictures(tmp_path):
     assert "solid.png" in (out / "index.html").read_text()
     assert (out / "confidence_map.png").stat().st_size > 10_000  # the credible radii, per patch
     assert "confidence_map.png" in (out / "report.md").read_text()
+    assert (out / "illuminant_mmv.png").stat().st_size > 10_000  # next to the observer-induced MMV
+    assert "illuminant_mmv.png" in (out / "report.md").read_text()
 
 
 @pytest.mark.slow
@@ -139,3 +141,43 @@ def test_report_mmv_tables(tmp_path):
     md = (out / "report.md").read_text()
     assert "MMV volume along the grey axis" in md and "MMV volume of the ColorChecker" in md
     assert "| Nikon 5100 (NPL) | ColorChecker N Ohta | Centroid |" in md
+
+
+def test_illuminant_mmv_figure_sets_the_three_cases_side_by_side(monkeypatch, tmp_path):
+    """The report's illuminant figure: observer-induced (cameras under the report's light),
+    illuminant-induced (the eye under A) and both (the cameras under A), every panel in the same XYZ
+    under the report's light (so the three Ψ are one); the eye under one light would be a point."""
+    import colour
+
+    from zonotope import report, viz
+    from zonotope.correct.methods import correction_problem
+    from zonotope.spectra.loading import load_camera
+
+    seen = {}
+
+    class _Done:
+        def close(self):
+            return None
+
+    def fake(problems, x, *, titles, filename, window_size):
+        seen.update(problems=problems, titles=titles)
+        return _Done()
+
+    monkeypatch.setattr(viz, "plot_mmv_comparison", fake)
+    shape = colour.SpectralShape(400, 700, 10)
+    curves = [load_camera("Nikon 5100 (NPL)")]
+    full = correction_problem(curves, illuminant="D65", shape=shape)
+    x = np.full(31, 0.4)
+    assert report._illuminant_mmvs(curves, full, x, tmp_path / "f.png") == ("D65", "A")
+    obs, eye, both = seen["problems"]
+    np.testing.assert_allclose(eye.Psi, obs.Psi)
+    np.testing.assert_allclose(both.Psi, obs.Psi)
+    np.testing.assert_allclose(both.Phi, correction_problem(curves, illuminant="A", shape=shape).Phi)
+    # the eye under A: its own curves times A (white → 1 per channel), not under D65
+    E = colour.SDS_ILLUMINANTS["A"].copy().align(shape).values
+    cmfs = colour.MSDS_CMFS["CIE 2015 2 Degree Standard Observer"].copy().align(shape).values
+    np.testing.assert_allclose(eye.Phi, cmfs * E[:, None] / (cmfs * E[:, None]).sum(0), atol=1e-3)
+    assert seen["titles"][1] == "eye (A) to eye (D65)"
+    # under A the second light is D65
+    full_a = correction_problem(curves, illuminant="A", shape=shape)
+    assert report._illuminant_mmvs(curves, full_a, x, tmp_path / "g.png") == ("A", "D65")
