@@ -605,3 +605,11 @@ __all__ += ["SSF_SAMPLE_CORRELATION_NM", "SSF_SAMPLE_MEAN_ATOL"]
 #: root-polynomial maps the white to the reference white only in least squares (A → D65: 2.2 measured;
 #: 1.5 under one light).
 REFERENCE_CLI_GREY_CHROMA = 3.0
+
+# -- SSF band calibration and stacked cameras ------------------------------------------------------
+
+#: Fraction of wavelengths (× channels × held-out cameras) at which the measured curve must lie within
+#: ``SSFEstimate.band()``: the coverage the shipped basis' ``band_k`` is calibrated to (issue's 90 %).
+SSF_BAND_COVERAGE = 0.9
+
+__all__ += ["SSF_BAND_COVERAGE"]

@@ -83,12 +83,13 @@ def band_mmvs(
     *,
     n: int = 8,
     seed: int = 0,
-    k: float = 2.0,
+    k: float | None = None,
     illuminant="D65",
     target="CIE 2015 2°",
 ) -> BandMMVs:
     """The MMV of ``reflectance`` (array on the estimate's grid, or a colour SD) with the estimate and
-    with ``n`` cameras drawn within ``k`` σ of its band, each from its own response to it.
+    with ``n`` cameras drawn within ``k`` σ of its band (default its calibrated ``band_k``), each from its
+    own response to it.
 
     Why: the MMV is what a correction cannot know; this shows how much of it is the camera's and how
     much the curves' uncertainty (draw them with :func:`zonotope.viz.plot_mmv_band`).

@@ -56,7 +56,7 @@ def test_a_registry_estimator_fits_with_the_widened_noise(est):
     pb = plain.problem
     c, t = pb.training @ pb.Phi, pb.training @ pb.Psi
     err = [np.square(f.predict(c) - t).sum() for f in (plain, wide)]
-    assert err[1] > err[0] * 1.01
+    assert err[1] > err[0] * (1 + 1e-6)  # strictly worse: the noise changed the fit
 
 
 @settings(max_examples=15, deadline=None)
