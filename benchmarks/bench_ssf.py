@@ -185,7 +185,7 @@ def jiang2013(C: np.ndarray, pool: dict[str, np.ndarray], k: int = 3) -> np.ndar
     return np.asarray(out.values)
 
 
-#: Held-out camera → the response σ of its DNG estimate's uncertainty band (SSFEstimate.response_sigma).
+#: Held-out camera → the fully correlated response σ bound of its DNG estimate (response_sigma(bound=True)).
 SIGMA: dict[str, np.ndarray] = {}
 
 
@@ -203,7 +203,7 @@ def estimates(cams: dict[str, dict], held: list[str], k: int) -> dict[str, dict[
         out["mean camera (no data)"][name] = mean
         e = estimate_ssf(dng, basis=basis)
         out["DNG matrices"][name] = e.values
-        SIGMA[name] = e.response_sigma()
+        SIGMA[name] = e.response_sigma(bound=True)
         out["chart, colour Jiang 2013"][name] = np.maximum(jiang2013(C, pool), 0.0)
         out["chart"][name] = estimate_ssf(chart=chart, basis=basis).values
         out["DNG + chart"][name] = estimate_ssf(dng, chart=chart, basis=basis).values
