@@ -90,7 +90,10 @@ def mmv_table(cams, est, err, bound, calibrated, a) -> int:
     names = list(cams)
     rng = np.random.default_rng(a.seed + 1)
     R = np.concatenate(
-        [spectra.resample(zonotope.load_reflectances(n), W).T for n in ("ColorChecker N Ohta", "CIE 1995 TCS")]
+        [
+            spectra.resample(zonotope.load_reflectances(n), W).T
+            for n in ("ColorChecker N Ohta", "CIE 1995 TCS")
+        ]
     )
     acc: dict = {}
     for size in (2, 3):
