@@ -185,7 +185,7 @@ def jiang2013(C: np.ndarray, pool: dict[str, np.ndarray], k: int = 3) -> np.ndar
     return np.asarray(out.values)
 
 
-#: Held-out camera → the response σ of its DNG estimate's uncertainty band (SSFEstimate.response_sigma).
+#: Held-out camera → the fully correlated response σ bound of its DNG estimate (response_sigma(bound=True)).
 SIGMA: dict[str, np.ndarray] = {}
 
 
@@ -203,7 +203,7 @@ def estimates(cams: dict[str, dict], held: list[str], k: int) -> dict[str, dict[
         out["mean camera (no data)"][name] = mean
         e = estimate_ssf(dng, basis=basis)
         out["DNG matrices"][name] = e.values
-        SIGMA[name] = e.response_sigma()
+        SIGMA[name] = e.response_sigma(bound=True)
         out["chart, colour Jiang 2013"][name] = np.maximum(jiang2013(C, pool), 0.0)
         out["chart"][name] = estimate_ssf(chart=chart, basis=basis).values
         out["DNG + chart"][name] = estimate_ssf(dng, chart=chart, basis=basis).values
@@ -333,31 +333,62 @@ def print_correction_table(cams, est, data: Path | None, *, seed: int, n_sets: i
                     print(f"| {size} | {n} | {kind} | {sigma:g} | {m} | {cells} |")
 
 
-def loo_spread(cams: dict[str, dict], k: int, *, redistributable_only: bool) -> np.ndarray:
-    """RMS per wavelength of (estimate − truth), peak-1 curves, DNG path, over held-out cameras."""
-    errs = []
+def loo_errors(cams: dict[str, dict], k: int, *, redistributable_only: bool) -> dict[str, tuple]:
+    """Held-out camera → (DNG-path estimate, measured curves), basis learned without its model."""
+    out = {}
     for name, cam in cams.items():
         if redistributable_only and not cam["redistributable"]:
             continue
         basis = basis_without(cams, cam["model"], redistributable_only=redistributable_only, k=k)
         dng = synthesise_dng_matrices(msds(cam["values"], name))
-        est = estimate_ssf(dng, basis=basis).values
-        t = cam["values"]
-        errs.append(est / est.max(axis=0) - t / t.max(axis=0))
-    return np.sqrt(np.mean(np.square(errs), axis=0))
+        out[name] = (estimate_ssf(dng, basis=basis), cam["values"])
+    return out
+
+
+def calibrate_band(held: dict[str, tuple], spread: np.ndarray) -> tuple[float, np.ndarray]:
+    """(band_k, response_scale) of a band ``spread`` over held-out estimates (leave one model out).
+
+    band_k: the SSF_BAND_COVERAGE quantile of |estimate − measured| / spread (peak-1 curves) over every
+    wavelength, channel and camera. response_scale: per channel, the RMS over cameras of the real
+    white-balanced response error (D65, rawtoaces 190) over the RMS of the fully correlated bound.
+    """
+    import dataclasses
+
+    from zonotope._tol import SSF_BAND_COVERAGE
+    from zonotope.correct import correction_problem
+
+    ratios, real, bound = [], [], []
+    for name, (e, t) in held.items():
+        ratios.append(np.abs(e.values / e.values.max(axis=0) - t / t.max(axis=0)) / spread)
+        pe = correction_problem(e.sensitivities, shape=SSF_SHAPE)
+        pt = correction_problem(msds(t, name), shape=SSF_SHAPE)
+        real.append(pt.source_of(pt.training) - pe.source_of(pe.training))
+        u = dataclasses.replace(e, uncertainty=spread * e.values.max(axis=0, keepdims=True))
+        bound.append(u.response_sigma(bound=True))
+    band_k = float(np.quantile(np.concatenate([r.ravel() for r in ratios]), SSF_BAND_COVERAGE))
+    scale = np.sqrt(np.mean(np.square(np.concatenate(real)), axis=0)) / np.sqrt(
+        np.mean(np.square(bound), axis=0)
+    )
+    return band_k, scale
 
 
 def write_basis(cams: dict[str, dict], path: Path, k: int) -> int:
     t0 = time.perf_counter()
-    spread = loo_spread(cams, k, redistributable_only=True)
+    held = loo_errors(cams, k, redistributable_only=True)
+    errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
+    spread = np.sqrt(np.mean(np.square(errs), axis=0))
+    band_k, scale = calibrate_band(held, spread)
     pool = {n: c["values"] for n, c in cams.items() if c["redistributable"]}
-    basis = learn_ssf_basis(pool, n_components=k, spread=spread, licence=LICENCE)
+    basis = learn_ssf_basis(
+        pool, n_components=k, spread=spread, licence=LICENCE, band_k=band_k, response_scale=scale
+    )
     import json
 
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(basis.to_json(), indent=1) + "\n", encoding="utf-8")
     print(
-        f"wrote {path}: {len(pool)} cameras, {k} components ({time.perf_counter() - t0:.1f} s)",
+        f"wrote {path}: {len(pool)} cameras, {k} components, band_k {band_k:.3f}, response_scale "
+        f"{np.round(scale, 3).tolist()} ({time.perf_counter() - t0:.1f} s)",
         file=sys.stderr,
     )
     return 0

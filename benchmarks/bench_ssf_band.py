@@ -14,6 +14,7 @@ centroids, and the same two figures for the measured camera.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -24,7 +25,7 @@ import zonotope
 from zonotope.correct import correction_problem
 from zonotope.mismatch.volume import metamer_mismatch_bounds
 from zonotope.spectra import builtin as spectra
-from zonotope.spectra.estimate import SSF_SHAPE, estimate_ssf, synthesise_dng_matrices
+from zonotope.spectra.estimate import SSF_SHAPE, estimate_ssf, ssf_basis, synthesise_dng_matrices
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import basis_without, measured_cameras, msds
@@ -38,6 +39,14 @@ def main(argv=None) -> int:
     ap.add_argument("--cameras", type=int, default=6, help="held-out cameras (every k-th, sorted)")
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--patches", default="all", help="ColorChecker patch indices, e.g. 2,13 (default all)")
+    ap.add_argument("--k", type=float, default=None, help="draws within ±k σ (default the estimate's band_k)")
+    ap.add_argument("--correlation", type=float, default=40.0, help="correlation length of the draws (nm)")
+    ap.add_argument(
+        "--band",
+        choices=("basis", "shipped"),
+        default="basis",
+        help="the held-out basis' own band (PCA residual, ±2σ) or the shipped one (spread, band_k)",
+    )
     ap.add_argument("--picture", type=Path, default=None, help="PNG of the band's MMVs for --picture-patch")
     ap.add_argument("--picture-camera", default="", help="substring of the camera to draw")
     ap.add_argument("--picture-patch", type=int, default=2)
@@ -56,10 +65,15 @@ def main(argv=None) -> int:
         c = cams[name]
         basis = basis_without(cams, c["model"], redistributable_only=True, k=5)
         est = estimate_ssf(synthesise_dng_matrices(msds(c["values"], name)), basis=basis, name=name)
+        if a.band == "shipped":  # the calibrated band of the shipped basis, scaled to this estimate's peaks
+            shipped = ssf_basis()
+            est = dataclasses.replace(
+                est, uncertainty=shipped.spread * est.values.max(axis=0), band_k=shipped.band_k
+            )
         true_pb = correction_problem(msds(c["values"], name), shape=W)
         t = time.perf_counter()
         for i in patches:
-            band = zonotope.band_mmvs(est, R[i], n=a.samples, seed=i)
+            band = zonotope.band_mmvs(est, R[i], n=a.samples, seed=i, k=a.k, correlation=a.correlation)
             true = metamer_mismatch_bounds(
                 true_pb.Phi, true_pb.Psi, R[i] @ true_pb.Phi, on_infeasible="nearest"
             ).inner

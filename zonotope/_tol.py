@@ -638,3 +638,10 @@ __all__ += ["NEUTRAL_CHROMA", "NEUTRAL_GREY_DE00", "NEUTRAL_GREY_SOLVED_DE00", "
 GREY_EDGE_FLOOR = 1e-9
 
 __all__ += ["GREY_EDGE_FLOOR"]
+# -- SSF band calibration and stacked cameras ------------------------------------------------------
+
+#: Fraction of wavelengths (× channels × held-out cameras) at which the measured curve must lie within
+#: ``SSFEstimate.band()``: the coverage the shipped basis' ``band_k`` is calibrated to (issue's 90 %).
+SSF_BAND_COVERAGE = 0.9
+
+__all__ += ["SSF_BAND_COVERAGE"]

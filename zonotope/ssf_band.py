@@ -15,6 +15,7 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError
+from ._tol import SSF_SAMPLE_CORRELATION_NM
 from .correct.noise import NoiseModel, noise_model
 from .correct.problem import CorrectionProblem, correction_problem
 from .spectra.estimate import SSFEstimate, sample_ssfs
@@ -83,12 +84,14 @@ def band_mmvs(
     *,
     n: int = 8,
     seed: int = 0,
-    k: float = 2.0,
+    k: float | None = None,
+    correlation: float = SSF_SAMPLE_CORRELATION_NM,
     illuminant="D65",
     target="CIE 2015 2°",
 ) -> BandMMVs:
     """The MMV of ``reflectance`` (array on the estimate's grid, or a colour SD) with the estimate and
-    with ``n`` cameras drawn within ``k`` σ of its band, each from its own response to it.
+    with ``n`` cameras drawn within ``k`` σ of its band (default its calibrated ``band_k``), each from its
+    own response to it (``correlation``: of the draws, as :func:`~zonotope.spectra.estimate.sample_ssfs`).
 
     Why: the MMV is what a correction cannot know; this shows how much of it is the camera's and how
     much the curves' uncertainty (draw them with :func:`zonotope.viz.plot_mmv_band`).
@@ -107,7 +110,10 @@ def band_mmvs(
         )
     problems = [
         correction_problem(cam, target=target, illuminant=illuminant, shape=shape)
-        for cam in [estimate.sensitivities, *sample_ssfs(estimate, n, seed=seed, k=k)]
+        for cam in [
+            estimate.sensitivities,
+            *sample_ssfs(estimate, n, seed=seed, k=k, correlation=correlation),
+        ]
     ]
     mmvs = [
         metamer_mismatch_bounds(pb.Phi, pb.Psi, x @ pb.Phi, on_infeasible="nearest").inner for pb in problems

@@ -130,6 +130,14 @@ class SSFBasis:
         The measured cameras (and their data sets) the basis was learned from.
     licence : str
         The licence statement of the data it was learned from.
+    band_k : float
+        The multiple of ``spread`` within which the held-out cameras' measured curves lie at
+        :data:`~zonotope._tol.SSF_BAND_COVERAGE` of wavelengths (calibrated leave one model out; 2
+        for an uncalibrated basis).
+    response_scale : ndarray of shape (3,)
+        The held-out estimates' RMS response error (white-balanced, D65, rawtoaces 190) over the
+        fully correlated bound of :meth:`SSFEstimate.response_sigma`, per channel (calibrated leave
+        one model out; 1, the bound, for an uncalibrated basis).
     """
 
     wavelengths: np.ndarray
@@ -138,6 +146,8 @@ class SSFBasis:
     sigma: np.ndarray
     sources: tuple[str, ...] = ()
     licence: str = ""
+    band_k: float = 2.0
+    response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     @property
     def n_components(self) -> int:
@@ -149,13 +159,17 @@ class SSFBasis:
         return {
             "description": "Camera spectral sensitivity basis of zonotope.estimate_ssf: per channel "
             "(R, G, B) the uncentred principal components of peak-normalised measured curves, and the "
-            "RMS error of the estimate of held-out cameras (spread, peak = 1).",
+            "RMS error of the estimate of held-out cameras (spread, peak = 1); band_k: the multiple of "
+            "spread holding the held-out cameras' curves at 90 % of wavelengths; response_scale: their RMS "
+            "response error over the fully correlated bound, per channel.",
             "licence": self.licence,
             "sources": list(self.sources),
             "wavelengths": self.wavelengths.tolist(),
             "components": np.round(self.components, 8).tolist(),
             "spread": np.round(self.spread, 6).tolist(),
             "sigma": np.round(self.sigma, 8).tolist(),
+            "band_k": round(float(self.band_k), 4),
+            "response_scale": np.round(self.response_scale, 4).tolist(),
         }
 
     @classmethod
@@ -166,6 +180,8 @@ class SSFBasis:
             V = np.asarray(doc["components"], dtype=np.float64)
             spread = np.asarray(doc["spread"], dtype=np.float64)
             sigma = np.asarray(doc["sigma"], dtype=np.float64)
+            band_k = float(doc.get("band_k", 2.0))
+            scale = np.asarray(doc.get("response_scale", np.ones(3)), dtype=np.float64)
         except (KeyError, TypeError, ValueError) as error:
             raise SpectralDataError(f"SSF basis: malformed document ({error}).") from None
         if (
@@ -177,7 +193,13 @@ class SSFBasis:
             raise SpectralDataError(
                 f"SSF basis: components {V.shape} and spread {spread.shape} do not fit {w.size} wavelengths."
             )
-        return cls(w, V, spread, sigma, tuple(doc.get("sources", ())), str(doc.get("licence", "")))
+        if not (band_k > 0 and scale.shape == (3,) and np.all(scale > 0)):
+            raise SpectralDataError(
+                f"SSF basis: band_k {band_k!r} and response_scale {scale.tolist()} must be > 0 (3 values)."
+            )
+        return cls(
+            w, V, spread, sigma, tuple(doc.get("sources", ())), str(doc.get("licence", "")), band_k, scale
+        )
 
 
 def _peak_normalised(values: np.ndarray) -> np.ndarray:
@@ -192,6 +214,8 @@ def learn_ssf_basis(
     shape: colour.SpectralShape = SSF_SHAPE,
     spread: np.ndarray | None = None,
     licence: str = "",
+    band_k: float = 2.0,
+    response_scale=(1.0, 1.0, 1.0),
 ) -> SSFBasis:
     """Learn the per-channel basis from measured cameras (uncentred PCA of peak-normalised curves).
 
@@ -209,6 +233,9 @@ def learn_ssf_basis(
         bound of the estimate's error.
     licence : str
         The licence statement of the data, stored with the basis.
+    band_k, response_scale
+        The band's calibration (:class:`SSFBasis`); ``benchmarks/bench_ssf.py --write-basis`` measures
+        both leaving one camera model out.
 
     Returns
     -------
@@ -230,7 +257,16 @@ def learn_ssf_basis(
             s = curves[j]
             res.append(np.stack([s[:, c] - Vj[c] @ (Vj[c].T @ s[:, c]) for c in range(3)], axis=1))
         spread = np.sqrt(np.mean(np.square(res), axis=0))
-    return SSFBasis(w, V, np.asarray(spread, dtype=np.float64), sigma, tuple(names), licence)
+    return SSFBasis(
+        w,
+        V,
+        np.asarray(spread, dtype=np.float64),
+        sigma,
+        tuple(names),
+        licence,
+        float(band_k),
+        np.asarray(response_scale, dtype=np.float64),
+    )
 
 
 def _components(curves: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -594,6 +630,10 @@ class SSFEstimate:
         What the estimate used: ``"dng"``, ``"chart"``.
     residual : float
         Relative RMS misfit of the data terms (0: reproduced exactly).
+    band_k : float
+        Default multiple of ``uncertainty`` in :meth:`band` (the basis' calibrated 90 % coverage).
+    response_scale : ndarray of shape (3,)
+        Calibration of :meth:`response_sigma` (the basis').
     """
 
     sensitivities: colour.MultiSpectralDistributions
@@ -601,6 +641,8 @@ class SSFEstimate:
     sources: tuple[str, ...]
     residual: float
     name: str = field(default="estimated camera")
+    band_k: float = 2.0
+    response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     @property
     def values(self) -> np.ndarray:
@@ -612,18 +654,25 @@ class SSFEstimate:
         """The grid (nm), shape (n,)."""
         return np.asarray(self.sensitivities.wavelengths)
 
-    def band(self, k: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) curves ``values ∓ k·uncertainty``, the lower clipped at 0; each (n, 3)."""
+    def band(self, k: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) curves ``values ∓ k·uncertainty``, the lower clipped at 0; each (n, 3).
+
+        Default ``k``: :attr:`band_k`, within which held-out measured curves lay at 90 % of wavelengths.
+        """
+        k = self.band_k if k is None else k
         return np.maximum(self.values - k * self.uncertainty, 0.0), self.values + k * self.uncertainty
 
-    def response_sigma(self, illuminant="D65", reflectances="rawtoaces 190") -> np.ndarray:
-        """What the uncertainty band does to white-balanced responses: a noise σ per channel, shape (3,).
+    def response_sigma(
+        self, illuminant="D65", reflectances="rawtoaces 190", *, bound: bool = False
+    ) -> np.ndarray:
+        """What the curves' error does to white-balanced responses: a noise σ per channel, shape (3,).
 
-        The RMS over ``reflectances`` of ``R·diag(E)·u_c / (white_c)`` (``u`` the band, one standard
-        deviation, taken as fully correlated over wavelengths: an upper bound). Give it to the
-        correction as its noise (``noise_options(method, sigma)``) so that the fit does not trust
-        channel differences finer than the curves are known. Why: a regression fitted noise-free on
-        estimated curves of several cameras amplifies their errors (docs/benchmarks.md).
+        ``bound=True``: the RMS over ``reflectances`` of ``R·diag(E)·u_c / white_c`` (``u`` the band,
+        one standard deviation, taken as fully correlated over wavelengths: an upper bound, 4–6× the
+        real error). Default: that bound times :attr:`response_scale`, the ratio of held-out cameras'
+        real RMS response error to it (calibrated leave one model out). Give it to the correction as
+        noise (:func:`zonotope.ssf_noise`). Why: a regression fitted noise-free on estimated curves of
+        several cameras amplifies their errors (docs/notes/2026-11-29-ssf-stacking.md).
         """
         w = self.wavelengths
         E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
@@ -633,7 +682,8 @@ class SSFEstimate:
 
             R = spectra.resample(load_reflectances(reflectances), w).T
         white = E @ self.values
-        return np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
+        sigma = np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
+        return sigma if bound else sigma * np.asarray(self.response_scale, dtype=np.float64)
 
 
 def sample_ssfs(
@@ -641,14 +691,15 @@ def sample_ssfs(
     n: int,
     *,
     seed: int = 0,
-    k: float = 2.0,
+    k: float | None = None,
     correlation: float = SSF_SAMPLE_CORRELATION_NM,
 ) -> list[colour.MultiSpectralDistributions]:
     """``n`` cameras drawn within the band of ``estimate``, usable wherever a camera is.
 
     Each channel is ``values + u·z`` with ``u`` the band (one σ) and ``z`` a smooth Gaussian process
     (squared-exponential, ``correlation`` nm), the deviation cut symmetrically at
-    ``min(k·u, values)``: the draws are non-negative, inside ``values ± k·u`` and centred on the
+    ``min(k·u, values)`` (default ``k``: the estimate's calibrated :attr:`~SSFEstimate.band_k`): the
+    draws are non-negative, inside ``values ± k·u`` and centred on the
     estimate (where a curve is below ``k·u`` its downward room, and so its upward, is the curve
     itself). Why: to see what the band does to a result, fit or MMV, one camera at a time.
 
@@ -659,6 +710,7 @@ def sample_ssfs(
     """
     if int(n) != n or n < 1:
         raise SpectralDataError(f"sample_ssfs n={n!r}: give a whole number of cameras ≥ 1.")
+    k = estimate.band_k if k is None else k
     if not (np.isfinite(k) and k > 0 and np.isfinite(correlation) and correlation > 0):
         raise SpectralDataError(f"sample_ssfs k={k!r}, correlation={correlation!r}: give numbers > 0.")
     w, v, u = estimate.wavelengths, estimate.values, np.asarray(estimate.uncertainty, dtype=np.float64)
@@ -839,7 +891,9 @@ def estimate_ssf(
     label = name or (matrices.name if matrices is not None and matrices.name else "estimated camera")
     msds = colour.MultiSpectralDistributions(S, w, labels=["red", "green", "blue"], name=label)
     sources = tuple(s for s, given in (("dng", dng is not None), ("chart", chart is not None)) if given)
-    return SSFEstimate(msds, spread, sources, residual, label)
+    return SSFEstimate(
+        msds, spread, sources, residual, label, float(basis.band_k), np.asarray(basis.response_scale)
+    )
 
 
 # ---------------------------------------------------------------------------------------------

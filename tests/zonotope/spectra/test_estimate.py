@@ -7,6 +7,7 @@ tag reader, and measured cameras held out of the basis (shared data).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import colour
@@ -211,8 +212,57 @@ def test_response_sigma_grows_with_the_band():
     est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
     s = est.response_sigma()
     assert s.shape == (3,) and np.all(s > 0)
-    wider = type(est)(est.sensitivities, 2 * est.uncertainty, est.sources, est.residual)
+    wider = dataclasses.replace(est, uncertainty=2 * est.uncertainty)
     np.testing.assert_allclose(wider.response_sigma(), 2 * s, rtol=1e-12)
+
+
+def test_response_sigma_is_the_bound_times_the_calibrated_scale():
+    """The default σ is the fully correlated bound (recomputed here from its definition) times the
+    shipped basis' leave-one-out scale, which is below 1 (the bound is an upper bound)."""
+    est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    R = spectra.resample(zonotope.load_reflectances("rawtoaces 190"), W).T
+    E = spectra.resample(zonotope.illuminant("D65"), W)[:, 0]
+    bound = np.sqrt(np.mean(np.square((R * E) @ est.uncertainty), axis=0)) / (E @ est.values)
+    np.testing.assert_allclose(est.response_sigma(bound=True), bound, rtol=1e-10)
+    scale = ssf_basis().response_scale
+    assert np.all((scale > 0) & (scale < 1))
+    np.testing.assert_allclose(est.response_sigma(), bound * scale, rtol=1e-10)
+
+
+def test_default_band_is_the_calibrated_multiple():
+    est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    assert est.band_k == ssf_basis().band_k > 0
+    lower, upper = est.band()
+    np.testing.assert_allclose(upper - est.values, est.band_k * est.uncertainty, rtol=1e-12)
+    np.testing.assert_array_equal(lower, np.maximum(est.values - est.band_k * est.uncertainty, 0.0))
+
+
+@pytest.mark.parametrize("change", [{"band_k": 0.0}, {"response_scale": [1.0, 1.0]}, {"band_k": "wide"}])
+def test_a_basis_with_a_bad_calibration_is_refused(change):
+    doc = {**ssf_basis().to_json(), **change}
+    with pytest.raises(SpectralDataError, match="SSF basis"):
+        SSFBasis.from_json(doc)
+
+
+def test_calibrated_sigma_repairs_stacked_cameras_held_out_of_the_basis(shared_data):
+    """Two camspec cameras (never in the shipped basis), estimated from synthesised matrices: the
+    root-polynomial fitted on the estimates and applied to the measured cameras' responses is worse
+    noise-free than told the calibrated σ (the measured camera is the independent truth)."""
+    from zonotope.correct import NoiseModel, correction_problem, fit_correction, noise_options
+    from zonotope.ssf_band import ssf_noise
+
+    folder = shared_data / "ssf_jiang2013_camspec"
+    measured = [zonotope.load_camera(folder / m / f"{m}.csv") for m in ("Canon_40D", "Nikon_D80")]
+    est = [estimate_ssf(synthesise_dng_matrices(m)) for m in measured]
+    truth = correction_problem(measured, shape=SSF_SHAPE)
+    fitted = correction_problem([e.sensitivities for e in est], shape=SSF_SHAPE)
+    sigma = np.concatenate([ssf_noise(e).sigma_white for e in est])
+    R = spectra.resample(zonotope.load_reflectances("ColorChecker N Ohta"), W).T
+    dE = []
+    for opts in ({}, noise_options("Finlayson 2015", NoiseModel(np.zeros(6), sigma**2))):
+        fit = fit_correction(fitted, method="Finlayson 2015", **opts)
+        dE.append(float(np.mean(truth.delta_E(fit(truth.source_of(R)), truth.target_of(R)))))
+    assert dE[1] < 0.7 * dE[0], dE
 
 
 # --- errors --------------------------------------------------------------------------------------
