@@ -511,12 +511,40 @@ def bench_memory(sizes: list[float], paths: list[str], baseline_max: float = 12.
     )
 
 
+def _rawtherapee_default(path: Path, tmp: Path) -> np.ndarray | None:
+    """RawTherapee's default rendering of ``path`` (``rawtherapee-cli -d``, 16-bit sRGB TIFF), or None."""
+    import shutil
+    import subprocess
+
+    import tifffile
+
+    if shutil.which("rawtherapee-cli") is None:
+        return None
+    out = tmp / (path.stem + ".tif")
+    subprocess.run(
+        ["rawtherapee-cli", "-d", "-Y", "-o", str(out), "-t", "-b16", "-c", str(path)],
+        capture_output=True,
+        check=True,
+    )
+    return tifffile.imread(out) / 65535.0
+
+
 def bench_brightness() -> None:
-    """Table F: isp's brightness against rawpy's default rendering, in stops of median luminance."""
+    """Table F: isp's brightness against rawpy's and RawTherapee's default renderings, in stops of
+    median displayed luminance (every file decoded with the sRGB EOTF, as a viewer shows it)."""
+    import tempfile
+
     import rawpy
+
+    from isp.profiles.dcp import apply_tone_curve
+    from isp.profiles.tone import camera_tone_curve
 
     Y = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
     files = ["tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng", "rawsamples_RAW_CANON_D30_SRGB.CRW"]
+
+    def shown(encoded) -> float:
+        return float(np.median(colour.models.eotf_sRGB(np.clip(encoded.astype(np.float64), 0, 1)) @ Y))
+
     rows = []
     for name in files:
         path = DATA / "raw_samples" / name
@@ -524,23 +552,37 @@ def bench_brightness() -> None:
             print(f"F. skipped: {path} not present")
             return
         raw = isp.read_raw(path)
-        with rawpy.imread(str(path)) as r:  # as a viewer shows the 8-bit file: sRGB EOTF
-            shown = np.median(colour.models.eotf_sRGB(r.postprocess(user_flip=0) / 255.0) @ Y)
+        with rawpy.imread(str(path)) as r:  # rawpy's default postprocess(), 8 bits
+            ref = shown(r.postprocess(user_flip=0) / 255.0)
+        with tempfile.TemporaryDirectory() as tmp:
+            rt = _rawtherapee_default(path, Path(tmp))
+        rt_stops = "n/a" if rt is None else f"{np.log2(shown(rt) / ref):+.2f}"
 
-        def stops(image, shown=shown) -> str:
-            value = np.median(colour.models.eotf_sRGB(np.clip(image.astype(np.float64), 0, 1)) @ Y)
-            return f"{np.log2(value / shown):+.2f}"
+        def stops(image, ref=ref) -> str:
+            return f"{np.log2(shown(image) / ref):+.2f}"
 
-        default = isp.default_pipeline()(raw, keep=False).image
-        kept = isp.default_pipeline(tonemap_options={"key": None})(raw, keep=False).image
-        lin = isp.default_pipeline(tonemap=None, encode=False)(raw, keep=False).image.astype(np.float64)
-        scale = 1.0 / np.percentile(lin.max(axis=-1), 99.0)  # 1 % of pixels reach white, as LibRaw
-        bright = colour.models.eotf_inverse_sRGB(np.clip(lin * scale, 0, 1))
-        rows.append([name[:28], raw.white_balance_source, stops(default), stops(kept), stops(bright)])
+        def develop(raw=raw, **options):
+            return isp.default_pipeline(**options)(raw, keep=False).image
+
+        reinhard = develop(tonemap="Reinhard 2002")
+        bright = develop(tonemap="auto-bright", encode=False)
+        curved = isp.encode_sRGB(apply_tone_curve(bright, camera_tone_curve()))
+        rows.append(
+            [
+                name[:28],
+                raw.white_balance_source,
+                rt_stops,
+                stops(reinhard),
+                stops(develop(tonemap_options={"key": None}, tonemap="Reinhard 2002")),
+                stops(isp.encode_sRGB(bright)),
+                stops(curved),
+            ]
+        )
     _table(
-        "F. Median displayed luminance against rawpy's default postprocess (stops)",
-        ["file", "white", "isp default", "key None", "1 % to white"],
+        "F. Median displayed luminance against rawpy's default postprocess (stops; RT = RawTherapee -d)",
+        ["file", "white", "RT default", "Reinhard 0.18", "key None", "auto-bright", "+ tone curve"],
         rows,
+        fmt="{:>14}",
     )
 
 

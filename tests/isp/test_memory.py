@@ -45,7 +45,7 @@ def small_strips(monkeypatch):
 
 
 @pytest.mark.parametrize("demosaic", list(isp.DEMOSAIC_METHODS.names()))
-@pytest.mark.parametrize("tonemap", ["Reinhard 2002", "clip"])
+@pytest.mark.parametrize("tonemap", ["auto-bright", "Reinhard 2002", "clip"])
 def test_strips_give_the_whole_image_result(textured, small_strips, demosaic, tonemap):
     p = default_pipeline(demosaic=demosaic, tonemap=tonemap)
     whole = p(textured, keep=True)  # every stage on the whole image, float64
