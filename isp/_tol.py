@@ -19,6 +19,7 @@ __all__ = [
     "CHART_MIN_SIGNAL",
     "EXPOSURE_NOMINAL",
     "EXPOSURE_RECIPROCAL",
+    "LUT_OUTSIDE_QUANTUM",
     "LUT_QUANTUM",
     "NEUTRAL_MIN",
     "NEUTRAL_MISMATCH",
@@ -174,3 +175,11 @@ AUTO_BRIGHT_FRACTION = 0.01
 #: Bins of the per-channel histogram :func:`isp.auto_bright_white` counts from the top (over 0 to
 #: the image's largest value): 2¹⁶, a 16-bit output's steps, finer than dcraw's 2¹³.
 AUTO_BRIGHT_BINS = 2**16
+
+# --- LUT sampling outside the object-colour solid (isp profile --lut) ---
+#: :func:`isp.profiles.lut.profile_LUT`: lattice nodes outside the object-colour solid (no surface
+#: under the fit's illuminant has their responses; 92 % of a 17³ lattice) are grouped within this.
+#: Measured on a 17³ Prior LUT (Nikon 5100, D65) against every node solved: natural colours
+#: unchanged, 100 atypical spectra ΔE00 0.003 / 0.20 (mean / max) at 0.01 and 0.014 / 0.63 at
+#: 0.03, 5.5× and 9.2× faster (docs/notes/2026-11-29-lut-speed.md).
+LUT_OUTSIDE_QUANTUM = 0.02

@@ -41,6 +41,39 @@ def test_grouped_lut_is_the_exact_lut_on_natural_colours(map_correction):
         profile_LUT(map_correction, size=3, quantum=-1)
 
 
+def test_nodes_outside_the_solid_are_grouped_coarser(map_correction):
+    """The default groups the lattice nodes outside the object-colour solid (no surface has them)
+    within LUT_OUTSIDE_QUANTUM: fewer solves than one radius for all, natural colours unchanged."""
+    import zonotope
+    from isp._tol import LUT_OUTSIDE_QUANTUM, LUT_QUANTUM
+    from zonotope.correct.profile import apply_correction_LUT
+
+    assert LUT_OUTSIDE_QUANTUM > LUT_QUANTUM
+
+    def solves(**kw):
+        seen = []
+        lut = profile_LUT(map_correction, size=7, space="XYZ", progress=lambda s, d, n: seen.append(n), **kw)
+        return lut, max(seen)
+
+    one, n_one = solves(outside_quantum=None)
+    split, n_split = solves()
+    assert n_split < n_one
+    w = map_correction.corrector.problem.wavelengths
+    R = np.clip(zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
+    c = R @ map_correction.corrector.problem.Phi
+    D65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    a, b = (colour.XYZ_to_Lab(apply_correction_LUT(lut, c), D65) for lut in (one, split))
+    assert colour.delta_E(a, b, method="CIE 2000").max() < 0.5
+    # the membership the split uses is the solid's exact one (its slow twin over every facet)
+    from isp.profiles.lut import _SolidSplit
+
+    s = _SolidSplit(map_correction, LUT_QUANTUM, LUT_OUTSIDE_QUANTUM, None)
+    nodes = np.random.default_rng(0).uniform(0, 1, (500, 3))
+    np.testing.assert_array_equal(s.solid.contains(nodes), s.solid.contains_reference(nodes))
+    with pytest.raises(isp.PipelineError, match="outside_quantum=-1"):
+        profile_LUT(map_correction, size=3, outside_quantum=-1)
+
+
 def test_lut_header_states_illuminant_and_encoding(map_correction, tmp_path):
     from zonotope.correct.profile import write_correction_LUT
 
