@@ -177,9 +177,8 @@ AUTO_BRIGHT_FRACTION = 0.01
 AUTO_BRIGHT_BINS = 2**16
 
 # --- LUT sampling outside the object-colour solid (isp profile --lut) ---
-#: :func:`isp.profiles.lut.profile_LUT`: lattice nodes outside the object-colour solid (no surface
-#: under the fit's illuminant has their responses; 92 % of a 17³ lattice) are grouped within this.
-#: Measured on a 17³ Prior LUT (Nikon 5100, D65) against every node solved: natural colours
-#: unchanged, 100 atypical spectra ΔE00 0.003 / 0.20 (mean / max) at 0.01 and 0.014 / 0.63 at
-#: 0.03, 5.5× and 9.2× faster (docs/notes/2026-11-29-lut-speed.md).
+#: :func:`isp.profiles.lut.profile_LUT`: lattice nodes none of whose neighbouring cells can meet the
+#: object-colour solid (64 % of a 33³ lattice) are grouped within this. No colour of a surface is
+#: interpolated from them (tested), so the radius only shapes the LUT past any surface (noise,
+#: highlights); 10× the radius of the other nodes (docs/notes/2026-11-29-lut-speed.md).
 LUT_OUTSIDE_QUANTUM = 0.02

@@ -11,9 +11,9 @@ solved once and carried to its members with the estimator's closed form, as it d
 photographs); nodes with a closed form stay exact. ``quantum=0`` solves every node.
 
 Most nodes of the lattice (4,518 of 4,913 at 17³ for a Nikon 5100 under D65) lie outside the
-object-colour solid: no surface under the fit's illuminant has those responses, and they only
-enter the LUT's interpolation next to the solid's boundary. They are grouped within the coarser
-``outside_quantum``, the nodes inside within ``quantum`` (measured in
+object-colour solid: no surface under the fit's illuminant has those responses. Those whose
+neighbouring cells cannot meet the solid never enter the interpolation of a real colour; they are
+grouped within the coarser ``outside_quantum``, the others within ``quantum`` (measured in
 ``docs/notes/2026-11-29-lut-speed.md``).
 
 :func:`lut_header` writes what the LUT is for into the file's comments: camera, estimator,
@@ -33,14 +33,17 @@ __all__ = ["lut_header", "profile_LUT"]
 
 
 class _SolidSplit:
-    """Responses (white = 1) → XYZ with ``inside`` for those in the object-colour solid and
-    ``outside`` for the others (one grouped call each), progress summed over both."""
+    """Responses (white = 1) → XYZ: the lattice nodes ``fine`` (those a real colour's cell can use)
+    grouped within ``quantum``, the others within ``outside_quantum`` (one grouped call each), the
+    progress summed over both. Rows other than the lattice ``grid`` are fine where they lie in the
+    object-colour solid."""
 
-    def __init__(self, correction, quantum: float, outside_quantum: float, progress) -> None:
+    def __init__(self, correction, quantum: float, outside_quantum: float, progress, grid=None, fine=None):
         import zonotope
 
         self.white_level = correction.white_level
         self.solid = zonotope.Zonotope(correction.corrector.problem.Phi)
+        self.grid, self.fine = grid, fine
         counts = {"inside": (0, 0), "outside": (0, 0)}
 
         def part(name):
@@ -58,12 +61,38 @@ class _SolidSplit:
 
     def __call__(self, c):
         c = np.asarray(c, dtype=np.float64)
-        inside = self.solid.contains(np.maximum(c, 0.0) / self.white_level)
+        if self.grid is not None and c.shape == self.grid.shape and np.array_equal(c, self.grid):
+            inside = self.fine
+        else:
+            inside = self.solid.contains(np.maximum(c, 0.0) / self.white_level)
         out = np.empty((c.shape[0], 3))
         for rows, fn in ((inside, self.inside), (~inside, self.outside)):
             if rows.any():
                 out[rows] = fn(c[rows])
         return out
+
+
+def _near_nodes(solid, cfg, white_level: float):
+    """The lattice of :func:`zonotope.correct.profile.correction_LUT` as its estimator sees it (nodes
+    above the white scaled onto the cube's faces), and which nodes are corners of a cell that can meet
+    the object-colour solid: those within the half-diagonal of their neighbouring cells of it (the
+    solid's facets have unit normals, so ``contains(atol=r)`` holds every point within r)."""
+    from zonotope.correct.profile import shaper_decode, white_node_toe
+
+    size = cfg.size
+    toe = white_node_toe(cfg.headroom, size)
+    nodes = shaper_decode(np.linspace(0.0, 1.0, size), headroom=cfg.headroom, shaper=cfg.shaper, toe=toe)
+    step = np.diff(nodes)
+    reach = np.maximum(np.r_[step, step[-1]], np.r_[step[0], step])  # the larger neighbouring spacing
+    idx = np.stack(np.meshgrid(*(np.arange(size),) * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    points = nodes[idx]
+    radius = np.sqrt(3.0) * reach[idx].max(axis=1)
+    fine = np.zeros(points.shape[0], dtype=bool)
+    for r in np.unique(radius):
+        rows = radius == r
+        fine[rows] = solid.contains(points[rows] / white_level, atol=float(r) / white_level)
+    c = np.maximum(points, 0.0)
+    return c / np.maximum(c.max(axis=-1, keepdims=True), 1.0), fine
 
 
 def _radius(value, name: str) -> float:
@@ -97,8 +126,8 @@ def profile_LUT(
         Grouping radius in response units (white = 1), ≥ 0; 0 solves every node exactly (as
         :func:`zonotope.correct.profile.correction_LUT` of ``correction`` with ``quantum=0``).
     outside_quantum : float, optional
-        Grouping radius of the nodes outside the object-colour solid (default
-        :data:`isp._tol.LUT_OUTSIDE_QUANTUM`); None: ``quantum`` for every node.
+        Grouping radius of the nodes whose neighbouring cells cannot meet the object-colour solid
+        (default :data:`isp._tol.LUT_OUTSIDE_QUANTUM`); None: ``quantum`` for every node.
     progress
         ``progress("distinct colours", done, total)`` over the groups solved.
     **options
@@ -119,6 +148,7 @@ def profile_LUT(
         grouped = dataclasses.replace(correction, quantum=quantum, progress=progress)
     else:
         grouped = _SolidSplit(correction, quantum, outside, progress)
+        grouped.grid, grouped.fine = _near_nodes(grouped.solid, cfg, correction.white_level)
     return correction_LUT(grouped, dataclasses.replace(cfg, batch=cfg.size**3))
 
 
