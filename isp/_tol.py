@@ -167,6 +167,7 @@ LUT_QUANTUM = 2e-3
 REFERENCE_GREY_CHROMA = 0.3
 
 # --- default brightness (isp develop's auto-bright) ---
+
 #: :func:`isp.tonemap_auto_bright`: the share of pixels allowed at or above white, LibRaw's
 #: ``auto_bright_thr`` default (0.01), so that isp's default rendering has rawpy's brightness
 #: (within 0.3 stop on the 550D DNG and the D30 CRW: docs/notes/2026-11-29-isp-default-brightness.md).
@@ -177,6 +178,7 @@ AUTO_BRIGHT_FRACTION = 0.01
 AUTO_BRIGHT_BINS = 2**16
 
 # --- LUT sampling outside the object-colour solid (isp profile --lut) ---
+
 #: :func:`isp.profiles.lut.profile_LUT`: lattice nodes none of whose neighbouring cells can meet the
 #: object-colour solid (64 % of a 33³ lattice) are grouped within this. No colour of a surface is
 #: interpolated from them (tested), so the radius only shapes the LUT past any surface (noise,

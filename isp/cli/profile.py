@@ -493,7 +493,7 @@ def add_command(sub) -> None:
         default=LUT_QUANTUM,
         metavar="Q",
         help=f"LUT nodes that need a solver within Q of each other are solved once (default {LUT_QUANTUM:g}; "
-        f"nodes outside the object-colour solid within {LUT_OUTSIDE_QUANTUM:g}; 0: every node, several "
+        f"nodes no surface colour uses within {LUT_OUTSIDE_QUANTUM:g}; 0: every node, several "
         "times slower for MMV-based estimators; 0.005: faster, less exact on atypical colours)",
     )
     p.add_argument("--save-correction", metavar="FILE.npz", help="also save the fitted estimator")

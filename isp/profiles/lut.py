@@ -176,7 +176,7 @@ def lut_header(
     quantum
         The grouping radius the lattice was sampled with (0: every node exactly).
     outside_quantum
-        The radius of the nodes outside the object-colour solid, when it differs.
+        The radius of the nodes no surface colour is interpolated from, when it differs.
     """
     lut3d = lut[-1]
     adapted = " (the white adapted to the space's white, Bradford)" if space != "XYZ" else ""
@@ -189,7 +189,7 @@ def lut_header(
         if quantum == 0
         else f"nodes within {quantum:g} of each other solved once (closed-form transfer)"
         + (
-            f"; outside the object-colour solid within {outside_quantum:g}"
+            f"; nodes no surface colour is interpolated from within {outside_quantum:g}"
             if outside_quantum not in (None, quantum)
             else ""
         ),
