@@ -28,6 +28,7 @@ F. ``--brightness``: median displayed luminance (sRGB EOTF) of isp's development
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import statistics
 import sys
@@ -399,17 +400,41 @@ def bench_demosaic(repeats: int, size: int) -> None:
 
 _MEMORY_CHILD = """
 import resource, sys, time
+import numpy as np
 import isp
 from isp.exif import srgb_icc_profile
 from isp.io import write_image
 from isp.raw import read_raw
+dng, out, mode, path = sys.argv[1:5]
+pipeline = isp.default_pipeline()
+if path == "metamer":  # as isp develop --correction metamer --camera 'Nikon 5100 (NPL)' builds it
+    from isp.metamer import metamer_correction
+    from isp.pipeline import correction_stage
+    metamer = metamer_correction("Nikon 5100 (NPL)", noise=0.002)
+    stage = correction_stage(metamer, reach=getattr(metamer, "reach", None))  # None: the code before strips
+    pipeline = pipeline.replace("camera_to_XYZ", stage)
+elif path == "dcp":  # as isp develop --profile FILE: matrices, HueSatMap 90x30, LookTable 36x12x8, tone curve
+    from isp.profiles.dcp import DCPProfile, profile_pipeline, write_dcp
+    from isp.profiles.tone import camera_tone_curve
+    rng = np.random.default_rng(0)
+    def table(V, H, S):
+        t = np.ones((V, H, S, 3))
+        t[..., 0] = rng.normal(0, 3, (V, H, S))
+        t[..., 1:] += rng.normal(0, 0.03, (V, H, S, 2))
+        return t
+    cm = np.array([[0.9, -0.3, -0.1], [-0.4, 1.2, 0.2], [-0.1, 0.2, 0.6]])
+    fm = np.array([[0.6, 0.25, 0.1], [0.25, 0.7, 0.05], [0.0, 0.1, 0.72]])
+    prof = DCPProfile(cm, forward_matrix_1=fm, calibration_illuminant_1=21, hue_sat_map_1=table(1, 90, 30),
+                      look_table=table(8, 36, 12), look_table_encoding=1, tone_curve=camera_tone_curve())
+    write_dcp(out + ".dcp", prof, overwrite=True)
+    pipeline = profile_pipeline(pipeline, out + ".dcp")
 rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 t0 = time.perf_counter()
-raw = read_raw(sys.argv[1])
-if sys.argv[3] == "whole":  # one strip: every stage on the whole image in float64, as before strips
+raw = read_raw(dng)
+if mode == "whole":  # one strip: every stage on the whole image in float64, as before strips
     isp._tol.STRIP_PIXELS = 2**62
-dev = isp.default_pipeline()(raw, keep=False)
-write_image(sys.argv[2], dev.image, overwrite=True, icc_profile=srgb_icc_profile())
+dev = pipeline(raw, keep=False)
+write_image(out, dev.image, overwrite=True, icc_profile=srgb_icc_profile())
 print(rss0, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter() - t0)
 """
 
@@ -441,8 +466,10 @@ def _synthetic_dng(path: Path, megapixels: float) -> tuple[int, int]:
     return H, W
 
 
-def bench_memory(sizes: list[float], baseline_max: float = 12.0) -> None:
-    """Table E: peak RSS of a development, strip-wise and (up to ``baseline_max`` MP) whole-image."""
+def bench_memory(sizes: list[float], paths: list[str], baseline_max: float = 12.0) -> None:
+    """Table E: peak RSS of a development per colour path (``plain``: the DNG matrices, ``metamer``:
+    ``--correction metamer``, ``dcp``: ``--profile``), strip-wise and (up to ``baseline_max`` MP)
+    whole-image."""
     import subprocess
     import tempfile
 
@@ -451,36 +478,73 @@ def bench_memory(sizes: list[float], baseline_max: float = 12.0) -> None:
         for mp in sizes:
             dng = Path(tmp) / f"{mp:g}MP.dng"
             H, W = _synthetic_dng(dng, mp)
-            for mode in ("strips", "whole") if mp <= baseline_max else ("strips",):
+            for path, mode in itertools.product(
+                paths, ("strips", "whole") if mp <= baseline_max else ("strips",)
+            ):
                 out = subprocess.run(
-                    [sys.executable, "-c", _MEMORY_CHILD, str(dng), str(Path(tmp) / "out.tif"), mode],
+                    [sys.executable, "-c", _MEMORY_CHILD, str(dng), str(Path(tmp) / "out.tif"), mode, path],
                     capture_output=True,
                     text=True,
                     env={**os.environ, "PYTHONPATH": str(ROOT)},
                 )
                 if out.returncode:
                     error = out.stderr.strip().splitlines()[-1][:60]
-                    rows.append([f"{mp:g} ({H}×{W})", mode, "failed", "", error])
+                    rows.append([f"{mp:g} ({H}×{W})", path, mode, "failed", "", error])
                     continue
                 rss0, rss, seconds = (float(v) for v in out.stdout.split())
                 rows.append(
-                    [f"{mp:g} ({H}×{W})", mode, f"{rss / 1024:.0f}", f"{rss0 / 1024:.0f}", f"{seconds:.1f}"]
+                    [
+                        f"{mp:g} ({H}×{W})",
+                        path,
+                        mode,
+                        f"{rss / 1024:.0f}",
+                        f"{rss0 / 1024:.0f}",
+                        f"{seconds:.1f}",
+                    ]
                 )
             dng.unlink()
     _table(
         "E. Peak RSS of a development (read + default pipeline + 16-bit TIFF), fresh process each",
-        ["MP", "stages", "peak MB", "after imports MB", "seconds"],
+        ["MP", "colour path", "stages", "peak MB", "after imports MB", "seconds"],
         rows,
         fmt="{:>16}",
     )
 
 
+def _rawtherapee_default(path: Path, tmp: Path) -> np.ndarray | None:
+    """RawTherapee's default rendering of ``path`` (``rawtherapee-cli -d``, 16-bit sRGB TIFF), or None."""
+    import shutil
+    import subprocess
+
+    import tifffile
+
+    if shutil.which("rawtherapee-cli") is None:
+        return None
+    out = tmp / (path.stem + ".tif")
+    subprocess.run(
+        ["rawtherapee-cli", "-d", "-Y", "-o", str(out), "-t", "-b16", "-c", str(path)],
+        capture_output=True,
+        check=True,
+    )
+    return tifffile.imread(out) / 65535.0
+
+
 def bench_brightness() -> None:
-    """Table F: isp's brightness against rawpy's default rendering, in stops of median luminance."""
+    """Table F: isp's brightness against rawpy's and RawTherapee's default renderings, in stops of
+    median displayed luminance (every file decoded with the sRGB EOTF, as a viewer shows it)."""
+    import tempfile
+
     import rawpy
+
+    from isp.profiles.dcp import apply_tone_curve
+    from isp.profiles.tone import camera_tone_curve
 
     Y = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ[1])
     files = ["tinydng_colorchart_Canon_EOS_Kiss_X4_MagicLantern.dng", "rawsamples_RAW_CANON_D30_SRGB.CRW"]
+
+    def shown(encoded) -> float:
+        return float(np.median(colour.models.eotf_sRGB(np.clip(encoded.astype(np.float64), 0, 1)) @ Y))
+
     rows = []
     for name in files:
         path = DATA / "raw_samples" / name
@@ -488,23 +552,37 @@ def bench_brightness() -> None:
             print(f"F. skipped: {path} not present")
             return
         raw = isp.read_raw(path)
-        with rawpy.imread(str(path)) as r:  # as a viewer shows the 8-bit file: sRGB EOTF
-            shown = np.median(colour.models.eotf_sRGB(r.postprocess(user_flip=0) / 255.0) @ Y)
+        with rawpy.imread(str(path)) as r:  # rawpy's default postprocess(), 8 bits
+            ref = shown(r.postprocess(user_flip=0) / 255.0)
+        with tempfile.TemporaryDirectory() as tmp:
+            rt = _rawtherapee_default(path, Path(tmp))
+        rt_stops = "n/a" if rt is None else f"{np.log2(shown(rt) / ref):+.2f}"
 
-        def stops(image, shown=shown) -> str:
-            value = np.median(colour.models.eotf_sRGB(np.clip(image.astype(np.float64), 0, 1)) @ Y)
-            return f"{np.log2(value / shown):+.2f}"
+        def stops(image, ref=ref) -> str:
+            return f"{np.log2(shown(image) / ref):+.2f}"
 
-        default = isp.default_pipeline()(raw, keep=False).image
-        kept = isp.default_pipeline(tonemap_options={"key": None})(raw, keep=False).image
-        lin = isp.default_pipeline(tonemap=None, encode=False)(raw, keep=False).image.astype(np.float64)
-        scale = 1.0 / np.percentile(lin.max(axis=-1), 99.0)  # 1 % of pixels reach white, as LibRaw
-        bright = colour.models.eotf_inverse_sRGB(np.clip(lin * scale, 0, 1))
-        rows.append([name[:28], raw.white_balance_source, stops(default), stops(kept), stops(bright)])
+        def develop(raw=raw, **options):
+            return isp.default_pipeline(**options)(raw, keep=False).image
+
+        reinhard = develop(tonemap="Reinhard 2002")
+        bright = develop(tonemap="auto-bright", encode=False)
+        curved = isp.encode_sRGB(apply_tone_curve(bright, camera_tone_curve()))
+        rows.append(
+            [
+                name[:28],
+                raw.white_balance_source,
+                rt_stops,
+                stops(reinhard),
+                stops(develop(tonemap_options={"key": None}, tonemap="Reinhard 2002")),
+                stops(isp.encode_sRGB(bright)),
+                stops(curved),
+            ]
+        )
     _table(
-        "F. Median displayed luminance against rawpy's default postprocess (stops)",
-        ["file", "white", "isp default", "key None", "1 % to white"],
+        "F. Median displayed luminance against rawpy's default postprocess (stops; RT = RawTherapee -d)",
+        ["file", "white", "RT default", "Reinhard 0.18", "key None", "auto-bright", "+ tone curve"],
         rows,
+        fmt="{:>14}",
     )
 
 
@@ -524,6 +602,13 @@ def main() -> None:
         metavar="MP",
         help="only table E, at these sizes in megapixels (default 6 60); whole-image baseline up to 12 MP",
     )
+    parser.add_argument(
+        "--paths",
+        nargs="+",
+        default=["plain"],
+        choices=["plain", "metamer", "dcp"],
+        help="colour paths of table E: plain (DNG matrices), metamer (--correction metamer), dcp (--profile)",
+    )
     parser.add_argument("--brightness", action="store_true", help="only table F (shared data)")
     args = parser.parse_args()
     import tempfile
@@ -533,7 +618,7 @@ def main() -> None:
         bench_brightness()
         return
     if args.memory is not None:
-        bench_memory(args.memory or [6.0, 60.0])
+        bench_memory(args.memory or [6.0, 60.0], args.paths)
         print(f"\ntotal {time.perf_counter() - t0:.0f} s")
         return
     bench_rawpy()

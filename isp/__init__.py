@@ -184,7 +184,9 @@ _LAZY = {
         "demosaic_Malvar2004",
         "demosaic_Menon2007",
         "demosaic_bilinear",
+        "auto_bright_white",
         "tonemap_Reinhard2002",
+        "tonemap_auto_bright",
         "tonemap_clip",
     ],
 }

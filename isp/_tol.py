@@ -11,12 +11,15 @@ are parameters, not here.
 from __future__ import annotations
 
 __all__ = [
+    "AUTO_BRIGHT_BINS",
+    "AUTO_BRIGHT_FRACTION",
     "CHART_BOX",
     "CHART_CLIP_FRACTION",
     "CHART_CLIP_LEVEL",
     "CHART_MIN_SIGNAL",
     "EXPOSURE_NOMINAL",
     "EXPOSURE_RECIPROCAL",
+    "LUT_OUTSIDE_QUANTUM",
     "LUT_QUANTUM",
     "NEUTRAL_MIN",
     "NEUTRAL_MISMATCH",
@@ -162,3 +165,22 @@ LUT_QUANTUM = 2e-3
 #: correction's white is adapted to D50 and then D65 exactly, leaving 16-bit rounding and the
 #: demosaicing of patch interiors (0.01 measured).
 REFERENCE_GREY_CHROMA = 0.3
+
+# --- default brightness (isp develop's auto-bright) ---
+
+#: :func:`isp.tonemap_auto_bright`: the share of pixels allowed at or above white, LibRaw's
+#: ``auto_bright_thr`` default (0.01), so that isp's default rendering has rawpy's brightness
+#: (within 0.3 stop on the 550D DNG and the D30 CRW: docs/notes/2026-11-29-isp-default-brightness.md).
+AUTO_BRIGHT_FRACTION = 0.01
+
+#: Bins of the per-channel histogram :func:`isp.auto_bright_white` counts from the top (over 0 to
+#: the image's largest value): 2¹⁶, a 16-bit output's steps, finer than dcraw's 2¹³.
+AUTO_BRIGHT_BINS = 2**16
+
+# --- LUT sampling outside the object-colour solid (isp profile --lut) ---
+
+#: :func:`isp.profiles.lut.profile_LUT`: lattice nodes none of whose neighbouring cells can meet the
+#: object-colour solid (64 % of a 33³ lattice) are grouped within this. No colour of a surface is
+#: interpolated from them (tested), so the radius only shapes the LUT past any surface (noise,
+#: highlights); 10× the radius of the other nodes (docs/notes/2026-11-29-lut-speed.md).
+LUT_OUTSIDE_QUANTUM = 0.02

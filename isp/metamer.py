@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -107,11 +107,17 @@ class MetamerCorrection:
         Distinct colours per call of the estimator.
     progress : callable, optional
         ``progress("distinct colours", done, total)`` while correcting an image (not the white;
-        :class:`zonotope.ProgressCallback`).
+        :class:`zonotope.ProgressCallback`), counted over every call (a pipeline calls once per
+        strip).
     white_level : float
         White-balanced response of a perfect white reflector in the image (default 1).
     fallbacks : int
         Colours that fell back to the regression so far.
+    reach : int
+        0: a pixel's estimate depends on that pixel only, so :func:`isp.correction_stage` runs it
+        strip by strip (a 60 MP image in the memory of one strip). ``correct_image`` groups colours
+        within chunks of 2²⁰ pixels anyway, the size of a strip (:data:`isp._tol.STRIP_PIXELS`),
+        so strips change which pixels share a group, not the number of solves.
     neutral : ndarray of shape (3,), optional
         The camera's un-balanced response to the perfect white under the fit's illuminant, max 1
         (compare with a file's AsShotNeutral: :meth:`neutral_mismatch`).
@@ -128,6 +134,7 @@ class MetamerCorrection:
     fallbacks: int = 0
     neutral: np.ndarray | None = field(default=None, repr=False)
     noise: Any = None
+    reach: ClassVar[int] = 0
 
     def __post_init__(self) -> None:
         import dataclasses
@@ -143,6 +150,7 @@ class MetamerCorrection:
         _check_cie1931(c.problem.target, "MetamerCorrection")
         self._regression = c.params.get("regression") or fit_correction(c.problem, method="Finlayson 2015")
         self._safe = dataclasses.replace(c, predict=self._predict)
+        self._counted = (0, 0)  # (done, total) of the calls before this one, for ``progress``
 
     @property
     def method(self) -> str:
@@ -188,11 +196,22 @@ class MetamerCorrection:
 
         c = np.maximum(np.asarray(responses, dtype=np.float64), 0.0) / self.white_level
         over = np.maximum(np.max(c, axis=-1, keepdims=True), 1.0)  # brighter than the white: scale down
-        progress = self.progress if c.ndim > 1 and c.size > c.shape[-1] else None
+        progress = None
+        if self.progress is not None and c.ndim > 1 and c.size > c.shape[-1]:
+            before, last = self._counted, [0, 0]
+
+            def progress(stage: str, done: int, total: int) -> None:  # counts carried across calls
+                last[:] = done, total
+                self.progress(stage, before[0] + done, before[1] + total)
+
+        c /= over
         XYZ = correct_image(
-            c / over, self._safe, quantum=self.quantum, batch_size=self.batch_size, progress=progress
+            c, self._safe, quantum=self.quantum, batch_size=self.batch_size, progress=progress
         )
-        return XYZ * (over * self.white_level)
+        if progress is not None:
+            self._counted = (before[0] + last[0], before[1] + last[1])
+        XYZ *= over * self.white_level
+        return XYZ
 
 
 @dataclass(frozen=True)

@@ -348,7 +348,7 @@ def correction_stage(
     *,
     balanced: bool = True,
     name: str = "camera_to_XYZ",
-    reach: int | None = None,
+    reach: int | str | None = "estimator",
 ) -> Stage:
     """A stage that replaces the DNG ColorMatrix by any ``(N, k) → (N, 3)`` estimator.
 
@@ -362,15 +362,21 @@ def correction_stage(
     name
         Stage name (default replaces ``"camera_to_XYZ"``).
     reach
-        None (default): the estimator sees the whole image at once, so that an estimator that
-        corrects each distinct colour once (``zonotope.correct_image``'s ``quantum``) does not
-        correct a colour again in every strip; 0: per pixel, run strip by strip with the stages
-        around it (less memory, for estimators whose cost is per pixel).
+        0: per pixel, run strip by strip with the stages around it (the memory of one strip);
+        None: the estimator sees the whole image at once (for an estimator whose result depends on
+        the other pixels); ``"estimator"`` (default): the estimator's own ``reach`` attribute, None
+        when it has none. :class:`isp.MetamerCorrection` says 0: ``zonotope.correct_image`` groups
+        colours within chunks of pixels anyway, so a strip changes which pixels share a group, not
+        the cost.
 
     Returns
     -------
     Stage
     """
+    if isinstance(reach, str):
+        if reach != "estimator":
+            raise PipelineError(f"reach={reach!r}: give 0, None or 'estimator'.")
+        reach = getattr(XYZ_from_responses, "reach", None)
 
     def fn(x, raw: RawImage):
         white = None if balanced else raw.as_shot_neutral

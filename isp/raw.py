@@ -18,7 +18,7 @@ import numpy as np
 from ._errors import InputFileNotFoundError, RawFormatError
 from ._tol import NEUTRAL_MIN, STRIPPED_BITS_PER_PIXEL, STRIPPED_NONZERO
 from .cfa import check_cfa
-from .dng import DNGProfile, read_dng_tags
+from .dng import DNGProfile, camera_neutral_to_xy, read_dng_tags
 
 __all__ = ["RawImage", "auto_white_balance", "read_raw"]
 
@@ -90,10 +90,14 @@ class RawImage:
             raise RawFormatError(f"mosaic: expected an (H, W) array with H, W ≥ 2; got shape {m.shape}.")
         object.__setattr__(self, "cfa", check_cfa(self.cfa))
         black = np.broadcast_to(np.asarray(self.black_level, dtype=np.float64), (2, 2)).copy()
+        where = f"{self.path}: " if self.path else ""
         if not float(self.white_level) > black.max():
-            raise RawFormatError(f"white_level={self.white_level} must exceed the black level {black.max()}.")
+            raise RawFormatError(
+                f"{where}white_level={self.white_level} must exceed the black level {black.max()} "
+                "(WhiteLevel and BlackLevel); the file's levels are damaged."
+            )
         object.__setattr__(self, "black_level", black)
-        n = _checked_neutral(self.as_shot_neutral, f"{self.path}: " if self.path else "", "as_shot_neutral")
+        n = _checked_neutral(self.as_shot_neutral, where, "as_shot_neutral")
         object.__setattr__(self, "as_shot_neutral", n / n.max())
 
     @property
@@ -493,6 +497,10 @@ def read_raw(path: str | os.PathLike, *, metadata_only: bool = False) -> RawImag
                 neutral = np.ones(3) if neutral is None else neutral
             if source != "none":
                 neutral = _checked_neutral(neutral, f"{path}: ", source)
+                try:  # the white the development will interpolate the matrices for, checked now
+                    camera_neutral_to_xy(neutral, profile)
+                except RawFormatError as exc:
+                    raise RawFormatError(f"{path}: {source} with ColorMatrix: {exc}") from exc
             capture.update(_capture_from_tags(tags))
             table = tags.get("LinearizationTable")
             table = None if table is None else np.asarray(table, dtype=np.float64)

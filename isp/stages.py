@@ -31,6 +31,7 @@ __all__ = [
     "TONEMAP_METHODS",
     "XYZ_to_linear_sRGB",
     "apply_correction",
+    "auto_bright_white",
     "camera_to_XYZ",
     "default_method",
     "demosaic",
@@ -44,6 +45,7 @@ __all__ = [
     "orient",
     "tonemap",
     "tonemap_Reinhard2002",
+    "tonemap_auto_bright",
     "tonemap_clip",
     "white_balance",
 ]
@@ -551,6 +553,11 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
     -------
     ndarray of shape (..., 3)
     """
+    return np.clip(_image_array(rgb, "rgb") * _gain(exposure), 0.0, 1.0)
+
+
+def _gain(exposure) -> float:
+    """``2 ** exposure`` for a gain in stops, or the one-line error of a bad value."""
     from ._tol import EXPOSURE_STOPS_MAX
 
     if isinstance(exposure, bool) or not isinstance(exposure, int | float | np.number):
@@ -559,7 +566,94 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
         raise PipelineError(
             f"exposure={exposure!r}: a gain in stops must be finite and within ±{EXPOSURE_STOPS_MAX:g}."
         )
-    return np.clip(_image_array(rgb, "rgb") * 2.0 ** float(exposure), 0.0, 1.0)
+    return 2.0 ** float(exposure)
+
+
+def auto_bright_white(rgb, *, fraction: float | None = None) -> float:
+    """The linear value LibRaw's auto-bright maps to white: the largest over the channels of the
+    value that ``fraction`` of the pixels reach or exceed (dcraw's ``convert_to_rgb`` histogram,
+    ``perc = 0.01 · width · height``, ``t_white`` the highest channel's level).
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+        Linear RGB (any range).
+    fraction
+        Share of the pixels allowed at or above white (default :data:`isp._tol.AUTO_BRIGHT_FRACTION`).
+
+    Returns
+    -------
+    float
+        0 for an image with no positive value.
+    """
+    from ._tol import AUTO_BRIGHT_BINS, AUTO_BRIGHT_FRACTION, CHUNK_PIXELS
+
+    fraction = AUTO_BRIGHT_FRACTION if fraction is None else fraction
+    if isinstance(fraction, bool) or not (isinstance(fraction, int | float) and 0 < fraction < 1):
+        raise PipelineError(f"fraction={fraction!r}: the share of pixels at white must be in (0, 1).")
+    a = np.asarray(rgb)
+    a = a if a.dtype in (np.float32, np.float64) else _image_array(rgb, "rgb")
+    flat = a.reshape(-1, a.shape[-1])
+    chunks = [flat[i : i + CHUNK_PIXELS] for i in range(0, flat.shape[0], CHUNK_PIXELS)]
+    top = max((float(np.max(c)) for c in chunks), default=0.0)
+    if not top > 0:
+        return 0.0
+    # one pass of histograms (dcraw counts a 13-bit histogram from the top); bins of top / 2¹⁶
+    hist = np.zeros((flat.shape[1], AUTO_BRIGHT_BINS), dtype=np.int64)
+    for c in chunks:
+        idx = np.clip((c.astype(np.float64, copy=False) * (AUTO_BRIGHT_BINS / top)).astype(np.int64), 0, None)
+        np.minimum(idx, AUTO_BRIGHT_BINS - 1, out=idx)
+        for ch in range(flat.shape[1]):
+            hist[ch] += np.bincount(idx[:, ch], minlength=AUTO_BRIGHT_BINS)
+    allowed = fraction * flat.shape[0]
+    white = 0
+    for h in hist:  # the first bin from the top at which more than ``allowed`` pixels are counted
+        above = np.cumsum(h[::-1])
+        level = AUTO_BRIGHT_BINS - 1 - int(np.searchsorted(above, allowed, side="right"))
+        white = max(white, level)
+    return top * max(white, 1) / AUTO_BRIGHT_BINS
+
+
+def tonemap_auto_bright(rgb, *, fraction: float | None = None, exposure: float = 0.0) -> np.ndarray:
+    """LibRaw's (dcraw's) automatic brightness: scale so that ``fraction`` of the pixels reach white, clip.
+
+    No tone curve: the output is linear up to white (the sRGB transfer function of ``encode_sRGB``
+    is the only curve), so mid-tones keep their ratios to the highlights. ``rawpy``'s default
+    ``postprocess()`` does the same scaling (``bright=1``, ``auto_bright_thr=0.01``).
+
+    Parameters
+    ----------
+    rgb : array_like of shape (..., 3)
+        Linear RGB.
+    fraction
+        Share of the pixels at or above white (default :data:`isp._tol.AUTO_BRIGHT_FRACTION`, 1 %
+        as LibRaw's ``auto_bright_thr``).
+    exposure
+        A further gain in stops (LibRaw's ``bright``, in stops), within ±``EXPOSURE_STOPS_MAX``.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+        In [0, 1]; zeros for an image with no positive value.
+
+    References
+    ----------
+    Coffin, D. dcraw.c, ``convert_to_rgb`` and ``write_ppm_tiff`` (the histogram and ``t_white``);
+    LibRaw ``libraw_output_params_t::auto_bright_thr``.
+    """
+    from ._tol import CHUNK_PIXELS
+
+    gain = _gain(exposure)
+    a = np.asarray(rgb)
+    a = a if a.dtype in (np.float32, np.float64) else _image_array(rgb, "rgb")
+    white = auto_bright_white(a, fraction=fraction)
+    out = np.zeros(a.shape, dtype=a.dtype)  # a float32 image stays float32 (memory)
+    if white > 0:
+        flat, flat_out = a.reshape(-1, a.shape[-1]), out.reshape(-1, a.shape[-1])
+        for i in range(0, flat.shape[0], CHUNK_PIXELS):
+            c = slice(i, i + CHUNK_PIXELS)
+            flat_out[c] = np.clip(flat[c].astype(np.float64, copy=False) * (gain / white), 0.0, 1.0)
+    return out
 
 
 #: Global tone-mapping operators by name (``tonemap(..., method=name)``); ``default=True`` marks the
@@ -567,8 +661,10 @@ def tonemap_clip(rgb, *, exposure: float = 0.0) -> np.ndarray:
 TONEMAP_METHODS: MethodRegistry[Callable[..., np.ndarray]] = MethodRegistry(
     "tone-mapping", error=PipelineMethodError
 )
-TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002, default=True, reach=None)  # global: a mean
+TONEMAP_METHODS.register("Reinhard 2002", tonemap_Reinhard2002, reach=None)  # global: a mean
 TONEMAP_METHODS.register("clip", tonemap_clip, reach=0)  # per pixel: strip-wise in a pipeline
+# the default: rawpy's / LibRaw's brightness (docs/notes/2026-11-29-isp-default-brightness.md)
+TONEMAP_METHODS.register("auto-bright", tonemap_auto_bright, default=True, reach=None)  # global: a histogram
 
 
 def tonemap(rgb, *, method: str = default_method(TONEMAP_METHODS), **options) -> np.ndarray:

@@ -154,9 +154,12 @@ def _pipeline(args: argparse.Namespace):
         TONEMAP_METHODS.resolve(tonemap, argument="--tonemap")
     options = {}
     if args.exposure is not None:
-        if tonemap is None or tonemap.lower() != "clip":
+        import inspect
+
+        takes = [n for n in TONEMAP_METHODS if "exposure" in inspect.signature(TONEMAP_METHODS[n]).parameters]
+        if tonemap is None or TONEMAP_METHODS.resolve(tonemap) not in takes:
             return None, (
-                "--exposure applies to --tonemap clip only "
+                f"--exposure applies to --tonemap {' or '.join(takes)} only "
                 "(Reinhard 2002 sets the exposure from the image's log-average luminance)."
             )
         from .._tol import EXPOSURE_STOPS_MAX
@@ -604,7 +607,8 @@ def add_develop(sub) -> None:
         "--exposure",
         type=float,
         default=None,
-        help=f"gain in stops before clipping, within ±{EXPOSURE_STOPS_MAX:g} (with --tonemap clip only)",
+        help=f"gain in stops before clipping, within ±{EXPOSURE_STOPS_MAX:g} (after auto-bright's scaling; "
+        "with --tonemap auto-bright or clip)",
     )
     d.add_argument(
         "--crop",

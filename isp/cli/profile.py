@@ -18,7 +18,7 @@ import numpy as np
 
 from zonotope import ZonotopeError
 
-from .._tol import LUT_QUANTUM
+from .._tol import LUT_OUTSIDE_QUANTUM, LUT_QUANTUM
 
 __all__ = ["add_command"]
 
@@ -337,6 +337,7 @@ def _camera_profile(args: argparse.Namespace, console) -> int:
             space=lut_config.space,
             headroom=args.headroom,
             quantum=quantum,
+            outside_quantum=LUT_OUTSIDE_QUANTUM,
         )
         write_correction_LUT(args.lut, lut, overwrite=args.overwrite)
         console.print(
@@ -492,8 +493,8 @@ def add_command(sub) -> None:
         default=LUT_QUANTUM,
         metavar="Q",
         help=f"LUT nodes that need a solver within Q of each other are solved once (default {LUT_QUANTUM:g}; "
-        "0: every node, several times slower for MMV-based estimators; 0.005: faster, less exact on "
-        "atypical colours)",
+        f"nodes no surface colour uses within {LUT_OUTSIDE_QUANTUM:g}; 0: every node, several "
+        "times slower for MMV-based estimators; 0.005: faster, less exact on atypical colours)",
     )
     p.add_argument("--save-correction", metavar="FILE.npz", help="also save the fitted estimator")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")

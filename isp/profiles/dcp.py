@@ -41,6 +41,7 @@ from __future__ import annotations
 import logging
 import os
 import warnings
+import weakref
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -747,22 +748,27 @@ def dcp_stage(
     Returns
     -------
     isp.Stage
-        Input: white-balanced camera RGB (H, W, 3); output: XYZ D50 (white Y = 1).
+        Input: white-balanced camera RGB (H, W, 3); output: XYZ D50 (white Y = 1). Per pixel
+        (``reach=0``): a pipeline runs it strip by strip, the profile and neutral read once per image.
     """
     from ..pipeline import Stage
 
     prof = read_dcp(profile) if isinstance(profile, str | os.PathLike) else profile
+    cache: list = []  # (weakref to the RawImage, profile, neutral) of the image being developed
 
     def fn(x, raw):
-        p = prof
-        if p is None:
-            if raw.path is None:
-                raise DCPError("the embedded profile needs the DNG file (RawImage.path is None).")
-            p = read_dcp(raw.path)
-        n = raw.as_shot_neutral if neutral is None else neutral(raw)
+        if not cache or cache[0]() is not raw:
+            p = prof
+            if p is None:
+                if raw.path is None:
+                    raise DCPError("the embedded profile needs the DNG file (RawImage.path is None).")
+                p = read_dcp(raw.path)
+            n = raw.as_shot_neutral if neutral is None else neutral(raw)
+            cache[:] = weakref.ref(raw), p, n
+        _, p, n = cache
         return p.apply(x, n, analog_balance=raw.profile.analog_balance, tone_curve=tone_curve)
 
-    return Stage(name, fn)
+    return Stage(name, fn, reach=0)
 
 
 def profile_pipeline(pipeline, profile, *, white_balance="as-shot"):

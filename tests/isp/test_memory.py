@@ -45,7 +45,7 @@ def small_strips(monkeypatch):
 
 
 @pytest.mark.parametrize("demosaic", list(isp.DEMOSAIC_METHODS.names()))
-@pytest.mark.parametrize("tonemap", ["Reinhard 2002", "clip"])
+@pytest.mark.parametrize("tonemap", ["auto-bright", "Reinhard 2002", "clip"])
 def test_strips_give_the_whole_image_result(textured, small_strips, demosaic, tonemap):
     p = default_pipeline(demosaic=demosaic, tonemap=tonemap)
     whole = p(textured, keep=True)  # every stage on the whole image, float64
@@ -130,3 +130,89 @@ def test_a_correction_sees_the_whole_image_unless_it_says_it_is_per_pixel(textur
     strips = default_pipeline().replace("camera_to_XYZ", correction_stage(estimator, reach=0))
     np.testing.assert_allclose(strips(textured, keep=False).image, whole, rtol=0, atol=2e-6)
     assert max(calls) < 62 * 90
+
+
+def test_the_metamer_correction_goes_strip_by_strip(textured, small_strips):
+    """``isp develop --correction metamer``: the estimator says it is per pixel, so the pipeline calls
+    it once per strip (not on the whole 60 MP image); a closed-form estimator gives the whole-image
+    result, and the progress of the distinct colours counts on across the strips."""
+    from isp import correction_stage, metamer_correction
+
+    m = metamer_correction("Nikon 5100 (NPL)", method="root-polynomial")
+    stage = correction_stage(m)
+    assert stage.reach == 0 and correction_stage(m, reach=None).reach is None
+    calls = []
+    m.corrector = _counting(m.corrector, calls)
+    m.__post_init__()
+    p = default_pipeline().replace("camera_to_XYZ", stage)
+    whole = p(textured, keep=True)
+    assert max(calls) == 62 * 90
+    calls.clear()
+    strips = p(textured, keep=False)
+    np.testing.assert_allclose(strips.image, whole.image, rtol=0, atol=2e-6)
+    assert max(calls) < 62 * 90 and sum(n for n in calls if n > 1) >= 62 * 90  # halos counted too
+    with pytest.raises(PipelineError, match="reach='pixel'"):
+        correction_stage(m, reach="pixel")
+
+
+def _counting(corrector, calls):
+    import dataclasses
+
+    def predict(c):
+        calls.append(c.shape[0])
+        return corrector.predict(c)
+
+    return dataclasses.replace(corrector, predict=predict)
+
+
+def test_metamer_progress_counts_over_strips(textured, small_strips):
+    from isp import correction_stage, metamer_correction
+
+    seen = []
+    m = metamer_correction("Nikon 5100 (NPL)", method="MAP", quantum=0.2, batch_size=4096)
+    m.progress = lambda stage, done, total: seen.append((done, total))
+    default_pipeline().replace("camera_to_XYZ", correction_stage(m))(textured, keep=False)
+    done, total = np.array(seen).T
+    assert len(seen) > 2 and np.all(np.diff(done) >= 0) and np.all(np.diff(total) >= 0)
+    assert done[-1] == total[-1] > max(np.diff(total, prepend=0))  # several strips' counts added
+
+
+def test_a_dcp_profile_goes_strip_by_strip(textured, small_strips, tmp_path, monkeypatch):
+    """``isp develop --profile``: matrices, HueSatMap, LookTable and tone curve per pixel, strip-wise
+    = whole image; the profile file is read once per image, not once per strip."""
+    from isp.profiles import dcp
+    from isp.profiles.tone import camera_tone_curve
+
+    rng = np.random.default_rng(0)
+
+    def table(V, H, S):
+        t = np.ones((V, H, S, 3))
+        t[..., 0] = rng.normal(0, 5, (V, H, S))
+        t[..., 1:] += rng.normal(0, 0.05, (V, H, S, 2))
+        return t
+
+    cm = np.array([[0.9, -0.3, -0.1], [-0.4, 1.2, 0.2], [-0.1, 0.2, 0.6]])
+    fm = np.array([[0.6, 0.25, 0.1], [0.25, 0.7, 0.05], [0.0, 0.1, 0.72]])
+    prof = dcp.DCPProfile(
+        cm,
+        forward_matrix_1=fm,
+        calibration_illuminant_1=21,
+        hue_sat_map_1=table(1, 12, 6),
+        look_table=table(4, 12, 6),
+        look_table_encoding=1,
+        tone_curve=camera_tone_curve(),
+    )
+    path = dcp.write_dcp(tmp_path / "p.dcp", prof)
+    p = dcp.profile_pipeline(default_pipeline(), path, white_balance="D50")
+    assert p["camera_to_XYZ"].reach == 0
+    whole = p(textured, keep=True)
+    reads = []
+    real = dcp.read_dcp
+    monkeypatch.setattr(dcp, "read_dcp", lambda f: reads.append(f) or real(f))
+    embedded = dcp.profile_pipeline(default_pipeline(), "embedded")
+    strips = p(textured, keep=False)
+    np.testing.assert_allclose(strips.image, whole.image, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(
+        embedded(textured, keep=False).image, default_pipeline()(textured).image, rtol=0, atol=2e-6
+    )
+    assert reads == [textured.path]  # once for the image, not once per strip

@@ -214,7 +214,7 @@ def test_demosaic_and_tonemap_facts_live_on_the_registry_entries():
     assert pads == {"bilinear": 2, "Malvar 2004": 4, "Menon 2007": 8}
     assert all(p % 2 == 0 for p in pads.values())  # even: the CFA phase survives the padding
     assert default_method(DEMOSAIC_METHODS) == "Malvar 2004"
-    assert default_method(TONEMAP_METHODS) == "Reinhard 2002"
+    assert default_method(TONEMAP_METHODS) == "auto-bright"
     args = _parser().parse_args(["develop", "in.dng", "-o", "out.tif"])
     defaults = inspect.signature(default_pipeline).parameters
     for table, used in (

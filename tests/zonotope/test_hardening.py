@@ -71,7 +71,7 @@ def test_local_cluster_refuses_an_unauthenticated_client(tmp_path):
 
 def test_security_file_errors_name_the_file_and_key(tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    from zonotope.parallel import _client_security
+    from zonotope.parallel.cluster import _client_security
 
     bad = tmp_path / "sec.yaml"
     bad.write_text("tls_ca: x\n")

@@ -23,11 +23,11 @@ from zonotope.parallel import (
     ParallelError,
     SerialExecutor,
     TaskFailure,
-    _publish,
     executor,
     resolve_scheduler,
     run_files,
 )
+from zonotope.parallel.files import _publish
 
 
 @pytest.fixture

@@ -220,7 +220,7 @@ def test_output_writers_go_through_the_atomic_writers():
     no module of zonotope or isp makes its own temporary + rename (which gave 0600 files)."""
     allowed = {
         "zonotope/utilities/io.py": "the atomic writers themselves",
-        "zonotope/parallel.py": "folder batches publish a finished temporary with os.link/os.replace "
+        "zonotope/parallel/files.py": "folder batches publish a finished temporary with os.link/os.replace "
         "(first attempt wins); the temporaries are created by open() and so already get umask modes",
     }
     bad = []

@@ -57,7 +57,15 @@ def test_develop_tiff_clip(dng_550d, tmp_path):
     )
     img = tifffile.imread(out)
     assert img.dtype == np.uint16 and img.shape == (64, 96, 3)
-    assert main(["develop", str(dng_550d), "-o", str(tmp_path / "b.tif"), "--exposure", "1", "-q"]) == 2
+    reinhard = ["--tonemap", "Reinhard 2002", "--exposure", "1", "-q"]  # its exposure is the image's
+    assert main(["develop", str(dng_550d), "-o", str(tmp_path / "b.tif"), *reinhard]) == 2
+    assert (
+        main(["develop", str(dng_550d), "-o", str(tmp_path / "c.tif"), *CROP, "--exposure", "-1", "-q"]) == 0
+    )
+    darker = tifffile.imread(tmp_path / "c.tif")  # the default auto-bright, one stop under: darker
+    default = tmp_path / "d.tif"
+    assert main(["develop", str(dng_550d), "-o", str(default), *CROP, "-q"]) == 0
+    assert np.median(darker) < np.median(tifffile.imread(default))
 
 
 def test_errors_exit_2(tmp_path, capsys):

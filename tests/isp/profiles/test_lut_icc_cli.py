@@ -41,6 +41,46 @@ def test_grouped_lut_is_the_exact_lut_on_natural_colours(map_correction):
         profile_LUT(map_correction, size=3, quantum=-1)
 
 
+def test_nodes_no_real_colour_uses_are_grouped_coarser(map_correction):
+    """The default groups the lattice nodes whose neighbouring cells cannot meet the object-colour
+    solid within LUT_OUTSIDE_QUANTUM: every cell that holds a colour of the solid (random and
+    two-transition reflectances, the solid's boundary) has all its corners on the fine side, and at
+    17³ and 33³ most nodes are not."""
+    import zonotope
+    from isp._tol import LUT_OUTSIDE_QUANTUM, LUT_QUANTUM
+    from isp.profiles.lut import _near_nodes, _SolidSplit
+    from zonotope.correct.profile import LUTConfig, apply_correction_LUT, shaper_encode, white_node_toe
+
+    assert LUT_OUTSIDE_QUANTUM > LUT_QUANTUM
+    split = _SolidSplit(map_correction, LUT_QUANTUM, LUT_OUTSIDE_QUANTUM, None)
+    Phi = map_correction.corrector.problem.Phi
+    n = Phi.shape[0]
+    rng = np.random.default_rng(0)
+    i, j = np.sort(rng.integers(0, n + 1, (2, 4000)), axis=0)
+    band = (np.arange(n) >= i[:, None]) & (np.arange(n) < j[:, None])  # optimal colours and their
+    R = np.concatenate([band, ~band, rng.uniform(0, 1, (4000, n))]) * rng.uniform(0.01, 1, (12000, 1))
+    colours = R @ Phi  # scaled: the solid's boundary and interior at every exposure
+    for size in (17, 33):
+        cfg = LUTConfig(size=size, space="XYZ")
+        _, fine = _near_nodes(split.solid, cfg, 1.0)
+        assert fine.sum() < 0.9 * size**3
+        toe = white_node_toe(cfg.headroom, size)
+        pos = shaper_encode(colours, headroom=cfg.headroom, shaper=cfg.shaper, toe=toe) * (size - 1)
+        cell = np.minimum(np.floor(pos).astype(int), size - 2)
+        for corner in np.ndindex(2, 2, 2):
+            k = cell + corner
+            assert fine[(k[:, 0] * size + k[:, 1]) * size + k[:, 2]].all()
+    one = profile_LUT(map_correction, size=7, space="XYZ", outside_quantum=None)
+    coarse = profile_LUT(map_correction, size=7, space="XYZ")
+    w = map_correction.corrector.problem.wavelengths
+    R = np.clip(zonotope.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T, 0, 1)
+    D65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    a, b = (colour.XYZ_to_Lab(apply_correction_LUT(lut, R @ Phi), D65) for lut in (one, coarse))
+    assert colour.delta_E(a, b, method="CIE 2000").max() < 0.5
+    with pytest.raises(isp.PipelineError, match="outside_quantum=-1"):
+        profile_LUT(map_correction, size=3, outside_quantum=-1)
+
+
 def test_lut_header_states_illuminant_and_encoding(map_correction, tmp_path):
     from zonotope.correct.profile import write_correction_LUT
 
