@@ -20,6 +20,12 @@ uniform-surface colour.
     python benchmarks/bench_capture_accuracy.py --size ci --work /tmp/acc_ci
     python benchmarks/bench_capture_accuracy.py --size ci --texture coarse --work /tmp/acc_coarse
     python benchmarks/bench_capture_accuracy.py --size benchmark --steps 3000 --work /tmp/acc_bench
+    python -m splat.sim.mitsuba /tmp/mitsuba --size 2 --spp 32
+    python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --work /tmp/acc_mitsuba
+
+``--capture`` scores a capture written elsewhere (e.g. by :func:`splat.sim.mitsuba.write_mitsuba_capture`,
+whose ``truth/`` has the same layout): it is copied into ``--work`` (the original is never written to)
+and run with ``--steps`` / ``--capacity`` (default the CI size's).
 
 True poses are given as a COLMAP model (``--colmap`` runs pycolmap instead): the comparison is of colour.
 Steps already done in ``--work`` are reused.
@@ -95,6 +101,9 @@ def table(sc: dict, folders: list[str]) -> tuple[str, dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", choices=("ci", "benchmark"), default="ci")
+    ap.add_argument(
+        "--capture", default=None, help="a simulated capture with truth/ to score instead of writing one"
+    )
     ap.add_argument("--steps", type=int, default=None, help="training steps (default 300 CI, 3000 benchmark)")
     ap.add_argument("--capacity", type=int, default=None, help="Gaussians (default 2048 CI, 16384 benchmark)")
     ap.add_argument("--texture", choices=("fine", "coarse"), default="fine")
@@ -116,9 +125,15 @@ def main(argv=None) -> int:
     work = Path(args.work or tempfile.mkdtemp(prefix="bench_capture_accuracy_"))
     capture, out = work / "capture", work / "out"
     t0 = time.perf_counter()
+    if args.capture is not None and not Path(args.capture, "truth").is_dir():
+        print(f"--capture {args.capture}: no truth/ folder (a simulated capture is needed)", file=sys.stderr)
+        return 2
     if not (capture / "capture.toml").is_file():
-        make = SimCaptureConfig.benchmark if big else SimCaptureConfig.ci
-        write_synthetic_capture(capture, make(texture=args.texture, noise=not args.no_noise))
+        if args.capture is not None:
+            shutil.copytree(args.capture, capture)
+        else:
+            make = SimCaptureConfig.benchmark if big else SimCaptureConfig.ci
+            write_synthetic_capture(capture, make(texture=args.texture, noise=not args.no_noise))
         if not args.colmap:
             (capture / "poses").mkdir()
             for f in ("cameras.txt", "images.txt", "points3D.txt"):
@@ -148,8 +163,13 @@ def main(argv=None) -> int:
         raw_methods=(),
     )
     times["score"] = time.perf_counter() - t0
+    what = (
+        f"capture {args.capture}"
+        if args.capture
+        else f"capture {args.size}, texture {args.texture}, noise {not args.no_noise}"
+    )
     print(
-        f"capture {args.size}, texture {args.texture}, noise {not args.no_noise}, {steps} steps, "
+        f"{what}, {steps} steps, "
         f"capacity {capacity}; {len(sc['per_view'])} held-out views; δ = {sc['delta']:.4f}; best "
         f"demosaicing for (a): {sc['dev_demosaic']}; seconds: "
         + ", ".join(f"{k} {v:.0f}" for k, v in times.items())

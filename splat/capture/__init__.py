@@ -96,6 +96,8 @@ _EXPORTS = {
     "config": [
         "PipelineConfig",
         "STEPS",
+        "TRAIN_OPTIONS",
+        "capture_train_config",
         "check_run",
         "step_workspace",
         "train_size_of",
