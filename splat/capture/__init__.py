@@ -84,6 +84,7 @@ _EXPORTS = {
         "white_scale",
     ],
     "workspace": [
+        "FIT_CACHE",
         "MARKER",
         "SETTINGS",
         "STEP_OUTPUTS",
