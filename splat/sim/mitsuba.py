@@ -15,7 +15,8 @@ camera's sensitivities, ``m`` their largest white response under the illuminant)
 One scale ``k`` for all views maps the rendered values to the ray-caster's units (white card's largest
 channel 0.9, Y of a perfect white under the illuminant 1): it is fitted on the white card of the first
 training view that sees it whole. Then :func:`splat.sim.capture._raw_values` applies gain, exposure,
-the CFA, shot and read noise (seeded) and saturation, and :func:`isp.dng.write_dng` writes the files.
+the CFA, shot and read noise (seeded) and saturation, and :func:`splat.sim.capture.write_view_dng`
+writes the files.
 
 ``truth/`` holds the true poses (COLMAP text model, no 3-D points), float32 XYZ TIFFs of the held-out
 views and ``truth.toml`` (``generator = "splat.sim.mitsuba"``).
@@ -37,12 +38,12 @@ from .capture import (
     _OBSERVER,
     SimCaptureConfig,
     _color_matrices,
-    _noise_profile,
     _qvec,
     _raw_values,
     _toml_table,
     _toml_value,
     build_scene,
+    write_view_dng,
 )
 from .geometry import CARD, CHART
 
@@ -321,7 +322,6 @@ def write_mitsuba_capture(
 
     import splat.colmap as cm
     import zonotope
-    from isp.dng import write_dng
 
     out = Path(folder)
     _check(out, size, views, holdout, spp)
@@ -386,24 +386,8 @@ def write_mitsuba_capture(
                     area = (x1 - x0) * (y1 - y0)
                     if peak < MITSUBA_WHITE_PEAK and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
-                write_dng(
-                    tmp / cam.folder / f"{v.stem}.dng",
-                    _raw_values(scene, v, resp, rng),
-                    cfa=cam.cfa or "RGGB",
-                    black_level=cam.black_level,
-                    white_level=cam.white_level,
-                    color_matrix_1=cm1,
-                    calibration_illuminant_1=17,
-                    color_matrix_2=cm2,
-                    calibration_illuminant_2=21,
-                    as_shot_neutral=scene.neutrals[ci],
-                    make=cam.make,
-                    model=cam.model,
-                    exposure_time=v.exposure_time,
-                    iso=v.iso,
-                    f_number=v.f_number,
-                    noise_profile=_noise_profile(cam, v) if noise else None,
-                )
+                dn = _raw_values(scene, v, resp, rng)
+                write_view_dng(tmp / cam.folder / f"{v.stem}.dng", dn, scene, ci, v, (cm1, cm2), noise=noise)
                 if v.holdout:
                     (tmp / "truth" / "xyz" / cam.folder).mkdir(exist_ok=True)
                     tifffile.imwrite(
