@@ -4,14 +4,14 @@ cost of correcting every Gaussian, and the viewer's load time in headless Chromi
     python benchmarks/bench_export.py CAPTURE OUT [--repeats 5]
 
 ``OUT`` is a trained and corrected run of ``CAPTURE`` (e.g. the CI capture: ``python -m splat.sim.capture
-cap`` then ``splat run cap -o out``). Prints, for each file, its size and bytes per Gaussian (per view for
-the poses); the time of :func:`splat.export.prepare_scene` with the estimator fitted, with the correct
-step's fit reused from ``OUT/correct/fits`` (:meth:`splat.capture.Workspace.fit_cache`; the first call
-leaves it there as the correct step does), and with the colours cached (``--fit-repeats`` pairs, same
-process); the report page's size with the viewer against the same page without it (the baseline); and, medians of ``--repeats`` headless Chromium
-runs, the viewer's own time from the start of its script to its first frame (decode, shader compile,
-depth sort, draw: the page's ``data-load-ms``) and the wall time of Chromium loading the page with the
-viewer against without it.
+cap`` then ``splat run cap -o out``). Prints, for each file, its size and bytes per Gaussian (per view
+for the poses); the time of :func:`splat.export.prepare_scene` with the estimator fitted, with the
+correct step's fit reused from ``OUT/correct/fits`` (:meth:`splat.capture.Workspace.fit_cache`; the first
+call leaves it there as the correct step does), and with the colours cached (``--fit-repeats`` pairs,
+same process); the report page's size with the viewer against the same page without it (the baseline);
+and, medians of ``--repeats`` headless Chromium runs, the viewer's own time from the start of its script
+to its first frame (decode, shader compile, depth sort, draw: the page's ``data-load-ms``) and the wall
+time of Chromium loading the page with the viewer against without it.
 """
 
 from __future__ import annotations
