@@ -313,10 +313,13 @@ def mitsuba_config(
     return replace(base, **changes)
 
 
-#: Codes of :func:`surface_labels`: ColorChecker patch ``k`` is ``LABEL_CHART + k``; a surface of one
-#: Lambertian reflectance (white card, chart body, the two boxes) ``LABEL_UNIFORM + i``; a textured,
-#: glossy or emitting one (floor, walls, spheres, lamp) ``LABEL_OTHER + i``; 0 where no surface is hit.
-LABEL_CHART, LABEL_UNIFORM, LABEL_OTHER = 1, 100, 200
+#: Code of ColorChecker patch ``k`` in :func:`surface_labels`: ``LABEL_CHART + k``.
+LABEL_CHART = 1
+#: Code of a surface of one Lambertian reflectance (white card, chart body, the two boxes):
+#: ``LABEL_UNIFORM + i`` (``i`` the shape's index); 0 where no surface is hit.
+LABEL_UNIFORM = 100
+#: Code of a textured, glossy or emitting surface (floor, walls, spheres, lamp): ``LABEL_OTHER + i``.
+LABEL_OTHER = 200
 _NOT_UNIFORM = ("floor", "back", "left", "right", "plastic", "metal", "lamp")
 
 
