@@ -20,6 +20,14 @@ uniform-surface colour.
     python benchmarks/bench_capture_accuracy.py --size ci --work /tmp/acc_ci
     python benchmarks/bench_capture_accuracy.py --size ci --texture coarse --work /tmp/acc_coarse
     python benchmarks/bench_capture_accuracy.py --size benchmark --steps 3000 --work /tmp/acc_bench
+    python -m splat.sim.mitsuba /tmp/mitsuba --size 2 --spp 32
+    python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_mitsuba
+
+``--capture`` scores a capture written elsewhere (e.g. by :func:`splat.sim.mitsuba.write_mitsuba_capture`,
+whose ``truth/`` has the same layout): it is copied into ``--work`` (the original is never written to)
+and run with ``--steps`` / ``--capacity`` (default the CI size's). Give the Mitsuba capture ``--colmap``:
+its truth has no 3-D points, so with the true poses training starts from random Gaussians. Its regions
+come from ``truth/labels`` (:func:`labelled_regions`).
 
 True poses are given as a COLMAP model (``--colmap`` runs pycolmap instead): the comparison is of colour.
 Steps already done in ``--work`` are reused.
@@ -55,6 +63,52 @@ def _labels(folder: str, folders: list[str]) -> dict:
         "render": f"Prior:{allc}",
         "three": f"Prior-fused:{allc}",
     }
+
+
+def labelled_regions(truth: Path):
+    """A stand-in for :func:`splat.scoring.region_labels` on a capture whose ``truth/labels`` says which
+    surface each held-out pixel sees (:func:`splat.sim.mitsuba.surface_labels`), or None without them.
+
+    Why: the scorer finds uniform regions where the true XYZ is constant over 5 × 5 pixels, which a
+    path-traced truth never is (soft shadows, inter-reflection, Monte Carlo noise: 14 % between
+    neighbouring pixels at 32 spp); the labels give each one-reflectance surface and chart patch instead,
+    with the same interior rule (pixels whose 5 × 5 neighbourhood is that surface) and minimum size. A
+    view is recognised by its truth image; any other image goes to the scorer's own rule."""
+    import tifffile
+    from scipy.ndimage import binary_erosion, label
+
+    import splat.scoring as scoring
+    from splat._tol import REGION_MIN_PIXELS
+    from splat.sim.mitsuba import LABEL_CHART, LABEL_OTHER, LABEL_UNIFORM
+
+    files = sorted((truth / "labels").rglob("*.tiff"))
+    if not files:
+        return None
+    by_truth = {}
+    for f in files:
+        xyz = truth / "xyz" / f.relative_to(truth / "labels")
+        by_truth[np.asarray(tifffile.imread(xyz), np.float32).tobytes()] = tifffile.imread(f)
+    own = scoring.region_labels
+
+    def region_labels(XYZ, chart_XYZ=None, *, radius: int = 2, **kw):
+        codes = by_truth.get(np.asarray(XYZ, np.float32).tobytes())
+        if codes is None:
+            return own(XYZ, chart_XYZ, radius=radius, **kw)
+        lab, chart, n = np.zeros(codes.shape, int), {}, 0
+        for code in np.unique(codes):
+            if code == 0 or code >= LABEL_OTHER:
+                continue
+            inner = binary_erosion(codes == code, structure=np.ones((2 * radius + 1,) * 2), border_value=0)
+            parts, m = label(inner, structure=np.ones((3, 3)))
+            for c in range(1, m + 1):
+                if np.sum(parts == c) >= REGION_MIN_PIXELS:
+                    n += 1
+                    lab[parts == c] = n
+                    if code < LABEL_UNIFORM:
+                        chart[n] = int(code - LABEL_CHART)
+        return lab, chart
+
+    return region_labels
 
 
 def table(sc: dict, folders: list[str]) -> tuple[str, dict]:
@@ -95,6 +149,9 @@ def table(sc: dict, folders: list[str]) -> tuple[str, dict]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", choices=("ci", "benchmark"), default="ci")
+    ap.add_argument(
+        "--capture", default=None, help="a simulated capture with truth/ to score instead of writing one"
+    )
     ap.add_argument("--steps", type=int, default=None, help="training steps (default 300 CI, 3000 benchmark)")
     ap.add_argument("--capacity", type=int, default=None, help="Gaussians (default 2048 CI, 16384 benchmark)")
     ap.add_argument("--texture", choices=("fine", "coarse"), default="fine")
@@ -116,9 +173,15 @@ def main(argv=None) -> int:
     work = Path(args.work or tempfile.mkdtemp(prefix="bench_capture_accuracy_"))
     capture, out = work / "capture", work / "out"
     t0 = time.perf_counter()
+    if args.capture is not None and not Path(args.capture, "truth").is_dir():
+        print(f"--capture {args.capture}: no truth/ folder (a simulated capture is needed)", file=sys.stderr)
+        return 2
     if not (capture / "capture.toml").is_file():
-        make = SimCaptureConfig.benchmark if big else SimCaptureConfig.ci
-        write_synthetic_capture(capture, make(texture=args.texture, noise=not args.no_noise))
+        if args.capture is not None:
+            shutil.copytree(args.capture, capture)
+        else:
+            make = SimCaptureConfig.benchmark if big else SimCaptureConfig.ci
+            write_synthetic_capture(capture, make(texture=args.texture, noise=not args.no_noise))
         if not args.colmap:
             (capture / "poses").mkdir()
             for f in ("cameras.txt", "images.txt", "points3D.txt"):
@@ -138,6 +201,11 @@ def main(argv=None) -> int:
             times[step] = time.perf_counter() - t0
     t0 = time.perf_counter()
     folders = [c.folder for c in spec.cameras]
+    regions = labelled_regions(capture / "truth")
+    if regions is not None:  # a path-traced truth: surfaces from its labels (see labelled_regions)
+        import splat.scoring
+
+        splat.scoring.region_labels = regions
     n = len(folders)
     sc = score(
         capture,
@@ -148,8 +216,13 @@ def main(argv=None) -> int:
         raw_methods=(),
     )
     times["score"] = time.perf_counter() - t0
+    what = (
+        f"capture {args.capture}"
+        if args.capture
+        else f"capture {args.size}, texture {args.texture}, noise {not args.no_noise}"
+    )
     print(
-        f"capture {args.size}, texture {args.texture}, noise {not args.no_noise}, {steps} steps, "
+        f"{what}, {steps} steps, "
         f"capacity {capacity}; {len(sc['per_view'])} held-out views; δ = {sc['delta']:.4f}; best "
         f"demosaicing for (a): {sc['dev_demosaic']}; seconds: "
         + ", ".join(f"{k} {v:.0f}" for k, v in times.items())

@@ -79,7 +79,7 @@ def _parser() -> argparse.ArgumentParser:
             type=float,
             default=None,
             help="weight of the sparse depth term from the COLMAP points each view observes "
-            "(0: off; default: PipelineConfig.depth_weight)",
+            "(0: off; default: TrainConfig.depth_weight)",
         )
         s.add_argument(
             "--train-size",
@@ -156,22 +156,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     from zonotope import ZonotopeError
     from zonotope.correct import parse_noise
 
-    from .capture import STEPS, PipelineConfig, run
+    from .capture import STEPS, PipelineConfig, capture_train_config, run
 
     try:
-        config = PipelineConfig(
+        # the training options (TRAIN_OPTIONS, --steps … --depth-weight) make config.train
+        train = capture_train_config(
             steps=args.steps,
             capacity=args.capacity,
+            seed=args.seed,
+            refine_exposure=args.refine_exposure,
+            refine_poses=args.refine_poses,
+            depth_weight=args.depth_weight,
+        )
+        config = PipelineConfig(
+            train=train,
             camera=args.camera,
             views=None if args.views is None else tuple(args.views),
             novel=args.novel,
             method=args.method,
             quantum=args.quantum,
             threads=args.threads,
-            seed=args.seed,
-            refine_exposure=args.refine_exposure,
-            refine_poses=args.refine_poses,
-            **({} if args.depth_weight is None else {"depth_weight": args.depth_weight}),
             train_size=args.train_size,
             noise=parse_noise(args.noise),
         )

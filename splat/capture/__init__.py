@@ -95,6 +95,7 @@ _EXPORTS = {
         "white_scale",
     ],
     "workspace": [
+        "FIT_CACHE",
         "MARKER",
         "SETTINGS",
         "STEP_OUTPUTS",
@@ -107,6 +108,8 @@ _EXPORTS = {
     "config": [
         "PipelineConfig",
         "STEPS",
+        "TRAIN_OPTIONS",
+        "capture_train_config",
         "check_run",
         "step_workspace",
         "train_size_of",

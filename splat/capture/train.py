@@ -114,7 +114,7 @@ def training_inputs(
     level = float(np.median(images[valid])) if valid.any() else 0.2
     colours = None
     if xyz is not None:
-        xyz, colours = _initial_points(xyz, rgb, level, config.capacity, N, seed=config.seed)
+        xyz, colours = _initial_points(xyz, rgb, level, config.train.capacity, N, seed=config.train.seed)
     depth = depth_targets(model, padded)
     working = working_summary(spec, list(raws.values()))
     return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours, depth, working)
@@ -193,47 +193,21 @@ def _initial_points(xyz, rgb, level: float, capacity: int, n_channels: int, *, s
 
 
 def train_config(config: PipelineConfig, checkpoint: Path | None = None):
-    """The :class:`splat.training.TrainConfig` of the train step for a pipeline configuration."""
-    from ..training import TrainConfig
+    """The :class:`splat.training.TrainConfig` the train step passes to :func:`splat.train`:
+    ``config.train`` with ``checkpoint`` (the step's ``OUT/train/checkpoint.npz``) and nothing else
+    changed."""
+    from dataclasses import replace
 
-    until = config.densify_until if config.densify_until is not None else int(0.7 * config.steps)
-    return TrainConfig(
-        steps=config.steps,
-        capacity=config.capacity,
-        checkpoint=checkpoint,
-        checkpoint_every=max(50, config.steps // 10),
-        seed=config.seed,
-        densify_from=min(200, config.steps // 5),
-        densify_until=until,
-        densify_every=max(25, min(100, config.steps // 20)),
-        # grow by up to 30 % of the alive Gaussians per densification (TrainConfig's 5 % filled a 4096
-        # buffer from COLMAP's few hundred points only after thousands of steps): the trained model
-        # underfits its own training views (flat-pixel error 3.5 % on training views, 4 % held out), and
-        # filling the buffer early took three-camera flat ΔE00 at 1000 steps from 2.43 to 2.01
-        densify_fraction=0.3,
-        refine_exposure=config.refine_exposure,
-        refine_poses=config.refine_poses,
-        depth_weight=config.depth_weight,
-    )
+    return replace(config.train, checkpoint=checkpoint)
 
 
 def _train_settings(spec: CaptureSpec, config: PipelineConfig) -> dict:
-    return {
-        "holdout": sorted(spec.holdout),
-        "train_size": train_size_of(spec, config),
-        **{
-            f: getattr(config, f)
-            for f in (
-                "steps",
-                "capacity",
-                "seed",
-                "densify_until",
-                "refine_exposure",
-                "refine_poses",
-                "depth_weight",
-            )
-        },
-    }
+    """The train step's key: the held-out views, the working resolution and every field of
+    ``config.train`` but the checkpoint's path (any of them changes the model)."""
+    from dataclasses import asdict
+
+    train = {k: v for k, v in asdict(config.train).items() if k != "checkpoint"}
+    return {"holdout": sorted(spec.holdout), "train_size": train_size_of(spec, config), "train": train}
 
 
 def fit_step(
@@ -274,8 +248,8 @@ def fit_step(
     reset_peak_rss()
 
     def cb(step, state, loss):
-        if progress is not None and (step % 10 == 0 or step == config.steps):
-            progress("train", step, config.steps)
+        if progress is not None and (step % 10 == 0 or step == tc.steps):
+            progress("train", step, tc.steps)
 
     res = train(
         train_cap,
@@ -309,7 +283,7 @@ def fit_step(
     atomic_write(out / "train" / "model.npz", lambda p: np.savez(p, alive=np.asarray(res.alive), **params))
     loss = np.asarray(res.history["loss"], float)
     summary = {
-        "steps": config.steps,
+        "steps": tc.steps,
         "resumed_from": None if resume is None else int(res.state.step - len(loss)),
         "views": len(views),
         "size": [images.shape[2], images.shape[1]],

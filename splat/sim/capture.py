@@ -41,7 +41,15 @@ from .._errors import SplatError
 from .._tol import GRID_NM, PURE_WEIGHT, TRACK_VISIBLE_ATOL, TRACK_VISIBLE_RTOL
 from .geometry import CARD, CHART, shade
 
-__all__ = ["SimCamera", "SimCaptureConfig", "SimScene", "SimView", "build_scene", "write_synthetic_capture"]
+__all__ = [
+    "SimCamera",
+    "SimCaptureConfig",
+    "SimScene",
+    "SimView",
+    "build_scene",
+    "write_synthetic_capture",
+    "write_view_dng",
+]
 
 _GENERATOR = "splat.simcapture"  # the id written into truth.json; captures on disk carry it
 _OBSERVER = "CIE 1931 2 Degree Standard Observer"
@@ -633,6 +641,55 @@ def _is_simulator_output(path: Path) -> bool:
         return False
 
 
+def write_view_dng(
+    path, values: np.ndarray, scene: SimScene, camera: int, view: SimView, matrices, *, noise: bool
+):
+    """Write one simulated photograph as a DNG file: its raw values (:func:`_raw_values`), camera
+    ``camera``'s CFA, levels, make and model, the two colour matrices ``matrices`` (standard illuminant
+    A, D65: :func:`_color_matrices`), the white's neutral, the view's EXIF exposure and, when ``noise``,
+    its NoiseProfile.
+
+    Why one writer: both simulators (the ray-caster here and :mod:`splat.sim.mitsuba`) must write their
+    files the same way, so that a difference between their captures is one of the images alone.
+
+    Parameters
+    ----------
+    path : path
+    values : ndarray of shape (H, W) or (H, W, 3)
+        Digital numbers (a CFA mosaic, or three values per pixel for a full-colour camera).
+    scene : SimScene
+    camera : int
+        Index of the camera in ``scene.config.cameras``.
+    view : SimView
+    matrices : pair of arrays of shape (3, 3)
+        ColorMatrix1 and ColorMatrix2.
+    noise : bool
+        Whether the values carry sensor noise. Noise-free files carry no NoiseProfile: the DNG SDK
+        requires S > 0, and the rounding alone is not sensor noise (readers then estimate it).
+    """
+    from isp.dng import write_dng
+
+    cam = scene.config.cameras[camera]
+    write_dng(
+        path,
+        values,
+        cfa=cam.cfa or "RGGB",
+        black_level=cam.black_level,
+        white_level=cam.white_level,
+        color_matrix_1=matrices[0],
+        calibration_illuminant_1=17,
+        color_matrix_2=matrices[1],
+        calibration_illuminant_2=21,
+        as_shot_neutral=scene.neutrals[camera],
+        make=cam.make,
+        model=cam.model,
+        exposure_time=view.exposure_time,
+        iso=view.iso,
+        f_number=view.f_number,
+        noise_profile=_noise_profile(cam, view) if noise else None,
+    )
+
+
 def write_synthetic_capture(
     out_dir: str | os.PathLike, config: SimCaptureConfig | None = None, *, overwrite: bool = False
 ) -> Path:
@@ -666,7 +723,6 @@ def write_synthetic_capture(
     import tifffile
 
     import splat.colmap as cm
-    from isp.dng import write_dng
 
     config = SimCaptureConfig.ci() if config is None else config
     out = Path(out_dir)
@@ -707,25 +763,8 @@ def write_synthetic_capture(
                     area = (x1 - x0) * (y1 - y0)
                     if peak < 0.9 and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
-                write_dng(
-                    tmp / cam.folder / f"{v.stem}.dng",
-                    dn,
-                    cfa=cam.cfa or "RGGB",
-                    black_level=cam.black_level,
-                    white_level=cam.white_level,
-                    color_matrix_1=cm1,
-                    calibration_illuminant_1=17,
-                    color_matrix_2=cm2,
-                    calibration_illuminant_2=21,
-                    as_shot_neutral=scene.neutrals[ci],
-                    make=cam.make,
-                    model=cam.model,
-                    exposure_time=v.exposure_time,
-                    iso=v.iso,
-                    f_number=v.f_number,
-                    # noise-free files carry no NoiseProfile: the DNG SDK requires S > 0, and the
-                    # rounding alone is not sensor noise (readers then estimate it from the image)
-                    noise_profile=_noise_profile(cam, v) if config.noise else None,
+                write_view_dng(
+                    tmp / cam.folder / f"{v.stem}.dng", dn, scene, ci, v, (cm1, cm2), noise=config.noise
                 )
                 if v.holdout:
                     XYZ = (

@@ -15,7 +15,8 @@ camera's sensitivities, ``m`` their largest white response under the illuminant)
 One scale ``k`` for all views maps the rendered values to the ray-caster's units (white card's largest
 channel 0.9, Y of a perfect white under the illuminant 1): it is fitted on the white card of the first
 training view that sees it whole. Then :func:`splat.sim.capture._raw_values` applies gain, exposure,
-the CFA, shot and read noise (seeded) and saturation, and :func:`isp.dng.write_dng` writes the files.
+the CFA, shot and read noise (seeded) and saturation, and :func:`splat.sim.capture.write_view_dng`
+writes the files.
 
 ``truth/`` holds the true poses (COLMAP text model, no 3-D points), float32 XYZ TIFFs of the held-out
 views and ``truth.toml`` (``generator = "splat.sim.mitsuba"``).
@@ -37,16 +38,25 @@ from .capture import (
     _OBSERVER,
     SimCaptureConfig,
     _color_matrices,
-    _noise_profile,
     _qvec,
     _raw_values,
     _toml_table,
     _toml_value,
     build_scene,
+    write_view_dng,
 )
 from .geometry import CARD, CHART
 
-__all__ = ["mitsuba_scene", "write_mitsuba_capture"]
+__all__ = [
+    "LABEL_CHART",
+    "LABEL_OTHER",
+    "LABEL_UNIFORM",
+    "mitsuba_config",
+    "mitsuba_scene",
+    "surface_labels",
+    "write_mitsuba_capture",
+    "write_surface_labels",
+]
 
 _GENERATOR = "splat.sim.mitsuba"
 _VARIANT = "scalar_spectral"  # the LLVM variants need a JIT these CPUs' builds lack
@@ -84,10 +94,12 @@ def _film(grid, curves: np.ndarray, width: int, height: int) -> dict:
     return film
 
 
-def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: int, seed: int = 0):
+def mitsuba_scene(
+    scene, view, curves: np.ndarray, light: np.ndarray, *, spp: int, seed: int = 0, film: dict | None = None
+):
     """The Mitsuba scene of ``view`` (a :class:`splat.sim.capture.SimView` of ``scene``) lit by the
     spectrum ``light`` with a specfilm whose channels are the columns of ``curves`` (both on
-    ``scene.wavelengths``)."""
+    ``scene.wavelengths``), or with ``film`` (a Mitsuba film's dictionary) when given."""
     mi = _mitsuba()
     T = mi.ScalarTransform4f
     grid = scene.wavelengths
@@ -132,7 +144,7 @@ def mitsuba_scene(scene, view, curves: np.ndarray, light: np.ndarray, *, spp: in
                 up=[float(x) for x in -down],
             ),
             "sampler": {"type": "independent", "sample_count": int(spp), "seed": int(seed)},
-            "film": _film(grid, curves, cam.width, cam.height),
+            "film": _film(grid, curves, cam.width, cam.height) if film is None else film,
         },
         "env": {"type": "constant", "radiance": _spectrum(grid, 0.25 * light)},
         "lamp": {
@@ -275,6 +287,109 @@ def _check(folder: Path, size: float, views: int | None, holdout: int | None, sp
         raise SplatError(f"spp={spp!r}: must be a positive whole number of samples per pixel.")
 
 
+def mitsuba_config(
+    *,
+    size: float = 1.0,
+    views: int | None = None,
+    holdout: int | None = None,
+    seed: int = 0,
+    noise: bool = True,
+    illuminant: str = "D65",
+) -> SimCaptureConfig:
+    """The :class:`~splat.sim.capture.SimCaptureConfig` that :func:`write_mitsuba_capture` renders with
+    these options (the CI configuration's cameras scaled by ``size`` to even sizes ≥ 22 px)."""
+    base = SimCaptureConfig.ci()
+    cams = tuple(
+        replace(
+            c, width=max(22, 2 * round(c.width * size / 2)), height=max(22, 2 * round(c.height * size / 2))
+        )
+        for c in base.cameras
+    )
+    changes = {"cameras": cams, "seed": seed, "noise": noise, "illuminant": illuminant}
+    if views is not None:
+        changes["n_train"] = views
+    if holdout is not None:
+        changes["n_holdout"] = holdout
+    return replace(base, **changes)
+
+
+#: Code of ColorChecker patch ``k`` in :func:`surface_labels`: ``LABEL_CHART + k``.
+LABEL_CHART = 1
+#: Code of a surface of one Lambertian reflectance (white card, chart body, the two boxes):
+#: ``LABEL_UNIFORM + i`` (``i`` the shape's index); 0 where no surface is hit.
+LABEL_UNIFORM = 100
+#: Code of a textured, glossy or emitting surface (floor, walls, spheres, lamp): ``LABEL_OTHER + i``.
+LABEL_OTHER = 200
+_NOT_UNIFORM = ("floor", "back", "left", "right", "plastic", "metal", "lamp")
+
+
+def surface_labels(scene, view) -> np.ndarray:
+    """Which surface each pixel of ``view`` sees (one sample at the pixel's centre region, Mitsuba's
+    ``shape_index`` AOV), coded as :data:`LABEL_CHART`, :data:`LABEL_UNIFORM` and :data:`LABEL_OTHER` say;
+    uint16 of shape (H, W).
+
+    Why: a path-traced truth is never constant over a surface (soft shadows, inter-reflection, Monte
+    Carlo noise), so its uniform regions and chart patches cannot be found from the colours as on the
+    ray-caster's capture; the geometry says where they are."""
+    mi = _mitsuba()
+    cam = scene.config.cameras[view.camera]
+    film = {"type": "hdrfilm", "width": cam.width, "height": cam.height, "rfilter": {"type": "box"}}
+    ones = np.ones((len(scene.wavelengths), 1))
+    sc = mitsuba_scene(scene, view, ones, ones[:, 0], spp=1, film=film)
+    index = np.asarray(mi.render(sc, integrator=mi.load_dict({"type": "aov", "aovs": "s:shape_index"})))
+    index = np.rint(index[..., -1]).astype(int)  # 1 + the shape's index in sc.shapes(); 0: nothing hit
+    codes = np.zeros(len(sc.shapes()) + 1, np.uint16)
+    for i, shape in enumerate(sc.shapes()):
+        name = shape.id()
+        if name.startswith("patch"):
+            codes[i + 1] = LABEL_CHART + int(name[5:])
+        elif name in _NOT_UNIFORM:
+            codes[i + 1] = LABEL_OTHER + i
+        else:  # the card, and the chart body and boxes (Mitsuba keeps no id for these)
+            codes[i + 1] = LABEL_UNIFORM + i
+    return codes[index]
+
+
+def write_surface_labels(capture: str | os.PathLike, **options) -> list[Path]:
+    """Write ``truth/labels/<folder>/<stem>.tiff`` (:func:`surface_labels`) for every held-out view of a
+    capture written by :func:`write_mitsuba_capture` with ``options`` (its ``size``, ``views``,
+    ``holdout``, ``seed``: the scene and views are rebuilt from them); returns the files.
+
+    Raises
+    ------
+    SplatError
+        The folder has no ``truth/`` of this generator, or the rebuilt views' sizes differ from its
+        cameras' (other options than it was written with).
+    """
+    import tomllib
+
+    import tifffile
+
+    root = Path(capture)
+    doc_path = root / "truth" / "truth.toml"
+    try:
+        doc = tomllib.loads(doc_path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise SplatError(f"{doc_path}: not readable ({type(e).__name__}); give a Mitsuba capture.") from e
+    if doc.get("generator") != _GENERATOR:
+        raise SplatError(f"{doc_path}: not written by {_GENERATOR}; labels are rendered for its scene only.")
+    scene = build_scene(mitsuba_config(**options))
+    sizes = {c["folder"]: (c["width"], c["height"]) for c in doc.get("camera", [])}
+    if sizes != {c.folder: (c.width, c.height) for c in scene.config.cameras}:
+        raise SplatError(
+            f"{doc_path}: its camera sizes are not those of {options}; give the capture's options."
+        )
+    files = []
+    for v in scene.views:
+        if v.holdout:
+            folder = scene.config.cameras[v.camera].folder
+            f = root / "truth" / "labels" / folder / f"{v.stem}.tiff"
+            f.parent.mkdir(parents=True, exist_ok=True)
+            tifffile.imwrite(f, surface_labels(scene, v))
+            files.append(f)
+    return files
+
+
 def write_mitsuba_capture(
     folder: str | os.PathLike,
     *,
@@ -321,24 +436,13 @@ def write_mitsuba_capture(
 
     import splat.colmap as cm
     import zonotope
-    from isp.dng import write_dng
 
     out = Path(folder)
     _check(out, size, views, holdout, spp)
     mi = _mitsuba()
-    base = SimCaptureConfig.ci()
-    cams = tuple(
-        replace(
-            c, width=max(22, 2 * round(c.width * size / 2)), height=max(22, 2 * round(c.height * size / 2))
-        )
-        for c in base.cameras
+    config = mitsuba_config(
+        size=size, views=views, holdout=holdout, seed=seed, noise=noise, illuminant=illuminant
     )
-    changes = {"cameras": cams, "seed": seed, "noise": noise, "illuminant": illuminant}
-    if views is not None:
-        changes["n_train"] = views
-    if holdout is not None:
-        changes["n_holdout"] = holdout
-    config = replace(base, **changes)
     scene = build_scene(config)
     grid = scene.wavelengths
     spd = zonotope.illuminant(illuminant)
@@ -386,25 +490,13 @@ def write_mitsuba_capture(
                     area = (x1 - x0) * (y1 - y0)
                     if peak < MITSUBA_WHITE_PEAK and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
-                write_dng(
-                    tmp / cam.folder / f"{v.stem}.dng",
-                    _raw_values(scene, v, resp, rng),
-                    cfa=cam.cfa or "RGGB",
-                    black_level=cam.black_level,
-                    white_level=cam.white_level,
-                    color_matrix_1=cm1,
-                    calibration_illuminant_1=17,
-                    color_matrix_2=cm2,
-                    calibration_illuminant_2=21,
-                    as_shot_neutral=scene.neutrals[ci],
-                    make=cam.make,
-                    model=cam.model,
-                    exposure_time=v.exposure_time,
-                    iso=v.iso,
-                    f_number=v.f_number,
-                    noise_profile=_noise_profile(cam, v) if noise else None,
-                )
+                dn = _raw_values(scene, v, resp, rng)
+                write_view_dng(tmp / cam.folder / f"{v.stem}.dng", dn, scene, ci, v, (cm1, cm2), noise=noise)
                 if v.holdout:
+                    (tmp / "truth" / "labels" / cam.folder).mkdir(parents=True, exist_ok=True)
+                    tifffile.imwrite(
+                        tmp / "truth" / "labels" / cam.folder / f"{v.stem}.tiff", surface_labels(scene, v)
+                    )
                     (tmp / "truth" / "xyz" / cam.folder).mkdir(exist_ok=True)
                     tifffile.imwrite(
                         tmp / "truth" / "xyz" / cam.folder / f"{v.stem}.tiff",

@@ -191,8 +191,7 @@ def test_bad_depth_targets_are_refused():
 
 
 def test_pipeline_and_training_share_the_depth_weight_default():
-    """``PipelineConfig`` keeps JAX out of its import, so it cannot read ``TrainConfig``'s default and
-    repeats it; the two must not drift apart."""
+    """``PipelineConfig``'s depth weight is its ``TrainConfig``'s, whose default it keeps."""
     assert PipelineConfig().depth_weight == TrainConfig().depth_weight > 0
 
 

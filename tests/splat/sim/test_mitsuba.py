@@ -118,3 +118,43 @@ def test_bad_input_is_refused_before_rendering(tmp_path):
     with pytest.raises(SplatError, match="spp"):
         sm.write_mitsuba_capture(tmp_path / "new", spp=0)
     assert sm.main([str(tmp_path / "full"), "--spp", "1"]) == 2
+
+
+def test_surface_labels_sit_where_the_geometry_projects(capture):
+    """The card's and the chart patches' labels against their analytic projection (no Mitsuba)."""
+    from splat.sim.geometry import CARD, CHART
+
+    scene = build_scene(sm.mitsuba_config(size=1, seed=1))
+    view = next(v for v in scene.views if sm._card_box(scene, v) is not None)
+    cam = scene.config.cameras[view.camera]
+    labels = sm.surface_labels(scene, view)
+    assert labels.shape == (cam.height, cam.width) and labels.dtype == np.uint16
+
+    def pixel(x, y, z):
+        p = view.R @ np.array([x, y, z]) + view.t
+        u, v = view.f * p[:2] / p[2] + np.array([cam.width, cam.height]) / 2
+        return int(v), int(u)
+
+    x0, y0, x1, y1 = sm._card_box(scene, view)
+    card = np.unique(labels[y0:y1, x0:x1])
+    assert card.size == 1 and sm.LABEL_UNIFORM <= card[0] < sm.LABEL_OTHER
+    assert labels[pixel(CARD[0] + CARD[2] / 2, CARD[1] + CARD[2] / 2, 0.0)] == card[0]
+    cx0, cy0, side, gap = CHART
+    seen = 0
+    for i in range(6):
+        for j in range(4):
+            k = (3 - j) * 6 + i
+            r, c = pixel(
+                cx0 + gap + i * (side + gap) + side / 2, cy0 + gap + j * (side + gap) + side / 2, 0.0
+            )
+            if k in (7, 14, 23) or not (0 <= r < cam.height and 0 <= c < cam.width):
+                continue  # 7, 14, 23 share their reflectance with a box or the chart body (one shape)
+            assert labels[r, c] == sm.LABEL_CHART + k
+            seen += 1
+    assert seen >= 10
+    files = sorted((capture / "truth" / "labels").rglob("*.tiff"))
+    assert [f.relative_to(capture / "truth" / "labels") for f in files] == [
+        f.relative_to(capture / "truth" / "xyz") for f in sorted((capture / "truth" / "xyz").rglob("*.tiff"))
+    ]
+    with pytest.raises(SplatError, match="camera sizes"):
+        sm.write_surface_labels(capture, size=0.5, views=2, holdout=1, seed=1)
