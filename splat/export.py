@@ -328,19 +328,12 @@ def scene_corrector(spec: CaptureSpec, out: str | os.PathLike, method: str, delt
     used only when the settings record says that ``out`` was made from the capture's inputs as they are
     now; its files are named by a key of the fit's own inputs, so nothing is reused for another problem.
     """
-    from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
-
-    from .capture import correction_problem_of, fit_corrector
+    from .capture import fit_corrector
     from .capture.workspace import Workspace
 
     out = Path(out)
-    cams = list(range(len(spec.cameras)))
-    name = CORRECTION_METHODS.resolve(method, argument="method")
     cache = Workspace(spec, out).fit_cache() if (out / OUT_MARKER).is_file() else None
-    if cache is None or name != "Prior":  # Prior is the estimator whose fit has a cache
-        return fit_corrector(spec, cams, method, delta)
-    opts = noise_options(name, delta / DELTA_SIGMAS)  # fit_corrector's rule, with the cache
-    return fit_correction(correction_problem_of(spec, cams), method=name, cache_dir=cache, **opts)
+    return fit_corrector(spec, list(range(len(spec.cameras))), method, delta, cache_dir=cache)
 
 
 def corrected_colours(

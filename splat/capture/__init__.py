@@ -132,6 +132,7 @@ _EXPORTS = {
     ],
     "render": ["render_step", "views_to_render"],
     "correct": [
+        "WHITE_POINT",
         "XYZ_to_sRGB",
         "choose_delta",
         "correct_fused",

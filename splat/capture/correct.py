@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
 
 __all__ = [
+    "WHITE_POINT",
     "XYZ_to_sRGB",
     "choose_delta",
     "correct_fused",
@@ -46,6 +47,13 @@ __all__ = [
     "reprojected_of",
     "white_of",
 ]
+
+#: The ``white_point`` option of every estimator the correct step fits
+#: (:func:`zonotope.correct.white_point_preserving`): a response proportional to the white card's maps to
+#: the grey's colour. Why: the noise-aware estimators pull light neutrals towards green-yellow as the
+#: tolerance grows (three cameras, δ = 0.03: Prior's mean ΔE00 over seven neutrals 0.54, 0.07 with it),
+#: while no all-colour mean got worse by more than 0.001 (docs/notes/2026-11-29-neutral-bias.md).
+WHITE_POINT = True
 
 
 def XYZ_to_sRGB(XYZ, white_XYZ) -> np.ndarray:
@@ -517,11 +525,12 @@ def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     return out
 
 
-def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float):
+def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float, *, cache_dir=None):
     """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
     passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
-    Centroid ``delta=δ``)."""
-    return _fit_on(correction_problem_of(spec, cameras), method, delta)
+    Centroid ``delta=δ``). ``cache_dir``: the run's fit cache (:meth:`Workspace.fit_cache`), in which
+    Prior keeps its cross-validated fit for later readers of the run (``splat export``)."""
+    return _fit_on(correction_problem_of(spec, cameras), method, delta, cache_dir=cache_dir)
 
 
 def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
@@ -555,15 +564,19 @@ def fused_mix(method: str):
     return 1.0
 
 
-def _fit_on(problem, method: str, delta: float, *, mix=None):
+def _fit_on(problem, method: str, delta: float, *, mix=None, cache_dir=None):
     """``method`` fitted on ``problem`` with the noise of tolerance ``delta`` (σ = δ / DELTA_SIGMAS), told
-    to it as its registry entry says (:func:`zonotope.correct.noise_options`)."""
+    to it as its registry entry says (:func:`zonotope.correct.noise_options`), with
+    ``white_point=`` :data:`WHITE_POINT`; ``cache_dir``: where Prior keeps its cross-validated fit."""
     from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
     opts = noise_options(name, delta / DELTA_SIGMAS)
+    opts["white_point"] = WHITE_POINT
     if name == "Prior" and mix is not None:
         opts["mix"] = mix
+    if name == "Prior" and cache_dir is not None:
+        opts["cache_dir"] = cache_dir
     return fit_correction(problem, method=name, **opts)
 
 
@@ -626,6 +639,7 @@ def correct_step(
             "photographed": sorted(photographed),
             "noise": config.noise,
             "full_resolution": FULL_METHOD,
+            "white_point": WHITE_POINT,
         },
     )
     spec, light = illuminant_of(spec, out, photographed or index, raws)  # "estimate": the light now
@@ -633,7 +647,7 @@ def correct_step(
     scale = np.concatenate(white["scale"])
     n = len(spec.cameras)
     tol = delta_of(spec, out, photographed or index, scale)
-    corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"])
+    corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"], cache_dir=ws.fit_cache())
     problem = corrector.problem
     wXYZ = problem.white_XYZ
     mname = corrector.method.replace(" ", "")
