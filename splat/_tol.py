@@ -210,3 +210,17 @@ MITSUBA_DECAL_LIFT = 1e-3
 #: The white card is named in capture.toml only from a view where its brightest raw channel stays below
 #: 90 % of the range: Monte Carlo noise and shot noise then keep it clear of clipping.
 MITSUBA_WHITE_PEAK = 0.9
+# --- full-resolution reprojection (splat.strips, splat.reproject.reproject_rows) ---
+
+#: Source rows read per band when a strip is reprojected from a full-resolution photograph (memory
+#: only, the values do not depend on it): 512 rows of a 24 MP photograph demosaiced are 35 MB in float32.
+SOURCE_BAND_ROWS = 512
+
+#: Rows a source photograph's reader demosaics at once and keeps for the next strips (memory only): a
+#: 128-row strip of a view needs ~130 rows of a similar view, so consecutive strips mostly reuse them.
+SOURCE_CACHE_ROWS = 512
+
+#: Photographs of each other camera read at full resolution per corrected photograph, those that see
+#: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
+#: 24 MP) while the photograph is corrected; the working fusion averages all of them.
+FULL_SOURCES = 2
