@@ -10,21 +10,33 @@ one strip of ``STRIP_ROWS`` rows at a time:
    with a margin of :data:`HALO` rows, demosaiced by isp (Malvar 2004, as :func:`splat.fusion.measured`)
    and cut to the strip: the same values as demosaicing the whole image (the margin covers the 5 × 5
    filter), at exposure 1 on the white → 1 scale.
-2. **The other channels**: the working-resolution fused responses upsampled bilinearly (pixel centres
-   aligned: full-resolution centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the
-   borders), then sharpened by the photograph itself — every channel times the ratio of the own
-   channels' full-resolution sum to their upsampled working-resolution sum (the Brovey transform of
-   :func:`splat.fusion.anchor`, Gillespie et al. 1987): an edge the photograph shows within a working
-   pixel appears in every channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose
-   own site is saturated or dead keep the upsampled values.
+2. **The other channels**: where the photograph is binned for work and a :class:`FullReprojection` is
+   given, the other cameras' photographs **at their full resolution**, reprojected into the strip
+   (:func:`reprojected_strip`): the splat's depth rendered for the strip alone (a camera whose principal
+   point is moved to the strip, :func:`strip_camera`), each pixel lifted to 3-D with it, projected into
+   each source photograph, read there from the source's RAW rows (only the rows the strip lands on,
+   demosaiced bilinearly a band at a time, :func:`raw_row_source`), kept where the source's own depth
+   (working resolution) agrees (:func:`splat.reproject.reproject_rows`), and combined per camera as the
+   render step combines them (:func:`splat.reproject.reprojected`). Pixels no photograph of a camera
+   sees, and pixels whose working pixel is textured (the render anchored to the site there), take the
+   working-resolution fused responses upsampled bilinearly (pixel centres aligned: full-resolution
+   centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the borders), then sharpened
+   by the photograph itself — every channel times the ratio of the own channels' full-resolution sum
+   to their upsampled working-resolution sum (the Brovey transform of :func:`splat.fusion.anchor`,
+   Gillespie et al. 1987): an edge the photograph shows within a working pixel appears in every
+   channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose own site is saturated
+   or dead keep the upsampled values. The working fusion's depth sweep
+   (:func:`splat.reproject.consistent_depth`) and guided re-reading are not repeated at full size.
 3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
    in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
-   noise the ratio carries into them; one noise-aware closed-form regression is fitted per pattern on
+   noise the ratio carries into them, or where they are reprojected at full resolution, the σ given for
+   that (:class:`FullReprojection`); one noise-aware closed-form regression is fitted per pattern on
    the channel-whitened problem (``splat.capture.fused_fitter``) and applied in chunks of
    :data:`splat._tol.CORRECT_CHUNK` pixels.
 
-Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips), so the
-peak memory is the file's samples (2 bytes a pixel) plus one strip's work, whatever the image size.
+Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips, the PNG by
+:class:`PNGStripWriter`), so the peak memory is the files' samples (2 bytes a pixel, the photograph's
+and its sources') plus one strip's work and a band of each source's rows, whatever the image size.
 """
 
 from __future__ import annotations
@@ -49,6 +61,7 @@ __all__ = [
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
+    "raw_row_source",
     "reprojected_strip",
     "sRGB8_encoder",
     "strip_camera",
@@ -226,6 +239,46 @@ class CachedRows:
             self.a = a
             self.block = self.read(a, min(self.height, max(b, a + self.rows)))
         return self.block[a - self.a : b - self.a]
+
+
+def raw_row_source(raw, camera, depth, binning: int, exposure: float, white_scale, sigma) -> object:
+    """A RAW file as a :class:`splat.reproject.RowSource` on the white → 1 scale at exposure 1: rows
+    demosaiced bilinearly (as the render step's sources: no overshoot near edges) by
+    :class:`CachedRows`; variance from the file's NoiseProfile at each value (else ``sigma`` (3,) squared).
+
+    Parameters
+    ----------
+    raw : splat.capture.RawSource
+    camera : splat.Camera
+        At the file's full resolution.
+    depth : ndarray of shape (H // binning, W // binning)
+        Its splat depth at the working resolution (0 where unreliable).
+    binning, exposure, white_scale, sigma
+        The working resolution's factor, the relative exposure, the camera's white scale (3,) and the
+        file's full-resolution noise σ (3,), white → 1.
+    """
+    from .reproject import RowSource
+
+    ws = np.asarray(white_scale, float)
+    div = (float(exposure) * ws).astype(np.float32)
+
+    def read(a, b):
+        return (demosaic_rows(raw, a, b, method="bilinear")[0] / div).astype(np.float32)
+
+    P = raw.info.get("noise_profile")
+    if P is not None:
+        P = np.asarray(P, float)
+        gain = float(exposure) * ws
+
+        def variance(x):
+            return ((P[:, 0] * np.maximum(x * gain, 0) + P[:, 1]) / gain**2).astype(np.float32)
+    else:
+        s2 = np.square(np.asarray(sigma, float))
+
+        def variance(x):
+            return np.broadcast_to(s2, np.shape(x)).astype(np.float32)
+
+    return RowSource(camera, np.asarray(depth, float), int(binning), CachedRows(read, raw.shape[0]), variance)
 
 
 def full_resolution_view(

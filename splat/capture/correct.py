@@ -799,20 +799,26 @@ class _Reprojection:
         self.rep, self.names = rep, names
 
 
-def full_reprojection(spec: CaptureSpec, out: Path, raws: dict, fusion: dict, scale: np.ndarray):
+def full_reprojection(
+    spec: CaptureSpec, out: Path, raws: dict, fusion: dict, scale: np.ndarray, *, views=None, open_source=None
+):
     """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
     working resolution, or no camera's reprojection noise is known): for each other camera, its
     :data:`splat._tol.FULL_SOURCES` photographs that see most of the view (at the working resolution,
     through the splat's depth), read from their RAW files (bilinear demosaic, as the render step's
     sources) a band of rows at a time. σ of a channel reprojected at full resolution: the camera's
     working ``reprojected_sigma`` and, in quadrature, its photographs' full-resolution sensor noise over
-    √(photographs) (the binned estimate holds the noise of a binned site only)."""
+    √(photographs) (the binned estimate holds the noise of a binned site only).
+
+    ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
+    views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
+    :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks)."""
     from .._tol import FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
-    from ..reproject import MIN_ALPHA, RowSource, depth_map, visibility
+    from ..reproject import MIN_ALPHA, depth_map, visibility
     from ..resolution import sites_per_block
-    from ..strips import CachedRows, FullReprojection, demosaic_rows
+    from ..strips import FullReprojection, raw_row_source
     from .config import working_views
     from .train import load_gaussians, load_model_capture, refined_views
 
@@ -821,9 +827,12 @@ def full_reprojection(spec: CaptureSpec, out: Path, raws: dict, fusion: dict, sc
 
     def loaded():
         if not state:
-            _, cap = load_model_capture(spec, out)
             state["g"], state["alive"] = load_gaussians(out)
-            state["views"] = {v.name: v for v in refined_views(working_views(cap.views, raws), out)}
+            if views is None:
+                _, cap = load_model_capture(spec, out)
+                state["views"] = {v.name: v for v in refined_views(working_views(cap.views, raws), out)}
+            else:
+                state["views"] = dict(views)
             state["depth"] = {}
         return state
 
@@ -867,37 +876,13 @@ def full_reprojection(spec: CaptureSpec, out: Path, raws: dict, fusion: dict, sc
             ws = scale[3 * c : 3 * c + 3]
             srcs, noise = [], []
             for r in chosen:
-                raw = open_raw(r.path, spec.cameras[c])
+                raw = open_raw(r.path, spec.cameras[c]) if open_source is None else open_source(r)
                 rc = st["views"][r.name].camera
                 fr = r.binning
-                div = (r.exif * ws).astype(np.float32)
-
-                def read(a_, b_, raw=raw, div=div):
-                    return (demosaic_rows(raw, a_, b_, method="bilinear")[0] / div).astype(np.float32)
-
-                P = raw.info.get("noise_profile")
-                s_full = full_sigma(r)
-                if P is not None:
-                    P = np.asarray(P, float)
-
-                    def var(x, P=P, e=r.exif, ws=ws):
-                        return (P[:, 0] * np.maximum(x * ws * e, 0) + P[:, 1]) / (e * ws) ** 2
-                else:
-
-                    def var(x, s2=s_full**2):
-                        return np.broadcast_to(s2, np.shape(x)).astype(np.float32)
-
                 H_, W_ = raw.shape
-                srcs.append(
-                    RowSource(
-                        Camera(rc.R, rc.t, np.asarray(rc.focal) * fr, np.asarray(rc.principal) * fr, W_, H_),
-                        depth(r.name)[2],
-                        fr,
-                        CachedRows(read, H_),
-                        var,
-                    )
-                )
-                noise.append(s_full)
+                full_c = Camera(rc.R, rc.t, np.asarray(rc.focal) * fr, np.asarray(rc.principal) * fr, W_, H_)
+                noise.append(full_sigma(r))
+                srcs.append(raw_row_source(raw, full_c, depth(r.name)[2], fr, r.exif, ws, noise[-1]))
             groups[c], names[c] = srcs, chosen
             sig[3 * c : 3 * c + 3] = np.hypot(float(rep_sigma[c]), np.mean(noise, 0) / np.sqrt(len(noise)))
         if not groups:
