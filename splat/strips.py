@@ -18,7 +18,9 @@ one strip of ``STRIP_ROWS`` rows at a time:
    demosaiced bilinearly a band at a time, :func:`raw_row_source`), kept where the source's own depth
    (working resolution) agrees (:func:`splat.reproject.reproject_rows`), and combined per camera as the
    render step combines them (:func:`splat.reproject.reprojected`). Pixels no photograph of a camera
-   sees, and pixels whose working pixel is textured (the render anchored to the site there), take the
+   sees, and pixels where the photograph is textured at full resolution (:func:`textured_rows`: a
+   reprojection misplaced by a fraction of a pixel is off by the step there, as at the working
+   resolution, :func:`splat.capture.fused_view`), take the
    working-resolution fused responses upsampled bilinearly (pixel centres aligned: full-resolution
    centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the borders), then sharpened
    by the photograph itself — every channel times the ratio of the own channels' full-resolution sum
@@ -65,6 +67,7 @@ __all__ = [
     "reprojected_strip",
     "sRGB8_encoder",
     "strip_camera",
+    "textured_rows",
     "upsample_rows",
     "write_full",
 ]
@@ -305,9 +308,10 @@ def full_resolution_view(
         ``progress("full resolution", rows done, rows)`` after each strip.
     reprojection : FullReprojection, optional
         The other cameras' photographs at full resolution (:func:`reprojected_strip`): where one of them
-        sees a pixel (and its working pixel is not textured), that camera's channels are their values
-        there instead of the upsampled working responses, σ ``reprojection.sigma``. Without, every other
-        channel is the upsampled working fusion (the previous path).
+        sees a pixel and the photograph is not textured there at full resolution (:func:`textured_rows`),
+        that camera's channels are their values there instead of the upsampled working responses, σ
+        ``reprojection.sigma``. Without, every other channel is the upsampled working fusion (the
+        previous path).
 
     Yields
     ------
@@ -348,7 +352,7 @@ def full_resolution_view(
         cd = nearest_rows(code, f, r0, r1, W)
         if reprojection is not None:  # the other cameras' photographs at full resolution
             values, seen = reprojected_strip(reprojection, r0, r1)
-            plain = cd < (1 << m)  # textured working pixels keep the render anchored to their site
+            plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 use = (n > 0) & plain
                 resp[..., 3 * i : 3 * i + 3] = np.where(
@@ -380,6 +384,22 @@ def full_resolution_view(
         if progress is not None:
             progress("full resolution", r1, H)
         yield XYZ.reshape(r1 - r0, W, 3)
+
+
+def textured_rows(source, r0: int, r1: int, exposure: float, white_scale, sigma) -> np.ndarray:
+    """Rows ``r0:r1`` of :func:`splat.fusion.textured` of the RAW file at its full resolution (its
+    measured sites, a 2-row margin for the 5 × 5 window: the same as testing the whole file), noise
+    ``sigma`` (3,) on the white → 1 scale: (r1 − r0, W) bool."""
+    from types import SimpleNamespace
+
+    from .fusion import textured
+
+    H = source.shape[0]
+    a, b = max(0, r0 - 2), min(H, r1 + 2)
+    a -= a % 2
+    values, weight = source.rows(a, b)
+    view = SimpleNamespace(values=values, weight=weight, exif=float(exposure))
+    return textured(view, white_scale, noise=sigma)[r0 - a : r1 - a]
 
 
 def _apply(corrector, responses: np.ndarray) -> np.ndarray:

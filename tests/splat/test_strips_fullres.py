@@ -28,6 +28,7 @@ from splat.strips import (
     full_resolution_view,
     reprojected_strip,
     strip_camera,
+    textured_rows,
     upsample_rows,
     write_full,
 )
@@ -184,6 +185,9 @@ class _Linear:
         return r[:, :3] + 0.1 * r[:, 3:6] + 0.05 * r[:, 6:9]
 
 
+EDGE = 20
+
+
 class _Source:
     """A full-colour RAW stand-in (:class:`splat.capture.RawSource`'s ``rows``): a smooth image."""
 
@@ -193,6 +197,7 @@ class _Source:
     def __init__(self, H, W):
         jj, ii = np.meshgrid(np.arange(W), np.arange(H))
         self.img = np.stack([0.3 + 0.002 * jj, 0.4 + 0.003 * ii, 0.5 - 0.001 * (ii + jj)], -1)
+        self.img[:, EDGE:] *= 2.5  # a step: textured within 2 columns of it
         self.shape = (H, W)
 
     def rows(self, a, b):
@@ -205,7 +210,7 @@ def test_full_resolution_view_strips_equal_whole_and_use_full_res_photographs(sp
     f = 2
     fused = np.full((H // f, W // f, 9), 0.2)
     code = np.zeros((H // f, W // f), int)
-    code[0, 0] = 1 << 3  # a textured working pixel: keeps the upsampled working responses
+    code[0, 0] = 1 << 3  # a textured working pixel: its own σ pattern, reprojected all the same
     sigma = {0: np.full(9, 0.02), 8: np.full(9, 0.03)}
     fits = []
 
@@ -223,13 +228,15 @@ def test_full_resolution_view_strips_equal_whole_and_use_full_res_photographs(sp
     np.testing.assert_allclose(outs[16], outs[H], rtol=1e-6, atol=1e-7)
     plain = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=H)))
     values, seen = reprojected_strip(rep, 0, H)
-    both = (seen[0] > 0) & (seen[1] > 0)
-    both[:f, :f] = False
+    tex = np.zeros((H, W), bool)
+    tex[:, EDGE - 2 : EDGE + 2] = True  # the step's 5 × 5 windows: textured at full resolution
+    np.testing.assert_array_equal(textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01)), tex)
+    both = (seen[0] > 0) & (seen[1] > 0) & ~tex
     # where both cameras' photographs see a pixel, XYZ = own + 0.1 × camera 1 + 0.05 × camera 2 at full res
     want = _Source(H, W).img + 0.1 * values[0] + 0.05 * values[1]
     np.testing.assert_allclose(outs[H][both], want[both], rtol=1e-5)
     assert np.abs(outs[H] - plain)[both].max() > 0.01  # the previous path used the working responses
-    np.testing.assert_allclose(outs[H][:f, :f], plain[:f, :f], rtol=1e-6)  # textured: unchanged
+    np.testing.assert_allclose(outs[H][tex], plain[tex], rtol=1e-6)  # textured: the previous path
     # σ of the reprojected channels replaces the working pattern's where they enter
     assert any(np.allclose(s[3:], 0.05) and np.allclose(s[:3], 0.01) for s in fits)
 
