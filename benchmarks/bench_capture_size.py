@@ -5,25 +5,32 @@ What it builds (state it whenever quoting the numbers): the CI-size simulated ca
 one of its held-out Nikon photographs is **upsampled** ``--scale`` times (its RAW file demosaiced,
 upsampled bilinearly, re-mosaicked and given fresh shot + read noise from its own DNG NoiseProfile,
 written as a DNG by isp's writer): at the default ``--scale 44`` a 5632 × 4224 (23.8 MP) RGGB file with
-no detail finer than the original's 128 × 96 pixels. The full-resolution stage's cost does not depend on
-the content (a closed-form regression, a demosaic, a bilinear upsampling), only on the pixel count and
-the number of noise patterns.
+no detail finer than the original's 128 × 96 pixels. The other cameras' photographs that the
+full-resolution reprojection reads (``splat._tol.FULL_SOURCES`` per camera, chosen as the correct step
+chooses them) are upsampled the same way (the Sigma's as full-colour LinearRaw DNGs), so every
+photograph is at ``--scale`` times its size and the working resolution is the original one
+(``f = --scale``). The full-resolution stage's cost depends on the pixel count, the number of sources
+and noise patterns, not on the content.
 
 Measured, in one process:
 
-* the working-resolution part of the correct step (fused responses of the view: ``pipeline.fused_view``,
+* the working-resolution part of the correct step (fused responses of the view: ``fused_view``,
   at the model's resolution, the same for any photograph size);
 * the full-resolution stage (:func:`splat.strips.full_resolution_view` + :func:`splat.strips.write_full`:
-  read the 24 MP DNG, demosaic, upsample, correct, write the float32 TIFF and the PNG), median of
-  ``--runs`` runs, its peak RSS (Linux ``VmHWM`` reset before each run), and at ``--scale`` / 4 and / 2 for
-  the growth with pixels;
-* **baseline** (the previous path: every pixel of the fused responses corrected by Prior with colour
-  deduplication, ``pipeline.correct_fused``) on a 96 × 96 crop of the same 24 MP responses, timed and
-  extrapolated linearly to the whole photograph; and the plain development of the same photograph
-  (isp's Malvar demosaic of the whole mosaic in one piece and the camera's DNG matrix), the cheapest
-  thing a user could run.
+  read the DNG, demosaic, correct, write the float32 TIFF and the PNG in strips) by **both paths,
+  alternated run by run**: the previous one (the other cameras' channels from the working fusion
+  upsampled and sharpened) and the full-resolution reprojection (the other cameras' photographs read
+  at full resolution through the depth rendered per strip; the sources' files opened inside the
+  timing); median of ``--runs`` runs at ``--scale``, one run at ``--scale`` / 4 and / 2 for the growth
+  with pixels (log-log slopes of wall, CPU and peak RSS), peak RSS (Linux ``VmHWM`` reset before each
+  run). The depth renderer is compiled for each image width before the timing (printed);
+* unless ``--only-full``: **baselines** — the older path (every pixel of the fused responses corrected
+  by Prior with colour deduplication, ``correct_fused``) on a 96 × 96 crop and on the view's own
+  responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
+  demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
+        [--only-full]
 """
 
 from __future__ import annotations
