@@ -5,25 +5,32 @@ What it builds (state it whenever quoting the numbers): the CI-size simulated ca
 one of its held-out Nikon photographs is **upsampled** ``--scale`` times (its RAW file demosaiced,
 upsampled bilinearly, re-mosaicked and given fresh shot + read noise from its own DNG NoiseProfile,
 written as a DNG by isp's writer): at the default ``--scale 44`` a 5632 × 4224 (23.8 MP) RGGB file with
-no detail finer than the original's 128 × 96 pixels. The full-resolution stage's cost does not depend on
-the content (a closed-form regression, a demosaic, a bilinear upsampling), only on the pixel count and
-the number of noise patterns.
+no detail finer than the original's 128 × 96 pixels. The other cameras' photographs that the
+full-resolution reprojection reads (``splat._tol.FULL_SOURCES`` per camera, chosen as the correct step
+chooses them) are upsampled the same way (the Sigma's as full-colour LinearRaw DNGs), so every
+photograph is at ``--scale`` times its size and the working resolution is the original one
+(``f = --scale``). The full-resolution stage's cost depends on the pixel count, the number of sources
+and noise patterns, not on the content.
 
 Measured, in one process:
 
-* the working-resolution part of the correct step (fused responses of the view: ``pipeline.fused_view``,
+* the working-resolution part of the correct step (fused responses of the view: ``fused_view``,
   at the model's resolution, the same for any photograph size);
 * the full-resolution stage (:func:`splat.strips.full_resolution_view` + :func:`splat.strips.write_full`:
-  read the 24 MP DNG, demosaic, upsample, correct, write the float32 TIFF and the PNG), median of
-  ``--runs`` runs, its peak RSS (Linux ``VmHWM`` reset before each run), and at ``--scale`` / 4 and / 2 for
-  the growth with pixels;
-* **baseline** (the previous path: every pixel of the fused responses corrected by Prior with colour
-  deduplication, ``pipeline.correct_fused``) on a 96 × 96 crop of the same 24 MP responses, timed and
-  extrapolated linearly to the whole photograph; and the plain development of the same photograph
-  (isp's Malvar demosaic of the whole mosaic in one piece and the camera's DNG matrix), the cheapest
-  thing a user could run.
+  read the DNG, demosaic, correct, write the float32 TIFF and the PNG in strips) by **both paths,
+  alternated run by run**: the previous one (the other cameras' channels from the working fusion
+  upsampled and sharpened) and the full-resolution reprojection (the other cameras' photographs read
+  at full resolution through the depth rendered per strip; the sources' files opened inside the
+  timing); median of ``--runs`` runs at ``--scale``, one run at ``--scale`` / 4 and / 2 for the growth
+  with pixels (log-log slopes of wall, CPU and peak RSS), peak RSS (Linux ``VmHWM`` reset before each
+  run). The depth renderer is compiled for each image width before the timing (printed);
+* unless ``--only-full``: **baselines** — the older path (every pixel of the fused responses corrected
+  by Prior with colour deduplication, ``correct_fused``) on a 96 × 96 crop and on the view's own
+  responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
+  demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
+        [--only-full]
 """
 
 from __future__ import annotations
@@ -55,8 +62,8 @@ def _ci_run(work: Path, steps: int):
 
 
 def _upsampled_dng(view, spec, path: Path, scale: int, seed: int = 0) -> Path:
-    """The view's photograph upsampled ``scale`` × as a new RGGB DNG (see the module notes)."""
-    from isp import read_raw
+    """The view's photograph upsampled ``scale`` × as a new DNG of the same kind (RGGB mosaic or
+    full-colour LinearRaw; see the module notes)."""
     from isp.cfa import cfa_masks
     from isp.dng import write_dng
     from splat.capture import open_raw
@@ -65,35 +72,35 @@ def _upsampled_dng(view, spec, path: Path, scale: int, seed: int = 0) -> Path:
     if path.is_file():
         return path
     src = open_raw(view.path, spec.cameras[view.camera])
-    raw = read_raw(view.path)
     H0 = src.shape[0]
     values, _ = src.rows(0, H0)
     from isp.stages import demosaic
 
-    lin = np.maximum(demosaic(values.sum(-1), cfa=src.cfa, method="bilinear"), 0)
+    lin = (
+        values if src.full_colour else np.maximum(demosaic(values.sum(-1), cfa=src.cfa, method="bilinear"), 0)
+    )
     H, W = lin.shape[0] * scale, lin.shape[1] * scale
     P = src.info["noise_profile"]
     rng = np.random.default_rng(seed)
     black = float(np.mean(src.black))
-    dn = np.zeros((H, W), np.uint16)
+    dn = np.zeros((H, W) if src.cfa else (H, W, 3), np.uint16)
     for r0 in range(0, H, 512):
         r1 = min(H, r0 + 512)
-        up = upsample_rows(lin, scale, r0, r1, W)
-        m = cfa_masks((r1 - r0, W), src.cfa)
-        x = (up * m).sum(-1)
-        if P is not None:
-            var = (m * (P[:, 0] * np.maximum(up, 0) + P[:, 1])).sum(-1)
-            x = x + rng.normal(size=x.shape) * np.sqrt(var)
+        up = np.maximum(upsample_rows(lin, scale, r0, r1, W), 0)
+        m = cfa_masks((r1 - r0, W), src.cfa) if src.cfa else np.ones_like(up, bool)
+        var = m * (P[:, 0] * up + P[:, 1]) if P is not None else np.zeros_like(up)
+        x = up * m + rng.normal(size=up.shape) * np.sqrt(var)
+        x = x.sum(-1) if src.cfa else x
         dn[r0:r1] = np.clip(np.round(black + np.clip(x, 0, 1) * (src.white - black)), 0, src.white)
-    p = raw.profile
+    p = src.info["profile"]
     write_dng(
         path,
         dn,
         cfa=src.cfa,
         black_level=black,
         white_level=int(src.white),
-        color_matrix_1=p.color_matrix_1,
-        calibration_illuminant_1=int(p.calibration_illuminant_1 or 21),
+        color_matrix_1=p.color_matrix_1 if p is not None else np.eye(3),
+        calibration_illuminant_1=int((p.calibration_illuminant_1 if p is not None else None) or 21),
         as_shot_neutral=src.info["neutral"],
         noise_profile=None if P is None else np.asarray(P, float),
     )
@@ -107,6 +114,7 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--steps", type=int, default=150, help="training steps of the small model")
     ap.add_argument("--crop", type=int, default=96, help="side of the baseline's crop")
+    ap.add_argument("--only-full", action="store_true", help="the full-resolution stage only (no baselines)")
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -155,44 +163,103 @@ def main(argv=None) -> int:
     )
 
     noise = P.own_noise(fusion, raws, scale, "auto")[name]
+    # the other cameras' photographs at full resolution: every photograph upsampled like the view
+    import dataclasses
+
+    from splat.capture.correct import full_reprojection
+    from splat.capture.train import load_model_capture, refined_views
+
+    _, cap = load_model_capture(spec, out)
+    wviews = {v.name: v for v in refined_views(P.working_views(cap.views, raws), out)}
+
+    def model_at(s):
+        fake = {m: dataclasses.replace(r, binning=s) for m, r in raws.items()}
+
+        def open_source(r):
+            stem = r.name.replace("/", "_").rsplit(".", 1)[0]
+            return open_raw(
+                _upsampled_dng(raws[r.name], spec, args.work / f"{stem}_x{s}.dng", s), spec.cameras[r.camera]
+            )
+
+        return full_reprojection(spec, out, fake, fusion, scale, views=wviews, open_source=open_source), fake[
+            name
+        ]
+
     rows = []
+    paths = ("previous", "full-res reprojection")
     for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
         big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
-        times, peaks, cpus = [], [], []
-        for _ in range(args.runs if s == args.scale else 1):
-            reset_peak_rss()
-            t, c0 = time.perf_counter(), time.process_time()
-            src = open_raw(big, spec.cameras[view.camera])
-            H, W = src.shape
-            gen = strips.full_resolution_view(
-                strips.Photograph(
-                    src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
-                ),
-                strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
-                fit_full,
-            )
-            strips.write_full(
-                args.work / "full_XYZ.tiff",
-                args.work / "full_sRGB.png",
-                gen,
-                (H, W),
-                strips.sRGB8_encoder(wXYZ),
-            )
-            times.append(time.perf_counter() - t)
-            cpus.append(time.process_time() - c0)
-            peaks.append(peak_rss_mib())
-            del src
-        rows.append((s, H * W / 1e6, statistics.median(times), max(peaks), times, statistics.median(cpus)))
+        model, fake_view = model_at(s)
+        H, W = open_raw(big, spec.cameras[view.camera]).shape
+        chosen = model(fake_view, (H, W))  # writes the sources' DNGs once, outside the timing
+        t = time.perf_counter()  # the depth renderer compiled for this width (once per image size)
+        for r0 in sorted({0, (H - 1) // strips.STRIP_ROWS * strips.STRIP_ROWS}):
+            strips.reprojected_strip(chosen.rep, r0, min(H, r0 + strips.STRIP_ROWS))
+        named = {spec.cameras[k].folder: [r.name for r in g] for k, g in chosen.names.items()}
         print(
-            f"  ×{s}: {W}×{H} = {H * W / 1e6:.1f} MP: {statistics.median(times):.1f} s "
-            f"(runs {[round(x, 1) for x in times]}), process CPU {statistics.median(cpus):.1f} s, "
-            f"peak RSS {max(peaks):.0f} MiB"
+            f"  ×{s}: sources at full resolution {named}; compiling and first strips "
+            f"{time.perf_counter() - t:.1f} s"
         )
-    mp = np.array([r[1] for r in rows])
-    ts = np.array([r[2] for r in rows])
-    slope = float(np.polyfit(np.log(mp), np.log(ts), 1)[0]) if len(rows) > 1 else float("nan")
-    print(f"growth: time ∝ pixels^{slope:.2f}; {ts[-1] / mp[-1]:.2f} s per MP at the largest size")
+        del chosen
+        res = {p: ([], [], []) for p in paths}
+        for _ in range(args.runs if s == args.scale else 1):
+            for path in paths:  # alternated, so that the machine's load falls on both alike
+                times, cpus, peaks = res[path]
+                reset_peak_rss()
+                t, c0 = time.perf_counter(), time.process_time()
+                src = open_raw(big, spec.cameras[view.camera])
+                rep = model(fake_view, (H, W)) if path != "previous" else None
+                gen = strips.full_resolution_view(
+                    strips.Photograph(
+                        src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
+                    ),
+                    strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
+                    fit_full,
+                    reprojection=None if rep is None else rep.rep,
+                )
+                strips.write_full(
+                    args.work / "full_XYZ.tiff",
+                    args.work / "full_sRGB.png",
+                    gen,
+                    (H, W),
+                    strips.sRGB8_encoder(wXYZ),
+                )
+                times.append(time.perf_counter() - t)
+                cpus.append(time.process_time() - c0)
+                peaks.append(peak_rss_mib())
+                del src, rep, gen
+        for path in paths:
+            times, cpus, peaks = res[path]
+            rows.append(
+                (s, H * W / 1e6, statistics.median(times), max(peaks), times, statistics.median(cpus), path)
+            )
+            print(
+                f"  ×{s}: {W}×{H} = {H * W / 1e6:.1f} MP, {path}: {statistics.median(times):.1f} s "
+                f"(runs {[round(x, 1) for x in times]}), process CPU {statistics.median(cpus):.1f} s, "
+                f"peak RSS {max(peaks):.0f} MiB"
+            )
+    for path in paths:
+        sel = [r for r in rows if r[6] == path]
+        mp = np.array([r[1] for r in sel])
+        ts, cs, pk = (np.array([r[i] for r in sel]) for i in (2, 5, 3))
+
+        def fit(y, mp=mp):
+            return float(np.polyfit(np.log(mp), np.log(y), 1)[0]) if len(mp) > 1 else float("nan")
+
+        print(
+            f"growth, {path}: wall ∝ pixels^{fit(ts):.2f}, CPU ∝ pixels^{fit(cs):.2f}, peak RSS ∝ "
+            f"pixels^{fit(pk):.2f}; {cs[-1] / mp[-1]:.2f} s of CPU per MP at the largest size"
+        )
+    prev = [r for r in rows if r[6] == paths[0]][-1]
+    new = [r for r in rows if r[6] == paths[1]][-1]
+    print(
+        f"full-res reprojection / previous at {new[1]:.1f} MP: wall {new[2] / prev[2]:.2f}×, CPU "
+        f"{new[5] / prev[5]:.2f}×, peak RSS {new[3]:.0f} / {prev[3]:.0f} MiB"
+    )
     print(f"load average during the run: {os.getloadavg()[0]:.1f} (2 cores)")
+    if args.only_full:
+        return 0
+    rows = [r for r in rows if r[6] == paths[1]]
 
     # baseline 1: the previous path (Prior with deduplication, per pixel) on a crop of the same responses
     s = args.scale

@@ -229,3 +229,17 @@ LIGHT_SPECULAR = 0.5
 #: Bootstrap resamples for the angular uncertainty of the estimated light: its RMS angle is read to a
 #: tenth of a degree, not more finely.
 LIGHT_BOOTSTRAP = 30
+# --- full-resolution reprojection (splat.strips, splat.reproject.reproject_rows) ---
+
+#: Source rows read per band when a strip is reprojected from a full-resolution photograph (memory
+#: only, the values do not depend on it): 512 rows of a 24 MP photograph demosaiced are 35 MB in float32.
+SOURCE_BAND_ROWS = 512
+
+#: Rows a source photograph's reader demosaics at once and keeps for the next strips (memory only): a
+#: 128-row strip of a view needs ~130 rows of a similar view, so consecutive strips mostly reuse them.
+SOURCE_CACHE_ROWS = 512
+
+#: Photographs of each other camera read at full resolution per corrected photograph, those that see
+#: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
+#: 24 MP) while the photograph is corrected; the working fusion averages all of them.
+FULL_SOURCES = 2

@@ -19,10 +19,13 @@ view-independent colours assume the same.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
 from ._errors import SplatError
+from ._tol import SOURCE_BAND_ROWS
 
 __all__ = [
     "DEPTH_RTOL",
@@ -34,10 +37,13 @@ __all__ = [
     "SWEEP_WINDOW",
     "TRIM_RTOL",
     "TRIM_SIGMA",
+    "RowSource",
     "consistent_depth",
     "depth_map",
     "reproject",
+    "reproject_rows",
     "reprojected",
+    "visibility",
 ]
 
 #: A source photograph sees a target pixel's 3-D point when the point's depth in the source and the
@@ -122,6 +128,9 @@ def _nanmedian0(stack: np.ndarray) -> np.ndarray:
     """``np.nanmedian(stack, axis=0)`` (NaN where all are NaN), by one sort: NaNs sort last, so the
     median of a column's ``c`` finite values is the mean of its sorted entries ``(c − 1) // 2`` and
     ``c // 2`` (~10× faster than ``nanmedian`` on a few sources of many pixels)."""
+    if len(stack) <= 2:  # one or two sources: the finite one, or their mean (no sort)
+        a, b = stack[0], stack[-1]
+        return np.where(np.isnan(a), b, np.where(np.isnan(b), a, (a + b) / 2))
     s = np.sort(stack, axis=0)
     c = np.isfinite(s).sum(0)
     lo = np.take_along_axis(s, np.maximum(c - 1, 0)[None] // 2, axis=0)[0]
@@ -136,44 +145,41 @@ def _pixel_rays(camera):
     return (jj - cx) / fx, (ii - cy) / fy
 
 
-def reproject(target, target_depth, target_alpha, source, source_depth, source_image):
-    """A source photograph's values at each pixel of a target view, and where they are valid.
+class RowSource(NamedTuple):
+    """A source photograph read a band of rows at a time, at a resolution higher than its depth map's.
 
-    Parameters
+    Attributes
     ----------
-    target, source : splat.Camera
-    target_depth, target_alpha : ndarray of shape (H, W)
-        :func:`depth_map` of the target.
-    source_depth : ndarray of shape (Hs, Ws)
-        :func:`depth_map` of the source (its depth only).
-    source_image : ndarray of shape (Hs, Ws, c)
-        The source's values (e.g. its demosaiced RAW).
-
-    Returns
-    -------
-    values : ndarray of shape (H, W, c)
-    valid : ndarray of shape (H, W), bool
-        The target pixel has a depth (opacity ≥ :data:`MIN_ALPHA`), projects inside the source, in
-        front of it, and the source's depth there agrees within :data:`DEPTH_RTOL` (not occluded).
+    camera : splat.Camera
+        The photograph's camera at the image's own resolution.
+    depth : ndarray of shape (Hd, Wd)
+        Its splat depth at ``1 / binning`` of that resolution (``Hd = H // binning``; 0 where the splat
+        has no reliable depth), for the occlusion test.
+    binning : int
+        The image's pixels per depth pixel along each axis (depth pixel ``i`` covers image pixel edges
+        ``[f i, f (i + 1))``: :func:`splat.resolution.scale_camera`).
+    rows : callable
+        ``rows(a, b) → (b − a, W, c)``: image rows ``a:b`` (e.g. demosaiced from the RAW file's samples).
+    variance : callable or None
+        ``variance(values (..., c)) → (..., c)``: the noise variance of a pixel of the given value (affine
+        in the value, so that it commutes with bilinear interpolation); None: combine by the median.
+    channels : int
+        ``c``.
     """
-    from scipy.ndimage import map_coordinates
 
-    src = np.asarray(source_image, np.float64)
-    sd = np.asarray(source_depth, np.float64)
-    if src.ndim != 3:
-        raise SplatError(f"reproject: the source image must be (Hs, Ws, c), got shape {src.shape}.")
-    if src.shape[:2] != sd.shape or sd.shape != (source.height, source.width):
-        raise SplatError(
-            f"reproject: source image {src.shape[:2]} and depth {sd.shape} must both be the source "
-            f"camera's size {(source.height, source.width)}."
-        )
+    camera: object
+    depth: np.ndarray
+    binning: int
+    rows: Callable
+    variance: Callable | None = None
+    channels: int = 3
+
+
+def _project(target, target_depth, target_alpha, source):
+    """Each target pixel lifted to 3-D with ``target_depth`` and projected into ``source``: its column
+    ``u`` and row ``v`` there (pixel-centre coordinates, centre of pixel (0, 0) at (0, 0)), its depth
+    ``zs`` in the source, and whether it can be read (opacity ≥ :data:`MIN_ALPHA`, in front, inside)."""
     d = np.asarray(target_depth, np.float64)
-    if d.shape != (target.height, target.width):
-        raise SplatError(f"reproject: target depth {d.shape} is not the target's size.")
-    if np.shape(target_alpha) != d.shape:
-        raise SplatError(
-            f"reproject: target alpha {np.shape(target_alpha)} is not the target's size {d.shape}."
-        )
     x, y = _pixel_rays(target)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf depths: not valid below
         pc = np.stack([x * d, y * d, d], -1)
@@ -193,13 +199,149 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
         & (v >= 0)
         & (v <= source.height - 1)
     )
-    u, v = np.where(inside, u, 0.0), np.where(inside, v, 0.0)
-    seen = map_coordinates(sd, [v, u], order=1, mode="nearest")
-    valid = inside & (np.abs(seen - zs) <= DEPTH_RTOL * np.abs(zs))
-    vals = np.stack(
-        [map_coordinates(src[..., j], [v, u], order=1, mode="nearest") for j in range(src.shape[-1])], -1
-    )
-    return np.where(valid[..., None], vals, 0.0), valid
+    return np.where(inside, u, 0.0), np.where(inside, v, 0.0), zs, inside
+
+
+def _visible(u, v, zs, inside, source_depth, binning: int = 1):
+    """Where the source's depth (at ``1 / binning`` of the image's resolution) agrees with the point's
+    within :data:`DEPTH_RTOL`: the source sees the point, nothing occludes it."""
+    f = float(binning)
+    sd = np.asarray(source_depth, np.float64)[..., None]
+    seen = _sample(sd, (v + 0.5) / f - 0.5, (u + 0.5) / f - 0.5)[..., 0]
+    return inside & (np.abs(seen - zs) <= DEPTH_RTOL * np.abs(zs))
+
+
+def _sample(image, v, u):
+    """``image`` (h, w, c) read bilinearly at rows ``v`` and columns ``u`` (any shape, within
+    ``[0, h − 1] × [0, w − 1]``, else clamped to it): (..., c), as ``scipy.ndimage.map_coordinates(order=1,
+    mode="nearest")`` per channel, with the four taps and weights found once for all channels."""
+    h, w = image.shape[:2]
+    v, u = np.clip(v, 0, h - 1), np.clip(u, 0, w - 1)  # mode="nearest": the border value beyond it
+    i0 = np.floor(v).astype(np.intp)
+    j0 = np.floor(u).astype(np.intp)
+    di = np.where(i0 < h - 1, w, 0)  # the next row's offset, 0 on the last row
+    dj = (j0 < w - 1).astype(np.intp)
+    flat = image.reshape(h * w, -1)
+    k = i0 * w + j0
+    ty = (v - i0)[..., None].astype(image.dtype)
+    tx = (u - j0)[..., None].astype(image.dtype)
+    a, b = np.take(flat, k, axis=0), np.take(flat, k + dj, axis=0)
+    c, d = np.take(flat, k + di, axis=0), np.take(flat, k + di + dj, axis=0)
+    top = a + (b - a) * tx
+    return top + (c + (d - c) * tx - top) * ty
+
+
+def visibility(target, target_depth, target_alpha, source, source_depth, *, binning: int = 1) -> np.ndarray:
+    """Where a source sees each target pixel (:func:`reproject`'s ``valid``) without reading its image:
+    (H, W) bool; ``source_depth`` at ``1 / binning`` of ``source``'s resolution."""
+    _check_target(target, target_depth, target_alpha)
+    target, source = _on_host(target), _on_host(source)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, source)
+    return _visible(u, v, zs, inside, source_depth, binning)
+
+
+def reproject(target, target_depth, target_alpha, source, source_depth, source_image):
+    """A source photograph's values at each pixel of a target view, and where they are valid.
+
+    Parameters
+    ----------
+    target, source : splat.Camera
+        The target may be a strip or any resolution of a view (its intrinsics say which pixels it has).
+    target_depth, target_alpha : ndarray of shape (H, W)
+        :func:`depth_map` of the target.
+    source_depth : ndarray of shape (Hs, Ws)
+        :func:`depth_map` of the source (its depth only).
+    source_image : ndarray of shape (Hs, Ws, c)
+        The source's values (e.g. its demosaiced RAW).
+
+    Returns
+    -------
+    values : ndarray of shape (H, W, c)
+    valid : ndarray of shape (H, W), bool
+        The target pixel has a depth (opacity ≥ :data:`MIN_ALPHA`), projects inside the source, in
+        front of it, and the source's depth there agrees within :data:`DEPTH_RTOL` (not occluded).
+    """
+    src = np.asarray(source_image, np.float64)
+    sd = np.asarray(source_depth, np.float64)
+    if src.ndim != 3:
+        raise SplatError(f"reproject: the source image must be (Hs, Ws, c), got shape {src.shape}.")
+    if src.shape[:2] != sd.shape or sd.shape != (source.height, source.width):
+        raise SplatError(
+            f"reproject: source image {src.shape[:2]} and depth {sd.shape} must both be the source "
+            f"camera's size {(source.height, source.width)}."
+        )
+    _check_target(target, target_depth, target_alpha)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, source)
+    valid = _visible(u, v, zs, inside, sd)
+    return np.where(valid[..., None], _sample(src, v, u), 0.0), valid
+
+
+def _check_target(target, target_depth, target_alpha):
+    d = np.shape(target_depth)
+    if d != (target.height, target.width):
+        raise SplatError(f"reproject: target depth {d} is not the target's size.")
+    if np.shape(target_alpha) != d:
+        raise SplatError(f"reproject: target alpha {np.shape(target_alpha)} is not the target's size {d}.")
+
+
+def reproject_rows(target, target_depth, target_alpha, source: RowSource, *, band: int = SOURCE_BAND_ROWS):
+    """:func:`reproject` from a :class:`RowSource`, reading only the source rows the target's pixels
+    land on, at most ``band`` (+ 1) rows at a time (``rows`` is asked for just the rows a band needs;
+    a caching reader can keep more): the same values and validity as :func:`reproject`
+    of the whole source image with its depth upsampled (bilinear reads need rows ``⌊v⌋`` and ``⌊v⌋ + 1``
+    only), memory bounded by the band whatever the source's size.
+
+    Returns
+    -------
+    values : ndarray of shape (H, W, c), float32
+    valid : ndarray of shape (H, W), bool
+    """
+    cam, depth, f, rows = source.camera, source.depth, int(source.binning), source.rows
+    if f < 1 or np.shape(depth) != (cam.height // f, cam.width // f):
+        raise SplatError(
+            f"reproject_rows: source depth {np.shape(depth)} is not 1/{f} of the source's size "
+            f"{(cam.height, cam.width)}."
+        )
+    if band < 1:
+        raise SplatError(f"reproject_rows: band={band} rows; give at least 1.")
+    _check_target(target, target_depth, target_alpha)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, cam)
+    valid = _visible(u, v, zs, inside, depth, f)
+    out = np.zeros((*valid.shape, source.channels), np.float32)
+    idx = np.flatnonzero(valid)
+    if idx.size == 0:
+        return out, valid
+    vv, uu = v.ravel()[idx], u.ravel()[idx]
+    r = np.floor(vv).astype(np.int64)
+    order = np.argsort(r, kind="stable")
+    idx, vv, uu, r = idx[order], vv[order], uu[order], r[order]
+    flat = out.reshape(-1, source.channels)
+    a = 0
+    while a < idx.size:
+        lo = int(r[a])
+        b = int(np.searchsorted(r, lo + band, side="left"))
+        img = np.asarray(rows(lo, min(int(r[b - 1]) + 2, cam.height)), np.float32)
+        flat[idx[a:b]] = _sample(img, vv[a:b] - lo, uu[a:b])
+        a = b
+    return out, valid
+
+
+def _combine(stack: np.ndarray, var: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Values of several sources (n, H, W, c) (NaN where one does not see a pixel) combined, and how
+    many see each pixel: with variances (n, H, W, c), the inverse-variance mean of those within
+    ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of the median (the median where none is); without, the
+    median."""
+    count = np.isfinite(stack[..., 0]).sum(0)
+    med = _nanmedian0(stack)  # NaN at pixels no source sees
+    if var is not None:
+        z = np.nan_to_num(stack)
+        var = np.nan_to_num(var, nan=np.inf)
+        keep = np.isfinite(stack) & (np.abs(z - med) <= TRIM_SIGMA * np.sqrt(var) + TRIM_RTOL * np.abs(med))
+        w = np.where(keep, 1.0 / np.maximum(var, 1e-30), 0.0)
+        wsum = w.sum(0)
+        mean = (z * w).sum(0) / np.where(wsum > 0, wsum, 1.0)
+        med = np.where(wsum > 0, mean, med)
+    return np.where(count[..., None] > 0, med, 0.0), count
 
 
 def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray, np.ndarray]:
@@ -209,11 +351,13 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
     Parameters
     ----------
     target : splat.Camera
+        A view, or a strip or any resolution of one (its intrinsics say which pixels it has).
     target_depth, target_alpha : ndarray of shape (H, W)
-    sources : iterable of (Camera, depth (Hs, Ws), image (Hs, Ws, c)) or (…, variance (Hs, Ws, c))
+    sources : iterable of (Camera, depth (Hs, Ws), image (Hs, Ws, c)), (…, variance (Hs, Ws, c)) or RowSource
         With a per-pixel noise variance for every source, the sources that see a pixel are combined by
         their inverse-variance mean over those within ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of
-        the median (the median where none is); without, by the median.
+        the median (the median where none is); without, by the median. A :class:`RowSource` is read a
+        band of rows at a time (:func:`reproject_rows`).
 
     Returns
     -------
@@ -225,6 +369,14 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
     stack, var = [], []
     target = _on_host(target)
     for src in sources:
+        if isinstance(src, RowSource):
+            vals, ok = reproject_rows(
+                target, target_depth, target_alpha, src._replace(camera=_on_host(src.camera))
+            )
+            stack.append(np.where(ok[..., None], vals, np.nan))
+            if src.variance is not None:
+                var.append(np.where(ok[..., None], src.variance(vals), np.nan))
+            continue
         cam, depth, image, *rest = src
         cam = _on_host(cam)
         if len(rest) > 1:
@@ -252,18 +404,7 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
         )
     if var and len(var) != len(stack):
         raise SplatError("reprojected: give a variance for every source or for none.")
-    stack = np.stack(stack)
-    count = np.isfinite(stack[..., 0]).sum(0)
-    med = _nanmedian0(stack)  # NaN at pixels no source sees
-    if var:
-        z = np.nan_to_num(stack)
-        var = np.nan_to_num(np.stack(var), nan=np.inf)
-        keep = np.isfinite(stack) & (np.abs(z - med) <= TRIM_SIGMA * np.sqrt(var) + TRIM_RTOL * np.abs(med))
-        w = np.where(keep, 1.0 / np.maximum(var, 1e-30), 0.0)
-        wsum = w.sum(0)
-        mean = (z * w).sum(0) / np.where(wsum > 0, wsum, 1.0)
-        med = np.where(wsum > 0, mean, med)
-    return np.where(count[..., None] > 0, med, 0.0), count
+    return _combine(np.stack(stack), np.stack(var) if var else None)
 
 
 def consistent_depth(

@@ -10,21 +10,35 @@ one strip of ``STRIP_ROWS`` rows at a time:
    with a margin of :data:`HALO` rows, demosaiced by isp (Malvar 2004, as :func:`splat.fusion.measured`)
    and cut to the strip: the same values as demosaicing the whole image (the margin covers the 5 × 5
    filter), at exposure 1 on the white → 1 scale.
-2. **The other channels**: the working-resolution fused responses upsampled bilinearly (pixel centres
-   aligned: full-resolution centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the
-   borders), then sharpened by the photograph itself — every channel times the ratio of the own
-   channels' full-resolution sum to their upsampled working-resolution sum (the Brovey transform of
-   :func:`splat.fusion.anchor`, Gillespie et al. 1987): an edge the photograph shows within a working
-   pixel appears in every channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose
-   own site is saturated or dead keep the upsampled values.
+2. **The other channels**: where the photograph is binned for work and a :class:`FullReprojection` is
+   given, the other cameras' photographs **at their full resolution**, reprojected into the strip
+   (:func:`reprojected_strip`): the splat's depth rendered for the strip alone (a camera whose principal
+   point is moved to the strip, :func:`strip_camera`), each pixel lifted to 3-D with it, projected into
+   each source photograph, read there from the source's RAW rows (only the rows the strip lands on,
+   demosaiced bilinearly a band at a time, :func:`raw_row_source`), kept where the source's own depth
+   (working resolution) agrees (:func:`splat.reproject.reproject_rows`), and combined per camera as the
+   render step combines them (:func:`splat.reproject.reprojected`). Pixels no photograph of a camera
+   sees, and pixels where the photograph is textured at full resolution (:func:`textured_rows`: a
+   reprojection misplaced by a fraction of a pixel is off by the step there, as at the working
+   resolution, :func:`splat.capture.fused_view`), take the
+   working-resolution fused responses upsampled bilinearly (pixel centres aligned: full-resolution
+   centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the borders), then sharpened
+   by the photograph itself — every channel times the ratio of the own channels' full-resolution sum
+   to their upsampled working-resolution sum (the Brovey transform of :func:`splat.fusion.anchor`,
+   Gillespie et al. 1987): an edge the photograph shows within a working pixel appears in every
+   channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose own site is saturated
+   or dead keep the upsampled values. The working fusion's depth sweep
+   (:func:`splat.reproject.consistent_depth`) and guided re-reading are not repeated at full size.
 3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
    in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
-   noise the ratio carries into them; one noise-aware closed-form regression is fitted per pattern on
+   noise the ratio carries into them, or where they are reprojected at full resolution, the σ given for
+   that (:class:`FullReprojection`); one noise-aware closed-form regression is fitted per pattern on
    the channel-whitened problem (``splat.capture.fused_fitter``) and applied in chunks of
    :data:`splat._tol.CORRECT_CHUNK` pixels.
 
-Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips), so the
-peak memory is the file's samples (2 bytes a pixel) plus one strip's work, whatever the image size.
+Outputs are written strip by strip (:class:`tifffile.TiffWriter` from an iterator of strips, the PNG by
+:class:`PNGStripWriter`), so the peak memory is the files' samples (2 bytes a pixel, the photograph's
+and its sources') plus one strip's work and a band of each source's rows, whatever the image size.
 """
 
 from __future__ import annotations
@@ -36,17 +50,24 @@ from typing import NamedTuple
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, CORRECT_CHUNK, STRIP_ROWS
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, SOURCE_CACHE_ROWS, STRIP_ROWS
 
 __all__ = [
     "FULL_METHOD",
     "HALO",
+    "CachedRows",
+    "FullReprojection",
+    "PNGStripWriter",
     "Photograph",
     "WorkingFusion",
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
+    "raw_row_source",
+    "reprojected_strip",
     "sRGB8_encoder",
+    "strip_camera",
+    "textured_rows",
     "upsample_rows",
     "write_full",
 ]
@@ -143,6 +164,126 @@ class WorkingFusion(NamedTuple):
     binning: int
 
 
+class FullReprojection(NamedTuple):
+    """The other cameras' photographs, to be reprojected into a photograph at its full resolution.
+
+    Attributes
+    ----------
+    gaussians : splat.Gaussians
+        The model, whose depth is rendered strip by strip at full resolution.
+    mask : ndarray of shape (G,), bool, or None
+        Its alive Gaussians.
+    camera : splat.Camera
+        The photograph's camera at its full resolution (``H × W`` of its RAW file).
+    groups : dict
+        Camera position ``i`` among the fused channels (``3 i : 3 i + 3``) → list of
+        :class:`splat.reproject.RowSource`: that camera's photographs at their full resolution, values
+        on the white → 1 scale at exposure 1, their variance if known (the render step's combination
+        rule, :func:`splat.reproject.reprojected`).
+    sigma : ndarray of shape (k,)
+        σ of a channel where it is reprojected at full resolution.
+    """
+
+    gaussians: object
+    mask: object
+    camera: object
+    groups: dict
+    sigma: np.ndarray
+
+
+def strip_camera(camera, r0: int, r1: int):
+    """Rows ``r0:r1`` of ``camera``'s image as a camera of their own: the principal point moved up by
+    ``r0``, height ``r1 − r0`` (the same rays through the same pixels)."""
+    from .camera import Camera
+
+    c = np.asarray(camera.principal, np.float64)
+    return Camera(
+        camera.R,
+        camera.t,
+        camera.focal,
+        np.array([c[0], c[1] - r0]),
+        camera.width,
+        r1 - r0,
+    )
+
+
+def reprojected_strip(rep: FullReprojection, r0: int, r1: int) -> tuple[list, list]:
+    """Rows ``r0:r1`` of the photograph, each other camera's photographs reprojected there at full
+    resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
+    :func:`strip_camera`), every pixel lifted with it and read in the sources (only the rows they need),
+    occlusion tested against each source's working-resolution depth, combined per camera as the render
+    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W)."""
+    from .reproject import depth_map, reprojected
+
+    cam = strip_camera(rep.camera, r0, r1)
+    depth, alpha = depth_map(rep.gaussians, cam, mask=rep.mask)
+    values, counts = [], []
+    for sources in rep.groups.values():
+        v, n = reprojected(cam, depth, alpha, sources)
+        values.append(v.astype(np.float32))
+        counts.append(n)
+    return values, counts
+
+
+class CachedRows:
+    """A row reader that reads at least ``rows`` rows at once and keeps the last block: strips of a
+    view ask for overlapping runs of a source's rows, demosaiced once instead of once per strip.
+
+    ``read(a, b) → (b − a, W, c)``; ``height``: the image's rows."""
+
+    def __init__(self, read: Callable, height: int, rows: int = SOURCE_CACHE_ROWS):
+        self.read, self.height, self.rows = read, int(height), int(rows)
+        self.a, self.block = 0, None
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        """Rows ``a:b``, from the kept block when it holds them."""
+        if self.block is None or a < self.a or b > self.a + len(self.block):
+            self.block = None  # the old block is freed before the new one is read
+            self.a = a
+            self.block = self.read(a, min(self.height, max(b, a + self.rows)))
+        return self.block[a - self.a : b - self.a]
+
+
+def raw_row_source(raw, camera, depth, binning: int, exposure: float, white_scale, sigma) -> object:
+    """A RAW file as a :class:`splat.reproject.RowSource` on the white → 1 scale at exposure 1: rows
+    demosaiced bilinearly (as the render step's sources: no overshoot near edges) by
+    :class:`CachedRows`; variance from the file's NoiseProfile at each value (else ``sigma`` (3,) squared).
+
+    Parameters
+    ----------
+    raw : splat.capture.RawSource
+    camera : splat.Camera
+        At the file's full resolution.
+    depth : ndarray of shape (H // binning, W // binning)
+        Its splat depth at the working resolution (0 where unreliable).
+    binning, exposure, white_scale, sigma
+        The working resolution's factor, the relative exposure, the camera's white scale (3,) and the
+        file's full-resolution noise σ (3,), white → 1.
+    """
+    from .reproject import RowSource
+
+    ws = np.asarray(white_scale, float)
+    div = (float(exposure) * ws).astype(np.float32)
+
+    def read(a, b):
+        return (demosaic_rows(raw, a, b, method="bilinear")[0] / div).astype(np.float32)
+
+    P = raw.info.get("noise_profile")
+    if P is not None:
+        P = np.asarray(P, float)
+        gain = float(exposure) * ws
+
+        def variance(x):
+            return ((P[:, 0] * np.maximum(x * gain, 0) + P[:, 1]) / gain**2).astype(np.float32)
+    else:
+        s2 = np.square(np.asarray(sigma, float))
+
+        def variance(x):
+            return np.broadcast_to(s2, np.shape(x)).astype(np.float32)
+
+    return RowSource(camera, np.asarray(depth, float), int(binning), CachedRows(read, raw.shape[0]), variance)
+
+
 def full_resolution_view(
     photo: Photograph,
     working: WorkingFusion,
@@ -150,6 +291,7 @@ def full_resolution_view(
     *,
     strip_rows: int = STRIP_ROWS,
     progress: Callable | None = None,
+    reprojection: FullReprojection | None = None,
 ):
     """Yield the corrected full-resolution XYZ of a photograph, strip by strip.
 
@@ -164,6 +306,12 @@ def full_resolution_view(
         Rows per strip (even on a Bayer mosaic): memory only, the output does not depend on it.
     progress : callable, optional
         ``progress("full resolution", rows done, rows)`` after each strip.
+    reprojection : FullReprojection, optional
+        The other cameras' photographs at full resolution (:func:`reprojected_strip`): where one of them
+        sees a pixel and the photograph is not textured there at full resolution (:func:`textured_rows`),
+        that camera's channels are their values there instead of the upsampled working responses, σ
+        ``reprojection.sigma``. Without, every other channel is the upsampled working fusion (the
+        previous path).
 
     Yields
     ------
@@ -180,6 +328,16 @@ def full_resolution_view(
     fused = np.asarray(fused, np.float32)  # float32 from here on: the responses carry ≥ 1e-3 noise
     code = np.asarray(code)
     k = fused.shape[-1]
+    m = k // 3
+    # a pixel's pattern: its working code, and from bit `shift` on, the cameras reprojected at full size
+    shift = max(int(code.max()).bit_length(), m + 1) if code.size else m + 1
+    if reprojection is not None:
+        rep_sigma = np.asarray(reprojection.sigma, float)
+        if rep_sigma.shape != (k,) or any(not 0 <= i < m or i == own.start // 3 for i in reprojection.groups):
+            raise SplatError(
+                f"full_resolution_view: reprojection σ {rep_sigma.shape} must be ({k},) and its groups other "
+                f"cameras' positions among {m}, not the photograph's own ({own.start // 3})."
+            )
     divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
     fitted: dict = {}
     for r0 in range(0, H, strip_rows):
@@ -191,8 +349,19 @@ def full_resolution_view(
         resp = up * np.where(valid, ratio, 1)[..., None]
         resp[..., own] = np.where(valid[..., None], photo, up[..., own])
         del up, photo, lin
+        cd = nearest_rows(code, f, r0, r1, W)
+        if reprojection is not None:  # the other cameras' photographs at full resolution
+            values, seen = reprojected_strip(reprojection, r0, r1)
+            plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
+            for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
+                use = (n > 0) & plain
+                resp[..., 3 * i : 3 * i + 3] = np.where(
+                    use[..., None], np.maximum(vals, 0), resp[..., 3 * i : 3 * i + 3]
+                )
+                cd = cd | (use.astype(cd.dtype) << (shift + i))
+            del values, seen
         # pixels grouped by noise pattern: one gather and one scatter per strip
-        cd = nearest_rows(code, f, r0, r1, W).ravel()
+        cd = cd.ravel()
         order = np.argsort(cd, kind="stable")
         counts = np.bincount(cd, minlength=int(cd.max()) + 1) if cd.size else np.zeros(0, int)
         flat = resp.reshape(-1, k)[order]
@@ -201,7 +370,11 @@ def full_resolution_view(
         for c in np.flatnonzero(counts):
             b = a + int(counts[c])
             if int(c) not in fitted:
-                cor, scale = fit(patterns[int(c)])
+                s_ = patterns[int(c) & ((1 << shift) - 1)].copy()
+                for i in range(m):  # channels reprojected at full resolution
+                    if int(c) >> (shift + i) & 1:
+                        s_[3 * i : 3 * i + 3] = rep_sigma[3 * i : 3 * i + 3]
+                cor, scale = fit(s_)
                 fitted[int(c)] = cor, np.asarray(scale, np.float32)
             cor, scale = fitted[int(c)]
             out[a:b] = _apply(cor, flat[a:b] * scale)
@@ -211,6 +384,22 @@ def full_resolution_view(
         if progress is not None:
             progress("full resolution", r1, H)
         yield XYZ.reshape(r1 - r0, W, 3)
+
+
+def textured_rows(source, r0: int, r1: int, exposure: float, white_scale, sigma) -> np.ndarray:
+    """Rows ``r0:r1`` of :func:`splat.fusion.textured` of the RAW file at its full resolution (its
+    measured sites, a 2-row margin for the 5 × 5 window: the same as testing the whole file), noise
+    ``sigma`` (3,) on the white → 1 scale: (r1 − r0, W) bool."""
+    from types import SimpleNamespace
+
+    from .fusion import textured
+
+    H = source.shape[0]
+    a, b = max(0, r0 - 2), min(H, r1 + 2)
+    a -= a % 2
+    values, weight = source.rows(a, b)
+    view = SimpleNamespace(values=values, weight=weight, exif=float(exposure))
+    return textured(view, white_scale, noise=sigma)[r0 - a : r1 - a]
 
 
 def _apply(corrector, responses: np.ndarray) -> np.ndarray:
@@ -260,6 +449,59 @@ def sRGB8_encoder(white_XYZ) -> Callable[[np.ndarray], np.ndarray]:
     return encode
 
 
+class PNGStripWriter:
+    """An 8-bit RGB PNG written a strip of rows at a time (zlib fed row by row, ``IDAT`` chunks as the
+    compressor emits them): memory is one strip, whatever the image's height.
+
+    Parameters
+    ----------
+    fh : binary file
+    width, height : int
+    level : int
+        zlib level (1: a 24 MP PNG at the default level 6 took seconds more for ~10 % less size).
+    """
+
+    _SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+    def __init__(self, fh, width: int, height: int, *, level: int = 1):
+        import struct
+        import zlib
+
+        self.fh, self.width, self.height, self.done = fh, int(width), int(height), 0
+        self._z = zlib.compressobj(level)
+        fh.write(self._SIGNATURE)
+        self._chunk(b"IHDR", struct.pack(">IIBBBBB", self.width, self.height, 8, 2, 0, 0, 0))
+
+    def _chunk(self, kind: bytes, data: bytes) -> None:
+        import struct
+        import zlib
+
+        self.fh.write(struct.pack(">I", len(data)) + kind + data)
+        self.fh.write(struct.pack(">I", zlib.crc32(data, zlib.crc32(kind)) & 0xFFFFFFFF))
+
+    def write(self, rgb8: np.ndarray) -> None:
+        """Append rows (n, width, 3) of uint8."""
+        rgb8 = np.asarray(rgb8)
+        if rgb8.dtype != np.uint8 or rgb8.shape[1:] != (self.width, 3) or self.done + len(rgb8) > self.height:
+            raise SplatError(
+                f"PNG strip {rgb8.shape} {rgb8.dtype}: need uint8 rows (n, {self.width}, 3), at most "
+                f"{self.height - self.done} more."
+            )
+        rows = np.zeros((len(rgb8), 1 + 3 * self.width), np.uint8)  # filter byte 0 (None) per row
+        rows[:, 1:] = rgb8.reshape(len(rgb8), -1)
+        data = self._z.compress(rows.tobytes())
+        if data:
+            self._chunk(b"IDAT", data)
+        self.done += len(rgb8)
+
+    def close(self) -> None:
+        """Finish the stream; refuses an image with rows missing."""
+        if self.done != self.height:
+            raise SplatError(f"PNG: {self.done} of {self.height} rows written.")
+        self._chunk(b"IDAT", self._z.flush())
+        self._chunk(b"IEND", b"")
+
+
 def write_full(
     xyz_path: Path,
     png_path: Path,
@@ -270,42 +512,47 @@ def write_full(
     rows: int = STRIP_ROWS,
 ) -> None:
     """Write a full-resolution image given as an iterator of XYZ strips (:func:`full_resolution_view`):
-    ``xyz_path`` a float32 TIFF written strip by strip (never whole in memory), ``png_path`` its 8-bit
-    sRGB (``to_sRGB8(XYZ) → uint8``, :func:`sRGB8_encoder`; the PNG encoder needs the whole 8-bit image,
-    3 bytes a pixel, compressed at zlib level 1: a 24 MP PNG at the default level took seconds).
+    ``xyz_path`` a float32 TIFF and ``png_path`` its 8-bit sRGB (``to_sRGB8(XYZ) → uint8``,
+    :func:`sRGB8_encoder`; :class:`PNGStripWriter`), both strip by strip, never whole in memory.
     ``rows``: the strips' height (the last may be shorter), the TIFF's RowsPerStrip.
-    Both atomically; NaN or infinite values are refused before either file appears."""
+    Both atomically (temporaries in the same folder, renamed at the end, the PNG first); NaN or
+    infinite values, or rows missing, are refused before either file appears."""
     import tifffile
-    from PIL import Image
 
     from zonotope.utilities import atomic_path
 
     H, W = shape
-    rgb8 = np.zeros((H, W, 3), np.uint8)
     done = [0]
 
-    def segments():
-        for s in strips:
-            if not np.all(np.isfinite(s)):
-                raise SplatError(f"{xyz_path}: refusing to write NaN/inf values.")
-            a = done[0]
-            rgb8[a : a + len(s)] = to_sRGB8(s)
-            done[0] += len(s)
-            yield np.ascontiguousarray(s, np.float32).tobytes()
+    def write(p_xyz, p_png):
+        with open(p_png, "wb") as fh:
+            png = PNGStripWriter(fh, W, H)
 
-    def write(p):
-        with tifffile.TiffWriter(p) as tif:
-            tif.write(
-                segments(),
-                shape=(H, W, 3),
-                dtype=np.float32,
-                photometric="minisblack",
-                planarconfig="contig",
-                rowsperstrip=rows,
-                metadata=None,
-            )
+            def segments():
+                for s in strips:
+                    if not np.all(np.isfinite(s)):
+                        raise SplatError(f"{xyz_path}: refusing to write NaN/inf values.")
+                    if done[0] + len(s) > H:
+                        raise SplatError(f"{xyz_path}: more than {H} rows given.")
+                    png.write(to_sRGB8(s))
+                    done[0] += len(s)
+                    yield np.ascontiguousarray(s, np.float32).tobytes()
+                if done[0] != H:  # before the TIFF writer counts the bytes
+                    raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
 
-    atomic_path(xyz_path, write)
-    if done[0] != H:
-        raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
-    atomic_path(png_path, lambda p: Image.fromarray(rgb8).save(p, format="PNG", compress_level=1))
+            with tifffile.TiffWriter(p_xyz) as tif:
+                tif.write(
+                    segments(),
+                    shape=(H, W, 3),
+                    dtype=np.float32,
+                    photometric="minisblack",
+                    planarconfig="contig",
+                    rowsperstrip=rows,
+                    metadata=None,
+                )
+            if done[0] != H:
+                raise SplatError(f"{xyz_path}: {done[0]} of {H} rows written.")
+            png.close()
+
+    # the TIFF (what marks the view done) appears last
+    atomic_path(xyz_path, lambda p_xyz: atomic_path(png_path, lambda p_png: write(p_xyz, p_png)))

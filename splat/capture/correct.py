@@ -661,6 +661,7 @@ def correct_step(
     )
     fit = fused_fitter(spec, list(range(n)), config.method)
     fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
+    full_model = full_reprojection(spec, out, raws, fusion, scale)
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
     full_info = {}
     # one progress bar over the rows of every photograph still to correct at full resolution
@@ -716,6 +717,7 @@ def correct_step(
                     fit_full,
                     wXYZ,
                     full_progress,
+                    full_model,
                 )
                 rows_done[0] += todo_rows.get(name, 0)
         if (o / f"{mname}_fused_XYZ.tiff").is_file():
@@ -745,10 +747,12 @@ def correct_step(
             "method": FULL_METHOD,
             "files": "full_XYZ.tiff (float32) / full_sRGB.png, each photograph at its RAW file's size",
             "how": "own channels: the RAW file demosaiced (Malvar 2004) strip by strip; other cameras' "
-            "channels: the working-resolution fused responses (their photographs reprojected through "
-            "the splat's depth, the render where none sees a pixel) upsampled bilinearly and sharpened "
-            "by the photograph (Brovey ratio of its own channels at full to working resolution); "
-            f"{FULL_METHOD} fitted per noise pattern on the channel-whitened problem",
+            "channels: where the photograph is binned for work, their photographs (the few that see most "
+            "of it) reprojected at full resolution through the splat's depth rendered strip by strip; "
+            "elsewhere (and where none sees a pixel, or the working pixel is textured) the "
+            "working-resolution fused responses (the render where no photograph sees a pixel) upsampled "
+            "bilinearly and sharpened by the photograph (Brovey ratio of its own channels at full to "
+            f"working resolution); {FULL_METHOD} fitted per noise pattern on the channel-whitened problem",
             "per_view": full_info,
         },
         "own_noise": {
@@ -819,12 +823,124 @@ def own_noise(fusion: dict, raws: dict, scale: np.ndarray, noise) -> dict:
     return out
 
 
+class _Reprojection:
+    """:class:`splat.strips.FullReprojection` and the photographs it reads (``names``: camera → views)."""
+
+    def __init__(self, rep, names):
+        self.rep, self.names = rep, names
+
+
+def full_reprojection(
+    spec: CaptureSpec, out: Path, raws: dict, fusion: dict, scale: np.ndarray, *, views=None, open_source=None
+):
+    """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
+    working resolution, or no camera's reprojection noise is known): for each other camera, its
+    :data:`splat._tol.FULL_SOURCES` photographs that see most of the view (at the working resolution,
+    through the splat's depth), read from their RAW files (bilinear demosaic, as the render step's
+    sources) a band of rows at a time. σ of a channel reprojected at full resolution: the camera's
+    working ``reprojected_sigma`` and, in quadrature, its photographs' full-resolution sensor noise over
+    √(photographs) (the binned estimate holds the noise of a binned site only).
+
+    ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
+    views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
+    :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks)."""
+    from .._tol import FULL_SOURCES
+    from ..camera import Camera
+    from ..fusion import OWN_NOISE_FLOOR, sensor_noise
+    from ..reproject import MIN_ALPHA, depth_map, visibility
+    from ..resolution import sites_per_block
+    from ..strips import FullReprojection, raw_row_source
+    from .config import working_views
+    from .train import load_gaussians, load_model_capture, refined_views
+
+    rep_sigma = fusion.get("reprojected_sigma")
+    state: dict = {}
+
+    def loaded():
+        if not state:
+            state["g"], state["alive"] = load_gaussians(out)
+            if views is None:
+                _, cap = load_model_capture(spec, out)
+                state["views"] = {v.name: v for v in refined_views(working_views(cap.views, raws), out)}
+            else:
+                state["views"] = dict(views)
+            state["depth"] = {}
+        return state
+
+    def depth(name):
+        st = loaded()
+        if name not in st["depth"]:
+            d, a = depth_map(st["g"], st["views"][name].camera, mask=st["alive"])
+            st["depth"][name] = (d, a, np.where(a >= MIN_ALPHA, d, 0.0))
+        return st["depth"][name]
+
+    def full_sigma(r):  # a photograph's own full-resolution sensor noise, white → 1 at exposure 1
+        ws = scale[3 * r.camera : 3 * r.camera + 3]
+        root = np.sqrt(sites_per_block(r.source_cfa, r.binning)) if r.binning > 1 else np.ones(3)
+        return np.maximum(sensor_noise(r, ws) * root, OWN_NOISE_FLOOR)
+
+    def model(view: RawView, shape):
+        if view.binning == 1 or rep_sigma is None:
+            return None
+        st = loaded()
+        if view.name not in st["views"]:
+            return None
+        cam = st["views"][view.name].camera
+        d, a, _ = depth(view.name)
+        f = view.binning
+        full = Camera(
+            cam.R, cam.t, np.asarray(cam.focal) * f, np.asarray(cam.principal) * f, shape[1], shape[0]
+        )
+        groups, names, sig = {}, {}, np.zeros(3 * len(spec.cameras))
+        for c in range(len(spec.cameras)):
+            if c == view.camera:
+                continue
+            seen = []
+            for name, r in raws.items():
+                if r.camera != c or r.exif is None or name not in st["views"]:
+                    continue
+                ok = visibility(cam, d, a, st["views"][name].camera, depth(name)[2])
+                seen.append((int(ok.sum()), name))
+            chosen = [raws[nm] for n, nm in sorted(seen, key=lambda x: (-x[0], x[1]))[:FULL_SOURCES] if n > 0]
+            if not chosen:
+                continue
+            ws = scale[3 * c : 3 * c + 3]
+            srcs, noise = [], []
+            for r in chosen:
+                raw = open_raw(r.path, spec.cameras[c]) if open_source is None else open_source(r)
+                rc = st["views"][r.name].camera
+                fr = r.binning
+                H_, W_ = raw.shape
+                full_c = Camera(rc.R, rc.t, np.asarray(rc.focal) * fr, np.asarray(rc.principal) * fr, W_, H_)
+                noise.append(full_sigma(r))
+                srcs.append(raw_row_source(raw, full_c, depth(r.name)[2], fr, r.exif, ws, noise[-1]))
+            groups[c], names[c] = srcs, chosen
+            sig[3 * c : 3 * c + 3] = np.hypot(float(rep_sigma[c]), np.mean(noise, 0) / np.sqrt(len(noise)))
+        if not groups:
+            return None
+        return _Reprojection(FullReprojection(st["g"], st["alive"], full, groups, sig), names)
+
+    return model
+
+
 def _full_resolution(
-    spec: CaptureSpec, o: Path, view: RawView, fused, code, sigma, own_scale, noise: dict, fit, wXYZ, progress
+    spec: CaptureSpec,
+    o: Path,
+    view: RawView,
+    fused,
+    code,
+    sigma,
+    own_scale,
+    noise: dict,
+    fit,
+    wXYZ,
+    progress,
+    model=None,
 ):
     """Write ``full_XYZ.tiff`` and ``full_sRGB.png`` of a photographed view at its RAW file's size
-    (:func:`splat.strips.full_resolution_view`); returns what was done, how long it took and the peak
-    memory."""
+    (:func:`splat.strips.full_resolution_view`; ``model(view, (H, W))``: the other cameras' photographs
+    to reproject at full resolution, :func:`full_reprojection`); returns what was done and how long it
+    took."""
     from .. import strips as _strips
 
     t = time.perf_counter()
@@ -832,6 +948,7 @@ def _full_resolution(
     source = open_raw(view.path, spec.cameras[k])
     H, W = source.shape
     rows = _strips.STRIP_ROWS
+    reprojection = model(view, (H, W)) if model is not None else None
     strips = _strips.full_resolution_view(
         _strips.Photograph(
             source, view.exif, np.asarray(own_scale, float), np.asarray(noise["sigma_full"], float)
@@ -840,8 +957,18 @@ def _full_resolution(
         fit,
         strip_rows=rows,
         progress=progress,
+        reprojection=None if reprojection is None else reprojection.rep,
     )
     _strips.write_full(
         o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), _strips.sRGB8_encoder(wXYZ), rows=rows
     )
-    return {"size": [W, H], "binning": view.binning, "seconds": time.perf_counter() - t}
+    return {
+        "size": [W, H],
+        "binning": view.binning,
+        "reprojected_at_full_resolution": (
+            {spec.label(i): [Path(r.name).name for r in g] for i, g in reprojection.names.items()}
+            if reprojection is not None
+            else None
+        ),
+        "seconds": time.perf_counter() - t,
+    }

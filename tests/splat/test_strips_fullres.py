@@ -1,0 +1,364 @@
+"""Full-resolution reprojection and writing in strips (splat.strips, splat.reproject.reproject_rows).
+
+Independent truths: :func:`splat.reproject.reproject` of the whole source image (reading by bands must
+give the same values); the closed-form plane of ``test_reproject`` (depth and texture of a world plane);
+one whole-image computation (a strip-by-strip result must equal it); Pillow's PNG decoder; tracemalloc's
+peak (memory must not grow with the image's height).
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from splat import SplatError
+from splat.camera import Camera
+from splat.reproject import RowSource, depth_map, reproject, reproject_rows, reprojected
+from splat.resolution import scale_camera
+from splat.strips import (
+    CachedRows,
+    FullReprojection,
+    Photograph,
+    PNGStripWriter,
+    WorkingFusion,
+    full_resolution_view,
+    reprojected_strip,
+    strip_camera,
+    textured_rows,
+    upsample_rows,
+    write_full,
+)
+
+from .test_reproject import SOURCES, TARGET, _cam, _depth_alpha, _floor, _gaussians, _photo, _texture
+
+# ------------------------------------------------------------------------- reading a source by bands
+
+
+def _row_source(cam, image, depth, f=1, *, band_log=None):
+    def rows(a, b):
+        if band_log is not None:
+            band_log.append((a, b))
+        return image[a:b]
+
+    return RowSource(cam, depth, f, rows, None, image.shape[-1])
+
+
+@settings(max_examples=15, deadline=None)
+@given(band=st.integers(1, 40), k=st.sampled_from([0, 1, 2]))
+def test_reproject_rows_equals_whole_image(band, k):
+    """Reading only the rows each band needs gives :func:`reproject`'s values and validity."""
+    src = SOURCES[k]
+    sd, img = _photo(src)
+    td, ta, _ = _depth_alpha(TARGET)
+    want, ok = reproject(TARGET, td, ta, src, sd, img)
+    log = []
+    got, ok2 = reproject_rows(TARGET, td, ta, _row_source(src, img, sd, band_log=log), band=band)
+    np.testing.assert_array_equal(ok2, ok)
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)  # float32 bands
+    assert all(b - a <= band + 1 for a, b in log)
+
+
+def test_reproject_rows_checks_the_depth_size():
+    src = SOURCES[0]
+    sd, img = _photo(src)
+    td, ta, _ = _depth_alpha(TARGET)
+    with pytest.raises(SplatError, match="1/2"):
+        reproject_rows(TARGET, td, ta, _row_source(src, img, sd, 2))
+
+
+def test_cached_rows_reads_each_block_once():
+    img = np.arange(100 * 3 * 1, dtype=float).reshape(100, 3, 1)
+    calls = []
+
+    def read(a, b):
+        calls.append((a, b))
+        return img[a:b]
+
+    rows = CachedRows(read, 100, rows=32)
+    for a in range(0, 90, 8):
+        np.testing.assert_array_equal(rows(a, a + 10), img[a : a + 10])
+    assert calls == [(0, 32), (24, 56), (48, 80), (72, 100)]
+
+
+# ------------------------------------------------- full resolution against the working resolution
+
+
+def test_full_resolution_agrees_with_working_where_smooth():
+    """A plane with a smooth texture, photographed at 3× the working resolution: reprojected at full
+    resolution (sources read by bands, their depth at the working resolution) against reprojected at the
+    working resolution and upsampled, they agree to the interpolation error of the smooth texture."""
+    f = 3
+    full_t = _cam((0.4, -3.0, 2.6), (0.1, 0.2, 0.0), size=(144, 108), focal=(126.0, 132.0))
+    work_t = scale_camera(full_t, f)
+    sources_full = [
+        _cam(
+            (-1.5, -2.0, 3.2),
+            (0.0, 0.0, 0.0),
+            size=(240, 180),
+            focal=(225.0, 210.0),
+            principal=(124.5, 86.25),
+        ),
+        _cam(
+            (0.5, 2.5, 3.0), (-0.2, 0.1, 0.0), size=(210, 165), focal=(180.0, 187.5), principal=(103.5, 84.0)
+        ),
+    ]
+    srcs_work, srcs_rows = [], []
+    for s in sources_full:
+        sw = scale_camera(s, f)
+        dw, _ = _photo(sw)
+        _, img_full = _photo(s)
+        srcs_work.append((sw, dw, _photo(sw)[1]))
+        srcs_rows.append(_row_source(s, img_full, dw, f))
+    dw, aw, _ = _depth_alpha(work_t)
+    df, af, X = _depth_alpha(full_t)
+    work, cw = reprojected(work_t, dw, aw, srcs_work)
+    full, cf = reprojected(full_t, df, af, srcs_rows)
+    up = upsample_rows(work, f, 0, full_t.height, full_t.width)
+    seen = (cf == 2) & (
+        upsample_rows(cw[..., None].astype(float), f, 0, full_t.height, full_t.width)[..., 0] == 2
+    )
+    assert seen.sum() > 0.5 * seen.size
+    # full resolution is the texture itself to interpolation error; the working path is blurred by
+    # its coarser sampling, both within 1 %
+    truth = _texture(X)
+    assert np.abs(full - truth)[seen].max() < 1e-3 * np.abs(truth).max()
+    np.testing.assert_allclose(up[seen], full[seen], rtol=1e-2)
+    assert np.abs(up - truth)[seen].max() > np.abs(full - truth)[seen].max()
+
+
+# --------------------------------------------------------------- strips against the whole image
+
+_SIZE = (40, 24)  # full resolution (W, H) of the rendered target
+
+
+@pytest.fixture(scope="module")
+def splat_scene():
+    """Gaussians on the floor, a target view at full resolution 2× its working one, and two source
+    photographs (the floor's texture) at full resolution with working-resolution depths."""
+    from splat.camera import look_at
+
+    g = _gaussians(_floor(), lambda m: np.ones((len(m), 2)))
+    full_t = look_at((0.6, -2.2, 2.4), (0.0, 0.0, 0.0), width=_SIZE[0], height=_SIZE[1], fov_deg=60)
+    f = 2
+    groups = {}
+    for i, eye in ((1, (-1.2, -2.0, 2.2)), (2, (1.5, -1.8, 2.6))):
+        s = look_at(eye, (0.1, 0.1, 0.0), width=48, height=32, fov_deg=70)
+        sw = scale_camera(s, f)
+        d, a = depth_map(g, sw)
+        _, _, X = _depth_alpha(s)
+        img = np.concatenate([_texture(X), _texture(X)[..., :1]], -1)
+        groups[i] = [RowSource(s, np.where(a >= 0.5, d, 0.0), f, lambda a_, b_, img=img: img[a_:b_])]
+    return g, full_t, groups
+
+
+def test_strip_camera_is_rows_of_the_view(splat_scene):
+    """A strip rendered on its own is the view's rows, to float32 rounding (its principal point is
+    shifted), when its height is a multiple of the renderer's 16-pixel tiles (as ``STRIP_ROWS`` is):
+    the same tiles cull the same Gaussians."""
+    g, cam, _ = splat_scene
+    d, a = depth_map(g, cam)
+    for r0, r1 in ((0, 16), (16, 24)):
+        ds, as_ = depth_map(g, strip_camera(cam, r0, r1))
+        np.testing.assert_allclose(ds[as_ > 0.5], d[r0:r1][as_ > 0.5], rtol=1e-5)
+        np.testing.assert_allclose(as_, a[r0:r1], atol=1e-4)
+
+
+def test_reprojected_strip_equals_whole(splat_scene):
+    g, cam, groups = splat_scene
+    rep = FullReprojection(g, None, cam, groups, np.full(9, 0.01))
+    whole_v, whole_n = reprojected_strip(rep, 0, cam.height)
+    parts = [reprojected_strip(rep, r0, min(r0 + 16, cam.height)) for r0 in range(0, cam.height, 16)]
+    for j in range(2):
+        assert whole_n[j].sum() > 0.15 * whole_n[j].size
+        np.testing.assert_array_equal(np.concatenate([p[1][j] for p in parts]), whole_n[j])
+        np.testing.assert_allclose(np.concatenate([p[0][j] for p in parts]), whole_v[j], rtol=1e-6, atol=1e-7)
+
+
+class _Linear:
+    """A closed-form corrector stand-in: XYZ = the responses' first three channels + 0.1 × the rest."""
+
+    def predict(self, r):
+        return r[:, :3] + 0.1 * r[:, 3:6] + 0.05 * r[:, 6:9]
+
+
+EDGE = 20
+
+
+class _Source:
+    """A full-colour RAW stand-in (:class:`splat.capture.RawSource`'s ``rows``): a smooth image."""
+
+    cfa = None
+    full_colour = True
+
+    def __init__(self, H, W):
+        jj, ii = np.meshgrid(np.arange(W), np.arange(H))
+        self.img = np.stack([0.3 + 0.002 * jj, 0.4 + 0.003 * ii, 0.5 - 0.001 * (ii + jj)], -1)
+        self.img[:, EDGE:] *= 2.5  # a step: textured within 2 columns of it
+        self.shape = (H, W)
+
+    def rows(self, a, b):
+        return self.img[a:b].astype(np.float32), np.ones((b - a, self.shape[1], 3), np.float32)
+
+
+def test_full_resolution_view_strips_equal_whole_and_use_full_res_photographs(splat_scene):
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    fused = np.full((H // f, W // f, 9), 0.2)
+    code = np.zeros((H // f, W // f), int)
+    code[0, 0] = 1 << 3  # a textured working pixel: its own σ pattern, reprojected all the same
+    sigma = {0: np.full(9, 0.02), 8: np.full(9, 0.03)}
+    fits = []
+
+    def fit(s):
+        fits.append(np.array(s))
+        return _Linear(), np.ones(9)
+
+    rep = FullReprojection(g, None, cam, groups, np.full(9, 0.05))
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    work = WorkingFusion(fused, code, sigma, slice(0, 3), f)
+    outs = {
+        rows: np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=rows, reprojection=rep)))
+        for rows in (16, H)
+    }
+    np.testing.assert_allclose(outs[16], outs[H], rtol=1e-6, atol=1e-7)
+    plain = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=H)))
+    values, seen = reprojected_strip(rep, 0, H)
+    tex = np.zeros((H, W), bool)
+    tex[:, EDGE - 2 : EDGE + 2] = True  # the step's 5 × 5 windows: textured at full resolution
+    np.testing.assert_array_equal(textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01)), tex)
+    both = (seen[0] > 0) & (seen[1] > 0) & ~tex
+    # where both cameras' photographs see a pixel, XYZ = own + 0.1 × camera 1 + 0.05 × camera 2 at full res
+    want = _Source(H, W).img + 0.1 * values[0] + 0.05 * values[1]
+    np.testing.assert_allclose(outs[H][both], want[both], rtol=1e-5)
+    assert np.abs(outs[H] - plain)[both].max() > 0.01  # the previous path used the working responses
+    np.testing.assert_allclose(outs[H][tex], plain[tex], rtol=1e-6)  # textured: the previous path
+    # σ of the reprojected channels replaces the working pattern's where they enter
+    assert any(np.allclose(s[3:], 0.05) and np.allclose(s[:3], 0.01) for s in fits)
+
+
+def test_full_resolution_view_refuses_own_camera_as_source(splat_scene):
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    work = WorkingFusion(
+        np.zeros((H // 2, W // 2, 9)), np.zeros((H // 2, W // 2), int), {0: np.ones(9)}, slice(3, 6), 2
+    )
+    rep = FullReprojection(g, None, cam, groups, np.ones(9))
+    with pytest.raises(SplatError, match="own"):
+        next(
+            full_resolution_view(
+                Photograph(_Source(H, W), 1.0, np.ones(3), np.ones(3)), work, None, reprojection=rep
+            )
+        )
+
+
+# ------------------------------------------------------------------------------- writing in strips
+
+
+@settings(max_examples=8, deadline=None)
+@given(h=st.integers(1, 40), w=st.integers(1, 30), rows=st.integers(1, 16), seed=st.integers(0, 99))
+def test_png_strip_writer_round_trips_through_pillow(tmp_path_factory, h, w, rows, seed):
+    from PIL import Image
+
+    img = np.random.default_rng(seed).integers(0, 256, (h, w, 3), dtype=np.uint8)
+    p = tmp_path_factory.mktemp("png") / "x.png"
+    with open(p, "wb") as fh:
+        png = PNGStripWriter(fh, w, h)
+        for a in range(0, h, rows):
+            png.write(img[a : a + rows])
+        png.close()
+    with Image.open(p) as im:
+        assert im.mode == "RGB"
+        np.testing.assert_array_equal(np.asarray(im), img)
+
+
+def test_png_strip_writer_refuses_missing_rows(tmp_path):
+    with open(tmp_path / "x.png", "wb") as fh:
+        png = PNGStripWriter(fh, 4, 3)
+        png.write(np.zeros((2, 4, 3), np.uint8))
+        with pytest.raises(SplatError, match="2 of 3"):
+            png.close()
+        with pytest.raises(SplatError, match="uint8"):
+            png.write(np.zeros((1, 4, 3)))
+
+
+def _encode(XYZ):
+    return (np.clip(XYZ, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def test_write_full_round_trip_and_atomic(tmp_path):
+    import tifffile
+    from PIL import Image
+
+    H, W = 37, 11
+    img = np.random.default_rng(0).random((H, W, 3)).astype(np.float32)
+    write_full(
+        tmp_path / "a.tiff",
+        tmp_path / "a.png",
+        (img[a : a + 8] for a in range(0, H, 8)),
+        (H, W),
+        _encode,
+        rows=8,
+    )
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "a.tiff"), img)
+    with Image.open(tmp_path / "a.png") as im:
+        np.testing.assert_array_equal(np.asarray(im), _encode(img))
+
+    def broken():
+        yield img[:8]
+        yield np.full((8, W, 3), np.nan, np.float32)
+
+    with pytest.raises(SplatError, match="NaN"):
+        write_full(tmp_path / "b.tiff", tmp_path / "b.png", broken(), (H, W), _encode, rows=8)
+    with pytest.raises(SplatError, match="8 of 37"):
+        write_full(tmp_path / "b.tiff", tmp_path / "b.png", iter([img[:8]]), (H, W), _encode, rows=8)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "a.tiff"]
+
+
+def test_write_full_memory_does_not_grow_with_height(tmp_path):
+    """tracemalloc's peak while writing 64 and 1024 rows of 512 pixels in strips of 32: the same to a
+    strip's worth (the whole 8-bit image of 1024 rows alone would be 1.5 MB)."""
+    W, rows = 512, 32
+    strip = np.random.default_rng(1).random((rows, W, 3)).astype(np.float32)
+    peaks = []
+    for H in (64, 1024):
+        tracemalloc.start()
+        write_full(
+            tmp_path / f"{H}.tiff",
+            tmp_path / f"{H}.png",
+            (strip for _ in range(H // rows)),
+            (H, W),
+            _encode,
+            rows=rows,
+        )
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    assert peaks[1] < peaks[0] + 3 * strip.nbytes, peaks
+    assert peaks[1] < 1024 * W * 3
+
+
+def test_strip_camera_shifts_the_principal_point():
+    cam = Camera(np.eye(3), np.zeros(3), np.array([10.0, 11.0]), np.array([5.0, 6.0]), 10, 12)
+    s = strip_camera(cam, 4, 9)
+    assert (s.width, s.height) == (10, 5)
+    np.testing.assert_allclose(np.asarray(s.principal), [5.0, 2.0])
+
+
+@settings(max_examples=20, deadline=None)
+@given(h=st.integers(1, 9), w=st.integers(1, 9), c=st.integers(1, 4), seed=st.integers(0, 999))
+def test_bilinear_sample_is_map_coordinates(h, w, c, seed):
+    """The one-gather bilinear read equals scipy's ``map_coordinates(order=1, mode="nearest")`` per
+    channel, inside the image and clamped beyond it."""
+    from scipy.ndimage import map_coordinates
+
+    from splat.reproject import _sample
+
+    rng = np.random.default_rng(seed)
+    img = rng.random((h, w, c))
+    v, u = rng.uniform(-1.5, h + 0.5, 50), rng.uniform(-1.5, w + 0.5, 50)
+    want = np.stack([map_coordinates(img[..., j], [v, u], order=1, mode="nearest") for j in range(c)], -1)
+    np.testing.assert_allclose(_sample(img, v, u), want, rtol=1e-12, atol=1e-12)
