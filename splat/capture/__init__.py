@@ -150,6 +150,7 @@ _EXPORTS = {
         "own_noise",
         "photographed_view",
         "reprojected_of",
+        "ssf_sigma",
         "white_of",
     ],
     "report": ["report_step"],

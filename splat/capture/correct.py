@@ -45,6 +45,7 @@ __all__ = [
     "own_noise",
     "photographed_view",
     "reprojected_of",
+    "ssf_sigma",
     "white_of",
 ]
 
@@ -529,8 +530,15 @@ def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: flo
     """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
     passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
     Centroid ``delta=δ``). ``cache_dir``: the run's fit cache (:meth:`Workspace.fit_cache`), in which
-    Prior keeps its cross-validated fit for later readers of the run (``splat export``)."""
-    return _fit_on(correction_problem_of(spec, cameras), method, delta, cache_dir=cache_dir)
+    Prior keeps its cross-validated fit for later readers of the run (``splat export``). Cameras with
+    estimated curves add their :func:`ssf_sigma` to σ in quadrature."""
+    from zonotope.correct import DELTA_SIGMAS
+
+    sigma = delta / DELTA_SIGMAS
+    band = ssf_sigma(spec, cameras)
+    if band.any():
+        sigma = np.hypot(sigma, band)
+    return _fit_on(correction_problem_of(spec, cameras), method, sigma, cache_dir=cache_dir)
 
 
 def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
@@ -545,10 +553,11 @@ def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, nois
 
     if problem is None:
         problem = correction_problem_of(spec, cameras)
+    band = ssf_sigma(spec, cameras)
+    if band.any():  # estimated curves: their response error joins the sensor noise
+        noise = np.hypot(noise, band)
     problem, scale, ref = whitened(problem, noise)
-    from zonotope.correct import DELTA_SIGMAS
-
-    return _fit_on(problem, method, DELTA_SIGMAS * ref, mix=mix), scale
+    return _fit_on(problem, method, ref, mix=mix), scale
 
 
 def fused_mix(method: str):
@@ -564,14 +573,29 @@ def fused_mix(method: str):
     return 1.0
 
 
-def _fit_on(problem, method: str, delta: float, *, mix=None, cache_dir=None):
-    """``method`` fitted on ``problem`` with the noise of tolerance ``delta`` (σ = δ / DELTA_SIGMAS), told
+def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
+    """σ per channel (3 per camera, white → 1) of the response error that estimated curves carry
+    (:meth:`zonotope.SSFEstimate.response_sigma` under the capture's light); 0 for measured curves.
+
+    Why: a fit on several cameras' estimated curves that is told only the sensor noise amplifies the
+    curves' errors (three cameras: +4.1 ΔE00 over the measured curves noise-free, +0.6 with this σ;
+    docs/notes/2026-11-29-ssf-stacking.md), so the correct step adds it to the noise in quadrature."""
+    light = spec.load_illuminant()
+    out = []
+    for k in cameras:
+        est = spec.ssf_estimate(k)
+        out.append(np.zeros(3) if est is None else np.asarray(est.response_sigma(light), float))
+    return np.concatenate(out)
+
+
+def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None):
+    """``method`` fitted on ``problem`` with responses of noise ``sigma`` (one σ or one per channel), told
     to it as its registry entry says (:func:`zonotope.correct.noise_options`), with
     ``white_point=`` :data:`WHITE_POINT`; ``cache_dir``: where Prior keeps its cross-validated fit."""
-    from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, fit_correction, noise_options
+    from zonotope.correct import CORRECTION_METHODS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
-    opts = noise_options(name, delta / DELTA_SIGMAS)
+    opts = noise_options(name, sigma)
     opts["white_point"] = WHITE_POINT
     if name == "Prior" and mix is not None:
         opts["mix"] = mix

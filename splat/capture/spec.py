@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import tomllib
@@ -153,22 +154,32 @@ class CaptureSpec:
         folder = self.root / self.cameras[k].folder
         return raw_files(folder)
 
+    def ssf_estimate(self, k: int):
+        """Camera ``k``'s :class:`zonotope.SSFEstimate` from the colour matrices of its first DNG file
+        (``ssf = "estimate"``), or None for measured curves. Why: the estimate's band is a response error
+        that the correct step adds to the sensor noise (:func:`splat.capture.ssf_sigma`)."""
+        import zonotope
+
+        if self.cameras[k].ssf != "estimate":
+            return None
+        dngs = [f for f in self.raw_files(k) if f.suffix.lower() == ".dng"]
+        if not dngs:
+            raise CaptureError(
+                f'{self.file}: camera {self.cameras[k].folder!r}: ssf = "estimate" needs a DNG file in '
+                "the folder (its colour matrices); convert one RAW with Adobe DNG Converter."
+            )
+        try:
+            return _estimate_ssf(str(dngs[0]), dngs[0].stat().st_mtime_ns)
+        except zonotope.ZonotopeError as e:
+            raise CaptureError(f"{self.file}: camera {self.cameras[k].folder!r}: {e}") from e
+
     def load_ssf(self, k: int):
         """The spectral sensitivities of camera ``k`` (a colour MSDS with 3 channels)."""
         import zonotope
 
         s = self.cameras[k].ssf
         if s == "estimate":  # estimated from the colour matrices of the camera's first DNG
-            dngs = [f for f in self.raw_files(k) if f.suffix.lower() == ".dng"]
-            if not dngs:
-                raise CaptureError(
-                    f'{self.file}: camera {self.cameras[k].folder!r}: ssf = "estimate" needs a DNG file in '
-                    "the folder (its colour matrices); convert one RAW with Adobe DNG Converter."
-                )
-            try:
-                return zonotope.estimate_ssf(dngs[0]).sensitivities
-            except zonotope.ZonotopeError as e:
-                raise CaptureError(f"{self.file}: camera {self.cameras[k].folder!r}: {e}") from e
+            return self.ssf_estimate(k).sensitivities.copy()
         try:
             cam = zonotope.load_camera(s)
         except (OSError, KeyError, TypeError, ValueError) as e:
@@ -483,3 +494,12 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
                 "name twice (their outputs would collide); keep one of them in the folder."
             )
     return spec
+
+
+@functools.lru_cache(maxsize=16)
+def _estimate_ssf(path: str, mtime_ns: int):
+    """:func:`zonotope.estimate_ssf` of a DNG, once per file version (the capture asks for a camera's
+    curves for every fit)."""
+    import zonotope
+
+    return zonotope.estimate_ssf(path)

@@ -108,3 +108,30 @@ def test_capture_toml_ssf_estimate_uses_the_first_dng(tmp_path):
     assert cam.values.shape == (len(SSF_SHAPE.wavelengths), 3) and cam.values.min() >= 0
     with pytest.raises(capture.CaptureError, match="needs a DNG file"):
         spec.load_ssf(1)
+
+
+def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
+    """A camera with estimated curves carries their response σ into the correct step's fits; a measured
+    camera carries none, and the fused fit is told the band in quadrature with the sensor noise."""
+    capture = pytest.importorskip("splat.capture")
+    from splat.fusion import whitened
+
+    (tmp_path / "cam").mkdir()
+    _dng(tmp_path / "cam" / "a.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    (tmp_path / "meas").mkdir()
+    (tmp_path / "meas" / "b.nef").write_bytes(b"not read here")
+    (tmp_path / "capture.toml").write_text(
+        'illuminant = "D65"\n[[camera]]\nfolder = "cam"\nssf = "estimate"\n'
+        '[[camera]]\nfolder = "meas"\nssf = "Nikon 5100 (NPL)"\n'
+    )
+    spec = capture.read_capture(tmp_path / "capture.toml")
+    band = capture.ssf_sigma(spec, [0, 1])
+    expected = spec.ssf_estimate(0).response_sigma(spec.load_illuminant())
+    np.testing.assert_allclose(band[:3], expected)
+    assert (band[:3] > 0).all() and not band[3:].any()
+    assert spec.ssf_estimate(1) is None
+
+    noise = np.full(6, 0.002)
+    _, scale = capture.fit_fused_corrector(spec, [0, 1], "least squares", noise)
+    _, told, _ = whitened(capture.correction_problem_of(spec, [0, 1]), np.hypot(noise, band))
+    np.testing.assert_allclose(scale, told)  # the band joined the noise before whitening
