@@ -31,7 +31,7 @@ and split at the moment each step's summary appears), and the load average while
 ``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
 ``main``'s capture with ``--capacity-large`` Gaussians, its poses reused (copied from ``main``'s OUT,
 which the settings record accepts as they depend on the capture alone). Results go to
-``WORK/results.json`` and a Markdown table is printed.
+``WORK/results_<run>.json`` and a Markdown table is printed.
 """
 
 from __future__ import annotations
@@ -175,6 +175,8 @@ def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
     samples = []  # (t, cpu, load1)
     ends = {}  # step → (t, cpu) when its summary appeared
     last_cpu = 0.0
+    trace = open(log.with_suffix(".cpu.tsv"), "a")
+    trace.write(f"# {' '.join(cmd)}\n# seconds since start, child CPU s, load average (1 min)\n")
 
     def poll():
         nonlocal last_cpu
@@ -183,6 +185,8 @@ def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
             last_cpu = c
         t = time.perf_counter() - t0
         samples.append((t, last_cpu, os.getloadavg()[0]))
+        trace.write(f"{t:.1f}\t{last_cpu:.2f}\t{samples[-1][2]:.2f}\n")
+        trace.flush()
         for s, p in marks.items():
             if s not in ends and p.is_file() and p.stat().st_mtime >= start:
                 ends[s] = (t, last_cpu)
@@ -194,6 +198,7 @@ def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_total = (ru.ru_utime - ru0.ru_utime) + (ru.ru_stime - ru0.ru_stime)
     poll()
+    trace.close()
     rows, prev = {}, (0.0, 0.0)
     for s in STEPS:
         if s not in ends:
@@ -251,17 +256,19 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=None, help="training steps (default: splat's)")
     ap.add_argument("--capacity", type=int, default=None, help="Gaussians (default: splat's)")
     ap.add_argument("--capacity-large", type=int, default=16384)
+    ap.add_argument(
+        "--select", nargs="+", default=None, help="splat run --views: photographs to render and correct"
+    )
     args = ap.parse_args(argv)
     work = args.work
     work.mkdir(parents=True, exist_ok=True)
-    log = work / "runs.log"
-    results_path = work / "results.json"
-    results = json.loads(results_path.read_text()) if results_path.is_file() else {}
     opts = []
     if args.steps is not None:
         opts += ["--steps", str(args.steps)]
     if args.capacity is not None:
         opts += ["--capacity", str(args.capacity)]
+    if args.select is not None:
+        opts += ["--views", *args.select]
 
     t = time.perf_counter()
     sim = sim_capture(work, args.sim_scale, args.views)
@@ -296,10 +303,9 @@ def main(argv=None) -> int:
                         shutil.copy2(main_out / p, out / p)
         n = sum(1 for _ in cap.glob("*/*.dng"))
         print(f"{name}: splat run on {n} photographs {sizes} ...", flush=True)
-        res = splat_run(cap, out, o, log)
+        res = splat_run(cap, out, o, work / f"run_{name}.log")
         res.update(photographs=n, sizes=sizes)
-        results[name] = res
-        results_path.write_text(json.dumps(results, indent=1))
+        (work / f"results_{name}.json").write_text(json.dumps(res, indent=1))
         print(_table(name, res), flush=True)
     return 0
 
