@@ -24,8 +24,10 @@ Per step: the wall time and peak RSS the pipeline records (``OUT/<step>/summary.
 child's end), the child's CPU time (user + system, sampled from ``/proc/<pid>/stat`` every second
 and split at the moment each step's summary appears), and the load average while it ran.
 
-    python benchmarks/bench_capture_realsize.py --work /tmp/realsize --run main --steps 1000
-    python benchmarks/bench_capture_realsize.py --work /tmp/realsize --run 3mp 6views cap --steps 300
+    python benchmarks/bench_capture_realsize.py --work W --run main            # the default run
+    python benchmarks/bench_capture_realsize.py --work W --run main --steps 30 \
+        --select nikon/DSC_0003.dng sigma/SDIM0003.dng canon/IMG_0003.dng   # every file, 3 corrected
+    python benchmarks/bench_capture_realsize.py --work W --run 3mp 6views --steps 30 --select ...
 
 ``main``: 12 views per camera at ``--mp``; ``3mp``: the same views at ``--mp-small`` megapixels;
 ``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
