@@ -45,6 +45,11 @@ from pathlib import Path
 
 import numpy as np
 
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _upsample import upsampled_dng as _upsampled_dng
+except ImportError:
+    from benchmarks._upsample import upsampled_dng as _upsampled_dng
+
 
 def _ci_run(work: Path, steps: int):
     from splat.capture import PipelineConfig, read_capture, run
@@ -59,52 +64,6 @@ def _ci_run(work: Path, steps: int):
     out = work / "out"
     res = run(cap, out, config=config, steps=("poses", "train", "render"))
     return spec, config, out, name, res
-
-
-def _upsampled_dng(view, spec, path: Path, scale: int, seed: int = 0) -> Path:
-    """The view's photograph upsampled ``scale`` × as a new DNG of the same kind (RGGB mosaic or
-    full-colour LinearRaw; see the module notes)."""
-    from isp.cfa import cfa_masks
-    from isp.dng import write_dng
-    from splat.capture import open_raw
-    from splat.strips import upsample_rows
-
-    if path.is_file():
-        return path
-    src = open_raw(view.path, spec.cameras[view.camera])
-    H0 = src.shape[0]
-    values, _ = src.rows(0, H0)
-    from isp.stages import demosaic
-
-    lin = (
-        values if src.full_colour else np.maximum(demosaic(values.sum(-1), cfa=src.cfa, method="bilinear"), 0)
-    )
-    H, W = lin.shape[0] * scale, lin.shape[1] * scale
-    P = src.info["noise_profile"]
-    rng = np.random.default_rng(seed)
-    black = float(np.mean(src.black))
-    dn = np.zeros((H, W) if src.cfa else (H, W, 3), np.uint16)
-    for r0 in range(0, H, 512):
-        r1 = min(H, r0 + 512)
-        up = np.maximum(upsample_rows(lin, scale, r0, r1, W), 0)
-        m = cfa_masks((r1 - r0, W), src.cfa) if src.cfa else np.ones_like(up, bool)
-        var = m * (P[:, 0] * up + P[:, 1]) if P is not None else np.zeros_like(up)
-        x = up * m + rng.normal(size=up.shape) * np.sqrt(var)
-        x = x.sum(-1) if src.cfa else x
-        dn[r0:r1] = np.clip(np.round(black + np.clip(x, 0, 1) * (src.white - black)), 0, src.white)
-    p = src.info["profile"]
-    write_dng(
-        path,
-        dn,
-        cfa=src.cfa,
-        black_level=black,
-        white_level=int(src.white),
-        color_matrix_1=p.color_matrix_1 if p is not None else np.eye(3),
-        calibration_illuminant_1=int((p.calibration_illuminant_1 if p is not None else None) or 21),
-        as_shot_neutral=src.info["neutral"],
-        noise_profile=None if P is None else np.asarray(P, float),
-    )
-    return path
 
 
 def main(argv=None) -> int:

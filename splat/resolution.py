@@ -141,10 +141,11 @@ def bin_mosaic(rows, shape: tuple[int, int], f: int, *, cfa: str | None, strip_r
     for r0 in range(0, h * f, step):
         r1 = min(r0 + step, h * f)
         v, wt = rows(r0, r1)
-        v = np.asarray(v, np.float64)[:, : w * f].reshape((r1 - r0) // f, f, w, f, 3)
-        wt = np.asarray(wt, np.float64)[:, : w * f].reshape((r1 - r0) // f, f, w, f, 3)
-        s = (v * wt).sum((1, 3))
-        n = wt.sum((1, 3))
+        v = np.asarray(v, np.float32)[:, : w * f]
+        wt = np.asarray(wt, np.float32)[:, : w * f]
+        # the block's columns first (contiguous), then its rows, accumulated in float64
+        s = (v * wt).reshape((r1 - r0) // f, f, w, f, 3).sum(3).sum(1, dtype=np.float64)
+        n = wt.reshape((r1 - r0) // f, f, w, f, 3).sum(3).sum(1, dtype=np.float64)
         values[r0 // f : r1 // f] = np.where(n > 0, s / np.maximum(n, 1), 0.0)
         weight[r0 // f : r1 // f] = n / sites
     return values, weight

@@ -154,7 +154,7 @@ def render_step(
     reset_peak_rss()
     _, cap = load_model_capture(spec, out)
     g, alive = load_gaussians(out)
-    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
+    raws = {v.name: v for v in load_views(spec, progress=progress, binning=working_binning(config, spec))}
     # at the working resolution; training views with their learned pose corrections, if any
     views = refined_views(working_views(cap.views, raws), out)
     todo = views_to_render(spec, views, config)

@@ -1,0 +1,316 @@
+"""A real-size capture end to end: ``splat run`` on 3 cameras × 12 photographs of ≥ 12 MP, time and
+peak memory per step, and how each grows with pixels, views and Gaussians.
+
+What the capture is (state it whenever quoting the numbers): the simulated scene of
+``splat.sim.capture`` (fine texture, shot and read noise) rendered at ``--sim-scale`` × the CI size
+(default 2: Nikon 256 × 192 RGGB, Sigma 224 × 168 full-colour, Canon 272 × 180 GBRG), 12 views per
+camera (10 training + 2 held out), and every photograph **upsampled** to at least ``--mp`` megapixels
+by :func:`_upsample.upsampled_dng` (bilinear, re-mosaicked, fresh shot + read noise from its own
+NoiseProfile, written by isp's DNG writer with the source's EXIF): at the default 12 MP, Nikon
+4096 × 3072 (×16), Sigma 4032 × 3024 (×18, LinearRaw), Canon 4352 × 2880 (×16). The files have a
+real camera's pixel count and noise but no detail finer than the simulated render. ``capture.toml``
+is the simulator's with the white card's box scaled with its photograph; the ground truth (``truth/``,
+at the simulated size) is not copied: this benchmark measures cost, not colour.
+
+Why upsampled rather than rendered at 12 MP: the ray-caster costs 18–33 s per megapixel on these
+cores (docs/benchmarks.md, "The Mitsuba 3 capture"), so 36 × 12 MP would take 2–4 h to simulate;
+upsampling takes seconds per photograph, and every step's cost beyond the working resolution depends on
+the pixel count, not on the detail (the working resolution itself is bounded by
+``splat._tol.TRAIN_PIXEL_BUDGET`` whatever the file size).
+
+Each run is ``splat run CAPTURE -o OUT [options]`` in a child process, exactly as a user types it.
+Per step: the wall time and peak RSS the pipeline records (``OUT/<step>/summary.json``:
+``duration_s``, ``peak_rss_mib``; the report step has no summary, its wall time is taken from the
+child's end), the child's CPU time (user + system, sampled from ``/proc/<pid>/stat`` every second
+and split at the moment each step's summary appears), and the load average while it ran.
+
+    python benchmarks/bench_capture_realsize.py --work W --run main            # the default run
+    python benchmarks/bench_capture_realsize.py --work W --run main --steps 30 \
+        --select nikon/DSC_0003.dng sigma/SDIM0003.dng canon/IMG_0003.dng   # every file, 3 corrected
+    python benchmarks/bench_capture_realsize.py --work W --run 3mp 6views --steps 30 --select ...
+
+``main``: 12 views per camera at ``--mp``; ``3mp``: the same views at ``--mp-small`` megapixels;
+``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
+``main``'s capture with ``--capacity-large`` Gaussians, its poses reused (copied from ``main``'s OUT,
+which the settings record accepts as they depend on the capture alone). Results go to
+``WORK/results_<run>.json`` and a Markdown table is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _upsample import upsampled_dng
+except ImportError:
+    from benchmarks._upsample import upsampled_dng
+
+STEPS = ("poses", "train", "render", "correct", "report")
+TICK = 1.0  # seconds between samples of the child's CPU time and the load average
+
+
+def sim_capture(work: Path, scale: float, views: int, seed: int = 0) -> Path:
+    """The simulated capture at ``scale`` × the CI size, ``views`` per camera (2 held out)."""
+    from dataclasses import replace
+
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
+
+    path = work / f"sim_x{scale:g}_{views}v"
+    if not (path / "capture.toml").is_file():
+        cams = tuple(
+            replace(c, width=2 * round(c.width * scale / 2), height=2 * round(c.height * scale / 2))
+            for c in SimCaptureConfig.ci().cameras
+        )
+        cfg = SimCaptureConfig.ci(cameras=cams, n_train=views - 2, n_holdout=2, seed=seed)
+        write_synthetic_capture(path, cfg)
+    return path
+
+
+def _factor(shape, mp: float, bayer: bool) -> int:
+    """Smallest upsampling (even for a Bayer file) that brings ``shape`` to at least ``mp`` MP."""
+    s = math.ceil(math.sqrt(mp * 1e6 / (shape[0] * shape[1])))
+    return s + (s % 2) if bayer else s
+
+
+def realsize_capture(sim: Path, out: Path, mp: float) -> tuple[Path, dict]:
+    """``sim``'s photographs upsampled to ≥ ``mp`` MP in ``out`` (with the scaled ``capture.toml``);
+    returns the folder and, per camera, ``(W, H, factor)``."""
+    import tomllib
+
+    from splat.capture import open_raw, read_capture
+
+    spec = read_capture(sim)
+    doc = tomllib.loads((sim / "capture.toml").read_text())
+    sizes = {}
+    for k, cam in enumerate(spec.cameras):
+        files = sorted((sim / cam.folder).glob("*.dng"))
+        src = open_raw(files[0], cam)
+        f = _factor(src.shape, mp, src.cfa is not None)
+        sizes[cam.folder] = (src.shape[1] * f, src.shape[0] * f, f)
+        (out / cam.folder).mkdir(parents=True, exist_ok=True)
+        for i, p in enumerate(files):
+            upsampled_dng(
+                SimpleNamespace(path=p, camera=k), spec, out / cam.folder / p.name, f, seed=1000 * k + i
+            )
+    white = doc["white"]
+    f = sizes[white["image"].split("/")[0]][2]
+    white["box"] = [int(x) * f for x in white["box"]]
+    (out / "capture.toml").write_text(_toml(doc, f"{sim.name} upsampled to ≥ {mp:g} MP"))
+    return out, sizes
+
+
+def subset_capture(src: Path, out: Path, every: int) -> Path:
+    """Every ``every``-th photograph of each camera of ``src`` (hard links; the white card's photograph
+    always kept), with the matching ``capture.toml``."""
+    import tomllib
+
+    doc = tomllib.loads((src / "capture.toml").read_text())
+    keep = {doc["white"]["image"]}
+    for cam in doc["camera"]:
+        files = sorted((src / cam["folder"]).glob("*.dng"))
+        start = next((i for i, p in enumerate(files) if f"{cam['folder']}/{p.name}" in keep), 0) % every
+        for p in files[start::every]:
+            keep.add(f"{cam['folder']}/{p.name}")
+    for name in keep:
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        if not (out / name).exists():
+            os.link(src / name, out / name)
+    if "holdout" in doc:
+        doc["holdout"]["images"] = [h for h in doc["holdout"]["images"] if h in keep]
+    (out / "capture.toml").write_text(_toml(doc, f"every {every}th photograph of {src.name}"))
+    return out
+
+
+def _toml(doc: dict, note: str) -> str:
+    def val(v):
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        return repr(v)
+
+    lines = [f"# {note}"]
+    lines += [f"{k} = {val(v)}" for k, v in doc.items() if not isinstance(v, dict | list)]
+    for cam in doc["camera"]:
+        lines += ["", "[[camera]]", *(f"{k} = {val(v)}" for k, v in cam.items())]
+    for table in ("white", "holdout", "poses"):
+        if table in doc:
+            lines += ["", f"[{table}]", *(f"{k} = {val(v)}" for k, v in doc[table].items())]
+    return "\n".join(lines) + "\n"
+
+
+def _cpu_s(pid: int) -> float | None:
+    """User + system CPU seconds of ``pid`` and its waited-for children (``/proc/<pid>/stat``)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return sum(int(x) for x in fields[11:15]) / os.sysconf("SC_CLK_TCK")
+
+
+def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
+    """``splat run capture -o out options`` in a child process; per step wall s, CPU s, peak RSS MiB
+    and load average."""
+    exe = Path(sys.executable).with_name("splat")
+    cmd = [str(exe), "run"] if exe.is_file() else [sys.executable, "-m", "splat.cli", "run"]
+    cmd += [str(capture), "-o", str(out), *options]
+    marks = {s: (out / "report.html" if s == "report" else out / s / "summary.json") for s in STEPS}
+    start = time.time()
+    t0 = time.perf_counter()
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with open(log, "a") as fh:
+        fh.write(f"\n$ {' '.join(cmd)}\n")
+        fh.flush()
+        child = subprocess.Popen(cmd, stdout=fh, stderr=subprocess.STDOUT)
+    samples = []  # (t, cpu, load1)
+    ends = {}  # step → (t, cpu) when its summary appeared
+    last_cpu = 0.0
+    trace = open(log.with_suffix(".cpu.tsv"), "a")
+    trace.write(f"# {' '.join(cmd)}\n# seconds since start, child CPU s, load average (1 min)\n")
+
+    def poll():
+        nonlocal last_cpu
+        c = _cpu_s(child.pid)
+        if c is not None:
+            last_cpu = c
+        t = time.perf_counter() - t0
+        samples.append((t, last_cpu, os.getloadavg()[0]))
+        trace.write(f"{t:.1f}\t{last_cpu:.2f}\t{samples[-1][2]:.2f}\n")
+        trace.flush()
+        for s, p in marks.items():
+            if s not in ends and p.is_file() and p.stat().st_mtime >= start:
+                ends[s] = (t, last_cpu)
+
+    while child.poll() is None:
+        poll()
+        time.sleep(TICK)
+    wall = time.perf_counter() - t0
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_total = (ru.ru_utime - ru0.ru_utime) + (ru.ru_stime - ru0.ru_stime)
+    poll()
+    trace.close()
+    rows, prev = {}, (0.0, 0.0)
+    for s in STEPS:
+        if s not in ends:
+            continue
+        t, c = ends[s]
+        if s == "report":  # no summary: from the step before's end to the child's end
+            t, c = wall, cpu_total
+        summary = {}
+        if s != "report":
+            summary = json.loads(marks[s].read_text())
+        loads = [x[2] for x in samples if prev[0] <= x[0] <= t]
+        rows[s] = {
+            "wall_s": summary.get("duration_s", t - prev[0]),
+            "wall_between_marks_s": t - prev[0],
+            "cpu_s": c - prev[1],
+            "peak_rss_mib": summary.get("peak_rss_mib"),
+            "load": [min(loads), sorted(loads)[len(loads) // 2], max(loads)] if loads else None,
+        }
+        prev = (t, c)
+    loads = [x[2] for x in samples]
+    return {
+        "command": " ".join(["splat", "run", str(capture), "-o", str(out), *options]),
+        "returncode": child.returncode,
+        "wall_s": wall,
+        "cpu_s": cpu_total,
+        "max_rss_mib": ru.ru_maxrss / 1024,
+        "load": [min(loads), sorted(loads)[len(loads) // 2], max(loads)] if loads else None,
+        "steps": rows,
+    }
+
+
+def _table(name: str, res: dict) -> str:
+    lines = [
+        f"**{name}**: `{res['command']}` — exit {res['returncode']}, wall {res['wall_s']:.0f} s, "
+        f"CPU {res['cpu_s']:.0f} s, load {res['load']}",
+        "",
+        "| step | wall s | CPU s | peak RSS MiB | load (min / median / max) |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for s, r in res["steps"].items():
+        rss = "—" if r["peak_rss_mib"] is None else f"{r['peak_rss_mib']:.0f}"
+        load = "—" if r["load"] is None else " / ".join(f"{x:.1f}" for x in r["load"])
+        lines.append(f"| {s} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {rss} | {load} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", type=Path, default=Path("/tmp/bench_capture_realsize"))
+    ap.add_argument("--run", nargs="+", default=["main"], choices=["main", "3mp", "6views", "cap"])
+    ap.add_argument("--sim-scale", type=float, default=2.0, help="simulated size, × the CI size")
+    ap.add_argument("--views", type=int, default=12, help="photographs per camera")
+    ap.add_argument("--mp", type=float, default=12.0, help="megapixels of every photograph (at least)")
+    ap.add_argument("--mp-small", type=float, default=3.0)
+    ap.add_argument("--steps", type=int, default=None, help="training steps (default: splat's)")
+    ap.add_argument("--capacity", type=int, default=None, help="Gaussians (default: splat's)")
+    ap.add_argument("--capacity-large", type=int, default=16384)
+    ap.add_argument(
+        "--select", nargs="+", default=None, help="splat run --views: photographs to render and correct"
+    )
+    args = ap.parse_args(argv)
+    work = args.work
+    work.mkdir(parents=True, exist_ok=True)
+    opts = []
+    if args.steps is not None:
+        opts += ["--steps", str(args.steps)]
+    if args.capacity is not None:
+        opts += ["--capacity", str(args.capacity)]
+    if args.select is not None:
+        opts += ["--views", *args.select]
+
+    t = time.perf_counter()
+    sim = sim_capture(work, args.sim_scale, args.views)
+    print(f"simulated capture {sim}: {time.perf_counter() - t:.1f} s", flush=True)
+
+    def build(mp):
+        t, c = time.perf_counter(), time.process_time()
+        cap, sizes = realsize_capture(sim, work / f"capture_{mp:g}mp", mp)
+        dt, dc = time.perf_counter() - t, time.process_time() - c
+        print(f"capture {cap} ({sizes}): {dt:.1f} s (CPU {dc:.1f} s)", flush=True)
+        return cap, sizes
+
+    for name in args.run:
+        if name in ("main", "6views", "cap"):
+            cap, sizes = build(args.mp)
+        else:
+            cap, sizes = build(args.mp_small)
+        o = list(opts)
+        out = work / f"out_{name}"
+        if name == "6views":
+            cap = subset_capture(cap, work / f"capture_{args.mp:g}mp_6v", 2)
+        if name == "cap":
+            o = [x for i, x in enumerate(o) if x != "--capacity" and (i == 0 or o[i - 1] != "--capacity")]
+            o += ["--capacity", str(args.capacity_large)]
+            main_out = work / "out_main"
+            if not out.exists() and (main_out / "poses").is_dir():
+                out.mkdir()
+                for p in ("previews", "poses", ".splat-output.json", "settings.json"):
+                    if (main_out / p).is_dir():
+                        shutil.copytree(main_out / p, out / p)
+                    elif (main_out / p).is_file():
+                        shutil.copy2(main_out / p, out / p)
+        n = sum(1 for _ in cap.glob("*/*.dng"))
+        print(f"{name}: splat run on {n} photographs {sizes} ...", flush=True)
+        res = splat_run(cap, out, o, work / f"run_{name}.log")
+        res.update(photographs=n, sizes=sizes)
+        (work / f"results_{name}.json").write_text(json.dumps(res, indent=1))
+        print(_table(name, res), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
