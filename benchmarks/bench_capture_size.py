@@ -107,6 +107,41 @@ def _upsampled_dng(view, spec, path: Path, scale: int, seed: int = 0) -> Path:
     return path
 
 
+def _modules_at(rev: str):
+    """``splat/strips.py`` and ``splat/reproject.py`` as they were at git ``rev``, loaded as modules of
+    ``splat`` beside the current ones (the same process, so that the machine's load falls on both)."""
+    import importlib.util
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    mods = []
+    for name in ("reproject", "strips"):
+        text = subprocess.run(
+            ["git", "-C", str(root), "show", f"{rev}:splat/{name}.py"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        text = text.replace("from .reproject import", "from ._reproject_older import")
+        spec = importlib.util.spec_from_loader(f"splat._{name}_older", loader=None)
+        mod = importlib.util.module_from_spec(spec)
+        mod.__package__ = "splat"
+        sys.modules[spec.name] = mod
+        exec(compile(text, f"{rev}:splat/{name}.py", "exec"), mod.__dict__)
+        mods.append(mod)
+    return mods[1], mods[0]
+
+
+def _older_reprojection(older, rep):
+    """A :class:`splat.strips.FullReprojection` rebuilt with the older modules' row sources and reader."""
+    strips, reproject = older
+    groups = {
+        i: [reproject.RowSource(*s._replace(rows=strips.CachedRows(s.rows.read, s.rows.height))) for s in g]
+        for i, g in rep.groups.items()
+    }
+    return strips.FullReprojection(*rep._replace(groups=groups))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", type=Path, default=Path("/tmp/bench_capture_size"))
@@ -115,6 +150,11 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=150, help="training steps of the small model")
     ap.add_argument("--crop", type=int, default=96, help="side of the baseline's crop")
     ap.add_argument("--only-full", action="store_true", help="the full-resolution stage only (no baselines)")
+    ap.add_argument(
+        "--against",
+        metavar="REV",
+        help="also time the full-res reprojection as splat/strips.py and splat/reproject.py were at git REV",
+    )
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -187,6 +227,9 @@ def main(argv=None) -> int:
 
     rows = []
     paths = ("previous", "full-res reprojection")
+    older = _modules_at(args.against) if args.against else None
+    if older is not None:
+        paths = (*paths, f"full-res reprojection at {args.against}")
     for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
         big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
         model, fake_view = model_at(s)
@@ -209,13 +252,16 @@ def main(argv=None) -> int:
                 t, c0 = time.perf_counter(), time.process_time()
                 src = open_raw(big, spec.cameras[view.camera])
                 rep = model(fake_view, (H, W)) if path != "previous" else None
-                gen = strips.full_resolution_view(
+                mod, given = strips, None if rep is None else rep.rep
+                if path == paths[-1] and older is not None:
+                    mod, given = older[0], _older_reprojection(older, rep.rep)
+                gen = mod.full_resolution_view(
                     strips.Photograph(
                         src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
                     ),
                     strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
                     fit_full,
-                    reprojection=None if rep is None else rep.rep,
+                    reprojection=given,
                 )
                 strips.write_full(
                     args.work / "full_XYZ.tiff",
