@@ -36,6 +36,7 @@ Measured, in one process:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -132,14 +133,19 @@ def _modules_at(rev: str):
     return mods[1], mods[0]
 
 
-def _older_reprojection(older, rep):
-    """A :class:`splat.strips.FullReprojection` rebuilt with the older modules' row sources and reader."""
-    strips, reproject = older
-    groups = {
-        i: [reproject.RowSource(*s._replace(rows=strips.CachedRows(s.rows.read, s.rows.height))) for s in g]
-        for i, g in rep.groups.items()
-    }
-    return strips.FullReprojection(*rep._replace(groups=groups))
+@contextlib.contextmanager
+def _using(strips, mod):
+    """``splat.strips``' row sources and :class:`FullReprojection` taken from ``mod`` meanwhile (the
+    correct step's ``full_reprojection`` imports them when called)."""
+    names = ("raw_row_source", "FullReprojection")
+    kept = {n: getattr(strips, n) for n in names}
+    try:
+        for n in names:
+            setattr(strips, n, getattr(mod, n))
+        yield
+    finally:
+        for n, v in kept.items():
+            setattr(strips, n, v)
 
 
 def main(argv=None) -> int:
@@ -233,6 +239,9 @@ def main(argv=None) -> int:
     for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
         big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
         model, fake_view = model_at(s)
+        if older is not None:
+            with _using(strips, older[0]):  # the older path's sources as the older module makes them
+                older_model, _ = model_at(s)
         H, W = open_raw(big, spec.cameras[view.camera]).shape
         chosen = model(fake_view, (H, W))  # writes the sources' DNGs once, outside the timing
         t = time.perf_counter()  # the depth renderer compiled for this width (once per image size)
@@ -251,10 +260,10 @@ def main(argv=None) -> int:
                 reset_peak_rss()
                 t, c0 = time.perf_counter(), time.process_time()
                 src = open_raw(big, spec.cameras[view.camera])
-                rep = model(fake_view, (H, W)) if path != "previous" else None
-                mod, given = strips, None if rep is None else rep.rep
-                if path == paths[-1] and older is not None:
-                    mod, given = older[0], _older_reprojection(older, rep.rep)
+                mod = older[0] if path == paths[-1] and older is not None else strips
+                made = older_model if mod is not strips else model
+                rep = made(fake_view, (H, W)) if path != "previous" else None
+                given = None if rep is None else rep.rep
                 gen = mod.full_resolution_view(
                     strips.Photograph(
                         src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
