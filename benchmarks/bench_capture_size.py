@@ -29,8 +29,12 @@ Measured, in one process:
   responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
   demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
+``--against REV`` adds a third path timed alongside: the full-res reprojection as ``splat/strips.py``
+and ``splat/reproject.py`` were at git ``REV`` (their sources made by that version), for before/after
+ratios in one process.
+
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full]
+        [--only-full] [--against REV]
 """
 
 from __future__ import annotations
