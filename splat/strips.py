@@ -123,7 +123,7 @@ def _demosaic_values(source, r0: int, r1: int, *, method: str) -> np.ndarray:
     """:func:`demosaic_rows`' values alone (float64, or float32 from a full-colour file)."""
     from isp.stages import demosaic
 
-    if source.full_colour:
+    if source.full_colour or getattr(source, "data", None) is None:  # a stand-in with rows() only
         return demosaic_rows(source, r0, r1, method=method)[0]
     H = source.shape[0]
     a = max(0, r0 - HALO)
@@ -265,7 +265,9 @@ class CachedRows:
     move through the image, whatever a run's length (a run longer than ``rows`` is read whole and kept).
 
     ``read(a, b) → (b − a, W, c)`` with ``read`` giving the same rows whatever ``a, b`` (as
-    :func:`demosaic_rows`); ``height``: the image's rows. Memory: ``max(rows, request) + block`` rows."""
+    :func:`demosaic_rows`); ``height``: the image's rows. Memory: the blocks kept, at most
+    ``max(rows, the current request + 2 blocks)`` rows, and while several missing blocks are read at
+    once, that read (copied into its blocks)."""
 
     def __init__(
         self, read: Callable, height: int, rows: int = SOURCE_CACHE_ROWS, block: int = SOURCE_BLOCK_ROWS
