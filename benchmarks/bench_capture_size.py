@@ -29,13 +29,18 @@ Measured, in one process:
   responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
   demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
+``--against REV`` adds a third path timed alongside: the full-res reprojection as ``splat/strips.py``
+and ``splat/reproject.py`` were at git ``REV`` (their sources made by that version), for before/after
+ratios in one process.
+
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full]
+        [--only-full] [--against REV]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -66,6 +71,46 @@ def _ci_run(work: Path, steps: int):
     return spec, config, out, name, res
 
 
+def _modules_at(rev: str):
+    """``splat/strips.py`` and ``splat/reproject.py`` as they were at git ``rev``, loaded as modules of
+    ``splat`` beside the current ones (the same process, so that the machine's load falls on both)."""
+    import importlib.util
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    mods = []
+    for name in ("reproject", "strips"):
+        text = subprocess.run(
+            ["git", "-C", str(root), "show", f"{rev}:splat/{name}.py"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        text = text.replace("from .reproject import", "from ._reproject_older import")
+        spec = importlib.util.spec_from_loader(f"splat._{name}_older", loader=None)
+        mod = importlib.util.module_from_spec(spec)
+        mod.__package__ = "splat"
+        sys.modules[spec.name] = mod
+        exec(compile(text, f"{rev}:splat/{name}.py", "exec"), mod.__dict__)
+        mods.append(mod)
+    return mods[1], mods[0]
+
+
+@contextlib.contextmanager
+def _using(strips, mod):
+    """``splat.strips``' row sources and :class:`FullReprojection` taken from ``mod`` meanwhile (the
+    correct step's ``full_reprojection`` imports them when called)."""
+    names = ("raw_row_source", "FullReprojection")
+    kept = {n: getattr(strips, n) for n in names}
+    try:
+        for n in names:
+            setattr(strips, n, getattr(mod, n))
+        yield
+    finally:
+        for n, v in kept.items():
+            setattr(strips, n, v)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", type=Path, default=Path("/tmp/bench_capture_size"))
@@ -74,6 +119,11 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=150, help="training steps of the small model")
     ap.add_argument("--crop", type=int, default=96, help="side of the baseline's crop")
     ap.add_argument("--only-full", action="store_true", help="the full-resolution stage only (no baselines)")
+    ap.add_argument(
+        "--against",
+        metavar="REV",
+        help="also time the full-res reprojection as splat/strips.py and splat/reproject.py were at git REV",
+    )
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -146,9 +196,15 @@ def main(argv=None) -> int:
 
     rows = []
     paths = ("previous", "full-res reprojection")
+    older = _modules_at(args.against) if args.against else None
+    if older is not None:
+        paths = (*paths, f"full-res reprojection at {args.against}")
     for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
         big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
         model, fake_view = model_at(s)
+        if older is not None:
+            with _using(strips, older[0]):  # the older path's sources as the older module makes them
+                older_model, _ = model_at(s)
         H, W = open_raw(big, spec.cameras[view.camera]).shape
         chosen = model(fake_view, (H, W))  # writes the sources' DNGs once, outside the timing
         t = time.perf_counter()  # the depth renderer compiled for this width (once per image size)
@@ -167,14 +223,17 @@ def main(argv=None) -> int:
                 reset_peak_rss()
                 t, c0 = time.perf_counter(), time.process_time()
                 src = open_raw(big, spec.cameras[view.camera])
-                rep = model(fake_view, (H, W)) if path != "previous" else None
-                gen = strips.full_resolution_view(
+                mod = older[0] if path == paths[-1] and older is not None else strips
+                made = older_model if mod is not strips else model
+                rep = made(fake_view, (H, W)) if path != "previous" else None
+                given = None if rep is None else rep.rep
+                gen = mod.full_resolution_view(
                     strips.Photograph(
                         src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
                     ),
                     strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
                     fit_full,
-                    reprojection=None if rep is None else rep.rep,
+                    reprojection=given,
                 )
                 strips.write_full(
                     args.work / "full_XYZ.tiff",

@@ -235,9 +235,15 @@ LIGHT_BOOTSTRAP = 30
 #: only, the values do not depend on it): 512 rows of a 24 MP photograph demosaiced are 35 MB in float32.
 SOURCE_BAND_ROWS = 512
 
-#: Rows a source photograph's reader demosaics at once and keeps for the next strips (memory only): a
-#: 128-row strip of a view needs ~130 rows of a similar view, so consecutive strips mostly reuse them.
-SOURCE_CACHE_ROWS = 512
+#: Rows of a source photograph its reader keeps demosaiced for the next strips (memory only, the values
+#: do not depend on it; more when one strip needs more): a 128-row strip of a view lands on ~130 rows of
+#: a similar view, and on several hundred of a view rolled by a few degrees, so 1024 rows (70 MB of
+#: float32 at 24 MP) let the strips of a view read each source row once.
+SOURCE_CACHE_ROWS = 1024
+
+#: The blocks (rows, aligned to multiples of it) in which that reader demosaics and keeps a source: each
+#: read adds a margin of 2 × :data:`splat.strips.HALO` rows, 12 % of a block of 128.
+SOURCE_BLOCK_ROWS = 128
 
 #: Photographs of each other camera read at full resolution per corrected photograph, those that see
 #: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at

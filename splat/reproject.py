@@ -138,13 +138,6 @@ def _nanmedian0(stack: np.ndarray) -> np.ndarray:
     return np.where(c > 0, (lo + hi) / 2, np.nan)
 
 
-def _pixel_rays(camera):
-    fx, fy = (float(x) for x in np.asarray(camera.focal, np.float64))
-    cx, cy = (float(x) for x in np.asarray(camera.principal, np.float64))
-    jj, ii = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
-    return (jj - cx) / fx, (ii - cy) / fy
-
-
 class RowSource(NamedTuple):
     """A source photograph read a band of rows at a time, at a resolution higher than its depth map's.
 
@@ -178,19 +171,27 @@ class RowSource(NamedTuple):
 def _project(target, target_depth, target_alpha, source):
     """Each target pixel lifted to 3-D with ``target_depth`` and projected into ``source``: its column
     ``u`` and row ``v`` there (pixel-centre coordinates, centre of pixel (0, 0) at (0, 0)), its depth
-    ``zs`` in the source, and whether it can be read (opacity ≥ :data:`MIN_ALPHA`, in front, inside)."""
+    ``zs`` in the source, and whether it can be read (opacity ≥ :data:`MIN_ALPHA`, in front, inside).
+
+    The point in the source's frame is ``d · M (x, y, 1) + c`` with ``M = R_s R_tᵀ``, ``c = t_s − M t_t``
+    (the same as lifting to world coordinates and projecting): ``M (x, y, 1)`` is separable in the
+    pixel's column and row, a few operations a pixel in float64."""
     d = np.asarray(target_depth, np.float64)
-    x, y = _pixel_rays(target)
+    Rt, tt = np.asarray(target.R, np.float64), np.asarray(target.t, np.float64)
+    Rs, ts = np.asarray(source.R, np.float64), np.asarray(source.t, np.float64)
+    M = Rs @ Rt.T
+    c = ts - M @ tt
+    fx, fy = (float(x) for x in np.asarray(target.focal, np.float64))
+    cx, cy = (float(x) for x in np.asarray(target.principal, np.float64))
+    x = (np.arange(target.width) + 0.5 - cx) / fx
+    y = (np.arange(target.height) + 0.5 - cy) / fy
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf depths: not valid below
-        pc = np.stack([x * d, y * d, d], -1)
-        world = (pc - np.asarray(target.t, np.float64)) @ np.asarray(target.R, np.float64)  # Rᵀ(x − t)
-        ps = world @ np.asarray(source.R, np.float64).T + np.asarray(source.t, np.float64)
-    zs = ps[..., 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fx, fy = (float(v) for v in np.asarray(source.focal, np.float64))
-        cx, cy = (float(v) for v in np.asarray(source.principal, np.float64))
-        u = fx * ps[..., 0] / zs + cx - 0.5  # column coordinate of pixel centres
-        v = fy * ps[..., 1] / zs + cy - 0.5
+        ps = [d * ((M[k, 0] * x)[None, :] + (M[k, 1] * y + M[k, 2])[:, None]) + c[k] for k in range(3)]
+        zs = ps[2]
+        fxs, fys = (float(v) for v in np.asarray(source.focal, np.float64))
+        cxs, cys = (float(v) for v in np.asarray(source.principal, np.float64))
+        u = fxs * ps[0] / zs + (cxs - 0.5)  # column coordinate of pixel centres
+        v = fys * ps[1] / zs + (cys - 0.5)
     inside = (
         (np.asarray(target_alpha) >= MIN_ALPHA)
         & (zs > 0)

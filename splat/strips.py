@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, CORRECT_CHUNK, SOURCE_CACHE_ROWS, STRIP_ROWS
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
 
 __all__ = [
     "FULL_METHOD",
@@ -107,6 +107,29 @@ def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> t
     else:
         lin = demosaic(values.sum(-1), cfa=source.cfa, method=method)
     return lin[r0 - a : r1 - a], weight[r0 - a : r1 - a].sum(-1) > 0
+
+
+def _mosaic_rows(source, a: int, b: int) -> np.ndarray:
+    """Rows ``a:b`` (``a`` even) of a Bayer file's linear mosaic (H, W) float32: the same numbers as
+    ``source.rows(a, b)[0].sum(-1)`` (one measured channel per site) without building the three-channel
+    values and weights (2.5× less work for a source read for its values only)."""
+    raw_dn = source.data[a:b].astype(np.float64)
+    h, w = raw_dn.shape
+    black = np.tile(np.asarray(source.black, np.float64), ((h + 1) // 2, (w + 1) // 2))[:h, :w]
+    return np.clip((raw_dn - black) / (source.white - black), -0.05, 1.0).astype(np.float32)
+
+
+def _demosaic_values(source, r0: int, r1: int, *, method: str) -> np.ndarray:
+    """:func:`demosaic_rows`' values alone (float64, or float32 from a full-colour file)."""
+    from isp.stages import demosaic
+
+    if source.full_colour or getattr(source, "data", None) is None:  # a stand-in with rows() only
+        return demosaic_rows(source, r0, r1, method=method)[0]
+    H = source.shape[0]
+    a = max(0, r0 - HALO)
+    a -= a % 2
+    b = min(H, r1 + HALO)
+    return demosaic(_mosaic_rows(source, a, b), cfa=source.cfa, method=method)[r0 - a : r1 - a]
 
 
 def _axis(n_full: int, f: int, n_work: int, lo: int, hi: int):
@@ -207,16 +230,26 @@ def strip_camera(camera, r0: int, r1: int):
     )
 
 
-def reprojected_strip(rep: FullReprojection, r0: int, r1: int) -> tuple[list, list]:
+def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None) -> tuple[list, list]:
     """Rows ``r0:r1`` of the photograph, each other camera's photographs reprojected there at full
     resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
     :func:`strip_camera`), every pixel lifted with it and read in the sources (only the rows they need),
     occlusion tested against each source's working-resolution depth, combined per camera as the render
-    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W)."""
+    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W).
+
+    ``need`` (r1 − r0, W) bool: the pixels wanted; the others are not read (count 0), and a strip with
+    none is neither rendered nor read (the wanted pixels' values are the same either way)."""
     from .reproject import depth_map, reprojected
 
+    W = int(rep.camera.width)
+    if need is not None and not np.any(need):
+        return [np.zeros((r1 - r0, W, 3), np.float32) for _ in rep.groups], [
+            np.zeros((r1 - r0, W), np.int64) for _ in rep.groups
+        ]
     cam = strip_camera(rep.camera, r0, r1)
     depth, alpha = depth_map(rep.gaussians, cam, mask=rep.mask)
+    if need is not None:  # a pixel below MIN_ALPHA is not lifted nor read
+        alpha = np.where(need, alpha, 0.0)
     values, counts = [], []
     for sources in rep.groups.values():
         v, n = reprojected(cam, depth, alpha, sources)
@@ -226,22 +259,53 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int) -> tuple[list, li
 
 
 class CachedRows:
-    """A row reader that reads at least ``rows`` rows at once and keeps the last block: strips of a
-    view ask for overlapping runs of a source's rows, demosaiced once instead of once per strip.
+    """A row reader that reads whole blocks of ``block`` rows (aligned to multiples of ``block``) and keeps
+    the most recently used ones, at most ``max(rows, the rows of the current request)`` rows in all:
+    strips of a view ask for overlapping runs of a source's rows, each block read once while the runs
+    move through the image, whatever a run's length (a run longer than ``rows`` is read whole and kept).
 
-    ``read(a, b) → (b − a, W, c)``; ``height``: the image's rows."""
+    ``read(a, b) → (b − a, W, c)`` with ``read`` giving the same rows whatever ``a, b`` (as
+    :func:`demosaic_rows`); ``height``: the image's rows. Memory: the blocks kept, at most
+    ``max(rows, the current request + 2 blocks)`` rows, and while several missing blocks are read at
+    once, that read (copied into its blocks)."""
 
-    def __init__(self, read: Callable, height: int, rows: int = SOURCE_CACHE_ROWS):
-        self.read, self.height, self.rows = read, int(height), int(rows)
-        self.a, self.block = 0, None
+    def __init__(
+        self, read: Callable, height: int, rows: int = SOURCE_CACHE_ROWS, block: int = SOURCE_BLOCK_ROWS
+    ):
+        self.read, self.height, self.rows, self.block = read, int(height), int(rows), max(1, int(block))
+        self.blocks: dict = {}  # block index → rows, least recently used first
 
     def __call__(self, a: int, b: int) -> np.ndarray:
-        """Rows ``a:b``, from the kept block when it holds them."""
-        if self.block is None or a < self.a or b > self.a + len(self.block):
-            self.block = None  # the old block is freed before the new one is read
-            self.a = a
-            self.block = self.read(a, min(self.height, max(b, a + self.rows)))
-        return self.block[a - self.a : b - self.a]
+        """Rows ``a:b`` (0 ≤ a < b ≤ height)."""
+        n = self.block
+        k0, k1 = a // n, (min(b, self.height) - 1) // n + 1
+        need = range(k0, k1)
+        for k in need:  # the kept ones become the most recent
+            if k in self.blocks:
+                self.blocks[k] = self.blocks.pop(k)
+        keep = max(self.rows // n, len(need))
+        missing = [k for k in need if k not in self.blocks]
+        # the oldest blocks go before the new ones are read (memory bounded by `keep` blocks)
+        old = [k for k in self.blocks if k not in need]
+        for k in old[: max(0, len(self.blocks) + len(missing) - keep)]:
+            del self.blocks[k]
+        i = 0
+        while i < len(missing):  # consecutive missing blocks in one read (one demosaic margin)
+            j = i
+            while j + 1 < len(missing) and missing[j + 1] == missing[j] + 1:
+                j += 1
+            lo, hi = missing[i] * n, min(self.height, (missing[j] + 1) * n)
+            got = self.read(lo, hi)
+            for k in range(missing[i], missing[j] + 1):  # own copies: each is freed on its own
+                part = got[k * n - lo : (k + 1) * n - lo]
+                self.blocks[k] = part.copy() if j > i else part
+            i = j + 1
+        for k in need:  # in request order for the next eviction
+            self.blocks[k] = self.blocks.pop(k)
+        if k1 - k0 == 1:
+            return self.blocks[k0][a - k0 * n : b - k0 * n]
+        out = np.concatenate([self.blocks[k] for k in need])
+        return out[a - k0 * n : b - k0 * n]
 
 
 def raw_row_source(raw, camera, depth, binning: int, exposure: float, white_scale, sigma) -> object:
@@ -266,15 +330,16 @@ def raw_row_source(raw, camera, depth, binning: int, exposure: float, white_scal
     div = (float(exposure) * ws).astype(np.float32)
 
     def read(a, b):
-        return (demosaic_rows(raw, a, b, method="bilinear")[0] / div).astype(np.float32)
+        return (_demosaic_values(raw, a, b, method="bilinear") / div).astype(np.float32)
 
     P = raw.info.get("noise_profile")
-    if P is not None:
+    if P is not None:  # affine in x: a·max(x, 0) + b, coefficients folded once (float32, as the values)
         P = np.asarray(P, float)
         gain = float(exposure) * ws
+        slope, offset = (P[:, 0] / gain).astype(np.float32), (P[:, 1] / gain**2).astype(np.float32)
 
         def variance(x):
-            return ((P[:, 0] * np.maximum(x * gain, 0) + P[:, 1]) / gain**2).astype(np.float32)
+            return slope * np.maximum(np.asarray(x, np.float32), 0) + offset
     else:
         s2 = np.square(np.asarray(sigma, float))
 
@@ -351,8 +416,8 @@ def full_resolution_view(
         del up, photo, lin
         cd = nearest_rows(code, f, r0, r1, W)
         if reprojection is not None:  # the other cameras' photographs at full resolution
-            values, seen = reprojected_strip(reprojection, r0, r1)
             plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
+            values, seen = reprojected_strip(reprojection, r0, r1, need=plain)  # read only where used
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 use = (n > 0) & plain
                 resp[..., 3 * i : 3 * i + 3] = np.where(

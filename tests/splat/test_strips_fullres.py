@@ -70,18 +70,54 @@ def test_reproject_rows_checks_the_depth_size():
         reproject_rows(TARGET, td, ta, _row_source(src, img, sd, 2))
 
 
-def test_cached_rows_reads_each_block_once():
-    img = np.arange(100 * 3 * 1, dtype=float).reshape(100, 3, 1)
-    calls = []
+class _Counted:
+    """An image read by rows, counting how often each row is read."""
 
-    def read(a, b):
-        calls.append((a, b))
-        return img[a:b]
+    def __init__(self, h, w=3):
+        self.img = np.arange(h * w, dtype=float).reshape(h, w, 1)
+        self.reads = np.zeros(h, int)
+        self.calls = []
 
-    rows = CachedRows(read, 100, rows=32)
+    def __call__(self, a, b):
+        self.calls.append((a, b))
+        self.reads[a:b] += 1
+        return self.img[a:b].copy()
+
+
+def test_cached_rows_sweep_reads_each_row_once():
+    img = _Counted(100)
+    rows = CachedRows(img, 100, rows=32, block=16)
     for a in range(0, 90, 8):
-        np.testing.assert_array_equal(rows(a, a + 10), img[a : a + 10])
-    assert calls == [(0, 32), (24, 56), (48, 80), (72, 100)]
+        np.testing.assert_array_equal(rows(a, a + 10), img.img[a : a + 10])
+    assert (img.reads == 1).all()
+    assert all(a % 16 == 0 and (b % 16 == 0 or b == 100) for a, b in img.calls)
+
+
+def test_cached_rows_keeps_a_band_longer_than_its_rows():
+    # a strip of a rolled view lands on a tall band, read in parts (reproject_rows' bands); the next
+    # strip's parts start above the last part's rows: the first parts are still kept
+    img = _Counted(400)
+    rows = CachedRows(img, 400, rows=96, block=16)
+    for a in (10, 30, 50):
+        for lo, hi in ((a, a + 48), (a + 48, a + 90)):
+            np.testing.assert_array_equal(rows(lo, hi), img.img[lo:hi])
+    assert img.reads.max() == 1
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 119), st.integers(1, 60)), min_size=1, max_size=12),
+    st.integers(1, 40),
+    st.integers(1, 70),
+)
+def test_cached_rows_any_requests_give_the_rows_with_bounded_memory(requests, block, keep):
+    img = _Counted(120)
+    rows = CachedRows(img, 120, rows=keep, block=block)
+    for a, n in requests:
+        b = min(120, a + n)
+        np.testing.assert_array_equal(rows(a, b), img.img[a:b])
+        need = (b - 1) // block - a // block + 1
+        assert len(rows.blocks) <= max(keep // block, need)
 
 
 # ------------------------------------------------- full resolution against the working resolution
@@ -362,3 +398,68 @@ def test_bilinear_sample_is_map_coordinates(h, w, c, seed):
     v, u = rng.uniform(-1.5, h + 0.5, 50), rng.uniform(-1.5, w + 0.5, 50)
     want = np.stack([map_coordinates(img[..., j], [v, u], order=1, mode="nearest") for j in range(c)], -1)
     np.testing.assert_allclose(_sample(img, v, u), want, rtol=1e-12, atol=1e-12)
+
+
+def test_reprojected_strip_reads_only_the_pixels_needed(splat_scene):
+    g, cam, groups = splat_scene
+    rep = FullReprojection(g, None, cam, groups, np.full(9, 0.01))
+    H, W = cam.height, cam.width
+    all_v, all_n = reprojected_strip(rep, 0, H)
+    need = np.random.default_rng(0).random((H, W)) < 0.5
+    v, n = reprojected_strip(rep, 0, H, need=need)
+    for j in range(2):
+        assert (all_n[j][need] > 0).any()
+        np.testing.assert_array_equal(n[j][need], all_n[j][need])
+        assert (n[j][~need] == 0).all()
+        np.testing.assert_allclose(v[j][need], all_v[j][need], rtol=1e-6, atol=1e-7)
+    none_v, none_n = reprojected_strip(rep, 0, 16, need=np.zeros((16, W), bool))
+    assert all(x.shape == (16, W) and not x.any() for x in none_n)
+    assert all(x.shape == (16, W, 3) and not x.any() for x in none_v)
+
+
+def test_full_resolution_view_demosaics_each_source_row_once(splat_scene):
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    counted, cached = {}, {}
+    for i, (src,) in groups.items():
+        img = src.rows(0, src.camera.height)
+        counted[i] = _Counted(src.camera.height, img.shape[1])
+        counted[i].img = img
+        cached[i] = [src._replace(rows=CachedRows(counted[i], src.camera.height, rows=16, block=8))]
+    rep = FullReprojection(g, None, cam, cached, np.full(9, 0.05))
+    work = WorkingFusion(
+        np.full((H // 2, W // 2, 9), 0.2),
+        np.zeros((H // 2, W // 2), int),
+        {0: np.full(9, 0.02)},
+        slice(0, 3),
+        2,
+    )
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    list(
+        full_resolution_view(photo, work, lambda s: (_Linear(), np.ones(9)), strip_rows=16, reprojection=rep)
+    )
+    for c in counted.values():
+        assert c.reads.sum() > 0 and c.reads.max() == 1
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["RGGB", "BGGR", "GRBG"]))
+def test_raw_row_source_reads_the_demosaiced_rows(seed, cfa):
+    from splat.capture.raw import RawSource
+    from splat.strips import _mosaic_rows, demosaic_rows, raw_row_source
+
+    rng = np.random.default_rng(seed)
+    H, W = 40, 30
+    data = rng.integers(0, 4096, (H, W)).astype(np.uint16)
+    data[rng.random((H, W)) < 0.05] = 4095  # saturated
+    data[rng.random((H, W)) < 0.05] = 0  # below black
+    black = np.array([[300.0, 310.0], [305.0, 295.0]])  # 0 DN: clipped at −0.05
+    src = RawSource(None, data, black, 4095.0, cfa, {"noise_profile": None})
+    for a, b in ((0, H), (4, 18), (10, 40)):
+        np.testing.assert_array_equal(_mosaic_rows(src, a, b), src.rows(a, b)[0].sum(-1))
+    ws = np.array([0.5, 1.0, 0.8])
+    cam = _cam((0.0, -2.0, 1.0), (0.0, 0.0, 0.0), size=(W, H), focal=(30.0, 30.0))
+    rs = raw_row_source(src, cam, np.ones((H // 2, W // 2)), 2, 2.0, ws, np.full(3, 0.01))
+    for a, b in ((0, 12), (7, 33), (30, 40)):
+        want = demosaic_rows(src, a, b, method="bilinear")[0] / (2.0 * ws)
+        np.testing.assert_allclose(rs.rows(a, b), want, rtol=1e-6, atol=1e-7)
