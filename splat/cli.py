@@ -91,6 +91,14 @@ def _parser() -> argparse.ArgumentParser:
             "else automatic (at most splat._tol.TRAIN_PIXEL_BUDGET pixels)",
         )
         s.add_argument(
+            "--no-full-reprojection",
+            dest="full_reprojection",
+            action="store_false",
+            help="full-resolution outputs take the other cameras' channels from the working-resolution "
+            "fusion, upsampled, instead of reprojecting their photographs at full resolution (about 3× "
+            "less time for binned photographs, less detail from the other cameras)",
+        )
+        s.add_argument(
             "--noise",
             default="auto",
             metavar="auto|SIGMA|SHOT:READ",
@@ -178,6 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             threads=args.threads,
             train_size=args.train_size,
             noise=parse_noise(args.noise),
+            full_reprojection=args.full_reprojection,
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)

@@ -664,6 +664,7 @@ def correct_step(
             "noise": config.noise,
             "full_resolution": FULL_METHOD,
             "white_point": WHITE_POINT,
+            "full_reprojection": config.full_reprojection,
         },
     )
     spec, light = illuminant_of(spec, out, photographed or index, raws)  # "estimate": the light now
@@ -685,7 +686,7 @@ def correct_step(
     )
     fit = fused_fitter(spec, list(range(n)), config.method)
     fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
-    full_model = full_reprojection(spec, out, raws, fusion, scale)
+    full_model = full_reprojection(spec, out, raws, fusion, scale) if config.full_reprojection else None
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
     full_info = {}
     # one progress bar over the rows of every photograph still to correct at full resolution

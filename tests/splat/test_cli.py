@@ -25,3 +25,20 @@ def test_progress_lines_estimate_the_time_left(monkeypatch, capsys, tmp_path):
     assert lines[1].endswith("correct: 1/4, about 36 s left")  # 12 s per view, 3 views to go
     assert lines[3].endswith("correct: 3/4, about 12 s left")
     assert lines[4].endswith("correct: 4/4")
+
+
+def test_no_full_reprojection_reaches_the_config(monkeypatch, tmp_path):
+    """``--no-full-reprojection`` sets PipelineConfig.full_reprojection (default True)."""
+    import splat.capture
+    from splat.cli import main
+
+    seen = []
+
+    def fake_run(capture, out, *, config, steps, progress):
+        seen.append(config.full_reprojection)
+        return {}
+
+    monkeypatch.setattr(splat.capture, "run", fake_run)
+    assert main(["correct", str(tmp_path), "-o", str(tmp_path / "out")]) == 0
+    assert main(["correct", str(tmp_path), "-o", str(tmp_path / "o2"), "--no-full-reprojection"]) == 0
+    assert seen == [True, False]
