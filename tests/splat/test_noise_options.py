@@ -31,14 +31,24 @@ def dummy(monkeypatch):
 
 
 def test_the_capture_passes_a_new_estimator_its_noise(dummy, tmp_path):
-    from splat.capture import PipelineConfig, check_run, fit_corrector, fused_fitter, read_capture
+    from splat.capture import (
+        WHITE_POINT,
+        PipelineConfig,
+        check_run,
+        fit_corrector,
+        fused_fitter,
+        read_capture,
+    )
 
     write_capture(tmp_path / "cap", views=1, holdout=0, colmap=False)
     spec = read_capture(tmp_path / "cap")
     check_run(spec, PipelineConfig(method="dummy"))  # a registered name is a valid --method
     fit_corrector(spec, [0, 1, 2], "Dummy", 0.03)
-    assert dummy[-1] == {"noise": pytest.approx(0.03 / DELTA_SIGMAS)}
+    assert dummy[-1] == {"noise": pytest.approx(0.03 / DELTA_SIGMAS), "white_point": WHITE_POINT}
     fit = fused_fitter(spec, [0, 1, 2], "Dummy")
     _, scale = fit(np.array([0.01, 0.02, 0.04, 0.01, 0.01, 0.02, 0.03, 0.05, 0.01]))
-    assert dummy[-1] == {"noise": pytest.approx(0.02)}  # σ_ref: the median channel, the others whitened
+    assert dummy[-1] == {
+        "noise": pytest.approx(0.02),
+        "white_point": WHITE_POINT,
+    }  # σ_ref: the median channel, the others whitened
     assert scale == pytest.approx(0.02 / np.array([0.01, 0.02, 0.04, 0.01, 0.01, 0.02, 0.03, 0.05, 0.01]))
