@@ -79,7 +79,7 @@ def test_correct_refuses_clashing_outputs_before_the_fit(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("options", "start"),
     [
-        (["--exposure", "2"], "isp: error: --exposure applies to --tonemap clip only"),
+        (["--tonemap", "Reinhard 2002", "--exposure", "2"], "isp: error: --exposure applies to --tonemap "),
         (["--correction", "metamer"], "isp: error: --correction metamer needs --camera"),
     ],
 )
