@@ -40,6 +40,14 @@ LABELS = {"NA root-poly": "Finlayson 2015", "NA linear": "Cheung 2004"}
 PATCHES = ["card 0.9", "white 9.5", "neutral 8", "neutral 6.5", "neutral 5", "neutral 3.5", "black 2"]
 
 
+def _line(cell, suffix: str = "") -> str:
+    """Δa*, Δb* and ΔE00 of each patch of ``cell`` (keys ``da``, ``db``, ``dE00`` + ``suffix``)."""
+    da = " ".join(f"{r['da' + suffix]:+.2f}" for r in cell)
+    db = " ".join(f"{r['db' + suffix]:+.2f}" for r in cell)
+    de = " ".join(f"{r['dE00' + suffix]:.2f}" for r in cell)
+    return f"Δa* {da}  Δb* {db}  ΔE00 {de}"
+
+
 def problem_of(n_cams: int):
     """The capture's correction problem of its first ``n_cams`` cameras (as ``correction_problem_of``)."""
     import zonotope
@@ -117,23 +125,9 @@ def run(args) -> list[dict]:
                     )
                 cell = rows[-len(PATCHES) :]
                 print(
-                    f"{n_cams} cam δ={delta:<6g} {label:28s} fit {fit_s:6.1f} s  Δa* "
-                    + " ".join(f"{r['da']:+.2f}" for r in cell)
-                    + "  Δb* "
-                    + " ".join(f"{r['db']:+.2f}" for r in cell)
-                    + "  ΔE00 "
-                    + " ".join(f"{r['dE00']:.2f}" for r in cell),
-                    flush=True,
+                    f"{n_cams} cam δ={delta:<6g} {label:28s} fit {fit_s:6.1f} s  " + _line(cell), flush=True
                 )
-                print(
-                    f"{'':30s}{'noisy mean':>27s}          Δa* "
-                    + " ".join(f"{r['da_noisy']:+.2f}" for r in cell)
-                    + "  Δb* "
-                    + " ".join(f"{r['db_noisy']:+.2f}" for r in cell)
-                    + "  ΔE00 "
-                    + " ".join(f"{r['dE00_noisy']:.2f}" for r in cell),
-                    flush=True,
-                )
+                print(f"{'':30s}{'noisy mean':>27s}          " + _line(cell, "_noisy"), flush=True)
     return rows
 
 

@@ -484,11 +484,14 @@ def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):
     cache: dict = {}
     # the unwhitened problem, built once when first needed (0.04–0.15 s each, ~50 noise patterns a run)
     problem = functools.cache(lambda: correction_problem_of(spec, list(cameras)))
+    band = functools.cache(lambda: ssf_sigma(spec, list(cameras)))
 
     def fit(sigma):
         key = tuple(np.round(sigma, 6))
         if key not in cache:
-            cache[key] = fit_fused_corrector(spec, list(cameras), method, sigma, mix=mix, problem=problem())
+            cache[key] = fit_fused_corrector(
+                spec, list(cameras), method, sigma, mix=mix, problem=problem(), band=band()
+            )
         return cache[key]
 
     return fit
@@ -541,19 +544,23 @@ def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: flo
     return _fit_on(correction_problem_of(spec, cameras), method, sigma, cache_dir=cache_dir)
 
 
-def fit_fused_corrector(spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None):
+def fit_fused_corrector(
+    spec: CaptureSpec, cameras: list[int], method: str, noise, *, mix=None, problem=None, band=None
+):
     """An estimator for fused responses with per-channel noise ``noise`` (σ per channel of ``cameras``):
     fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
     (:func:`splat.fusion.whitened`, δ = ``DELTA_SIGMAS`` · σ_ref); returns it and the scale to apply to
     responses.
     ``mix``: Prior's atypical-branch weight (:func:`fused_mix`); without it Prior chooses it by its own
     cross-validation for every noise pattern (~3–5 s each). ``problem``: the cameras'
-    :func:`correction_problem_of`, when the caller already has it."""
+    :func:`correction_problem_of`, when the caller already has it; ``band``: their :func:`ssf_sigma`,
+    likewise."""
     from ..fusion import whitened
 
     if problem is None:
         problem = correction_problem_of(spec, cameras)
-    band = ssf_sigma(spec, cameras)
+    if band is None:
+        band = ssf_sigma(spec, cameras)
     if band.any():  # estimated curves: their response error joins the sensor noise
         noise = np.hypot(noise, band)
     problem, scale, ref = whitened(problem, noise)
