@@ -184,3 +184,38 @@ AUTO_BRIGHT_BINS = 2**16
 #: interpolated from them (tested), so the radius only shapes the LUT past any surface (noise,
 #: highlights); 10× the radius of the other nodes (docs/notes/2026-11-29-lut-speed.md).
 LUT_OUTSIDE_QUANTUM = 0.02
+
+# --- automatic chart detection (isp profile --chart without --chart-corners) ---
+__all__ += [
+    "CHART_DETECT_CELL",
+    "CHART_DETECT_LINK",
+    "CHART_DETECT_MAX_DE",
+    "CHART_DETECT_MIN_SQUARES",
+    "CHART_DETECT_WHITE_PERCENTILE",
+]
+
+#: :func:`isp.profiles.chart_detect.raw_preview`: the green percentile scaled to 1 before the
+#: segmenter (which encodes with sRGB and clips at 1): 99.5 keeps a chart's white below 1 in a frame
+#: with a few highlights, without letting one bright lamp darken the patches.
+CHART_DETECT_WHITE_PERCENTILE = 99.5
+
+#: A segmented square belongs to a grid cell when its centre is within this many patch pitches of
+#: the cell's centre along each axis: the ColorChecker's patches are 0.8 pitch wide, so 0.3 keeps
+#: squares misplaced by a quarter patch and refuses those on the gaps or the chart's border.
+CHART_DETECT_CELL = 0.3
+
+#: Fewest segmented squares a 4 × 6 grid is fitted to (8 homography unknowns, two equations each,
+#: and spread over three columns and two rows): 6 of the 24, so that a chart with most patches
+#: unfound is refused rather than fitted to a few squares that may be the Passport's other side.
+CHART_DETECT_MIN_SQUARES = 6
+
+#: Largest mean ΔE00 of the white-preserving least-squares matrix over the 24 patches for a grid to
+#: be taken as the chart: a real chart under the stated light gives 2–4 (the 550D DNG: 3.0 under A,
+#: 4.9 when told D50), the same grid rotated or mirrored gives 20 and more, a scene without a chart
+#: nothing that passes the neutral-order check.
+CHART_DETECT_MAX_DE = 10.0
+
+#: Segmented squares are grouped into one candidate chart when their centres are less than this many
+#: sides apart and their sides differ by less than this ratio: a ColorChecker's neighbours are 1.25
+#: sides apart (up to ≈ 1.6 under the perspective a chart is photographed in), diagonals 1.8.
+CHART_DETECT_LINK = 1.7
