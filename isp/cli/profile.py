@@ -4,7 +4,8 @@ correction) for a camera, from its spectral sensitivities or from a photographed
 Registered on the ``isp`` command by :func:`add_command`. From sensitivities (``--camera``) the DCP
 is fitted by :func:`isp.profiles.fitting.fit_dcp`, the LUT sampled by
 :func:`isp.profiles.lut.profile_LUT` and the saved correction written by
-:mod:`zonotope.correct.profile`; from a chart (``--chart``) by :mod:`isp.profiles.chart`. The ICC
+:mod:`zonotope.correct.profile`; from a chart (``--chart``) by :mod:`isp.profiles.chart`, the chart found by
+:mod:`isp.profiles.chart_detect` unless ``--chart-corners`` gives it. The ICC
 profile (:mod:`isp.profiles.icc`) holds the matrix part of either.
 (It is an ``isp`` command, not a ``zonotope`` one, because ``zonotope`` never imports ``isp``.)
 """
@@ -155,7 +156,16 @@ def _chart_profile(args: argparse.Namespace, console) -> int:
             f"--illuminant {illuminant}: a DCP names its illuminant by an EXIF LightSource code; use one of "
             f"{sorted(ILLUMINANT_LIGHT_SOURCE)}."
         )
-    corners = _corners(args.chart_corners)
+    corners = _corners(args.chart_corners) if args.chart_corners else None
+    if corners is None and args.chart_type != "colorchecker":
+        raise ZonotopeError(
+            f"--chart-type {args.chart_type}: only a ColorChecker is found automatically; "
+            "give --chart-corners."
+        )
+    if corners is None:
+        from ..profiles.chart_detect import require_detector
+
+        require_detector()  # a missing optional package is said before reading the file
     out = Path(args.output)
     report = Path(args.report) if args.report else out.with_name(out.stem + "_patches.csv")
     if report.suffix.lower() != ".csv":
@@ -165,6 +175,13 @@ def _chart_profile(args: argparse.Namespace, console) -> int:
     targets = [out, report, report.with_suffix(".html")] + ([Path(args.icc)] if args.icc else [])
     _check_targets(args, targets)
     raw = read_raw(args.chart)
+    found = None
+    if corners is None:
+        from ..profiles.chart_detect import detect_chart
+
+        with _status(console, f"finding the chart in {args.chart}…"):
+            found = detect_chart(raw, chart=args.chart_type, illuminant=illuminant)
+        corners = found.corners
     reading = read_chart(raw, corners, chart=args.chart_type)
     fit = fit_chart(reading, illuminant=illuminant)
     model = canonical_model(args.unique_camera_model or reading.camera)  # Adobe's name: what readers match
@@ -178,6 +195,13 @@ def _chart_profile(args: argparse.Namespace, console) -> int:
             args, dcp.forward_matrix_1, chart_reference(args.chart_type, illuminant)[2], dcp.profile_name
         )
     write_chart_report(fit, report, overwrite=args.overwrite)
+    if found is not None:  # the user checks, and can correct, what was found
+        console.print(
+            f"chart found: --chart-corners {found.corner_args()} (patches 1, 6, 24, 19; chart turned "
+            f"{found.angle:.0f}°{', mirrored' if found.mirrored else ''}, {found.squares} of 24 patches "
+            "segmented)",
+            soft_wrap=True,
+        )
     e = fit.delta_E
     worst = np.argsort(e)[::-1][:3]
     console.print(
@@ -369,14 +393,16 @@ def add_command(sub) -> None:
     p.add_argument(
         "--chart",
         metavar="RAW",
-        help="fit from a RAW/DNG photograph of a chart instead (with --chart-corners and --illuminant)",
+        help="fit from a RAW/DNG photograph of a chart instead (with --illuminant; the ColorChecker is "
+        "found automatically, or give --chart-corners)",
     )
     p.add_argument(
         "--chart-corners",
         nargs=4,
         metavar="X,Y",
         help="pixel centres of the top-left, top-right, bottom-right and bottom-left patches "
-        "(ColorChecker: dark skin, bluish green, black, white) in the RAW file's frame",
+        "(ColorChecker: dark skin, bluish green, black, white) in the RAW file's frame (default: found "
+        "automatically, with the 'chart' extra)",
     )
     p.add_argument(
         "--chart-type",

@@ -34,7 +34,7 @@ from .._tol import (
 )
 from .chart import ChartError, ChartReading, _chart_type, fit_chart
 
-__all__ = ["ChartDetection", "detect_chart", "detect_chart_rgb", "raw_preview"]
+__all__ = ["ChartDetection", "detect_chart", "detect_chart_rgb", "raw_preview", "require_detector"]
 
 #: What to tell a user whose chart was not found (every failure ends with it).
 _BY_HAND = (
@@ -76,6 +76,12 @@ class ChartDetection:
     def corner_args(self) -> str:
         """The corners as ``--chart-corners`` takes them (``X,Y X,Y X,Y X,Y``, rounded to 0.1 px)."""
         return " ".join(f"{x:.1f},{y:.1f}" for x, y in self.corners)
+
+
+def require_detector() -> None:
+    """Raise :class:`ChartError` (one line: how to install it, or to give the corners) when the
+    optional ``colour-checker-detection`` package is missing, before any long work."""
+    _detector()
 
 
 def _detector():
@@ -373,7 +379,7 @@ def detect_chart(raw, *, chart: str = "colorchecker", illuminant: str = "D50") -
 
     if not hasattr(raw, "mosaic"):
         raw = read_raw(raw)
-    _detector()  # the missing package is said before the preview is computed
+    require_detector()  # the missing package is said before the preview is computed
     name = str(getattr(raw, "path", None) or "RAW file")
     d = detect_chart_rgb(raw_preview(raw), chart=chart, illuminant=illuminant, path=name)
     return ChartDetection(  # preview pixel (u, v) is centred on mosaic (2u + 0.5, 2v + 0.5)
