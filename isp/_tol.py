@@ -191,6 +191,8 @@ __all__ += [
     "CHART_DETECT_LINK",
     "CHART_DETECT_MAX_DE",
     "CHART_DETECT_MIN_SQUARES",
+    "CHART_DETECT_PATCH",
+    "CHART_DETECT_SIMILAR",
     "CHART_DETECT_WHITE_PERCENTILE",
 ]
 
@@ -219,3 +221,12 @@ CHART_DETECT_MAX_DE = 10.0
 #: sides apart and their sides differ by less than this ratio: a ColorChecker's neighbours are 1.25
 #: sides apart (up to ≈ 1.6 under the perspective a chart is photographed in), diagonals 1.8.
 CHART_DETECT_LINK = 1.7
+
+#: A ColorChecker Classic patch's side in patch pitches (X-Rite's layout: 40 mm patches on a 47.6 mm
+#: pitch, ≈ 0.84): the area the refinement of the patch centres expects a patch's pixels to cover.
+CHART_DETECT_PATCH = 0.84
+
+#: Pixels within this relative RGB distance of a patch's middle colour belong to the patch when its
+#: centre is refined: neighbouring patches of the chart differ by ≥ 35 % of the brighter one's norm
+#: (the neutral row's steps), noise at a few percent stays inside.
+CHART_DETECT_SIMILAR = 0.2

@@ -132,12 +132,13 @@ def test_missing_package_is_one_line(monkeypatch):
 
 def test_real_550d_chart_is_found_where_the_hand_put_it(raw_550d):
     """The Canon EOS Kiss X4 (550D) DNG, a ColorChecker Passport (its other side, another chart of
-    coloured squares, in the same frame): the chart is found at the corners the existing tests give
-    by hand (within a tenth of the patch pitch: the hand's are a rounded rectangle, the chart is
-    turned by 1°), and the patch means and fitted profile are the same."""
+    coloured squares, in the same frame): the chart is found where the existing tests' hand-given
+    corners put it (within 0.15 of the 108 px pitch: the hand's are a rectangle rounded to whole
+    pixels, the chart is turned by 1.3°, 12 px over its width), and the patch means and the fitted
+    profile are the same."""
     manual = np.array([(712, 624), (1250, 624), (1250, 930), (712, 930)], dtype=float)
     d = detect_chart(raw_550d, illuminant="A")
-    assert np.abs(d.corners - manual).max() < 0.1 * 538 / 5
+    assert np.abs(d.corners - manual).max() < 0.15 * 538 / 5
     assert not d.mirrored and abs(d.angle) < 5
     ours, hand = read_chart(raw_550d, d.corners), read_chart(raw_550d, manual)
     np.testing.assert_allclose(ours.rgb, hand.rgb, rtol=0.03, atol=2e-4)
@@ -187,7 +188,7 @@ def test_cli_profile_finds_the_chart(scene_dngs, tmp_path, capsys):
     err = capsys.readouterr().err
     line = next(x for x in err.splitlines() if x.startswith("chart found: --chart-corners "))
     corners = np.array([[float(v) for v in p.split(",")] for p in line.split()[3:7]])
-    np.testing.assert_allclose(corners, truth[[0, 5, 23, 18]], atol=2.0)
+    np.testing.assert_allclose(corners, truth[[0, 5, 23, 18]], atol=2.0)  # the pitch is 48 px
     given_corners = [f"{x},{y}" for x, y in truth[[0, 5, 23, 18]]]
     argv = ["profile", "--chart", str(chart), "--chart-corners", *given_corners, "--illuminant", "D65"]
     assert main([*argv, "-o", str(tmp_path / "b.dcp")]) == 0
