@@ -187,22 +187,25 @@ LUT_OUTSIDE_QUANTUM = 0.02
 
 # --- automatic chart detection (isp profile --chart without --chart-corners) ---
 __all__ += [
+    "CHART_DETECT_AREA",
     "CHART_DETECT_CELL",
     "CHART_DETECT_LINK",
     "CHART_DETECT_MAX_DE",
     "CHART_DETECT_MIN_SQUARES",
     "CHART_DETECT_PATCH",
+    "CHART_DETECT_SHIFT",
     "CHART_DETECT_SIMILAR",
     "CHART_DETECT_WHITE_PERCENTILE",
 ]
 
 #: :func:`isp.profiles.chart_detect.raw_preview`: the green percentile scaled to 1 before the
-#: segmenter (which encodes with sRGB and clips at 1): 99.5 keeps a chart's white below 1 in a frame
-#: with a few highlights, without letting one bright lamp darken the patches.
+#: segmenter (which encodes with sRGB and clips at 1): the brightest 0.5 % of the frame (a lamp, a
+#: window) may clip, so that a small highlight does not darken the chart; a chart's white patch is
+#: ≈ 1/200 of a frame the chart fills a fifth of. Chosen, not tuned (the 550D DNG is found with 99–100).
 CHART_DETECT_WHITE_PERCENTILE = 99.5
 
 #: A segmented square belongs to a grid cell when its centre is within this many patch pitches of
-#: the cell's centre along each axis: the ColorChecker's patches are 0.8 pitch wide, so 0.3 keeps
+#: the cell's centre along each axis: the ColorChecker's patches are 0.84 pitch wide, so 0.3 keeps
 #: squares misplaced by a quarter patch and refuses those on the gaps or the chart's border.
 CHART_DETECT_CELL = 0.3
 
@@ -212,9 +215,9 @@ CHART_DETECT_CELL = 0.3
 CHART_DETECT_MIN_SQUARES = 6
 
 #: Largest mean ΔE00 of the white-preserving least-squares matrix over the 24 patches for a grid to
-#: be taken as the chart: a real chart under the stated light gives 2–4 (the 550D DNG: 3.0 under A,
-#: 4.9 when told D50), the same grid rotated or mirrored gives 20 and more, a scene without a chart
-#: nothing that passes the neutral-order check.
+#: be taken as the chart. Measured: the 550D DNG's chart 2.5 under A, 2.9 when told D50; the same grid
+#: rotated or mirrored 33–42; the reference chart with its 18 colours shuffled (neutral row in place,
+#: 200 permutations) 17.8 at least. 10 sits between, with room for a light misnamed by the user.
 CHART_DETECT_MAX_DE = 10.0
 
 #: Segmented squares are grouped into one candidate chart when their centres are less than this many
@@ -230,3 +233,13 @@ CHART_DETECT_PATCH = 0.84
 #: centre is refined: neighbouring patches of the chart differ by ≥ 35 % of the brighter one's norm
 #: (the neutral row's steps), noise at a few percent stays inside.
 CHART_DETECT_SIMILAR = 0.2
+
+#: A patch's pixels (those like its middle colour) are its own when their area is within this
+#: fraction of a patch's: more means it merges with a like-coloured surround (the black patch on the
+#: chart's black body), less that the window cut it; neither gives a centroid at the patch's centre.
+CHART_DETECT_AREA = 0.3
+
+#: Largest move, in patch pitches, of any patch centre by the refinement: the segmented squares'
+#: grid is within 0.1 pitch (benchmarks/bench_chart_detect.py), so a larger move is a refit gone wrong
+#: and the squares' grid is kept; 0.25 still keeps the sampling box inside the patch.
+CHART_DETECT_SHIFT = 0.25

@@ -26,11 +26,13 @@ import numpy as np
 
 from .._tol import (
     CHART_BOX,
+    CHART_DETECT_AREA,
     CHART_DETECT_CELL,
     CHART_DETECT_LINK,
     CHART_DETECT_MAX_DE,
     CHART_DETECT_MIN_SQUARES,
     CHART_DETECT_PATCH,
+    CHART_DETECT_SHIFT,
     CHART_DETECT_SIMILAR,
     CHART_DETECT_WHITE_PERCENTILE,
 )
@@ -305,9 +307,10 @@ def _refine(img: np.ndarray, centres: np.ndarray, rows: int, cols: int) -> np.nd
 
     Around each centre, the pixels within :data:`isp._tol.CHART_DETECT_SIMILAR` (relative RGB
     distance) of the colour at its middle are the patch; their centroid is its centre when their
-    area is a patch's (±30 %: a patch that does not stand out from the chart's body, such as the
-    black one, or a window cut by the image's edge, is left out). The grid's homography is refitted
-    to those centroids, so that the few-pixel error of the segmented squares averages out.
+    area is a patch's (within :data:`isp._tol.CHART_DETECT_AREA`; a patch that does not stand out
+    from the chart's body, such as the black one, or a window cut by the image's edge, is left
+    out). The grid's homography is refitted to those centroids, so that the few-pixel error of the
+    segmented squares averages out.
     """
     grid = np.array([(j + 0.5, i + 0.5) for i in range(rows) for j in range(cols)])
     pitch = float(
@@ -330,7 +333,7 @@ def _refine(img: np.ndarray, centres: np.ndarray, rows: int, cols: int) -> np.nd
         m = np.median(img[y - inner : y + inner + 1, x - inner : x + inner + 1].reshape(-1, 3), axis=0)
         mask = np.linalg.norm(win - m, axis=-1) < CHART_DETECT_SIMILAR * max(float(np.linalg.norm(m)), 1e-12)
         area = (CHART_DETECT_PATCH * pitch) ** 2
-        if not 0.7 * area < mask.sum() < 1.3 * area:
+        if not abs(mask.sum() / area - 1) < CHART_DETECT_AREA:
             continue
         yy, xx = np.nonzero(mask)
         good.append(k)
@@ -339,7 +342,7 @@ def _refine(img: np.ndarray, centres: np.ndarray, rows: int, cols: int) -> np.nd
         return centres
     Hr = _homography(grid[good], np.array(found))
     refined = _apply(Hr, grid)
-    if not np.all(np.isfinite(refined)) or np.abs(refined - centres).max() > 0.25 * pitch:
+    if not np.all(np.isfinite(refined)) or np.abs(refined - centres).max() > CHART_DETECT_SHIFT * pitch:
         return centres  # the refit moved the grid by more than the squares' error: keep the squares'
     return refined
 

@@ -111,12 +111,13 @@ def test_synthetic_charts_are_found(pitch, angle, tilt, mirror, seed):
 
 
 def test_not_a_colorchecker_is_refused():
-    """A 4 × 6 grid of the chart's own colours in the wrong places is refused with the one-line error
-    that asks for the corners (a scene without any chart: the CLI and real-photo tests)."""
+    """A 4 × 6 grid of the chart's own colours, its neutral row in place but the 18 colours shuffled
+    (the neutral-order check passes; the colour fit must refuse it) is refused with the one-line
+    error that asks for the corners (a scene without any chart: the CLI and real-photo tests)."""
     rng = np.random.default_rng(3)
     Hm = _pose(rng, 50, 10, 0.05, False, (600, 900))
-    image = _render(Hm, _srgb_chart()[rng.permutation(24)], rng)
-    with pytest.raises(ChartError, match="no ColorChecker found") as e:
+    image = _render(Hm, _srgb_chart()[np.r_[rng.permutation(18), 18:24]], rng)
+    with pytest.raises(ChartError, match=r"no ColorChecker found \(the best grid's colours are") as e:
         detect_chart_rgb(image, illuminant="D65", path="scene.png")
     assert str(e.value).startswith("scene.png: ") and "--chart-corners" in str(e.value)
     assert "\n" not in str(e.value)
