@@ -15,6 +15,7 @@ A scene counts as found when patch 1 comes first and every centre is within a qu
 (the patch box then lies inside the patch); the error columns are over the found scenes.
 
     python benchmarks/bench_chart_detect.py --scenes 40
+    python benchmarks/bench_chart_detect.py --scenes 12 --pitch 12 20   # small charts
 """
 
 from __future__ import annotations
@@ -33,10 +34,10 @@ BOX = np.array([[-0.4, -0.4], [6.4, -0.4], [6.4, 4.4], [-0.4, 4.4]])
 GRID = np.array([(j + 0.5, i + 0.5) for i in range(4) for j in range(6)])
 
 
-def scene(rng, size=(600, 900)):
+def scene(rng, size=(600, 900), pitches=(30, 65)):
     """(image, true centres, pitch, mirrored) of one random scene."""
     H, W = size
-    pitch, angle, tilt = rng.uniform(30, 65), rng.uniform(-180, 180), rng.uniform(0, 0.1)
+    pitch, angle, tilt = rng.uniform(*pitches), rng.uniform(-180, 180), rng.uniform(0, 0.1)
     mirror = bool(rng.random() < 0.25)
     c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
     R = pitch * np.array([[c, s], [-s, c]]) @ np.diag([1, -1 if mirror else 1])
@@ -93,6 +94,9 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenes", type=int, default=40)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--pitch", type=float, nargs=2, default=[30, 65], metavar=("LO", "HI"), help="patch pitch, px"
+    )
     args = p.parse_args()
     warnings.simplefilter("ignore")
     rng = np.random.default_rng(args.seed)
@@ -100,7 +104,7 @@ def main() -> None:
     times = {k: [] for k in rows}
     mirrored = 0
     for _ in range(args.scenes):
-        image, truth, pitch, mirror = scene(rng)
+        image, truth, pitch, mirror = scene(rng, pitches=args.pitch)
         mirrored += mirror
         for name, fn in (("colour-checker-detection", package_centres), ("isp", isp_centres)):
             t = time.perf_counter()
@@ -109,7 +113,10 @@ def main() -> None:
             err = None if c is None else np.linalg.norm(c - truth, axis=1)
             ok = err is not None and err.max() < 0.25 * pitch
             rows[name].append((ok, err.max() if ok else np.nan, err.mean() if ok else np.nan))
-    print(f"{args.scenes} scenes ({mirrored} mirrored), seed {args.seed}")
+    print(
+        f"{args.scenes} scenes ({mirrored} mirrored), pitch {args.pitch[0]:g}–{args.pitch[1]:g} px, "
+        f"seed {args.seed}"
+    )
     print("| detector | found | centre error mean / max px (found scenes) | median s |")
     print("|---|---:|---:|---:|")
     for name, r in rows.items():
