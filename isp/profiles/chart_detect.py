@@ -22,6 +22,7 @@ image (a RAW file's half resolution), 8 of 12 at 12–20 px.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,8 +136,19 @@ def _homography(src, dst) -> np.ndarray:
 
 
 def _apply(H, pts) -> np.ndarray:
+    """The (x, y) points ``pts`` through the homography ``H`` (non-finite where it sends them to
+    infinity: such a grid fails the checks that follow)."""
     p = np.column_stack([pts, np.ones(len(pts))]) @ H.T
-    return p[:, :2] / p[:, 2:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return p[:, :2] / p[:, 2:]
+
+
+def _inverse(H) -> np.ndarray | None:
+    try:
+        Hi = np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        return None
+    return Hi if np.all(np.isfinite(Hi)) else None
 
 
 def _fit_grid(quad, squares, rows: int, cols: int):
@@ -156,8 +168,11 @@ def _fit_grid(quad, squares, rows: int, cols: int):
             continue
         used = np.zeros(0, dtype=int)
         for _ in range(5):
-            uv = _apply(np.linalg.inv(H), squares) - 0.5
-            idx = np.round(uv)
+            Hi = _inverse(H)
+            if Hi is None:
+                break
+            uv = _apply(Hi, squares) - 0.5
+            idx = np.nan_to_num(np.round(uv), nan=-1.0, posinf=-1.0, neginf=-1.0)
             ok = (
                 np.all(np.abs(uv - idx) < CHART_DETECT_CELL, axis=1)
                 & (idx[:, 0] >= 0)
@@ -171,17 +186,20 @@ def _fit_grid(quad, squares, rows: int, cols: int):
                 k = np.flatnonzero(ok & (cell == c))
                 keep.append(k[np.argmin(np.linalg.norm(uv[k] - idx[k], axis=1))])
             keep = np.array(keep, dtype=int)
-            if keep.size < CHART_DETECT_MIN_SQUARES or min(np.unique(idx[keep, 0]).size, 3) < 3:
-                break  # too few squares, or all in two columns: no homography to trust
-            if np.unique(idx[keep, 1]).size < 2:
-                break
+            if (
+                keep.size < CHART_DETECT_MIN_SQUARES
+                or np.unique(idx[keep, 0]).size < 3
+                or np.unique(idx[keep, 1]).size < 2
+            ):
+                break  # too few squares, or all in two columns or one row: no homography to trust
             H = _homography(idx[keep] + 0.5, squares[keep])
             if np.array_equal(keep, used):
                 break
             used = keep
-        if used.size < CHART_DETECT_MIN_SQUARES:
+        Hi = _inverse(H)
+        if used.size < CHART_DETECT_MIN_SQUARES or Hi is None:
             continue
-        uv = _apply(np.linalg.inv(H), squares[used]) - 0.5
+        uv = _apply(Hi, squares[used]) - 0.5
         score = (used.size, -float(np.abs(uv - np.round(uv)).mean()))
         if best is None or score > best[0]:
             best = (score, H, used.size)
@@ -249,7 +267,9 @@ def detect_chart_rgb(
     segment, settings = _detector()
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 3 or img.shape[2] < 3 or min(img.shape[:2]) < 8:
-        raise ChartError(f"{path}: expected an RGB image of shape (H, W, 3), got {img.shape}.")
+        raise ChartError(
+            f"{path}: expected an RGB image (H, W, 3) of at least 8 × 8 pixels, got {img.shape}."
+        )
     img = np.nan_to_num(img[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
     transposed = img.shape[0] > img.shape[1]  # the segmenter turns portrait images itself: do it here
     work = np.ascontiguousarray(img.transpose(1, 0, 2) if transposed else img)
@@ -258,7 +278,9 @@ def detect_chart_rgb(
     # _refine (0.16 px mean), median 1.4 s against 1.7 s (benchmarks/bench_chart_detect.py)
     width = min(int(settings["working_width"]), work.shape[1])
     scale = work.shape[1] / width
-    data = segment(np.clip(work, 0, 1).astype(np.float32), additional_data=True, working_width=width)
+    with warnings.catch_warnings():  # its own numerics on a flat image (0/0 in its normalisation)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        data = segment(np.clip(work, 0, 1).astype(np.float32), additional_data=True, working_width=width)
     boxes = np.asarray(data.swatches, dtype=np.float64).reshape(-1, 4, 2)
     squares = boxes.mean(1)
     quads = list(np.asarray(data.rectangles, dtype=np.float64).reshape(-1, 4, 2)) + _square_groups(boxes)

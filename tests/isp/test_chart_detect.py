@@ -123,6 +123,24 @@ def test_not_a_colorchecker_is_refused():
     assert "\n" not in str(e.value)
 
 
+@pytest.mark.parametrize(
+    ("image", "message"),
+    [
+        (np.zeros((40, 60, 3)), "no ColorChecker found"),
+        (np.full((40, 60, 3), np.nan), "no ColorChecker found"),
+        (np.random.default_rng(0).random((300, 200, 3)), "no ColorChecker found"),
+        (np.zeros((40, 60)), r"expected an RGB image \(H, W, 3\)"),
+        (np.ones((5, 5, 3)), "at least 8 × 8 pixels"),
+    ],
+)
+def test_hostile_images_give_the_one_line_error(image, message):
+    """Flat, NaN, noise, 2-D and tiny images: the one-line error, no traceback and no warning from
+    isp (the project's warning filters make one an error)."""
+    with pytest.raises(ChartError, match=message) as e:
+        detect_chart_rgb(image, path="x.png")
+    assert str(e.value).startswith("x.png: ") and "\n" not in str(e.value)
+
+
 def test_missing_package_is_one_line(monkeypatch):
     import sys
 
