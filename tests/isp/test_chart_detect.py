@@ -141,12 +141,19 @@ def test_hostile_images_give_the_one_line_error(image, message):
     assert str(e.value).startswith("x.png: ") and "\n" not in str(e.value)
 
 
-def test_missing_package_is_one_line(monkeypatch):
+def test_missing_package_is_one_line(monkeypatch, tmp_path, capsys):
+    """Without colour-checker-detection: the library and the command say how to install it or to
+    give the corners, in one line, before the RAW file is read (here it does not even exist)."""
     import sys
+
+    from isp.cli import main
 
     monkeypatch.setitem(sys.modules, "colour_checker_detection", None)
     with pytest.raises(ChartError, match=r"pip install 'zonotope\[chart\]', or give --chart-corners"):
         detect_chart_rgb(np.zeros((20, 30, 3)))
+    assert main(["profile", "--chart", str(tmp_path / "none.dng"), "-o", str(tmp_path / "a.dcp")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("isp: error: ") and err.count("\n") == 1 and "zonotope[chart]" in err, err
 
 
 def test_real_550d_chart_is_found_where_the_hand_put_it(raw_550d):
