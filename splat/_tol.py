@@ -256,12 +256,3 @@ FULL_SOURCES = 2
 #: ≈ 0.1 per pixel) 200 pixels put a ratio within 0.3 % (1 σ), ten times finer than the 3–5 % errors it
 #: corrects.
 CAMERA_LEVEL_MIN_PIXELS = 200
-
-#: Sites within this many σ (the sensor noise at saturation) of the saturation level count as clipped:
-#: a site that did not clip there is the low tail of its surface (truncation), 2 σ of a normal leaves
-#: 2 % of the unclipped mean's bias.
-NEAR_CLIP_SIGMAS = 2.0
-
-#: The same margin below saturation for a file without a noise profile: 2 σ of shot noise at a full
-#: well of ~10⁴ electrons.
-NEAR_CLIP_DEFAULT = 0.02

@@ -377,22 +377,6 @@ def site_noise(view, white_scale) -> np.ndarray:
     return np.sqrt(var) / np.asarray(white_scale, float)
 
 
-def near_clip(view) -> np.ndarray:
-    """Per channel (3,), the linear value (1 = saturation) above which a RAW view's sites count as
-    clipped: ``1 − NEAR_CLIP_SIGMAS · σ(1)``, ``σ(1)`` the noise at saturation from the file's noise
-    profile (without one, :data:`splat._tol.NEAR_CLIP_DEFAULT` below 1).
-
-    Why: of the sites of a surface within a few σ of saturation, those that did not clip are its low
-    tail; their mean is biased low (a white card 2–4 % low in the green of the path-traced capture's
-    Nikon and Canon photographs)."""
-    from ._tol import NEAR_CLIP_DEFAULT, NEAR_CLIP_SIGMAS
-
-    if view.noise_profile is None:
-        return np.full(3, 1.0 - NEAR_CLIP_DEFAULT)
-    P = np.asarray(view.noise_profile, float)
-    return 1.0 - NEAR_CLIP_SIGMAS * np.sqrt(np.maximum(P[:, 0] + P[:, 1], 0.0))
-
-
 def unclipped(view, *, reach: int = 2) -> np.ndarray:
     """Pixels of a RAW view whose demosaiced photograph is a measurement: no saturated or dead site of
     any channel within ``reach`` pixels (a Bayer mosaic; ``reach = 2`` is Malvar 2004's 5 × 5
@@ -410,14 +394,13 @@ def unclipped(view, *, reach: int = 2) -> np.ndarray:
     from scipy.ndimage import maximum_filter
 
     w = np.asarray(view.weight) > 0
-    near = np.asarray(view.values) >= near_clip(view)
     if view.full_colour:
-        return (w & ~near).all(-1)
+        return w.all(-1)
     if int(reach) != reach or reach < 0:
         raise SplatError(f"unclipped: reach must be an integer ≥ 0, got {reach!r}.")
     from isp.cfa import cfa_masks
 
-    bad = (cfa_masks(w.shape[:2], view.cfa) & (~w | near)).any(-1)
+    bad = (cfa_masks(w.shape[:2], view.cfa) & ~w).any(-1)
     return ~maximum_filter(bad, 2 * int(reach) + 1, mode="constant", cval=False) if reach else ~bad
 
 

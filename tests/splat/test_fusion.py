@@ -1664,3 +1664,22 @@ def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textu
             np.testing.assert_array_equal(sigmas[int(cd)], off[2][int(cd)])
         if view.full_colour:
             assert set(np.unique(code[tex]).tolist()) == {8 | 7 << 4}
+
+
+def test_levelled_white_without_reprojections_is_the_white_and_is_cached(sim, tmp_path):
+    """No view with reprojected photographs: every level 1, the white unchanged, and the record kept
+    in OUT/correct/levels.json for the next reader (an edited record is what it then applies)."""
+    from splat.capture import levelled_white
+
+    white = {"scale": [np.asarray(sim["scale"][3 * k : 3 * k + 3]) for k in range(3)], "method": "patch"}
+    (tmp_path / "correct").mkdir()
+    got = levelled_white(sim["spec"], tmp_path, {}, {}, white)
+    for a, b in zip(got["scale"], white["scale"]):
+        np.testing.assert_array_equal(a, b)
+    doc = json.loads((tmp_path / "correct" / "levels.json").read_text())
+    assert doc["level"] == [1.0, 1.0, 1.0] and doc["ratios"] == []
+    doc["level"] = [1.0, 0.5, 2.0]
+    (tmp_path / "correct" / "levels.json").write_text(json.dumps(doc))
+    again = levelled_white(sim["spec"], tmp_path, {}, {}, white)
+    np.testing.assert_allclose(again["scale"][1], 0.5 * white["scale"][1])
+    np.testing.assert_allclose(again["scale"][2], 2.0 * white["scale"][2])
