@@ -378,7 +378,9 @@ def fused_view(
         Below ``2**m`` (``m = len(cameras)``): bit ``i`` set where ``cameras[i]``'s reprojected
         photographs enter (for the view's own camera: are averaged with its measurement). A textured
         pixel has bit ``m`` set and, from bit ``m + 1``, which of the own camera's three channels its
-        site measured.
+        site measured. A pixel whose own photograph is clipped (not :func:`splat.fusion.unclipped`) has
+        bit ``m + 4`` set: its own channels are the camera's other photographs reprojected (bit of the
+        own camera set; σ theirs) or the render (σ the render's), never the clipped measurement.
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
