@@ -22,12 +22,15 @@ uniform-surface colour.
     python benchmarks/bench_capture_accuracy.py --size benchmark --steps 3000 --work /tmp/acc_bench
     python -m splat.sim.mitsuba /tmp/mitsuba --size 2 --spp 32
     python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_mitsuba
+    python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_m --oracle 64
 
 ``--capture`` scores a capture written elsewhere (e.g. by :func:`splat.sim.mitsuba.write_mitsuba_capture`,
 whose ``truth/`` has the same layout): it is copied into ``--work`` (the original is never written to)
 and run with ``--steps`` / ``--capacity`` (default the CI size's). Give the Mitsuba capture ``--colmap``:
 its truth has no 3-D points, so with the true poses training starts from random Gaussians. Its regions
 come from ``truth/labels`` (:func:`labelled_regions`).
+``--oracle SPP`` (a Mitsuba capture) adds :func:`oracle`'s diagnostics from a second render of the
+scene: the truth's Monte Carlo floor and each camera's level against the true responses.
 
 True poses are given as a COLMAP model (``--colmap`` runs pycolmap instead): the comparison is of colour.
 Steps already done in ``--work`` are reused.

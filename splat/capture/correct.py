@@ -198,8 +198,8 @@ def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white:
     ``OUT/correct/levels.json``. Without reprojected photographs it is ``white`` unchanged.
 
     Why: the cameras without the patch inherit its white through their brightest neutral surfaces; on
-    the path-traced capture that left the Sigma 5 % and the Nikon 1.5 % off the Canon, and with three
-    cameras the correction took the mismatch for colour (docs/benchmarks.md)."""
+    the path-traced capture that left the Sigma 3.7 % below and the Nikon 1.4 % above the Canon, and with
+    three cameras the correction took the mismatch for colour (docs/benchmarks.md)."""
     from ..fusion import OWN_NOISE_FLOOR, camera_levels, measured, sensor_noise, smooth, textured, unclipped
 
     path = out / "correct" / "levels.json"
