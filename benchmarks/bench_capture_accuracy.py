@@ -22,12 +22,15 @@ uniform-surface colour.
     python benchmarks/bench_capture_accuracy.py --size benchmark --steps 3000 --work /tmp/acc_bench
     python -m splat.sim.mitsuba /tmp/mitsuba --size 2 --spp 32
     python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_mitsuba
+    python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_m --oracle 64
 
 ``--capture`` scores a capture written elsewhere (e.g. by :func:`splat.sim.mitsuba.write_mitsuba_capture`,
 whose ``truth/`` has the same layout): it is copied into ``--work`` (the original is never written to)
 and run with ``--steps`` / ``--capacity`` (default the CI size's). Give the Mitsuba capture ``--colmap``:
 its truth has no 3-D points, so with the true poses training starts from random Gaussians. Its regions
 come from ``truth/labels`` (:func:`labelled_regions`).
+``--oracle SPP`` (a Mitsuba capture) adds :func:`oracle`'s diagnostics from a second render of the
+scene: the truth's Monte Carlo floor and each camera's level against the true responses.
 
 True poses are given as a COLMAP model (``--colmap`` runs pycolmap instead): the comparison is of colour.
 Steps already done in ``--work`` are reused.
@@ -111,6 +114,100 @@ def labelled_regions(truth: Path):
     return region_labels
 
 
+def oracle(capture: Path, out: Path, spp: int, regions) -> str:
+    """Diagnostics of a path-traced capture that need its scene (truth: never given to the pipeline).
+
+    Each held-out view is rendered again by Mitsuba (another seed, ``spp`` samples per pixel) through
+    *every* camera's curves and the observer, at the truth's scale. Per view camera, over the labelled
+    regions: (1) the truth's own floor, the ΔE00 of the region means of the two XYZ renders (Monte Carlo
+    noise of the 32-sample truth, at the scorer's stride); (2) each camera's level, the median over
+    regions of its white → 1 channels in the pipeline (its own photograph where it took the view, its
+    reprojected photographs elsewhere) over the true responses (the render ÷ the camera's white)."""
+    import tomllib
+
+    import tifffile
+
+    import zonotope
+    from splat.capture import levelled_white, load_views, read_capture, read_index, reprojected_of, white_of
+    from splat.fusion import measured
+    from splat.sim.capture import build_scene
+    from splat.sim.mitsuba import mitsuba_config, mitsuba_scene
+
+    spec = read_capture(capture)
+    tt = tomllib.loads((capture / "truth" / "truth.toml").read_text())
+    if tt.get("generator") != "splat.sim.mitsuba":
+        return "--oracle: not a splat.sim.mitsuba capture; skipped"
+    size = tt["camera"][0]["width"] / mitsuba_config().cameras[0].width
+    config = mitsuba_config(size=size, seed=tt["seed"], noise=tt["noise"], illuminant=tt["illuminant"])
+    scene = build_scene(config)
+    grid = scene.wavelengths
+    spd = zonotope.illuminant(tt["illuminant"])
+    E = np.interp(grid, np.asarray(spd.wavelengths, float), np.asarray(spd.values, float))
+    E = E / E.max()
+    step = float(grid[1] - grid[0])
+    curves = [np.asarray(g, float) / (E[:, None] * step) for g in scene.camera_generators]
+    film = np.concatenate([*curves, np.asarray(scene.observer, float) / (E[:, None] * step)], axis=1)
+    neutral = np.concatenate([c["as_shot_neutral"] for c in tt["camera"]])
+    raws = {v.name: v for v in load_views(spec)}
+    index = read_index(spec, out / "render" / "index.json")
+    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
+    scale = np.concatenate(white["scale"])
+    from splat.capture import correction_problem_of
+
+    problem = correction_problem_of(spec, list(range(len(spec.cameras))))
+    import colour
+
+    wXYZ = problem.white_XYZ
+
+    def dE(a, b):  # CIELAB relative to the problem's white, as the scorer
+        xy = colour.XYZ_to_xy(wXYZ)
+        la, lb = colour.XYZ_to_Lab(a / wXYZ[1], xy), colour.XYZ_to_Lab(b / wXYZ[1], xy)
+        return float(colour.delta_E(la, lb, method="CIE 2000"))
+
+    lines = [
+        "| view camera | truth floor, chart | truth floor, uniform | "
+        + " | ".join(f"{c.folder} level (R, G, B)" for c in spec.cameras)
+        + " |",
+        "|---|---:|---:|" + "---|" * len(spec.cameras),
+    ]
+    per = {}
+    for vi, v in enumerate(scene.views):
+        name = f"{config.cameras[v.camera].folder}/{v.stem}.dng"
+        if not v.holdout or name not in index:
+            continue
+        sc = mitsuba_scene(scene, v, film, E, spp=spp, seed=7919 + vi)
+        import mitsuba as mi  # the variant is set by mitsuba_scene
+
+        img = np.asarray(mi.render(sc), float)
+        img *= tt["render_scale"]
+        ref = np.asarray(tifffile.imread(capture / "truth" / "xyz" / Path(name).with_suffix(".tiff")), float)
+        lab, chart = regions(ref)
+        true9 = img[..., :-3] / neutral
+        r = raws[name]
+        k = r.camera
+        values, _count = reprojected_of(out / "render" / index[name]["dir"], scale)
+        pipe = values.copy()
+        pipe[..., 3 * k : 3 * k + 3] = measured(r, scale[3 * k : 3 * k + 3])
+        row = per.setdefault(spec.cameras[k].folder, {"chart": [], "uniform": [], "level": []})
+        s2 = (slice(None, None, 2), slice(None, None, 2))
+        for reg in np.unique(lab[lab > 0]):
+            m2 = lab[s2] == reg
+            d = dE(img[s2][m2][:, -3:].mean(0), ref[s2][m2].mean(0))
+            row["chart" if int(reg) in chart else "uniform"].append(d)
+            m = lab == reg
+            row["level"].append(pipe[m].mean(0) / true9[m].mean(0))
+    for cam, row in per.items():
+        lv = np.median(np.array(row["level"]), 0)
+        lines.append(
+            f"| {cam} | {np.mean(row['chart']):.2f} | {np.mean(row['uniform']):.2f} | "
+            + " | ".join(
+                ", ".join(f"{x:.3f}" for x in lv[3 * c : 3 * c + 3]) for c in range(len(spec.cameras))
+            )
+            + " |"
+        )
+    return "\n".join(lines)
+
+
 def table(sc: dict, folders: list[str]) -> tuple[str, dict]:
     """Markdown table of the score (views grouped by camera, then all) and the ratios three / (a), (b)."""
     per_view = sc["per_view"]
@@ -160,6 +257,14 @@ def main(argv=None) -> int:
     ap.add_argument("--stride", type=int, default=2, help="pixel stride of the splat estimates' scores")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
+    ap.add_argument(
+        "--oracle",
+        type=int,
+        default=0,
+        metavar="SPP",
+        help="a splat.sim.mitsuba capture: render the held-out views again at SPP samples through every "
+        "camera and print the truth's noise floor and each camera's level against the truth",
+    )
     args = ap.parse_args(argv)
     big = args.size == "benchmark"
     steps = args.steps or (3000 if big else 300)
@@ -240,6 +345,9 @@ def main(argv=None) -> int:
             f"{'met' if r[m] <= 0.5 else 'NOT met'}); ÷ own development (a) = "
             f"{ratios[('all views', 'dev')][m]:.2f}"
         )
+    if args.oracle and regions is not None:
+        print("\nDiagnostics from the scene (not available to the pipeline):\n")
+        print(oracle(capture, out, args.oracle, regions))
     print(f"\nwork folder {work}")
     return 0
 

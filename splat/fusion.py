@@ -70,6 +70,7 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
 
 __all__ = [
     "anchor",
+    "camera_levels",
     "guided",
     "guided_demosaic",
     "measured",
@@ -81,6 +82,7 @@ __all__ = [
     "sites",
     "smooth",
     "textured",
+    "unclipped",
     "whitened",
 ]
 
@@ -371,23 +373,59 @@ def site_noise(view, white_scale) -> np.ndarray:
     :func:`sensor_noise`'s image estimate everywhere; divided by the exposure and the white scale."""
     if view.exif is None:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
-    var = photo_variance(view, np.asarray(view.values, float) / view.exif)
+    var = photo_variance(view, np.asarray(view.values, float) / view.exif, reach=None)
     return np.sqrt(var) / np.asarray(white_scale, float)
 
 
-def photo_variance(view, photo) -> np.ndarray:
+def unclipped(view, *, reach: int = 2) -> np.ndarray:
+    """Pixels of a RAW view whose demosaiced photograph is a measurement: no saturated or dead site of
+    any channel within ``reach`` pixels (a Bayer mosaic; ``reach = 2`` is Malvar 2004's 5 × 5
+    footprint, 1 bilinear's 3 × 3) or at the pixel itself (a full-colour or binned view: a channel
+    without a usable sample there).
+
+    Why: a channel read from a clipped site is a lower bound, off by the clipping, not by the sensor's
+    σ; told that σ, an estimator trusts it over every other camera's channels (the white card of the
+    path-traced capture: the Nikon's green clips in its held-out views, docs/benchmarks.md).
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+    """
+    from scipy.ndimage import maximum_filter
+
+    w = np.asarray(view.weight) > 0
+    if view.full_colour:
+        return w.all(-1)
+    if int(reach) != reach or reach < 0:
+        raise SplatError(f"unclipped: reach must be an integer ≥ 0, got {reach!r}.")
+    from isp.cfa import cfa_masks
+
+    bad = (cfa_masks(w.shape[:2], view.cfa) & ~w).any(-1)
+    return ~maximum_filter(bad, 2 * int(reach) + 1, mode="constant", cval=False) if reach else ~bad
+
+
+def photo_variance(view, photo, *, reach: int | None = 1) -> np.ndarray:
     """Noise variance of a RAW view's demosaiced photograph ``photo`` (H, W, 3) at exposure 1 (white
     scale 1, as :func:`measured` with ``white_scale = 1``): with the file's noise model (DNG
     NoiseProfile) ``(S_j·x + O_j) / e²`` at each pixel's own linear value ``x = photo · e`` (``e`` the
     exposure; interpolated pixels are taken as measured ones, an upper bound), else
-    :func:`sensor_noise`'s image estimate squared everywhere."""
+    :func:`sensor_noise`'s image estimate squared everywhere.
+
+    Where the photograph is not :func:`unclipped` (a saturated or dead site within ``reach`` pixels, the
+    demosaicing's footprint: 1 for the bilinear demosaicing of reprojection sources; None for the
+    sites themselves, no such test) the variance is the full scale squared, ``1 / e²``: a clipped
+    reading is a bound, and an inverse-variance mean then gives it no weight next to a measured one."""
     if view.exif is None:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     photo = np.asarray(photo, float)
     if view.noise_profile is None:
-        return np.broadcast_to(sensor_noise(view, np.ones(3)) ** 2, photo.shape).copy()
-    P = np.asarray(view.noise_profile, float)
-    return (P[:, 0] * np.maximum(photo * view.exif, 0.0) + P[:, 1]) / view.exif**2
+        var = np.broadcast_to(sensor_noise(view, np.ones(3)) ** 2, photo.shape).copy()
+    else:
+        P = np.asarray(view.noise_profile, float)
+        var = (P[:, 0] * np.maximum(photo * view.exif, 0.0) + P[:, 1]) / view.exif**2
+    if reach is not None:
+        var[~unclipped(view, reach=reach)] = 1.0 / view.exif**2
+    return var
 
 
 def reprojection_noise(residual, site_sigma) -> float:
@@ -568,3 +606,69 @@ def whitened(problem, noise):
     ref = float(np.median(s))
     scale = ref / s
     return dataclasses.replace(problem, Phi=problem.Phi * scale), scale, ref
+
+
+def camera_levels(pairs, training_responses, cameras: int, *, fixed: int | None = None) -> dict:
+    """Each camera's exposure level relative to the others, from photographs of the same surfaces.
+
+    A camera's white → 1 scale is measured on the white patch for the camera that photographed it; the
+    others inherit it through their brightest neutral surfaces, which are not the same surface at the
+    same light in every camera's photographs (the path-traced capture: the Sigma's channels 5 % low,
+    docs/benchmarks.md). Where camera ``c``'s photographs are reprojected into camera ``k``'s view, the
+    ratio of their channels to camera ``c``'s responses *predicted* from ``k``'s own measured channels
+    (the least-squares 3 × 3 map between the cameras' responses to ``training_responses``) is
+    ``level_c / level_k``; the levels are the least-squares solution of the logarithms of these ratios
+    (one per view and camera pair, the mean over the three channels of the ratio of sums), with camera
+    ``fixed`` at 1 (its white measured on the patch), else their geometric mean at 1.
+
+    Parameters
+    ----------
+    pairs : iterable of (k, c, own, other)
+        ``own`` (P, 3): camera ``k``'s measured channels at P pixels of one of its views (white → 1,
+        unclipped, smooth); ``other`` (P, 3): camera ``c``'s reprojected channels at the same pixels.
+    training_responses : ndarray of shape (N, 3 · cameras)
+        The cameras' white → 1 responses to training reflectances (``problem.training @ problem.Phi``).
+    cameras : int
+    fixed : int, optional
+
+    Returns
+    -------
+    dict
+        ``level`` (cameras,): divide camera ``c``'s white → 1 values by ``level[c]`` (multiply its white
+        scale by it); ``ratios``: ``[k, c, pixels, ratio]`` per pair used; cameras that no pair links to
+        ``fixed`` (or to the others) keep 1.
+    """
+    from ._tol import CAMERA_LEVEL_MIN_PIXELS
+
+    R = np.asarray(training_responses, float)
+    if R.ndim != 2 or R.shape[1] != 3 * cameras or not np.all(np.isfinite(R)):
+        raise SplatError(
+            f"camera_levels: training responses must be finite (N, {3 * cameras}), got {R.shape}."
+        )
+    rows, rhs, used = [], [], []
+    for k, c, own, other in pairs:
+        own, other = np.asarray(own, float).reshape(-1, 3), np.asarray(other, float).reshape(-1, 3)
+        if own.shape != other.shape or k == c or len(own) < CAMERA_LEVEL_MIN_PIXELS:
+            continue
+        M, *_ = np.linalg.lstsq(R[:, 3 * k : 3 * k + 3], R[:, 3 * c : 3 * c + 3], rcond=None)
+        pred = (own @ M).sum(0)
+        if np.any(pred <= 0) or np.any(other.sum(0) <= 0):
+            continue
+        ratio = float(np.mean(other.sum(0) / pred))
+        a = np.zeros(cameras)
+        a[c], a[k] = 1.0, -1.0
+        rows.append(a)
+        rhs.append(np.log(ratio))
+        used.append([int(k), int(c), len(own), ratio])
+    level = np.ones(cameras)
+    if rows:
+        A, b = np.array(rows), np.array(rhs)
+        linked = np.flatnonzero(np.abs(A).sum(0) > 0)
+        anchor_row = np.zeros(cameras)
+        if fixed is not None and fixed in linked:
+            anchor_row[fixed] = 1.0
+        else:
+            anchor_row[linked] = 1.0 / len(linked)
+        x, *_ = np.linalg.lstsq(np.vstack([A, anchor_row]), np.append(b, 0.0), rcond=None)
+        level[linked] = np.exp(x[linked])
+    return {"level": level, "ratios": used}

@@ -289,6 +289,7 @@ def score(
         fused_fitter,
         fused_view,
         fusion_of,
+        levelled_white,
         load_views,
         photographed_view,
         read_capture,
@@ -307,9 +308,10 @@ def score(
     n = len(spec.cameras)
     subsets = subsets or [s for r in range(1, n + 1) for s in itertools.combinations(range(n), r)]
     raws = {v.name: v for v in load_views(spec)}
-    white = white_of(spec, out, list(raws.values()))
-    scale = np.concatenate(white["scale"])
     index = read_index(spec, out / "render" / "index.json")
+    # the correct step's white: the patch's, each camera at its level against the others
+    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
+    scale = np.concatenate(white["scale"])
     delta = delta_of(spec, out, index, scale)["delta"]
     held = [
         k

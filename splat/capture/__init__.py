@@ -146,6 +146,7 @@ _EXPORTS = {
         "fused_mix",
         "fused_view",
         "fusion_of",
+        "levelled_white",
         "noise_sigma",
         "own_noise",
         "photographed_view",

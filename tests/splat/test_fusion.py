@@ -580,7 +580,7 @@ def test_fused_view(sim, cameras):
     w = np.array(view.weight)
     w[10:20, 30:50] = 0  # a saturated block
     view = dataclasses.replace(view, weight=w)
-    valid = w.sum(-1) > 0
+    valid = fusion.unclipped(view)  # no saturated site within the demosaicing's 5 × 5 footprint
     assert (~valid).sum() >= 200 and valid.sum() > 0.9 * valid.size
     rng = np.random.default_rng(13)
     render = rng.uniform(0.05, 1.0, (H, W, 9)) * (1 + np.arange(9))  # channels told apart
@@ -590,7 +590,9 @@ def test_fused_view(sim, cameras):
 
     n = len(cameras)
     pos = 3 * cameras.index(2)
-    assert code.shape == (H, W) and not code.any() and list(sigmas) == [0]  # nothing reprojected
+    clipped = 1 << (len(cameras) + 4)  # the own photograph clipped: its channels rendered
+    assert code.shape == (H, W) and np.array_equal(code, np.where(valid, 0, clipped))  # nothing reprojected
+    assert sorted(sigmas) == [0, clipped] and sigmas[clipped].tolist() == [0.017] * (3 * len(cameras))
     sigma = sigmas[0]
     assert fused.shape == (H, W, 3 * n) and sigma.shape == (3 * n,)
     want_sigma = [0.017] * (3 * n)
@@ -624,7 +626,7 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     view = next(v for v in sim["views"] if v.camera == 2)
     assert not view.full_colour
     H, W = view.shape
-    valid = np.asarray(view.weight).sum(-1) > 0
+    valid = fusion.unclipped(view)
     rng = np.random.default_rng(5)
     render = rng.uniform(0.05, 1.0, (H, W, 9))
     values = rng.uniform(0.05, 1.0, (H, W, 9))
@@ -668,6 +670,47 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     np.testing.assert_allclose(sigmas[6], [0.017] * 3 + [both] * 3 + [0.004] * 3, rtol=1e-12)
     np.testing.assert_array_equal(sigmas[0], [0.017] * 3 + [0.003] * 3 + [0.017] * 3)
     np.testing.assert_array_equal(sigmas[4], [0.017] * 3 + [0.003] * 3 + [0.004] * 3)
+
+
+def test_fused_view_reads_a_clipped_photographs_own_channels_elsewhere(sim):
+    """Where the view's own photograph is clipped (a saturated site within the demosaicing's reach), its
+    own channels are not measurements: the camera's other photographs reprojected where they see the
+    pixel (σ their reprojection's), else the render (σ the render's); the other cameras' channels as
+    anywhere else."""
+    from splat.capture import fused_view
+
+    view = next(v for v in sim["views"] if v.camera == 2)
+    H, W = view.shape
+    w = np.array(view.weight)
+    w[10:20, 30:50] = 0  # a saturated block, across the middle column
+    view = dataclasses.replace(view, weight=w)
+    valid = fusion.unclipped(view)
+    rng = np.random.default_rng(21)
+    render = rng.uniform(0.05, 1.0, (H, W, 9))
+    values = np.broadcast_to([0.3, 0.5, 0.7, 0.2, 0.4, 0.6, 0.35, 0.55, 0.75], (H, W, 9)).copy()
+    count = np.zeros((H, W, 3))
+    count[..., 0] = 1
+    count[:, :40, 2] = 2  # the own camera's other photographs see the left part only
+    doc = {
+        "render_sigma": 0.017,
+        "reprojected_sigma": [0.004, 0.002, 0.006],
+        "views": {view.name: {"camera": 2, "own_sigma": [0.003] * 3}},
+    }
+    fused, code, sigmas = fused_view(
+        doc, view.name, render, view, sim["scale"], [0, 2], (values, count), texture_rtol=np.inf
+    )
+    seen_own = count[..., 2] > 0
+    clipped_bit = 1 << 6
+    both, alone = ~valid & seen_own, ~valid & ~seen_own
+    assert both.sum() > 100 and alone.sum() > 100
+    np.testing.assert_allclose(fused[both][:, 3:6], np.broadcast_to([0.35, 0.55, 0.75], (both.sum(), 3)))
+    np.testing.assert_array_equal(fused[alone][:, 3:6], render[..., 6:9][alone])
+    np.testing.assert_allclose(fused[~valid][:, 0:3], np.broadcast_to([0.3, 0.5, 0.7], ((~valid).sum(), 3)))
+    np.testing.assert_array_equal(code[both], clipped_bit | 3)
+    np.testing.assert_array_equal(code[alone], clipped_bit | 1)
+    assert not (code[valid] & clipped_bit).any()
+    np.testing.assert_array_equal(sigmas[clipped_bit | 3], [0.004] * 3 + [0.006] * 3)
+    np.testing.assert_array_equal(sigmas[clipped_bit | 1], [0.004] * 3 + [0.017] * 3)
 
 
 def test_fused_view_refuses_a_subset_without_the_view_camera(sim):
@@ -1600,7 +1643,7 @@ def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textu
         args = (doc, view.name, render, view, sim["scale"], cams, (values, count))
         fused, code, sigmas = fused_view(*args)
         off = fused_view(*args, texture_rtol=np.inf)
-        valid = np.asarray(view.weight).sum(-1) > 0
+        valid = fusion.unclipped(view)
         tex = fusion.textured(view, ws, noise=[0.003, 0.0035, 0.005]) & valid
         assert 0.05 < tex.mean() < 0.95  # the coarse texture's cell borders
         np.testing.assert_array_equal(fused[~tex], off[0][~tex])
@@ -1621,3 +1664,22 @@ def test_fused_view_takes_the_site_anchored_render_where_the_photograph_is_textu
             np.testing.assert_array_equal(sigmas[int(cd)], off[2][int(cd)])
         if view.full_colour:
             assert set(np.unique(code[tex]).tolist()) == {8 | 7 << 4}
+
+
+def test_levelled_white_without_reprojections_is_the_white_and_is_cached(sim, tmp_path):
+    """No view with reprojected photographs: every level 1, the white unchanged, and the record kept
+    in OUT/correct/levels.json for the next reader (an edited record is what it then applies)."""
+    from splat.capture import levelled_white
+
+    white = {"scale": [np.asarray(sim["scale"][3 * k : 3 * k + 3]) for k in range(3)], "method": "patch"}
+    (tmp_path / "correct").mkdir()
+    got = levelled_white(sim["spec"], tmp_path, {}, {}, white)
+    for a, b in zip(got["scale"], white["scale"]):
+        np.testing.assert_array_equal(a, b)
+    doc = json.loads((tmp_path / "correct" / "levels.json").read_text())
+    assert doc["level"] == [1.0, 1.0, 1.0] and doc["ratios"] == []
+    doc["level"] = [1.0, 0.5, 2.0]
+    (tmp_path / "correct" / "levels.json").write_text(json.dumps(doc))
+    again = levelled_white(sim["spec"], tmp_path, {}, {}, white)
+    np.testing.assert_allclose(again["scale"][1], 0.5 * white["scale"][1])
+    np.testing.assert_allclose(again["scale"][2], 2.0 * white["scale"][2])
