@@ -28,12 +28,17 @@ Fits compared, all in one process:
     python benchmarks/bench_ssf_stack.py --data ../shared/data --all-sets-basis   # basis with camspec
     python benchmarks/bench_ssf_stack.py --data ../shared/data --mmv-sets 3       # Centroid, Prior
     python benchmarks/bench_ssf_stack.py --data ../shared/data --shipped-check    # camspec, shipped basis
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,both --sets 12 --singles 2 \
+        --methods "Finlayson 2015" --rejected                                      # rejected fits
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart --seed 2 --curves-only \
+        --estimate-kw '{"subspace": 1}'                          # estimator weights, curve errors only
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
 import time
 from pathlib import Path
@@ -58,6 +63,10 @@ from bench_ssf import basis_without, measured_cameras, msds
 W = np.asarray(SSF_SHAPE.wavelengths)
 METHODS = ("Cheung 2004", "Finlayson 2015")
 FITS = ("measured", "none", "calibrated RMS", "calibrated", "one camera", "oracle σ")
+#: ``--rejected``: ridge toward the first camera's fit (weight × mean diagonal, on the calibrated σ);
+#: the stacked cameras' chart photos added to the training set with weight w, on the estimated curves
+#: (told the calibrated σ) and, the fair baseline, on the measured curves (told the sensor noise).
+REJECTED = ("shrink 0.001", "shrink 0.1", "anchor 4", "anchor 16", "measured anchor 4", "measured anchor 16")
 
 
 def training_responses(values: np.ndarray, name: str) -> np.ndarray:
@@ -258,14 +267,70 @@ def shipped_check(data: Path) -> int:
     return 0
 
 
+def normal_equations_fit(pb, told, method: str, *, extra=(), toward=None, weight: float = 0.0):
+    """The noise-aware regression of ``pb`` (told ``told`` per channel) solved from its normal
+    equations, with ``extra`` (responses, targets, weight) rows added and a ridge of ``weight`` × the
+    mean diagonal toward the coefficients ``toward``: what the rejected fits of the record need."""
+    from zonotope.correct.regressions import expected_normal_equations, root_polynomial_terms
+
+    degree = 1 if method == "Cheung 2004" else 2
+    k = pb.source_of(pb.training).shape[1]
+    noise = NoiseModel(np.zeros(k), np.square(np.broadcast_to(told, (k,))), source="told")
+    G, B = expected_normal_equations(
+        pb.source_of(pb.training), pb.target_of(pb.training), noise, degree=degree
+    )
+    for C, T, w in extra:
+        g, b = expected_normal_equations(
+            C, T, NoiseModel(np.zeros(k), np.zeros(k), source="0"), degree=degree
+        )
+        G, B = G + w * g, B + w * b
+    s = np.trace(G) / G.shape[0]
+    if toward is not None:
+        G, B = G + weight * s * np.eye(G.shape[0]), B + weight * s * toward
+    M = np.linalg.solve(G + 1e-9 * s * np.eye(G.shape[0]), B)
+    return (lambda c: c @ M) if degree == 1 else (lambda c: root_polynomial_terms(c, degree=2) @ M)
+
+
+def one_camera_embedded(pb_one, told, method: str, k: int) -> np.ndarray:
+    """The first camera's coefficients (:func:`normal_equations_fit` on it alone) placed in the
+    stacked regression's terms, zero for every term using another camera's channels."""
+    from zonotope.correct.regressions import expected_normal_equations, root_polynomial_exponents
+
+    degree = 1 if method == "Cheung 2004" else 2
+    noise = NoiseModel(np.zeros(3), np.square(np.broadcast_to(told, (3,))), source="told")
+    G, B = expected_normal_equations(
+        pb_one.source_of(pb_one.training), pb_one.target_of(pb_one.training), noise, degree=degree
+    )
+    M1 = np.linalg.solve(G + 1e-9 * np.trace(G) / G.shape[0] * np.eye(G.shape[0]), B)
+    if degree == 1:
+        return np.vstack([M1, np.zeros((k - 3, M1.shape[1]))])
+    P, P1 = root_polynomial_exponents(k, degree=2), root_polynomial_exponents(3, degree=2)
+    out = np.zeros((P.shape[0], M1.shape[1]))
+    for i, row in enumerate(P1):
+        full = np.concatenate([row, np.zeros(k - 3, dtype=row.dtype)])
+        out[np.flatnonzero((P == full).all(axis=1))[0]] = M1[i]
+    return out
+
+
+def chart_rows(pb, photos: list[np.ndarray]):
+    """The stacked cameras' chart photos as training rows of ``pb``: each channel scaled to ``pb``'s
+    predicted chart responses (white balance from the chart), with the chart's nominal targets."""
+    Rc = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), W).T
+    photo = np.concatenate(photos, axis=1)
+    pred = pb.source_of(Rc)
+    return photo * ((photo * pred).sum(0) / (photo * photo).sum(0)), pb.target_of(Rc)
+
+
 class Source:
     """One source's held-out estimates and what the benchmark derives from them."""
 
-    def __init__(self, cams: dict[str, dict], source: str, *, seed: int, redistributable_only: bool = True):
+    def __init__(
+        self, cams: dict[str, dict], source: str, *, seed: int, redistributable_only: bool = True, **kw
+    ):
         self.cams, self.names = cams, list(cams)
         self.photos: dict[str, np.ndarray] = {}
         self.est = held_out_estimates(
-            cams, source, seed=seed, redistributable_only=redistributable_only, photos=self.photos
+            cams, source, seed=seed, redistributable_only=redistributable_only, photos=self.photos, **kw
         )
         self.err = {
             n: training_responses(cams[n]["values"], n) - training_responses(self.est[n].values, n)
@@ -312,6 +377,13 @@ def main(argv=None) -> int:
     ap.add_argument("--mmv-sets", type=int, default=0, help="only the MMV estimators on N sets of 2 and 3")
     ap.add_argument("--draws", action="store_true", help="also fit on 16 cameras drawn in the band (slow)")
     ap.add_argument("--scales", default="", help="comma-separated multiples of the RMS σ to fit with too")
+    ap.add_argument(
+        "--rejected",
+        action="store_true",
+        help="also the rejected fits: shrink to one camera, chart anchoring",
+    )
+    ap.add_argument("--estimate-kw", default="{}", help='estimate_ssf options as JSON, e.g. {"subspace": 1}')
+    ap.add_argument("--curves-only", action="store_true", help="stop after the estimates' error table")
     ap.add_argument("--shipped-check", action="store_true", help="only the shipped basis on camspec cameras")
     a = ap.parse_args(argv)
     methods = tuple(a.methods.split(","))
@@ -319,6 +391,8 @@ def main(argv=None) -> int:
         return shipped_check(a.data)
     scales = [float(v) for v in a.scales.split(",") if v]
     fit_names = (*FITS, *(f"× {v:g}" for v in scales), *(("draws",) if a.draws else ()))
+    if a.rejected:
+        fit_names = (*fit_names, *REJECTED)
     cams = measured_cameras(a.data)
     names = list(cams)
     t0 = time.perf_counter()
@@ -326,9 +400,12 @@ def main(argv=None) -> int:
     for s in a.sources.split(","):
         if s not in SOURCES:
             ap.error(f"--sources {s!r}: choose from {', '.join(SOURCES)}")
-        sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis)
+        kw = json.loads(a.estimate_kw)
+        sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis, **kw)
     print(f"{len(names)} cameras estimated in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     curve_table(cams, sources)
+    if a.curves_only:
+        return 0
 
     shipped = ssf_basis()
     for label, src in sources.items():
@@ -409,6 +486,20 @@ def main(argv=None) -> int:
                         if fit_name == "draws":
                             fits[key] = fit_on_draws([est[n] for n in cam_set], m, sigma, seed=a.seed)
                             continue
+                        if fit_name in REJECTED:
+                            if size == 1 or (fit_name.startswith(("anchor", "measured")) and label == "dng"):
+                                continue
+                            w = float(fit_name.split()[-1])
+                            cal = np.sqrt(sigma**2 + np.square(told_by["calibrated"]))
+                            if fit_name.startswith("shrink"):
+                                M1 = one_camera_embedded(one, cal[:3], m, 3 * size)
+                                fits[key] = normal_equations_fit(eprob, cal, m, toward=M1, weight=w)
+                                continue
+                            pb = truth if fit_name.startswith("measured") else eprob
+                            told = sigma if fit_name.startswith("measured") else cal
+                            Cc, Tc = chart_rows(pb, [src.photos[n] for n in cam_set])
+                            fits[key] = normal_equations_fit(pb, told, m, extra=[(Cc, Tc, w)])
+                            continue
                         told = np.sqrt(sigma**2 + np.square(told_by.get(fit_name, 0.0)))
                         pb = {"measured": truth, "one camera": one}.get(fit_name, eprob)
                         if fit_name == "one camera":
@@ -441,8 +532,8 @@ def main(argv=None) -> int:
                 for sigma in (0.0, 0.005):
                     for m in methods:
                         ref = np.mean(acc[size, kind, sigma, m, "measured"])
-                        row = [np.mean(acc[size, kind, sigma, m, (label, f)]) for f in cols]
-                        cells = " | ".join(f"{v:.3f} ({v - ref:+.2f})" for v in row)
+                        row = [np.mean(acc.get((size, kind, sigma, m, (label, f)), np.nan)) for f in cols]
+                        cells = " | ".join(f"{v:.3f} ({v - ref:+.2f})" if v == v else "–" for v in row)
                         print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {cells} |")
     return 0
 
