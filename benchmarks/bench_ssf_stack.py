@@ -32,6 +32,8 @@ Fits compared, all in one process:
         --methods "Finlayson 2015" --rejected                                      # rejected fits
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart --seed 2 --curves-only \
         --estimate-kw '{"subspace": 1}'                          # estimator weights, curve errors only
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources chart --ideal-chart --sets 12 \
+        --singles 2 --methods "Finlayson 2015"                                    # a lab chart photo
 """
 
 from __future__ import annotations
@@ -383,6 +385,7 @@ def main(argv=None) -> int:
         help="also the rejected fits: shrink to one camera, chart anchoring",
     )
     ap.add_argument("--estimate-kw", default="{}", help='estimate_ssf options as JSON, e.g. {"subspace": 1}')
+    ap.add_argument("--ideal-chart", action="store_true", help="chart photos with only the patch noise")
     ap.add_argument("--curves-only", action="store_true", help="stop after the estimates' error table")
     ap.add_argument("--shipped-check", action="store_true", help="only the shipped basis on camspec cameras")
     a = ap.parse_args(argv)
@@ -393,6 +396,9 @@ def main(argv=None) -> int:
     fit_names = (*FITS, *(f"× {v:g}" for v in scales), *(("draws",) if a.draws else ()))
     if a.rejected:
         fit_names = (*fit_names, *REJECTED)
+    if a.ideal_chart:  # a lab: the very chart's reflectances, the light measured, even light
+        global CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN
+        CHART_REFLECTANCE = CHART_LIGHT = CHART_UNEVEN = 0.0
     cams = measured_cameras(a.data)
     names = list(cams)
     t0 = time.perf_counter()
