@@ -1,47 +1,74 @@
 """Why stacked cameras with estimated sensitivities lose accuracy, and what repairs it.
 
-Leave one camera model out (as ``bench_ssf.py``): every held-out camera is estimated from DNG matrices
-synthesised from its measured curves, with the basis learned without its model. For random sets of
-1–3 cameras, a correction is fitted on the estimated curves and applied to the responses of the
-measured cameras (the honest setting), against the same correction fitted on the measured curves.
-Diagnostics per set: the correction applied to the estimated cameras' own responses (is the stacked
-problem with estimated curves itself easy?), the correlation between different cameras' response
-errors (do their estimates share the basis' errors?), and the gain of the fitted matrix on those
-errors. Fits compared, all in one process:
+Leave one camera model out (as ``bench_ssf.py``): every held-out camera is estimated, with the basis
+learned without its model, from ``--sources``: ``dng`` (DNG matrices synthesised from its measured
+curves), ``chart`` (a simulated photograph of a ColorChecker under D65 with the errors of a real one:
+:func:`chart_photo`, one chart and one light for every camera) or ``both``. For random sets of 1–3
+cameras, a correction is fitted on the estimated curves and applied to the responses of the measured
+cameras (the honest setting), against the same correction fitted on the measured curves (the
+baseline: the same estimator, told only the sensor noise). Diagnostics: SSF RMSE / angle per channel
+and the RMS response error per source, the correlation between different cameras' response errors.
+Fits compared, all in one process:
 
 * ``none``: noise-free (the fit trusts the estimated curves exactly);
-* ``band``: told the band's response σ (``SSFEstimate.response_sigma``, fully correlated: an upper bound);
-* ``calibrated``: told ``SSFEstimate.response_sigma()`` (the default: the bound times the basis'
-  ``response_scale``), the scale calibrated on the other models' estimates only;
+* ``calibrated RMS``: told ``SSFEstimate.response_sigma(rms=True)``, the held-out estimates' RMS
+  response error (the bound times ``response_scale``, the scale calibrated on the other models'
+  estimates only);
+* ``calibrated``: told ``SSFEstimate.response_sigma()``, the default: the RMS σ times
+  ``SSF_FIT_SIGMA_SCALE``;
+* ``× s`` (``--scales``): told s × the RMS σ (the sweep that chose ``SSF_FIT_SIGMA_SCALE``);
 * ``draws`` (``--draws``): a regression fitted on 16 camera sets drawn within the band (errors in
   the variables with the band's wavelength correlation);
 * ``one camera``: the first camera of the set alone (do not stack);
-* ``oracle σ``: told the set's true response error RMS (ground truth; no user has it, a bound).
+* ``oracle σ``: told the set's true response error RMS (ground truth; no user has it).
 
-    python benchmarks/bench_ssf_stack.py --data ../shared/data            # docs/benchmarks.md table
-    python benchmarks/bench_ssf_stack.py --data ../shared/data --sets 6   # quick
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart,both --seed 2
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,both --seed 1 --sets 12 \
+        --singles 2 --methods "Finlayson 2015" --scales 0.1,0.2,0.3,0.4,0.5,0.7   # the sweep
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --all-sets-basis   # basis with camspec
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --mmv-sets 3       # Centroid, Prior
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --shipped-check    # camspec, shipped basis
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,both --sets 12 --singles 2 \
+        --methods "Finlayson 2015" --rejected                                      # rejected fits
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart --seed 2 --curves-only \
+        --estimate-kw '{"subspace": 1}'                          # estimator weights, curve errors only
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources chart --ideal-chart --sets 12 \
+        --singles 2 --methods "Finlayson 2015"                                    # a lab chart photo
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+import zonotope
 from zonotope.correct import NoiseModel, correction_problem, fit_correction, noise_options
 from zonotope.evaluate import atypical_test_sets, natural_test_sets
-from zonotope.spectra.estimate import SSF_SHAPE, estimate_ssf, ssf_basis, synthesise_dng_matrices
+from zonotope.spectra import builtin as spectra
+from zonotope.spectra.estimate import (
+    SSF_SHAPE,
+    Chart,
+    estimate_ssf,
+    ssf_basis,
+    synthesise_dng_matrices,
+)
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import basis_without, measured_cameras, msds
 
 W = np.asarray(SSF_SHAPE.wavelengths)
 METHODS = ("Cheung 2004", "Finlayson 2015")
-FITS = ("measured", "none", "band", "calibrated", "one camera", "oracle σ")
+FITS = ("measured", "none", "calibrated RMS", "calibrated", "one camera", "oracle σ")
+#: ``--rejected``: ridge toward the first camera's fit (weight × mean diagonal, on the calibrated σ);
+#: the stacked cameras' chart photos added to the training set with weight w, on the estimated curves
+#: (told the calibrated σ) and, the fair baseline, on the measured curves (told the sensor noise).
+REJECTED = ("shrink 0.001", "shrink 0.1", "anchor 4", "anchor 16", "measured anchor 4", "measured anchor 16")
 
 
 def training_responses(values: np.ndarray, name: str) -> np.ndarray:
@@ -50,12 +77,59 @@ def training_responses(values: np.ndarray, name: str) -> np.ndarray:
     return pb.training @ pb.Phi
 
 
-def held_out_estimates(cams: dict[str, dict]) -> dict:
-    """Every camera's DNG-matrix estimate with the basis learned without its model."""
+def chart_photo(
+    values: np.ndarray, rng: np.random.Generator, noise_rng: np.random.Generator, *, illuminant: str = "D65"
+) -> np.ndarray:
+    """Raw patch means of a photographed 24-patch ColorChecker, with the errors of a real photograph.
+
+    The brightest channel at 0.8 of saturation; the physical chart's reflectances differ from the
+    reference data by a smooth 2 % (per patch, 40 nm correlation: batch and ageing), the light from
+    its nominal spectrum by a smooth 2 % (common to every patch), the light on each patch by 1 %
+    (uneven lighting), all drawn from ``rng`` (one chart, one light: the same for every camera given
+    the same ``rng`` state); each mean carries 5e-4 of noise from ``noise_rng`` (sensor noise averaged
+    over the patch).
+    """
+    R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), W).T
+    E = spectra.resample(zonotope.illuminant(illuminant), W)[:, 0]
+    d = W[:, None] - W[None, :]
+    L = np.linalg.cholesky(np.exp(-0.5 * (d / 40.0) ** 2) + 1e-9 * np.eye(W.size))
+    R = R * (1 + CHART_REFLECTANCE * (L @ rng.standard_normal((W.size, R.shape[0]))).T)
+    E = E * (1 + CHART_LIGHT * (L @ rng.standard_normal(W.size)))
+    C = (R * E) @ values * (1 + CHART_UNEVEN * rng.standard_normal((R.shape[0], 1)))
+    C = 0.8 * C / C.max()
+    return C + CHART_NOISE * noise_rng.standard_normal(C.shape)
+
+
+#: The simulated photograph's errors (relative; see chart_photo).
+CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN, CHART_NOISE = 0.02, 0.02, 0.01, 5e-4
+SOURCES = ("dng", "chart", "both")
+
+
+def held_out_estimates(
+    cams: dict[str, dict],
+    source: str = "dng",
+    *,
+    seed: int = 0,
+    redistributable_only: bool = True,
+    photos: dict | None = None,
+    **kw,
+) -> dict:
+    """Every camera's estimate from ``source`` with the basis learned without its model.
+
+    ``source``: ``"dng"`` (synthesised DNG matrices), ``"chart"`` (a simulated photo, :func:`chart_photo`,
+    under D65) or ``"both"``; ``kw`` goes to ``estimate_ssf``.
+    """
     out = {}
-    for n, c in cams.items():
-        basis = basis_without(cams, c["model"], redistributable_only=True, k=5)
-        out[n] = estimate_ssf(synthesise_dng_matrices(msds(c["values"], n)), basis=basis, name=n)
+    for i, (n, c) in enumerate(cams.items()):
+        basis = basis_without(cams, c["model"], redistributable_only=redistributable_only, k=5)
+        dng = synthesise_dng_matrices(msds(c["values"], n)) if source != "chart" else None
+        chart = None
+        if source != "dng":
+            photo = chart_photo(c["values"], np.random.default_rng(seed), np.random.default_rng([seed, i]))
+            chart = Chart(photo)
+            if photos is not None:
+                photos[n] = photo
+        out[n] = estimate_ssf(dng, chart=chart, basis=basis, name=n, **kw)
     return out
 
 
@@ -108,11 +182,14 @@ def mmv_table(cams, est, err, bound, calibrated, a) -> int:
             eprob = correction_problem([est[n].sensitivities for n in pick], shape=SSF_SHAPE)
             cal = np.concatenate([calibrated(n, models) for n in pick])
             model = NoiseModel(np.zeros(3 * size), cal**2, source="calibrated")
+            rms = np.concatenate([calibrated(n, models, rms=True) for n in pick])
+            model_rms = NoiseModel(np.zeros(3 * size), rms**2, source="calibrated RMS")
             C, T = truth.source_of(R), truth.target_of(R)
             for m in ("Finlayson 2015", "Centroid", "Prior"):
                 for fit_name, pb, opts in (
                     ("measured", truth, {}),
                     ("none (δ = 0)", eprob, {}),
+                    ("calibrated RMS", eprob, noise_options(m, model_rms)),
                     ("calibrated", eprob, noise_options(m, model)),
                 ):
                     t0 = time.perf_counter()
@@ -127,16 +204,165 @@ def mmv_table(cams, est, err, bound, calibrated, a) -> int:
         f"\nMMV estimators, {a.mmv_sets} sets each, ColorChecker + CIE 1995 TCS, noise-free responses of the "
         "measured cameras (mean ΔE00):\n"
     )
-    print("| cameras | method | measured | none (δ = 0) | calibrated |")
-    print("|---|---|---|---|---|")
+    print("| cameras | method | measured | none (δ = 0) | calibrated RMS | calibrated |")
+    print("|---|---|---|---|---|---|")
     for size in (2, 3):
         for m in ("Finlayson 2015", "Centroid", "Prior"):
-            row = [np.mean(acc[size, m, f]) for f in ("measured", "none (δ = 0)", "calibrated")]
+            cols = ("measured", "none (δ = 0)", "calibrated RMS", "calibrated")
+            row = [np.mean(acc[size, m, f]) for f in cols]
             print(
-                f"| {size} | {m} | {row[0]:.3f} | {row[1]:.3f} ({row[1] - row[0]:+.2f}) "
-                f"| {row[2]:.3f} ({row[2] - row[0]:+.2f}) |"
+                f"| {size} | {m} | {row[0]:.3f} | "
+                + " | ".join(f"{v:.3f} ({v - row[0]:+.2f})" for v in row[1:])
+                + " |"
             )
     return 0
+
+
+#: camspec models absent from the shipped basis (their curves never entered it nor its calibration).
+CAMSPEC_HELD_OUT = (
+    "Canon_20D", "Canon_40D", "Canon_50D", "Canon_60D", "Canon_500D", "Nikon_D3X",
+    "Nikon_D50", "Nikon_D80", "Nikon_D90", "Pentax_K-5", "Sony_NEX-5N", "Olympus_E-PL2",
+)  # fmt: skip
+
+
+def shipped_check(data: Path) -> int:
+    """The shipped basis as a user gets it, on camspec cameras it never saw: Finlayson 2015 told the
+    default σ against the RMS σ (ColorChecker + CIE 1995 TCS, 10 three-camera sets; natural sets, 20
+    two- or three-camera sets)."""
+    folder = data / "ssf_jiang2013_camspec"
+    measured = [zonotope.load_camera(next((folder / m).glob("*.csv"))) for m in CAMSPEC_HELD_OUT]
+    est = [estimate_ssf(synthesise_dng_matrices(m)) for m in measured]
+    chart = np.concatenate(
+        [
+            spectra.resample(zonotope.load_reflectances(n), W).T
+            for n in ("ColorChecker N Ohta", "CIE 1995 TCS")
+        ]
+    )
+    natural = [t.reflectances for t in natural_test_sets(W, data_dir=data, size=150, seed=0)]
+    for label, tests, seed, sizes in (
+        ("ColorChecker + TCS", [chart], 0, (3,)),
+        ("natural", natural, 1, (2, 3)),
+    ):
+        rng = np.random.default_rng(seed)
+        res = []
+        for _ in range(10 if seed == 0 else 20):
+            size = sizes[0] if len(sizes) == 1 else int(rng.integers(2, 4))
+            pick = rng.choice(len(measured), size, replace=False)
+            truth = correction_problem([measured[i] for i in pick], shape=SSF_SHAPE)
+            fitted = correction_problem([est[i].sensitivities for i in pick], shape=SSF_SHAPE)
+            row = []
+            for rms in (False, True):
+                sigma = np.concatenate([est[i].response_sigma(rms=rms) for i in pick])
+                model = NoiseModel(np.zeros(sigma.size), sigma**2, source="SSF")
+                fit = fit_correction(
+                    fitted, method="Finlayson 2015", **noise_options("Finlayson 2015", model)
+                )
+                dE = [np.mean(truth.delta_E(fit(truth.source_of(R)), truth.target_of(R))) for R in tests]
+                row.append(float(np.mean(dE)))
+            res.append(row)
+        res = np.array(res)
+        print(
+            f"shipped basis, camspec, {label}: default σ {res[:, 0].mean():.3f}, "
+            f"RMS σ {res[:, 1].mean():.3f} ΔE00 (default better in "
+            f"{100 * np.mean(res[:, 0] < res[:, 1]):.0f} % of {len(res)} sets)"
+        )
+    return 0
+
+
+def normal_equations_fit(pb, told, method: str, *, extra=(), toward=None, weight: float = 0.0):
+    """The noise-aware regression of ``pb`` (told ``told`` per channel) solved from its normal
+    equations, with ``extra`` (responses, targets, weight) rows added and a ridge of ``weight`` × the
+    mean diagonal toward the coefficients ``toward``: what the rejected fits of the record need."""
+    from zonotope.correct.regressions import expected_normal_equations, root_polynomial_terms
+
+    degree = 1 if method == "Cheung 2004" else 2
+    k = pb.source_of(pb.training).shape[1]
+    noise = NoiseModel(np.zeros(k), np.square(np.broadcast_to(told, (k,))), source="told")
+    G, B = expected_normal_equations(
+        pb.source_of(pb.training), pb.target_of(pb.training), noise, degree=degree
+    )
+    for C, T, w in extra:
+        g, b = expected_normal_equations(
+            C, T, NoiseModel(np.zeros(k), np.zeros(k), source="0"), degree=degree
+        )
+        G, B = G + w * g, B + w * b
+    s = np.trace(G) / G.shape[0]
+    if toward is not None:
+        G, B = G + weight * s * np.eye(G.shape[0]), B + weight * s * toward
+    M = np.linalg.solve(G + 1e-9 * s * np.eye(G.shape[0]), B)
+    return (lambda c: c @ M) if degree == 1 else (lambda c: root_polynomial_terms(c, degree=2) @ M)
+
+
+def one_camera_embedded(pb_one, told, method: str, k: int) -> np.ndarray:
+    """The first camera's coefficients (:func:`normal_equations_fit` on it alone) placed in the
+    stacked regression's terms, zero for every term using another camera's channels."""
+    from zonotope.correct.regressions import expected_normal_equations, root_polynomial_exponents
+
+    degree = 1 if method == "Cheung 2004" else 2
+    noise = NoiseModel(np.zeros(3), np.square(np.broadcast_to(told, (3,))), source="told")
+    G, B = expected_normal_equations(
+        pb_one.source_of(pb_one.training), pb_one.target_of(pb_one.training), noise, degree=degree
+    )
+    M1 = np.linalg.solve(G + 1e-9 * np.trace(G) / G.shape[0] * np.eye(G.shape[0]), B)
+    if degree == 1:
+        return np.vstack([M1, np.zeros((k - 3, M1.shape[1]))])
+    P, P1 = root_polynomial_exponents(k, degree=2), root_polynomial_exponents(3, degree=2)
+    out = np.zeros((P.shape[0], M1.shape[1]))
+    for i, row in enumerate(P1):
+        full = np.concatenate([row, np.zeros(k - 3, dtype=row.dtype)])
+        out[np.flatnonzero((P == full).all(axis=1))[0]] = M1[i]
+    return out
+
+
+def chart_rows(pb, photos: list[np.ndarray]):
+    """The stacked cameras' chart photos as training rows of ``pb``: each channel scaled to ``pb``'s
+    predicted chart responses (white balance from the chart), with the chart's nominal targets."""
+    Rc = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), W).T
+    photo = np.concatenate(photos, axis=1)
+    pred = pb.source_of(Rc)
+    return photo * ((photo * pred).sum(0) / (photo * photo).sum(0)), pb.target_of(Rc)
+
+
+class Source:
+    """One source's held-out estimates and what the benchmark derives from them."""
+
+    def __init__(
+        self, cams: dict[str, dict], source: str, *, seed: int, redistributable_only: bool = True, **kw
+    ):
+        self.cams, self.names = cams, list(cams)
+        self.photos: dict[str, np.ndarray] = {}
+        self.est = held_out_estimates(
+            cams, source, seed=seed, redistributable_only=redistributable_only, photos=self.photos, **kw
+        )
+        self.err = {
+            n: training_responses(cams[n]["values"], n) - training_responses(self.est[n].values, n)
+            for n in self.names
+        }
+        self.bound = {n: self.est[n].response_sigma(bound=True) for n in self.names}
+
+    def calibrated(self, n: str, exclude: set[str], *, rms: bool = False) -> np.ndarray:
+        """``response_sigma(rms=rms)`` with response_scale calibrated as the shipped basis' is
+        (bench_ssf.calibrate_band), on the estimates of the OTHER models only."""
+        others = [m for m in self.names if self.cams[m]["model"] not in exclude]
+        real = np.sqrt(np.mean(np.square(np.concatenate([self.err[m] for m in others])), axis=0))
+        scale = real / np.sqrt(np.mean(np.square([self.bound[m] for m in others]), axis=0))
+        return dataclasses.replace(self.est[n], response_scale=scale).response_sigma(rms=rms)
+
+
+def curve_table(cams: dict[str, dict], sources: dict[str, Source]) -> None:
+    """SSF RMSE and angle per channel (peak-1 curves), mean over the held-out cameras, per source."""
+    from bench_ssf import curve_errors
+
+    print("\n| source | RMSE R / G / B | angle R / G / B (°) | response error RMS R / G / B |")
+    print("|---|---|---|---|")
+    for label, src in sources.items():
+        ce = [curve_errors(src.est[n].values, cams[n]["values"]) for n in src.names]
+        rm, an = np.mean([c[0] for c in ce], axis=0), np.mean([c[1] for c in ce], axis=0)
+        rr = np.sqrt(np.mean(np.square(np.concatenate(list(src.err.values()))), axis=0))
+        print(
+            f"| {label} | {' / '.join(f'{v:.3f}' for v in rm)} | {' / '.join(f'{v:.1f}' for v in an)} "
+            f"| {' / '.join(f'{v:.4f}' for v in rr)} |"
+        )
 
 
 def main(argv=None) -> int:
@@ -145,45 +371,70 @@ def main(argv=None) -> int:
     ap.add_argument("--sets", type=int, default=20, help="random sets of each size")
     ap.add_argument("--singles", type=int, default=40, help="one-camera sets (every k-th camera)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--sources", default="dng", help="comma-separated estimate sources: dng, chart, both (DNG + chart)"
+    )
+    ap.add_argument("--all-sets-basis", action="store_true", help="basis also from camspec (not shippable)")
+    ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--mmv-sets", type=int, default=0, help="only the MMV estimators on N sets of 2 and 3")
     ap.add_argument("--draws", action="store_true", help="also fit on 16 cameras drawn in the band (slow)")
+    ap.add_argument("--scales", default="", help="comma-separated multiples of the RMS σ to fit with too")
+    ap.add_argument(
+        "--rejected",
+        action="store_true",
+        help="also the rejected fits: shrink to one camera, chart anchoring",
+    )
+    ap.add_argument("--estimate-kw", default="{}", help='estimate_ssf options as JSON, e.g. {"subspace": 1}')
+    ap.add_argument("--ideal-chart", action="store_true", help="chart photos with only the patch noise")
+    ap.add_argument("--curves-only", action="store_true", help="stop after the estimates' error table")
+    ap.add_argument("--shipped-check", action="store_true", help="only the shipped basis on camspec cameras")
     a = ap.parse_args(argv)
-    fit_names = (*FITS, "draws") if a.draws else FITS
+    methods = tuple(a.methods.split(","))
+    if a.shipped_check:
+        return shipped_check(a.data)
+    scales = [float(v) for v in a.scales.split(",") if v]
+    fit_names = (*FITS, *(f"× {v:g}" for v in scales), *(("draws",) if a.draws else ()))
+    if a.rejected:
+        fit_names = (*fit_names, *REJECTED)
+    if a.ideal_chart:  # a lab: the very chart's reflectances, the light measured, even light
+        global CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN
+        CHART_REFLECTANCE = CHART_LIGHT = CHART_UNEVEN = 0.0
     cams = measured_cameras(a.data)
     names = list(cams)
     t0 = time.perf_counter()
-    est = held_out_estimates(cams)
-    err = {n: training_responses(cams[n]["values"], n) - training_responses(est[n].values, n) for n in names}
-    bound = {n: est[n].response_sigma(bound=True) for n in names}
+    sources = {}
+    for s in a.sources.split(","):
+        if s not in SOURCES:
+            ap.error(f"--sources {s!r}: choose from {', '.join(SOURCES)}")
+        kw = json.loads(a.estimate_kw)
+        sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis, **kw)
     print(f"{len(names)} cameras estimated in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-
-    # response_scale as the shipped basis calibrates it (bench_ssf.calibrate_band), from the OTHER models
-    def calibrated(n: str, exclude: set[str]) -> np.ndarray:
-        others = [m for m in names if cams[m]["model"] not in exclude]
-        real = np.sqrt(np.mean(np.square(np.concatenate([err[m] for m in others])), axis=0))
-        scale = real / np.sqrt(np.mean(np.square([bound[m] for m in others]), axis=0))
-        return dataclasses.replace(est[n], response_scale=scale).response_sigma()
+    curve_table(cams, sources)
+    if a.curves_only:
+        return 0
 
     shipped = ssf_basis()
-    for k, label in ((2.0, "±2σ"), (shipped.band_k, f"±band_k = ±{shipped.band_k:.2f}σ")):
-        cover: dict[str, list] = {}
-        for n in names:
-            e, t = est[n].values, cams[n]["values"]
-            inside = np.abs(e / e.max(axis=0) - t / t.max(axis=0)) <= k * shipped.spread
-            cover.setdefault(cams[n]["set"], []).append(inside.mean())
-            cover.setdefault("all", []).append(inside.mean())
+    for label, src in sources.items():
+        for k, klabel in ((2.0, "±2σ"), (shipped.band_k, f"±band_k = ±{shipped.band_k:.2f}σ")):
+            cover: dict[str, list] = {}
+            for n in names:
+                e, t = src.est[n].values, cams[n]["values"]
+                inside = np.abs(e / e.max(axis=0) - t / t.max(axis=0)) <= k * shipped.spread
+                cover.setdefault(cams[n]["set"], []).append(inside.mean())
+                cover.setdefault("all", []).append(inside.mean())
+            print(
+                f"{label}: measured curve within {klabel} of the estimate (fraction of wavelengths × "
+                "channels): " + ", ".join(f"{d} {100 * np.mean(v):.0f} %" for d, v in cover.items())
+            )
+        ratio = np.array([np.sqrt(np.mean(np.square(src.err[n]), axis=0)) / src.bound[n] for n in names])
         print(
-            f"measured curve within {label} of the estimate (fraction of wavelengths × channels): "
-            + ", ".join(f"{d} {100 * np.mean(v):.0f} %" for d, v in cover.items())
+            f"{label}: real response error RMS / fully correlated bound, median over cameras (R, G, B): "
+            + " / ".join(f"{v:.2f}" for v in np.median(ratio, axis=0))
         )
-    ratio = np.array([np.sqrt(np.mean(np.square(err[n]), axis=0)) / bound[n] for n in names])
-    print(
-        "real response error RMS / fully correlated bound, median over cameras (R, G, B): "
-        + " / ".join(f"{v:.2f}" for v in np.median(ratio, axis=0))
-    )
 
     if a.mmv_sets:
-        return mmv_table(cams, est, err, bound, calibrated, a)
+        src = next(iter(sources.values()))
+        return mmv_table(cams, src.est, src.err, src.bound, src.calibrated, a)
     rng = np.random.default_rng(a.seed)
     step = max(1, len(names) // a.singles)
     sets = [[n] for n in names[::step]]
@@ -203,67 +454,93 @@ def main(argv=None) -> int:
     for cam_set in sets:
         size = len(cam_set)
         truth = correction_problem([msds(cams[n]["values"], n) for n in cam_set], shape=SSF_SHAPE)
-        eprob = correction_problem([est[n].sensitivities for n in cam_set], shape=SSF_SHAPE)
-        one = correction_problem([est[cam_set[0]].sensitivities], shape=SSF_SHAPE)
-        band = np.concatenate([bound[n] for n in cam_set])
         models = {cams[m]["model"] for m in cam_set}
-        cal = np.concatenate([calibrated(n, models) for n in cam_set])
-        oracle = np.sqrt(np.mean(np.square(np.concatenate([err[n] for n in cam_set], axis=1)), axis=0))
-        if size > 1:  # correlation of different cameras' response errors, same channel
-            e = [err[n] for n in cam_set]
-            r = [
-                np.corrcoef(e[i][:, c], e[j][:, c])[0, 1]
-                for i in range(size)
-                for j in range(i + 1, size)
-                for c in range(3)
-            ]
-            diag.setdefault((size, "error correlation between cameras"), []).append(np.mean(r))
         for sigma in (0.0, 0.005):
-            for m in METHODS:
+            for m in methods:
                 fits = {}
-                for fit_name in fit_names:
-                    if fit_name == "draws":
-                        fits[fit_name] = fit_on_draws([est[n] for n in cam_set], m, sigma, seed=a.seed)
-                        continue
-                    told = {"band": band, "calibrated": cal, "oracle σ": oracle}.get(fit_name, 0.0)
-                    told = np.sqrt(sigma**2 + np.square(told))
-                    pb = {"measured": truth, "one camera": one}.get(fit_name, eprob)
-                    if fit_name == "one camera":
-                        told = told[:3] if np.ndim(told) else told
-                    model = NoiseModel(np.zeros(np.size(told)), np.square(told), source=fit_name)
-                    opts = noise_options(m, model) if np.any(told > 0) else {}
-                    fits[fit_name] = fit_correction(pb, method=m, **opts)
+                for label, src in sources.items():
+                    est = src.est
+                    eprob = correction_problem([est[n].sensitivities for n in cam_set], shape=SSF_SHAPE)
+                    one = correction_problem([est[cam_set[0]].sensitivities], shape=SSF_SHAPE)
+                    told_by = {
+                        "band": np.concatenate([src.bound[n] for n in cam_set]),
+                        "calibrated": np.concatenate([src.calibrated(n, models) for n in cam_set]),
+                        "calibrated RMS": np.concatenate(
+                            [src.calibrated(n, models, rms=True) for n in cam_set]
+                        ),
+                        "oracle σ": np.sqrt(
+                            np.mean(np.square(np.concatenate([src.err[n] for n in cam_set], axis=1)), axis=0)
+                        ),
+                    }
+                    for v in scales:
+                        told_by[f"× {v:g}"] = v * told_by["calibrated RMS"]
+                    if sigma == 0 and m == methods[0] and size > 1:
+                        e = [src.err[n] for n in cam_set]
+                        r = [
+                            np.corrcoef(e[i][:, c], e[j][:, c])[0, 1]
+                            for i in range(size)
+                            for j in range(i + 1, size)
+                            for c in range(3)
+                        ]
+                        diag.setdefault((label, size, "error correlation between cameras"), []).append(
+                            np.mean(r)
+                        )
+                    for fit_name in fit_names:
+                        if fit_name == "measured" and label != next(iter(sources)):
+                            continue
+                        key = "measured" if fit_name == "measured" else (label, fit_name)
+                        if fit_name == "draws":
+                            fits[key] = fit_on_draws([est[n] for n in cam_set], m, sigma, seed=a.seed)
+                            continue
+                        if fit_name in REJECTED:
+                            if size == 1 or (fit_name.startswith(("anchor", "measured")) and label == "dng"):
+                                continue
+                            w = float(fit_name.split()[-1])
+                            cal = np.sqrt(sigma**2 + np.square(told_by["calibrated"]))
+                            if fit_name.startswith("shrink"):
+                                M1 = one_camera_embedded(one, cal[:3], m, 3 * size)
+                                fits[key] = normal_equations_fit(eprob, cal, m, toward=M1, weight=w)
+                                continue
+                            pb = truth if fit_name.startswith("measured") else eprob
+                            told = sigma if fit_name.startswith("measured") else cal
+                            Cc, Tc = chart_rows(pb, [src.photos[n] for n in cam_set])
+                            fits[key] = normal_equations_fit(pb, told, m, extra=[(Cc, Tc, w)])
+                            continue
+                        told = np.sqrt(sigma**2 + np.square(told_by.get(fit_name, 0.0)))
+                        pb = {"measured": truth, "one camera": one}.get(fit_name, eprob)
+                        if fit_name == "one camera":
+                            told = told[:3] if np.ndim(told) else told
+                        model = NoiseModel(np.zeros(np.size(told)), np.square(told), source=fit_name)
+                        opts = noise_options(m, model) if np.any(told > 0) else {}
+                        fits[key] = fit_correction(pb, method=m, **opts)
                 for ts in tests:
                     C = truth.source_of(ts.reflectances)
-                    Ce = eprob.source_of(ts.reflectances)
                     if sigma:
-                        noise = sigma * np.random.default_rng([a.seed, size]).standard_normal(C.shape)
-                        C, Ce = C + noise, Ce + noise
+                        C = C + sigma * np.random.default_rng([a.seed, size]).standard_normal(C.shape)
                     T = truth.target_of(ts.reflectances)
-                    for fit_name, f in fits.items():
-                        x = C[:, :3] if fit_name == "one camera" else C
+                    for key, f in fits.items():
+                        x = C[:, :3] if key[1:] == ("one camera",) else C
                         dE = truth.delta_E(f(x), T)
-                        acc.setdefault((size, ts.kind, sigma, m, fit_name), []).append(float(np.mean(dE)))
-                    dself = truth.delta_E(fits["none"](Ce), T)
-                    acc.setdefault((size, ts.kind, sigma, m, "self"), []).append(float(np.mean(dself)))
+                        acc.setdefault((size, ts.kind, sigma, m, key), []).append(float(np.mean(dE)))
     print(f"corrections in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     for key, v in diag.items():
         print(
-            f"{key[0]} cameras, {key[1]}: median {np.median(v):.2f} [{np.percentile(v, 10):.2f}, "
+            f"{key[0]}, {key[1]} cameras, {key[2]}: median {np.median(v):.2f} [{np.percentile(v, 10):.2f}, "
             f"{np.percentile(v, 90):.2f}]"
         )
-    cols = (*fit_names, "self")
-    print("\n| cameras | test | σ | method | " + " | ".join(cols) + " |")
-    print("|---" * (4 + len(cols)) + "|")
-    for size in (1, 2, 3):
-        for kind in ("natural", "atypical"):
-            for sigma in (0.0, 0.005):
-                for m in METHODS:
-                    row = [np.mean(acc[size, kind, sigma, m, f]) for f in cols]
-                    cells = " | ".join(
-                        f"{v:.3f}" if i == 0 else f"{v:.3f} ({v - row[0]:+.2f})" for i, v in enumerate(row)
-                    )
-                    print(f"| {size} | {kind} | {sigma:g} | {m} | {cells} |")
+    cols = [f for f in fit_names if f != "measured"]
+    for label in sources:
+        print(f"\nSource: {label} (mean ΔE00; in brackets Δ to the measured-curve fit)\n")
+        print("| cameras | test | σ | method | measured | " + " | ".join(cols) + " |")
+        print("|---" * (5 + len(cols)) + "|")
+        for size in (1, 2, 3):
+            for kind in ("natural", "atypical"):
+                for sigma in (0.0, 0.005):
+                    for m in methods:
+                        ref = np.mean(acc[size, kind, sigma, m, "measured"])
+                        row = [np.mean(acc.get((size, kind, sigma, m, (label, f)), np.nan)) for f in cols]
+                        cells = " | ".join(f"{v:.3f} ({v - ref:+.2f})" if v == v else "–" for v in row)
+                        print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {cells} |")
     return 0
 
 

@@ -645,3 +645,11 @@ __all__ += ["GREY_EDGE_FLOOR"]
 SSF_BAND_COVERAGE = 0.9
 
 __all__ += ["SSF_BAND_COVERAGE"]
+# -- SSF: the σ told to a fit on estimated curves (docs/notes/2026-11-29-ssf-goal.md) ---------------
+
+#: ``SSFEstimate.response_sigma()`` = the held-out estimates' RMS response error times this: over
+#: 0.1–1 × the RMS, 0.5 gave the lowest ΔE00 of noise-aware Finlayson 2015 fits of 2–3 stacked
+#: estimated cameras (natural sets, noise-free, leave one model out; DNG and DNG + chart estimates).
+SSF_FIT_SIGMA_SCALE = 0.5
+
+__all__ += ["SSF_FIT_SIGMA_SCALE"]

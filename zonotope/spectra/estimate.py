@@ -50,6 +50,7 @@ from .._tol import (
     SSF_CHART_MIN_PATCHES,
     SSF_CHART_NEGATIVE,
     SSF_CHOLESKY_JITTER,
+    SSF_FIT_SIGMA_SCALE,
     SSF_MATRIX_CONDITION_MAX,
     SSF_PRIOR,
     SSF_SAMPLE_CORRELATION_NM,
@@ -663,16 +664,20 @@ class SSFEstimate:
         return np.maximum(self.values - k * self.uncertainty, 0.0), self.values + k * self.uncertainty
 
     def response_sigma(
-        self, illuminant="D65", reflectances="rawtoaces 190", *, bound: bool = False
+        self, illuminant="D65", reflectances="rawtoaces 190", *, bound: bool = False, rms: bool = False
     ) -> np.ndarray:
         """What the curves' error does to white-balanced responses: a noise σ per channel, shape (3,).
 
         ``bound=True``: the RMS over ``reflectances`` of ``R·diag(E)·u_c / white_c`` (``u`` the band,
         one standard deviation, taken as fully correlated over wavelengths: an upper bound, 4–6× the
-        real error). Default: that bound times :attr:`response_scale`, the ratio of held-out cameras'
-        real RMS response error to it (calibrated leave one model out). Give it to the correction as
-        noise (:func:`zonotope.ssf_noise`). Why: a regression fitted noise-free on estimated curves of
-        several cameras amplifies their errors (docs/notes/2026-11-29-ssf-stacking.md).
+        real error). ``rms=True``: that bound times :attr:`response_scale`, the ratio of held-out
+        cameras' real RMS response error to it (calibrated leave one model out). Default: the RMS σ
+        times :data:`~zonotope._tol.SSF_FIT_SIGMA_SCALE`, the σ to tell a noise-aware fit (the error is
+        systematic, not independent per response: told its full RMS, a fit of stacked cameras gives up
+        more of the stack than it needs to). Give it to the correction as noise
+        (:func:`zonotope.ssf_noise`). Why: a regression fitted noise-free on estimated curves of several
+        cameras amplifies their errors (docs/notes/2026-11-29-ssf-stacking.md,
+        docs/notes/2026-11-29-ssf-goal.md).
         """
         w = self.wavelengths
         E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
@@ -683,7 +688,10 @@ class SSFEstimate:
             R = spectra.resample(load_reflectances(reflectances), w).T
         white = E @ self.values
         sigma = np.sqrt(np.mean(np.square((R * E) @ self.uncertainty), axis=0)) / white
-        return sigma if bound else sigma * np.asarray(self.response_scale, dtype=np.float64)
+        if bound:
+            return sigma
+        sigma = sigma * np.asarray(self.response_scale, dtype=np.float64)
+        return sigma if rms else sigma * SSF_FIT_SIGMA_SCALE
 
 
 def sample_ssfs(

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 import zonotope
 from zonotope import SpectralDataError
-from zonotope._tol import SSF_CHART_CLIP
+from zonotope._tol import SSF_CHART_CLIP, SSF_FIT_SIGMA_SCALE
 from zonotope.spectra import builtin as spectra
 from zonotope.spectra.estimate import (
     SSF_SHAPE,
@@ -217,8 +217,9 @@ def test_response_sigma_grows_with_the_band():
 
 
 def test_response_sigma_is_the_bound_times_the_calibrated_scale():
-    """The default σ is the fully correlated bound (recomputed here from its definition) times the
-    shipped basis' leave-one-out scale, which is below 1 (the bound is an upper bound)."""
+    """The RMS σ is the fully correlated bound (recomputed here from its definition) times the
+    shipped basis' leave-one-out scale, which is below 1 (the bound is an upper bound); the default,
+    told to fits, is that times SSF_FIT_SIGMA_SCALE."""
     est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
     R = spectra.resample(zonotope.load_reflectances("rawtoaces 190"), W).T
     E = spectra.resample(zonotope.illuminant("D65"), W)[:, 0]
@@ -226,7 +227,10 @@ def test_response_sigma_is_the_bound_times_the_calibrated_scale():
     np.testing.assert_allclose(est.response_sigma(bound=True), bound, rtol=1e-10)
     scale = ssf_basis().response_scale
     assert np.all((scale > 0) & (scale < 1))
-    np.testing.assert_allclose(est.response_sigma(), bound * scale, rtol=1e-10)
+    np.testing.assert_allclose(est.response_sigma(rms=True), bound * scale, rtol=1e-10)
+    assert 0 < SSF_FIT_SIGMA_SCALE < 1
+    np.testing.assert_allclose(est.response_sigma(), bound * scale * SSF_FIT_SIGMA_SCALE, rtol=1e-10)
+    np.testing.assert_allclose(est.response_sigma(bound=True, rms=True), bound, rtol=1e-10)
 
 
 def test_default_band_is_the_calibrated_multiple():
