@@ -353,11 +353,11 @@ def _solvers(former: bool):
         volume._EXACT_DISTANCE, prior._STIFF_SOLVER = saved
 
 
-def table_T(quick: bool, exact: bool = True, repeats: int = 5) -> None:
+def table_T(quick: bool, exact: bool = True, repeats: int = 5, memory: bool = True) -> None:
     """Table T: CPU seconds (median of ``repeats``) and peak traced memory of ``profile_LUT`` with the
     former and the current per-node solvers, every node solved and grouped as by default, all in one
     process; ΔE00 against the first row (the former solvers on every node; with ``exact=False`` the
-    former solvers' default grouping)."""
+    former solvers' default grouping). ``memory=False``: no traced run (peak memory "nan")."""
     import time
     import tracemalloc
 
@@ -396,10 +396,12 @@ def table_T(quick: bool, exact: bool = True, repeats: int = 5) -> None:
                     progress=lambda s, d, n: solves.append(n),
                 )
 
-            tracemalloc.start()  # the first run: peak memory (traced allocations, numpy's included)
-            lut = sample()
-            peak = tracemalloc.get_traced_memory()[1] / 2**20
-            tracemalloc.stop()
+            peak = float("nan")
+            if memory:  # a first, untimed run: peak memory (traced allocations, numpy's included)
+                tracemalloc.start()
+                lut = sample()
+                peak = tracemalloc.get_traced_memory()[1] / 2**20
+                tracemalloc.stop()
             for _ in range(repeats):
                 t = time.process_time()
                 lut = sample()
@@ -470,6 +472,9 @@ def main() -> None:
         help="table T without the every-node baseline (253 CPU-s at 33³): against the former default",
     )
     ap.add_argument("--repeats", type=int, default=5, help="table T: timed runs per row (the median)")
+    ap.add_argument(
+        "--no-memory", action="store_true", help="table T without the traced (memory) run per row"
+    )
     args = ap.parse_args()
     cameras = args.camera or zonotope.list_builtin()["cameras"]
     if "P" in args.tables:
@@ -481,7 +486,7 @@ def main() -> None:
     if "S" in args.tables:
         table_S(cameras, args.quick)
     if "T" in args.tables:
-        table_T(args.quick, exact=not args.no_exact, repeats=args.repeats)
+        table_T(args.quick, exact=not args.no_exact, repeats=args.repeats, memory=not args.no_memory)
     if "U" in args.tables:
         table_U()
 
