@@ -266,21 +266,25 @@ _DISTANCE_FACETS: dict[bytes, tuple | None] = {}
 
 
 def _distance_facets(Phi: np.ndarray):
+    """The normals, support values and 1-norms of :func:`_solid_distance` for Φ, built once per Φ."""
     from .._tol import SOLID_DISTANCE_TERMS
     from .membership import joint_halfspaces
 
     n, k = Phi.shape
     key = np.ascontiguousarray(Phi).tobytes() + repr(Phi.shape).encode()
-    if key not in _DISTANCE_FACETS:
-        facets = None
-        if k >= 2 and math.comb(n + k, k - 1) <= SOLID_DISTANCE_TERMS:
-            scale = float(np.abs(Phi).max()) or 1.0  # the cube's generators at Φ's scale (rank test)
-            U, _ = joint_halfspaces(np.vstack([Phi, scale * np.eye(k)]), max_terms=SOLID_DISTANCE_TERMS)
-            facets = (U, np.clip(U @ Phi.T, 0.0, None).sum(axis=1), np.abs(U).sum(axis=1))
-        if len(_DISTANCE_FACETS) >= 16:
-            _DISTANCE_FACETS.clear()
-        _DISTANCE_FACETS[key] = facets
-    return _DISTANCE_FACETS[key]
+    try:
+        return _DISTANCE_FACETS[key]
+    except KeyError:
+        pass
+    facets = None
+    if k >= 2 and math.comb(n + k, k - 1) <= SOLID_DISTANCE_TERMS:
+        scale = float(np.abs(Phi).max()) or 1.0  # the cube's generators at Φ's scale (rank test)
+        U, _ = joint_halfspaces(np.vstack([Phi, scale * np.eye(k)]), max_terms=SOLID_DISTANCE_TERMS)
+        facets = (U, np.clip(U @ Phi.T, 0.0, None).sum(axis=1), np.abs(U).sum(axis=1))
+    if len(_DISTANCE_FACETS) >= 16:  # a process sees few source solids; threads may race here harmlessly
+        _DISTANCE_FACETS.clear()
+    _DISTANCE_FACETS[key] = facets
+    return facets
 
 
 def _solid_distance(Phi, responses) -> np.ndarray | None:
