@@ -33,10 +33,11 @@ S. Why the profile is fitted as it is (noise-free spectra, D65, ColorChecker N O
    HueSatMap fitted on all colours, random smooth spectra 87 % of them; with and without the
    ColorChecker in the fit), matrices + HueSatMap on natural colours only, and that + the 3-D
    LookTable (what ``fit_dcp`` ships); and each profile's encoding error on the random spectra.
-T. ``isp profile --lut`` sampling of the Prior estimator (Nikon 5100, D65): every lattice node solved
-   (the baseline, ``quantum=0``) vs the nodes that need a solver grouped across the lattice
-   (``isp.profiles.lut.profile_LUT``, default ``quantum`` and 5e-3), in one process: CPU seconds,
-   solver groups, and ΔE00 (mean / max) against the exact LUT on natural sets and 100 atypical spectra.
+T. ``isp profile --lut`` sampling of the Prior estimator (Nikon 5100, D65), in one process: the former
+   per-node solvers (HiGHS distance to the source solid, scipy's per-row BVLS) on every lattice node
+   (the baseline, ``quantum=0``) and with the default grouping, and the current solvers both ways:
+   CPU seconds (median of ``--repeats``), peak traced memory (first run), solver groups, and ΔE00
+   (mean / max) against the baseline's LUT on natural sets and 100 atypical spectra.
 U. Chart fit on the real 550D DNG (needs ../shared/data): per shoot illuminant, mean / max ΔE00 of
    colour-science's least squares (``matrix_colour_correction``, Cheung 2004, 3 terms, white free),
    our white-preserving least squares, and that refined for ΔE00 (what ``isp profile --chart`` writes).
@@ -45,6 +46,7 @@ U. Chart fit on the real 550D DNG (needs ../shared/data): per shoot illuminant, 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import tempfile
@@ -335,10 +337,29 @@ def table_S(cameras, quick: bool) -> None:
     )
 
 
-def table_T(quick: bool, exact: bool = True) -> None:
-    """Table T: CPU time of ``profile_LUT`` per grouping, ΔE00 against the first row (every node solved,
-    or with ``exact=False`` the former default: 0.002 for every node), all rows in one process."""
+@contextlib.contextmanager
+def _solvers(former: bool):
+    """The per-node solvers of the LUT as they were (HiGHS distance of a node outside the source solid,
+    scipy's per-row BVLS for the exact-constraint MAP) or as they are (the exact distance from the
+    solid's facets, the batched ``fiber_box_lsq``): the reference twins' switches."""
+    import zonotope.correct.prior as prior
+    import zonotope.mismatch.volume as volume
+
+    saved = volume._EXACT_DISTANCE, prior._STIFF_SOLVER
+    volume._EXACT_DISTANCE = prior._STIFF_SOLVER = not former
+    try:
+        yield
+    finally:
+        volume._EXACT_DISTANCE, prior._STIFF_SOLVER = saved
+
+
+def table_T(quick: bool, exact: bool = True, repeats: int = 5, memory: bool = True) -> None:
+    """Table T: CPU seconds (median of ``repeats``) and peak traced memory of ``profile_LUT`` with the
+    former and the current per-node solvers, every node solved and grouped as by default, all in one
+    process; ΔE00 against the first row (the former solvers on every node; with ``exact=False`` the
+    former solvers' default grouping). ``memory=False``: no traced run (peak memory "nan")."""
     import time
+    import tracemalloc
 
     from isp._tol import LUT_OUTSIDE_QUANTUM, LUT_QUANTUM
     from isp.profiles.lut import profile_LUT
@@ -356,26 +377,46 @@ def table_T(quick: bool, exact: bool = True) -> None:
     }
     sets["atypical (100)"] = atypical_reflectances(prob.wavelengths, 100)[0]
     D65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-    settings = [(LUT_QUANTUM, None), (LUT_QUANTUM, 0.01), (LUT_QUANTUM, LUT_OUTSIDE_QUANTUM)]
+    default = (LUT_QUANTUM, LUT_OUTSIDE_QUANTUM)
+    settings = [(True, default), (False, (0.0, None)), (False, default)]
     if exact:
-        settings = [(0.0, None), *settings, (5e-3, None)]
+        settings.insert(0, (True, (0.0, None)))
     luts, rows = [], []
-    for q, q_out in settings:
-        solves = []
-        t = time.process_time()
-        lut = profile_LUT(
-            mc,
-            size=size,
-            space="XYZ",
-            quantum=q,
-            outside_quantum=q_out,
-            progress=lambda s, d, n, solves=solves: solves.append(n),
-        )
-        dt = time.process_time() - t
+    for former, (q, q_out) in settings:
+        solves, times = [], []
+        with _solvers(former):
+
+            def sample(solves=solves, q=q, q_out=q_out):
+                return profile_LUT(
+                    mc,
+                    size=size,
+                    space="XYZ",
+                    quantum=q,
+                    outside_quantum=q_out,
+                    progress=lambda s, d, n: solves.append(n),
+                )
+
+            peak = float("nan")
+            if memory:  # a first, untimed run: peak memory (traced allocations, numpy's included)
+                tracemalloc.start()
+                lut = sample()
+                peak = tracemalloc.get_traced_memory()[1] / 2**20
+                tracemalloc.stop()
+            for _ in range(repeats):
+                t = time.process_time()
+                lut = sample()
+                times.append(time.process_time() - t)
         luts.append(lut)
-        name = f"{q:g}" + (f", outside {q_out:g}" if q_out is not None else ", every node")
-        row = [name + (" (default)" if (q, q_out) == (LUT_QUANTUM, LUT_OUTSIDE_QUANTUM) else ""), f"{dt:.0f}"]
-        row.append(max(solves, default=0))
+        name = ("former" if former else "current") + " solvers, "
+        name += "every node" if q == 0 else f"grouped {q:g} / {q_out:g}"
+        dt = float(np.median(times))
+        row = [
+            name,
+            dt,
+            f"{dt:.1f} ({min(times):.1f}–{max(times):.1f})",
+            f"{peak:.0f}",
+            max(solves, default=0),
+        ]
         for R in sets.values():
             c = R @ prob.Phi
             a = colour.XYZ_to_Lab(apply_correction_LUT(luts[0], c), D65)
@@ -383,12 +424,13 @@ def table_T(quick: bool, exact: bool = True) -> None:
             d = colour.delta_E(a, b, method="CIE 2000")
             row.append(f"{d.mean():.3f} / {d.max():.2f}")
         rows.append(row)
-    base = float(rows[0][1])
+    base = rows[0][1]
     for r in rows:
-        r.insert(2, f"{base / max(float(r[1]), 1e-9):.1f}×")
+        r[1] = f"{base / max(r[1], 1e-9):.1f}×"
     _table(
-        f"T. Prior LUT {size}³ (Nikon 5100, D65): CPU s, speed-up, solves, ΔE00 vs the first row",
-        ["quantum", "CPU s", "speed-up", "solves", *sets],
+        f"T. Prior LUT {size}³ (Nikon 5100, D65), one process: speed-up against the first row, CPU s "
+        f"(median of {repeats}, range), peak traced MB, solver groups, ΔE00 mean / max vs the first row",
+        ["solvers, grouping", "speed-up", "CPU s", "peak MB", "solves", *sets],
         rows,
     )
 
@@ -429,6 +471,10 @@ def main() -> None:
         action="store_true",
         help="table T without the every-node baseline (253 CPU-s at 33³): against the former default",
     )
+    ap.add_argument("--repeats", type=int, default=5, help="table T: timed runs per row (the median)")
+    ap.add_argument(
+        "--no-memory", action="store_true", help="table T without the traced (memory) run per row"
+    )
     args = ap.parse_args()
     cameras = args.camera or zonotope.list_builtin()["cameras"]
     if "P" in args.tables:
@@ -440,7 +486,7 @@ def main() -> None:
     if "S" in args.tables:
         table_S(cameras, args.quick)
     if "T" in args.tables:
-        table_T(args.quick, exact=not args.no_exact)
+        table_T(args.quick, exact=not args.no_exact, repeats=args.repeats, memory=not args.no_memory)
     if "U" in args.tables:
         table_U()
 

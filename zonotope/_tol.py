@@ -653,3 +653,12 @@ __all__ += ["SSF_BAND_COVERAGE"]
 SSF_FIT_SIGMA_SCALE = 0.5
 
 __all__ += ["SSF_FIT_SIGMA_SCALE"]
+# -- .cube speed: exact distance of a response to the source solid (zonotope.mismatch.volume) ---------
+
+#: Largest number of ``(k − 1)``-subsets of Φ's rows and the k unit vectors for which the max-norm
+#: distance of an infeasible response to the source solid is computed from the facets of
+#: ``Z ⊕ t·cube`` (561 for 31 wavelengths and k = 3, 6,545 for k = 4; C(37, 5) = 435,897 for two
+#: stacked cameras would take 10 s and 100 MB to build): above it, one HiGHS LP per response.
+SOLID_DISTANCE_TERMS = 20_000
+
+__all__ += ["SOLID_DISTANCE_TERMS"]

@@ -4,11 +4,13 @@
 :func:`zonotope.correct.profile.correction_LUT` (same lattice, shaper, output space and
 clamping). An MMV-based estimator such as Prior solves one problem per lattice node that its
 closed form does not cover (98 % of a 33³ lattice: the nodes outside the object-colour solid and
-above the white), ≈ 7 CPU-ms each. The whole lattice goes to the estimator in one call, so that
-:func:`zonotope.correct.correct_image` groups the nodes that need a solver across the lattice
-(greedy leader clustering within ``quantum`` of a leader response in every channel, each group
-solved once and carried to its members with the estimator's closed form, as it does for
-photographs); nodes with a closed form stay exact. ``quantum=0`` solves every node.
+above the white), ≈ 1.2 CPU-ms each (7 before the exact distance to the solid and the batched
+exact-constraint MAP of ``zonotope``; ``docs/notes/2026-11-29-lut-speed.md``). The whole lattice
+goes to the estimator in one call, so that :func:`zonotope.correct.correct_image` groups the nodes
+that need a solver across the lattice (greedy leader clustering within ``quantum`` of a leader
+response in every channel, each group solved once and carried to its members with the estimator's
+closed form, as it does for photographs); nodes with a closed form stay exact. ``quantum=0`` solves
+every node.
 
 Most nodes of the lattice (4,518 of 4,913 at 17³ for a Nikon 5100 under D65) lie outside the
 object-colour solid: no surface under the fit's illuminant has those responses. Those whose

@@ -71,6 +71,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property, partial
 from typing import TYPE_CHECKING
@@ -214,24 +215,31 @@ def _check_arrays(Phi, Psi, response) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return Phi, Psi, c
 
 
-def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
-    """Build the support oracle; handle infeasible responses as asked."""
+def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str, *, infeasible: bool = False):
+    """Build the support oracle; handle infeasible responses as asked (``infeasible``: already known
+    to be, e.g. from the batch's walk, so the oracle is not first built to find it out)."""
     oracle = ORACLES.resolve(oracle)
     if on_infeasible not in ("raise", "nearest"):
         raise OptionError(f"on_infeasible={on_infeasible!r}: choose 'raise' or 'nearest'.")
     cls = ORACLES[oracle]
-    try:
-        return cls(Phi, Psi, c, delta)
-    except Infeasible:
-        pass
-    from ..geometry.lp import distance_to_zonotope
+    if not infeasible:
+        try:
+            return cls(Phi, Psi, c, delta)
+        except Infeasible:
+            pass
+    exact = _solid_distance(Phi, c[None]) if oracle != "highs" and _EXACT_DISTANCE else None
+    if exact is not None:
+        dist = float(exact[0])
+    else:  # the HiGHS LP: the reference twin's way, and source solids with too many facets
+        from ..geometry.lp import distance_to_zonotope
 
-    dist, x = distance_to_zonotope(Phi, np.zeros(Phi.shape[1]), c)
-    # HiGHS meets its constraints only to its feasibility tolerance (≈ 1e-7, absolute), so its distance
-    # can fall short of the true one by that much, far more than the margin below (a benchmark render
-    # pixel: 0.013035654 reported, 0.013035723 reached, and the walk found the δ = reported MMV empty).
-    # The residual of its reflectance, clipped to [0, 1], is a distance a reflectance attains.
-    dist = max(dist, float(np.abs(np.clip(x, 0.0, 1.0) @ Phi - c).max()))
+        dist, x = distance_to_zonotope(Phi, np.zeros(Phi.shape[1]), c)
+        # HiGHS meets its constraints only to its feasibility tolerance (≈ 1e-7, absolute), so its
+        # distance can fall short of the true one by that much, far more than the margin below (a
+        # benchmark render pixel: 0.013035654 reported, 0.013035723 reached, and the walk found the
+        # δ = reported MMV empty). The residual of its reflectance, clipped to [0, 1], is a distance a
+        # reflectance attains.
+        dist = max(dist, float(np.abs(np.clip(x, 0.0, 1.0) @ Phi - c).max()))
     d_in = np.broadcast_to(np.asarray(delta, dtype=np.float64), c.shape)
     if on_infeasible == "raise":
         raise InfeasibleResponseError(
@@ -246,6 +254,73 @@ def _oracle_for(Phi, Psi, c, delta, oracle: str, on_infeasible: str):
     return cls(Phi, Psi, c, d_eff)
 
 
+#: Whether :func:`_oracle_for` measures how far an infeasible response lies outside the source solid
+#: with :func:`_solid_distance` (True) or with one HiGHS LP per response (False: the former path, kept
+#: as its reference twin for the tests and ``benchmarks/bench_profile.py``; the ``"highs"`` oracle
+#: always takes it).
+_EXACT_DISTANCE = True
+
+#: Φ bytes → (unit facet normals U (q, k) of every ``Z ⊕ t·cube``, ``h_Z(U)`` (q,), ``‖U‖₁`` (q,)), or
+#: None when the solid has more facet directions than :data:`zonotope._tol.SOLID_DISTANCE_TERMS`.
+_DISTANCE_FACETS: dict[bytes, tuple | None] = {}
+
+
+def _distance_facets(Phi: np.ndarray):
+    """The normals, support values and 1-norms of :func:`_solid_distance` for Φ, built once per Φ."""
+    from .._tol import SOLID_DISTANCE_TERMS
+    from .membership import joint_halfspaces
+
+    n, k = Phi.shape
+    key = np.ascontiguousarray(Phi).tobytes() + repr(Phi.shape).encode()
+    try:
+        return _DISTANCE_FACETS[key]
+    except KeyError:
+        pass
+    facets = None
+    if k >= 2 and math.comb(n + k, k - 1) <= SOLID_DISTANCE_TERMS:
+        scale = float(np.abs(Phi).max()) or 1.0  # the cube's generators at Φ's scale (rank test)
+        U, _ = joint_halfspaces(np.vstack([Phi, scale * np.eye(k)]), max_terms=SOLID_DISTANCE_TERMS)
+        facets = (U, np.clip(U @ Phi.T, 0.0, None).sum(axis=1), np.abs(U).sum(axis=1))
+    if len(_DISTANCE_FACETS) >= 16:  # a process sees few source solids; threads may race here harmlessly
+        _DISTANCE_FACETS.clear()
+    _DISTANCE_FACETS[key] = facets
+    return facets
+
+
+def _solid_distance(Phi, responses) -> np.ndarray | None:
+    """Max-norm (Chebyshev) distance from each response to the object-colour solid ``{Φᵀx : 0 ≤ x ≤ 1}``,
+    exactly, from the solid's geometry; None when the solid has too many facet directions.
+
+    The response ``c`` lies within ``t`` of the solid iff it is in the zonotope ``Z ⊕ t·[−1, 1]ᵏ``,
+    whose generators are Φ's rows and ``2t·eᵢ``; its facets are normal to ``(k − 1)``-subsets of those
+    generators whatever ``t > 0``, and its support function is ``h_Z(u) + t‖u‖₁``. So the distance is
+    ``max(0, max_u (u·c − h_Z(u)) / ‖u‖₁)`` over those normals (built once per Φ,
+    :func:`zonotope.mismatch.membership.joint_halfspaces`; 1,122 for 31 wavelengths and k = 3): one
+    matrix product per batch instead of one LP per response, and exact where the LP meets its
+    constraints to its feasibility tolerance only. Any direction gives a lower bound, so round-off
+    can only make it short by ≈ 1e-16 of the scale (the MMV's margin,
+    :data:`zonotope._tol.FEASIBLE_ABS`, covers that). The scipy-HiGHS LP
+    (:func:`zonotope.geometry.lp.distance_to_zonotope`) is its reference twin in the tests.
+
+    Parameters
+    ----------
+    Phi : ndarray of shape (n, k)
+    responses : ndarray of shape (N, k)
+
+    Returns
+    -------
+    ndarray of shape (N,) or None
+        None for k < 2 or more than :data:`zonotope._tol.SOLID_DISTANCE_TERMS` subsets.
+    """
+    Phi = np.asarray(Phi, dtype=np.float64)
+    facets = _distance_facets(Phi)
+    if facets is None:
+        return None
+    U, h, l1 = facets
+    C = np.atleast_2d(np.asarray(responses, dtype=np.float64))
+    return np.maximum(((C @ U.T - h) / l1).max(axis=1), 0.0)
+
+
 def _tolerances(Psi, eps) -> tuple[float, float]:
     """(exact-mode tolerance, certification threshold), both relative to the target's scale."""
     scale = float(np.abs(Psi).sum(axis=0).max()) or 1.0
@@ -254,13 +329,22 @@ def _tolerances(Psi, eps) -> tuple[float, float]:
 
 
 def _refinement(
-    Phi, Psi, response, *, delta=0.0, eps=0.0, oracle="walk", on_infeasible="raise", max_rounds: int = 500
+    Phi,
+    Psi,
+    response,
+    *,
+    delta=0.0,
+    eps=0.0,
+    oracle="walk",
+    on_infeasible="raise",
+    max_rounds: int = 500,
+    infeasible: bool = False,
 ) -> tuple[Refinement, float, float]:
     Phi, Psi, c = _check_arrays(Phi, Psi, response)
     if not (np.isfinite(eps) and eps >= 0):
         raise OptionError(f"eps={eps!r}: give a finite number ≥ 0.")
     tol, thr = _tolerances(Psi, eps)
-    orc = _oracle_for(Phi, Psi, c, delta, oracle, on_infeasible)
+    orc = _oracle_for(Phi, Psi, c, delta, oracle, on_infeasible, infeasible=infeasible)
     if isinstance(orc, WalkOracle) and orc.status == 0:
         walked = _walked(orc, tol)
         if walked is not None:
@@ -790,6 +874,7 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
     errs, dims = np.zeros(q), np.empty(q, dtype=np.int64)
     calls = 0
     walked = np.zeros(q, dtype=bool)
+    infeasible = np.zeros(q, dtype=bool)  # known so from the walk (status 1: its phase 1 found no point)
     asked = oracle
     if oracle == "walk" and m == 3:
         # exact vertex walks: volume and centroid from the traced faces, no hull needed
@@ -799,6 +884,7 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
         # one compiled call for the chunk (the same walk as walk_mmv, per response)
         vols, cens, status, moves = walk_mmv_batch(Phi, Psi, part, _as_delta(delta, Phi.shape[1]))
         walked[:] = status == 0
+        infeasible[:] = status == 1
         cents[walked], bounds[walked], dims[walked] = cens[walked], vols[walked, None], 3
         calls += int(moves[walked].sum())
         oracle = "fast"  # for the responses the walk declined
@@ -812,7 +898,14 @@ def _batch_chunk(Phi, Psi, part, *, eps, delta, oracle, on_infeasible, outer=Tru
     for r, c in enumerate(part):
         if refs[r] is None and not walked[r]:  # the reference oracle, or an infeasible response
             ref, thr, _ = _refinement(
-                Phi, Psi, c, delta=delta, eps=eps, oracle=asked, on_infeasible=on_infeasible
+                Phi,
+                Psi,
+                c,
+                delta=delta,
+                eps=eps,
+                oracle=asked,
+                on_infeasible=on_infeasible,
+                infeasible=bool(infeasible[r]) and _EXACT_DISTANCE,
             )
             refs[r] = (ref, thr)
     for r, item in enumerate(refs):

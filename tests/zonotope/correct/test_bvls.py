@@ -243,9 +243,13 @@ def test_rank_deficient_matrix_goes_to_scipy_and_is_optimal(kind):
     assert np.all(kkt_violation(M, R, x)[0] <= 1e-10)
 
 
-def test_exact_constraint_form_goes_to_scipy(real):
-    """noise = 0 (constraint rows of weight 1e5, cond(MᵀM) ≈ 1e11): too ill-conditioned for the normal
-    equations, so fiber_lsq gives exactly scipy's per-row answer, as before."""
+def test_exact_constraint_form_goes_to_scipy(real, monkeypatch):
+    """noise = 0 (constraint rows of weight 1e5, cond(MᵀM) ≈ 1e11): too ill-conditioned for box_lsq's
+    normal equations, which hands every row to scipy; fiber_lsq solves them with fiber_box_lsq and
+    agrees with scipy's per-row answer to round-off, and its reference twin (``_STIFF_SOLVER`` off) is
+    scipy's answer exactly, as before."""
+    import zonotope.correct.prior as prior_module
+
     prior, Phi, C = real["prior"], real["Phi"], real["C"][:8] * 0.8
     U = prior.root
     s = 1e5 * np.linalg.norm(U, 2) / np.linalg.norm(Phi, 2)
@@ -253,7 +257,10 @@ def test_exact_constraint_form_goes_to_scipy(real):
     R = np.hstack([np.broadcast_to(U @ prior.mean, (len(C), U.shape[0])), s * C])
     _, fallback = box_lsq(M, R)
     assert fallback.all()
-    np.testing.assert_array_equal(fiber_lsq(Phi, C, U, U @ prior.mean), scipy_rows(M, R))
+    ref = scipy_rows(M, R)
+    np.testing.assert_allclose(fiber_lsq(Phi, C, U, U @ prior.mean), ref, atol=1e-9, rtol=0)
+    monkeypatch.setattr(prior_module, "_STIFF_SOLVER", False)
+    np.testing.assert_array_equal(fiber_lsq(Phi, C, U, U @ prior.mean), ref)
 
 
 # -- the fallback path ----------------------------------------------------------------------------------
