@@ -249,3 +249,14 @@ SOURCE_BLOCK_ROWS = 128
 #: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
 #: 24 MP) while the photograph is corrected; the working fusion averages all of them.
 FULL_SOURCES = 2
+
+# --- a real-size capture: sources per rendered view, decoding once (splat.capture.render, .raw) ---
+
+#: Photographs of each camera reprojected into a rendered view (PipelineConfig.render_sources): those
+#: that see most of it. Chosen by the held-out accuracy against all of them on the CI capture
+#: (docs/notes/2026-11-29-realsize-scaling.md); it makes the render step linear in the photographs.
+RENDER_SOURCES = 4
+
+#: Pixel stride at which a view's pixels are counted to rank the photographs that see it: a ranking by
+#: the share seen needs a few thousand pixels, not all of them (1/16 of a view's pixels).
+RENDER_SOURCE_STRIDE = 4
