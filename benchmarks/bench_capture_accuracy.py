@@ -160,6 +160,12 @@ def main(argv=None) -> int:
     ap.add_argument("--stride", type=int, default=2, help="pixel stride of the splat estimates' scores")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one)")
+    ap.add_argument(
+        "--render-sources",
+        type=int,
+        default=None,
+        help="photographs per camera reprojected into each view (PipelineConfig.render_sources; 0: all)",
+    )
     args = ap.parse_args(argv)
     big = args.size == "benchmark"
     steps = args.steps or (3000 if big else 300)
@@ -190,7 +196,10 @@ def main(argv=None) -> int:
                 fh.write('\n[poses]\ncolmap = "poses"\n')
     spec = read_capture(capture)
     held = tuple(spec.holdout)
-    cfg = PipelineConfig(steps=steps, capacity=capacity, threads=args.threads, views=held)
+    extra = {}
+    if args.render_sources is not None:
+        extra["render_sources"] = args.render_sources or None
+    cfg = PipelineConfig(steps=steps, capacity=capacity, threads=args.threads, views=held, **extra)
     times = {"simulate": time.perf_counter() - t0}
     # scoring writes its white, δ and fusion caches into OUT/correct, which the pipeline's workspace
     # then refuses as foreign: a scored work folder is scored again without rerunning the steps
