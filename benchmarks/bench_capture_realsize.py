@@ -295,6 +295,54 @@ def step_cost(sizes, gaussians, steps: int = 10, views: int = 3) -> list[dict]:
     return rows
 
 
+def render_cost(
+    capture: Path, out: Path, names: list[str], ks: list, every: int = 2, rounds: int = 1
+) -> list:
+    """CPU seconds of reprojecting the photographs into each of ``names`` (the render step's
+    :func:`splat.capture.reprojected_view`) from a finished run's OUT, for each ``k`` of ``ks``
+    (photographs per camera; None: all), in one process, alternating; and the same with only every
+    ``every``-th photograph as candidates (fewer views). Each view's depth maps and photographs are
+    computed once, before the timing (one untimed reprojection from all), as the render step keeps
+    them for all views."""
+    from splat.capture import (
+        PipelineConfig,
+        Workspace,
+        load_gaussians,
+        load_model_capture,
+        read_capture,
+        read_working,
+        refined_views,
+        reprojected_view,
+        working_views,
+    )
+
+    spec = read_capture(capture)
+    ws = Workspace(spec, out)
+    _, cap = load_model_capture(spec, out)
+    g, alive = load_gaussians(out)
+    raws = {v.name: v for v in read_working(spec, ws, PipelineConfig())}
+    views = refined_views(working_views(cap.views, raws), out)
+    by_name = {v.name: v for v in views}
+    subset = [v for i, v in enumerate(views) if i % every == 0 or v.name in names]
+    cache: dict = {}
+    n = len(spec.cameras)
+    t = time.process_time()  # every depth map and photograph computed once, outside the timing
+    reprojected_view(names[0], by_name[names[0]].camera, views, raws, g, alive, cache, n)
+    print(f"depth maps, photographs and a first view: {time.process_time() - t:.1f} s CPU", flush=True)
+    rows = []
+    for _ in range(rounds):
+        for name in names:
+            for vs in (views, subset):
+                for k in ks:
+                    t = time.process_time()
+                    reprojected_view(name, by_name[name].camera, vs, raws, g, alive, cache, n, k)
+                    rows.append({"view": name, "views": len(vs), "k": k, "cpu_s": time.process_time() - t})
+                    print(
+                        f"{name}: {len(vs)} photographs, k = {k}: {rows[-1]['cpu_s']:.1f} s CPU", flush=True
+                    )
+    return rows
+
+
 def _table(name: str, res: dict) -> str:
     lines = [
         f"**{name}**: `{res['command']}` — exit {res['returncode']}, wall {res['wall_s']:.0f} s, "
@@ -328,6 +376,14 @@ def main(argv=None) -> int:
         help="an OUT of the same capture whose poses step is reused (copied; its settings record accepts it)",
     )
     ap.add_argument(
+        "--render-cost",
+        nargs="+",
+        default=None,
+        metavar="VIEW",
+        help="only time the render step's reprojection into these views of --run's finished OUT, "
+        "k = 2, 4, 8 photographs per camera against all",
+    )
+    ap.add_argument(
         "--step-cost",
         action="store_true",
         help="only time one training step at working sizes × Gaussians (no capture, no run)",
@@ -338,6 +394,18 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     work = args.work
     work.mkdir(parents=True, exist_ok=True)
+    if args.render_cost:
+        cap, out = work / f"capture_{args.mp:g}mp", work / f"out_{args.run[0]}"
+        rows = render_cost(cap, out, args.render_cost, [None, 2, 4, 8])
+        (work / "results_render_cost.json").write_text(json.dumps(rows, indent=1))
+        import numpy as np
+
+        print("| photographs | k per camera | CPU s per view (median) |\n|---:|---|---:|")
+        for nv in sorted({r["views"] for r in rows}, reverse=True):
+            for k in (None, 2, 4, 8):
+                xs = [r["cpu_s"] for r in rows if r["views"] == nv and r["k"] == k]
+                print(f"| {nv} | {'all' if k is None else k} | {np.median(xs):.1f} |")
+        return 0
     if args.step_cost:
         sizes = [(128, 96), (256, 192), (512, 384)]
         rows = step_cost(sizes, [1024, 4096, 16384])

@@ -132,7 +132,7 @@ _EXPORTS = {
         "train_config",
         "training_inputs",
     ],
-    "render": ["nearest_sources", "render_step", "views_to_render"],
+    "render": ["nearest_sources", "render_step", "reprojected_view", "views_to_render"],
     "correct": [
         "WHITE_POINT",
         "XYZ_to_sRGB",

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 __all__ = [
     "nearest_sources",
     "render_step",
+    "reprojected_view",
     "views_to_render",
 ]
 
@@ -90,7 +91,7 @@ def nearest_sources(cam, depth, alpha, candidates, k: int | None) -> list:
     return [candidates[i] for i in order[:k] if seen[i][0] > 0]
 
 
-def _reprojected_view(name, cam, views, raws, g, alive, cache: dict, n: int, k: int | None = None):
+def reprojected_view(name, cam, views, raws, g, alive, cache: dict, n: int, k: int | None = None):
     """Every camera's photographs (other than ``name`` itself; with ``k``, only each camera's ``k`` that
     see most of the view, :func:`nearest_sources`) reprojected into the view through the
     splat's depth, moved along each ray to where the photographs agree
@@ -210,7 +211,7 @@ def render_step(
                 write_tiff(d / f"camera_{spec.label(cid2 - 1)}.tiff", part)
             write_png8(files["pca"], pca_false_colour(img))
         if not (d / "reprojected_count.tiff").is_file():
-            rep, count = _reprojected_view(name, cam, views, raws, g, alive, depths, n, config.render_sources)
+            rep, count = reprojected_view(name, cam, views, raws, g, alive, depths, n, config.render_sources)
             write_tiff(d / "reprojected.tiff", rep)
             write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
         index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}
