@@ -417,7 +417,7 @@ def main(argv=None) -> int:
         default=None,
         metavar="VIEW",
         help="only time the render step's reprojection into these views of --run's finished OUT, "
-        "k = 2, 4, 8 photographs per camera against all",
+        "k = 2, 4, 6 photographs per camera against all",
     )
     ap.add_argument(
         "--decode-cost",
@@ -437,13 +437,13 @@ def main(argv=None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     if args.render_cost:
         cap, out = work / f"capture_{args.mp:g}mp", work / f"out_{args.run[0]}"
-        rows = render_cost(cap, out, args.render_cost, [None, 2, 4, 8])
+        rows = render_cost(cap, out, args.render_cost, [None, 2, 4, 6])
         (work / "results_render_cost.json").write_text(json.dumps(rows, indent=1))
         import numpy as np
 
         print("| photographs | k per camera | CPU s per view (median) |\n|---:|---|---:|")
         for nv in sorted({r["views"] for r in rows}, reverse=True):
-            for k in (None, 2, 4, 8):
+            for k in (None, 2, 4, 6):
                 xs = [r["cpu_s"] for r in rows if r["views"] == nv and r["k"] == k]
                 print(f"| {nv} | {'all' if k is None else k} | {np.median(xs):.1f} |")
         return 0
@@ -453,7 +453,7 @@ def main(argv=None) -> int:
         return 0
     if args.step_cost:
         sizes = [(128, 96), (256, 192), (512, 384)]
-        rows = step_cost(sizes, [1024, 4096, 16384])
+        rows = step_cost(sizes, [1024, 4096], steps=8)
         (work / "results_step_cost.json").write_text(json.dumps(rows, indent=1))
         print("| working size | pixels | Gaussians | CPU s per step |\n|---|---:|---:|---:|")
         for r in rows:
