@@ -173,7 +173,8 @@ def render_step(
 ) -> dict:
     """Render the photographs ``config.views`` selects (default all) and ``config.novel`` novel views
     (N channels, exposure 1), and
-    reproject every camera's photographs (but the view's own) into each of them through the splat's depth
+    reproject each camera's ``config.render_sources`` photographs that see most of each view (all but
+    the view's own with None; :func:`nearest_sources`) into it through the splat's depth
     (``reprojected.tiff``, 0 where none sees a pixel, and ``reprojected_count.tiff``, how many see it;
     :mod:`splat.reproject`).
 
