@@ -327,7 +327,7 @@ def render_cost(
     cache: dict = {}
     n = len(spec.cameras)
     t = time.process_time()  # every depth map and photograph computed once, outside the timing
-    reprojected_view(names[0], by_name[names[0]].camera, views, raws, g, alive, cache, n)
+    reprojected_view(names[0], by_name[names[0]].camera, views, raws, (g, alive), cache, n)
     print(f"depth maps, photographs and a first view: {time.process_time() - t:.1f} s CPU", flush=True)
     rows = []
     for _ in range(rounds):
@@ -335,7 +335,7 @@ def render_cost(
             for vs in (views, subset):
                 for k in ks:
                     t = time.process_time()
-                    reprojected_view(name, by_name[name].camera, vs, raws, g, alive, cache, n, k)
+                    reprojected_view(name, by_name[name].camera, vs, raws, (g, alive), cache, n, k)
                     rows.append({"view": name, "views": len(vs), "k": k, "cpu_s": time.process_time() - t})
                     print(
                         f"{name}: {len(vs)} photographs, k = {k}: {rows[-1]['cpu_s']:.1f} s CPU", flush=True

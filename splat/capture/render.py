@@ -91,17 +91,20 @@ def nearest_sources(cam, depth, alpha, candidates, k: int | None) -> list:
     return [candidates[i] for i in order[:k] if seen[i][0] > 0]
 
 
-def reprojected_view(name, cam, views, raws, g, alive, cache: dict, n: int, k: int | None = None):
+def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, k: int | None = None):
     """Every camera's photographs (other than ``name`` itself; with ``k``, only each camera's ``k`` that
     see most of the view, :func:`nearest_sources`) reprojected into the view through the
     splat's depth, moved along each ray to where the photographs agree
     (:func:`splat.reproject.consistent_depth`), and combined by :func:`splat.reproject.reprojected`
     with each photograph's noise variance (:func:`splat.fusion.photo_variance`): values (H, W, 3n) at
     exposure 1 (0 where no photograph of that camera sees the pixel) and the number of photographs that
-    see it (H, W, n)."""
+    see it (H, W, n). ``model``: the splat's ``(gaussians, alive)`` (:func:`load_gaussians`); ``cache``
+    keeps each view's depth maps and photograph for the next call."""
     from ..fusion import measured, photo_variance
     from ..reproject import MIN_ALPHA, depth_map, reprojected
     from ..reproject import consistent_depth as agree
+
+    g, alive = model
 
     def depth(v_name, c):  # (depth, alpha, source depth), computed once per view
         if ("depth", v_name) not in cache:
@@ -212,7 +215,9 @@ def render_step(
                 write_tiff(d / f"camera_{spec.label(cid2 - 1)}.tiff", part)
             write_png8(files["pca"], pca_false_colour(img))
         if not (d / "reprojected_count.tiff").is_file():
-            rep, count = reprojected_view(name, cam, views, raws, g, alive, depths, n, config.render_sources)
+            rep, count = reprojected_view(
+                name, cam, views, raws, (g, alive), depths, n, config.render_sources
+            )
             write_tiff(d / "reprojected.tiff", rep)
             write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
         index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}
