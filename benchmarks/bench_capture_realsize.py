@@ -343,39 +343,6 @@ def render_cost(
     return rows
 
 
-def decode_cost(capture: Path, work: Path) -> dict:
-    """CPU seconds of reading every RAW file of ``capture`` at the working resolution: decoded, binned and
-    stored in a fresh decode cache under ``work`` (:func:`splat.capture.load_views`), then read back
-    from that cache, in one process; the two reads' values, weights and exposures compared."""
-    import tempfile
-
-    import numpy as np
-
-    from splat.capture import PipelineConfig, load_views, read_capture
-    from splat.capture.config import train_size_of, working_binning
-    from splat.resolution import TRAIN_PIXEL_BUDGET
-
-    spec = read_capture(capture)
-    config = PipelineConfig()
-    binning = working_binning(config, spec)
-    folder = Path(tempfile.mkdtemp(prefix="decoded_", dir=work))
-    cache = (folder, {"options": {"train_size": train_size_of(spec, config), "budget": TRAIN_PIXEL_BUDGET}})
-    out = {"files": len([p for k in range(len(spec.cameras)) for p in spec.raw_files(k)])}
-    t = time.process_time()
-    plain = load_views(spec, binning=binning, cache=cache)  # decoded, binned and stored
-    out["decode_and_store_cpu_s"] = time.process_time() - t
-    t = time.process_time()
-    cached = load_views(spec, binning=binning, cache=cache)
-    out["from_cache_cpu_s"] = time.process_time() - t
-    out["identical"] = all(
-        np.array_equal(a.values, b.values) and np.array_equal(a.weight, b.weight) and a.exif == b.exif
-        for a, b in zip(plain, cached, strict=True)
-    )
-    out["cache_mib"] = sum(f.stat().st_size for f in folder.glob("*.npz")) / 2**20
-    print(json.dumps(out), flush=True)
-    return out
-
-
 def _table(name: str, res: dict) -> str:
     lines = [
         f"**{name}**: `{res['command']}` — exit {res['returncode']}, wall {res['wall_s']:.0f} s, "
@@ -417,11 +384,6 @@ def main(argv=None) -> int:
         "k = 2, 4, 6 photographs per camera against all",
     )
     ap.add_argument(
-        "--decode-cost",
-        action="store_true",
-        help="only time reading one file per camera of --run's capture: decoded against the decode cache",
-    )
-    ap.add_argument(
         "--step-cost",
         action="store_true",
         help="only time one training step at working sizes × Gaussians (no capture, no run)",
@@ -443,10 +405,6 @@ def main(argv=None) -> int:
             for k in (None, 2, 4, 6):
                 xs = [r["cpu_s"] for r in rows if r["views"] == nv and r["k"] == k]
                 print(f"| {nv} | {'all' if k is None else k} | {np.median(xs):.1f} |")
-        return 0
-    if args.decode_cost:
-        res = decode_cost(work / f"capture_{args.mp:g}mp", work)
-        (work / "results_decode_cost.json").write_text(json.dumps(res, indent=1))
         return 0
     if args.step_cost:
         sizes = [(128, 96), (256, 192), (512, 384)]
