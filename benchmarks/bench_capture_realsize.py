@@ -33,7 +33,15 @@ and split at the moment each step's summary appears), and the load average while
 ``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
 ``main``'s capture with ``--capacity-large`` Gaussians, its poses reused (copied from ``main``'s OUT,
 which the settings record accepts as they depend on the capture alone). Results go to
-``WORK/results_<run>.json`` and a Markdown table is printed.
+``WORK/results_<run>.json`` and a Markdown table is printed. ``--poses-from OUT`` reuses another OUT's
+poses step the same way for any run.
+
+    python benchmarks/bench_capture_realsize.py --work W --run main --render-cost nikon/DSC_0005.dng
+    python benchmarks/bench_capture_realsize.py --work W --step-cost
+
+``--render-cost`` times the render step's reprojection into the named views of the run's finished OUT
+with 2, 4, 6 photographs per camera against all, and with every second photograph only;
+``--step-cost`` times one training step by working size and Gaussians (no capture).
 """
 
 from __future__ import annotations
