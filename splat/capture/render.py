@@ -98,8 +98,9 @@ def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, 
     (:func:`splat.reproject.consistent_depth`), and combined by :func:`splat.reproject.reprojected`
     with each photograph's noise variance (:func:`splat.fusion.photo_variance`): values (H, W, 3n) at
     exposure 1 (0 where no photograph of that camera sees the pixel) and the number of photographs that
-    see it (H, W, n). ``model``: the splat's ``(gaussians, alive)`` (:func:`splat.capture.load_gaussians`); ``cache``
-    keeps each view's depth maps and photograph for the next call."""
+    see it (H, W, n). ``model``: the splat's ``(gaussians, alive)``
+    (:func:`splat.capture.load_gaussians`); ``cache`` keeps each view's depth maps and photograph for the
+    next call."""
     from ..fusion import measured, photo_variance
     from ..reproject import MIN_ALPHA, depth_map, reprojected
     from ..reproject import consistent_depth as agree
