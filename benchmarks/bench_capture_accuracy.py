@@ -264,6 +264,10 @@ def main(argv=None) -> int:
         metavar="SPP",
         help="a splat.sim.mitsuba capture: render the held-out views again at SPP samples through every "
         "camera and print the truth's noise floor and each camera's level against the truth",
+        "--render-sources",
+        type=int,
+        default=None,
+        help="photographs per camera reprojected into each view (PipelineConfig.render_sources; 0: all)",
     )
     args = ap.parse_args(argv)
     big = args.size == "benchmark"
@@ -295,7 +299,10 @@ def main(argv=None) -> int:
                 fh.write('\n[poses]\ncolmap = "poses"\n')
     spec = read_capture(capture)
     held = tuple(spec.holdout)
-    cfg = PipelineConfig(steps=steps, capacity=capacity, threads=args.threads, views=held)
+    extra = {}
+    if args.render_sources is not None:
+        extra["render_sources"] = args.render_sources or None
+    cfg = PipelineConfig(steps=steps, capacity=capacity, threads=args.threads, views=held, **extra)
     times = {"simulate": time.perf_counter() - t0}
     # scoring writes its white, δ and fusion caches into OUT/correct, which the pipeline's workspace
     # then refuses as foreign: a scored work folder is scored again without rerunning the steps

@@ -33,7 +33,15 @@ and split at the moment each step's summary appears), and the load average while
 ``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
 ``main``'s capture with ``--capacity-large`` Gaussians, its poses reused (copied from ``main``'s OUT,
 which the settings record accepts as they depend on the capture alone). Results go to
-``WORK/results_<run>.json`` and a Markdown table is printed.
+``WORK/results_<run>.json`` and a Markdown table is printed. ``--poses-from OUT`` reuses another OUT's
+poses step the same way for any run.
+
+    python benchmarks/bench_capture_realsize.py --work W --run main --render-cost nikon/DSC_0005.dng
+    python benchmarks/bench_capture_realsize.py --work W --step-cost
+
+``--render-cost`` times the render step's reprojection into the named views of the run's finished OUT
+with 2, 4, 6 photographs per camera against all, and with every second photograph only;
+``--step-cost`` times one training step by working size and Gaussians (no capture).
 """
 
 from __future__ import annotations
@@ -90,6 +98,13 @@ def realsize_capture(sim: Path, out: Path, mp: float) -> tuple[Path, dict]:
     from splat.capture import open_raw, read_capture
 
     spec = read_capture(sim)
+    if (out / "capture.toml").is_file():  # built before: kept as it is (its files' times key OUT's steps)
+        sizes = {}
+        for cam in spec.cameras:
+            small = open_raw(sorted((sim / cam.folder).glob("*.dng"))[0], cam).shape
+            big = open_raw(sorted((out / cam.folder).glob("*.dng"))[0], cam).shape
+            sizes[cam.folder] = (big[1], big[0], big[0] // small[0])
+        return out, sizes
     doc = tomllib.loads((sim / "capture.toml").read_text())
     sizes = {}
     for k, cam in enumerate(spec.cameras):
@@ -232,6 +247,110 @@ def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
     }
 
 
+def step_cost(sizes, gaussians, steps: int = 10, views: int = 3) -> list[dict]:
+    """CPU seconds of one training step (:func:`splat.train`, the capture's loss and render back-end)
+    at each working size ``(W, H)`` and number of alive Gaussians: the median over the steps after the
+    first two (compilation), ``views`` views per camera of the synthetic scene at that size, no
+    densification (the alive count stays as given). Why: the train step's cost at a real size is
+    steps × this; its growth in pixels and Gaussians decides what a working resolution costs."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from splat import SceneConfig, synthetic_scene
+    from splat.capture import capture_train_config
+    from splat.training import train
+
+    rows = []
+    for W, H in sizes:
+        scene = synthetic_scene(
+            SceneConfig(width=W, height=H, views_per_camera=views, test_views_per_camera=1)
+        )
+        rng = np.random.default_rng(0)
+        lo, hi = (np.asarray(b, float) for b in scene.bounds)
+        for G in gaussians:
+            cfg = replace(
+                capture_train_config(steps=steps, capacity=G), densify_from=steps + 1, densify_until=steps + 1
+            )
+            marks = []
+
+            def cb(step, state, loss, marks=marks):
+                marks.append((time.process_time(), int(state.alive.sum())))
+
+            t = time.process_time()
+            train(
+                scene.capture,
+                scene.images,
+                scene.weights,
+                config=cfg,
+                bounds=scene.bounds,
+                points=rng.uniform(lo, hi, (G, 3)),
+                callback=cb,
+            )
+            per = np.diff([t] + [m[0] for m in marks])[2:]
+            rows.append(
+                {
+                    "size": [W, H],
+                    "pixels": W * H,
+                    "gaussians": marks[-1][1],
+                    "cpu_s_per_step": float(np.median(per)),
+                }
+            )
+            print(
+                f"step cost {W}×{H}, {marks[-1][1]} Gaussians: {rows[-1]['cpu_s_per_step']:.3f} s CPU",
+                flush=True,
+            )
+    return rows
+
+
+def render_cost(
+    capture: Path, out: Path, names: list[str], ks: list, every: int = 2, rounds: int = 1
+) -> list:
+    """CPU seconds of reprojecting the photographs into each of ``names`` (the render step's
+    :func:`splat.capture.reprojected_view`) from a finished run's OUT, for each ``k`` of ``ks``
+    (photographs per camera; None: all), in one process, alternating; and the same with only every
+    ``every``-th photograph as candidates (fewer views). Each view's depth maps and photographs are
+    computed once, before the timing (one untimed reprojection from all), as the render step keeps
+    them for all views."""
+    from splat.capture import (
+        PipelineConfig,
+        Workspace,
+        load_gaussians,
+        load_model_capture,
+        read_capture,
+        read_working,
+        refined_views,
+        reprojected_view,
+        working_views,
+    )
+
+    spec = read_capture(capture)
+    ws = Workspace(spec, out)
+    _, cap = load_model_capture(spec, out)
+    g, alive = load_gaussians(out)
+    raws = {v.name: v for v in read_working(spec, ws, PipelineConfig())}
+    views = refined_views(working_views(cap.views, raws), out)
+    by_name = {v.name: v for v in views}
+    subset = [v for i, v in enumerate(views) if i % every == 0 or v.name in names]
+    cache: dict = {}
+    n = len(spec.cameras)
+    t = time.process_time()  # every depth map and photograph computed once, outside the timing
+    reprojected_view(names[0], by_name[names[0]].camera, views, raws, (g, alive), cache, n)
+    print(f"depth maps, photographs and a first view: {time.process_time() - t:.1f} s CPU", flush=True)
+    rows = []
+    for _ in range(rounds):
+        for name in names:
+            for vs in (views, subset):
+                for k in ks:
+                    t = time.process_time()
+                    reprojected_view(name, by_name[name].camera, vs, raws, (g, alive), cache, n, k)
+                    rows.append({"view": name, "views": len(vs), "k": k, "cpu_s": time.process_time() - t})
+                    print(
+                        f"{name}: {len(vs)} photographs, k = {k}: {rows[-1]['cpu_s']:.1f} s CPU", flush=True
+                    )
+    return rows
+
+
 def _table(name: str, res: dict) -> str:
     lines = [
         f"**{name}**: `{res['command']}` — exit {res['returncode']}, wall {res['wall_s']:.0f} s, "
@@ -259,11 +378,51 @@ def main(argv=None) -> int:
     ap.add_argument("--capacity", type=int, default=None, help="Gaussians (default: splat's)")
     ap.add_argument("--capacity-large", type=int, default=16384)
     ap.add_argument(
+        "--poses-from",
+        type=Path,
+        default=None,
+        help="an OUT of the same capture whose poses step is reused (copied; its settings record accepts it)",
+    )
+    ap.add_argument(
+        "--render-cost",
+        nargs="+",
+        default=None,
+        metavar="VIEW",
+        help="only time the render step's reprojection into these views of --run's finished OUT, "
+        "k = 2, 4, 6 photographs per camera against all",
+    )
+    ap.add_argument(
+        "--step-cost",
+        action="store_true",
+        help="only time one training step at working sizes × Gaussians (no capture, no run)",
+    )
+    ap.add_argument(
         "--select", nargs="+", default=None, help="splat run --views: photographs to render and correct"
     )
     args = ap.parse_args(argv)
     work = args.work
     work.mkdir(parents=True, exist_ok=True)
+    if args.render_cost:
+        cap, out = work / f"capture_{args.mp:g}mp", work / f"out_{args.run[0]}"
+        rows = render_cost(cap, out, args.render_cost, [None, 2, 4, 6])
+        (work / "results_render_cost.json").write_text(json.dumps(rows, indent=1))
+        import numpy as np
+
+        print("| photographs | k per camera | CPU s per view (median) |\n|---:|---|---:|")
+        for nv in sorted({r["views"] for r in rows}, reverse=True):
+            for k in (None, 2, 4, 6):
+                xs = [r["cpu_s"] for r in rows if r["views"] == nv and r["k"] == k]
+                print(f"| {nv} | {'all' if k is None else k} | {np.median(xs):.1f} |")
+        return 0
+    if args.step_cost:
+        sizes = [(128, 96), (256, 192), (512, 384)]
+        rows = step_cost(sizes, [1024, 4096], steps=8)
+        (work / "results_step_cost.json").write_text(json.dumps(rows, indent=1))
+        print("| working size | pixels | Gaussians | CPU s per step |\n|---|---:|---:|---:|")
+        for r in rows:
+            w, h = r["size"]
+            print(f"| {w}×{h} | {r['pixels']} | {r['gaussians']} | {r['cpu_s_per_step']:.3f} |")
+        return 0
     opts = []
     if args.steps is not None:
         opts += ["--steps", str(args.steps)]
@@ -292,10 +451,13 @@ def main(argv=None) -> int:
         out = work / f"out_{name}"
         if name == "6views":
             cap = subset_capture(cap, work / f"capture_{args.mp:g}mp_6v", 2)
+        main_out = work / "out_main"
         if name == "cap":
             o = [x for i, x in enumerate(o) if x != "--capacity" and (i == 0 or o[i - 1] != "--capacity")]
             o += ["--capacity", str(args.capacity_large)]
-            main_out = work / "out_main"
+        if args.poses_from is not None:
+            main_out = args.poses_from
+        if name == "cap" or args.poses_from is not None:
             if not out.exists() and (main_out / "poses").is_dir():
                 out.mkdir()
                 for p in ("previews", "poses", ".splat-output.json", "settings.json"):
@@ -303,6 +465,9 @@ def main(argv=None) -> int:
                         shutil.copytree(main_out / p, out / p)
                     elif (main_out / p).is_file():
                         shutil.copy2(main_out / p, out / p)
+                record = json.loads((out / "settings.json").read_text())  # the poses step's record only
+                record["steps"] = {"poses": record["steps"]["poses"]}
+                (out / "settings.json").write_text(json.dumps(record))
         n = sum(1 for _ in cap.glob("*/*.dng"))
         print(f"{name}: splat run on {n} photographs {sizes} ...", flush=True)
         res = splat_run(cap, out, o, work / f"run_{name}.log")

@@ -256,3 +256,15 @@ FULL_SOURCES = 2
 #: ≈ 0.1 per pixel) 200 pixels put a ratio within 0.3 % (1 σ), ten times finer than the 3–5 % errors it
 #: corrects.
 CAMERA_LEVEL_MIN_PIXELS = 200
+
+# --- a real-size capture: sources per rendered view, decoding once (splat.capture.render, .raw) ---
+
+#: Photographs of each camera reprojected into a rendered view (PipelineConfig.render_sources): those
+#: that see most of it. Of 2, 4 and 6, the fewest whose held-out ΔE00 on the CI capture is within 0.05
+#: of all of them on flat pixels and on uniform surfaces (4: +0.08 on uniform surfaces; see
+#: docs/notes/2026-11-29-realsize-scaling.md); it makes the render step linear in the photographs.
+RENDER_SOURCES = 6
+
+#: Pixel stride at which a view's pixels are counted to rank the photographs that see it: a ranking by
+#: the share seen needs a few thousand pixels, not all of them (1/16 of a view's pixels).
+RENDER_SOURCE_STRIDE = 4

@@ -95,6 +95,7 @@ _EXPORTS = {
         "white_scale",
     ],
     "workspace": [
+        "DECODE_CACHE",
         "FIT_CACHE",
         "MARKER",
         "SETTINGS",
@@ -111,6 +112,7 @@ _EXPORTS = {
         "TRAIN_OPTIONS",
         "capture_train_config",
         "check_run",
+        "read_working",
         "step_workspace",
         "train_size_of",
         "working_binning",
@@ -130,7 +132,7 @@ _EXPORTS = {
         "train_config",
         "training_inputs",
     ],
-    "render": ["render_step", "views_to_render"],
+    "render": ["nearest_sources", "render_step", "reprojected_view", "views_to_render"],
     "correct": [
         "WHITE_POINT",
         "XYZ_to_sRGB",

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._errors import SplatError
+from .._tol import RENDER_SOURCES
 
 if TYPE_CHECKING:
     from ..training import TrainConfig
@@ -23,6 +24,7 @@ __all__ = [
     "PipelineConfig",
     "capture_train_config",
     "check_run",
+    "read_working",
     "step_workspace",
     "train_size_of",
     "working_binning",
@@ -213,6 +215,12 @@ class PipelineConfig:
         the working-resolution fusion upsampled and sharpened by the photograph instead, about 3× less
         CPU at 24 MP (36 s against 107 s for the full-resolution stage, docs/benchmarks.md) and no
         detail from the other cameras finer than the working resolution.
+    render_sources : int or None
+        Photographs of each camera reprojected into each rendered view by the render step: the ones
+        that see most of it (:func:`splat.capture.render.nearest_sources`); None: every other
+        photograph, a cost that grows with the square of the photographs. Default
+        :data:`splat._tol.RENDER_SOURCES` (docs/notes/2026-11-29-realsize-scaling.md: held-out ΔE00 with
+        it against all, and the time).
     steps, capacity, seed, densify_until, refine_exposure, refine_poses, depth_weight
         :data:`TRAIN_OPTIONS`: ``train``'s fields (the poses step also uses ``seed``). Notes on two of
         them: ``refine_exposure`` is off by default because on the simulated capture, whose EXIF is
@@ -234,6 +242,7 @@ class PipelineConfig:
     train_size: int | None = None
     noise: str | float | dict = "auto"
     full_reprojection: bool = True
+    render_sources: int | None = RENDER_SOURCES
     steps: InitVar[int] = _UNSET
     capacity: InitVar[int] = _UNSET
     seed: InitVar[int] = _UNSET
@@ -277,6 +286,11 @@ class PipelineConfig:
             raise SplatError(f"quantum={self.quantum!r}: must be a positive number (default 5e-3).")
         if not (0.0 < self.min_registered <= 1.0):
             raise SplatError(f"min_registered={self.min_registered!r}: must be a fraction in (0, 1].")
+        k = self.render_sources
+        if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
+            raise SplatError(
+                f"render_sources={k!r}: must be a number of photographs ≥ 1 per camera, or None for all."
+            )
         t = self.train_size
         if t is not None and (isinstance(t, bool) or not isinstance(t, int) or t < 16):
             raise SplatError(f"train_size={t!r}: must be a number of pixels ≥ 16 (e.g. --train-size 640).")
@@ -318,6 +332,20 @@ def working_binning(config: PipelineConfig, spec: CaptureSpec | None = None):
 
     size = config.train_size if spec is None else train_size_of(spec, config)
     return lambda k, shape, full: working_factor(shape, full, size=size)
+
+
+def read_working(spec: CaptureSpec, ws: Workspace, config: PipelineConfig, progress=None) -> list:
+    """Every RAW file of the capture at the working resolution (:func:`splat.capture.raw.load_views`
+    with :func:`working_binning`), each decoded once per run: kept in ``ws``'s decode cache
+    (:meth:`Workspace.decode_cache`, keyed by the file and the working-resolution options) and read
+    from there by the later steps."""
+    from ..resolution import TRAIN_PIXEL_BUDGET
+    from .raw import load_views
+
+    options = {"train_size": train_size_of(spec, config), "budget": TRAIN_PIXEL_BUDGET}
+    return load_views(
+        spec, progress=progress, binning=working_binning(config, spec), cache=ws.decode_cache(options)
+    )
 
 
 def working_views(views, raws: dict) -> list:

@@ -16,7 +16,7 @@ import numpy as np
 from .._errors import SplatError
 from .._tol import FEASIBLE_DISTANCE
 from ..strips import FULL_METHOD
-from .config import PipelineConfig, step_workspace, working_binning, working_summary
+from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import read_index, read_tiff, write_json, write_png8, write_tiff
 from .illuminant import illuminant_of
 from .raw import RawView, load_views, open_raw, white_scale
@@ -723,7 +723,7 @@ def correct_step(
     index = read_index(spec, index_path)
     t0 = time.perf_counter()
     reset_peak_rss()
-    raws = {v.name: v for v in load_views(spec, binning=working_binning(config, spec))}
+    raws = {v.name: v for v in read_working(spec, ws, config)}  # decoded once per run
     # white, δ and the fusion noise levels are functions of these (δ pools the photographed views only,
     # so that novel views rendered later do not change it): a change recomputes every corrected image
     photographed = {k: v for k, v in index.items() if k in raws}

@@ -430,7 +430,125 @@ def load_view(spec: CaptureSpec, k: int, path: Path, *, binning=None) -> RawView
     )
 
 
-def load_views(spec: CaptureSpec, *, progress=None, binning=None) -> list[RawView]:
+#: Format of a decoded file in a :func:`load_views` cache (part of each file's key).
+DECODED_FORMAT = 1
+
+
+def _decoded_key(spec: CaptureSpec, k: int, path: Path, options: dict) -> str:
+    """The name of RAW file ``path``'s decoded form in a cache: a hash of what it was made from — the
+    file (absolute path, size, modification time), the camera's level and CFA overrides, the decoding
+    options and :data:`DECODED_FORMAT`."""
+    import hashlib
+    import json
+
+    cam = spec.cameras[k]
+    st = path.stat()
+    doc = {
+        "file": [str(path.resolve()), st.st_size, st.st_mtime_ns],
+        "camera": [cam.black_level, cam.white_level, cam.cfa],
+        "options": options,
+        "format": DECODED_FORMAT,
+    }
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:32] + ".npz"
+
+
+def _profile_doc(profile):
+    """A :class:`isp.DNGProfile` as JSON (None: no profile; False: a profile JSON cannot hold)."""
+    import dataclasses
+
+    from isp import DNGProfile
+
+    if profile is None:
+        return None
+    if type(profile) is not DNGProfile:
+        return False
+    return {
+        f.name: (np.asarray(x).tolist() if isinstance(x, np.ndarray) else x)
+        for f in dataclasses.fields(profile)
+        for x in [getattr(profile, f.name)]
+    }
+
+
+def _store_decoded(file: Path, v: RawView) -> None:
+    """Write ``v`` (but its exposure, which the capture file may override) to ``file``, atomically."""
+    import json
+
+    from zonotope.utilities import atomic_path
+
+    prof = _profile_doc(v.profile)
+    if prof is False:  # not a DNG profile: not kept (every read decodes the file)
+        return
+    meta = {
+        "name": v.name,
+        "camera": v.camera,
+        "profile": prof,
+        "neutral": np.asarray(v.neutral, float).tolist(),
+        "full_colour": bool(v.full_colour),
+        "n_saturated": int(v.n_saturated),
+        "n_dead": int(v.n_dead),
+        "noise_profile": None if v.noise_profile is None else np.asarray(v.noise_profile, float).tolist(),
+        "binning": int(v.binning),
+        "full_shape": None if v.full_shape is None else [int(x) for x in v.full_shape],
+        "source_cfa": v.source_cfa,
+    }
+    file.parent.mkdir(parents=True, exist_ok=True)
+
+    def write(p):
+        with open(p, "wb") as fh:
+            np.savez(fh, values=v.values, weight=v.weight, meta=np.array(json.dumps(meta)))
+
+    atomic_path(file, write)
+
+
+def _read_decoded(file: Path, name: str, k: int, path: Path) -> RawView | None:
+    """The view kept in ``file`` (exposure None), or None when there is none or it is not readable as
+    one (it is then decoded again and replaced)."""
+    import json
+    import zipfile
+
+    from isp import DNGProfile
+
+    if not file.is_file():
+        return None
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            values, weight, meta = z["values"], z["weight"], json.loads(str(z["meta"]))
+        prof = meta["profile"]
+        if prof is not None:
+            prof = DNGProfile(
+                **{a: np.asarray(b, float) if isinstance(b, list) else b for a, b in prof.items()}
+            )
+        view = RawView(
+            name,
+            k,
+            values,
+            weight,
+            None,
+            prof,
+            np.asarray(meta["neutral"], float),
+            bool(meta["full_colour"]),
+            int(meta["n_saturated"]),
+            int(meta["n_dead"]),
+            None if meta["noise_profile"] is None else np.asarray(meta["noise_profile"], float),
+            binning=int(meta["binning"]),
+            full_shape=None if meta["full_shape"] is None else tuple(meta["full_shape"]),
+            path=Path(path),
+            source_cfa=meta["source_cfa"],
+        )
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, json.JSONDecodeError):
+        return None
+    ok = (
+        meta["name"] == name
+        and meta["camera"] == k
+        and values.dtype == weight.dtype == np.float32
+        and values.ndim == 3
+        and values.shape == weight.shape
+        and values.shape[-1] == 3
+    )
+    return view if ok else None
+
+
+def load_views(spec: CaptureSpec, *, progress=None, binning=None, cache=None) -> list[RawView]:
     """Read every RAW file of the capture (all cameras), with relative exposures.
 
     Parameters
@@ -441,6 +559,13 @@ def load_views(spec: CaptureSpec, *, progress=None, binning=None) -> list[RawVie
     binning : callable, optional
         ``binning(k, shape, full_colour) → f``: read camera ``k``'s files binned by ``f``
         (:func:`load_view`), one file at a time; default the mosaics themselves.
+    cache : (folder, options), optional
+        Keep each file's decoded (and binned) view in ``folder`` and read it from there when the file,
+        its camera's overrides and ``options`` (everything ``binning`` depends on: the caller's
+        statement) are unchanged (:func:`_decoded_key`); files of ``folder`` no file of the capture
+        names any more are removed. The folder must be one splat owns
+        (:meth:`splat.capture.Workspace.decode_cache`). Why: decoding a 12 MP RAW file costs 2–3 s of
+        CPU, and each step of a run reads every file.
 
     Returns
     -------
@@ -459,12 +584,29 @@ def load_views(spec: CaptureSpec, *, progress=None, binning=None) -> list[RawVie
 
     jobs = [(k, p) for k in range(len(spec.cameras)) for p in spec.raw_files(k)]
     views: list[RawView] = []
+    used = set()
     for i, (k, p) in enumerate(jobs):
-        views.append(
-            load_view(spec, k, p, binning=None if binning is None else functools.partial(binning, k))
-        )
+        cam = spec.cameras[k]
+        view = None
+        if cache is not None:
+            folder, options = cache
+            file = Path(folder) / _decoded_key(spec, k, p, options)
+            used.add(file.name)
+            view = _read_decoded(file, f"{cam.folder}/{p.name}", k, p)
+            if view is not None:
+                e = cam.exposure.get(p.name)
+                view = dataclasses.replace(view, exif=float(e) if e is not None else exif_exposure(p))
+        if view is None:
+            view = load_view(spec, k, p, binning=None if binning is None else functools.partial(binning, k))
+            if cache is not None:
+                _store_decoded(file, view)
+        views.append(view)
         if progress is not None:
             progress("read", i + 1, len(jobs))
+    if cache is not None and Path(cache[0]).is_dir():
+        for f in Path(cache[0]).glob("*.npz"):
+            if f.name not in used:
+                f.unlink()
     for k, cam in enumerate(spec.cameras):
         mine = [v for v in views if v.camera == k]
         sizes = sorted({v.size for v in mine})

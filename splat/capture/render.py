@@ -13,9 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .config import PipelineConfig, step_workspace, working_binning, working_summary, working_views
+from .config import PipelineConfig, read_working, step_workspace, working_summary, working_views
 from .files import write_json, write_png8, write_tiff
-from .raw import load_views
 from .spec import CaptureSpec
 from .train import load_gaussians, load_model_capture, refined_views
 from .workspace import peak_rss_mib, reset_peak_rss
@@ -24,7 +23,9 @@ if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
 
 __all__ = [
+    "nearest_sources",
     "render_step",
+    "reprojected_view",
     "views_to_render",
 ]
 
@@ -61,46 +62,85 @@ def _novel_cameras(views, n: int):
     return out
 
 
-def _reprojected_view(name, cam, views, raws, g, alive, depths: dict, n: int):
-    """Every camera's photographs (other than ``name`` itself) reprojected into the view through the
+def nearest_sources(cam, depth, alpha, candidates, k: int | None) -> list:
+    """The ``k`` of ``candidates`` (``(name, camera, source depth)``, one camera's photographs) that see
+    most of the view ``cam`` through its ``depth`` and ``alpha``, most first (ties by name); all of them,
+    in their order, when ``k`` is None or not fewer than the candidates. A photograph that sees none of
+    the view is never chosen.
+
+    Counted on every :data:`splat._tol.RENDER_SOURCE_STRIDE`-th pixel of the view in each direction
+    (:func:`splat.reproject.visibility`): the ranking needs the share of the view a photograph sees, not
+    its pixels, and so costs a small fraction of one reprojection.
+
+    Why: reprojecting every other photograph into every view grows as the square of the photographs;
+    the nearest few carry the view's measurement (the farther ones see less of it, at a slant, and
+    mostly add noise averaging the fusion already has)."""
+    from .._tol import RENDER_SOURCE_STRIDE
+    from ..reproject import visibility
+    from ..resolution import scale_camera
+
+    if k is None or len(candidates) <= k:
+        return list(candidates)
+    s = RENDER_SOURCE_STRIDE
+    coarse = scale_camera(cam, s)
+    h, w = coarse.height, coarse.width
+    d = np.asarray(depth)[s // 2 :: s, s // 2 :: s][:h, :w]
+    a = np.asarray(alpha)[s // 2 :: s, s // 2 :: s][:h, :w]
+    seen = [(int(visibility(coarse, d, a, c, sd).sum()), name) for name, c, sd in candidates]
+    order = sorted(range(len(candidates)), key=lambda i: (-seen[i][0], seen[i][1]))
+    return [candidates[i] for i in order[:k] if seen[i][0] > 0]
+
+
+def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, k: int | None = None):
+    """Every camera's photographs (other than ``name`` itself; with ``k``, only each camera's ``k`` that
+    see most of the view, :func:`nearest_sources`) reprojected into the view through the
     splat's depth, moved along each ray to where the photographs agree
     (:func:`splat.reproject.consistent_depth`), and combined by :func:`splat.reproject.reprojected`
     with each photograph's noise variance (:func:`splat.fusion.photo_variance`): values (H, W, 3n) at
     exposure 1 (0 where no photograph of that camera sees the pixel) and the number of photographs that
-    see it (H, W, n)."""
+    see it (H, W, n). ``model``: the splat's ``(gaussians, alive)``
+    (:func:`splat.capture.load_gaussians`); ``cache`` keeps each view's depth maps and photograph for the
+    next call."""
     from ..fusion import measured, photo_variance
-    from ..reproject import MIN_ALPHA, consistent_depth, depth_map, reprojected
+    from ..reproject import MIN_ALPHA, depth_map, reprojected
+    from ..reproject import consistent_depth as agree
 
-    def depth(v_name, c):  # the cache also holds each photograph, demosaiced, at exposure 1
-        if v_name not in depths:
-            r = raws.get(v_name)
+    g, alive = model
+
+    def depth(v_name, c):  # (depth, alpha, source depth), computed once per view
+        if ("depth", v_name) not in cache:
+            dep, alpha = depth_map(g, c, mask=alive)
+            # as a source, a pixel without a reliable depth vouches for nothing (0 never agrees)
+            cache["depth", v_name] = (dep, alpha, np.where(alpha >= MIN_ALPHA, dep, 0.0))
+        return cache["depth", v_name]
+
+    def photo(v_name):  # the photograph demosaiced at exposure 1 and its variance, once per view
+        if ("photo", v_name) not in cache:
+            r = raws[v_name]
             # bilinear, not Malvar: a source is read near its own edges, where Malvar overshoots
             # (three cameras fused, CI coarse capture, flat held-out pixels: 0.497 → 0.460 ΔE00 noise-free,
             # 1.392 → 1.368 noisy)
-            ok = r is not None and r.exif is not None
-            photo = measured(r, np.ones(3), method="bilinear") if ok else None
-            var = photo_variance(r, photo) if ok else None
-            dep, alpha = depth_map(g, c, mask=alive)
-            # as a source, a pixel without a reliable depth vouches for nothing (0 never agrees)
-            depths[v_name] = (dep, alpha, photo, np.where(alpha >= MIN_ALPHA, dep, 0.0), var)
-        return depths[v_name]
+            p = measured(r, np.ones(3), method="bilinear")
+            cache["photo", v_name] = (p, photo_variance(r, p))
+        return cache["photo", v_name]
 
-    d, a, *_ = depth(name, cam)
+    d, a, _ = depth(name, cam)
     groups = []  # each camera's photographs (but the view's own), as reprojection sources
-    for k in range(n):
-        groups.append([])
+    for c in range(n):
+        candidates = []
         for v in views:
             r = raws.get(v.name)
-            if v.name != name and r is not None and r.camera == k and r.exif is not None:
-                _, _, photo, seen_depth, var = depth(v.name, v.camera)
-                groups[k].append((v.camera, seen_depth, photo, var))
+            if v.name != name and r is not None and r.camera == c and r.exif is not None:
+                candidates.append((v.name, v.camera, depth(v.name, v.camera)[2]))
+        chosen = nearest_sources(cam, d, a, candidates, k)
+        groups.append([(vc, sd, *photo(v_name)) for v_name, vc, sd in chosen])
     if any(len(g) >= 2 for g in groups):  # the splat's depth moved to where the photographs agree
-        d, _ = consistent_depth(cam, d, a, groups)
+        d, _ = agree(cam, d, a, groups)
     values = np.zeros((cam.height, cam.width, 3 * n), np.float32)
     count = np.zeros((cam.height, cam.width, n), np.float32)
-    for k, sources in enumerate(groups):
+    for c, sources in enumerate(groups):
         if sources:
-            values[..., 3 * k : 3 * k + 3], count[..., k] = reprojected(cam, d, a, sources)
+            values[..., 3 * c : 3 * c + 3], count[..., c] = reprojected(cam, d, a, sources)
     return values, count
 
 
@@ -137,7 +177,8 @@ def render_step(
 ) -> dict:
     """Render the photographs ``config.views`` selects (default all) and ``config.novel`` novel views
     (N channels, exposure 1), and
-    reproject every camera's photographs (but the view's own) into each of them through the splat's depth
+    reproject each camera's ``config.render_sources`` photographs that see most of each view (all but
+    the view's own with None; :func:`nearest_sources`) into it through the splat's depth
     (``reprojected.tiff``, 0 where none sees a pixel, and ``reprojected_count.tiff``, how many see it;
     :mod:`splat.reproject`).
 
@@ -148,18 +189,20 @@ def render_step(
     """
     from ..outputs import pca_false_colour, render_views, split_cameras
 
-    spec, ws = step_workspace(capture, out, config, "render", lambda spec: {})
+    spec, ws = step_workspace(
+        capture, out, config, "render", lambda spec: {"render_sources": config.render_sources}
+    )
     out = ws.root
     t0 = time.perf_counter()
     reset_peak_rss()
     _, cap = load_model_capture(spec, out)
     g, alive = load_gaussians(out)
-    raws = {v.name: v for v in load_views(spec, progress=progress, binning=working_binning(config, spec))}
+    raws = {v.name: v for v in read_working(spec, ws, config, progress)}
     # at the working resolution; training views with their learned pose corrections, if any
     views = refined_views(working_views(cap.views, raws), out)
     todo = views_to_render(spec, views, config)
     n = len(spec.cameras)
-    depths: dict = {}  # view name → (depth, alpha, photograph, source depth, variance), computed once
+    depths: dict = {}  # each view's depths and photograph, computed once
     index = {}
     rendered = 0  # views rendered or reprojected by this call
     for i, (name, cam, cid, kind) in enumerate(todo):
@@ -173,7 +216,9 @@ def render_step(
                 write_tiff(d / f"camera_{spec.label(cid2 - 1)}.tiff", part)
             write_png8(files["pca"], pca_false_colour(img))
         if not (d / "reprojected_count.tiff").is_file():
-            rep, count = _reprojected_view(name, cam, views, raws, g, alive, depths, n)
+            rep, count = reprojected_view(
+                name, cam, views, raws, (g, alive), depths, n, config.render_sources
+            )
             write_tiff(d / "reprojected.tiff", rep)
             write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
         index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}

@@ -13,6 +13,7 @@ import numpy as np
 
 from .config import (
     PipelineConfig,
+    read_working,
     step_workspace,
     train_size_of,
     working_binning,
@@ -22,7 +23,7 @@ from .config import (
 from .files import atomic_write, write_json
 from .raw import load_views
 from .spec import CaptureError, CaptureSpec
-from .workspace import peak_rss_mib, read_json, reset_peak_rss
+from .workspace import Workspace, peak_rss_mib, read_json, reset_peak_rss
 
 if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
@@ -82,19 +83,26 @@ def training_inputs(
     out: Path,
     config: PipelineConfig = PipelineConfig(),
     progress: ProgressCallback | None = None,
+    *,
+    workspace: Workspace | None = None,
 ) -> TrainingInputs:
     """The inputs of the train step, read from the capture and ``OUT/poses`` (no ground truth).
 
     Views of different sizes are padded (right and bottom, weight 0) to the largest size so that they
     stack; a view's intrinsics are unchanged by the padding. ``progress("read", done, total)`` after
-    each RAW file (reading 36 files of 12 MP takes minutes).
+    each RAW file (reading 36 files of 12 MP takes minutes). With the run's ``workspace``, the files
+    are decoded through its decode cache (:func:`splat.capture.config.read_working`), for the later
+    steps to reuse.
     """
     from ..camera import Camera
     from ..data import Capture
 
     model, cap = load_model_capture(spec, out)
     # each file read and binned to the working resolution in turn (never all mosaics whole at once)
-    raws = {v.name: v for v in load_views(spec, progress=progress, binning=working_binning(config, spec))}
+    if workspace is not None:
+        raws = {v.name: v for v in read_working(spec, workspace, config, progress)}
+    else:
+        raws = {v.name: v for v in load_views(spec, progress=progress, binning=working_binning(config, spec))}
     hold = set(spec.holdout)
     views = [v for v in working_views(cap.views, raws) if v.name not in hold]
     if not views:
@@ -244,7 +252,7 @@ def fit_step(
         return read_json(done)
     t_step = time.perf_counter()  # the step's duration includes reading the RAW files
     reset_peak_rss()
-    inp = training_inputs(spec, out, config, progress)
+    inp = training_inputs(spec, out, config, progress, workspace=ws)
     train_cap, images, weights = inp.capture, inp.images, inp.weights
     bounds, xyz, colours = inp.bounds, inp.points, inp.colours
     views, padded, N = inp.views, list(train_cap.views), train_cap.n_channels

@@ -27,6 +27,7 @@ from pathlib import Path
 from .spec import CaptureError, CaptureSpec
 
 __all__ = [
+    "DECODE_CACHE",
     "FIT_CACHE",
     "MARKER",
     "SETTINGS",
@@ -44,7 +45,7 @@ MARKER = ".splat-output.json"
 SETTINGS = "settings.json"
 #: What each step writes (relative to OUT), in step order; a step's dependents are the ones after it.
 STEP_OUTPUTS = {
-    "poses": ("previews", "poses"),
+    "poses": ("previews", "poses", "decoded"),
     "train": ("train",),
     "render": ("render",),
     "correct": ("correct",),
@@ -55,6 +56,10 @@ _ORDER = tuple(STEP_OUTPUTS)
 #: :mod:`zonotope.correct.fitcache`), relative to OUT: inside the correct step's folder, one sub-folder
 #: per key of that step's settings record (:meth:`Workspace.fit_cache`).
 FIT_CACHE = ("correct", "fits")
+#: Where the RAW files decoded at the working resolution are kept (:meth:`Workspace.decode_cache`),
+#: relative to OUT: an output of the poses step (the first), so that it outlives option changes of the
+#: later steps and goes with a capture whose poses are recomputed.
+DECODE_CACHE = "decoded"
 
 
 def _version() -> str:
@@ -262,6 +267,19 @@ class Workspace:
         if poses["settings"].get("capture") != now:
             return None
         return self.path(*FIT_CACHE, key[:16])
+
+    def decode_cache(self, options: dict) -> tuple[Path, dict] | None:
+        """``(OUT/decoded, options + version)``: the ``cache`` of :func:`splat.capture.raw.load_views`,
+        where the train, render and correct steps keep each RAW file decoded at the working resolution
+        (``options``: everything the working binning depends on), so that a run decodes each file once.
+
+        Each file's entry is named by a hash of the file (path, size, modification time), its camera's
+        overrides, ``options`` and the software version, so it is never read for other inputs or
+        options. None (decode every time) when the poses step is not recorded here: the folder is
+        one of its outputs, so it is written only where the record says splat owns it."""
+        if "poses" not in self.record["steps"]:
+            return None
+        return self.path(DECODE_CACHE), {"options": options, "version": _version()}
 
     def _write(self, path: Path, doc: dict) -> None:
         from zonotope.utilities import atomic_path
