@@ -264,6 +264,8 @@ def main(argv=None) -> int:
         metavar="SPP",
         help="a splat.sim.mitsuba capture: render the held-out views again at SPP samples through every "
         "camera and print the truth's noise floor and each camera's level against the truth",
+    )
+    ap.add_argument(
         "--render-sources",
         type=int,
         default=None,
