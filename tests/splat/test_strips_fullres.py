@@ -463,3 +463,112 @@ def test_raw_row_source_reads_the_demosaiced_rows(seed, cfa):
     for a, b in ((0, 12), (7, 33), (30, 40)):
         want = demosaic_rows(src, a, b, method="bilinear")[0] / (2.0 * ws)
         np.testing.assert_allclose(rs.rows(a, b), want, rtol=1e-6, atol=1e-7)
+
+
+# ------------------------------------------------------------------------------- strips on threads
+
+
+def test_full_resolution_view_on_threads_equals_one_after_the_other(splat_scene):
+    """Strips computed at once on threads (``workers``) give the very same numbers, in order, as one
+    strip after the other; each source row is still demosaiced once, and each noise pattern fitted once."""
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    code = np.zeros((H // f, W // f), int)
+    code[: H // (2 * f)] = 1  # two working patterns, so that strips meet both
+    fused = np.random.default_rng(3).uniform(0.1, 0.3, (H // f, W // f, 9))
+    sigma = {0: np.full(9, 0.02), 1: np.full(9, 0.03)}
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    work = WorkingFusion(fused, code, sigma, slice(0, 3), f)
+    outs, fits, reads = {}, {}, {}
+    for workers in (1, 3):
+        counted, cached = {}, {}
+        for i, (src,) in groups.items():
+            counted[i] = _Counted(src.camera.height, W)
+            counted[i].img = src.rows(0, src.camera.height)
+            cached[i] = [src._replace(rows=CachedRows(counted[i], src.camera.height, rows=16, block=8))]
+        rep = FullReprojection(g, None, cam, cached, np.full(9, 0.05))
+        fits[workers] = []
+
+        def fit(s, log=fits[workers]):
+            log.append(tuple(np.round(s, 9)))
+            return _Linear(), np.ones(9)
+
+        done: list = []
+        strips = list(
+            full_resolution_view(
+                photo,
+                work,
+                fit,
+                strip_rows=8,
+                reprojection=rep,
+                workers=workers,
+                progress=lambda _, r, n, done=done: done.append(r),
+            )
+        )
+        assert [len(s) for s in strips] == [8] * (H // 8) and done == list(range(8, H + 1, 8))
+        outs[workers] = np.concatenate(strips)
+        reads[workers] = [c.reads for c in counted.values()]
+    np.testing.assert_array_equal(outs[3], outs[1])
+    assert sorted(fits[3]) == sorted(fits[1]) and len(fits[1]) >= 2  # each pattern fitted once
+    for r1, r3 in zip(reads[1], reads[3], strict=True):
+        assert r3.max() == 1 and (r3 > 0).sum() == (r1 > 0).sum()
+
+
+def test_full_resolution_view_on_threads_raises_a_strips_failure_in_order():
+    W, H = _SIZE
+    work = WorkingFusion(
+        np.full((H // 2, W // 2, 9), 0.2), np.zeros((H // 2, W // 2), int), {0: np.ones(9)}, slice(0, 3), 2
+    )
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    calls = []
+
+    def fit(s):
+        calls.append(1)
+        raise ValueError("no fit")
+
+    gen = full_resolution_view(photo, work, fit, strip_rows=8, workers=2)
+    with pytest.raises(ValueError, match="no fit"):
+        next(gen)
+    with pytest.raises(SplatError, match="workers"):
+        next(full_resolution_view(photo, work, fit, workers=0))
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 119), st.integers(1, 60)), min_size=2, max_size=16),
+    st.integers(1, 40),
+    st.integers(1, 70),
+)
+def test_cached_rows_from_threads_give_the_rows_each_block_read_once_at_a_time(requests, block, keep):
+    """Requests from four threads at once: every answer is its rows, and no block is read by two
+    callers at the same time (a block being read is waited for)."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    img = _Counted(120)
+    inflight, clash = set(), []
+    lock = threading.Lock()
+
+    def read(a, b):
+        ks = set(range(a // block, (b - 1) // block + 1))
+        with lock:
+            clash.extend(ks & inflight)
+            inflight.update(ks)
+        out = img(a, b)
+        threading.Event().wait(0.001)  # a slow read, so that callers overlap
+        with lock:
+            inflight.difference_update(ks)
+        return out
+
+    rows = CachedRows(read, 120, rows=keep, block=block)
+
+    def ask(req):
+        a, n = req
+        b = min(120, a + n)
+        return rows(a, b), img.img[a:b]
+
+    with ThreadPoolExecutor(4) as pool:
+        for got, want in pool.map(ask, requests):
+            np.testing.assert_array_equal(got, want)
+    assert not clash
