@@ -249,3 +249,10 @@ SOURCE_BLOCK_ROWS = 128
 #: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
 #: 24 MP) while the photograph is corrected; the working fusion averages all of them.
 FULL_SOURCES = 2
+
+# --- full-resolution stage on threads (splat.strips.full_resolution_view workers) ---
+
+#: Most strips the full-resolution stage computes at once by default (fewer where the process may use
+#: fewer cores): each adds one strip's work to the peak memory (~0.2 GB at 24 MP), and the stage's
+#: share that holds Python's lock bounds the gain beyond a few threads.
+FULL_WORKERS = 4

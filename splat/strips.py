@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, CORRECT_CHUNK, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, FULL_WORKERS, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
 
 __all__ = [
     "FULL_METHOD",
@@ -60,6 +60,7 @@ __all__ = [
     "PNGStripWriter",
     "Photograph",
     "WorkingFusion",
+    "default_workers",
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
@@ -83,6 +84,18 @@ HALO = 8
 FULL_METHOD = "Finlayson 2015"
 
 
+def default_workers() -> int:
+    """Strips :func:`full_resolution_view` computes at once by default: the CPU cores this process may
+    use, at most :data:`splat._tol.FULL_WORKERS`."""
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, FULL_WORKERS))
+
+
 def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> tuple[np.ndarray, np.ndarray]:
     """Rows ``r0:r1`` of a RAW file demosaiced (linear, exposure of the file, white scale 1) and their
     validity (the pixel's own site neither saturated nor dead), each (r1 − r0, W, ·): the same values as
@@ -101,6 +114,16 @@ def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> t
     a = max(0, r0 - HALO)
     a -= a % 2
     b = min(H, r1 + HALO)
+    if not source.full_colour and getattr(source, "data", None) is not None:
+        # the mosaic and the own site's validity straight from the samples: the same numbers as
+        # `rows` (tested), without its three-channel values and weights
+        lin = demosaic(_mosaic_rows(source, a, b), cfa=source.cfa, method=method)
+        dn = source.data[r0:r1]
+        h, w = dn.shape
+        black = np.tile(np.asarray(source.black, np.float64), ((r1 - r0 + 1) // 2 + 1, (w + 1) // 2))
+        black = black[r0 % 2 : r0 % 2 + h, :w]
+        dead = (dn <= 0) & (black > 0)
+        return lin[r0 - a : r1 - a], ~((dn >= source.white) | dead)
     values, weight = source.rows(a, b)
     if source.full_colour:
         lin = values.astype(np.float64)

@@ -213,6 +213,12 @@ class PipelineConfig:
         the working-resolution fusion upsampled and sharpened by the photograph instead, about 3× less
         CPU at 24 MP (36 s against 107 s for the full-resolution stage, docs/benchmarks.md) and no
         detail from the other cameras finer than the working resolution.
+    workers : int or None
+        Strips of the full-resolution stage computed at once, on threads
+        (:func:`splat.strips.full_resolution_view`): time and memory only, the images are the same for
+        any number (so it is recorded in the correct step's summary, not in the settings that decide
+        reuse); None (default): :func:`splat.strips.default_workers`, the cores this process may use, at
+        most :data:`splat._tol.FULL_WORKERS`.
     steps, capacity, seed, densify_until, refine_exposure, refine_poses, depth_weight
         :data:`TRAIN_OPTIONS`: ``train``'s fields (the poses step also uses ``seed``). Notes on two of
         them: ``refine_exposure`` is off by default because on the simulated capture, whose EXIF is
@@ -234,6 +240,7 @@ class PipelineConfig:
     train_size: int | None = None
     noise: str | float | dict = "auto"
     full_reprojection: bool = True
+    workers: int | None = None
     steps: InitVar[int] = _UNSET
     capacity: InitVar[int] = _UNSET
     seed: InitVar[int] = _UNSET
@@ -281,6 +288,9 @@ class PipelineConfig:
         if t is not None and (isinstance(t, bool) or not isinstance(t, int) or t < 16):
             raise SplatError(f"train_size={t!r}: must be a number of pixels ≥ 16 (e.g. --train-size 640).")
         _noise_of(self.noise)
+        w = self.workers
+        if w is not None and (isinstance(w, bool) or not isinstance(w, int) or w < 1):
+            raise SplatError(f"workers={w!r}: must be a whole number ≥ 1 (strips computed at once), or None.")
 
 
 for _name in TRAIN_OPTIONS:  # the options read through to ``train`` (see TRAIN_OPTIONS)

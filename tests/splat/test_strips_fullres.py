@@ -470,7 +470,8 @@ def test_raw_row_source_reads_the_demosaiced_rows(seed, cfa):
 
 def test_full_resolution_view_on_threads_equals_one_after_the_other(splat_scene):
     """Strips computed at once on threads (``workers``) give the very same numbers, in order, as one
-    strip after the other; each source row is still demosaiced once, and each noise pattern fitted once."""
+    strip after the other; each noise pattern is fitted once, and no source row is demosaiced twice
+    (two strips needing a block at once: one reads it, the other waits for it)."""
     g, cam, groups = splat_scene
     W, H = _SIZE
     f = 2
@@ -486,7 +487,9 @@ def test_full_resolution_view_on_threads_equals_one_after_the_other(splat_scene)
         for i, (src,) in groups.items():
             counted[i] = _Counted(src.camera.height, W)
             counted[i].img = src.rows(0, src.camera.height)
-            cached[i] = [src._replace(rows=CachedRows(counted[i], src.camera.height, rows=16, block=8))]
+            # a cache that holds every strip in flight (strips on threads run ahead of one another)
+            kept = src.camera.height
+            cached[i] = [src._replace(rows=CachedRows(counted[i], src.camera.height, rows=kept, block=8))]
         rep = FullReprojection(g, None, cam, cached, np.full(9, 0.05))
         fits[workers] = []
 
@@ -572,3 +575,47 @@ def test_cached_rows_from_threads_give_the_rows_each_block_read_once_at_a_time(r
         for got, want in pool.map(ask, requests):
             np.testing.assert_array_equal(got, want)
     assert not clash
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["RGGB", "BGGR", "GRBG", "GBRG"]), st.integers(0, 39))
+def test_demosaic_rows_from_samples_equals_the_rows_reader(seed, cfa, r0):
+    """The Bayer shortcut (mosaic and validity straight from the samples) gives what demosaicing
+    :meth:`RawSource.rows` gives: the same values, and valid where the own site's weight is not 0."""
+    from isp.stages import demosaic
+    from splat.capture.raw import RawSource
+    from splat.strips import HALO, demosaic_rows
+
+    rng = np.random.default_rng(seed)
+    H, W = 40, 30
+    data = rng.integers(0, 4096, (H, W)).astype(np.uint16)
+    data[rng.random((H, W)) < 0.05] = 4095  # saturated
+    data[rng.random((H, W)) < 0.05] = 0  # dead below black
+    src = RawSource(None, data, np.array([[300.0, 310.0], [0.0, 295.0]]), 4095.0, cfa, {})
+    r1 = min(H, r0 + 1 + int(rng.integers(0, 20)))
+    lin, valid = demosaic_rows(src, r0, r1)
+    a = max(0, r0 - HALO) // 2 * 2
+    values, weight = src.rows(a, min(H, r1 + HALO))
+    want = demosaic(values.sum(-1), cfa=cfa, method="Malvar 2004")[r0 - a : r1 - a]
+    np.testing.assert_array_equal(lin, want)
+    np.testing.assert_array_equal(valid, weight[r0 - a : r1 - a].sum(-1) > 0)
+
+
+@pytest.mark.parametrize("bad", [0, -1, True, 1.5, "2"])
+def test_pipeline_config_refuses_bad_workers(bad):
+    from splat.capture import PipelineConfig
+
+    with pytest.raises(SplatError, match="workers"):
+        PipelineConfig(workers=bad)
+
+
+def test_default_workers_is_the_usable_cores_capped():
+    import os
+
+    from splat._tol import FULL_WORKERS
+    from splat.capture import PipelineConfig
+    from splat.strips import default_workers
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert default_workers() == max(1, min(cores, FULL_WORKERS))
+    assert PipelineConfig().workers is None and PipelineConfig(workers=3).workers == 3
