@@ -619,3 +619,48 @@ def test_default_workers_is_the_usable_cores_capped():
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert default_workers() == max(1, min(cores, FULL_WORKERS))
     assert PipelineConfig().workers is None and PipelineConfig(workers=3).workers == 3
+
+
+class _LazySource(_Source):
+    """:class:`_Source`'s image made row by row when asked (nothing held whole)."""
+
+    def __init__(self, H, W):
+        self.shape = (H, W)
+
+    def rows(self, a, b):
+        jj, ii = np.meshgrid(np.arange(self.shape[1]), np.arange(a, b))
+        img = np.stack([0.3 + 0.002 * jj, 0.4 + 0.003 * ii % 0.5, 0.5 - 0.001 * (ii + jj) % 0.4], -1)
+        return img.astype(np.float32), np.ones((b - a, self.shape[1], 3), np.float32)
+
+
+def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
+    """tracemalloc's peak while strips 2… of 512 and of 4096 rows (256 pixels wide, strips of 16) are
+    computed on 2 threads for a slow consumer: the same to a few strips' worth (which strips'
+    temporaries coincide varies with the threads' timing), far below the image: the strips computed
+    ahead are bounded by the threads, not by the image (the working fusion, allocated before the first
+    strip, is not counted)."""
+    import time
+
+    W, rows = 256, 16
+    peaks = []
+    for H in (512, 4096):
+        work = WorkingFusion(
+            np.full((H // 2, W // 2, 9), 0.2),
+            np.zeros((H // 2, W // 2), int),
+            {0: np.ones(9)},
+            slice(0, 3),
+            2,
+        )
+        photo = Photograph(_LazySource(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+        strips = full_resolution_view(
+            photo, work, lambda s: (_Linear(), np.ones(9)), strip_rows=rows, workers=2
+        )
+        next(strips)
+        tracemalloc.start()
+        for _ in strips:
+            time.sleep(0.002)  # the writer: slower than the threads
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    strip = rows * W * 9 * 8  # one strip's responses in float64
+    assert peaks[1] < peaks[0] + 6 * strip, peaks
+    assert peaks[1] < H * W * 9 * 8 / 10, peaks  # the whole image's responses: 10× more
