@@ -634,7 +634,7 @@ class _LazySource(_Source):
 
 
 def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
-    """tracemalloc's peak while strips 2… of 512 and of 4096 rows (256 pixels wide, strips of 16) are
+    """tracemalloc's peak while strips 2… of 256 and of 2048 rows (256 pixels wide, strips of 16) are
     computed on 2 threads for a slow consumer: the same to a few strips' worth (which strips'
     temporaries coincide varies with the threads' timing), far below the image: the strips computed
     ahead are bounded by the threads, not by the image (the working fusion, allocated before the first
@@ -643,7 +643,7 @@ def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
 
     W, rows = 256, 16
     peaks = []
-    for H in (512, 4096):
+    for H in (256, 2048):
         work = WorkingFusion(
             np.full((H // 2, W // 2, 9), 0.2),
             np.zeros((H // 2, W // 2), int),
@@ -658,7 +658,7 @@ def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
         next(strips)
         tracemalloc.start()
         for _ in strips:
-            time.sleep(0.002)  # the writer: slower than the threads
+            time.sleep(0.02)  # the writer: slower than the threads
         peaks.append(tracemalloc.get_traced_memory()[1])
         tracemalloc.stop()
     strip = rows * W * 9 * 8  # one strip's responses in float64
