@@ -35,10 +35,10 @@ other), for before/after ratios in one process. ``--workers 1,2`` times the curr
 reprojection with each number of strips computed at once (threads; default ``1`` and
 :func:`splat.strips.default_workers`), each printed with its process CPU and wall time, CPU / wall (the
 cores it kept busy) and the machine's load average; ``--no-previous`` and ``--no-growth`` leave out the
-previous path and the smaller sizes.
+previous path and the smaller sizes; ``--no-write`` drops the strips instead of writing the files.
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full] [--against REV] [--workers 1,2] [--no-previous] [--no-growth]
+        [--only-full] [--against REV] [--workers 1,2] [--no-previous] [--no-growth] [--no-write]
 """
 
 from __future__ import annotations
@@ -133,6 +133,9 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--no-previous", action="store_true", help="leave out the previous (upsampled) path")
     ap.add_argument("--no-growth", action="store_true", help="time --scale only (no smaller sizes)")
+    ap.add_argument(
+        "--no-write", action="store_true", help="consume the strips without writing the TIFF and PNG"
+    )
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -263,13 +266,17 @@ def main(argv=None) -> int:
                     reprojection=given,
                     **threads,
                 )
-                strips.write_full(
-                    args.work / "full_XYZ.tiff",
-                    args.work / "full_sRGB.png",
-                    gen,
-                    (H, W),
-                    strips.sRGB8_encoder(wXYZ),
-                )
+                if args.no_write:
+                    for _ in gen:
+                        pass
+                else:
+                    strips.write_full(
+                        args.work / "full_XYZ.tiff",
+                        args.work / "full_sRGB.png",
+                        gen,
+                        (H, W),
+                        strips.sRGB8_encoder(wXYZ),
+                    )
                 times.append(time.perf_counter() - t)
                 cpus.append(time.process_time() - c0)
                 peaks.append(peak_rss_mib())
