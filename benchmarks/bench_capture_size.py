@@ -29,12 +29,16 @@ Measured, in one process:
   responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
   demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
-``--against REV`` adds a third path timed alongside: the full-res reprojection as ``splat/strips.py``
-and ``splat/reproject.py`` were at git ``REV`` (their sources made by that version), for before/after
-ratios in one process.
+``--against REV`` adds a path timed alongside: the full-res reprojection as ``splat/strips.py``
+and ``splat/reproject.py`` were at git ``REV`` (their sources made by that version, one strip after the
+other), for before/after ratios in one process. ``--workers 1,2`` times the current full-res
+reprojection with each number of strips computed at once (threads; default ``1`` and
+:func:`splat.strips.default_workers`), each printed with its process CPU and wall time, CPU / wall (the
+cores it kept busy) and the machine's load average; ``--no-previous`` and ``--no-growth`` leave out the
+previous path and the smaller sizes; ``--no-write`` drops the strips instead of writing the files.
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full] [--against REV]
+        [--only-full] [--against REV] [--workers 1,2] [--no-previous] [--no-growth] [--no-write]
 """
 
 from __future__ import annotations
@@ -124,6 +128,14 @@ def main(argv=None) -> int:
         metavar="REV",
         help="also time the full-res reprojection as splat/strips.py and splat/reproject.py were at git REV",
     )
+    ap.add_argument(
+        "--workers", help="comma-separated numbers of strips computed at once (default 1,<cores>)"
+    )
+    ap.add_argument("--no-previous", action="store_true", help="leave out the previous (upsampled) path")
+    ap.add_argument("--no-growth", action="store_true", help="time --scale only (no smaller sizes)")
+    ap.add_argument(
+        "--no-write", action="store_true", help="consume the strips without writing the TIFF and PNG"
+    )
     args = ap.parse_args(argv)
     if args.scale % 2:
         ap.error("--scale must be even (the RGGB pattern keeps its phase)")
@@ -195,11 +207,27 @@ def main(argv=None) -> int:
         ]
 
     rows = []
-    paths = ("previous", "full-res reprojection")
+    counts = sorted({int(w) for w in (args.workers or f"1,{strips.default_workers()}").split(",")})
+    if not counts or min(counts) < 1:
+        ap.error("--workers: give numbers ≥ 1, e.g. 1,2")
+    full = {
+        (
+            f"full-res reprojection, {w} thread{'s' if w > 1 else ''}"
+            if len(counts) > 1
+            else "full-res reprojection"
+        ): w
+        for w in counts
+    }
+    paths = (*(() if args.no_previous else ("previous",)), *full)
     older = _modules_at(args.against) if args.against else None
     if older is not None:
         paths = (*paths, f"full-res reprojection at {args.against}")
-    for s in sorted({max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2), args.scale}):
+    sizes = (
+        {args.scale}
+        if args.no_growth
+        else {max(2, args.scale // 4 // 2 * 2), max(2, args.scale // 2 // 2 * 2)}
+    )
+    for s in sorted(sizes | {args.scale}):
         big = _upsampled_dng(view, spec, args.work / f"nikon_x{s}.dng", s)
         model, fake_view = model_at(s)
         if older is not None:
@@ -220,6 +248,7 @@ def main(argv=None) -> int:
         for _ in range(args.runs if s == args.scale else 1):
             for path in paths:  # alternated, so that the machine's load falls on both alike
                 times, cpus, peaks = res[path]
+                load = os.getloadavg()[0]
                 reset_peak_rss()
                 t, c0 = time.perf_counter(), time.process_time()
                 src = open_raw(big, spec.cameras[view.camera])
@@ -227,6 +256,7 @@ def main(argv=None) -> int:
                 made = older_model if mod is not strips else model
                 rep = made(fake_view, (H, W)) if path != "previous" else None
                 given = None if rep is None else rep.rep
+                threads = {"workers": full.get(path, 1)} if mod is strips else {}
                 gen = mod.full_resolution_view(
                     strips.Photograph(
                         src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])
@@ -234,17 +264,27 @@ def main(argv=None) -> int:
                     strips.WorkingFusion(fused, code, sigma, slice(3 * view.camera, 3 * view.camera + 3), s),
                     fit_full,
                     reprojection=given,
+                    **threads,
                 )
-                strips.write_full(
-                    args.work / "full_XYZ.tiff",
-                    args.work / "full_sRGB.png",
-                    gen,
-                    (H, W),
-                    strips.sRGB8_encoder(wXYZ),
-                )
+                if args.no_write:
+                    for _ in gen:
+                        pass
+                else:
+                    strips.write_full(
+                        args.work / "full_XYZ.tiff",
+                        args.work / "full_sRGB.png",
+                        gen,
+                        (H, W),
+                        strips.sRGB8_encoder(wXYZ),
+                    )
                 times.append(time.perf_counter() - t)
                 cpus.append(time.process_time() - c0)
                 peaks.append(peak_rss_mib())
+                print(
+                    f"    run: {path}: wall {times[-1]:.1f} s, CPU {cpus[-1]:.1f} s, CPU/wall "
+                    f"{cpus[-1] / times[-1]:.2f}, load {load:.1f} → {os.getloadavg()[0]:.1f}",
+                    flush=True,
+                )
                 del src, rep, gen
         for path in paths:
             times, cpus, peaks = res[path]
@@ -253,7 +293,9 @@ def main(argv=None) -> int:
             )
             print(
                 f"  ×{s}: {W}×{H} = {H * W / 1e6:.1f} MP, {path}: {statistics.median(times):.1f} s "
-                f"(runs {[round(x, 1) for x in times]}), process CPU {statistics.median(cpus):.1f} s, "
+                f"(runs {[round(x, 1) for x in times]}), process CPU {statistics.median(cpus):.1f} s "
+                f"(runs {[round(x, 1) for x in cpus]}), "
+                f"CPU/wall {statistics.median(cpus) / statistics.median(times):.2f}, "
                 f"peak RSS {max(peaks):.0f} MiB"
             )
     for path in paths:
@@ -268,16 +310,19 @@ def main(argv=None) -> int:
             f"growth, {path}: wall ∝ pixels^{fit(ts):.2f}, CPU ∝ pixels^{fit(cs):.2f}, peak RSS ∝ "
             f"pixels^{fit(pk):.2f}; {cs[-1] / mp[-1]:.2f} s of CPU per MP at the largest size"
         )
-    prev = [r for r in rows if r[6] == paths[0]][-1]
-    new = [r for r in rows if r[6] == paths[1]][-1]
-    print(
-        f"full-res reprojection / previous at {new[1]:.1f} MP: wall {new[2] / prev[2]:.2f}×, CPU "
-        f"{new[5] / prev[5]:.2f}×, peak RSS {new[3]:.0f} / {prev[3]:.0f} MiB"
-    )
+    last = {r[6]: r for r in rows}  # each path at the largest size
+    base = [p for p in paths if p not in full]  # previous and REV: the baselines in this process
+    for p in full:
+        for b in base:
+            new, old = last[p], last[b]
+            print(
+                f"{p} / {b} at {new[1]:.1f} MP: wall {new[2] / old[2]:.2f}×, CPU "
+                f"{new[5] / old[5]:.2f}×, peak RSS {new[3]:.0f} / {old[3]:.0f} MiB"
+            )
     print(f"load average during the run: {os.getloadavg()[0]:.1f} (2 cores)")
     if args.only_full:
         return 0
-    rows = [r for r in rows if r[6] == paths[1]]
+    rows = [r for r in rows if r[6] == list(full)[-1]]
 
     # baseline 1: the previous path (Prior with deduplication, per pixel) on a crop of the same responses
     s = args.scale

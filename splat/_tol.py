@@ -268,3 +268,10 @@ RENDER_SOURCES = 6
 #: Pixel stride at which a view's pixels are counted to rank the photographs that see it: a ranking by
 #: the share seen needs a few thousand pixels, not all of them (1/16 of a view's pixels).
 RENDER_SOURCE_STRIDE = 4
+
+# --- full-resolution stage on threads (splat.strips.full_resolution_view workers) ---
+
+#: Most strips the full-resolution stage computes at once by default (fewer where the process may use
+#: fewer cores): each adds one strip's work to the peak memory (~0.2 GB at 24 MP), and the stage's
+#: share that holds Python's lock bounds the gain beyond a few threads.
+FULL_WORKERS = 4

@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, CORRECT_CHUNK, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
+from ._tol import ANCHOR_EPS, CORRECT_CHUNK, FULL_WORKERS, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
 
 __all__ = [
     "FULL_METHOD",
@@ -60,6 +60,7 @@ __all__ = [
     "PNGStripWriter",
     "Photograph",
     "WorkingFusion",
+    "default_workers",
     "demosaic_rows",
     "full_resolution_view",
     "nearest_rows",
@@ -83,6 +84,18 @@ HALO = 8
 FULL_METHOD = "Finlayson 2015"
 
 
+def default_workers() -> int:
+    """Strips :func:`full_resolution_view` computes at once by default: the CPU cores this process may
+    use, at most :data:`splat._tol.FULL_WORKERS`."""
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, FULL_WORKERS))
+
+
 def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> tuple[np.ndarray, np.ndarray]:
     """Rows ``r0:r1`` of a RAW file demosaiced (linear, exposure of the file, white scale 1) and their
     validity (the pixel's own site neither saturated nor dead), each (r1 − r0, W, ·): the same values as
@@ -101,6 +114,16 @@ def demosaic_rows(source, r0: int, r1: int, *, method: str = "Malvar 2004") -> t
     a = max(0, r0 - HALO)
     a -= a % 2
     b = min(H, r1 + HALO)
+    if not source.full_colour and getattr(source, "data", None) is not None:
+        # the mosaic and the own site's validity straight from the samples: the same numbers as
+        # `rows` (tested), without its three-channel values and weights
+        lin = demosaic(_mosaic_rows(source, a, b), cfa=source.cfa, method=method)
+        dn = source.data[r0:r1]
+        h, w = dn.shape
+        black = np.tile(np.asarray(source.black, np.float64), ((r1 - r0 + 1) // 2 + 1, (w + 1) // 2))
+        black = black[r0 % 2 : r0 % 2 + h, :w]
+        dead = (dn <= 0) & (black > 0)
+        return lin[r0 - a : r1 - a], ~((dn >= source.white) | dead)
     values, weight = source.rows(a, b)
     if source.full_colour:
         lin = values.astype(np.float64)
@@ -267,45 +290,90 @@ class CachedRows:
     ``read(a, b) → (b − a, W, c)`` with ``read`` giving the same rows whatever ``a, b`` (as
     :func:`demosaic_rows`); ``height``: the image's rows. Memory: the blocks kept, at most
     ``max(rows, the current request + 2 blocks)`` rows, and while several missing blocks are read at
-    once, that read (copied into its blocks)."""
+    once, that read (copied into its blocks).
+
+    Safe to call from several threads (strips computed at once): a block being read by one caller is
+    waited for, not read again, by another; the reads themselves run outside the lock, concurrently."""
 
     def __init__(
         self, read: Callable, height: int, rows: int = SOURCE_CACHE_ROWS, block: int = SOURCE_BLOCK_ROWS
     ):
+        import threading
+
         self.read, self.height, self.rows, self.block = read, int(height), int(rows), max(1, int(block))
         self.blocks: dict = {}  # block index → rows, least recently used first
+        self._lock = threading.Lock()
+        self._reading: dict = {}  # block index → _Slot, while a caller reads it
 
     def __call__(self, a: int, b: int) -> np.ndarray:
         """Rows ``a:b`` (0 ≤ a < b ≤ height)."""
         n = self.block
         k0, k1 = a // n, (min(b, self.height) - 1) // n + 1
         need = range(k0, k1)
-        for k in need:  # the kept ones become the most recent
-            if k in self.blocks:
-                self.blocks[k] = self.blocks.pop(k)
-        keep = max(self.rows // n, len(need))
-        missing = [k for k in need if k not in self.blocks]
-        # the oldest blocks go before the new ones are read (memory bounded by `keep` blocks)
-        old = [k for k in self.blocks if k not in need]
-        for k in old[: max(0, len(self.blocks) + len(missing) - keep)]:
-            del self.blocks[k]
-        i = 0
-        while i < len(missing):  # consecutive missing blocks in one read (one demosaic margin)
-            j = i
-            while j + 1 < len(missing) and missing[j + 1] == missing[j] + 1:
-                j += 1
-            lo, hi = missing[i] * n, min(self.height, (missing[j] + 1) * n)
-            got = self.read(lo, hi)
-            for k in range(missing[i], missing[j] + 1):  # own copies: each is freed on its own
-                part = got[k * n - lo : (k + 1) * n - lo]
-                self.blocks[k] = part.copy() if j > i else part
-            i = j + 1
-        for k in need:  # in request order for the next eviction
-            self.blocks[k] = self.blocks.pop(k)
+        got: dict = {}
+        with self._lock:
+            for k in need:  # the kept ones become the most recent
+                if k in self.blocks:
+                    got[k] = self.blocks[k] = self.blocks.pop(k)
+            keep = max(self.rows // n, len(need))
+            waiting = {k: self._reading[k] for k in need if k not in got and k in self._reading}
+            missing = [k for k in need if k not in got and k not in waiting]
+            # the oldest blocks go before the new ones are read (memory bounded by `keep` blocks)
+            old = [k for k in self.blocks if k not in need]
+            for k in old[: max(0, len(self.blocks) + len(missing) - keep)]:
+                del self.blocks[k]
+            mine = {k: _Slot() for k in missing}
+            self._reading.update(mine)
+        try:
+            i = 0
+            while i < len(missing):  # consecutive missing blocks in one read (one demosaic margin)
+                j = i
+                while j + 1 < len(missing) and missing[j + 1] == missing[j] + 1:
+                    j += 1
+                lo, hi = missing[i] * n, min(self.height, (missing[j] + 1) * n)
+                rows = self.read(lo, hi)
+                for k in range(missing[i], missing[j] + 1):  # own copies: each is freed on its own
+                    part = rows[k * n - lo : (k + 1) * n - lo]
+                    got[k] = part.copy() if j > i else part
+                    mine[k].set(got[k])
+                i = j + 1
+        finally:
+            with self._lock:
+                for k in missing:
+                    if k in got:
+                        self.blocks[k] = got[k]
+                    self._reading.pop(k, None)
+                for k in need:  # in request order for the next eviction
+                    if k in self.blocks:
+                        self.blocks[k] = self.blocks.pop(k)
+            for k in missing:  # a failed read wakes its waiters with the failure
+                mine[k].set(None)
+        for k, slot in waiting.items():
+            got[k] = slot.get()
         if k1 - k0 == 1:
-            return self.blocks[k0][a - k0 * n : b - k0 * n]
-        out = np.concatenate([self.blocks[k] for k in need])
+            return got[k0][a - k0 * n : b - k0 * n]
+        out = np.concatenate([got[k] for k in need])
         return out[a - k0 * n : b - k0 * n]
+
+
+class _Slot:
+    """A block being read by one caller of :class:`CachedRows`, waited for by others."""
+
+    def __init__(self):
+        import threading
+
+        self._event, self._value = threading.Event(), None
+
+    def set(self, value) -> None:
+        if not self._event.is_set():
+            self._value = value
+            self._event.set()
+
+    def get(self) -> np.ndarray:
+        self._event.wait()
+        if self._value is None:
+            raise SplatError("a source's rows could not be read (the read failed in another strip).")
+        return self._value
 
 
 def raw_row_source(raw, camera, depth, binning: int, exposure: float, white_scale, sigma) -> object:
@@ -357,6 +425,7 @@ def full_resolution_view(
     strip_rows: int = STRIP_ROWS,
     progress: Callable | None = None,
     reprojection: FullReprojection | None = None,
+    workers: int = 1,
 ):
     """Yield the corrected full-resolution XYZ of a photograph, strip by strip.
 
@@ -377,6 +446,10 @@ def full_resolution_view(
         that camera's channels are their values there instead of the upsampled working responses, σ
         ``reprojection.sigma``. Without, every other channel is the upsampled working fusion (the
         previous path).
+    workers : int
+        Strips computed at once, each on a thread of its own (NumPy, the renderer and the regressions
+        release the GIL for most of a strip's work): time only, the output is the same for any number;
+        memory grows to ``workers + 1`` strips' work. 1: one strip after the other, in this thread.
 
     Yields
     ------
@@ -388,6 +461,8 @@ def full_resolution_view(
     H, W = source.shape
     if strip_rows < 2 or strip_rows % 2:
         raise SplatError(f"strip_rows={strip_rows}: must be an even number ≥ 2.")
+    if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
+        raise SplatError(f"workers={workers!r}: must be a whole number ≥ 1 (strips computed at once).")
     own_sigma = np.asarray(own_sigma, float)
     patterns = {int(c): _full_sigma(np.asarray(s, float), own, own_sigma, fused) for c, s in sigma.items()}
     fused = np.asarray(fused, np.float32)  # float32 from here on: the responses carry ≥ 1e-3 noise
@@ -396,6 +471,7 @@ def full_resolution_view(
     m = k // 3
     # a pixel's pattern: its working code, and from bit `shift` on, the cameras reprojected at full size
     shift = max(int(code.max()).bit_length(), m + 1) if code.size else m + 1
+    rep_sigma = None
     if reprojection is not None:
         rep_sigma = np.asarray(reprojection.sigma, float)
         if rep_sigma.shape != (k,) or any(not 0 <= i < m or i == own.start // 3 for i in reprojection.groups):
@@ -404,9 +480,9 @@ def full_resolution_view(
                 f"cameras' positions among {m}, not the photograph's own ({own.start // 3})."
             )
     divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
-    fitted: dict = {}
-    for r0 in range(0, H, strip_rows):
-        r1 = min(H, r0 + strip_rows)
+    fitted = _Fitted(fit, patterns, rep_sigma, shift, m)
+
+    def strip(r0: int, r1: int) -> np.ndarray:
         lin, valid = demosaic_rows(source, r0, r1)
         photo = np.maximum(lin.astype(np.float32) / divisor, 0)
         up = np.maximum(upsample_rows(fused, f, r0, r1, W), 0)
@@ -434,21 +510,76 @@ def full_resolution_view(
         a = 0
         for c in np.flatnonzero(counts):
             b = a + int(counts[c])
-            if int(c) not in fitted:
-                s_ = patterns[int(c) & ((1 << shift) - 1)].copy()
-                for i in range(m):  # channels reprojected at full resolution
-                    if int(c) >> (shift + i) & 1:
-                        s_[3 * i : 3 * i + 3] = rep_sigma[3 * i : 3 * i + 3]
-                cor, scale = fit(s_)
-                fitted[int(c)] = cor, np.asarray(scale, np.float32)
-            cor, scale = fitted[int(c)]
+            cor, scale = fitted(int(c))
             out[a:b] = _apply(cor, flat[a:b] * scale)
             a = b
         XYZ = np.empty_like(out)
         XYZ[order] = out
-        if progress is not None:
-            progress("full resolution", r1, H)
-        yield XYZ.reshape(r1 - r0, W, 3)
+        return XYZ.reshape(r1 - r0, W, 3)
+
+    bounds = [(r0, min(H, r0 + strip_rows)) for r0 in range(0, H, strip_rows)]
+    if workers == 1:
+        for r0, r1 in bounds:
+            XYZ = strip(r0, r1)
+            if progress is not None:
+                progress("full resolution", r1, H)
+            yield XYZ
+        return
+    yield from _in_order(strip, bounds, workers, lambda r1: progress and progress("full resolution", r1, H))
+
+
+def _in_order(work: Callable, bounds: list, workers: int, done: Callable):
+    """``work(r0, r1)`` of each of ``bounds`` on ``workers`` threads, at most ``workers`` ahead of the
+    one being yielded, yielded in order (``done(r1)`` after each); a failure is raised at its strip's
+    turn, and the strips not yet started are cancelled when the consumer stops early."""
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    todo = iter(bounds)
+    pending: deque = deque()
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="strip") as pool:
+        try:
+            for r0, r1 in todo:
+                pending.append((r1, pool.submit(work, r0, r1)))
+                if len(pending) >= workers:
+                    break
+            while pending:
+                r1, fut = pending.popleft()
+                XYZ = fut.result()
+                for r0_, r1_ in todo:  # the next strip starts while this one is consumed
+                    pending.append((r1_, pool.submit(work, r0_, r1_)))
+                    break
+                done(r1)
+                yield XYZ
+        finally:
+            for _, fut in pending:
+                fut.cancel()
+
+
+class _Fitted:
+    """``fitted(pattern) → (corrector, scale)``, each pattern fitted once (thread-safe): the working
+    pattern's σ (low ``shift`` bits) with the channels of the cameras flagged above it at ``rep_sigma``."""
+
+    def __init__(self, fit: Callable, patterns: dict, rep_sigma, shift: int, m: int):
+        import threading
+
+        self.fit, self.patterns, self.rep_sigma, self.shift, self.m = fit, patterns, rep_sigma, shift, m
+        self.done: dict = {}
+        self.lock = threading.Lock()
+
+    def __call__(self, c: int):
+        got = self.done.get(c)
+        if got is not None:
+            return got
+        with self.lock:  # one fit per pattern, whichever strip meets it first
+            if c not in self.done:
+                s_ = self.patterns[c & ((1 << self.shift) - 1)].copy()
+                for i in range(self.m):  # channels reprojected at full resolution
+                    if c >> (self.shift + i) & 1:
+                        s_[3 * i : 3 * i + 3] = self.rep_sigma[3 * i : 3 * i + 3]
+                cor, scale = self.fit(s_)
+                self.done[c] = cor, np.asarray(scale, np.float32)
+            return self.done[c]
 
 
 def textured_rows(source, r0: int, r1: int, exposure: float, white_scale, sigma) -> np.ndarray:

@@ -221,6 +221,12 @@ class PipelineConfig:
         photograph, a cost that grows with the square of the photographs. Default
         :data:`splat._tol.RENDER_SOURCES` (docs/notes/2026-11-29-realsize-scaling.md: held-out ΔE00 with
         it against all, and the time).
+    workers : int or None
+        Strips of the full-resolution stage computed at once, on threads
+        (:func:`splat.strips.full_resolution_view`): time and memory only, the images are the same for
+        any number (so it is recorded in the correct step's summary, not in the settings that decide
+        reuse); None (default): :func:`splat.strips.default_workers`, the cores this process may use, at
+        most :data:`splat._tol.FULL_WORKERS`.
     steps, capacity, seed, densify_until, refine_exposure, refine_poses, depth_weight
         :data:`TRAIN_OPTIONS`: ``train``'s fields (the poses step also uses ``seed``). Notes on two of
         them: ``refine_exposure`` is off by default because on the simulated capture, whose EXIF is
@@ -243,6 +249,7 @@ class PipelineConfig:
     noise: str | float | dict = "auto"
     full_reprojection: bool = True
     render_sources: int | None = RENDER_SOURCES
+    workers: int | None = None
     steps: InitVar[int] = _UNSET
     capacity: InitVar[int] = _UNSET
     seed: InitVar[int] = _UNSET
@@ -295,6 +302,9 @@ class PipelineConfig:
         if t is not None and (isinstance(t, bool) or not isinstance(t, int) or t < 16):
             raise SplatError(f"train_size={t!r}: must be a number of pixels ≥ 16 (e.g. --train-size 640).")
         _noise_of(self.noise)
+        w = self.workers
+        if w is not None and (isinstance(w, bool) or not isinstance(w, int) or w < 1):
+            raise SplatError(f"workers={w!r}: must be a whole number ≥ 1 (strips computed at once), or None.")
 
 
 for _name in TRAIN_OPTIONS:  # the options read through to ``train`` (see TRAIN_OPTIONS)

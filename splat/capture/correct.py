@@ -820,6 +820,7 @@ def correct_step(
                     wXYZ,
                     full_progress,
                     full_model,
+                    workers=config.workers,
                 )
                 rows_done[0] += todo_rows.get(name, 0)
         if (o / f"{mname}_fused_XYZ.tiff").is_file():
@@ -1038,6 +1039,8 @@ def _full_resolution(
     wXYZ,
     progress,
     model=None,
+    *,
+    workers=None,
 ):
     """Write ``full_XYZ.tiff`` and ``full_sRGB.png`` of a photographed view at its RAW file's size
     (:func:`splat.strips.full_resolution_view`; ``model(view, (H, W))``: the other cameras' photographs
@@ -1051,6 +1054,7 @@ def _full_resolution(
     H, W = source.shape
     rows = _strips.STRIP_ROWS
     reprojection = model(view, (H, W)) if model is not None else None
+    workers = _strips.default_workers() if workers is None else int(workers)
     strips = _strips.full_resolution_view(
         _strips.Photograph(
             source, view.exif, np.asarray(own_scale, float), np.asarray(noise["sigma_full"], float)
@@ -1060,6 +1064,7 @@ def _full_resolution(
         strip_rows=rows,
         progress=progress,
         reprojection=None if reprojection is None else reprojection.rep,
+        workers=workers,
     )
     _strips.write_full(
         o / "full_XYZ.tiff", o / "full_sRGB.png", strips, (H, W), _strips.sRGB8_encoder(wXYZ), rows=rows
@@ -1073,4 +1078,5 @@ def _full_resolution(
             else None
         ),
         "seconds": time.perf_counter() - t,
+        "workers": workers,
     }

@@ -463,3 +463,204 @@ def test_raw_row_source_reads_the_demosaiced_rows(seed, cfa):
     for a, b in ((0, 12), (7, 33), (30, 40)):
         want = demosaic_rows(src, a, b, method="bilinear")[0] / (2.0 * ws)
         np.testing.assert_allclose(rs.rows(a, b), want, rtol=1e-6, atol=1e-7)
+
+
+# ------------------------------------------------------------------------------- strips on threads
+
+
+def test_full_resolution_view_on_threads_equals_one_after_the_other(splat_scene):
+    """Strips computed at once on threads (``workers``) give the very same numbers, in order, as one
+    strip after the other; each noise pattern is fitted once, and no source row is demosaiced twice
+    (two strips needing a block at once: one reads it, the other waits for it)."""
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    code = np.zeros((H // f, W // f), int)
+    code[: H // (2 * f)] = 1  # two working patterns, so that strips meet both
+    fused = np.random.default_rng(3).uniform(0.1, 0.3, (H // f, W // f, 9))
+    sigma = {0: np.full(9, 0.02), 1: np.full(9, 0.03)}
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    work = WorkingFusion(fused, code, sigma, slice(0, 3), f)
+    outs, fits, reads = {}, {}, {}
+    for workers in (1, 3):
+        counted, cached = {}, {}
+        for i, (src,) in groups.items():
+            counted[i] = _Counted(src.camera.height, W)
+            counted[i].img = src.rows(0, src.camera.height)
+            # a cache that holds every strip in flight (strips on threads run ahead of one another)
+            kept = src.camera.height
+            cached[i] = [src._replace(rows=CachedRows(counted[i], src.camera.height, rows=kept, block=8))]
+        rep = FullReprojection(g, None, cam, cached, np.full(9, 0.05))
+        fits[workers] = []
+
+        def fit(s, log=fits[workers]):
+            log.append(tuple(np.round(s, 9)))
+            return _Linear(), np.ones(9)
+
+        done: list = []
+        strips = list(
+            full_resolution_view(
+                photo,
+                work,
+                fit,
+                strip_rows=8,
+                reprojection=rep,
+                workers=workers,
+                progress=lambda _, r, n, done=done: done.append(r),
+            )
+        )
+        assert [len(s) for s in strips] == [8] * (H // 8) and done == list(range(8, H + 1, 8))
+        outs[workers] = np.concatenate(strips)
+        reads[workers] = [c.reads for c in counted.values()]
+    np.testing.assert_array_equal(outs[3], outs[1])
+    assert sorted(fits[3]) == sorted(fits[1]) and len(fits[1]) >= 2  # each pattern fitted once
+    for r1, r3 in zip(reads[1], reads[3], strict=True):
+        assert r3.max() == 1 and (r3 > 0).sum() == (r1 > 0).sum()
+
+
+def test_full_resolution_view_on_threads_raises_a_strips_failure_in_order():
+    W, H = _SIZE
+    work = WorkingFusion(
+        np.full((H // 2, W // 2, 9), 0.2), np.zeros((H // 2, W // 2), int), {0: np.ones(9)}, slice(0, 3), 2
+    )
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    calls = []
+
+    def fit(s):
+        calls.append(1)
+        raise ValueError("no fit")
+
+    gen = full_resolution_view(photo, work, fit, strip_rows=8, workers=2)
+    with pytest.raises(ValueError, match="no fit"):
+        next(gen)
+    with pytest.raises(SplatError, match="workers"):
+        next(full_resolution_view(photo, work, fit, workers=0))
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 119), st.integers(1, 60)), min_size=2, max_size=16),
+    st.integers(1, 40),
+    st.integers(1, 70),
+)
+def test_cached_rows_from_threads_give_the_rows_each_block_read_once_at_a_time(requests, block, keep):
+    """Requests from four threads at once: every answer is its rows, and no block is read by two
+    callers at the same time (a block being read is waited for)."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    img = _Counted(120)
+    inflight, clash = set(), []
+    lock = threading.Lock()
+
+    def read(a, b):
+        ks = set(range(a // block, (b - 1) // block + 1))
+        with lock:
+            clash.extend(ks & inflight)
+            inflight.update(ks)
+        out = img(a, b)
+        threading.Event().wait(0.001)  # a slow read, so that callers overlap
+        with lock:
+            inflight.difference_update(ks)
+        return out
+
+    rows = CachedRows(read, 120, rows=keep, block=block)
+
+    def ask(req):
+        a, n = req
+        b = min(120, a + n)
+        return rows(a, b), img.img[a:b]
+
+    with ThreadPoolExecutor(4) as pool:
+        for got, want in pool.map(ask, requests):
+            np.testing.assert_array_equal(got, want)
+    assert not clash
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["RGGB", "BGGR", "GRBG", "GBRG"]), st.integers(0, 39))
+def test_demosaic_rows_from_samples_equals_the_rows_reader(seed, cfa, r0):
+    """The Bayer shortcut (mosaic and validity straight from the samples) gives what demosaicing
+    :meth:`RawSource.rows` gives: the same values, and valid where the own site's weight is not 0."""
+    from isp.stages import demosaic
+    from splat.capture.raw import RawSource
+    from splat.strips import HALO, demosaic_rows
+
+    rng = np.random.default_rng(seed)
+    H, W = 40, 30
+    data = rng.integers(0, 4096, (H, W)).astype(np.uint16)
+    data[rng.random((H, W)) < 0.05] = 4095  # saturated
+    data[rng.random((H, W)) < 0.05] = 0  # dead below black
+    src = RawSource(None, data, np.array([[300.0, 310.0], [0.0, 295.0]]), 4095.0, cfa, {})
+    r1 = min(H, r0 + 1 + int(rng.integers(0, 20)))
+    lin, valid = demosaic_rows(src, r0, r1)
+    a = max(0, r0 - HALO) // 2 * 2
+    values, weight = src.rows(a, min(H, r1 + HALO))
+    want = demosaic(values.sum(-1), cfa=cfa, method="Malvar 2004")[r0 - a : r1 - a]
+    np.testing.assert_array_equal(lin, want)
+    np.testing.assert_array_equal(valid, weight[r0 - a : r1 - a].sum(-1) > 0)
+
+
+@pytest.mark.parametrize("bad", [0, -1, True, 1.5, "2"])
+def test_pipeline_config_refuses_bad_workers(bad):
+    from splat.capture import PipelineConfig
+
+    with pytest.raises(SplatError, match="workers"):
+        PipelineConfig(workers=bad)
+
+
+def test_default_workers_is_the_usable_cores_capped():
+    import os
+
+    from splat._tol import FULL_WORKERS
+    from splat.capture import PipelineConfig
+    from splat.strips import default_workers
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert default_workers() == max(1, min(cores, FULL_WORKERS))
+    assert PipelineConfig().workers is None and PipelineConfig(workers=3).workers == 3
+
+
+class _LazySource(_Source):
+    """:class:`_Source`'s image made row by row when asked (nothing held whole)."""
+
+    def __init__(self, H, W):
+        self.shape = (H, W)
+
+    def rows(self, a, b):
+        jj, ii = np.meshgrid(np.arange(self.shape[1]), np.arange(a, b))
+        img = np.stack([0.3 + 0.002 * jj, 0.4 + 0.003 * ii % 0.5, 0.5 - 0.001 * (ii + jj) % 0.4], -1)
+        return img.astype(np.float32), np.ones((b - a, self.shape[1], 3), np.float32)
+
+
+def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
+    """tracemalloc's peak while strips 2… of 256 and of 2048 rows (256 pixels wide, strips of 16) are
+    computed on 2 threads for a slow consumer: the same to a few strips' worth (which strips'
+    temporaries coincide varies with the threads' timing), far below the image: the strips computed
+    ahead are bounded by the threads, not by the image (the working fusion, allocated before the first
+    strip, is not counted)."""
+    import time
+
+    W, rows = 256, 16
+    peaks = []
+    for H in (256, 2048):
+        work = WorkingFusion(
+            np.full((H // 2, W // 2, 9), 0.2),
+            np.zeros((H // 2, W // 2), int),
+            {0: np.ones(9)},
+            slice(0, 3),
+            2,
+        )
+        photo = Photograph(_LazySource(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+        strips = full_resolution_view(
+            photo, work, lambda s: (_Linear(), np.ones(9)), strip_rows=rows, workers=2
+        )
+        next(strips)
+        tracemalloc.start()
+        for _ in strips:
+            time.sleep(0.02)  # the writer: slower than the threads
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    strip = rows * W * 9 * 8  # one strip's responses in float64
+    assert peaks[1] < peaks[0] + 6 * strip, peaks
+    assert peaks[1] < H * W * 9 * 8 / 10, peaks  # the whole image's responses: 10× more
