@@ -200,16 +200,7 @@ def _solve_block(M: np.ndarray, H: np.ndarray, R: np.ndarray, max_iter: int) -> 
         free = ~(lo | up)
         xi = x[idx]
         d = newton(idx, xi, free, grad(idx, xi))
-        with np.errstate(divide="ignore", invalid="ignore"):  # ratio test: the first bound the step meets
-            reach = np.where(free & (d < 0.0), -xi / d, np.where(free & (d > 0.0), (1.0 - xi) / d, np.inf))
-        k = np.argmin(reach, axis=1)
-        rows = np.arange(idx.size)
-        alpha = reach[rows, k]
-        blocked = alpha < 1.0
-        xi = np.clip(xi + np.clip(np.where(blocked, alpha, 1.0), 0.0, 1.0)[:, None] * d, 0.0, 1.0)
-        b, kb = rows[blocked], k[blocked]
-        at_one = d[b, kb] > 0.0
-        lo[b, kb], up[b, kb], xi[b, kb] = ~at_one, at_one, at_one.astype(np.float64)
+        xi, blocked, rows = _bounded_step(xi, d, lo, up)
         # full steps: the free minimiser is feasible; free the fixed variable of most wrong multiplier
         g = grad(idx, xi)
         tau = tol(idx, xi)
@@ -227,6 +218,24 @@ def _solve_block(M: np.ndarray, H: np.ndarray, R: np.ndarray, max_iter: int) -> 
         if idx.size == 0:
             break
     return x, converged
+
+
+def _bounded_step(x, d, lo, up):
+    """``x + α d`` with α ≤ 1 the largest step that keeps the free entries in [0, 1] (the ratio test),
+    the entry that meets its bound first fixed there (``lo``/``up`` updated in place); returns the new
+    point, which rows were blocked, and the row indices. Shared by both active-set solvers' phase 2."""
+    free = ~(lo | up)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the first bound the step meets
+        reach = np.where(free & (d < 0.0), -x / d, np.where(free & (d > 0.0), (1.0 - x) / d, np.inf))
+    k = np.argmin(reach, axis=1)
+    rows = np.arange(x.shape[0])
+    alpha = reach[rows, k]
+    blocked = alpha < 1.0
+    x = np.clip(x + np.clip(np.where(blocked, alpha, 1.0), 0.0, 1.0)[:, None] * d, 0.0, 1.0)
+    b, kb = rows[blocked], k[blocked]
+    at_one = d[b, kb] > 0.0
+    lo[b, kb], up[b, kb], x[b, kb] = ~at_one, at_one, at_one.astype(np.float64)
+    return x, blocked, rows
 
 
 def fiber_box_lsq(A, b, F, c, weight, *, max_iter: int = MAX_ITER) -> tuple[np.ndarray, np.ndarray]:
@@ -414,17 +423,7 @@ def _fiber_block(A, H, B, F, C, w: np.ndarray, max_iter: int) -> tuple[np.ndarra
         free = ~(lo | up)
         xi = x[idx]
         z, lam = solve(idx, free, xi)
-        d = z - xi
-        with np.errstate(divide="ignore", invalid="ignore"):  # ratio test: the first bound the step meets
-            reach = np.where(free & (d < 0.0), -xi / d, np.where(free & (d > 0.0), (1.0 - xi) / d, np.inf))
-        kk = np.argmin(reach, axis=1)
-        rows = np.arange(idx.size)
-        alpha = reach[rows, kk]
-        blocked = alpha < 1.0
-        xi = np.clip(xi + np.clip(np.where(blocked, alpha, 1.0), 0.0, 1.0)[:, None] * d, 0.0, 1.0)
-        bb, kb = rows[blocked], kk[blocked]
-        at_one = d[bb, kb] > 0.0
-        lo[bb, kb], up[bb, kb], xi[bb, kb] = ~at_one, at_one, at_one.astype(np.float64)
+        xi, blocked, rows = _bounded_step(xi, z - xi, lo, up)
         # at the free minimiser (a full step): free the fixed variable whose multiplier is most wrong
         g, tau = grad(idx, xi, lam), tol(idx, xi, lam)
         wrong = np.where(lo, -g - tau, np.where(up, g - tau, -np.inf))
