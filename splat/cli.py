@@ -99,6 +99,21 @@ def _parser() -> argparse.ArgumentParser:
             "less time for binned photographs, less detail from the other cameras)",
         )
         s.add_argument(
+            "--render-sources",
+            default=None,
+            metavar="K|all",
+            help="photographs per camera reprojected into each rendered view, the K that see most of it "
+            "(default: splat._tol.RENDER_SOURCES; 'all': every other photograph, a cost that grows with "
+            "the square of the photographs)",
+        )
+        s.add_argument(
+            "--workers",
+            type=int,
+            default=None,
+            help="strips of the full-resolution stage computed at once, on threads (default: the usable "
+            "cores, at most splat._tol.FULL_WORKERS); the images are the same for any number",
+        )
+        s.add_argument(
             "--noise",
             default="auto",
             metavar="auto|SIGMA|SHOT:READ",
@@ -107,6 +122,22 @@ def _parser() -> argparse.ArgumentParser:
         )
     _export_parser(sub)
     return p
+
+
+def _render_sources(value: str | None) -> dict:
+    """``--render-sources K|all`` as PipelineConfig keywords (none given: its default)."""
+    from ._errors import SplatError
+
+    if value is None:
+        return {}
+    if value.strip().lower() == "all":
+        return {"render_sources": None}
+    try:
+        return {"render_sources": int(value)}
+    except ValueError:
+        raise SplatError(
+            f"--render-sources {value!r}: give a number of photographs per camera (≥ 1) or 'all'."
+        ) from None
 
 
 def _export_parser(sub) -> None:
@@ -187,6 +218,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             train_size=args.train_size,
             noise=parse_noise(args.noise),
             full_reprojection=args.full_reprojection,
+            workers=args.workers,
+            **_render_sources(args.render_sources),
         )
     except ZonotopeError as exc:  # bad option values: one line, before any work
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)

@@ -42,3 +42,32 @@ def test_no_full_reprojection_reaches_the_config(monkeypatch, tmp_path):
     assert main(["correct", str(tmp_path), "-o", str(tmp_path / "out")]) == 0
     assert main(["correct", str(tmp_path), "-o", str(tmp_path / "o2"), "--no-full-reprojection"]) == 0
     assert seen == [True, False]
+
+
+def test_render_sources_and_workers_reach_the_config(monkeypatch, tmp_path, capsys):
+    """``--render-sources K|all`` and ``--workers N`` set PipelineConfig (defaults from splat._tol);
+    a bad value is one line naming the option, before any step runs."""
+    import splat.capture
+    from splat._tol import RENDER_SOURCES
+    from splat.cli import main
+
+    seen = []
+
+    def fake_run(capture, out, *, config, steps, progress):
+        seen.append((config.render_sources, config.workers))
+        return {}
+
+    monkeypatch.setattr(splat.capture, "run", fake_run)
+    o = str(tmp_path / "out")
+    assert main(["render", str(tmp_path), "-o", o]) == 0
+    assert main(["render", str(tmp_path), "-o", o, "--render-sources", "3", "--workers", "2"]) == 0
+    assert main(["render", str(tmp_path), "-o", o, "--render-sources", "all"]) == 0
+    assert seen == [(RENDER_SOURCES, None), (3, 2), (None, None)]
+    capsys.readouterr()
+    for bad in (["--render-sources", "many"], ["--render-sources", "0"], ["--workers", "0"]):
+        assert main(["render", str(tmp_path), "-o", o, *bad]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("splat: error: ") and err.count("\n") == 1 and bad[0].lstrip("-")[:6] in err, (
+            err
+        )
+    assert len(seen) == 3
