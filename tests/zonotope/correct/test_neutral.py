@@ -13,7 +13,13 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from zonotope._errors import OptionError
-from zonotope._tol import NEUTRAL_CHROMA, NEUTRAL_GREY_DE00, NEUTRAL_GREY_SOLVED_DE00, NEUTRAL_LEVELS
+from zonotope._tol import (
+    NEUTRAL_CHROMA,
+    NEUTRAL_GREY_DE00,
+    NEUTRAL_GREY_SOLVED_DE00,
+    NEUTRAL_LEVELS,
+    NEUTRAL_SHIFT_EXACT,
+)
 from zonotope.correct import CORRECTION_METHODS, DELTA_SIGMAS, correction_problem, fit_correction
 
 GRID = np.arange(400.0, 701.0, 10.0)
@@ -147,3 +153,61 @@ def test_prior_image_path_and_radii_follow_the_offset(problem):
     assert np.all(np.isfinite(radius))
     plain = fit_correction(problem, method="Prior", noise=SIGMA, mix=1.0)
     assert np.max(problem.delta_E(plain(c), t)) > 100 * NEUTRAL_GREY_SOLVED_DE00
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    XYZ=st.lists(st.floats(min_value=-0.05, max_value=1.5, allow_nan=False), min_size=3, max_size=3).map(
+        np.array
+    ),
+    dim=st.floats(min_value=-6.0, max_value=0.0),
+)
+def test_lab_chroma_terms_match_colour_science(problem, XYZ, dim):
+    """``_lab_f`` (``np.cbrt`` above the floor) gives colour.XYZ_to_Lab's a*, b* for any XYZ, dark ones
+    (the linear branch, negative values) included."""
+    from zonotope.correct.neutral import _lab_f
+
+    white = problem.white_XYZ
+    XYZ = XYZ * 10.0**dim
+    f = _lab_f(XYZ / white)
+    lab = colour.XYZ_to_Lab(XYZ / white[1], colour.XYZ_to_xy(white))
+    np.testing.assert_allclose(500.0 * (f[0] - f[1]), lab[1], rtol=0, atol=NEUTRAL_SHIFT_EXACT)
+    np.testing.assert_allclose(200.0 * (f[1] - f[2]), lab[2], rtol=0, atol=NEUTRAL_SHIFT_EXACT)
+
+
+@pytest.mark.parametrize("method", ["Finlayson 2015", "Prior"])
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=2**31 - 1), spread=st.floats(min_value=0.0, max_value=0.5))
+def test_the_offset_is_its_definition(problem, fitted, prior, method, seed, spread):
+    """The offset estimate equals its definition evaluated the plain way: ``β`` by ``np.interp`` per
+    channel, the fade weight from ``colour.XYZ_to_Lab``'s chroma of ``t̂(c) + s·β(s)`` (near-grey,
+    chromatic, dark, negative and beyond-the-table responses)."""
+    from zonotope.correct.neutral import white_point_preserving
+
+    base = fitted("Finlayson 2015", False) if method == "Finlayson 2015" else prior
+    rng = np.random.default_rng(seed)
+    c_w = problem.Phi.sum(axis=0)
+    s = 2.0 ** rng.uniform(-14.0, 0.5, 256)
+    c = s[:, None] * c_w * (1.0 + spread * rng.normal(size=(256, c_w.size)))
+    c = np.vstack([c, -0.01 * c_w, 0.0 * c_w]).astype(np.float32)
+    t = base(c).astype(np.float64)
+    wp = white_point_preserving(base)
+    levels, beta, chroma = (
+        wp.params["neutral_levels"],
+        wp.params["neutral_offsets"],
+        wp.params["neutral_chroma"],
+    )
+    g_s = (c.astype(np.float64) @ c_w) / (c_w @ c_w)
+    ls = np.log(np.clip(g_s, levels[0], levels[-1]))
+    b = (
+        np.stack([np.interp(ls, np.log(levels), beta[:, j]) for j in range(3)], -1)
+        * np.maximum(g_s, 0)[:, None]
+    )
+    lab = problem.to_Lab(t + b)
+    g = np.nan_to_num(np.exp(-0.5 * (np.hypot(lab[:, 1], lab[:, 2]) / chroma) ** 2))
+    np.testing.assert_allclose(wp(c), t + g[:, None] * b, rtol=0, atol=NEUTRAL_SHIFT_EXACT)
+
+
+@pytest.fixture(scope="module")
+def prior(problem):
+    return fit_correction(problem, method="Prior", noise=SIGMA, mix=1.0)
