@@ -56,12 +56,6 @@ def _lab_f(ratio: np.ndarray) -> np.ndarray:
     return f
 
 
-def _grey_level(problem, c: np.ndarray) -> np.ndarray:
-    """``s (N,)``: responses ``c (N, k)`` projected on the white's response, ``⟨c, c_w⟩ / ‖c_w‖²``."""
-    c_w = problem.Phi.sum(axis=0)
-    return (c @ c_w) / float(c_w @ c_w)
-
-
 def white_point_preserving(corrector: Corrector, *, chroma: float | None = None) -> Corrector:
     """``corrector`` with its achromatic-axis offset added, weighted by neutrality.
 
@@ -92,7 +86,7 @@ def white_point_preserving(corrector: Corrector, *, chroma: float | None = None)
     levels, beta = neutral_offsets(corrector)
     logs = np.log(levels)
     c_w = p.Phi.sum(axis=0)
-    to_grey = c_w / float(c_w @ c_w)  # c ↦ ⟨c, c_w⟩ / ‖c_w‖², the grey level s (:func:`_grey_level`)
+    to_grey = c_w / float(c_w @ c_w)  # c ↦ ⟨c, c_w⟩ / ‖c_w‖², the grey level s
     # target → XYZ / XYZ_white column by column: the ratios CIELAB's f(·) takes (a*, b* = 0 at the white)
     to_ratio = p.XYZ_from_target / p.white_XYZ
     spread = -0.5 / chroma**2
