@@ -112,12 +112,7 @@ def box_lsq(M, r, *, max_iter: int = MAX_ITER) -> tuple[np.ndarray, np.ndarray]:
     fallback = np.ones(N, dtype=bool)
     if N == 0 or n == 0:
         return x, np.zeros(N, dtype=bool)
-    H = np.swapaxes(M, -1, -2) @ M  # (n, n) or (N, n, n)
-    ev = np.linalg.eigvalsh(H)  # ascending
-    regular = ev[..., 0] * BVLS_CONDITION > ev[..., -1]  # also False for a singular H (λ_min ≤ 0)
-    if M.ndim == 2:
-        regular = np.broadcast_to(regular, (N,))
-    rows = np.flatnonzero(regular) if max_iter > 0 else np.zeros(0, dtype=np.intp)
+    H, rows = _gram_rows(M, N, max_iter)
     for i in range(0, rows.size, BLOCK):
         j = rows[i : i + BLOCK]
         if M.ndim == 2:
@@ -128,6 +123,18 @@ def box_lsq(M, r, *, max_iter: int = MAX_ITER) -> tuple[np.ndarray, np.ndarray]:
     for i in np.flatnonzero(fallback):
         x[i] = _scipy_bvls(M if M.ndim == 2 else M[i], R[i])
     return x, fallback
+
+
+def _gram_rows(M: np.ndarray, N: int, max_iter: int) -> tuple[np.ndarray, np.ndarray]:
+    """``MᵀM`` ((n, n) or (N, n, n)) and the rows the batched solvers take: those whose ``MᵀM`` is
+    well conditioned (below :data:`BVLS_CONDITION`; a singular one never is), none when ``max_iter``
+    is 0. The others go to scipy's per-row BVLS. Shared by :func:`box_lsq` and :func:`fiber_box_lsq`."""
+    H = np.swapaxes(M, -1, -2) @ M
+    ev = np.linalg.eigvalsh(H)  # ascending
+    regular = ev[..., 0] * BVLS_CONDITION > ev[..., -1]  # also False for a singular H (λ_min ≤ 0)
+    if M.ndim == 2:
+        regular = np.broadcast_to(regular, (N,))
+    return H, (np.flatnonzero(regular) if max_iter > 0 else np.zeros(0, dtype=np.intp))
 
 
 def _scipy_bvls(M: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -314,12 +321,7 @@ def fiber_box_lsq(A, b, F, c, weight, *, max_iter: int = MAX_ITER) -> tuple[np.n
     fallback = np.ones(N, dtype=bool)
     if N == 0 or n == 0:
         return x, np.zeros(N, dtype=bool)
-    H = np.swapaxes(A, -1, -2) @ A
-    ev = np.linalg.eigvalsh(H)
-    regular = ev[..., 0] * BVLS_CONDITION > ev[..., -1]
-    if A.ndim == 2:
-        regular = np.broadcast_to(regular, (N,))
-    rows = np.flatnonzero(regular) if max_iter > 0 else np.zeros(0, dtype=np.intp)
+    H, rows = _gram_rows(A, N, max_iter)
     for i in range(0, rows.size, BLOCK):
         j = rows[i : i + BLOCK]
         Aj, Hj = (A, H) if A.ndim == 2 else (A[j], H[j])
