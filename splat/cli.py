@@ -110,8 +110,9 @@ def _parser() -> argparse.ArgumentParser:
             "--workers",
             type=int,
             default=None,
-            help="strips of the full-resolution stage computed at once, on threads (default: the usable "
-            "cores, at most splat._tol.FULL_WORKERS); the images are the same for any number",
+            help="views rendered and strips of the full-resolution stage computed at once, on threads "
+            "(default: the usable cores, at most splat._tol.FULL_WORKERS); the images are the same for "
+            "any number",
         )
         s.add_argument(
             "--noise",

@@ -18,7 +18,6 @@ view-independent colours assume the same.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -484,9 +483,11 @@ def consistent_depth(
             stack = np.stack(stack)
             seen = np.isfinite(stack[..., 0]).sum(0)
             med = _nanmedian0(stack)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # pixels no source sees: all-NaN
-                dev = np.nanmean(np.nanmean(np.abs(stack - med) / (np.abs(med) + SWEEP_FLOOR), -1), 0)
+            # the mean over the sources that see each pixel (NaN where one does not), without
+            # np.nanmean's warning for pixels none sees: warning filters are process-wide, not per thread
+            rel = (np.abs(stack - med) / (np.abs(med) + SWEEP_FLOOR)).mean(-1)
+            sees = np.isfinite(rel)
+            dev = np.where(sees, rel, 0.0).sum(0) / np.maximum(sees.sum(0), 1)
             has = seen >= 2
             total += np.where(has, dev, 0.0)
             n += has

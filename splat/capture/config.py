@@ -223,10 +223,11 @@ class PipelineConfig:
         it against all, and the time).
     workers : int or None
         Strips of the full-resolution stage computed at once, on threads
-        (:func:`splat.strips.full_resolution_view`): time and memory only, the images are the same for
-        any number (so it is recorded in the correct step's summary, not in the settings that decide
-        reuse); None (default): :func:`splat.strips.default_workers`, the cores this process may use, at
-        most :data:`splat._tol.FULL_WORKERS`.
+        (:func:`splat.strips.full_resolution_view`), and views the render step renders and reprojects
+        at once: time and memory only, the images are the same for any number (so it is recorded in the
+        correct step's summary, not in the settings that decide reuse); None (default):
+        :func:`splat.strips.default_workers`, the cores this process may use, at most
+        :data:`splat._tol.FULL_WORKERS`.
     steps, capacity, seed, densify_until, refine_exposure, refine_poses, depth_weight
         :data:`TRAIN_OPTIONS`: ``train``'s fields (the poses step also uses ``seed``). Notes on two of
         them: ``refine_exposure`` is off by default because on the simulated capture, whose EXIF is

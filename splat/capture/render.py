@@ -7,7 +7,9 @@ from __future__ import annotations
 import fnmatch
 import itertools
 import os
+import threading
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -91,6 +93,28 @@ def nearest_sources(cam, depth, alpha, candidates, k: int | None) -> list:
     return [candidates[i] for i in order[:k] if seen[i][0] > 0]
 
 
+_ONCE_LOCK = threading.Lock()
+
+
+def _once(cache: dict, key, make):
+    """``cache[key]``, made by ``make()`` by the first caller only: callers on other threads asking for
+    the same key wait for it (a failure reaches each of them) instead of computing it again."""
+    with _ONCE_LOCK:
+        entry = cache.get(key)
+        mine = entry is None
+        if mine:
+            entry = cache[key] = Future()
+    if mine:
+        try:
+            entry.set_result(make())
+        except BaseException as e:
+            entry.set_exception(e)
+            with _ONCE_LOCK:  # not kept: a later call tries again
+                cache.pop(key, None)
+            raise
+    return entry.result()
+
+
 def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, k: int | None = None):
     """Every camera's photographs (other than ``name`` itself; with ``k``, only each camera's ``k`` that
     see most of the view, :func:`nearest_sources`) reprojected into the view through the
@@ -100,7 +124,7 @@ def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, 
     exposure 1 (0 where no photograph of that camera sees the pixel) and the number of photographs that
     see it (H, W, n). ``model``: the splat's ``(gaussians, alive)``
     (:func:`splat.capture.load_gaussians`); ``cache`` keeps each view's depth maps and photograph for the
-    next call."""
+    next call, each computed once even when calls on several threads share it."""
     from ..fusion import measured, photo_variance
     from ..reproject import MIN_ALPHA, depth_map, reprojected
     from ..reproject import consistent_depth as agree
@@ -108,21 +132,23 @@ def reprojected_view(name, cam, views, raws, model: tuple, cache: dict, n: int, 
     g, alive = model
 
     def depth(v_name, c):  # (depth, alpha, source depth), computed once per view
-        if ("depth", v_name) not in cache:
+        def make():
             dep, alpha = depth_map(g, c, mask=alive)
             # as a source, a pixel without a reliable depth vouches for nothing (0 never agrees)
-            cache["depth", v_name] = (dep, alpha, np.where(alpha >= MIN_ALPHA, dep, 0.0))
-        return cache["depth", v_name]
+            return dep, alpha, np.where(alpha >= MIN_ALPHA, dep, 0.0)
+
+        return _once(cache, ("depth", v_name), make)
 
     def photo(v_name):  # the photograph demosaiced at exposure 1 and its variance, once per view
-        if ("photo", v_name) not in cache:
+        def make():
             r = raws[v_name]
             # bilinear, not Malvar: a source is read near its own edges, where Malvar overshoots
             # (three cameras fused, CI coarse capture, flat held-out pixels: 0.497 → 0.460 ΔE00 noise-free,
             # 1.392 → 1.368 noisy)
             p = measured(r, np.ones(3), method="bilinear")
-            cache["photo", v_name] = (p, photo_variance(r, p))
-        return cache["photo", v_name]
+            return p, photo_variance(r, p)
+
+        return _once(cache, ("photo", v_name), make)
 
     d, a, _ = depth(name, cam)
     groups = []  # each camera's photographs (but the view's own), as reprojection sources
@@ -187,6 +213,7 @@ def render_step(
     dict
         ``views``: name → {camera folder, kind ("holdout" / "view" / "novel"), files}.
     """
+    from .. import strips as _strips
     from ..outputs import pca_false_colour, render_views, split_cameras
 
     spec, ws = step_workspace(
@@ -203,12 +230,13 @@ def render_step(
     todo = views_to_render(spec, views, config)
     n = len(spec.cameras)
     depths: dict = {}  # each view's depths and photograph, computed once
-    index = {}
-    rendered = 0  # views rendered or reprojected by this call
-    for i, (name, cam, cid, kind) in enumerate(todo):
+    workers = _strips.default_workers() if config.workers is None else config.workers
+
+    def one(item) -> bool:  # render and reproject one view; True if it did any work
+        name, cam = item[:2]
         d = ws.view_dir("render", name)
         files = {"render": d / "render.tiff", "pca": d / "pca.png"}
-        rendered += not all(p.is_file() for p in [*files.values(), d / "reprojected_count.tiff"])
+        did = not all(p.is_file() for p in [*files.values(), d / "reprojected_count.tiff"])
         if not all(p.is_file() for p in files.values()):
             img = render_views(g, [cam], mask=alive)[0]
             write_tiff(files["render"], img)
@@ -221,9 +249,21 @@ def render_step(
             )
             write_tiff(d / "reprojected.tiff", rep)
             write_tiff(d / "reprojected_count.tiff", count)  # written last: marks the pair complete
-        index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}
-        if progress is not None:
-            progress("render", i + 1, len(todo))
+        return did
+
+    index = {}
+    rendered = 0  # views rendered or reprojected by this call
+    # views on threads (the renders and the reprojection's array work release the GIL), each view's
+    # files written by its own thread; the progress and the index follow the views' order
+    pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="render")
+    try:
+        for i, ((name, _, cid, kind), did) in enumerate(zip(todo, pool.map(one, todo), strict=True)):
+            rendered += did
+            index[name] = {"camera": spec.cameras[cid - 1].folder, "kind": kind, "dir": spec.out_stem(name)}
+            if progress is not None:
+                progress("render", i + 1, len(todo))
+    finally:  # after a failure, the views not started are dropped
+        pool.shutdown(wait=True, cancel_futures=True)
     write_json(out / "render" / "index.json", index)
     if rendered or not (out / "render" / "summary.json").is_file():  # a call that reused every view
         write_json(  # keeps the summary of the call that did the work

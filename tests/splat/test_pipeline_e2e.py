@@ -263,3 +263,55 @@ def test_depth_error_against_the_simulated_geometry(ci_run):
     assert np.median(middles) < 0.05
     with pytest.raises(SystemExit, match="does not match"):
         depth_error(cap, out, size="benchmark", model=None, views=None)
+
+
+def test_render_step_on_threads_writes_the_same_files(ci_run, tmp_path):
+    """`splat render --workers 2` renders views at once and writes byte-identical files to one at a
+    time, in the same index order."""
+    from splat.cli import main
+
+    _cap, out, _, _, args = ci_run
+    files = {}
+    for workers in ("1", "2"):
+        o = tmp_path / f"out{workers}"
+        shutil.copytree(out, o)
+        shutil.rmtree(o / "render")  # only this step's results go: the model stays
+        rest = [a if a != str(out) else str(o) for a in args]
+        assert main(["render", *rest, "--workers", workers]) == 0
+        files[workers] = {p.relative_to(o): p.read_bytes() for p in sorted((o / "render").rglob("*.tiff"))}
+        files[workers]["index"] = (o / "render" / "index.json").read_bytes()
+    assert files["1"].keys() == files["2"].keys() and len(files["1"]) > 6
+    assert files["1"] == files["2"]
+
+
+def test_shared_view_cache_computes_each_entry_once():
+    """The render step's cache of depths and photographs, shared by threads: each key is made once
+    whoever asks; a failure reaches every caller waiting for it and is not kept."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from splat.capture.render import _once
+
+    cache, made = {}, []
+    lock = threading.Lock()
+
+    def make():
+        with lock:
+            made.append(1)
+        time.sleep(0.05)  # long enough for the other callers to arrive while it is being made
+        return np.arange(3)
+
+    with ThreadPoolExecutor(8) as pool:
+        got = list(pool.map(lambda _: _once(cache, "k", make), range(8)))
+    assert len(made) == 1 and all(g is got[0] for g in got)
+
+    def boom():
+        time.sleep(0.05)
+        raise ValueError("bad view")
+
+    with ThreadPoolExecutor(4) as pool:
+        futs = [pool.submit(_once, cache, "bad", boom) for _ in range(4)]
+    assert all(isinstance(f.exception(), ValueError) for f in futs)
+    assert "bad" not in cache
+    assert _once(cache, "bad", lambda: 7) == 7
