@@ -8,11 +8,13 @@ from __future__ import annotations
 import functools
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import strips as _strips
 from .._errors import SplatError
 from .._tol import FEASIBLE_DISTANCE
 from ..strips import FULL_METHOD
@@ -598,19 +600,24 @@ def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
     return out
 
 
-def fit_corrector(spec: CaptureSpec, cameras: list[int], method: str, delta: float, *, cache_dir=None):
+def fit_corrector(
+    spec: CaptureSpec, cameras: list[int], method: str, delta: float, *, cache_dir=None, executor=None
+):
     """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
     passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
     Centroid ``delta=δ``). ``cache_dir``: the run's fit cache (:meth:`Workspace.fit_cache`), in which
-    Prior keeps its cross-validated fit for later readers of the run (``splat export``). Cameras with
-    estimated curves add their :func:`ssf_sigma` to σ in quadrature."""
+    Prior keeps its cross-validated fit for later readers of the run (``splat export``); ``executor``:
+    where Prior computes MMV centroids (:func:`_fit_on`). Cameras with estimated curves add their
+    :func:`ssf_sigma` to σ in quadrature."""
     from zonotope.correct import DELTA_SIGMAS
 
     sigma = delta / DELTA_SIGMAS
     band = ssf_sigma(spec, cameras)
     if band.any():
         sigma = np.hypot(sigma, band)
-    return _fit_on(correction_problem_of(spec, cameras), method, sigma, cache_dir=cache_dir)
+    return _fit_on(
+        correction_problem_of(spec, cameras), method, sigma, cache_dir=cache_dir, executor=executor
+    )
 
 
 def fit_fused_corrector(
@@ -664,10 +671,12 @@ def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None):
+def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None, executor=None):
     """``method`` fitted on ``problem`` with responses of noise ``sigma`` (one σ or one per channel), told
     to it as its registry entry says (:func:`zonotope.correct.noise_options`), with
-    ``white_point=`` :data:`WHITE_POINT`; ``cache_dir``: where Prior keeps its cross-validated fit."""
+    ``white_point=`` :data:`WHITE_POINT`; ``cache_dir``: where Prior keeps its cross-validated fit;
+    ``executor``: where Prior computes its MMV centroids (threads: the walks release the GIL, and the
+    result is the same)."""
     from zonotope.correct import CORRECTION_METHODS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
@@ -677,6 +686,8 @@ def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None):
         opts["mix"] = mix
     if name == "Prior" and cache_dir is not None:
         opts["cache_dir"] = cache_dir
+    if name == "Prior" and executor is not None:
+        opts["executor"] = executor
     return fit_correction(problem, method=name, **opts)
 
 
@@ -703,7 +714,9 @@ def correct_step(
     progress: ProgressCallback | None = None,
 ) -> dict:
     """Colour-correct every rendered view with all cameras (``config.method``), and develop each
-    camera's channels with its own DNG matrix; held-out RAW files are also developed by isp.
+    camera's channels with its own DNG matrix; held-out RAW files are also developed by isp. A
+    photograph's answer is its fused correction (working and full resolution); the render corrected
+    alone is written for held-out and novel views only (scored there, or the only answer).
 
     Returns
     -------
@@ -743,13 +756,31 @@ def correct_step(
             "full_reprojection": config.full_reprojection,
         },
     )
+    prep = iter(range(1, 9))  # the parts before the first photograph, each reported when done
+
+    def prepared():
+        if progress is not None:
+            progress("correct: light, white, levels, noise, fits", next(prep), 8)
+
+    if progress is not None:
+        progress("correct: light, white, levels, noise, fits", 0, 8)
     spec, light = illuminant_of(spec, out, photographed or index, raws)  # "estimate": the light now
+    prepared()
     white = white_of(spec, out, list(raws.values()))
+    prepared()
     white = levelled_white(spec, out, photographed or index, raws, white)
+    prepared()
     scale = np.concatenate(white["scale"])
     n = len(spec.cameras)
     tol = delta_of(spec, out, photographed or index, scale)
-    corrector = fit_corrector(spec, list(range(n)), config.method, tol["delta"], cache_dir=ws.fit_cache())
+    prepared()
+    workers = _strips.default_workers() if config.workers is None else config.workers
+    # the render corrected alone solves an MMV per distinct response: on threads (same result)
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="mmv") if workers > 1 else None
+    corrector = fit_corrector(
+        spec, list(range(n)), config.method, tol["delta"], cache_dir=ws.fit_cache(), executor=pool
+    )
+    prepared()
     problem = corrector.problem
     wXYZ = problem.white_XYZ
     mname = corrector.method.replace(" ", "")
@@ -757,13 +788,16 @@ def correct_step(
     for v in raws.values():
         profiles.setdefault(v.camera, (v.profile, v.neutral))
     fusion = fusion_of(spec, out, index, raws, scale)
+    prepared()
     noise_used = own_noise(fusion, raws, scale, config.noise)
+    prepared()
     fusion = dict(
         fusion, views={m: dict(d, own_sigma=noise_used[m]["sigma"]) for m, d in fusion["views"].items()}
     )
     fit = fused_fitter(spec, list(range(n)), config.method)
     fit_full = fused_fitter(spec, list(range(n)), FULL_METHOD)
     full_model = full_reprojection(spec, out, raws, fusion, scale) if config.full_reprojection else None
+    prepared()
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
     full_info = {}
     # one progress bar over the rows of every photograph still to correct at full resolution
@@ -782,7 +816,10 @@ def correct_step(
         d = out / "render" / info["dir"]
         o = out / "correct" / info["dir"]
         img = read_tiff(d / "render.tiff") / scale
-        if not (o / f"{mname}_XYZ.tiff").is_file():
+        # the render alone corrected: where it is scored (held-out views) or the view has no photograph
+        # (novel); a photographed view's answer is its fused correction, and the render's many distinct
+        # responses cost an MMV walk each (at 12 MP, 200-500 s a view, more than the rest of it)
+        if info["kind"] != "view" and not (o / f"{mname}_XYZ.tiff").is_file():
             XYZ = correct_image(np.maximum(img, 0), corrector, quantum=config.quantum)
             _write_corrected(o, mname, XYZ, wXYZ)
         for k in range(n):
@@ -834,6 +871,8 @@ def correct_step(
             write_png8(o / "raw_dng_sRGB.png", XYZ_to_sRGB(X, wXYZ))
         if progress is not None:
             progress("correct", i + 1, len(index))
+    if pool is not None:  # on a failure the pool's idle threads end when it is collected
+        pool.shutdown()
     summary = {
         "method": corrector.method,
         "delta": tol["delta"],
