@@ -48,7 +48,7 @@ def test_nearest_sources_are_those_that_see_most_of_the_view(shifts, k, with_awa
     """Fronto-parallel cameras shifted sideways over a plane see ``1 − shift / footprint`` of the view
     (closed form): the chosen sources are the ``k`` least shifted, most first; a camera that looks away
     from the plane sees none of it and is never chosen; without ``k`` (or ``k`` ≥ the candidates) all
-    are kept in their order."""
+    are kept in their order, but for the one that sees nothing with ``seen_only``."""
     from splat.capture import nearest_sources
 
     target = _view(0.0)
@@ -67,6 +67,13 @@ def test_nearest_sources_are_those_that_see_most_of_the_view(shifts, k, with_awa
     else:
         assert chosen == [f"v{i}" for i in np.argsort(shifts, kind="stable")[:k]]
     assert [c[0] for c in nearest_sources(target, d, a, cands, None)] == [c[0] for c in cands]
+    # seen_only (the correct step's full-resolution sources): the same choice, and the photograph that
+    # sees nothing left out also when every candidate is kept
+    seen = [c[0] for c in cands if c[0] != "away"]
+    got = [c[0] for c in nearest_sources(target, d, a, cands, k, seen_only=True)]
+    assert got == (seen if k >= len(cands) else chosen)
+    assert [c[0] for c in nearest_sources(target, d, a, cands, k, seen_only=True, stride=1)] == got
+    assert [c[0] for c in nearest_sources(target, d, a, cands, None, seen_only=True)] == seen
 
 
 @pytest.mark.parametrize("bad", [0, -1, 2.5, True, "4"])
