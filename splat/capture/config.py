@@ -345,17 +345,27 @@ def working_binning(config: PipelineConfig, spec: CaptureSpec | None = None):
     return lambda k, shape, full: working_factor(shape, full, size=size)
 
 
-def read_working(spec: CaptureSpec, ws: Workspace, config: PipelineConfig, progress=None) -> list:
+def read_working(
+    spec: CaptureSpec, ws: Workspace, config: PipelineConfig, progress=None, *, automatic: bool = False
+) -> list:
     """Every RAW file of the capture at the working resolution (:func:`splat.capture.raw.load_views`
     with :func:`working_binning`), each decoded once per run: kept in ``ws``'s decode cache
     (:meth:`Workspace.decode_cache`, keyed by the file and the working-resolution options) and read
-    from there by the later steps."""
-    from ..resolution import TRAIN_PIXEL_BUDGET
+    from there by the later steps.
+
+    With ``automatic``, at the automatic working resolution whatever ``train_size`` says: the poses
+    step's previews, which never depend on it (with the default ``train_size`` the same entries as the
+    later steps', so that the poses step's decoding is the run's only one)."""
+    from ..resolution import TRAIN_PIXEL_BUDGET, working_factor
     from .raw import load_views
 
-    options = {"train_size": train_size_of(spec, config), "budget": TRAIN_PIXEL_BUDGET}
+    size = None if automatic else train_size_of(spec, config)
+    options = {"train_size": size, "budget": TRAIN_PIXEL_BUDGET}
     return load_views(
-        spec, progress=progress, binning=working_binning(config, spec), cache=ws.decode_cache(options)
+        spec,
+        progress=progress,
+        binning=lambda k, shape, full: working_factor(shape, full, size=size),
+        cache=ws.decode_cache(options),
     )
 
 

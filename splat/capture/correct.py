@@ -978,7 +978,8 @@ def full_reprojection(
     """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
     working resolution, or no camera's reprojection noise is known): for each other camera, its
     :data:`splat._tol.FULL_SOURCES` photographs that see most of the view (at the working resolution,
-    through the splat's depth), read from their RAW files (bilinear demosaic, as the render step's
+    through the splat's depth: :func:`splat.capture.nearest_sources` counting every pixel, photographs
+    that see none of it left out), read from their RAW files (bilinear demosaic, as the render step's
     sources) a band of rows at a time. σ of a channel reprojected at full resolution: the camera's
     working ``reprojected_sigma`` and, in quadrature, its photographs' full-resolution sensor noise over
     √(photographs) (the binned estimate holds the noise of a binned site only).
@@ -986,13 +987,14 @@ def full_reprojection(
     ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
     views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
     :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks)."""
-    from .._tol import FULL_SOURCES
+    from .._tol import FULL_SOURCE_STRIDE, FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
-    from ..reproject import MIN_ALPHA, depth_map, visibility
+    from ..reproject import MIN_ALPHA, depth_map
     from ..resolution import sites_per_block
     from ..strips import FullReprojection, raw_row_source
     from .config import working_views
+    from .render import nearest_sources
     from .train import load_gaussians, load_model_capture, refined_views
 
     rep_sigma = fusion.get("reprojected_sigma")
@@ -1037,13 +1039,13 @@ def full_reprojection(
         for c in range(len(spec.cameras)):
             if c == view.camera:
                 continue
-            seen = []
-            for name, r in raws.items():
-                if r.camera != c or r.exif is None or name not in st["views"]:
-                    continue
-                ok = visibility(cam, d, a, st["views"][name].camera, depth(name)[2])
-                seen.append((int(ok.sum()), name))
-            chosen = [raws[nm] for n, nm in sorted(seen, key=lambda x: (-x[0], x[1]))[:FULL_SOURCES] if n > 0]
+            cands = [
+                (name, st["views"][name].camera, depth(name)[2])
+                for name, r in raws.items()
+                if r.camera == c and r.exif is not None and name in st["views"]
+            ]
+            best = nearest_sources(cam, d, a, cands, FULL_SOURCES, seen_only=True, stride=FULL_SOURCE_STRIDE)
+            chosen = [raws[nm] for nm, _, _ in best]
             if not chosen:
                 continue
             ws = scale[3 * c : 3 * c + 3]

@@ -1,5 +1,7 @@
 """The poses step: previews of every photograph (developed by :mod:`isp`) and a COLMAP model of the
-capture's poses (recovered, or read from ``[poses]``).
+capture's poses (recovered, or read from ``[poses]``). Each RAW file is decoded here for the whole
+run: binned to the automatic working resolution and kept in ``OUT/decoded``
+(:meth:`splat.capture.Workspace.decode_cache`), from which the later steps read it.
 """
 
 from __future__ import annotations
@@ -12,9 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .config import PipelineConfig, step_workspace, working_summary
+from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import write_json, write_png8
-from .raw import RawView, camera_white, check_white_box, load_views
+from .raw import RawView, camera_white, check_white_box
 from .spec import CaptureError
 from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
 
@@ -30,7 +32,8 @@ __all__ = [
 
 def preview_binning(k, shape, full) -> int:
     """The binning of the poses step's previews: the automatic working resolution (bounded whatever
-    ``train_size`` says, so that poses never depend on it)."""
+    ``train_size`` says, so that poses never depend on it); the step reads its files so binned through
+    the run's decode cache (:func:`splat.capture.config.read_working` with ``automatic``)."""
     from ..resolution import working_factor
 
     return working_factor(shape, full)
@@ -97,7 +100,8 @@ def poses_step(
     t0 = time.perf_counter()
     reset_peak_rss()
     # previews of a bounded size: each file read and binned to the automatic working resolution
-    views = load_views(spec, progress=progress, binning=preview_binning)
+    # (preview_binning) once, and kept in the run's decode cache, from which the later steps read it
+    views = read_working(spec, ws, config, progress, automatic=True)
     check_white_box(spec, views)
     names = [v.name for v in views]
     if spec.colmap is not None or spec.transforms is not None:

@@ -64,31 +64,40 @@ def _novel_cameras(views, n: int):
     return out
 
 
-def nearest_sources(cam, depth, alpha, candidates, k: int | None) -> list:
+def nearest_sources(
+    cam, depth, alpha, candidates, k: int | None, *, seen_only: bool = False, stride: int | None = None
+) -> list:
     """The ``k`` of ``candidates`` (``(name, camera, source depth)``, one camera's photographs) that see
     most of the view ``cam`` through its ``depth`` and ``alpha``, most first (ties by name); all of them,
     in their order, when ``k`` is None or not fewer than the candidates. A photograph that sees none of
-    the view is never chosen.
+    the view is never chosen by rank; with ``seen_only`` it is left out in every case (then ``k`` None
+    or not fewer than the candidates keeps the others in their order).
 
-    Counted on every :data:`splat._tol.RENDER_SOURCE_STRIDE`-th pixel of the view in each direction
-    (:func:`splat.reproject.visibility`): the ranking needs the share of the view a photograph sees, not
-    its pixels, and so costs a small fraction of one reprojection.
+    Counted on every ``stride``-th pixel of the view in each direction (default
+    :data:`splat._tol.RENDER_SOURCE_STRIDE`; :func:`splat.reproject.visibility`): the ranking needs the
+    share of the view a photograph sees, not its pixels, and so costs a small fraction of one
+    reprojection.
 
     Why: reprojecting every other photograph into every view grows as the square of the photographs;
     the nearest few carry the view's measurement (the farther ones see less of it, at a slant, and
-    mostly add noise averaging the fusion already has)."""
+    mostly add noise averaging the fusion already has). ``seen_only`` and ``stride`` are for the correct
+    step, which reads each chosen photograph at full resolution and counts it in the reprojected noise
+    (:data:`splat._tol.FULL_SOURCE_STRIDE`)."""
     from .._tol import RENDER_SOURCE_STRIDE
     from ..reproject import visibility
     from ..resolution import scale_camera
 
-    if k is None or len(candidates) <= k:
+    everything = k is None or len(candidates) <= k
+    if everything and not seen_only:
         return list(candidates)
-    s = RENDER_SOURCE_STRIDE
+    s = RENDER_SOURCE_STRIDE if stride is None else int(stride)
     coarse = scale_camera(cam, s)
     h, w = coarse.height, coarse.width
     d = np.asarray(depth)[s // 2 :: s, s // 2 :: s][:h, :w]
     a = np.asarray(alpha)[s // 2 :: s, s // 2 :: s][:h, :w]
     seen = [(int(visibility(coarse, d, a, c, sd).sum()), name) for name, c, sd in candidates]
+    if everything:
+        return [c for c, (n, _) in zip(candidates, seen, strict=True) if n > 0]
     order = sorted(range(len(candidates)), key=lambda i: (-seen[i][0], seen[i][1]))
     return [candidates[i] for i in order[:k] if seen[i][0] > 0]
 

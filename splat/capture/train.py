@@ -91,8 +91,8 @@ def training_inputs(
     Views of different sizes are padded (right and bottom, weight 0) to the largest size so that they
     stack; a view's intrinsics are unchanged by the padding. ``progress("read", done, total)`` after
     each RAW file (reading 36 files of 12 MP takes minutes). With the run's ``workspace``, the files
-    are decoded through its decode cache (:func:`splat.capture.config.read_working`), for the later
-    steps to reuse.
+    are read from its decode cache (:func:`splat.capture.config.read_working`), where the poses step
+    kept them (a file or option the cache has no entry for is decoded and kept for the later steps).
     """
     from ..camera import Camera
     from ..data import Capture

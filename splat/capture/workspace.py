@@ -270,8 +270,9 @@ class Workspace:
 
     def decode_cache(self, options: dict) -> tuple[Path, dict] | None:
         """``(OUT/decoded, options + version)``: the ``cache`` of :func:`splat.capture.raw.load_views`,
-        where the train, render and correct steps keep each RAW file decoded at the working resolution
-        (``options``: everything the working binning depends on), so that a run decodes each file once.
+        where the poses step keeps each RAW file decoded at the working resolution and the train, render and
+        correct steps read it (``options``: everything the working binning depends on), so that a run
+        decodes each file once.
 
         Each file's entry is named by a hash of the file (path, size, modification time), its camera's
         overrides, ``options`` and the software version, so it is never read for other inputs or

@@ -48,7 +48,7 @@ def test_nearest_sources_are_those_that_see_most_of_the_view(shifts, k, with_awa
     """Fronto-parallel cameras shifted sideways over a plane see ``1 − shift / footprint`` of the view
     (closed form): the chosen sources are the ``k`` least shifted, most first; a camera that looks away
     from the plane sees none of it and is never chosen; without ``k`` (or ``k`` ≥ the candidates) all
-    are kept in their order."""
+    are kept in their order, but for the one that sees nothing with ``seen_only``."""
     from splat.capture import nearest_sources
 
     target = _view(0.0)
@@ -67,6 +67,13 @@ def test_nearest_sources_are_those_that_see_most_of_the_view(shifts, k, with_awa
     else:
         assert chosen == [f"v{i}" for i in np.argsort(shifts, kind="stable")[:k]]
     assert [c[0] for c in nearest_sources(target, d, a, cands, None)] == [c[0] for c in cands]
+    # seen_only (the correct step's full-resolution sources): the same choice, and the photograph that
+    # sees nothing left out also when every candidate is kept
+    seen = [c[0] for c in cands if c[0] != "away"]
+    got = [c[0] for c in nearest_sources(target, d, a, cands, k, seen_only=True)]
+    assert got == (seen if k >= len(cands) else chosen)
+    assert [c[0] for c in nearest_sources(target, d, a, cands, k, seen_only=True, stride=1)] == got
+    assert [c[0] for c in nearest_sources(target, d, a, cands, None, seen_only=True)] == seen
 
 
 @pytest.mark.parametrize("bad", [0, -1, 2.5, True, "4"])
@@ -217,3 +224,78 @@ def test_decode_cache_is_a_poses_output(small_capture, tmp_path):
     (ws2.root / "decoded" / "mine.txt").write_text("x")
     with pytest.raises(CaptureError, match="decoded"):
         ws2.begin("poses", {"capture": 1})
+
+
+def test_poses_step_decodes_each_file_once_for_the_run(small_capture, tmp_path, monkeypatch):
+    """A poses run (previews for COLMAP) followed by the train step's reading decodes each RAW file once:
+    the train step reads the poses step's entries. The previews are byte for byte those made from a
+    fresh decoding at the automatic working resolution. With another ``train_size`` the train step's
+    working views differ from the previews and are decoded (once each)."""
+    import dataclasses
+    import shutil
+
+    import splat.poses
+    from splat.capture import (
+        PipelineConfig,
+        Workspace,
+        camera_white,
+        load_views,
+        poses_step,
+        preview_binning,
+        preview_upscale,
+        read_capture,
+        training_inputs,
+    )
+    from splat.capture.files import write_png8
+    from splat.capture.poses import _preview
+    from splat.colmap import ColmapCamera, read_colmap
+
+    cap = tmp_path / "cap"
+    shutil.copytree(small_capture, cap)
+    toml = cap / "capture.toml"
+    toml.write_text(toml.read_text().replace('[poses]\ncolmap = "sparse"', ""))  # poses from previews
+    spec = read_capture(cap)
+    assert spec.colmap is None
+    fresh = load_views(spec, binning=preview_binning)
+    truth = read_colmap(small_capture / "sparse")
+    seen = {}
+
+    def recover(previews, work, *, config):  # COLMAP stood in for: the true poses at the previews' size
+        seen["files"] = sorted(p.relative_to(previews).as_posix() for p in previews.rglob("*.png"))
+        cams = {}
+        for i, c in truth.cameras.items():
+            v = next(v for v in fresh if v.camera == i - 1)
+            u = preview_upscale(v.shape) / v.binning
+            fx, fy, cx, cy = c.pinhole()
+            cams[i] = ColmapCamera(
+                i, "PINHOLE", v.shape[1] * u, v.shape[0] * u, (fx * u, fy * u, cx * u, cy * u)
+            )
+        imgs = {
+            i: dataclasses.replace(im, name=im.name.rsplit(".", 1)[0] + ".png")
+            for i, im in truth.images.items()
+        }
+        return dataclasses.replace(truth, cameras=cams, images=imgs)
+
+    monkeypatch.setattr(splat.poses, "recover_poses", recover)
+    calls = _counting(monkeypatch)
+    out = tmp_path / "out"
+    s = poses_step(cap, out, config=PipelineConfig())
+    assert s["source"] == "pycolmap" and s["registered"] == len(fresh)
+    assert sorted(calls) == sorted(v.path.name for v in fresh)  # each file decoded once
+    ws = Workspace(spec, out)
+    for v in fresh:
+        mine = ws.path("previews", f"{spec.out_stem(v.name)}.png")
+        ref = tmp_path / "ref" / f"{spec.out_stem(v.name)}.png"
+        write_png8(ref, _preview(v, camera_white(spec, v.camera)), upscale=preview_upscale(v.shape))
+        assert mine.read_bytes() == ref.read_bytes(), v.name
+    assert len(seen["files"]) == len(fresh)
+
+    calls.clear()
+    inp = training_inputs(spec, out, PipelineConfig(), workspace=ws)
+    assert calls == [] and len(inp.views) == len(fresh) - len(spec.holdout)  # read, not decoded
+    ref = training_inputs(spec, out, PipelineConfig())  # no workspace: decoded afresh
+    np.testing.assert_array_equal(inp.images, ref.images)
+    np.testing.assert_array_equal(inp.weights, ref.weights)
+    calls.clear()
+    training_inputs(spec, out, PipelineConfig(train_size=24), workspace=ws)
+    assert sorted(calls) == sorted(v.path.name for v in fresh)
