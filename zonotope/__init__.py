@@ -258,7 +258,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "source_split",
         ],
         "report": ["ReportConfig", "ReportExistsError", "write_report"],
-        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise"],
+        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors"],
         "viz": [
             "mmv_polytope",
             "plot_grey_mmvs",
