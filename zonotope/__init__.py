@@ -20,7 +20,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
 ``report``, ``viz``,
-``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`: the SSF band in noise and MMVs)
+``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`, :func:`ssf_response_errors`: the
+                          SSF band in noise, MMVs and error draws)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 

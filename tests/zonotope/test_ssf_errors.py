@@ -194,3 +194,10 @@ def test_held_out_error_model_is_the_curve_errors_and_a_misfit_line(ests):
         np.testing.assert_allclose(weight[:, c], [offset, slope], rtol=1e-8)
     with pytest.raises(SpectralDataError, match="at least 3"):
         held_out_error_model(pairs[:2])
+
+
+def test_the_shipped_basis_carries_its_held_out_errors():
+    est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    assert est.errors is not None and est.errors.shape[1:] == (W.size, 3) and len(est.errors) >= 3
+    d = est.response_errors()
+    assert d.shape == (len(est.errors), 190, 3) and np.all(np.isfinite(d)) and np.abs(d).max() > 0
