@@ -62,7 +62,9 @@ def ssf_response_errors(
     cameras' errors are then related only as much as the held-out errors share (their mean). ``M``: the
     fewest draws of any camera. Give them to
     :func:`zonotope.correct.eiv.fit_errors_in_variables`. Why: the curves' error is correlated over
-    wavelengths and channels, which a per-channel σ (:func:`ssf_noise`) cannot tell a fit.
+    wavelengths and channels, which a per-channel σ (:func:`ssf_noise`) cannot tell a fit; on natural
+    surfaces without much sensor noise the fit gains 0.03–0.06 ΔE00 over :func:`ssf_noise`, on
+    narrow-band (atypical) spectra it loses up to 0.36 (docs/notes/2026-11-29-ssf-goal.md, section 4).
 
     Raises
     ------
