@@ -189,6 +189,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "metamer_mismatch_batch",
             "metamer_mismatch_bounds",
         ],
+        "correct.eiv": ["fit_errors_in_variables"],
         "correct.prior": [
             "ReflectancePrior",
             "fiber_lsq",
