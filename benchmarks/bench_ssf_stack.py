@@ -40,6 +40,8 @@ Fits compared, all in one process:
         --singles 2 --methods "Finlayson 2015"                                    # a lab chart photo
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng --sets 12 --singles 2 \
         --methods "Finlayson 2015" --draw-scales 0.3,0.5,0.7                      # the draws' scale
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart,both --seed 2 \
+        --singles 10 --methods "Finlayson 2015" --draws-and-sigma                 # the draws' table
     python benchmarks/bench_ssf_stack.py --data ../shared/data --write-errors \
         zonotope/spectra/data/ssf_basis.json        # store the held-out errors in the shipped basis
 """
