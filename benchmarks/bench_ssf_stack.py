@@ -20,7 +20,11 @@ Fits compared, all in one process:
 * ``draws`` (``--draws``): a regression fitted on 16 camera sets drawn within the band (errors in
   the variables with the band's wavelength correlation);
 * ``one camera``: the first camera of the set alone (do not stack);
-* ``oracle σ``: told the set's true response error RMS (ground truth; no user has it).
+* ``oracle σ``: told the set's true response error RMS (ground truth; no user has it);
+* ``error draws``: fitted on draws of the responses' error (``zonotope.ssf_response_errors``,
+  ``zonotope.correct.eiv.fit_errors_in_variables``): the held-out curve errors of the OTHER models'
+  estimates, weighted by each estimate's misfit, carried to the set's responses (their correlation
+  over wavelengths, channels and responses kept) — the full-covariance model of the curves' error.
 
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart,both --seed 2
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,both --seed 1 --sets 12 \
@@ -34,6 +38,12 @@ Fits compared, all in one process:
         --estimate-kw '{"subspace": 1}'                          # estimator weights, curve errors only
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources chart --ideal-chart --sets 12 \
         --singles 2 --methods "Finlayson 2015"                                    # a lab chart photo
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng --sets 12 --singles 2 \
+        --methods "Finlayson 2015" --draw-scales 0.3,0.5,0.7                      # the draws' scale
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart,both --seed 2 \
+        --singles 10 --methods "Finlayson 2015" --draws-and-sigma                 # the draws' table
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --write-errors \
+        zonotope/spectra/data/ssf_basis.json        # store the held-out errors in the shipped basis
 """
 
 from __future__ import annotations
@@ -48,23 +58,27 @@ from pathlib import Path
 import numpy as np
 
 import zonotope
+from zonotope._tol import SSF_ERROR_DRAW_SCALE
 from zonotope.correct import NoiseModel, correction_problem, fit_correction, noise_options
+from zonotope.correct.eiv import fit_errors_in_variables
 from zonotope.evaluate import atypical_test_sets, natural_test_sets
 from zonotope.spectra import builtin as spectra
 from zonotope.spectra.estimate import (
     SSF_SHAPE,
     Chart,
     estimate_ssf,
+    held_out_error_model,
     ssf_basis,
     synthesise_dng_matrices,
 )
+from zonotope.ssf_band import ssf_response_errors
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import basis_without, measured_cameras, msds
 
 W = np.asarray(SSF_SHAPE.wavelengths)
 METHODS = ("Cheung 2004", "Finlayson 2015")
-FITS = ("measured", "none", "calibrated RMS", "calibrated", "one camera", "oracle σ")
+FITS = ("measured", "none", "calibrated RMS", "calibrated", "error draws", "one camera", "oracle σ")
 #: ``--rejected``: ridge toward the first camera's fit (weight × mean diagonal, on the calibrated σ);
 #: the stacked cameras' chart photos added to the training set with weight w, on the estimated curves
 #: (told the calibrated σ) and, the fair baseline, on the measured curves (told the sensor noise).
@@ -269,6 +283,24 @@ def shipped_check(data: Path) -> int:
     return 0
 
 
+def write_errors(data: Path, path: Path) -> int:
+    """Add the held-out error model of the redistributable cameras (leave one model out, DNG estimates,
+    as the basis' band is calibrated) to the basis file ``path`` (``errors``, ``error_weight``)."""
+    from bench_ssf import loo_errors
+
+    from zonotope.spectra.estimate import SSFBasis
+
+    cams = measured_cameras(data)
+    held = loo_errors(cams, ssf_basis().n_components, redistributable_only=True)
+    errors, weight = held_out_error_model(list(held.values()))
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc["errors"], doc["error_weight"] = errors.tolist(), weight.tolist()
+    doc = SSFBasis.from_json(doc).to_json()
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    print(f"wrote {path}: {len(errors)} held-out errors, error_weight {np.round(weight, 3).tolist()}")
+    return 0
+
+
 def normal_equations_fit(pb, told, method: str, *, extra=(), toward=None, weight: float = 0.0):
     """The noise-aware regression of ``pb`` (told ``told`` per channel) solved from its normal
     equations, with ``extra`` (responses, targets, weight) rows added and a ridge of ``weight`` × the
@@ -339,6 +371,7 @@ class Source:
             for n in self.names
         }
         self.bound = {n: self.est[n].response_sigma(bound=True) for n in self.names}
+        self._errors: dict = {}
 
     def calibrated(self, n: str, exclude: set[str], *, rms: bool = False) -> np.ndarray:
         """``response_sigma(rms=rms)`` with response_scale calibrated as the shipped basis' is
@@ -347,6 +380,16 @@ class Source:
         real = np.sqrt(np.mean(np.square(np.concatenate([self.err[m] for m in others])), axis=0))
         scale = real / np.sqrt(np.mean(np.square([self.bound[m] for m in others]), axis=0))
         return dataclasses.replace(self.est[n], response_scale=scale).response_sigma(rms=rms)
+
+    def with_errors(self, n: str, exclude: set[str]):
+        """The estimate of ``n`` carrying the held-out error model (``held_out_error_model``) of the
+        estimates of the OTHER models only, as the shipped basis carries that of its cameras."""
+        key = frozenset(exclude)
+        if key not in self._errors:
+            others = [m for m in self.names if self.cams[m]["model"] not in exclude]
+            self._errors[key] = held_out_error_model([(self.est[m], self.cams[m]["values"]) for m in others])
+        errors, weight = self._errors[key]
+        return dataclasses.replace(self.est[n], errors=errors, error_weight=weight)
 
 
 def curve_table(cams: dict[str, dict], sources: dict[str, Source]) -> None:
@@ -380,6 +423,13 @@ def main(argv=None) -> int:
     ap.add_argument("--draws", action="store_true", help="also fit on 16 cameras drawn in the band (slow)")
     ap.add_argument("--scales", default="", help="comma-separated multiples of the RMS σ to fit with too")
     ap.add_argument(
+        "--draw-scales", default="", help="comma-separated scales of the error draws to fit with too"
+    )
+    ap.add_argument(
+        "--draws-and-sigma", action="store_true", help="also the error draws plus the calibrated σ"
+    )
+    ap.add_argument("--write-errors", type=Path, help="store the held-out error model in this basis file")
+    ap.add_argument(
         "--rejected",
         action="store_true",
         help="also the rejected fits: shrink to one camera, chart anchoring",
@@ -392,8 +442,17 @@ def main(argv=None) -> int:
     methods = tuple(a.methods.split(","))
     if a.shipped_check:
         return shipped_check(a.data)
+    if a.write_errors:
+        return write_errors(a.data, a.write_errors)
     scales = [float(v) for v in a.scales.split(",") if v]
-    fit_names = (*FITS, *(f"× {v:g}" for v in scales), *(("draws",) if a.draws else ()))
+    draw_scales = [float(v) for v in a.draw_scales.split(",") if v]
+    fit_names = (
+        *FITS,
+        *(f"× {v:g}" for v in scales),
+        *(f"draws × {v:g}" for v in draw_scales),
+        *(("draws",) if a.draws else ()),
+        *(("error draws + σ",) if a.draws_and_sigma else ()),
+    )
     if a.rejected:
         fit_names = (*fit_names, *REJECTED)
     if a.ideal_chart:  # a lab: the very chart's reflectances, the light measured, even light
@@ -491,6 +550,17 @@ def main(argv=None) -> int:
                         key = "measured" if fit_name == "measured" else (label, fit_name)
                         if fit_name == "draws":
                             fits[key] = fit_on_draws([est[n] for n in cam_set], m, sigma, seed=a.seed)
+                            continue
+                        if fit_name.startswith(("error draws", "draws × ")):
+                            scale = float(fit_name.split()[-1]) if "×" in fit_name else SSF_ERROR_DRAW_SCALE
+                            ests = [src.with_errors(n, models) for n in cam_set]
+                            draws = ssf_response_errors(ests, eprob, seed=a.seed, scale=scale)
+                            told = sigma
+                            if fit_name == "error draws + σ":  # and the calibrated σ per channel
+                                told = np.sqrt(sigma**2 + np.square(told_by["calibrated"]))
+                            fits[key] = fit_errors_in_variables(
+                                eprob, draws, method=m, noise=told if np.any(told) else None
+                            )
                             continue
                         if fit_name in REJECTED:
                             if size == 1 or (fit_name.startswith(("anchor", "measured")) and label == "dng"):

@@ -20,7 +20,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
 ``report``, ``viz``,
-``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`: the SSF band in noise and MMVs)
+``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`, :func:`ssf_response_errors`: the
+                          SSF band in noise, MMVs and error draws)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 
@@ -188,6 +189,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "metamer_mismatch_batch",
             "metamer_mismatch_bounds",
         ],
+        "correct.eiv": ["fit_errors_in_variables"],
         "correct.prior": [
             "ReflectancePrior",
             "fiber_lsq",
@@ -258,7 +260,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "source_split",
         ],
         "report": ["ReportConfig", "ReportExistsError", "write_report"],
-        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise"],
+        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors"],
         "viz": [
             "mmv_polytope",
             "plot_grey_mmvs",

@@ -674,3 +674,21 @@ NEUTRAL_CBRT_FLOOR = 0.0089
 NEUTRAL_SHIFT_EXACT = 1e-9
 
 __all__ += ["NEUTRAL_CBRT_FLOOR", "NEUTRAL_SHIFT_EXACT"]
+# -- SSF: held-out error draws told to a fit on estimated curves (docs/notes/2026-11-29-ssf-goal.md) --
+
+#: ``SSFEstimate.response_errors()`` scales the basis' held-out curve errors by this: over 0.3–0.7,
+#: 0.7 gave the lowest ΔE00 of Finlayson 2015 fitted on the draws for three stacked estimated cameras
+#: (natural sets, noise-free, leave one model out, seeds 0 and 1; two cameras within 0.01 of 0.5).
+SSF_ERROR_DRAW_SCALE = 0.7
+
+#: Smallest weight of an estimate's error draws (their misfit-predicted RMS over the calibration RMS):
+#: a line fitted on misfit can go near 0 for the best-fitting estimates, which still err.
+SSF_ERROR_WEIGHT_FLOOR = 0.25
+
+__all__ += ["SSF_ERROR_DRAW_SCALE", "SSF_ERROR_WEIGHT_FLOOR"]
+
+#: ``zonotope.ssf_response_errors`` checks that a problem's training responses are those of the
+#: estimates it is given (white = 1) to this absolute difference (float64 round-off is ~1e-15).
+SSF_ERROR_PROBLEM_ATOL = 1e-6
+
+__all__ += ["SSF_ERROR_PROBLEM_ATOL"]

@@ -4,7 +4,9 @@
 estimator of :data:`~zonotope.correct.CORRECTION_METHODS` can be fitted on estimated curves without
 trusting channel differences finer than they are known; :func:`band_mmvs` computes the metamer
 mismatch volume of one reflectance with the estimate and with cameras drawn within its band
-(:func:`~zonotope.spectra.estimate.sample_ssfs`), and how far they differ (volume, centroid ΔE00).
+(:func:`~zonotope.spectra.estimate.sample_ssfs`), and how far they differ (volume, centroid ΔE00);
+:func:`ssf_response_errors` gives a fit of stacked estimated cameras draws of their responses' error
+(:func:`zonotope.correct.eiv.fit_errors_in_variables`), correlated as the held-out estimates' were.
 """
 
 from __future__ import annotations
@@ -15,12 +17,12 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError
-from ._tol import SSF_SAMPLE_CORRELATION_NM
+from ._tol import SSF_ERROR_DRAW_SCALE, SSF_ERROR_PROBLEM_ATOL, SSF_SAMPLE_CORRELATION_NM
 from .correct.noise import NoiseModel, noise_model
 from .correct.problem import CorrectionProblem, correction_problem
 from .spectra.estimate import SSFEstimate, sample_ssfs
 
-__all__ = ["BandMMVs", "band_mmvs", "ssf_noise"]
+__all__ = ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors"]
 
 
 def ssf_noise(
@@ -41,6 +43,57 @@ def ssf_noise(
     base = noise_model(noise, 3) or NoiseModel.constant(0.0, 3, source="noise-free")
     band = estimate.response_sigma(illuminant, reflectances)
     return NoiseModel(base.shot, base.read + band**2, source=f"{base.source} + SSF band")
+
+
+def ssf_response_errors(
+    estimates,
+    problem: CorrectionProblem,
+    *,
+    illuminant="D65",
+    seed: int = 0,
+    scale: float = SSF_ERROR_DRAW_SCALE,
+) -> np.ndarray:
+    """Draws of the error of ``problem``'s training responses when its cameras are ``estimates``:
+    shape (M, N, 3·len(estimates)).
+
+    Each camera's draws are :meth:`SSFEstimate.response_errors` of the training set (``scale``: the
+    multiple of the held-out errors, default :data:`~zonotope._tol.SSF_ERROR_DRAW_SCALE`), in an order
+    shuffled per camera (``seed``), so that one draw pairs different held-out cameras' errors: the
+    cameras' errors are then related only as much as the held-out errors share (their mean). ``M``: the
+    fewest draws of any camera. Give them to
+    :func:`zonotope.correct.eiv.fit_errors_in_variables`. Why: the curves' error is correlated over
+    wavelengths and channels, which a per-channel σ (:func:`ssf_noise`) cannot tell a fit; on natural
+    surfaces without much sensor noise the fit gains 0.03–0.06 ΔE00 over :func:`ssf_noise`, on
+    narrow-band (atypical) spectra it loses up to 0.36 (docs/notes/2026-11-29-ssf-goal.md, section 4).
+
+    Raises
+    ------
+    SpectralDataError
+        ``problem``'s source responses are not those of ``estimates`` under ``illuminant`` (other
+        cameras, order or light), or an estimate whose basis stores no held-out errors.
+    """
+    ests = [estimates] if isinstance(estimates, SSFEstimate) else list(estimates)
+    R = problem.training
+    blocks = [e.response_errors(R, illuminant, scale=scale) for e in ests]
+    G = [e.values * _light(illuminant, e.wavelengths)[:, None] for e in ests]
+    mine = np.concatenate([R @ (g / g.sum(axis=0)) for g in G], axis=1)
+    theirs = problem.source_of(R)
+    if mine.shape != theirs.shape or not np.allclose(mine, theirs, atol=SSF_ERROR_PROBLEM_ATOL):
+        raise SpectralDataError(
+            f"ssf_response_errors: the problem's {theirs.shape[1]} source channels are not the responses of "
+            f"these {len(ests)} estimates under {illuminant!r}; build the problem from their sensitivities "
+            "in the same order and light."
+        )
+    m = min(b.shape[0] for b in blocks)
+    rng = np.random.default_rng(seed)
+    return np.concatenate([b[rng.permutation(b.shape[0])[:m]] for b in blocks], axis=2)
+
+
+def _light(illuminant, w: np.ndarray) -> np.ndarray:
+    """The illuminant's spectrum on the grid ``w``, shape (n,)."""
+    from .spectra import builtin as spectra
+
+    return spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,5 +1,6 @@
 """Colour correction: the method registry :data:`CORRECTION_METHODS` and :func:`fit_correction`
-(``methods``), the problem (``problem``), regressions, MMV-based estimators (``mmv``), the reflectance
+(``methods``), the problem (``problem``), regressions (on responses whose error is known as draws:
+``eiv``), MMV-based estimators (``mmv``), the reflectance
 prior (``prior``, ``bvls``), white-point preserving estimates (``neutral``), image correction (``image``)
 and saved corrections and LUTs (``profile``).
 
@@ -15,6 +16,7 @@ from .methods import *  # noqa: F403  (the registry's public names, listed once 
 __getattr__, __dir__, _LAZY = lazy_exports(
     __name__,
     {
+        "eiv": ["fit_errors_in_variables"],
         "image": ["correct_image"],
         "neutral": ["neutral_offsets", "white_point_preserving"],
         "prior": ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"],

@@ -50,6 +50,8 @@ from .._tol import (
     SSF_CHART_MIN_PATCHES,
     SSF_CHART_NEGATIVE,
     SSF_CHOLESKY_JITTER,
+    SSF_ERROR_DRAW_SCALE,
+    SSF_ERROR_WEIGHT_FLOOR,
     SSF_FIT_SIGMA_SCALE,
     SSF_MATRIX_CONDITION_MAX,
     SSF_PRIOR,
@@ -66,6 +68,7 @@ __all__ = [
     "SSFBasis",
     "SSFEstimate",
     "estimate_ssf",
+    "held_out_error_model",
     "learn_ssf_basis",
     "read_dng_matrices",
     "sample_ssfs",
@@ -139,6 +142,13 @@ class SSFBasis:
         The held-out estimates' RMS response error (white-balanced, D65, rawtoaces 190) over the
         fully correlated bound of :meth:`SSFEstimate.response_sigma`, per channel (calibrated leave
         one model out; 1, the bound, for an uncalibrated basis).
+    errors : ndarray of shape (M, n, 3) or None
+        The held-out estimates' curve errors (measured minus estimate, each channel peaking at 1),
+        one per calibration camera, leave one model out: the error model of
+        :meth:`SSFEstimate.response_errors` (None for an uncalibrated basis).
+    error_weight : ndarray of shape (2, 3)
+        ``(a, b)`` per channel: an estimate of misfit ``r`` has ``a + b·r`` times the calibration
+        cameras' RMS response error (least squares over them; ``(1, 0)``: every estimate alike).
     """
 
     wavelengths: np.ndarray
@@ -149,6 +159,8 @@ class SSFBasis:
     licence: str = ""
     band_k: float = 2.0
     response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    errors: np.ndarray | None = None
+    error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
 
     @property
     def n_components(self) -> int:
@@ -162,7 +174,9 @@ class SSFBasis:
             "(R, G, B) the uncentred principal components of peak-normalised measured curves, and the "
             "RMS error of the estimate of held-out cameras (spread, peak = 1); band_k: the multiple of "
             "spread holding the held-out cameras' curves at 90 % of wavelengths; response_scale: their RMS "
-            "response error over the fully correlated bound, per channel.",
+            "response error over the fully correlated bound, per channel; errors: the held-out estimates' "
+            "curve errors (measured - estimate, peak 1); error_weight: (a, b) per channel, their RMS "
+            "response error ~ a + b * misfit over the RMS of all.",
             "licence": self.licence,
             "sources": list(self.sources),
             "wavelengths": self.wavelengths.tolist(),
@@ -171,6 +185,14 @@ class SSFBasis:
             "sigma": np.round(self.sigma, 8).tolist(),
             "band_k": round(float(self.band_k), 4),
             "response_scale": np.round(self.response_scale, 4).tolist(),
+            **(
+                {}
+                if self.errors is None
+                else {
+                    "errors": np.round(self.errors, 6).tolist(),
+                    "error_weight": np.round(self.error_weight, 6).tolist(),
+                }
+            ),
         }
 
     @classmethod
@@ -183,6 +205,8 @@ class SSFBasis:
             sigma = np.asarray(doc["sigma"], dtype=np.float64)
             band_k = float(doc.get("band_k", 2.0))
             scale = np.asarray(doc.get("response_scale", np.ones(3)), dtype=np.float64)
+            errors = None if doc.get("errors") is None else np.asarray(doc["errors"], dtype=np.float64)
+            weight = np.asarray(doc.get("error_weight", [[1.0] * 3, [0.0] * 3]), dtype=np.float64)
         except (KeyError, TypeError, ValueError) as error:
             raise SpectralDataError(f"SSF basis: malformed document ({error}).") from None
         if (
@@ -198,8 +222,25 @@ class SSFBasis:
             raise SpectralDataError(
                 f"SSF basis: band_k {band_k!r} and response_scale {scale.tolist()} must be > 0 (3 values)."
             )
+        if (errors is not None and (errors.ndim != 3 or errors.shape[1:] != (w.size, 3))) or weight.shape != (
+            2,
+            3,
+        ):
+            raise SpectralDataError(
+                f"SSF basis: errors {None if errors is None else errors.shape} and error_weight "
+                f"{weight.shape} must be (M, {w.size}, 3) and (2, 3)."
+            )
         return cls(
-            w, V, spread, sigma, tuple(doc.get("sources", ())), str(doc.get("licence", "")), band_k, scale
+            w,
+            V,
+            spread,
+            sigma,
+            tuple(doc.get("sources", ())),
+            str(doc.get("licence", "")),
+            band_k,
+            scale,
+            errors,
+            weight,
         )
 
 
@@ -635,6 +676,9 @@ class SSFEstimate:
         Default multiple of ``uncertainty`` in :meth:`band` (the basis' calibrated 90 % coverage).
     response_scale : ndarray of shape (3,)
         Calibration of :meth:`response_sigma` (the basis').
+    errors, error_weight
+        The basis' held-out curve errors and their weighting by misfit (:class:`SSFBasis`), the error
+        model of :meth:`response_errors`.
     """
 
     sensitivities: colour.MultiSpectralDistributions
@@ -644,6 +688,8 @@ class SSFEstimate:
     name: str = field(default="estimated camera")
     band_k: float = 2.0
     response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    errors: np.ndarray | None = None
+    error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
 
     @property
     def values(self) -> np.ndarray:
@@ -692,6 +738,52 @@ class SSFEstimate:
             return sigma
         sigma = sigma * np.asarray(self.response_scale, dtype=np.float64)
         return sigma if rms else sigma * SSF_FIT_SIGMA_SCALE
+
+    def response_errors(
+        self, reflectances="rawtoaces 190", illuminant="D65", *, scale: float = SSF_ERROR_DRAW_SCALE
+    ) -> np.ndarray:
+        """What the curves' error does to white-balanced responses, as draws: shape (M, N, 3).
+
+        Draw ``m`` is the response of ``reflectances`` (a named set or an ``(N, n)`` array on the grid)
+        with the curves ``values + scale·w·p·e_m`` (clipped at 0) minus that with ``values``: ``e_m`` the
+        ``m``-th held-out curve error of the basis (:attr:`errors`), ``p`` each channel's peak and ``w``
+        its weight ``a + b·residual`` (:attr:`error_weight`, at least
+        :data:`~zonotope._tol.SSF_ERROR_WEIGHT_FLOOR`). The draws carry the error's correlation over
+        wavelengths, channels and responses, which a σ per channel (:meth:`response_sigma`) drops; give
+        them to :func:`zonotope.correct.eiv.fit_errors_in_variables` (stacks:
+        :func:`zonotope.ssf_response_errors`). Default ``scale``:
+        :data:`~zonotope._tol.SSF_ERROR_DRAW_SCALE` (docs/notes/2026-11-29-ssf-goal.md).
+
+        Raises
+        ------
+        SpectralDataError
+            A basis without held-out errors, or reflectances off the grid.
+        """
+        if self.errors is None:
+            raise SpectralDataError(
+                f"{self.name}: the basis stores no held-out errors; use response_sigma() or a basis "
+                "calibrated with errors."
+            )
+        w = self.wavelengths
+        if isinstance(reflectances, str):
+            R = _training(reflectances, tuple(w))
+        else:
+            R = np.asarray(reflectances, dtype=np.float64)
+            if R.ndim != 2 or R.shape[1] != w.size:
+                raise SpectralDataError(
+                    f"response_errors reflectances have shape {R.shape}; give (N, {w.size}) on the grid."
+                )
+        E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
+        v = self.values
+        a, b = np.asarray(self.error_weight, dtype=np.float64)
+        weight = np.maximum(a + b * self.residual, SSF_ERROR_WEIGHT_FLOOR)
+        drawn = np.maximum(v + scale * weight * v.max(axis=0) * np.asarray(self.errors), 0.0)  # (M, n, 3)
+
+        def responses(curves):
+            G = curves * E[:, None]
+            return R @ (G / np.maximum(G.sum(axis=-2, keepdims=True), 1e-300))
+
+        return responses(drawn) - responses(v)
 
 
 def sample_ssfs(
@@ -900,8 +992,45 @@ def estimate_ssf(
     msds = colour.MultiSpectralDistributions(S, w, labels=["red", "green", "blue"], name=label)
     sources = tuple(s for s, given in (("dng", dng is not None), ("chart", chart is not None)) if given)
     return SSFEstimate(
-        msds, spread, sources, residual, label, float(basis.band_k), np.asarray(basis.response_scale)
+        msds,
+        spread,
+        sources,
+        residual,
+        label,
+        float(basis.band_k),
+        np.asarray(basis.response_scale),
+        basis.errors,
+        np.asarray(basis.error_weight),
     )
+
+
+def held_out_error_model(
+    pairs: Sequence[tuple[SSFEstimate, np.ndarray]], reflectances="rawtoaces 190", illuminant="D65"
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(errors, error_weight)`` of :class:`SSFBasis` from held-out estimates and their measured curves.
+
+    ``pairs``: (estimate made without the camera's model, measured curves ``(n, 3)``). ``errors`` are
+    the curve errors (each channel at peak 1), ``error_weight`` the least-squares line of each camera's
+    RMS white-balanced response error (``reflectances`` under ``illuminant``) on its misfit, over the
+    RMS of all. Why: an estimate that fits its data worse errs more (Spearman 0.2–0.6 per channel).
+    """
+    if len(pairs) < 3:
+        raise SpectralDataError(f"held_out_error_model: {len(pairs)} cameras; give at least 3.")
+    w = pairs[0][0].wavelengths
+    R = _training(reflectances, tuple(w)) if isinstance(reflectances, str) else np.asarray(reflectances)
+    E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
+
+    def responses(curves):
+        G = curves * E[:, None]
+        return R @ (G / np.maximum(G.sum(axis=0, keepdims=True), 1e-300))
+
+    errors = np.stack([t / t.max(axis=0) - e.values / e.values.max(axis=0) for e, t in pairs])
+    rms = np.array(
+        [np.sqrt(np.mean(np.square(responses(t) - responses(e.values)), axis=0)) for e, t in pairs]
+    )
+    r = np.array([e.residual for e, _ in pairs])
+    line = np.linalg.lstsq(np.stack([np.ones_like(r), r], axis=1), rms, rcond=None)[0]  # (2, 3)
+    return errors, line / np.sqrt(np.mean(np.square(rms), axis=0))
 
 
 # ---------------------------------------------------------------------------------------------
