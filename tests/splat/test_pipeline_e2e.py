@@ -315,3 +315,26 @@ def test_shared_view_cache_computes_each_entry_once():
     assert all(isinstance(f.exception(), ValueError) for f in futs)
     assert "bad" not in cache
     assert _once(cache, "bad", lambda: 7) == 7
+
+
+def test_photographed_views_skip_the_render_corrected_alone(ci_run, tmp_path):
+    """The correct step corrects the render alone only for held-out and novel views: a photographed
+    (training) view gets its fused and full-resolution corrections and no ``Prior_XYZ.tiff``."""
+    from splat.cli import main
+
+    _cap, out, _, _, args = ci_run
+    o = tmp_path / "out"
+    shutil.copytree(out, o)
+    index_path = o / "render" / "index.json"
+    index = json.loads(index_path.read_text())
+    name = next(iter(index))
+    index[name]["kind"] = "view"  # as if it had been a training photograph
+    index_path.write_text(json.dumps(index))
+    d = o / "correct" / index[name]["dir"]
+    shutil.rmtree(d)
+    rest = [a if a != str(out) else str(o) for a in args]
+    assert main(["correct", *rest]) == 0
+    assert (d / "Prior_fused_XYZ.tiff").is_file() and (d / "full_XYZ.tiff").is_file()
+    assert not (d / "Prior_XYZ.tiff").exists() and not (d / "Prior_sRGB.png").exists()
+    other = o / "correct" / index[list(index)[1]]["dir"]
+    assert (other / "Prior_XYZ.tiff").is_file()  # the held-out views keep it
