@@ -275,3 +275,11 @@ RENDER_SOURCE_STRIDE = 4
 #: fewer cores): each adds one strip's work to the peak memory (~0.2 GB at 24 MP), and the stage's
 #: share that holds Python's lock bounds the gain beyond a few threads.
 FULL_WORKERS = 4
+
+# --- the full-resolution stage's float32 responses (splat.strips.upsample_rows) ---
+
+#: Relative XYZ difference allowed between the full-resolution stage on float32 responses and on float64
+#: ones (the root-polynomial regression with its float32 matrix and the white-point offset): float32
+#: rounding of responses that carry ≥ 1e-3 noise, amplified by the regression's cancelling terms; 1e-4
+#: is ~1e-3 ΔE00 at the white and 100× below the noise.
+FULL_FLOAT32_RTOL = 1e-4
