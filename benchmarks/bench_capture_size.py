@@ -31,7 +31,7 @@ Measured, in one process:
 
 ``--against REV`` adds a path timed alongside: the full-res reprojection as ``splat/strips.py``,
 ``splat/reproject.py``, the rasteriser's kernels (``splat/_raster_kernel.py``) and the root-polynomial
-regression's per-pixel path (``zonotope/correct/regressions.py``) were at git ``REV`` (their sources
+regression's terms (``zonotope/correct/regressions.py``) were at git ``REV`` (their sources
 made by that version, one strip after the other), for before/after ratios in one process.
 ``--workers 1,2`` times the current full-res reprojection with each number of strips computed at once
 (threads; default ``1`` and :func:`splat.strips.default_workers`), each printed with its process CPU
@@ -109,21 +109,18 @@ def _modules_at(rev: str):
 
 @contextlib.contextmanager
 def _kernels_of(older):
-    """The rasteriser's forward kernel and the root-polynomial terms and product of ``older``
-    (:func:`_modules_at`) in place of the current ones meanwhile (the fitted estimators look them up
-    when called)."""
+    """The rasteriser's forward kernel and the root-polynomial terms of ``older`` (:func:`_modules_at`)
+    in place of the current ones meanwhile (the fitted estimators look them up when called)."""
     from splat import _raster_kernel as kern
     from zonotope.correct import regressions as reg
 
     _, _, old_kern, old_reg = older
-    kept = (kern.forward, reg._terms_by_row, getattr(reg, "_predict_terms", None))
+    kept = (kern.forward, reg._terms_by_row)
     try:
-        kern.forward = old_kern.forward
-        reg._terms_by_row = old_reg._terms_by_row
-        reg._predict_terms = getattr(old_reg, "_predict_terms", lambda terms, M: terms.T @ M)
+        kern.forward, reg._terms_by_row = old_kern.forward, old_reg._terms_by_row
         yield
     finally:
-        kern.forward, reg._terms_by_row, reg._predict_terms = kept
+        kern.forward, reg._terms_by_row = kept
 
 
 @contextlib.contextmanager
