@@ -508,7 +508,8 @@ def full_resolution_view(
         # pixels grouped by noise pattern: one gather and one scatter per strip
         cd = cd.ravel()
         # the same stable order from 16-bit keys where they fit (numpy sorts those by radix, in O(n))
-        order = np.argsort(cd.astype(np.uint16) if cd.size and cd.max() < 2**16 else cd, kind="stable")
+        small = cd.size and cd.max() <= np.iinfo(np.uint16).max
+        order = np.argsort(cd.astype(np.uint16) if small else cd, kind="stable")
         counts = np.bincount(cd, minlength=int(cd.max()) + 1) if cd.size else np.zeros(0, int)
         flat = resp.reshape(-1, k)[order]
         out = np.empty((len(flat), 3), np.float32)
