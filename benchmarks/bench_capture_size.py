@@ -29,13 +29,15 @@ Measured, in one process:
   responses, extrapolated per pixel; and the plain development of the same photograph (isp's Malvar
   demosaic of the whole mosaic in one piece and the camera's DNG matrix).
 
-``--against REV`` adds a path timed alongside: the full-res reprojection as ``splat/strips.py``
-and ``splat/reproject.py`` were at git ``REV`` (their sources made by that version, one strip after the
-other), for before/after ratios in one process. ``--workers 1,2`` times the current full-res
-reprojection with each number of strips computed at once (threads; default ``1`` and
-:func:`splat.strips.default_workers`), each printed with its process CPU and wall time, CPU / wall (the
-cores it kept busy) and the machine's load average; ``--no-previous`` and ``--no-growth`` leave out the
-previous path and the smaller sizes; ``--no-write`` drops the strips instead of writing the files.
+``--against REV`` adds a path timed alongside: the full-res reprojection as ``splat/strips.py``,
+``splat/reproject.py``, the rasteriser's kernels (``splat/_raster_kernel.py``) and the root-polynomial
+regression's terms (``zonotope/correct/regressions.py``) were at git ``REV`` (their sources
+made by that version, one strip after the other), for before/after ratios in one process.
+``--workers 1,2`` times the current full-res reprojection with each number of strips computed at once
+(threads; default ``1`` and :func:`splat.strips.default_workers`), each printed with its process CPU
+and wall time, CPU / wall (the cores it kept busy) and the machine's load average; ``--no-previous``
+and ``--no-growth`` leave out the previous path and the smaller sizes; ``--no-write`` drops the strips
+instead of writing the files.
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
         [--only-full] [--against REV] [--workers 1,2] [--no-previous] [--no-growth] [--no-write]
@@ -77,27 +79,48 @@ def _ci_run(work: Path, steps: int):
 
 def _modules_at(rev: str):
     """``splat/strips.py`` and ``splat/reproject.py`` as they were at git ``rev``, loaded as modules of
-    ``splat`` beside the current ones (the same process, so that the machine's load falls on both)."""
+    ``splat`` beside the current ones (the same process, so that the machine's load falls on both), and
+    the rasteriser's kernels (``splat/_raster_kernel.py``) and root-polynomial regression
+    (``zonotope/correct/regressions.py``) at ``rev``, which :func:`_kernels_of` puts in place while
+    that path runs."""
     import importlib.util
     import subprocess
 
     root = Path(__file__).resolve().parents[1]
     mods = []
-    for name in ("reproject", "strips"):
+    for package, name in (("splat", "reproject"), ("splat", "strips"), ("splat", "_raster_kernel"),
+                          ("zonotope.correct", "regressions")):  # fmt: skip
         text = subprocess.run(
-            ["git", "-C", str(root), "show", f"{rev}:splat/{name}.py"],
+            ["git", "-C", str(root), "show", f"{rev}:{package.replace('.', '/')}/{name}.py"],
             capture_output=True,
             text=True,
             check=True,
         ).stdout
         text = text.replace("from .reproject import", "from ._reproject_older import")
-        spec = importlib.util.spec_from_loader(f"splat._{name}_older", loader=None)
+        text = text.replace("cache=True", "cache=False")  # numba caches only functions with a file
+        spec = importlib.util.spec_from_loader(f"{package}._{name}_older", loader=None)
         mod = importlib.util.module_from_spec(spec)
-        mod.__package__ = "splat"
+        mod.__package__ = package
         sys.modules[spec.name] = mod
-        exec(compile(text, f"{rev}:splat/{name}.py", "exec"), mod.__dict__)
+        exec(compile(text, f"{rev}:{package}/{name}.py", "exec"), mod.__dict__)
         mods.append(mod)
-    return mods[1], mods[0]
+    return mods[1], mods[0], mods[2], mods[3]
+
+
+@contextlib.contextmanager
+def _kernels_of(older):
+    """The rasteriser's forward kernel and the root-polynomial terms of ``older`` (:func:`_modules_at`)
+    in place of the current ones meanwhile (the fitted estimators look them up when called)."""
+    from splat import _raster_kernel as kern
+    from zonotope.correct import regressions as reg
+
+    _, _, old_kern, old_reg = older
+    kept = (kern.forward, reg._terms_by_row)
+    try:
+        kern.forward, reg._terms_by_row = old_kern.forward, old_reg._terms_by_row
+        yield
+    finally:
+        kern.forward, reg._terms_by_row = kept
 
 
 @contextlib.contextmanager
@@ -126,7 +149,8 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--against",
         metavar="REV",
-        help="also time the full-res reprojection as splat/strips.py and splat/reproject.py were at git REV",
+        help="also time the full-res reprojection as splat/strips.py, splat/reproject.py, the rasteriser's "
+        "kernels and the root-polynomial regression were at git REV",
     )
     ap.add_argument(
         "--workers", help="comma-separated numbers of strips computed at once (default 1,<cores>)"
@@ -238,6 +262,9 @@ def main(argv=None) -> int:
         t = time.perf_counter()  # the depth renderer compiled for this width (once per image size)
         for r0 in sorted({0, (H - 1) // strips.STRIP_ROWS * strips.STRIP_ROWS}):
             strips.reprojected_strip(chosen.rep, r0, min(H, r0 + strips.STRIP_ROWS))
+            if older is not None:
+                with _kernels_of(older):  # the older kernel compiled too
+                    strips.reprojected_strip(chosen.rep, r0, min(H, r0 + strips.STRIP_ROWS))
         named = {spec.cameras[k].folder: [r.name for r in g] for k, g in chosen.names.items()}
         print(
             f"  ×{s}: sources at full resolution {named}; compiling and first strips "
@@ -266,17 +293,18 @@ def main(argv=None) -> int:
                     reprojection=given,
                     **threads,
                 )
-                if args.no_write:
-                    for _ in gen:
-                        pass
-                else:
-                    strips.write_full(
-                        args.work / "full_XYZ.tiff",
-                        args.work / "full_sRGB.png",
-                        gen,
-                        (H, W),
-                        strips.sRGB8_encoder(wXYZ),
-                    )
+                with _kernels_of(older) if mod is not strips else contextlib.nullcontext():
+                    if args.no_write:
+                        for _ in gen:
+                            pass
+                    else:
+                        strips.write_full(
+                            args.work / "full_XYZ.tiff",
+                            args.work / "full_sRGB.png",
+                            gen,
+                            (H, W),
+                            strips.sRGB8_encoder(wXYZ),
+                        )
                 times.append(time.perf_counter() - t)
                 cpus.append(time.process_time() - c0)
                 peaks.append(peak_rss_mib())

@@ -146,6 +146,7 @@ def forward(
     C = np.zeros((H, W, k), colours.dtype)
     T = np.ones((H, W), colours.dtype)
     n_done = np.zeros((H, W), np.int32)
+    half = np.float32(0.5)
     for t in prange(nt):
         ty, tx = t // nx, t % nx
         x0, y0 = tx * s, ty * s
@@ -156,6 +157,9 @@ def forward(
         live = np.zeros((s, s), np.bool_)
         live[: min(s, H - y0), : min(s, W - x0)] = True
         n_live = min(s, H - y0) * min(s, W - x0)
+        qx = np.empty(s, colours.dtype)  # a·dx² per column of the box (float32 as in _alpha)
+        bx = np.empty(s)  # 2b·dx per column (float64 as in _alpha)
+        col = np.empty(k)
         for r in range(lo, hi):
             if tmin > 0 and (r - lo) % chunk == 0:
                 for oy in range(s):
@@ -168,18 +172,33 @@ def forward(
                     break
             g = ids[r]
             ox0, ox1, oy0, oy1 = _box(g, means2d, extents, x0, y0, s, W, H)
+            # _alpha's q = a·dx·dx + 2·b·dx·dy + c·dy·dy with its column and row parts computed once per
+            # Gaussian and tile, in the same order and types: the same numbers, fewer operations
+            mx, my, op = means2d[g, 0], means2d[g, 1], opac[g]
+            a, b, c = conics[g, 0], conics[g, 1], conics[g, 2]
+            for ox in range(ox0, ox1 + 1):
+                dx = (np.float32(x0 + ox) + half) - mx
+                qx[ox] = a * dx * dx
+                bx[ox] = 2 * b * dx
+            for j in range(k):
+                col[j] = colours[g, j]
             for oy in range(oy0, oy1 + 1):
-                py = np.float32(y0 + oy) + np.float32(0.5)
+                dy = (np.float32(y0 + oy) + half) - my
+                qy = c * dy * dy
                 for ox in range(ox0, ox1 + 1):
                     if not live[oy, ox]:
                         continue
-                    px = np.float32(x0 + ox) + np.float32(0.5)
-                    alpha, _, _, _, _ = _alpha(px, py, g, means2d, conics, opac, cut2, alpha_min, alpha_max)
-                    if alpha == 0:
+                    q = qx[ox] + bx[ox] * dy + qy
+                    if q > cut2:
+                        continue
+                    alpha = op * math.exp(-0.5 * q)
+                    if alpha > alpha_max:
+                        alpha = alpha_max * 1.0
+                    if alpha < alpha_min:
                         continue
                     w = alpha * Tl[oy, ox]
                     for j in range(k):
-                        Cl[oy, ox, j] += colours[g, j] * w
+                        Cl[oy, ox, j] += col[j] * w
                     Tl[oy, ox] *= 1 - alpha
         for oy in range(min(s, H - y0)):
             for ox in range(min(s, W - x0)):

@@ -167,11 +167,15 @@ def _axis(n_full: int, f: int, n_work: int, lo: int, hi: int):
 
 def upsample_rows(img: np.ndarray, f: int, r0: int, r1: int, width: int) -> np.ndarray:
     """Rows ``r0:r1`` of ``img`` (h, w, C) upsampled bilinearly by ``f`` to ``width`` columns
-    (pixel centres aligned, borders clamped): (r1 − r0, width, C), the same whatever the strip."""
+    (pixel centres aligned, borders clamped): (r1 − r0, width, C), the same whatever the strip; float32
+    for a float32 ``img`` (weights rounded to float32: the full-resolution stage's responses stay float32,
+    half the memory traffic of every step after it), else float64."""
     img = np.asarray(img)
     h, w = img.shape[:2]
     i0, i1, ty = _axis(0, f, h, r0, r1)
     j0, j1, tx = _axis(0, f, w, 0, width)
+    if img.dtype == np.float32:
+        ty, tx = ty.astype(np.float32), tx.astype(np.float32)
     top = img[i0]
     bot = img[i1]
     rows = top + (bot - top) * ty[:, None, None]
@@ -503,7 +507,9 @@ def full_resolution_view(
             del values, seen
         # pixels grouped by noise pattern: one gather and one scatter per strip
         cd = cd.ravel()
-        order = np.argsort(cd, kind="stable")
+        # the same stable order from 16-bit keys where they fit (numpy sorts those by radix, in O(n))
+        small = cd.size and cd.max() <= np.iinfo(np.uint16).max
+        order = np.argsort(cd.astype(np.uint16) if small else cd, kind="stable")
         counts = np.bincount(cd, minlength=int(cd.max()) + 1) if cd.size else np.zeros(0, int)
         flat = resp.reshape(-1, k)[order]
         out = np.empty((len(flat), 3), np.float32)

@@ -58,19 +58,28 @@ def _terms_by_row(c: np.ndarray, degree: int) -> np.ndarray:
     contiguous row, which keeps the products of photo-sized chunks cache-friendly."""
     if degree < 1:
         raise OptionError(f"degree={degree!r}: give a polynomial degree ≥ 1.")
-    ct = np.maximum(np.ascontiguousarray(c.T), 0.0)  # (k, N)
+    k = c.shape[1]
+    combos = [
+        combo
+        for d in range(2, degree + 1)
+        for combo in itertools.combinations_with_replacement(range(k), d)
+        if len(set(combo)) > 1
+    ]
+    # one (n_terms, N) array written row by row: no list of rows stacked (a copy of every term) at the end
+    out = np.empty((k + len(combos), c.shape[0]), dtype=np.result_type(c.dtype, 0.0))
+    ct = np.maximum(c.T, 0.0, out=out[:k])  # (k, N)
     peak = float(np.max(ct, initial=0.0, where=np.isfinite(ct)))
     if peak > _PRODUCT_SAFE ** (1.0 / degree):  # products of `degree` channels would overflow;
         return _terms_by_row(c / peak, degree) * peak  # every term is homogeneous of degree 1
-    rows = [ct[i] for i in range(ct.shape[0])]
-    for d in range(2, degree + 1):
-        for combo in itertools.combinations_with_replacement(range(ct.shape[0]), d):
-            if len(set(combo)) > 1:
-                p = ct[combo[0]] * ct[combo[1]]
-                for i in combo[2:]:
-                    p *= ct[i]
-                rows.append(np.sqrt(p, out=p) if d == 2 else p ** (1.0 / d))
-    return np.stack(rows)
+    for row, combo in enumerate(combos, start=k):
+        p = np.multiply(ct[combo[0]], ct[combo[1]], out=out[row])
+        for i in combo[2:]:
+            p *= ct[i]
+        if len(combo) == 2:
+            np.sqrt(p, out=p)
+        else:
+            p **= 1.0 / len(combo)
+    return out
 
 
 def root_polynomial_exponents(k: int, *, degree: int = 2) -> np.ndarray:
