@@ -275,3 +275,14 @@ RENDER_SOURCE_STRIDE = 4
 #: fewer cores): each adds one strip's work to the peak memory (~0.2 GB at 24 MP), and the stage's
 #: share that holds Python's lock bounds the gain beyond a few threads.
 FULL_WORKERS = 4
+
+# --- the converged truth of the Mitsuba capture (splat.sim.mitsuba.truth_xyz) ---
+
+#: A separately rendered truth is the mean of this many independent renders, so that its standard error
+#: per pixel comes from their spread (8 chunks: the error of that estimate is about 27 %).
+MITSUBA_TRUTH_CHUNKS = 8
+
+#: Two truths of one view rendered with different seeds: the median of |difference| / √(se₁² + se₂²)
+#: must lie here. A normal's is 0.67; a standard error estimated from 4 renders (3 degrees of freedom
+#: each) makes it a t's, a little larger; equal seeds give 0 and an error not divided by √chunks 0.34.
+MITSUBA_TRUTH_Z_MEDIAN = (0.5, 0.95)
