@@ -241,8 +241,11 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
 def truth_noise(truth: Path, regions, stride: int) -> dict | None:
     """The expected ΔE00 of each region mean of a separately rendered truth from its own Monte Carlo
     noise (``truth/xyz_se``, :func:`splat.sim.mitsuba.truth_xyz`), on the scorer's stride grid: camera
-    folder → (chart, uniform), means over regions; None without ``xyz_se``. The pixels' errors are
-    independent, so a region mean's standard error is √Σse² / n; its ΔE00 is averaged over 64 draws."""
+    folder → (chart, uniform) with the X, Y, Z errors fully correlated, then (chart, uniform) with them
+    independent, means over regions; None without ``xyz_se``. The pixels' errors are independent, so a
+    region mean's standard error is √Σse² / n; its ΔE00 is averaged over 64 draws. The path tracer's
+    errors are those of the light's sampling, correlated 0.92–0.99 across X, Y, Z (2026-11-29 record),
+    so the first pair is the one to read; independent errors would move the chromaticity too."""
     import colour
     import tifffile
 
@@ -260,18 +263,23 @@ def truth_noise(truth: Path, regions, stride: int) -> dict | None:
         lab, chart = regions(ref)
         s = (slice(None, None, stride),) * 2
         lab, ref, se = lab[s], ref[s], se[s]
-        row = per.setdefault(rel.parts[0], {"chart": [], "uniform": []})
+        row = per.setdefault(rel.parts[0], {})
         for reg in np.unique(lab[lab > 0]):
             m = lab == reg
             mu = ref[m].mean(0)
             sem = np.sqrt((se[m] ** 2).sum(0)) / m.sum()
-            draws = mu + rng.normal(size=(64, 3)) * sem
             lab_mu = colour.XYZ_to_Lab(mu / w[1], xy)
-            d = colour.delta_E(lab_mu, colour.XYZ_to_Lab(draws / w[1], xy), method="CIE 2000")
-            row["chart" if int(reg) in chart else "uniform"].append(float(np.mean(d)))
+            kind = "chart" if int(reg) in chart else "uniform"
+            for how, z in (
+                ("correlated", rng.normal(size=(64, 1))),
+                ("independent", rng.normal(size=(64, 3))),
+            ):
+                draws = colour.XYZ_to_Lab((mu + z * sem) / w[1], xy)
+                d = colour.delta_E(lab_mu, draws, method="CIE 2000")
+                row.setdefault((how, kind), []).append(float(np.mean(d)))
+    keys = [(h, k) for h in ("correlated", "independent") for k in ("chart", "uniform")]
     return {
-        k: tuple(float(np.mean(v[x])) if v[x] else float("nan") for x in ("chart", "uniform"))
-        for k, v in per.items()
+        f: tuple(float(np.mean(v[x])) if v.get(x) else float("nan") for x in keys) for f, v in per.items()
     }
 
 
@@ -445,8 +453,9 @@ def main(argv=None) -> int:
     floor = truth_noise(capture / "truth", regions, args.stride) if regions is not None else None
     if floor:
         print(
-            "\nThe truth's own noise, expected ΔE00 of a region mean (chart / uniform): "
-            + ", ".join(f"{k} {c:.2f} / {u:.2f}" for k, (c, u) in floor.items())
+            "\nThe truth's own noise, expected ΔE00 of a region mean, chart / uniform, its X, Y, Z errors "
+            "correlated (independent): "
+            + ", ".join(f"{k} {c:.2f} / {u:.2f} ({ci:.2f} / {ui:.2f})" for k, (c, u, ci, ui) in floor.items())
         )
     if args.oracle and regions is not None:
         print("\nDiagnostics from the scene (not available to the pipeline):\n")
