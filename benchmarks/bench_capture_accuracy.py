@@ -39,6 +39,7 @@ Steps already done in ``--work`` are reused.
 from __future__ import annotations
 
 import argparse
+import itertools
 import shutil
 import sys
 import time
@@ -164,11 +165,19 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
         la, lb = colour.XYZ_to_Lab(a / wXYZ[1], xy), colour.XYZ_to_Lab(b / wXYZ[1], xy)
         return float(colour.delta_E(la, lb, method="CIE 2000"))
 
+    from splat.capture import delta_of, fit_corrector
+    from zonotope.correct.image import correct_image
+
+    delta = delta_of(spec, out, index, scale)["delta"]
+    n = len(spec.cameras)
+    corr = {
+        s: fit_corrector(spec, list(s), "Prior", delta) for s in [(c,) for c in range(n)] + [tuple(range(n))]
+    }
     lines = [
         "| view camera | truth floor, chart | truth floor, uniform | "
         + " | ".join(f"{c.folder} level (R, G, B)" for c in spec.cameras)
-        + " |",
-        "|---|---:|---:|" + "---|" * len(spec.cameras),
+        + " | true responses: own camera, chart / uniform | three cameras | three ÷ own |",
+        "|---|---:|---:|" + "---|" * len(spec.cameras) + "---|---|---|",
     ]
     per = {}
     for vi, v in enumerate(scene.views):
@@ -190,22 +199,88 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
         pipe[..., 3 * k : 3 * k + 3] = measured(r, scale[3 * k : 3 * k + 3])
         row = per.setdefault(spec.cameras[k].folder, {"chart": [], "uniform": [], "level": []})
         s2 = (slice(None, None, 2), slice(None, None, 2))
+        # the pipeline's corrector given the true responses (no noise, no fusion), on the stride grid,
+        # against this render's own XYZ (the same samples: its Monte Carlo noise nearly cancels)
+        est = {
+            s: correct_image(np.maximum(true9[s2][..., [3 * c + j for c in s for j in range(3)]], 0), cor)
+            for s, cor in corr.items()
+        }
         for reg in np.unique(lab[lab > 0]):
             m2 = lab[s2] == reg
+            kind = "chart" if int(reg) in chart else "uniform"
             d = dE(img[s2][m2][:, -3:].mean(0), ref[s2][m2].mean(0))
-            row["chart" if int(reg) in chart else "uniform"].append(d)
+            row[kind].append(d)
+            for s, e in est.items():
+                who = "three" if len(s) == n else ("own" if s == (k,) else None)
+                if who:
+                    row.setdefault((who, kind), []).append(dE(e[m2].mean(0), img[s2][m2][:, -3:].mean(0)))
             m = lab == reg
             row["level"].append(pipe[m].mean(0) / true9[m].mean(0))
+
+    def mean(xs):
+        return float(np.mean(xs)) if xs else float("nan")
+
     for cam, row in per.items():
         lv = np.median(np.array(row["level"]), 0)
+        tr = {
+            key: mean(row.get(key, [])) for key in itertools.product(("own", "three"), ("chart", "uniform"))
+        }
         lines.append(
             f"| {cam} | {np.mean(row['chart']):.2f} | {np.mean(row['uniform']):.2f} | "
             + " | ".join(
                 ", ".join(f"{x:.3f}" for x in lv[3 * c : 3 * c + 3]) for c in range(len(spec.cameras))
             )
-            + " |"
+            + f" | {tr[('own', 'chart')]:.2f} / {tr[('own', 'uniform')]:.2f}"
+            + f" | {tr[('three', 'chart')]:.2f} / {tr[('three', 'uniform')]:.2f}"
+            + f" | {tr[('three', 'chart')] / tr[('own', 'chart')]:.2f}"
+            + f" / {tr[('three', 'uniform')] / tr[('own', 'uniform')]:.2f} |"
         )
     return "\n".join(lines)
+
+
+def truth_noise(truth: Path, regions, stride: int) -> dict | None:
+    """The expected ΔE00 of each region mean of a separately rendered truth from its own Monte Carlo
+    noise (``truth/xyz_se``, :func:`splat.sim.mitsuba.truth_xyz`), on the scorer's stride grid: camera
+    folder → (chart, uniform) with the X, Y, Z errors fully correlated, then (chart, uniform) with them
+    independent, means over regions; None without ``xyz_se``. The pixels' errors are independent, so a
+    region mean's standard error is √Σse² / n; its ΔE00 is averaged over 64 draws. The path tracer's
+    errors are those of the light's sampling, correlated 0.92–0.99 across X, Y, Z (2026-11-29 record),
+    so the first pair is the one to read; independent errors would move the chromaticity too."""
+    import colour
+    import tifffile
+
+    files = sorted((truth / "xyz_se").rglob("*.tiff"))
+    if not files:
+        return None
+    w = np.array(colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]))
+    xy = colour.XYZ_to_xy(w)
+    rng = np.random.default_rng(0)
+    per: dict = {}
+    for f in files:
+        rel = f.relative_to(truth / "xyz_se")
+        ref = np.asarray(tifffile.imread(truth / "xyz" / rel), float)
+        se = np.asarray(tifffile.imread(f), float)
+        lab, chart = regions(ref)
+        s = (slice(None, None, stride),) * 2
+        lab, ref, se = lab[s], ref[s], se[s]
+        row = per.setdefault(rel.parts[0], {})
+        for reg in np.unique(lab[lab > 0]):
+            m = lab == reg
+            mu = ref[m].mean(0)
+            sem = np.sqrt((se[m] ** 2).sum(0)) / m.sum()
+            lab_mu = colour.XYZ_to_Lab(mu / w[1], xy)
+            kind = "chart" if int(reg) in chart else "uniform"
+            for how, z in (
+                ("correlated", rng.normal(size=(64, 1))),
+                ("independent", rng.normal(size=(64, 3))),
+            ):
+                draws = colour.XYZ_to_Lab((mu + z * sem) / w[1], xy)
+                d = colour.delta_E(lab_mu, draws, method="CIE 2000")
+                row.setdefault((how, kind), []).append(float(np.mean(d)))
+    keys = [(h, k) for h in ("correlated", "independent") for k in ("chart", "uniform")]
+    return {
+        f: tuple(float(np.mean(v[x])) if v.get(x) else float("nan") for x in keys) for f, v in per.items()
+    }
 
 
 def table(sc: dict, folders: list[str]) -> tuple[str, dict]:
@@ -266,6 +341,14 @@ def main(argv=None) -> int:
         "camera and print the truth's noise floor and each camera's level against the truth",
     )
     ap.add_argument(
+        "--truth-spp",
+        type=int,
+        default=0,
+        metavar="SPP",
+        help="a splat.sim.mitsuba capture: score against its held-out views' XYZ rendered again on their "
+        "own at SPP samples per pixel (splat.sim.mitsuba.write_truth, in the work folder's copy)",
+    )
+    ap.add_argument(
         "--render-sources",
         type=int,
         default=None,
@@ -299,6 +382,19 @@ def main(argv=None) -> int:
                 shutil.copy(capture / "truth" / f, capture / "poses" / f)
             with open(capture / "capture.toml", "a") as fh:
                 fh.write('\n[poses]\ncolmap = "poses"\n')
+    if args.truth_spp:
+        import tomllib
+
+        from splat.sim.mitsuba import write_truth
+
+        tt = tomllib.loads((capture / "truth" / "truth.toml").read_text())
+        if tt.get("generator") != "splat.sim.mitsuba":
+            print(f"--truth-spp: {capture} is not a splat.sim.mitsuba capture", file=sys.stderr)
+            return 2
+        if tt.get("truth_spp") != args.truth_spp:
+            t0 = time.perf_counter()
+            write_truth(capture, args.truth_spp)
+            print(f"truth rendered again at {args.truth_spp} spp in {time.perf_counter() - t0:.0f} s")
     spec = read_capture(capture)
     held = tuple(spec.holdout)
     extra = {}
@@ -353,6 +449,13 @@ def main(argv=None) -> int:
             f"\n{dict(MEASURES)[m]}: three cameras ÷ one camera (b) = {r[m]:.2f} (goal ≤ 0.5: "
             f"{'met' if r[m] <= 0.5 else 'NOT met'}); ÷ own development (a) = "
             f"{ratios[('all views', 'dev')][m]:.2f}"
+        )
+    floor = truth_noise(capture / "truth", regions, args.stride) if regions is not None else None
+    if floor:
+        print(
+            "\nThe truth's own noise, expected ΔE00 of a region mean, chart / uniform, its X, Y, Z errors "
+            "correlated (independent): "
+            + ", ".join(f"{k} {c:.2f} / {u:.2f} ({ci:.2f} / {ui:.2f})" for k, (c, u, ci, ui) in floor.items())
         )
     if args.oracle and regions is not None:
         print("\nDiagnostics from the scene (not available to the pipeline):\n")

@@ -291,3 +291,14 @@ FULL_SOURCE_STRIDE = 1
 #: rounding of responses that carry ≥ 1e-3 noise, amplified by the regression's cancelling terms; 1e-4
 #: moves L* by ≤ 0.004 at the white and is 10× below the noise (measured: ≤ 3.8e-5, ΔE00 ≤ 1.8e-4).
 FULL_FLOAT32_RTOL = 1e-4
+
+# --- the converged truth of the Mitsuba capture (splat.sim.mitsuba.truth_xyz) ---
+
+#: A separately rendered truth is the mean of this many independent renders, so that its standard error
+#: per pixel comes from their spread (8 chunks: the error of that estimate is about 27 %).
+MITSUBA_TRUTH_CHUNKS = 8
+
+#: Two truths of one view rendered with different seeds: the median of |difference| / √(se₁² + se₂²)
+#: must lie here. A normal's is 0.67; a standard error estimated from 4 renders (3 degrees of freedom
+#: each) makes it a t's, a little larger; equal seeds give 0 and an error not divided by √chunks 0.34.
+MITSUBA_TRUTH_Z_MEDIAN = (0.5, 0.95)

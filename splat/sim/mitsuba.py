@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import SplatError
-from .._tol import MITSUBA_DECAL_LIFT, MITSUBA_WHITE_PEAK
+from .._tol import MITSUBA_DECAL_LIFT, MITSUBA_TRUTH_CHUNKS, MITSUBA_WHITE_PEAK
 from .capture import (
     _OBSERVER,
     SimCaptureConfig,
@@ -54,14 +54,18 @@ __all__ = [
     "mitsuba_config",
     "mitsuba_scene",
     "surface_labels",
+    "truth_xyz",
     "write_mitsuba_capture",
     "write_surface_labels",
+    "write_truth",
 ]
 
 _GENERATOR = "splat.sim.mitsuba"
 _VARIANT = "scalar_spectral"  # the LLVM variants need a JIT these CPUs' builds lack
 _MAX_DEPTH = 6  # path length: light → up to four bounces → camera
 _CARD_REFLECTANCE = 0.9
+_TRUTH_SEED = 1 << 20  # the truth's sampler seeds start here: never a photograph's (seed · 1009 + view)
+_MAX_CHUNKS = 1024  # a truth's renders per view (one seed each; the next view's seeds follow)
 
 
 def _mitsuba():
@@ -92,6 +96,42 @@ def _film(grid, curves: np.ndarray, width: int, height: int) -> dict:
     for j in range(curves.shape[1]):
         film[f"ch{j:02d}"] = _spectrum(grid, curves[:, j])  # zero-padded: the channels keep their order
     return film
+
+
+def _curves(scene, illuminant: str):
+    """The illuminant ``E`` (peak 1) on the scene's grid, each camera's film curves ``S_c / m`` and the
+    observer's ``x̄ȳz̄ / Σ ȳ E Δλ`` (both: the simulator's generators ``G / (E Δλ)``)."""
+    import zonotope
+
+    grid = scene.wavelengths
+    spd = zonotope.illuminant(illuminant)
+    E = np.interp(grid, np.asarray(spd.wavelengths, float), np.asarray(spd.values, float))
+    E = E / E.max()
+    step = float(grid[1] - grid[0])
+    curves = [np.asarray(g, float) / (E[:, None] * step) for g in scene.camera_generators]
+    return E, curves, np.asarray(scene.observer, float) / (E[:, None] * step)
+
+
+def truth_xyz(scene, view, spp: int, *, scale: float, seed: int, illuminant: str = "D65", chunks=None):
+    """A held-out view's true XYZ rendered on its own, and its Monte Carlo standard error per pixel.
+
+    ``spp`` samples per pixel in ``chunks`` independent renders (default
+    :data:`splat._tol.MITSUBA_TRUTH_CHUNKS`, at most ``spp``) of an XYZ-only film, seeds from
+    ``seed``; ``scale`` is the capture's ``render_scale``. Returns ``(mean, se)``, float arrays
+    (H, W, 3): the chunks' mean and its standard error (their spread / √chunks).
+
+    Why: the photograph's own render is one noisy sample of the scene (at 32 spp a pixel's Y varies by
+    ~14 %), and a truth that shares its noise with the view's photograph, or carries as much, is
+    no truth for a region's mean over a few pixels."""
+    mi = _mitsuba()
+    E, _, xyz = _curves(scene, illuminant)
+    chunks = max(1, min(int(MITSUBA_TRUTH_CHUNKS if chunks is None else chunks), int(spp), _MAX_CHUNKS))
+    per = int(spp) // chunks
+    sc = mitsuba_scene(scene, view, xyz, E, spp=per, seed=seed)
+    stack = np.stack([np.asarray(mi.render(sc, seed=seed + c, spp=per), float) for c in range(chunks)])
+    stack *= scale
+    se = stack.std(0, ddof=1) / np.sqrt(chunks) if chunks > 1 else np.full(stack.shape[1:], np.nan)
+    return stack.mean(0), se
 
 
 def mitsuba_scene(
@@ -390,6 +430,111 @@ def write_surface_labels(capture: str | os.PathLike, **options) -> list[Path]:
     return files
 
 
+def _check_truth_spp(spp) -> None:
+    if not (isinstance(spp, int | np.integer) and spp >= 2):
+        raise SplatError(f"truth_spp={spp!r}: must be a whole number of samples per pixel, at least 2.")
+
+
+def _truth_seed(seed: int, vi: int) -> int:
+    """The first sampler seed of view ``vi``'s truth chunks (never a photograph's, nor another view's)."""
+    return _TRUTH_SEED + (seed * 1009 + vi) * _MAX_CHUNKS
+
+
+def _truth_lines(truth_spp: int | None) -> list[str]:
+    if truth_spp is None:
+        return ['truth = "the photograph\'s own render: its Monte Carlo noise shared with the held-out file"']
+    return [
+        f"truth_spp = {truth_spp}",
+        'truth = "rendered on its own (splat.sim.mitsuba.truth_xyz), standard error per pixel in xyz_se/"',
+    ]
+
+
+def _write_xyz(path: Path, xyz: np.ndarray) -> None:
+    import tifffile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tifffile.imwrite(path, np.asarray(xyz, np.float32), photometric="rgb")
+
+
+def _rebuilt_scene(root: Path, doc: dict):
+    """The scene and views of a capture from its ``truth.toml`` (``doc``): its size, views and held-out
+    views as recorded (older files: from the first camera's width and the view rows)."""
+    folder = doc["camera"][0]["folder"]
+    rows = [r for r in doc.get("view", []) if r["image"].startswith(f"{folder}/")]
+    size = doc.get("size", doc["camera"][0]["width"] / mitsuba_config().cameras[0].width)
+    config = mitsuba_config(
+        size=size,
+        views=doc.get("views", sum(not r["holdout"] for r in rows)),
+        holdout=doc.get("holdout", sum(bool(r["holdout"]) for r in rows)),
+        seed=doc["seed"],
+        noise=doc["noise"],
+        illuminant=doc["illuminant"],
+    )
+    scene = build_scene(config)
+    sizes = {c["folder"]: (c["width"], c["height"]) for c in doc["camera"]}
+    names = {r["image"] for r in doc.get("view", [])}
+    mine = {f"{config.cameras[v.camera].folder}/{v.stem}.dng" for v in scene.views}
+    if sizes != {c.folder: (c.width, c.height) for c in config.cameras} or names != mine:
+        raise SplatError(f"{root / 'truth' / 'truth.toml'}: its cameras or views are not this generator's.")
+    return scene
+
+
+def write_truth(capture: str | os.PathLike, spp: int, *, chunks: int | None = None) -> list[Path]:
+    """Render again, on its own, the true XYZ of every held-out view of a capture written by
+    :func:`write_mitsuba_capture` (:func:`truth_xyz` at ``spp`` samples per pixel); write it over
+    ``truth/xyz/…``, its standard error to ``truth/xyz_se/…`` and ``truth_spp`` to ``truth.toml``.
+    Returns the XYZ files.
+
+    Raises
+    ------
+    SplatError
+        A bad ``spp``, no ``truth/`` of this generator, or a ``truth.toml`` whose cameras or views the
+        generator does not rebuild — before anything is rendered or written.
+    """
+    import tomllib
+
+    _check_truth_spp(spp)
+    root = Path(capture)
+    doc_path = root / "truth" / "truth.toml"
+    try:
+        doc = tomllib.loads(doc_path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise SplatError(f"{doc_path}: not readable ({type(e).__name__}); give a Mitsuba capture.") from e
+    if doc.get("generator") != _GENERATOR:
+        raise SplatError(f"{doc_path}: not written by {_GENERATOR}; its truth cannot be rendered again.")
+    scene = _rebuilt_scene(root, doc)
+    xyz = {}
+    for vi, v in enumerate(scene.views):
+        if v.holdout:
+            name = f"{scene.config.cameras[v.camera].folder}/{v.stem}.tiff"
+            xyz[name] = truth_xyz(
+                scene,
+                v,
+                spp,
+                scale=float(doc["render_scale"]),
+                seed=_truth_seed(doc["seed"], vi),
+                illuminant=doc["illuminant"],
+                chunks=chunks,
+            )
+    files = []
+    for name, (mean, se) in xyz.items():  # each file whole: written beside, then renamed
+        for sub, img in (("xyz", mean), ("xyz_se", se)):
+            f = root / "truth" / sub / name
+            tmp = f.with_name(f".{f.name}.tmp")
+            _write_xyz(tmp, img)
+            os.replace(tmp, f)
+        files.append(root / "truth" / "xyz" / name)
+    lines = [
+        ln for ln in doc_path.read_text().splitlines() if not ln.startswith(("truth_spp = ", "truth = "))
+    ]
+    at = next(i for i, ln in enumerate(lines) if ln.startswith("spp = ")) + 1
+    text = "\n".join([*lines[:at], *_truth_lines(spp), *lines[at:]]) + "\n"
+    tmp = doc_path.with_name(".truth.toml.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, doc_path)
+    return files
+
+
 def write_mitsuba_capture(
     folder: str | os.PathLike,
     *,
@@ -400,6 +545,7 @@ def write_mitsuba_capture(
     seed: int = 0,
     noise: bool = True,
     illuminant: str = "D65",
+    truth_spp: int | None = None,
 ) -> Path:
     """Render a three-camera capture with Mitsuba 3 and write it as DNG files, ``capture.toml``, ``truth/``.
 
@@ -421,6 +567,10 @@ def write_mitsuba_capture(
         Shot and read noise (as :mod:`splat.sim.capture`).
     illuminant : str
         Built-in illuminant of both emitters (``"D65"`` or ``"A"``, any ``zonotope.illuminant`` name).
+    truth_spp : int, optional
+        Render the held-out views' true XYZ on their own at this many samples per pixel
+        (:func:`truth_xyz`; its standard error goes to ``truth/xyz_se``). Default: the XYZ channels of
+        the photograph's own render, whose Monte Carlo noise the truth then shares.
 
     Returns
     -------
@@ -435,23 +585,18 @@ def write_mitsuba_capture(
     import tifffile
 
     import splat.colmap as cm
-    import zonotope
 
     out = Path(folder)
     _check(out, size, views, holdout, spp)
+    if truth_spp is not None:
+        _check_truth_spp(truth_spp)
     mi = _mitsuba()
     config = mitsuba_config(
         size=size, views=views, holdout=holdout, seed=seed, noise=noise, illuminant=illuminant
     )
     scene = build_scene(config)
-    grid = scene.wavelengths
-    spd = zonotope.illuminant(illuminant)
-    E = np.interp(grid, np.asarray(spd.wavelengths, float), np.asarray(spd.values, float))
-    E = E / E.max()
-    step = float(grid[1] - grid[0])
     # film curves: G_c / (E Δλ) = S_c / m (white's largest channel 1); the observer likewise (Y_white 1)
-    curves = [np.asarray(g, float) / (E[:, None] * step) for g in scene.camera_generators]
-    xyz_curve = np.asarray(scene.observer, float) / (E[:, None] * step)
+    E, curves, xyz_curve = _curves(scene, illuminant)
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
@@ -497,12 +642,13 @@ def write_mitsuba_capture(
                     tifffile.imwrite(
                         tmp / "truth" / "labels" / cam.folder / f"{v.stem}.tiff", surface_labels(scene, v)
                     )
-                    (tmp / "truth" / "xyz" / cam.folder).mkdir(exist_ok=True)
-                    tifffile.imwrite(
-                        tmp / "truth" / "xyz" / cam.folder / f"{v.stem}.tiff",
-                        (k * renders[vi][..., 3:]).astype(np.float32),
-                        photometric="rgb",
-                    )
+                    xyz = k * renders[vi][..., 3:]
+                    if truth_spp is not None:  # rendered on its own: see truth_xyz
+                        xyz, se = truth_xyz(
+                            scene, v, truth_spp, scale=k, seed=_truth_seed(seed, vi), illuminant=illuminant
+                        )
+                        _write_xyz(tmp / "truth" / "xyz_se" / cam.folder / f"{v.stem}.tiff", se)
+                    _write_xyz(tmp / "truth" / "xyz" / cam.folder / f"{v.stem}.tiff", xyz)
                 iid = len(images) + 1
                 images[iid] = cm.ColmapImage(
                     iid, _qvec(v.R), np.asarray(v.t, float), ci + 1, f"{cam.folder}/{v.stem}.dng"
@@ -544,6 +690,10 @@ def write_mitsuba_capture(
             f"variant = {_toml_value(_VARIANT)}",
             f"max_depth = {_MAX_DEPTH}",
             f"spp = {spp}",
+            *_truth_lines(truth_spp),
+            f"size = {size!r}",
+            f"views = {config.n_train}",
+            f"holdout = {config.n_holdout}",
             f"seed = {seed}",
             f"illuminant = {_toml_value(illuminant)}",
             f"observer = {_toml_value(_OBSERVER)}",
@@ -596,6 +746,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--illuminant", default="D65")
     parser.add_argument("--no-noise", action="store_true", help="noise-free forward model")
+    parser.add_argument(
+        "--truth-spp",
+        type=int,
+        default=None,
+        help="render the held-out views' true XYZ on their own at this many samples per pixel "
+        "(default: the photograph's own render, with its noise)",
+    )
     args = parser.parse_args(argv)
     t = time.perf_counter()
     try:
@@ -608,6 +765,7 @@ def main(argv: list[str] | None = None) -> int:
             seed=args.seed,
             noise=not args.no_noise,
             illuminant=args.illuminant,
+            truth_spp=args.truth_spp,
         )
     except (SplatError, OSError) as exc:  # one line on stderr, no traceback
         print(f"splat.sim.mitsuba: error: {' '.join(str(exc).split())}", file=sys.stderr)

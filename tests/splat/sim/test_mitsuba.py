@@ -7,16 +7,18 @@ and D65 tables and the camera's measured SSF table (numpy sums on their own 5 nm
 
 from __future__ import annotations
 
+import shutil
 import tomllib
 from pathlib import Path
 
 import colour
 import numpy as np
 import pytest
+import tifffile
 
 import zonotope
 from splat._errors import SplatError
-from splat._tol import MITSUBA_PATCH_RTOL
+from splat._tol import MITSUBA_PATCH_RTOL, MITSUBA_TRUTH_Z_MEDIAN
 from splat.capture import read_capture, read_linear
 
 mi = pytest.importorskip("mitsuba")
@@ -27,9 +29,10 @@ from splat.sim.capture import SimCaptureConfig, build_scene  # noqa: E402
 
 @pytest.fixture(scope="module")
 def capture(tmp_path_factory) -> Path:
-    """32 × 24-ish images, 2 training + 1 held-out view per camera, 4 samples per pixel."""
+    """32 × 24-ish images, 2 training + 1 held-out view per camera, 4 samples per pixel; the truth
+    rendered on its own at 8."""
     return sm.write_mitsuba_capture(
-        tmp_path_factory.mktemp("mi") / "capture", size=0.25, views=2, holdout=1, spp=4, seed=1
+        tmp_path_factory.mktemp("mi") / "capture", size=0.25, views=2, holdout=1, spp=4, seed=1, truth_spp=8
     )
 
 
@@ -107,6 +110,57 @@ def test_capture_folder_reads_back(capture):
     assert sums.max() > 0.1
     xyz = sorted((capture / "truth" / "xyz").rglob("*.tiff"))
     assert len(xyz) == 3
+    assert truth["truth_spp"] == 8
+    se = sorted((capture / "truth" / "xyz_se").rglob("*.tiff"))
+    assert [f.relative_to(capture / "truth" / "xyz_se") for f in se] == [
+        f.relative_to(capture / "truth" / "xyz") for f in xyz
+    ]
+
+
+def test_truth_standard_error_predicts_a_second_render():
+    """Two truths of one view with different seeds differ as their standard errors say: the median of
+    |difference| / √(se₁² + se₂²) is a normal's 0.67 (a t's with the chunks' few degrees of freedom is
+    a little more). Equal seeds would give 0, a standard error not divided by √chunks about 0.34."""
+    scene = build_scene(sm.mitsuba_config(size=0.25, seed=3))
+    view = next(v for v in scene.views if v.holdout)
+    a, sa = sm.truth_xyz(scene, view, 16, scale=1.0, seed=11, chunks=4)
+    b, sb = sm.truth_xyz(scene, view, 16, scale=1.0, seed=911, chunks=4)
+    assert (
+        a.shape
+        == sa.shape
+        == (scene.config.cameras[view.camera].height, scene.config.cameras[view.camera].width, 3)
+    )
+    s = np.hypot(sa, sb)
+    z = np.abs(a - b)[s > 0] / s[s > 0]
+    assert z.size > 1000
+    lo, hi = MITSUBA_TRUTH_Z_MEDIAN
+    assert lo <= np.median(z) <= hi
+
+
+def test_write_truth_renders_the_held_out_views_again(capture, tmp_path):
+    copy = tmp_path / "capture"
+    shutil.copytree(capture, copy)
+    before = {f: tifffile.imread(f) for f in sorted((copy / "truth" / "xyz").rglob("*.tiff"))}
+    with pytest.raises(SplatError, match="truth_spp"):
+        sm.write_truth(copy, 1)
+    files = sm.write_truth(copy, 16, chunks=2)
+    assert sorted(files) == sorted(before)
+    truth = tomllib.loads((copy / "truth" / "truth.toml").read_text())
+    assert truth["truth_spp"] == 16 and truth["spp"] == 4
+    assert (copy / "truth" / "truth.toml").read_text().count("truth_spp") == 1
+    for f, old in before.items():
+        new = tifffile.imread(f)
+        se = tifffile.imread(copy / "truth" / "xyz_se" / f.relative_to(copy / "truth" / "xyz"))
+        assert new.shape == old.shape and not np.array_equal(new, old)
+        # the same scene: the mean Y agrees with the 8-spp truth to a few of its standard errors
+        assert abs(new[..., 1].mean() - old[..., 1].mean()) < 0.05 * old[..., 1].mean()
+        assert np.all(se >= 0)
+    read_capture(copy)
+    assert not list(copy.rglob("*.tmp"))
+    (tmp_path / "other" / "truth").mkdir(parents=True)
+    (tmp_path / "other" / "truth" / "truth.toml").write_text('generator = "splat.sim.capture"\n')
+    with pytest.raises(SplatError, match="not written by"):
+        sm.write_truth(tmp_path / "other", 8)
 
 
 def test_bad_input_is_refused_before_rendering(tmp_path):
@@ -118,6 +172,10 @@ def test_bad_input_is_refused_before_rendering(tmp_path):
     with pytest.raises(SplatError, match="spp"):
         sm.write_mitsuba_capture(tmp_path / "new", spp=0)
     assert sm.main([str(tmp_path / "full"), "--spp", "1"]) == 2
+    with pytest.raises(SplatError, match="truth_spp"):
+        sm.write_mitsuba_capture(tmp_path / "new", spp=1, truth_spp=1)
+    assert sm.main([str(tmp_path / "new"), "--spp", "1", "--truth-spp", "0"]) == 2
+    assert not (tmp_path / "new").exists()
 
 
 def test_surface_labels_sit_where_the_geometry_projects(capture):
