@@ -401,18 +401,10 @@ def write_surface_labels(capture: str | os.PathLike, **options) -> list[Path]:
         The folder has no ``truth/`` of this generator, or the rebuilt views' sizes differ from its
         cameras' (other options than it was written with).
     """
-    import tomllib
-
     import tifffile
 
     root = Path(capture)
-    doc_path = root / "truth" / "truth.toml"
-    try:
-        doc = tomllib.loads(doc_path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as e:
-        raise SplatError(f"{doc_path}: not readable ({type(e).__name__}); give a Mitsuba capture.") from e
-    if doc.get("generator") != _GENERATOR:
-        raise SplatError(f"{doc_path}: not written by {_GENERATOR}; labels are rendered for its scene only.")
+    doc_path, doc = _truth_doc(root, "labels are rendered for its scene only")
     scene = build_scene(mitsuba_config(**options))
     sizes = {c["folder"]: (c["width"], c["height"]) for c in doc.get("camera", [])}
     if sizes != {c.folder: (c.width, c.height) for c in scene.config.cameras}:
@@ -428,6 +420,21 @@ def write_surface_labels(capture: str | os.PathLike, **options) -> list[Path]:
             tifffile.imwrite(f, surface_labels(scene, v))
             files.append(f)
     return files
+
+
+def _truth_doc(root: Path, why: str) -> tuple[Path, dict]:
+    """``root/truth/truth.toml`` read and checked to be this generator's (else a one-line error ending
+    with ``why``)."""
+    import tomllib
+
+    doc_path = root / "truth" / "truth.toml"
+    try:
+        doc = tomllib.loads(doc_path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise SplatError(f"{doc_path}: not readable ({type(e).__name__}); give a Mitsuba capture.") from e
+    if doc.get("generator") != _GENERATOR:
+        raise SplatError(f"{doc_path}: not written by {_GENERATOR}; {why}.")
+    return doc_path, doc
 
 
 def _check_truth_spp(spp) -> None:
@@ -491,17 +498,9 @@ def write_truth(capture: str | os.PathLike, spp: int, *, chunks: int | None = No
         A bad ``spp``, no ``truth/`` of this generator, or a ``truth.toml`` whose cameras or views the
         generator does not rebuild — before anything is rendered or written.
     """
-    import tomllib
-
     _check_truth_spp(spp)
     root = Path(capture)
-    doc_path = root / "truth" / "truth.toml"
-    try:
-        doc = tomllib.loads(doc_path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as e:
-        raise SplatError(f"{doc_path}: not readable ({type(e).__name__}); give a Mitsuba capture.") from e
-    if doc.get("generator") != _GENERATOR:
-        raise SplatError(f"{doc_path}: not written by {_GENERATOR}; its truth cannot be rendered again.")
+    doc_path, doc = _truth_doc(root, "its truth cannot be rendered again")
     scene = _rebuilt_scene(root, doc)
     xyz = {}
     for vi, v in enumerate(scene.views):
