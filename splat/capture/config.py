@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 import fnmatch
-from dataclasses import InitVar, dataclass
+from dataclasses import InitVar, dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -356,7 +356,7 @@ def read_working(
     With ``automatic``, at the automatic working resolution whatever ``train_size`` says: the poses
     step's previews, which never depend on it (with the default ``train_size`` the same entries as the
     later steps', so that the poses step's decoding is the run's only one)."""
-    from ..resolution import TRAIN_PIXEL_BUDGET, working_factor
+    from ..resolution import TRAIN_PIXEL_BUDGET
     from .raw import load_views
 
     size = None if automatic else train_size_of(spec, config)
@@ -364,7 +364,7 @@ def read_working(
     return load_views(
         spec,
         progress=progress,
-        binning=lambda k, shape, full: working_factor(shape, full, size=size),
+        binning=working_binning(replace(config, train_size=size)),
         cache=ws.decode_cache(options),
     )
 
