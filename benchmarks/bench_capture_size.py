@@ -14,8 +14,9 @@ and noise patterns, not on the content.
 
 Measured, in one process:
 
-* the working-resolution part of the correct step (fused responses of the view: ``fused_view``,
-  at the model's resolution, the same for any photograph size);
+* the working-resolution part of the correct step (the capture read at the working resolution, white,
+  fusion noise; the view's fused responses, ``fused_view``, and their correction, ``correct_fused``, at
+  the model's resolution, the same for any photograph size);
 * the full-resolution stage (:func:`splat.strips.full_resolution_view` + :func:`splat.strips.write_full`:
   read the DNG, demosaic, correct, write the float32 TIFF and the PNG in strips) by **both paths,
   alternated run by run**: the previous one (the other cameras' channels from the working fusion
@@ -199,12 +200,13 @@ def main(argv=None) -> int:
     view = raws[name]
     fused, code, sigma = P.fused_view(fusion, name, img, view, scale, list(range(n)), rep)
     fit_full = P.fused_fitter(spec, list(range(n)), strips.FULL_METHOD)
-    corrector = P.fit_corrector(spec, list(range(n)), config.method, 0.01)
-    wXYZ = corrector.problem.white_XYZ
+    # the view's working-resolution answer, as correct_step writes it (config.method, its λ)
+    P.correct_fused(fused, code, sigma, P.fused_fitter(spec, list(range(n)), config.method), config.quantum)
+    wXYZ = P.correction_problem_of(spec, list(range(n))).white_XYZ
     t_working, cpu_working = time.perf_counter() - t, time.process_time() - c0
     print(
         f"working-resolution part ({view.shape[1]}×{view.shape[0]}): {t_working:.1f} s "
-        f"(read, white, fusion noise, fused_view; process CPU {cpu_working:.1f} s)"
+        f"(read, white, fusion noise, fused_view, its correction; process CPU {cpu_working:.1f} s)"
     )
 
     noise = P.own_noise(fusion, raws, scale, "auto")[name]

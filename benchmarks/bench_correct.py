@@ -312,7 +312,7 @@ def prior_fit(n_patterns: int, noise: float, repeats: int) -> None:
         sigma = noise * rng.uniform(0.5, 2.0, problem.k)
         ref = float(np.median(sigma))
         problems.append((dataclasses.replace(problem, Phi=problem.Phi * (ref / sigma)), ref, ref / sigma))
-    opts = {"mix": 1.0}  # splat.capture.fused_mix("Prior")
+    opts = {"mix": 1.0}  # splat.capture.pipeline_mix("Prior")
 
     def run(fit):
         mmv._clear_log_volume_caches()  # a fresh `splat correct` process

@@ -5,13 +5,12 @@ cost of correcting every Gaussian, and the viewer's load time in headless Chromi
 
 ``OUT`` is a trained and corrected run of ``CAPTURE`` (e.g. the CI capture: ``python -m splat.sim.capture
 cap`` then ``splat run cap -o out``). Prints, for each file, its size and bytes per Gaussian (per view
-for the poses); the time of :func:`splat.export.prepare_scene` with the estimator fitted, with the
-correct step's fit reused from ``OUT/correct/fits`` (:meth:`splat.capture.Workspace.fit_cache`; the first
-call leaves it there as the correct step does), and with the colours cached (``--fit-repeats`` pairs,
-same process); the report page's size with the viewer against the same page without it (the baseline);
-and, medians of ``--repeats`` headless Chromium runs, the viewer's own time from the start of its script
-to its first frame (decode, shader compile, depth sort, draw: the page's ``data-load-ms``) and the wall
-time of Chromium loading the page with the viewer against without it.
+for the poses); the time of :func:`splat.export.prepare_scene` with the estimator fitted
+(``--fit-repeats`` runs) and with the colours cached (same process); the report page's size with the
+viewer against the same page without it (the baseline); and, medians of ``--repeats`` headless Chromium
+runs, the viewer's own time from the start of its script to its first frame (decode, shader compile, depth
+sort, draw: the page's ``data-load-ms``) and the wall time of Chromium loading the page with the viewer
+against without it.
 """
 
 from __future__ import annotations
@@ -63,39 +62,29 @@ def main(argv=None) -> int:
     p.add_argument("out")
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument(
-        "--fit-repeats", type=int, default=1, help="pairs of prepare_scene with and without the fit"
+        "--fit-repeats", type=int, default=1, help="runs of prepare_scene with the estimator fitted"
     )
     a = p.parse_args(argv)
 
-    from splat.capture import Workspace, read_capture
+    from splat.capture import read_capture
     from splat.export import PlyOptions, export_scene, prepare_scene
     from splat.report import report_html
     from splat.viewer import SCENE
 
     out = Path(a.out)
     scene = out / SCENE
-    fits = Workspace(read_capture(a.capture), out).fit_cache()
-    runs = {"fit": [], "reused": []}
+    runs = []
     for _ in range(a.fit_repeats):
-        # before: no fit kept (the Prior cross-validation runs); after: the fit that the first call left
-        # in OUT/correct/fits/<key>, as the correct step leaves its own, is reused
-        if fits is not None and fits.is_dir():
-            shutil.rmtree(fits)
-        for what in ("fit", "reused"):
-            scene.unlink(missing_ok=True)
-            t = time.perf_counter()
-            prepare_scene(a.capture, out)
-            runs[what].append(time.perf_counter() - t)
+        scene.unlink(missing_ok=True)
+        t = time.perf_counter()
+        prepare_scene(a.capture, out)
+        runs.append(time.perf_counter() - t)
     t = time.perf_counter()
     prepare_scene(a.capture, out)
     warm = time.perf_counter() - t
-    cold, reused = statistics.median(runs["fit"]), statistics.median(runs["reused"])
     print(
-        f"prepare_scene, medians of {a.fit_repeats}: {cold:.1f} s with the estimator fitted "
-        f"({', '.join(f'{x:.1f}' for x in runs['fit'])}), {reused:.1f} s with the correct step's fit "
-        f"reused ({', '.join(f'{x:.1f}' for x in runs['reused'])}; ratio {reused / cold:.2f}), "
-        f"{warm:.2f} s with the colours cached"
-        + ("" if fits is not None else " (no current fit cache in OUT: nothing was reused)")
+        f"prepare_scene: {statistics.median(runs):.1f} s with the estimator fitted (median of "
+        f"{a.fit_repeats}: {', '.join(f'{x:.1f}' for x in runs)}), {warm:.2f} s with the colours cached"
     )
 
     with tempfile.TemporaryDirectory() as d:

@@ -188,6 +188,7 @@ def scored(work: Path, spec, regions, conv: dict) -> None:
         fusion_of,
         levelled_white,
         load_views,
+        pipeline_mix,
         read_index,
         reprojected_of,
         white_of,
@@ -202,7 +203,7 @@ def scored(work: Path, spec, regions, conv: dict) -> None:
     fusion = fusion_of(spec, out, index, raws, scale)
     n = len(spec.cameras)
     three = tuple(range(n))
-    corr3 = fit_corrector(spec, list(three), "Prior", delta)
+    corr3 = fit_corrector(spec, list(three), "Prior", delta, mix=pipeline_mix("Prior"))  # as the step
     best = (
         json.loads((out / "score.json").read_text())["dev_demosaic"] if (out / "score.json").is_file() else {}
     )

@@ -318,22 +318,13 @@ def _quantum(out: Path) -> float:
         return PipelineConfig.quantum
 
 
-def scene_corrector(spec: CaptureSpec, out: str | os.PathLike, method: str, delta: float):
-    """The correct step's estimator for rendered responses (:func:`splat.capture.fit_corrector`: all
-    cameras, ``method``, tolerance ``delta``), fitted through the run's fit cache
-    (:meth:`splat.capture.Workspace.fit_cache`) when ``out`` has a current one.
+def scene_corrector(spec: CaptureSpec, method: str, delta: float):
+    """The correct step's estimator for rendered responses: :func:`splat.capture.fit_corrector` on all
+    cameras with ``method``, tolerance ``delta`` and the step's λ (:func:`splat.capture.pipeline_mix`),
+    so that a Gaussian's colour is corrected as a rendered view's pixel is."""
+    from .capture import fit_corrector, pipeline_mix
 
-    Why: Prior's cross-validation is most of the fit (30–40 s of the CI capture's ~40 s); the correct
-    step fitted the same estimator, and its cached weights make this fit about a second. The cache is
-    used only when the settings record says that ``out`` was made from the capture's inputs as they are
-    now; its files are named by a key of the fit's own inputs, so nothing is reused for another problem.
-    """
-    from .capture import fit_corrector
-    from .capture.workspace import Workspace
-
-    out = Path(out)
-    cache = Workspace(spec, out).fit_cache() if (out / OUT_MARKER).is_file() else None
-    return fit_corrector(spec, list(range(len(spec.cameras))), method, delta, cache_dir=cache)
+    return fit_corrector(spec, list(range(len(spec.cameras))), method, delta, mix=pipeline_mix(method))
 
 
 def corrected_colours(
@@ -342,8 +333,8 @@ def corrected_colours(
     """Each Gaussian's N-channel colour corrected as the correct step corrects a rendered view: divided
     by the white scale (white → 1), through :func:`splat.capture.fit_corrector` with the step's method
     and δ (cameras stacked), deduplicated at the step's ``quantum``; cached in :data:`SCENE` with the
-    registered cameras (the report's viewer reads it), recomputed when the model, method, δ or white
-    changed.
+    registered cameras (the report's viewer reads it), recomputed when the model, method (and its λ), δ
+    or white changed.
 
     Parameters
     ----------
@@ -368,7 +359,7 @@ def corrected_colours(
     from zonotope.correct.image import correct_image
     from zonotope.utilities import atomic_path
 
-    from .capture import XYZ_to_sRGB
+    from .capture import XYZ_to_sRGB, pipeline_mix
 
     out = Path(out)
     c = _correct_summary(out)
@@ -380,7 +371,9 @@ def corrected_colours(
             f"capture's {len(spec.cameras)} cameras need {k}; run the train and correct steps again."
         )
     key = np.concatenate([colours.ravel(), c["scale"], c["white_XYZ"], [c["delta"], _quantum(out)]])
-    digest = hashlib.sha256(key.tobytes() + c["method"].encode()).hexdigest()
+    # the estimator's λ too, so that colours made with another rule are not reused
+    rule = repr((c["method"], pipeline_mix(c["method"]))).encode()
+    digest = hashlib.sha256(key.tobytes() + rule).hexdigest()
     done = lambda XYZ: SceneColours(  # noqa: E731
         XYZ, XYZ_to_sRGB(XYZ, c["white_XYZ"]), c["white_XYZ"], c["scale"], c["method"], c["delta"]
     )
@@ -392,7 +385,7 @@ def corrected_colours(
                     return done(np.asarray(z["XYZ"], float))
         except (OSError, ValueError, KeyError):
             pass  # unreadable or foreign: recomputed and replaced (the file is splat's own cache name)
-    corrector = scene_corrector(spec, out, c["method"], c["delta"])
+    corrector = scene_corrector(spec, c["method"], c["delta"])
     balanced = np.maximum(colours / c["scale"], 0)
     XYZ = np.zeros((0, 3))
     if len(balanced):

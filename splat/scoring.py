@@ -292,6 +292,7 @@ def score(
         levelled_white,
         load_views,
         photographed_view,
+        pipeline_mix,
         read_capture,
         read_index,
         reprojected_of,
@@ -322,7 +323,11 @@ def score(
     flat_rows: dict[str, list] = {}
     psnr: dict[str, list] = {}
     psnr_norm: dict[str, list] = {}  # the same, as if shot at the median exposure
-    corr = {(m, s): fit_corrector(spec, list(s), m, delta) for m in methods for s in subsets}
+    # the render corrected alone as the correct step does it (its λ); the single RAW files' baselines with
+    # Prior's own cross-validated λ
+    corr = {
+        (m, s): fit_corrector(spec, list(s), m, delta, mix=pipeline_mix(m)) for m in methods for s in subsets
+    }
     raw_corr = {(m, k): fit_corrector(spec, [k], m, delta) for m in raw_methods for k in range(n)}
     problem = corr[(methods[0], subsets[-1])].problem
     fusion = fusion_of(spec, out, index, raws, scale)

@@ -96,7 +96,6 @@ _EXPORTS = {
     ],
     "workspace": [
         "DECODE_CACHE",
-        "FIT_CACHE",
         "MARKER",
         "SETTINGS",
         "STEP_OUTPUTS",
@@ -145,7 +144,7 @@ _EXPORTS = {
         "fit_corrector",
         "fit_fused_corrector",
         "fused_fitter",
-        "fused_mix",
+        "pipeline_mix",
         "fused_view",
         "fusion_of",
         "levelled_white",

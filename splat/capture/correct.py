@@ -8,7 +8,6 @@ from __future__ import annotations
 import functools
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -40,13 +39,13 @@ __all__ = [
     "fit_corrector",
     "fit_fused_corrector",
     "fused_fitter",
-    "fused_mix",
     "fused_view",
     "fusion_of",
     "levelled_white",
     "noise_sigma",
     "own_noise",
     "photographed_view",
+    "pipeline_mix",
     "reprojected_of",
     "ssf_sigma",
     "white_of",
@@ -550,8 +549,8 @@ def photographed_view(
 
 def fused_fitter(spec: CaptureSpec, cameras: list[int], method: str):
     """``fit(σ) → (corrector, scale)`` for :func:`correct_fused`: :func:`fit_fused_corrector` with
-    :func:`fused_mix`, once per distinct noise pattern (cached)."""
-    mix = fused_mix(method)
+    :func:`pipeline_mix`, once per distinct noise pattern (cached)."""
+    mix = pipeline_mix(method)
     cache: dict = {}
     # the unwhitened problem, built once when first needed (0.04–0.15 s each, ~50 noise patterns a run)
     problem = functools.cache(lambda: correction_problem_of(spec, list(cameras)))
@@ -601,23 +600,25 @@ def correct_fused(fused, code, sigma: dict, fit, quantum: float) -> np.ndarray:
 
 
 def fit_corrector(
-    spec: CaptureSpec, cameras: list[int], method: str, delta: float, *, cache_dir=None, executor=None
+    spec: CaptureSpec,
+    cameras: list[int],
+    method: str,
+    delta: float,
+    *,
+    mix=None,
 ):
     """A fitted estimator with the noise tolerance δ, i.e. responses of noise σ = δ / ``DELTA_SIGMAS``,
     passed as :func:`zonotope.correct.noise_options` says (Prior and the regressions get ``noise=σ``,
-    Centroid ``delta=δ``). ``cache_dir``: the run's fit cache (:meth:`Workspace.fit_cache`), in which
-    Prior keeps its cross-validated fit for later readers of the run (``splat export``); ``executor``:
-    where Prior computes MMV centroids (:func:`_fit_on`). Cameras with estimated curves add their
-    :func:`ssf_sigma` to σ in quadrature."""
+    Centroid ``delta=δ``). Cameras with estimated curves add their :func:`ssf_sigma` to σ in
+    quadrature. ``mix``: Prior's λ (:func:`pipeline_mix` for rendered responses); None: Prior chooses
+    it by cross-validation."""
     from zonotope.correct import DELTA_SIGMAS
 
     sigma = delta / DELTA_SIGMAS
     band = ssf_sigma(spec, cameras)
     if band.any():
         sigma = np.hypot(sigma, band)
-    return _fit_on(
-        correction_problem_of(spec, cameras), method, sigma, cache_dir=cache_dir, executor=executor
-    )
+    return _fit_on(correction_problem_of(spec, cameras), method, sigma, mix=mix)
 
 
 def fit_fused_corrector(
@@ -627,7 +628,7 @@ def fit_fused_corrector(
     fitted by :func:`fit_corrector`'s rule on the channel-whitened problem
     (:func:`splat.fusion.whitened`, δ = ``DELTA_SIGMAS`` · σ_ref); returns it and the scale to apply to
     responses.
-    ``mix``: Prior's atypical-branch weight (:func:`fused_mix`); without it Prior chooses it by its own
+    ``mix``: Prior's atypical-branch weight (:func:`pipeline_mix`); without it Prior chooses it by its own
     cross-validation for every noise pattern (~3–5 s each). ``problem``: the cameras'
     :func:`correction_problem_of`, when the caller already has it; ``band``: their :func:`ssf_sigma`,
     likewise."""
@@ -643,12 +644,20 @@ def fit_fused_corrector(
     return _fit_on(problem, method, ref, mix=mix), scale
 
 
-def fused_mix(method: str):
-    """Prior's atypical-branch weight λ for fused responses: 1, the MAP estimate alone (None for other
-    methods). The measured channels' small σ makes the fused MMV thin (δ_k ∝ σ_k), so its centroid
-    adds little to the MAP and cost three quarters of the time: on the CI coarse captures (1000 steps,
-    three cameras, flat held-out pixels) λ chosen by Prior's cross-validation gave 0.500 ΔE00 noise-free
-    and 1.399 noisy, λ = 1 0.497 and 1.392, and a noisy view took 31 s against 7.9 s."""
+def pipeline_mix(method: str):
+    """Prior's atypical-branch weight λ for the pipeline's responses, fused or rendered: 1, the MAP
+    estimate alone (None for other methods); Prior's own cross-validation is left to single photographs
+    (the scorer's ``raw-`` baselines).
+
+    Why: the measured channels' small σ makes the fused MMV thin (δ_k ∝ σ_k), so its centroid adds
+    little to the MAP and cost three quarters of the time: on the CI coarse captures (1000 steps, three
+    cameras, flat held-out pixels) λ chosen by cross-validation gave 0.500 ΔE00 noise-free and 1.399
+    noisy, λ = 1 0.497 and 1.392, and a noisy view took 31 s against 7.9 s. The render corrected alone
+    is no better with the centroid either (its error is the model's): three cameras, held-out views,
+    cross-validated λ against λ = 1, chart / uniform / flat / all pixels 6.04 / 7.74 / 7.96 / 16.42
+    against 5.22 / 7.72 / 7.85 / 16.39 on the ray-traced capture, all pixels 5.00 against 4.96 on the
+    path-traced one, and one 512 × 384 view of the 12 MP benchmark capture 9.38 against 9.36 ΔE00, in
+    340 s against 4.5 s (docs/notes/2026-11-29-render-mix.md)."""
     from zonotope.correct import CORRECTION_METHODS
 
     if CORRECTION_METHODS.resolve(method, argument="method") != "Prior":
@@ -671,12 +680,10 @@ def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None, executor=None):
+def _fit_on(problem, method: str, sigma, *, mix=None):
     """``method`` fitted on ``problem`` with responses of noise ``sigma`` (one σ or one per channel), told
     to it as its registry entry says (:func:`zonotope.correct.noise_options`), with
-    ``white_point=`` :data:`WHITE_POINT`; ``cache_dir``: where Prior keeps its cross-validated fit;
-    ``executor``: where Prior computes its MMV centroids (threads: the walks release the GIL, and the
-    result is the same)."""
+    ``white_point=`` :data:`WHITE_POINT`; ``mix``: Prior's λ (None: its cross-validation)."""
     from zonotope.correct import CORRECTION_METHODS, fit_correction, noise_options
 
     name = CORRECTION_METHODS.resolve(method, argument="method")  # unknown names: a project error
@@ -684,10 +691,6 @@ def _fit_on(problem, method: str, sigma, *, mix=None, cache_dir=None, executor=N
     opts["white_point"] = WHITE_POINT
     if name == "Prior" and mix is not None:
         opts["mix"] = mix
-    if name == "Prior" and cache_dir is not None:
-        opts["cache_dir"] = cache_dir
-    if name == "Prior" and executor is not None:
-        opts["executor"] = executor
     return fit_correction(problem, method=name, **opts)
 
 
@@ -774,11 +777,8 @@ def correct_step(
     n = len(spec.cameras)
     tol = delta_of(spec, out, photographed or index, scale)
     prepared()
-    workers = _strips.default_workers() if config.workers is None else config.workers
-    # the render corrected alone solves an MMV per distinct response: on threads (same result)
-    pool = ThreadPoolExecutor(workers, thread_name_prefix="mmv") if workers > 1 else None
     corrector = fit_corrector(
-        spec, list(range(n)), config.method, tol["delta"], cache_dir=ws.fit_cache(), executor=pool
+        spec, list(range(n)), config.method, tol["delta"], mix=pipeline_mix(config.method)
     )
     prepared()
     problem = corrector.problem
@@ -876,8 +876,6 @@ def correct_step(
             write_png8(o / "raw_dng_sRGB.png", XYZ_to_sRGB(X, wXYZ))
         if progress is not None:
             progress("correct", i + 1, len(index))
-    if pool is not None:  # on a failure the pool's idle threads end when it is collected
-        pool.shutdown()
     summary = {
         "method": corrector.method,
         "delta": tol["delta"],
@@ -1092,8 +1090,6 @@ def _full_resolution(
     (:func:`splat.strips.full_resolution_view`; ``model(view, (H, W))``: the other cameras' photographs
     to reproject at full resolution, :func:`full_reprojection`); returns what was done and how long it
     took."""
-    from .. import strips as _strips
-
     t = time.perf_counter()
     k = view.camera
     source = open_raw(view.path, spec.cameras[k])

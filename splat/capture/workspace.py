@@ -28,7 +28,6 @@ from .spec import CaptureError, CaptureSpec
 
 __all__ = [
     "DECODE_CACHE",
-    "FIT_CACHE",
     "MARKER",
     "SETTINGS",
     "STEP_OUTPUTS",
@@ -52,10 +51,6 @@ STEP_OUTPUTS = {
     "report": ("report.html",),
 }
 _ORDER = tuple(STEP_OUTPUTS)
-#: Where fitted estimators' costly parts are kept (Prior's cross-validated weights,
-#: :mod:`zonotope.correct.fitcache`), relative to OUT: inside the correct step's folder, one sub-folder
-#: per key of that step's settings record (:meth:`Workspace.fit_cache`).
-FIT_CACHE = ("correct", "fits")
 #: Where the RAW files decoded at the working resolution are kept (:meth:`Workspace.decode_cache`),
 #: relative to OUT: an output of the poses step (the first), so that it outlives option changes of the
 #: later steps and goes with a capture whose poses are recomputed.
@@ -248,25 +243,6 @@ class Workspace:
         steps[step] = {"key": key, "settings": settings, "upstream": upstream, "version": _version()}
         self._write(self._settings, self.record)
         return key
-
-    def fit_cache(self) -> Path | None:
-        """``OUT/correct/fits/<key>``: the folder in which estimators fitted for the correct step's
-        settings keep their costly part (``cache_dir`` of :func:`zonotope.correct.fit_correction`), so
-        that a later reader of the same run (``splat export``) reuses the fit instead of repeating it.
-
-        None when the correct step is not recorded, or when the record was made from other capture
-        inputs than the capture's as they are now (:func:`capture_fingerprint` against the poses step's
-        record): a fit is reused only for the inputs and options it was made from. The folder lies in the
-        correct step's outputs, so a change of that step's key (or of any step before it) removes it;
-        and the files in it are named by a key of the fit's own inputs."""
-        key = self.key("correct")
-        poses = self.record["steps"].get("poses")
-        if key is None or not isinstance(poses, dict) or not isinstance(poses.get("settings"), dict):
-            return None
-        now = json.loads(json.dumps(capture_fingerprint(self.spec), sort_keys=True, default=str))
-        if poses["settings"].get("capture") != now:
-            return None
-        return self.path(*FIT_CACHE, key[:16])
 
     def decode_cache(self, options: dict) -> tuple[Path, dict] | None:
         """``(OUT/decoded, options + version)``: the ``cache`` of :func:`splat.capture.raw.load_views`,

@@ -46,7 +46,7 @@ def test_moved_modules_import_as_their_new_module_with_a_deprecation_warning():
 OLD_PIPELINE = (
     "PipelineConfig STEPS TrainingInputs XYZ_to_sRGB check_run choose_delta correct_fused correct_step "
     "correction_problem_of delta_of depth_targets dng_matrix_XYZ fit_corrector fit_fused_corrector fit_step "
-    "fused_fitter fused_mix fused_view fusion_of load_gaussians noise_sigma own_noise photographed_view "
+    "fused_fitter pipeline_mix fused_view fusion_of load_gaussians noise_sigma own_noise photographed_view "
     "pose_corrections_of poses_step preview_binning preview_upscale read_index refined_views render_step "
     "report_step reprojected_of run train_config train_size_of training_inputs views_to_render white_of "
     "working_binning working_summary working_views"
