@@ -392,3 +392,37 @@ def test_the_8_bit_encoder_is_XYZ_to_sRGB_rounded():
     exact = np.round(XYZ_to_sRGB(XYZ, white) * 255)
     got = sRGB8_encoder(white)(XYZ).astype(float)
     assert got.dtype == float and np.abs(got - exact).max() <= 1 and (got == exact).mean() > 0.95
+
+
+@pytest.mark.parametrize("cfa", ["RGGB", "GBRG", None])
+def test_raw_rows_against_the_per_site_formula(cfa):
+    """RawSource.rows: each measured channel (the pixel's CFA site, or all three) clipped to
+    [−0.05, 1] of (DN − black) / (white − black), 0 elsewhere; weight 1 where measured, not saturated
+    and not dead (DN ≤ 0 with a black level above 0); the counts of such pixels."""
+    from pathlib import Path
+
+    from isp.cfa import cfa_masks
+    from splat.capture.raw import RawSource
+
+    rng = np.random.default_rng(3)
+    shape = (12, 9) if cfa else (12, 9, 3)
+    dn = rng.integers(0, 4096, shape).astype(np.uint16)
+    dn.flat[::7], dn.flat[::11] = 4095, 0
+    dn[3, 4] = 0  # dead in every channel (a full-colour pixel is dead only so)
+    black = np.array([[64.0, 60.0], [62.0, 66.0]]) if cfa else np.array([64.0, 60.0, 62.0])
+    src = RawSource(Path("x.dng"), dn, black, 4000.0, cfa, {})
+    values, weight, n_sat, n_dead = src.rows(2, 10, counts=True)
+    d = dn[2:10].astype(float)
+    if cfa:
+        site = cfa_masks(d.shape, cfa)
+        b = np.tile(black, (4, 5))[:8, :9]
+        x = np.clip((d - b) / (4000.0 - b), -0.05, 1.0)[..., None] * site
+        sat, dead = d >= 4000.0, (d <= 0) & (b > 0)
+    else:
+        site = np.ones(d.shape, bool)
+        x = np.clip((d - black) / (4000.0 - black), -0.05, 1.0)
+        sat, dead = (d >= 4000.0).any(-1), (d <= 0).all(-1)
+    assert values.dtype == weight.dtype == np.float32
+    np.testing.assert_array_equal(values, np.where(site, x, 0).astype(np.float32))
+    np.testing.assert_array_equal(weight, (site & ~(sat | dead)[..., None]).astype(np.float32))
+    assert (n_sat, n_dead) == (int(sat.sum()), int(dead.sum())) and n_sat > 0 and n_dead > 0
