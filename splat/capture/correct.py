@@ -817,8 +817,7 @@ def correct_step(
         o = out / "correct" / info["dir"]
         img = read_tiff(d / "render.tiff") / scale
         # the render alone corrected: where it is scored (held-out views) or the view has no photograph
-        # (novel); a photographed view's answer is its fused correction, and the render's many distinct
-        # responses cost an MMV walk each (50,000 at 512 × 384: 9 CPU minutes, the rest of the view 1.5)
+        # (novel); a photographed view's answer is its fused correction
         if info["kind"] != "view" and not (o / f"{mname}_XYZ.tiff").is_file():
 
             def colours(_what, done, total, name=name):  # one bar per view: its distinct responses solved
