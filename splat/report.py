@@ -149,7 +149,9 @@ def _read_tiff(path: Path) -> np.ndarray:
     return np.asarray(tifffile.imread(path), np.float64)
 
 
-def card_check(spec: CaptureSpec, name: str, corrected: Path, camera: Path, white_XYZ) -> CardCheck | None:
+def card_check(
+    spec: CaptureSpec, name: str, corrected: Path, camera: Path, white_XYZ, *, raw_size=None
+) -> CardCheck | None:
     """The marked card of ``[white] method = "patch"`` seen in view ``name``, or None when no card was
     marked there.
 
@@ -157,9 +159,12 @@ def card_check(spec: CaptureSpec, name: str, corrected: Path, camera: Path, whit
     ----------
     corrected, camera : Path
         Linear XYZ images (H, W, 3), scene white at Y = 1: the corrected photograph and the camera's own
-        development of its RAW file (whose pixel grid the box is given in; an image of another size
-        gets the box scaled to it).
+        development of its RAW file, at any size (the box is scaled to each).
     white_XYZ : array_like of shape (3,)
+    raw_size : (H, W), optional
+        The RAW file's size, whose pixel grid the box is given in; default: ``camera``'s size (the
+        development at the file's own resolution). A box that falls outside an image leaves that
+        image's key out, never a NaN.
 
     Why: the card is the one reference a real capture has; its colour is known from its reflectance
     alone, without any ground truth.
@@ -173,7 +178,7 @@ def card_check(spec: CaptureSpec, name: str, corrected: Path, camera: Path, whit
     xy = colour.XYZ_to_xy(white_XYZ)
     expected = np.asarray(colour.XYZ_to_Lab(w.reflectance * white_XYZ, illuminant=xy))
     check = CardCheck(w.reflectance, expected)
-    base = _read_tiff(camera).shape[:2] if camera.is_file() else None
+    base = raw_size if raw_size is not None else (_read_tiff(camera).shape[:2] if camera.is_file() else None)
     for key, path in (("corrected", corrected), ("camera", camera)):
         if not path.is_file():
             continue
@@ -186,6 +191,8 @@ def card_check(spec: CaptureSpec, name: str, corrected: Path, camera: Path, whit
             int(y0 * sy) : max(int(np.ceil(y1 * sy)), int(y0 * sy) + 1),
             int(x0 * sx) : max(int(np.ceil(x1 * sx)), int(x0 * sx) + 1),
         ]
+        if box.size == 0:  # the box lies outside this image: nothing measured there
+            continue
         mean = box.reshape(-1, 3).mean(0)
         lab = np.asarray(colour.XYZ_to_Lab(mean, illuminant=xy))
         check.Lab[key] = lab
@@ -256,6 +263,24 @@ def _figure(
         f"<figure><div class='frame' style='{frame}'><img{cls} src='{_src(out, path)}' alt='{_e(title)}'>"
         f"{mark}</div><figcaption><b>{_e(title)} ({W}×{H} px)</b>{caption}</figcaption></figure>"
     )
+
+
+def _raw_size(run: _Run, name: str, camera: str) -> tuple[int, int] | None:
+    """``(H, W)`` of view ``name``'s RAW file as the correct step recorded it (its full-resolution
+    output, else its camera's full size), or None when not recorded: the grid of ``[white] box``, which
+    the working-resolution images are scaled from."""
+    c = run.correct or {}
+    for size in (
+        ((c.get("full_resolution") or {}).get("per_view") or {}).get(name, {}).get("size"),
+        ((c.get("working") or {}).get(camera) or {}).get("full"),
+    ):
+        if (
+            isinstance(size, list | tuple)
+            and len(size) == 2
+            and all(isinstance(v, int) and v > 0 for v in size)
+        ):
+            return int(size[1]), int(size[0])
+    return None
 
 
 def _coverage(render_dir: Path, k: int | None) -> float | None:
@@ -450,6 +475,15 @@ def _gain(check: CardCheck) -> str:
 
 def _next(run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None) -> list[str]:
     todo = []
+    full = None if answer is None else answer.parent / "full_XYZ.tiff"
+    if full is not None and full.is_file():  # the photograph at its own size: what to keep
+        size = _raw_size(run, name, info["camera"])
+        at = f" ({size[1]} × {size[0]} px, the RAW file's size)" if size is not None else ""
+        png = _rel(run.out, full.with_name("full_sRGB.png"))
+        todo.append(
+            f"Keep the corrected photograph at full size{at}: {png} (8-bit sRGB) or {_rel(run.out, full)} "
+            "(linear XYZ, float32, scene white Y = 1). The images above are at the working size."
+        )
     if answer is not None:
         tiff = answer.with_suffix(".tiff")
         xyz = answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff"))
@@ -536,17 +570,20 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
     coverage = _coverage(rdir, k if photographed else None)
     check = None
     if answer is not None and photographed and run.correct is not None:
+        raw_size = _raw_size(run, name, info["camera"])
         check = card_check(
             spec,
             name,
             answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff")),
             cdir / "raw_dng_XYZ.tiff",
             run.correct["white_XYZ"],
+            raw_size=raw_size,
         )
     right_p = cdir / ("raw_dng_sRGB.png" if photographed else f"dng_{spec.label(k)}_sRGB.png")
     card = {}
-    if check is not None:  # the box is given in the RAW file's pixels: its development's grid
-        card = {"card": spec.white.box, "base": _size(right_p) if right_p.is_file() else photo}
+    if check is not None:  # the box is given in the RAW file's pixels (W × H for the figures)
+        base = raw_size[::-1] if raw_size is not None else None
+        card = {"card": spec.white.box, "base": base or (_size(right_p) if right_p.is_file() else photo)}
     left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.", **card)
     if photographed:
         right = _figure(

@@ -209,6 +209,33 @@ def test_the_card_ratio_when_the_camera_misses_it(cap, tmp_path):
     assert 0.4 < ratio < 0.6
 
 
+def test_next_points_to_the_full_size_photograph_and_the_card_is_read_in_raw_pixels(cap, tmp_path):
+    """A photograph corrected at its RAW file's size is the file to keep (named first under "Next",
+    with the size); in a run whose images are binned (the RAW file twice their size, as the correct step
+    records it) the card's box is scaled from the RAW file's pixels: a finite ΔE00, the outline on it."""
+    from splat.report import report_html
+
+    out = tmp_path / "out"
+    spec = make_out(cap, out)
+    name = "nikon/IMG_0000.dng"
+    c = out / "correct" / spec.out_stem(name)
+    _tiff(c / "full_XYZ.tiff", np.zeros((4, 4, 3)))
+    _png(c / "full_sRGB.png", np.zeros((4, 4, 3)))
+    doc = json.loads((out / "correct" / "summary.json").read_text())
+    doc["working"] = {"nikon": {"full": [96, 72], "working": [48, 36], "binning": 2}}
+    doc["full_resolution"] = {"per_view": {name: {"size": [96, 72]}}}
+    _json(out / "correct" / "summary.json", doc)
+    index = json.loads((out / "render" / "index.json").read_text())
+    card, view, _novel = _sections(report_html(spec, out, index))
+    first = re.search(r"<h3>Next</h3><ul><li>(.*?)</li>", view, flags=re.S).group(1)
+    assert "full size (96 × 72 px, the RAW file's size)" in first and "full_sRGB.png" in first
+    assert "full_sRGB.png" not in card  # no full-size file there
+    marks = re.findall(r"<span class='card'[^>]*style='([^']+)'", card)
+    assert marks[0].startswith(f"left:{100 * BOX[0] / 96:.3f}%;top:{100 * BOX[1] / 72:.3f}%")
+    rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
+    assert set(rows) == {"corrected (left)", "camera's development (right)"}  # finite, measured
+
+
 def test_card_check_against_colour_science(cap, tmp_path):
     import colour
 
@@ -226,6 +253,36 @@ def test_card_check_against_colour_science(cap, tmp_path):
     assert check.delta_E["corrected"] == pytest.approx(want, rel=1e-4)
     assert check.delta_E["camera"] == pytest.approx(0, abs=1e-3)
     assert card_check(spec, "nikon/IMG_0000.dng", d / "x.tiff", d / "y.tiff", WHITE_XYZ) is None
+
+
+def test_card_box_read_in_the_raw_files_pixels_when_the_images_are_binned(cap, tmp_path):
+    """``[white] box`` is in the RAW file's pixels; images at a working resolution (here half the RAW
+    file's size) are read in the box scaled to them, and a box outside an image gives no value (no NaN)."""
+    import colour
+
+    from splat.capture import read_capture
+    from splat.report import card_check
+
+    spec = read_capture(cap)
+    H, W = 36, 48
+    x0, y0, x1, y1 = (v // 2 for v in BOX)  # the card in the half-size images
+    images = {}
+    for name, tint in (("corrected", TINT), ("camera", np.ones(3))):
+        a = np.broadcast_to(0.5 * WHITE_XYZ, (H, W, 3)).copy()
+        a[y0:y1, x0:x1] = 0.9 * WHITE_XYZ * tint
+        _tiff(tmp_path / f"{name}.tiff", a)
+        images[name] = tmp_path / f"{name}.tiff"
+    check = card_check(spec, CARD, images["corrected"], images["camera"], WHITE_XYZ, raw_size=(2 * H, 2 * W))
+    xy = colour.XYZ_to_xy(WHITE_XYZ)
+    want = colour.delta_E(
+        colour.XYZ_to_Lab(0.9 * WHITE_XYZ * TINT, xy),
+        colour.XYZ_to_Lab(0.9 * WHITE_XYZ, xy),
+        method="CIE 2000",
+    )
+    assert check.delta_E["corrected"] == pytest.approx(want, rel=1e-4)
+    assert check.delta_E["camera"] == pytest.approx(0, abs=1e-3)
+    far = card_check(spec, CARD, images["corrected"], images["camera"], WHITE_XYZ, raw_size=(3, 4))
+    assert far.delta_E == {} and far.Lab == {}
 
 
 def test_diagnostics_collapsed_and_explained_ground_truth_only_there(page):
