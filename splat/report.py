@@ -178,11 +178,9 @@ def card_check(
     xy = colour.XYZ_to_xy(white_XYZ)
     expected = np.asarray(colour.XYZ_to_Lab(w.reflectance * white_XYZ, illuminant=xy))
     check = CardCheck(w.reflectance, expected)
-    base = raw_size if raw_size is not None else (_read_tiff(camera).shape[:2] if camera.is_file() else None)
-    for key, path in (("corrected", corrected), ("camera", camera)):
-        if not path.is_file():
-            continue
-        img = _read_tiff(path)
+    images = {key: _read_tiff(p) for key, p in (("corrected", corrected), ("camera", camera)) if p.is_file()}
+    base = raw_size if raw_size is not None else (images["camera"].shape[:2] if "camera" in images else None)
+    for key, img in images.items():  # each read once
         H, W = img.shape[:2]
         h0, w0 = base if base is not None else (H, W)
         x0, y0, x1, y1 = w.box
@@ -473,12 +471,13 @@ def _gain(check: CardCheck) -> str:
     return f"On the card the corrected image's ΔE00 is {d['corrected'] / d['camera']:.2f}× the camera's. "
 
 
-def _next(run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None) -> list[str]:
+def _next(
+    run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None, raw_size=None
+) -> list[str]:
     todo = []
     full = None if answer is None else answer.parent / "full_XYZ.tiff"
     if full is not None and full.is_file():  # the photograph at its own size: what to keep
-        size = _raw_size(run, name, info["camera"])
-        at = f" ({size[1]} × {size[0]} px, the RAW file's size)" if size is not None else ""
+        at = f" ({raw_size[1]} × {raw_size[0]} px, the RAW file's size)" if raw_size is not None else ""
         png = _rel(run.out, full.with_name("full_sRGB.png"))
         todo.append(
             f"Keep the corrected photograph at full size{at}: {png} (8-bit sRGB) or {_rel(run.out, full)} "
@@ -569,8 +568,8 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
     photo = _size(answer) if answer is not None else None
     coverage = _coverage(rdir, k if photographed else None)
     check = None
+    raw_size = _raw_size(run, name, info["camera"])
     if answer is not None and photographed and run.correct is not None:
-        raw_size = _raw_size(run, name, info["camera"])
         check = card_check(
             spec,
             name,
@@ -606,7 +605,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
     if coverage is not None:
         whose = "Other cameras' photographs" if photographed else "Photographs"
         made += f" {whose} see {coverage:.0%} of this view."
-    todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage))
+    todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size))
     facts = (
         f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused)}</div>"
         f"<div><h3>Next</h3><ul>{todo}</ul><h3>What was done</h3><p>{made}</p>"

@@ -236,21 +236,22 @@ def test_next_points_to_the_full_size_photograph_and_the_card_is_read_in_raw_pix
     assert set(rows) == {"corrected (left)", "camera's development (right)"}  # finite, measured
 
 
-def test_card_check_against_colour_science(cap, tmp_path):
+def _tinted_card_dE00() -> float:
+    """colour-science's ΔE00 of the card tinted by :data:`TINT` against the known card."""
     import colour
 
+    xy = colour.XYZ_to_xy(WHITE_XYZ)
+    lab = [colour.XYZ_to_Lab(0.9 * WHITE_XYZ * t, xy) for t in (TINT, np.ones(3))]
+    return float(colour.delta_E(*lab, method="CIE 2000"))
+
+
+def test_card_check_against_colour_science(cap, tmp_path):
     from splat.report import card_check
 
     spec = make_out(cap, tmp_path / "out")
     d = tmp_path / "out" / "correct" / spec.out_stem(CARD)
     check = card_check(spec, CARD, d / "Prior_fused_XYZ.tiff", d / "raw_dng_XYZ.tiff", WHITE_XYZ)
-    xy = colour.XYZ_to_xy(WHITE_XYZ)
-    want = colour.delta_E(
-        colour.XYZ_to_Lab(0.9 * WHITE_XYZ * TINT, xy),
-        colour.XYZ_to_Lab(0.9 * WHITE_XYZ, xy),
-        method="CIE 2000",
-    )
-    assert check.delta_E["corrected"] == pytest.approx(want, rel=1e-4)
+    assert check.delta_E["corrected"] == pytest.approx(_tinted_card_dE00(), rel=1e-4)
     assert check.delta_E["camera"] == pytest.approx(0, abs=1e-3)
     assert card_check(spec, "nikon/IMG_0000.dng", d / "x.tiff", d / "y.tiff", WHITE_XYZ) is None
 
@@ -258,8 +259,6 @@ def test_card_check_against_colour_science(cap, tmp_path):
 def test_card_box_read_in_the_raw_files_pixels_when_the_images_are_binned(cap, tmp_path):
     """``[white] box`` is in the RAW file's pixels; images at a working resolution (here half the RAW
     file's size) are read in the box scaled to them, and a box outside an image gives no value (no NaN)."""
-    import colour
-
     from splat.capture import read_capture
     from splat.report import card_check
 
@@ -273,13 +272,7 @@ def test_card_box_read_in_the_raw_files_pixels_when_the_images_are_binned(cap, t
         _tiff(tmp_path / f"{name}.tiff", a)
         images[name] = tmp_path / f"{name}.tiff"
     check = card_check(spec, CARD, images["corrected"], images["camera"], WHITE_XYZ, raw_size=(2 * H, 2 * W))
-    xy = colour.XYZ_to_xy(WHITE_XYZ)
-    want = colour.delta_E(
-        colour.XYZ_to_Lab(0.9 * WHITE_XYZ * TINT, xy),
-        colour.XYZ_to_Lab(0.9 * WHITE_XYZ, xy),
-        method="CIE 2000",
-    )
-    assert check.delta_E["corrected"] == pytest.approx(want, rel=1e-4)
+    assert check.delta_E["corrected"] == pytest.approx(_tinted_card_dE00(), rel=1e-4)
     assert check.delta_E["camera"] == pytest.approx(0, abs=1e-3)
     far = card_check(spec, CARD, images["corrected"], images["camera"], WHITE_XYZ, raw_size=(3, 4))
     assert far.delta_E == {} and far.Lab == {}
