@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import inspect
 import json
 import os
 import statistics
@@ -285,7 +286,11 @@ def main(argv=None) -> int:
                 made = older_model if mod is not strips else model
                 rep = made(fake_view, (H, W)) if path != "previous" else None
                 given = None if rep is None else rep.rep
-                threads = {"workers": full.get(path, 1)} if mod is strips else {}
+                if mod is strips:
+                    threads = {"workers": full.get(path, 1)}
+                else:  # the older code with as many strips at once as the current one, where it can
+                    takes = "workers" in inspect.signature(mod.full_resolution_view).parameters
+                    threads = {"workers": max(full.values())} if takes else {}
                 gen = mod.full_resolution_view(
                     strips.Photograph(
                         src, view.exif, white["scale"][view.camera], np.asarray(noise["sigma_full"])

@@ -207,8 +207,12 @@ def _visible(u, v, zs, inside, source_depth, binning: int = 1):
     within :data:`DEPTH_RTOL`: the source sees the point, nothing occludes it."""
     f = float(binning)
     sd = np.asarray(source_depth, np.float64)[..., None]
-    seen = _sample(sd, (v + 0.5) / f - 0.5, (u + 0.5) / f - 0.5)[..., 0]
-    return inside & (np.abs(seen - zs) <= DEPTH_RTOL * np.abs(zs))
+    idx = np.flatnonzero(inside)  # the source's depth read at the points that can be seen only
+    seen = _sample(sd, (np.ravel(v)[idx] + 0.5) / f - 0.5, (np.ravel(u)[idx] + 0.5) / f - 0.5)[..., 0]
+    z = np.ravel(zs)[idx]
+    out = np.zeros(np.shape(inside), bool)
+    out.ravel()[idx[np.abs(seen - z) <= DEPTH_RTOL * np.abs(z)]] = True
+    return out
 
 
 def _sample(image, v, u):
@@ -326,22 +330,57 @@ def reproject_rows(target, target_depth, target_alpha, source: RowSource, *, ban
     return out, valid
 
 
-def _combine(stack: np.ndarray, var: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """Values of several sources (n, H, W, c) (NaN where one does not see a pixel) combined, and how
-    many see each pixel: with variances (n, H, W, c), the inverse-variance mean of those within
-    ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of the median (the median where none is); without, the
-    median."""
-    count = np.isfinite(stack[..., 0]).sum(0)
-    med = _nanmedian0(stack)  # NaN at pixels no source sees
-    if var is not None:
-        z = np.nan_to_num(stack)
-        var = np.nan_to_num(var, nan=np.inf)
-        keep = np.isfinite(stack) & (np.abs(z - med) <= TRIM_SIGMA * np.sqrt(var) + TRIM_RTOL * np.abs(med))
-        w = np.where(keep, 1.0 / np.maximum(var, 1e-30), 0.0)
+#: Rows of the target that :func:`_combine` works through at a time, so that its elementwise passes run
+#: in cache: a strip of 128 × 5632 px, two sources with variances, 50–53 ms against 119–121 ms for the
+#: whole strip at once (16 rows: 73 ms) and 257 ms for the former NaN-marked stacks.
+COMBINE_ROWS = 8
+
+
+def _combine(values, ok, var=None, *, rows: int = COMBINE_ROWS) -> tuple[np.ndarray, np.ndarray]:
+    """Several sources' values combined per pixel, and how many see each pixel.
+
+    ``values``: n arrays (H, W, c), finite, 0 where the source does not see the pixel; ``ok`` (n, H, W)
+    bool: where it does; ``var``: n arrays (H, W, c) of finite noise variances (any finite value where
+    the source does not see the pixel), or None. With variances, the inverse-variance mean of the
+    sources within ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of the median (the median where none
+    is); without, the median; 0 where no source sees the pixel. Worked through ``rows`` rows at a time
+    (the same numbers whatever ``rows``)."""
+    n = len(values)
+    H, W, c = np.shape(values[0])
+    dtype = np.result_type(*values, *(var or ()))
+    ok = np.asarray(ok, bool)
+    count = ok.sum(0)
+    out = np.empty((H, W, c), dtype)
+    for a in range(0, H, max(1, int(rows))):
+        b = min(H, a + max(1, int(rows)))
+        z = np.stack([np.asarray(x[a:b]) for x in values])
+        seen, cnt = ok[:, a:b, :, None], count[a:b, :, None]
+        if n <= 2:  # the one source that sees it, or the two's mean: (z₀ + z₁) / count, 0 + z = z
+            med = z[0] + z[-1] if n == 2 else z[0].copy()
+            med /= np.maximum(cnt, 1).astype(med.dtype)
+        else:
+            med = _nanmedian0(np.where(seen, z, np.nan))
+            med[np.broadcast_to(cnt == 0, med.shape)] = 0
+        res = out[a:b]
+        res[...] = med
+        if var is None:
+            continue
+        v = np.stack([np.asarray(x[a:b]) for x in var])
+        thr = np.sqrt(v)
+        thr *= TRIM_SIGMA
+        thr += TRIM_RTOL * np.abs(med)
+        d = np.abs(z - med)
+        keep = d <= thr
+        keep &= seen
+        w = np.maximum(v, 1e-30)
+        np.divide(1.0, w, out=w)
+        w *= keep  # 1/σ² where kept, else 0 (σ² finite)
         wsum = w.sum(0)
-        mean = (z * w).sum(0) / np.where(wsum > 0, wsum, 1.0)
-        med = np.where(wsum > 0, mean, med)
-    return np.where(count[..., None] > 0, med, 0.0), count
+        pos = wsum > 0
+        mean = (z * w).sum(0)
+        mean /= wsum + ~pos  # where none is kept: ÷ 1, then the median below
+        np.copyto(res, mean, where=pos)
+    return out, count
 
 
 def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray, np.ndarray]:
@@ -366,16 +405,17 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
     count : ndarray of shape (H, W), int
         Sources that see each pixel.
     """
-    stack, var = [], []
+    values, oks, var = [], [], []
     target = _on_host(target)
     for src in sources:
         if isinstance(src, RowSource):
             vals, ok = reproject_rows(
                 target, target_depth, target_alpha, src._replace(camera=_on_host(src.camera))
             )
-            stack.append(np.where(ok[..., None], vals, np.nan))
-            if src.variance is not None:
-                var.append(np.where(ok[..., None], src.variance(vals), np.nan))
+            values.append(vals)
+            oks.append(ok)
+            if src.variance is not None:  # elementwise, finite at the zeros where the source does not see
+                var.append(src.variance(vals))
             continue
         cam, depth, image, *rest = src
         cam = _on_host(cam)
@@ -392,19 +432,20 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
                 )
             image = np.concatenate([image, v], axis=-1)
         vals, ok = reproject(target, target_depth, target_alpha, cam, depth, image)
-        stack.append(np.where(ok[..., None], vals[..., :c], np.nan))
+        values.append(vals[..., :c])
+        oks.append(ok)
         if rest:
-            var.append(np.where(ok[..., None], vals[..., c:], np.nan))
-    if not stack:
+            var.append(vals[..., c:])
+    if not values:
         raise SplatError("reprojected: no source photograph given.")
-    if len({v.shape for v in stack}) > 1:
+    if len({v.shape for v in values}) > 1:
         raise SplatError(
             "reprojected: the source images differ in size or channel count: "
-            f"{[v.shape[-1] for v in stack]} channels."
+            f"{[v.shape[-1] for v in values]} channels."
         )
-    if var and len(var) != len(stack):
+    if var and len(var) != len(values):
         raise SplatError("reprojected: give a variance for every source or for none.")
-    return _combine(np.stack(stack), np.stack(var) if var else None)
+    return _combine(values, np.stack(oks), var or None)
 
 
 def consistent_depth(
