@@ -103,6 +103,7 @@ _EXPORTS = {
         "capture_fingerprint",
         "peak_rss_mib",
         "read_json",
+        "release_free_memory",
         "reset_peak_rss",
     ],
     "config": [

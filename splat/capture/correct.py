@@ -22,7 +22,7 @@ from .files import read_index, read_tiff, write_json, write_png8, write_tiff
 from .illuminant import illuminant_of
 from .raw import RawView, load_views, open_raw, white_scale
 from .spec import CaptureError, CaptureSpec
-from .workspace import peak_rss_mib, read_json, reset_peak_rss
+from .workspace import peak_rss_mib, read_json, release_free_memory, reset_peak_rss
 
 if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
@@ -873,6 +873,7 @@ def correct_step(
             X = dng_matrix_XYZ(bal, r.profile, r.neutral, wXYZ)
             write_tiff(o / "raw_dng_XYZ.tiff", X)
             write_png8(o / "raw_dng_sRGB.png", XYZ_to_sRGB(X, wXYZ))
+        release_free_memory()  # what this view's strips freed, before the next view's (bounded by a view)
         if progress is not None:
             progress("correct", i + 1, len(index))
     summary = {

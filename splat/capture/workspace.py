@@ -274,6 +274,22 @@ def reset_peak_rss() -> None:
         pass
 
 
+def release_free_memory() -> None:
+    """Hand the C heap's free pages back to the system (glibc ``malloc_trim(0)``; elsewhere a no-op).
+    Why: strips computed on threads free their arrays into per-thread heaps that glibc keeps; over the
+    correct step's photographs the resident size grew by ~200 MiB per 12 MP photograph without it."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        trim = ctypes.CDLL(name).malloc_trim if name else None
+    except (OSError, AttributeError):
+        trim = None
+    if trim is not None:
+        trim(0)
+
+
 def peak_rss_mib() -> float:
     """Peak resident memory (MiB) since :func:`reset_peak_rss` (Linux ``VmHWM``), else of the process."""
     try:
