@@ -6,8 +6,10 @@ estimated from each camera's first DNG (its ColorMatrix1/2 and ForwardMatrix1/2)
 JSON beside ``capture.toml`` — what ``ssf = "estimate"`` does, but with the basis learned without any
 measurement of the camera's model (``--data``; without it the shipped basis, which contains the Nikon
 D5100 and the Canon EOS 5D Mark II, so the estimate is not held out). The sensor data, poses and
-held-out views are identical; only the curves the pipeline fits its corrections on differ. Truth is the
-simulator's (measured curves).
+held-out views are identical; only the curves the pipeline fits its corrections on differ, and with
+estimated curves each fit is also told the estimate's response σ (``splat.capture.ssf_sigma``, as
+``ssf = "estimate"`` does; ``--no-ssf-sigma``: the sensor noise only). Truth is the simulator's
+(measured curves).
 
 Headline (issue 42): three cameras fused with estimated curves against the best single camera's DNG
 development (``dng:<cam>``, which uses no curves), uniform-surface mean ΔE00 over the held-out views of
@@ -19,6 +21,7 @@ that camera and over all views; goal ≤ 0.5×.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
 import shutil
 import sys
@@ -31,27 +34,33 @@ sys.path.insert(0, str(Path(__file__).parent))
 from bench_capture_accuracy import MEASURES, _labels, table
 
 
-def estimated_curves(capture: Path, data: Path | None) -> list[str]:
+def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]:
     """Estimate every camera's curves from its first DNG, write them beside capture.toml and point
-    capture.toml at them; returns one line per camera (RMSE against the measured curves)."""
+    capture.toml at them (once: a capture already pointing at them keeps its file); returns one line per
+    camera (RMSE against the measured curves) and the estimates by folder."""
     from bench_ssf import _model_key, basis_without, curve_errors, measured_cameras
 
     import zonotope
+    from splat.sim.capture import SimCaptureConfig
     from zonotope.spectra.estimate import SSF_SHAPE, estimate_ssf, write_ssf_json
 
     cams = measured_cameras(data) if data else {}
+    measured_names = {c.folder: c.ssf for c in SimCaptureConfig.ci().cameras}
     toml = (capture / "capture.toml").read_text(encoding="utf-8")
     tables = re.findall(r'folder = "([^"]+)"\nssf = "([^"]+)"', toml)
-    notes = []
+    notes, ests = [], {}
     for folder, name in tables:
+        again = name == f"ssf_estimated_{folder}.json"  # estimated by an earlier run: kept as written
+        name = measured_names[folder] if again else name
         dng = sorted((capture / folder).glob("*.dng"))[0]
         model = _model_key(name)
         basis = basis_without(cams, model, redistributable_only=True, k=5) if cams else None
-        est = estimate_ssf(dng, basis=basis, name=name)
-        out = write_ssf_json(est, capture / f"ssf_estimated_{folder}.json", overwrite=True)
-        toml = toml.replace(
-            f'folder = "{folder}"\nssf = "{name}"', f'folder = "{folder}"\nssf = "{out.name}"'
-        )
+        est = ests[folder] = estimate_ssf(dng, basis=basis, name=name)
+        if not again:
+            out = write_ssf_json(est, capture / f"ssf_estimated_{folder}.json", overwrite=True)
+            toml = toml.replace(
+                f'folder = "{folder}"\nssf = "{name}"', f'folder = "{folder}"\nssf = "{out.name}"'
+            )
         true = np.asarray(zonotope.camera(name).copy().align(SSF_SHAPE).values)  # Sigma: held at 680 nm
         rmse, ang = curve_errors(est.values, true)
         notes.append(
@@ -62,11 +71,14 @@ def estimated_curves(capture: Path, data: Path | None) -> list[str]:
             + " / ".join(f"{v:.1f}" for v in ang)
             + "°"
         )
-    (capture / "capture.toml").write_text(toml, encoding="utf-8")
-    return notes
+    if toml != (capture / "capture.toml").read_text(encoding="utf-8"):
+        (capture / "capture.toml").write_text(toml, encoding="utf-8")
+    return notes, ests
 
 
-def run_variant(work: Path, steps: int, capacity: int, threads: int, stride: int, data, estimate: bool):
+def run_variant(
+    work: Path, steps: int, capacity: int, threads: int, stride: int, data, estimate: bool, ssf_sigma: bool
+):
     from splat.capture import PipelineConfig, read_capture, run
     from splat.scoring import score
     from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
@@ -80,8 +92,9 @@ def run_variant(work: Path, steps: int, capacity: int, threads: int, stride: int
             shutil.copy(capture / "truth" / f, capture / "poses" / f)
         with open(capture / "capture.toml", "a") as fh:
             fh.write('\n[poses]\ncolmap = "poses"\n')
-        if estimate:
-            notes = estimated_curves(capture, data)
+    ests = {}
+    if estimate:
+        notes, ests = estimated_curves(capture, data)
     spec = read_capture(capture)
     cfg = PipelineConfig(steps=steps, capacity=capacity, threads=threads, views=tuple(spec.holdout))
     if not (out / "render" / "index.json").is_file():
@@ -90,8 +103,24 @@ def run_variant(work: Path, steps: int, capacity: int, threads: int, stride: int
     folders = [c.folder for c in spec.cameras]
     n = len(folders)
     subsets = [(k,) for k in range(n)] + [tuple(range(n))]
-    sc = score(capture, out, stride=stride, methods=("Prior",), subsets=subsets, raw_methods=())
+    with _told_band(ests if ssf_sigma else {}):
+        sc = score(capture, out, stride=stride, methods=("Prior",), subsets=subsets, raw_methods=())
     return sc, folders, notes
+
+
+@contextlib.contextmanager
+def _told_band(ests: dict):
+    """The corrections told each estimated camera's response σ (``splat.capture.ssf_sigma``), as
+    ``ssf = "estimate"`` does, from ``ests`` (folder → estimate with the held-out basis) meanwhile."""
+    from splat.capture.spec import CaptureSpec
+
+    kept = CaptureSpec.ssf_estimate
+    try:
+        if ests:
+            CaptureSpec.ssf_estimate = lambda self, k: ests.get(self.cameras[k].folder)
+        yield
+    finally:
+        CaptureSpec.ssf_estimate = kept
 
 
 def mean_over(sc: dict, views: list[str], label_of, measure: str) -> float:
@@ -108,12 +137,24 @@ def main(argv=None) -> int:
     ap.add_argument("--stride", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", type=Path, required=True, help="work folder (steps already done are reused)")
+    ap.add_argument(
+        "--no-ssf-sigma",
+        action="store_true",
+        help="tell the corrections the sensor noise only (the default adds each estimate's σ)",
+    )
     a = ap.parse_args(argv)
     results = {}
     for variant in ("measured", "estimated"):
         t0 = time.perf_counter()
         sc, folders, notes = run_variant(
-            a.work / variant, a.steps, a.capacity, a.threads, a.stride, a.data, variant == "estimated"
+            a.work / variant,
+            a.steps,
+            a.capacity,
+            a.threads,
+            a.stride,
+            a.data,
+            variant == "estimated",
+            not a.no_ssf_sigma,
         )
         results[variant] = (sc, folders)
         text, _ = table(sc, folders)

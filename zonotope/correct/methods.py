@@ -247,7 +247,9 @@ def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None)
     Returns
     -------
     dict
-        ``{"noise": sigma}`` (property ``"noise"``), ``{"delta": DELTA_SIGMAS * sigma}`` (property
+        ``{"noise": sigma}`` (property ``"noise"``; one σ per channel as
+        ``NoiseModel.constant(sigma, k)``, the per-channel form every such estimator takes),
+        ``{"delta": DELTA_SIGMAS * sigma}`` (property
         ``"delta"``: the MMV's response tolerance, see :data:`DELTA_SIGMAS`), or ``{}`` for a
         noise-free level or a method without a noise option (property ``None``).
 
@@ -257,6 +259,8 @@ def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None)
     {'delta': 0.03}
     >>> noise_options("least squares", 0.01), noise_options("idt", 0.01), noise_options("Prior", 0)
     ({'noise': 0.01}, {}, {})
+    >>> noise_options("Prior", [0.01, 0.02, 0.01])["noise"].read
+    array([ 0.0001,  0.0004,  0.0001])
     """
     registry = CORRECTION_METHODS if registry is None else registry
     option = registry.properties(method).get("noise_option")
@@ -269,6 +273,9 @@ def noise_options(method: str, sigma, *, registry: MethodRegistry | None = None)
     if sigma is None or option is None or not np.any(np.asarray(sigma, dtype=np.float64) > 0):
         return {}
     if option == "noise":
+        s = np.asarray(sigma, dtype=np.float64)
+        if s.ndim == 1 and s.size > 1:  # one σ per channel: the estimators take it as a constant model
+            return {"noise": NoiseModel.constant(s, s.size, source="constant σ per channel")}
         return {"noise": sigma}
     if option == "delta":
         scaled = DELTA_SIGMAS * np.asarray(sigma, dtype=np.float64)

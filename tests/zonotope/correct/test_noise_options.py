@@ -44,6 +44,26 @@ def test_noise_options_follow_the_registry_entry():
         assert CORRECTION_METHODS.properties(name)["noise_option"] in ("noise", "delta", None)
 
 
+@pytest.mark.parametrize("name", list(CORRECTION_METHODS))
+def test_every_method_takes_one_sigma_per_channel(name):
+    """σ per channel (a capture camera with estimated curves adds its band to the sensor noise) fits
+    every registered estimator: "noise" estimators get it as a constant NoiseModel, the same fit as
+    that model given directly; "delta" ones a tolerance per channel. Regressions, Guarded, Projection,
+    MAP and Prior raised on the plain array before."""
+    from zonotope.correct import NoiseModel, correction_problem, fit_correction
+
+    problem = correction_problem(["Nikon 5100 (NPL)"], training="ColorChecker N Ohta", shape=GRID)
+    sigma = np.array([0.012, 0.006, 0.009])
+    opts = noise_options(name, sigma)
+    extra = {"mix": 1.0} if name == "Prior" else {}
+    c = np.array([[0.3, 0.4, 0.2], [0.05, 0.1, 0.6]])
+    got = fit_correction(problem, method=name, **opts, **extra)(c)
+    assert np.all(np.isfinite(got))
+    if CORRECTION_METHODS.properties(name)["noise_option"] == "noise":
+        model = NoiseModel.constant(sigma, 3)
+        np.testing.assert_array_equal(got, fit_correction(problem, method=name, noise=model, **extra)(c))
+
+
 def test_noise_options_reads_any_registry():
     registry = MethodRegistry("test")
     registry.register("a", lambda p: p, noise_option="delta")

@@ -135,3 +135,7 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     _, scale = capture.fit_fused_corrector(spec, [0, 1], "least squares", noise)
     _, told, _ = whitened(capture.correction_problem_of(spec, [0, 1]), np.hypot(noise, band))
     np.testing.assert_allclose(scale, told)  # the band joined the noise before whitening
+
+    # the render corrected alone: the pipeline's default method told σ per channel (it raised before)
+    prior = capture.fit_corrector(spec, [0, 1], "Prior", 0.012, mix=capture.pipeline_mix("Prior"))
+    assert np.all(np.isfinite(prior(np.full((2, 6), 0.3))))
