@@ -351,8 +351,9 @@ def _combine(values, ok, var=None, *, rows: int = COMBINE_ROWS) -> tuple[np.ndar
     ok = np.asarray(ok, bool)
     count = ok.sum(0)
     out = np.empty((H, W, c), dtype)
-    for a in range(0, H, max(1, int(rows))):
-        b = min(H, a + max(1, int(rows)))
+    step = max(1, int(rows))
+    for a in range(0, H, step):
+        b = min(H, a + step)
         z = np.stack([np.asarray(x[a:b]) for x in values])
         seen, cnt = ok[:, a:b, :, None], count[a:b, :, None]
         if n <= 2:  # the one source that sees it, or the two's mean: (z₀ + z₁) / count, 0 + z = z
