@@ -166,7 +166,7 @@ def simulated_chart(values: np.ndarray, *, sigma: float = 0.0, seed: int = 0) ->
     return C
 
 
-def jiang2013(C: np.ndarray, pool: dict[str, np.ndarray], k: int = 3) -> np.ndarray:
+def jiang2013(C: np.ndarray, pool: dict[str, np.ndarray], k: int = 3, *, light: str = "D65") -> np.ndarray:
     """colour-science's Jiang et al. (2013) recovery with a PCA basis of the same training cameras."""
     from colour.recovery import PCA_Jiang2013, RGB_to_msds_camera_sensitivities_Jiang2013
 
@@ -174,7 +174,7 @@ def jiang2013(C: np.ndarray, pool: dict[str, np.ndarray], k: int = 3) -> np.ndar
     refl = colour.MultiSpectralDistributions(
         spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), W), W, name="chart"
     )
-    light = colour.SpectralDistribution(spectra.resample(zonotope.illuminant("D65"), W)[:, 0], W)
+    light = colour.SpectralDistribution(spectra.resample(zonotope.illuminant(light), W)[:, 0], W)
     import warnings
 
     with warnings.catch_warnings():

@@ -66,8 +66,10 @@ from zonotope.spectra import builtin as spectra
 from zonotope.spectra.estimate import (
     SSF_SHAPE,
     Chart,
+    DNGMatrices,
     estimate_ssf,
     held_out_error_model,
+    read_dng_matrices,
     ssf_basis,
     synthesise_dng_matrices,
 )
@@ -116,7 +118,11 @@ def chart_photo(
 
 #: The simulated photograph's errors (relative; see chart_photo).
 CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN, CHART_NOISE = 0.02, 0.02, 0.01, 5e-4
-SOURCES = ("dng", "chart", "both")
+SOURCES = ("dng", "chart", "both", "dng-d65", "libraw", "dcp", "mean")
+#: ``--colordata``: measured-camera name → the real D65 ColorMatrix LibRaw carries for it (Adobe's).
+LIBRAW: dict[str, np.ndarray] = {}
+#: ``--dcp-dir``: measured-camera name → the DNG tags of RawTherapee's profile of the model.
+DCP: dict[str, dict] = {}
 
 
 def held_out_estimates(
@@ -126,23 +132,43 @@ def held_out_estimates(
     seed: int = 0,
     redistributable_only: bool = True,
     photos: dict | None = None,
+    pool: dict[str, dict] | None = None,
     **kw,
 ) -> dict:
-    """Every camera's estimate from ``source`` with the basis learned without its model.
+    """Every camera's estimate from ``source`` with the basis learned without its model (from ``pool``,
+    default ``cams``: the cameras estimated may be fewer than those the basis is learned from).
 
     ``source``: ``"dng"`` (synthesised DNG matrices), ``"chart"`` (a simulated photo, :func:`chart_photo`,
-    under D65) or ``"both"``; ``kw`` goes to ``estimate_ssf``.
+    under D65), ``"both"``, ``"dng-d65"`` (the synthesised D65 ColorMatrix alone: what LibRaw's table
+    holds, from the measured curves), ``"libraw"`` (the real one, :data:`LIBRAW`) or ``"dcp"`` (the real
+    A and D65 colour and forward matrices of RawTherapee's profile, :data:`DCP`) or ``"mean"`` (no
+    data: the mean of the basis cameras, with the DNG estimate's band); ``kw`` goes to ``estimate_ssf``.
     """
     out = {}
+    pool = cams if pool is None else pool
     for i, (n, c) in enumerate(cams.items()):
-        basis = basis_without(cams, c["model"], redistributable_only=redistributable_only, k=5)
-        dng = synthesise_dng_matrices(msds(c["values"], n)) if source != "chart" else None
+        basis = basis_without(pool, c["model"], redistributable_only=redistributable_only, k=5)
+        dng = synthesise_dng_matrices(msds(c["values"], n)) if source in ("dng", "both") else None
+        if source == "dng-d65":
+            dng = DNGMatrices(
+                synthesise_dng_matrices(msds(c["values"], n), illuminants=("D65",)).color_matrices, ("D65",)
+            )
+        elif source == "libraw":
+            dng = DNGMatrices((LIBRAW[n],), ("D65",), name=n)
+        elif source == "dcp":
+            dng = read_dng_matrices(DCP[n])
         chart = None
-        if source != "dng":
+        if source in ("chart", "both"):
             photo = chart_photo(c["values"], np.random.default_rng(seed), np.random.default_rng([seed, i]))
             chart = Chart(photo)
             if photos is not None:
                 photos[n] = photo
+        if source == "mean":
+            dng = synthesise_dng_matrices(msds(c["values"], n))
+            mean = np.mean([pool[m]["values"] / pool[m]["values"].max(axis=0) for m in basis.sources], axis=0)
+            e = estimate_ssf(dng, basis=basis, name=n, **kw)
+            out[n] = dataclasses.replace(e, sensitivities=msds(mean / mean.max(), n), sources=("mean",))
+            continue
         out[n] = estimate_ssf(dng, chart=chart, basis=basis, name=n, **kw)
     return out
 
@@ -301,6 +327,40 @@ def write_errors(data: Path, path: Path) -> int:
     return 0
 
 
+def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int:
+    """Add the calibration of estimates from real DNG matrices to the basis file ``path``: for every
+    redistributable camera LibRaw has Adobe's matrix for, the estimate from that matrix (prior weight
+    ``prior``) with the basis learned without its model, against its measured curves."""
+    from bench_ssf import calibrate_band
+    from real_matrices import colour_matrix, read_colordata
+
+    from zonotope.spectra.estimate import SSFBasis, SSFCalibration
+
+    cams = measured_cameras(data)
+    table = read_colordata(colordata)
+    held = {}
+    for n, c in cams.items():
+        M = colour_matrix(table, n)
+        if M is None or not c["redistributable"]:
+            continue
+        basis = basis_without(cams, c["model"], redistributable_only=True, k=ssf_basis().n_components)
+        held[n] = (estimate_ssf(DNGMatrices((M,), ("D65",), name=n), basis=basis, prior=prior), c["values"])
+    errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
+    spread = np.sqrt(np.mean(np.square(errs), axis=0))
+    band_k, scale = calibrate_band(held, spread)
+    errors, weight = held_out_error_model(list(held.values()))
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc["real_dng"] = SSFCalibration(prior, spread, band_k, scale, errors, weight, len(held)).to_json()
+    doc = SSFBasis.from_json(doc).to_json()
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    print(
+        f"wrote {path}: real DNG calibration from {len(held)} cameras, prior {prior:g}, band_k {band_k:.3f}, "
+        f"response_scale {np.round(scale, 3).tolist()}",
+        file=sys.stderr,
+    )
+    return 0
+
+
 def normal_equations_fit(pb, told, method: str, *, extra=(), toward=None, weight: float = 0.0):
     """The noise-aware regression of ``pb`` (told ``told`` per channel) solved from its normal
     equations, with ``extra`` (responses, targets, weight) rows added and a ridge of ``weight`` × the
@@ -359,12 +419,25 @@ class Source:
     """One source's held-out estimates and what the benchmark derives from them."""
 
     def __init__(
-        self, cams: dict[str, dict], source: str, *, seed: int, redistributable_only: bool = True, **kw
+        self,
+        cams: dict[str, dict],
+        source: str,
+        *,
+        seed: int,
+        redistributable_only: bool = True,
+        pool: dict[str, dict] | None = None,
+        **kw,
     ):
         self.cams, self.names = cams, list(cams)
         self.photos: dict[str, np.ndarray] = {}
         self.est = held_out_estimates(
-            cams, source, seed=seed, redistributable_only=redistributable_only, photos=self.photos, **kw
+            cams,
+            source,
+            seed=seed,
+            redistributable_only=redistributable_only,
+            photos=self.photos,
+            pool=pool,
+            **kw,
         )
         self.err = {
             n: training_responses(cams[n]["values"], n) - training_responses(self.est[n].values, n)
@@ -415,7 +488,19 @@ def main(argv=None) -> int:
     ap.add_argument("--singles", type=int, default=40, help="one-camera sets (every k-th camera)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
-        "--sources", default="dng", help="comma-separated estimate sources: dng, chart, both (DNG + chart)"
+        "--sources",
+        default="dng",
+        help="comma-separated estimate sources: dng, chart, both (DNG + chart), dng-d65, libraw",
+    )
+    ap.add_argument(
+        "--colordata",
+        type=Path,
+        help="LibRaw's src/tables/colordata.cpp: the libraw source and only cameras it has a matrix for",
+    )
+    ap.add_argument(
+        "--dcp-dir",
+        type=Path,
+        help="RawTherapee's dcpprofiles folder: the dcp source and only cameras it has a profile for",
     )
     ap.add_argument("--all-sets-basis", action="store_true", help="basis also from camspec (not shippable)")
     ap.add_argument("--methods", default=",".join(METHODS))
@@ -429,6 +514,14 @@ def main(argv=None) -> int:
         "--draws-and-sigma", action="store_true", help="also the error draws plus the calibrated σ"
     )
     ap.add_argument("--write-errors", type=Path, help="store the held-out error model in this basis file")
+    ap.add_argument(
+        "--write-real-dng",
+        type=Path,
+        help="store the calibration of estimates from real DNG matrices (with --colordata) in this basis",
+    )
+    ap.add_argument(
+        "--real-dng-prior", type=float, default=None, help="the prior weight --write-real-dng uses"
+    )
     ap.add_argument(
         "--rejected",
         action="store_true",
@@ -444,6 +537,10 @@ def main(argv=None) -> int:
         return shipped_check(a.data)
     if a.write_errors:
         return write_errors(a.data, a.write_errors)
+    if a.write_real_dng:
+        if not (a.colordata and a.real_dng_prior is not None):
+            ap.error("--write-real-dng needs --colordata and --real-dng-prior")
+        return write_real_dng(a.data, a.write_real_dng, a.colordata, a.real_dng_prior)
     scales = [float(v) for v in a.scales.split(",") if v]
     draw_scales = [float(v) for v in a.draw_scales.split(",") if v]
     fit_names = (
@@ -458,7 +555,24 @@ def main(argv=None) -> int:
     if a.ideal_chart:  # a lab: the very chart's reflectances, the light measured, even light
         global CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN
         CHART_REFLECTANCE = CHART_LIGHT = CHART_UNEVEN = 0.0
-    cams = measured_cameras(a.data)
+    cams = pool = measured_cameras(a.data)
+    if "libraw" in a.sources.split(",") and not a.colordata:
+        ap.error("--sources libraw needs --colordata LibRaw/src/tables/colordata.cpp")
+    if a.colordata:
+        from real_matrices import colour_matrix, read_colordata
+
+        table = read_colordata(a.colordata)
+        LIBRAW.update({n: M for n in cams if (M := colour_matrix(table, n)) is not None})
+        cams = {n: c for n, c in cams.items() if n in LIBRAW}
+        print(f"{len(cams)} measured cameras with a LibRaw (Adobe) matrix", file=sys.stderr)
+    if "dcp" in a.sources.split(",") and not a.dcp_dir:
+        ap.error("--sources dcp needs --dcp-dir /usr/share/rawtherapee/dcpprofiles")
+    if a.dcp_dir:
+        from real_matrices import dcp_matrices
+
+        DCP.update(dcp_matrices(a.dcp_dir, cams))
+        cams = {n: c for n, c in cams.items() if n in DCP}
+        print(f"{len(cams)} measured cameras with a RawTherapee profile", file=sys.stderr)
     names = list(cams)
     t0 = time.perf_counter()
     sources = {}
@@ -466,7 +580,7 @@ def main(argv=None) -> int:
         if s not in SOURCES:
             ap.error(f"--sources {s!r}: choose from {', '.join(SOURCES)}")
         kw = json.loads(a.estimate_kw)
-        sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis, **kw)
+        sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis, pool=pool, **kw)
     print(f"{len(names)} cameras estimated in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     curve_table(cams, sources)
     if a.curves_only:

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from zonotope._errors import OptionError, SpectralDataError
-from zonotope._tol import SSF_ERROR_WEIGHT_FLOOR
+from zonotope._tol import SSF_ERROR_WEIGHT_FLOOR, SSF_PRIOR
 from zonotope.correct import NoiseModel, correction_problem, fit_correction, noise_options
 from zonotope.correct.eiv import fit_errors_in_variables
 from zonotope.correct.regressions import root_polynomial_terms
@@ -44,8 +44,10 @@ def msds(values, name):
 def ests():
     """Two estimates (the built-in Nikon's, and one of a camera with its curves shifted by 20 nm),
     each with six smooth held-out errors."""
-    first = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
-    second = estimate_ssf(synthesise_dng_matrices(msds(np.roll(first.values, 2, axis=0), "shifted")))
+    first = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"), prior=SSF_PRIOR)
+    second = estimate_ssf(
+        synthesise_dng_matrices(msds(np.roll(first.values, 2, axis=0), "shifted")), prior=SSF_PRIOR
+    )
     weight = np.array([[1.0] * 3, [0.0] * 3])
     return [
         dataclasses.replace(e, errors=smooth_errors(6, i), error_weight=weight)

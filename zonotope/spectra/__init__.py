@@ -56,6 +56,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "Chart",
             "DNGMatrices",
             "SSFBasis",
+            "SSFCalibration",
             "SSFEstimate",
             "estimate_ssf",
             "learn_ssf_basis",

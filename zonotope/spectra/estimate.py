@@ -66,6 +66,7 @@ __all__ = [
     "Chart",
     "DNGMatrices",
     "SSFBasis",
+    "SSFCalibration",
     "SSFEstimate",
     "estimate_ssf",
     "held_out_error_model",
@@ -115,6 +116,76 @@ _SIGNATURE = '"document_creator": "zonotope.estimate_ssf"'
 
 
 @dataclass(frozen=True, eq=False)
+class SSFCalibration:
+    """How far estimates of one kind of data lay from measured curves, leave one camera model out.
+
+    Why: DNG matrices synthesised from measured curves are exact least-squares fits, and an estimate
+    trusts them; the matrices real DNG files carry (Adobe's) are not, and an estimate from them must
+    lean on the prior and say it is less sure (docs/notes/2026-11-29-real-dng-matrices.md).
+
+    Attributes
+    ----------
+    prior : float
+        The weight of the Gaussian prior on the basis coefficients (:func:`estimate_ssf`'s ``prior``)
+        for this kind of data, chosen leave one model out.
+    spread, band_k, response_scale, errors, error_weight
+        As the same attributes of :class:`SSFBasis`, measured on estimates from this kind of data.
+    cameras : int
+        The held-out cameras they were measured on.
+    """
+
+    prior: float
+    spread: np.ndarray
+    band_k: float
+    response_scale: np.ndarray
+    errors: np.ndarray | None = None
+    error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
+    cameras: int = 0
+
+    def to_json(self) -> dict:
+        """The calibration as a JSON-ready document (the ``real_dng`` entry of ``ssf_basis.json``)."""
+        return {
+            "prior": float(self.prior),
+            "cameras": int(self.cameras),
+            "spread": np.round(self.spread, 6).tolist(),
+            "band_k": round(float(self.band_k), 4),
+            "response_scale": np.round(self.response_scale, 4).tolist(),
+            **({} if self.errors is None else {"errors": np.round(self.errors, 6).tolist()}),
+            "error_weight": np.round(self.error_weight, 6).tolist(),
+        }
+
+    @classmethod
+    def from_json(cls, doc: Mapping, n: int) -> SSFCalibration:
+        """Read :meth:`to_json` output for a grid of ``n`` wavelengths; malformed: SpectralDataError."""
+        try:
+            cal = cls(
+                float(doc["prior"]),
+                np.asarray(doc["spread"], dtype=np.float64),
+                float(doc["band_k"]),
+                np.asarray(doc["response_scale"], dtype=np.float64),
+                None if doc.get("errors") is None else np.asarray(doc["errors"], dtype=np.float64),
+                np.asarray(doc.get("error_weight", [[1.0] * 3, [0.0] * 3]), dtype=np.float64),
+                int(doc.get("cameras", 0)),
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            raise SpectralDataError(f"SSF basis: malformed calibration ({error}).") from None
+        if (
+            not (cal.prior >= 0 and cal.band_k > 0)
+            or cal.spread.shape != (n, 3)
+            or cal.response_scale.shape != (3,)
+            or not np.all(cal.response_scale > 0)
+            or cal.error_weight.shape != (2, 3)
+            or (cal.errors is not None and (cal.errors.ndim != 3 or cal.errors.shape[1:] != (n, 3)))
+        ):
+            raise SpectralDataError(
+                f"SSF basis: calibration of prior {cal.prior!r}, band_k {cal.band_k!r}, spread "
+                f"{cal.spread.shape} does not fit {n} wavelengths (3 positive response scales, "
+                "error_weight (2, 3))."
+            )
+        return cal
+
+
+@dataclass(frozen=True, eq=False)
 class SSFBasis:
     """A low-dimensional space of camera sensitivities, per channel, learned from measured cameras.
 
@@ -149,6 +220,10 @@ class SSFBasis:
     error_weight : ndarray of shape (2, 3)
         ``(a, b)`` per channel: an estimate of misfit ``r`` has ``a + b·r`` times the calibration
         cameras' RMS response error (least squares over them; ``(1, 0)``: every estimate alike).
+    real_dng : SSFCalibration or None
+        The calibration of estimates from the colour matrices of real DNG files (Adobe's), which
+        :func:`estimate_ssf` uses when it is given a DNG and no chart; None: the attributes above
+        serve every estimate.
     """
 
     wavelengths: np.ndarray
@@ -161,6 +236,7 @@ class SSFBasis:
     response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     errors: np.ndarray | None = None
     error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
+    real_dng: SSFCalibration | None = None
 
     @property
     def n_components(self) -> int:
@@ -176,7 +252,8 @@ class SSFBasis:
             "spread holding the held-out cameras' curves at 90 % of wavelengths; response_scale: their RMS "
             "response error over the fully correlated bound, per channel; errors: the held-out estimates' "
             "curve errors (measured - estimate, peak 1); error_weight: (a, b) per channel, their RMS "
-            "response error ~ a + b * misfit over the RMS of all.",
+            "response error ~ a + b * misfit over the RMS of all; real_dng: the same, and the prior's "
+            "weight, for estimates from real DNG files' colour matrices alone.",
             "licence": self.licence,
             "sources": list(self.sources),
             "wavelengths": self.wavelengths.tolist(),
@@ -193,6 +270,7 @@ class SSFBasis:
                     "error_weight": np.round(self.error_weight, 6).tolist(),
                 }
             ),
+            **({} if self.real_dng is None else {"real_dng": self.real_dng.to_json()}),
         }
 
     @classmethod
@@ -241,6 +319,7 @@ class SSFBasis:
             scale,
             errors,
             weight,
+            None if doc.get("real_dng") is None else SSFCalibration.from_json(doc["real_dng"], w.size),
         )
 
 
@@ -853,7 +932,7 @@ def estimate_ssf(
     training="rawtoaces 190",
     smoothness: float = SSF_SMOOTHNESS,
     subspace: float = SSF_SUBSPACE,
-    prior: float = SSF_PRIOR,
+    prior: float | None = None,
     name: str | None = None,
 ) -> SSFEstimate:
     """Estimate a camera's RGB spectral sensitivities from its DNG colour matrices, a chart, or both.
@@ -873,7 +952,10 @@ def estimate_ssf(
     smoothness, subspace, prior : float
         Weights of the second-difference penalty, of each channel's distance to its basis span, and of
         the Gaussian prior on the basis coefficients beyond the first, relative to the data (defaults
-        chosen leaving one camera model out, docs/notes/2026-11-29-ssf-estimation.md).
+        chosen leaving one camera model out, docs/notes/2026-11-29-ssf-estimation.md). ``prior``
+        defaults to ``basis.real_dng.prior`` for a DNG without a chart where the basis has that
+        calibration (real DNG matrices are not exact fits of the curves:
+        docs/notes/2026-11-29-real-dng-matrices.md), else :data:`~zonotope._tol.SSF_PRIOR`.
     name : str, optional
         Name of the estimated camera (default the DNG's make and model).
 
@@ -917,6 +999,10 @@ def estimate_ssf(
             "estimate_ssf: give a DNG (its colour matrices), a chart photograph, or both."
         )
     basis = ssf_basis() if basis is None else basis
+    # a DNG alone is judged by what real files' matrices give; a chart brings data of its own
+    cal = basis.real_dng if chart is None else None
+    if prior is None:
+        prior = SSF_PRIOR if cal is None else cal.prior
     w = np.asarray(basis.wavelengths, dtype=np.float64)
     n = w.size
     blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []  # (A per channel, target (N,3), scale index)
@@ -987,7 +1073,8 @@ def estimate_ssf(
     fit = data @ sol.x - np.concatenate(rhs[: len(blocks) * 3])
     residual = float(np.linalg.norm(fit) / np.sqrt(len(blocks)))
     S = S / peak
-    spread = np.asarray(basis.spread, dtype=np.float64) * S.max(axis=0, keepdims=True)
+    held = basis if cal is None else cal  # the calibration these data are judged by
+    spread = np.asarray(held.spread, dtype=np.float64) * S.max(axis=0, keepdims=True)
     label = name or (matrices.name if matrices is not None and matrices.name else "estimated camera")
     msds = colour.MultiSpectralDistributions(S, w, labels=["red", "green", "blue"], name=label)
     sources = tuple(s for s, given in (("dng", dng is not None), ("chart", chart is not None)) if given)
@@ -997,10 +1084,10 @@ def estimate_ssf(
         sources,
         residual,
         label,
-        float(basis.band_k),
-        np.asarray(basis.response_scale),
-        basis.errors,
-        np.asarray(basis.error_weight),
+        float(held.band_k),
+        np.asarray(held.response_scale),
+        held.errors,
+        np.asarray(held.error_weight),
     )
 
 

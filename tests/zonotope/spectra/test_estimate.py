@@ -18,13 +18,14 @@ from hypothesis import strategies as st
 
 import zonotope
 from zonotope import SpectralDataError
-from zonotope._tol import SSF_CHART_CLIP, SSF_FIT_SIGMA_SCALE
+from zonotope._tol import SSF_CHART_CLIP, SSF_FIT_SIGMA_SCALE, SSF_PRIOR
 from zonotope.spectra import builtin as spectra
 from zonotope.spectra.estimate import (
     SSF_SHAPE,
     Chart,
     DNGMatrices,
     SSFBasis,
+    SSFCalibration,
     estimate_ssf,
     learn_ssf_basis,
     read_dng_matrices,
@@ -80,7 +81,7 @@ def test_estimate_reproduces_the_matrices_it_was_given():
     agree with the input to 0.03 per entry (the fit is XYZ → camera, a DNG converter's camera → XYZ:
     the two regressions differ by about that); a Canon's matrices differ from them by ≥ 0.1."""
     dng = synthesise_dng_matrices("Nikon 5100 (NPL)", reflectances="rawtoaces 190")
-    est = estimate_ssf(dng)
+    est = estimate_ssf(dng, prior=SSF_PRIOR)  # exact matrices: the weight chosen on exact matrices
     again = synthesise_dng_matrices(est.sensitivities, reflectances="rawtoaces 190")
     other = synthesise_dng_matrices("Canon EOS 5D Mark II", reflectances="rawtoaces 190")
     for a, b, c in zip(dng.color_matrices, again.color_matrices, other.color_matrices, strict=True):
@@ -91,10 +92,11 @@ def test_estimate_reproduces_the_matrices_it_was_given():
 
 
 def test_estimate_is_close_to_the_measured_curves_and_beats_the_mean_camera():
-    """Nikon D5100 (NPL) from its synthesised matrices: closer to the measurement than the basis's
-    first component (the plausible camera with no data) in every channel."""
+    """Nikon D5100 (NPL) from its synthesised matrices (exact fits of its curves, so the prior weight
+    chosen on exact matrices): closer to the measurement than the basis's first component (the
+    plausible camera with no data) in every channel."""
     truth = _peak1(_nikon())
-    est = _peak1(estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)")).values)
+    est = _peak1(estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"), prior=SSF_PRIOR).values)
     prior = _peak1(np.abs(ssf_basis().components[:, :, 0].T))
     err = np.sqrt(np.mean((est - truth) ** 2, axis=0))
     assert np.all(err < 0.06), err
@@ -190,6 +192,58 @@ def test_basis_spans_its_cameras_and_round_trips_through_json():
     assert shipped.components.shape[:2] == (3, W.size) and "Apache-2.0" in shipped.licence
 
 
+def _calibrated(basis, prior=1.0):
+    """``basis`` with a real-DNG calibration unlike its own (wider, other k and scale)."""
+    cal = SSFCalibration(
+        prior, 2.5 * basis.spread, 3.0, np.array([0.5, 0.6, 0.7]), None, np.array([[1.0] * 3, [0.0] * 3]), 9
+    )
+    return dataclasses.replace(basis, real_dng=cal)
+
+
+def test_a_dng_alone_is_judged_by_the_real_dng_calibration():
+    """DNG only: the calibration's prior, band, k and scale; with a chart: the basis' own (the chart's
+    data are its own), identical to a basis without that calibration."""
+    plain = dataclasses.replace(ssf_basis(), real_dng=None)
+    basis = _calibrated(plain)
+    dng = synthesise_dng_matrices("Nikon 5100 (NPL)")
+    alone = estimate_ssf(dng, basis=basis)
+    np.testing.assert_allclose(alone.values, estimate_ssf(dng, basis=plain, prior=1.0).values)
+    np.testing.assert_allclose(alone.uncertainty, 2.5 * plain.spread * alone.values.max(axis=0))
+    assert alone.band_k == 3.0 and alone.response_scale.tolist() == [0.5, 0.6, 0.7]
+    assert not np.allclose(alone.values, estimate_ssf(dng, basis=plain).values, atol=1e-3)  # prior matters
+    chart = Chart(_chart_rgb(_nikon()))
+    for kw in ({"chart": chart}, {"dng": dng, "chart": chart}):
+        a, b = estimate_ssf(basis=basis, **kw), estimate_ssf(basis=plain, **kw)
+        np.testing.assert_allclose(a.values, b.values)
+        np.testing.assert_allclose(a.uncertainty, b.uncertainty)
+        assert a.band_k == b.band_k
+    np.testing.assert_allclose(
+        estimate_ssf(dng, basis=basis, prior=SSF_PRIOR).values, estimate_ssf(dng, basis=plain).values
+    )
+
+
+def test_real_dng_calibration_round_trips_and_bad_ones_are_refused():
+    basis = _calibrated(learn_ssf_basis({f"c{i}": np.roll(_nikon(), i, axis=0) for i in range(6)}))
+    again = SSFBasis.from_json(json.loads(json.dumps(basis.to_json())))
+    assert again.real_dng.prior == 1.0 and again.real_dng.cameras == 9 and again.real_dng.band_k == 3.0
+    np.testing.assert_allclose(again.real_dng.spread, basis.real_dng.spread, atol=1e-6)
+    for change in ({"spread": [[0.1] * 3]}, {"prior": -1}, {"response_scale": [1, 1]}, {"band_k": None}):
+        doc = basis.to_json()
+        doc["real_dng"] = doc["real_dng"] | change
+        with pytest.raises(SpectralDataError, match="SSF basis"):
+            SSFBasis.from_json(doc)
+
+
+def test_the_shipped_basis_trusts_real_dng_matrices_less():
+    """Measured on real (Adobe) matrices: a stronger prior and a wider band than exact matrices get."""
+    shipped = ssf_basis()
+    cal = shipped.real_dng
+    assert cal is not None and cal.prior > SSF_PRIOR and cal.cameras >= 20
+    assert np.all(np.sqrt(np.mean(cal.spread**2, axis=0)) > np.sqrt(np.mean(shipped.spread**2, axis=0)))
+    est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    np.testing.assert_allclose(est.uncertainty, cal.spread * est.values.max(axis=0))
+
+
 def test_json_output_loads_back_with_load_camera(tmp_path):
     est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"), name="Nikon D5100")
     path = write_ssf_json(est, tmp_path / "cam.json")
@@ -218,14 +272,14 @@ def test_response_sigma_grows_with_the_band():
 
 def test_response_sigma_is_the_bound_times_the_calibrated_scale():
     """The RMS σ is the fully correlated bound (recomputed here from its definition) times the
-    shipped basis' leave-one-out scale, which is below 1 (the bound is an upper bound); the default,
-    told to fits, is that times SSF_FIT_SIGMA_SCALE."""
+    shipped basis' leave-one-out scale for a DNG alone (its real-DNG calibration), which is below 1
+    (the bound is an upper bound); the default, told to fits, is that times SSF_FIT_SIGMA_SCALE."""
     est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
     R = spectra.resample(zonotope.load_reflectances("rawtoaces 190"), W).T
     E = spectra.resample(zonotope.illuminant("D65"), W)[:, 0]
     bound = np.sqrt(np.mean(np.square((R * E) @ est.uncertainty), axis=0)) / (E @ est.values)
     np.testing.assert_allclose(est.response_sigma(bound=True), bound, rtol=1e-10)
-    scale = ssf_basis().response_scale
+    scale = ssf_basis().real_dng.response_scale
     assert np.all((scale > 0) & (scale < 1))
     np.testing.assert_allclose(est.response_sigma(rms=True), bound * scale, rtol=1e-10)
     assert 0 < SSF_FIT_SIGMA_SCALE < 1
@@ -235,7 +289,8 @@ def test_response_sigma_is_the_bound_times_the_calibrated_scale():
 
 def test_default_band_is_the_calibrated_multiple():
     est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
-    assert est.band_k == ssf_basis().band_k > 0
+    assert est.band_k == ssf_basis().real_dng.band_k > 0
+    assert estimate_ssf(chart=Chart(_chart_rgb(_nikon()))).band_k == ssf_basis().band_k > 0
     lower, upper = est.band()
     np.testing.assert_allclose(upper - est.values, est.band_k * est.uncertainty, rtol=1e-12)
     np.testing.assert_array_equal(lower, np.maximum(est.values - est.band_k * est.uncertainty, 0.0))
