@@ -350,12 +350,13 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int
     band_k, scale = calibrate_band(held, spread)
     errors, weight = held_out_error_model(list(held.values()))
     doc = json.loads(path.read_text(encoding="utf-8"))
-    doc["real_dng"] = SSFCalibration(prior, spread, band_k, scale, errors, weight, len(held)).to_json()
+    top = float(np.ceil(max(e.residual for e, _ in held.values()) * 1e6) / 1e6)  # as stored: 6 decimals
+    doc["real_dng"] = SSFCalibration(prior, spread, band_k, scale, errors, weight, len(held), top).to_json()
     doc = SSFBasis.from_json(doc).to_json()
     path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     print(
         f"wrote {path}: real DNG calibration from {len(held)} cameras, prior {prior:g}, band_k {band_k:.3f}, "
-        f"response_scale {np.round(scale, 3).tolist()}",
+        f"response_scale {np.round(scale, 3).tolist()}, max_residual {top:.4f}",
         file=sys.stderr,
     )
     return 0

@@ -32,6 +32,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import os
@@ -132,6 +133,10 @@ class SSFCalibration:
         As the same attributes of :class:`SSFBasis`, measured on estimates from this kind of data.
     cameras : int
         The held-out cameras they were measured on.
+    max_residual : float
+        The largest misfit (:attr:`SSFEstimate.residual`) among them: an estimate that fits its data
+        worse is unlike every camera the calibration saw (a Foveon sensor among Bayer ones), and
+        :func:`estimate_ssf` does not apply the calibration to it.
     """
 
     prior: float
@@ -141,12 +146,18 @@ class SSFCalibration:
     errors: np.ndarray | None = None
     error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
     cameras: int = 0
+    max_residual: float = float("inf")
 
     def to_json(self) -> dict:
         """The calibration as a JSON-ready document (the ``real_dng`` entry of ``ssf_basis.json``)."""
         return {
             "prior": float(self.prior),
             "cameras": int(self.cameras),
+            **(
+                {}
+                if not np.isfinite(self.max_residual)
+                else {"max_residual": round(float(self.max_residual), 6)}
+            ),
             "spread": np.round(self.spread, 6).tolist(),
             "band_k": round(float(self.band_k), 4),
             "response_scale": np.round(self.response_scale, 4).tolist(),
@@ -166,11 +177,12 @@ class SSFCalibration:
                 None if doc.get("errors") is None else np.asarray(doc["errors"], dtype=np.float64),
                 np.asarray(doc.get("error_weight", [[1.0] * 3, [0.0] * 3]), dtype=np.float64),
                 int(doc.get("cameras", 0)),
+                float(doc.get("max_residual", float("inf"))),
             )
         except (KeyError, TypeError, ValueError) as error:
             raise SpectralDataError(f"SSF basis: malformed calibration ({error}).") from None
         if (
-            not (cal.prior >= 0 and cal.band_k > 0)
+            not (cal.prior >= 0 and cal.band_k > 0 and cal.max_residual > 0)
             or cal.spread.shape != (n, 3)
             or cal.response_scale.shape != (3,)
             or not np.all(cal.response_scale > 0)
@@ -1001,8 +1013,30 @@ def estimate_ssf(
     basis = ssf_basis() if basis is None else basis
     # a DNG alone is judged by what real files' matrices give; a chart brings data of its own
     cal = basis.real_dng if chart is None else None
+    if cal is not None and prior is None:
+        est = estimate_ssf(
+            dng,
+            basis=basis,
+            training=training,
+            smoothness=smoothness,
+            subspace=subspace,
+            prior=cal.prior,
+            name=name,
+        )
+        if est.residual <= cal.max_residual:
+            return est
+        # unlike every camera the calibration saw: trust the matrices, as for exact ones
+        return estimate_ssf(
+            dng,
+            basis=dataclasses.replace(basis, real_dng=None),
+            training=training,
+            smoothness=smoothness,
+            subspace=subspace,
+            prior=SSF_PRIOR,
+            name=name,
+        )
     if prior is None:
-        prior = SSF_PRIOR if cal is None else cal.prior
+        prior = SSF_PRIOR
     w = np.asarray(basis.wavelengths, dtype=np.float64)
     n = w.size
     blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []  # (A per channel, target (N,3), scale index)

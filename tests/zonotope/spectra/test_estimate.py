@@ -222,12 +222,39 @@ def test_a_dng_alone_is_judged_by_the_real_dng_calibration():
     )
 
 
+def test_a_camera_unlike_the_calibration_cameras_is_estimated_as_from_exact_matrices():
+    """A misfit above every calibration camera's (max_residual): the calibration does not apply; the
+    estimate is the one the basis without it gives (prior SSF_PRIOR, the basis' own band)."""
+    plain = dataclasses.replace(ssf_basis(), real_dng=None)
+    strict = dataclasses.replace(
+        _calibrated(plain), real_dng=dataclasses.replace(_calibrated(plain).real_dng, max_residual=1e-9)
+    )
+    dng = synthesise_dng_matrices("Nikon 5100 (NPL)")
+    a, b = estimate_ssf(dng, basis=strict), estimate_ssf(dng, basis=plain)
+    np.testing.assert_allclose(a.values, b.values)
+    np.testing.assert_allclose(a.uncertainty, b.uncertainty)
+    assert a.band_k == b.band_k == plain.band_k
+    # the shipped calibration: a Foveon sensor (the Sigma) is unlike its Bayer cameras, the Nikon is not
+    sigma = colour.MultiSpectralDistributions(
+        zonotope.camera("Sigma SDMerill (NPL)").copy().align(SSF_SHAPE).values, W, name="sigma"
+    )
+    assert estimate_ssf(synthesise_dng_matrices(sigma)).band_k == ssf_basis().band_k
+    assert estimate_ssf(dng).band_k == ssf_basis().real_dng.band_k
+
+
 def test_real_dng_calibration_round_trips_and_bad_ones_are_refused():
     basis = _calibrated(learn_ssf_basis({f"c{i}": np.roll(_nikon(), i, axis=0) for i in range(6)}))
     again = SSFBasis.from_json(json.loads(json.dumps(basis.to_json())))
     assert again.real_dng.prior == 1.0 and again.real_dng.cameras == 9 and again.real_dng.band_k == 3.0
     np.testing.assert_allclose(again.real_dng.spread, basis.real_dng.spread, atol=1e-6)
-    for change in ({"spread": [[0.1] * 3]}, {"prior": -1}, {"response_scale": [1, 1]}, {"band_k": None}):
+    bad = (
+        {"spread": [[0.1] * 3]},
+        {"prior": -1},
+        {"response_scale": [1, 1]},
+        {"band_k": None},
+        {"max_residual": 0},
+    )
+    for change in bad:
         doc = basis.to_json()
         doc["real_dng"] = doc["real_dng"] | change
         with pytest.raises(SpectralDataError, match="SSF basis"):
