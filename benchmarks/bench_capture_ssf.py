@@ -16,6 +16,8 @@ development (``dng:<cam>``, which uses no curves), uniform-surface mean ΔE00 ov
 that camera and over all views; goal ≤ 0.5×.
 
     python benchmarks/bench_capture_ssf.py --data ../shared/data --work /tmp/capture_ssf
+    python benchmarks/bench_capture_ssf.py --data ../shared/data --work /tmp/capture_ssf_adobe \
+        --colordata LibRaw/src/tables/colordata.cpp [--exact-prior]    # Adobe's matrices
 """
 
 from __future__ import annotations

@@ -967,7 +967,10 @@ def estimate_ssf(
         chosen leaving one camera model out, docs/notes/2026-11-29-ssf-estimation.md). ``prior``
         defaults to ``basis.real_dng.prior`` for a DNG without a chart where the basis has that
         calibration (real DNG matrices are not exact fits of the curves:
-        docs/notes/2026-11-29-real-dng-matrices.md), else :data:`~zonotope._tol.SSF_PRIOR`.
+        docs/notes/2026-11-29-real-dng-matrices.md), and the estimate then carries that calibration's
+        band, unless its misfit exceeds the calibration's ``max_residual`` (a camera unlike all of its
+        cameras, estimated as the basis without the calibration would); else
+        :data:`~zonotope._tol.SSF_PRIOR`. A ``prior`` given with a DNG alone keeps the real-DNG band.
     name : str, optional
         Name of the estimated camera (default the DNG's make and model).
 
