@@ -1017,27 +1017,12 @@ def estimate_ssf(
     # a DNG alone is judged by what real files' matrices give; a chart brings data of its own
     cal = basis.real_dng if chart is None else None
     if cal is not None and prior is None:
-        est = estimate_ssf(
-            dng,
-            basis=basis,
-            training=training,
-            smoothness=smoothness,
-            subspace=subspace,
-            prior=cal.prior,
-            name=name,
-        )
+        kw = dict(dng=read_dng_matrices(dng), training=training, smoothness=smoothness, subspace=subspace)
+        est = estimate_ssf(basis=basis, prior=cal.prior, name=name, **kw)
         if est.residual <= cal.max_residual:
             return est
         # unlike every camera the calibration saw: trust the matrices, as for exact ones
-        return estimate_ssf(
-            dng,
-            basis=dataclasses.replace(basis, real_dng=None),
-            training=training,
-            smoothness=smoothness,
-            subspace=subspace,
-            prior=SSF_PRIOR,
-            name=name,
-        )
+        return estimate_ssf(basis=dataclasses.replace(basis, real_dng=None), prior=SSF_PRIOR, name=name, **kw)
     if prior is None:
         prior = SSF_PRIOR
     w = np.asarray(basis.wavelengths, dtype=np.float64)
