@@ -67,7 +67,8 @@ def _estimate(args: argparse.Namespace) -> int:
     peaks = est.wavelengths[est.values.argmax(axis=0)]
     print(
         f"{est.name}: sensitivities from {' + '.join(est.sources)} (peaks R {peaks[0]:g}, G {peaks[1]:g}, "
-        f"B {peaks[2]:g} nm; relative misfit {est.residual:.3g}) → {args.output}",
+        f"B {peaks[2]:g} nm; relative misfit {est.residual:.3g}; band calibrated on {est.calibration}) "
+        f"→ {args.output}",
         file=sys.stdout,
     )
     return 0

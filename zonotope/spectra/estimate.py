@@ -770,6 +770,10 @@ class SSFEstimate:
     errors, error_weight
         The basis' held-out curve errors and their weighting by misfit (:class:`SSFBasis`), the error
         model of :meth:`response_errors`.
+    calibration : str
+        What the band and these were measured on: ``"real DNG matrices"`` (a DNG alone,
+        :attr:`SSFBasis.real_dng`) or ``"synthesised matrices"`` (the basis' own calibration), the
+        latter saying so when a DNG alone fell back to it (a camera unlike the real-DNG calibration's).
     """
 
     sensitivities: colour.MultiSpectralDistributions
@@ -781,6 +785,7 @@ class SSFEstimate:
     response_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     errors: np.ndarray | None = None
     error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
+    calibration: str = "synthesised matrices"
 
     @property
     def values(self) -> np.ndarray:
@@ -1022,7 +1027,12 @@ def estimate_ssf(
         if est.residual <= cal.max_residual:
             return est
         # unlike every camera the calibration saw: trust the matrices, as for exact ones
-        return estimate_ssf(basis=dataclasses.replace(basis, real_dng=None), prior=SSF_PRIOR, name=name, **kw)
+        exact = estimate_ssf(
+            basis=dataclasses.replace(basis, real_dng=None), prior=SSF_PRIOR, name=name, **kw
+        )
+        why = f"misfit {est.residual:.3g} at the real-DNG prior > {cal.max_residual:.3g}, any "
+        why += "calibration camera's"
+        return dataclasses.replace(exact, calibration=f"synthesised matrices ({why})")
     if prior is None:
         prior = SSF_PRIOR
     w = np.asarray(basis.wavelengths, dtype=np.float64)
@@ -1110,6 +1120,7 @@ def estimate_ssf(
         np.asarray(held.response_scale),
         held.errors,
         np.asarray(held.error_weight),
+        "synthesised matrices" if cal is None else "real DNG matrices",
     )
 
 

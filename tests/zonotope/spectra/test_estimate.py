@@ -238,8 +238,11 @@ def test_a_camera_unlike_the_calibration_cameras_is_estimated_as_from_exact_matr
     sigma = colour.MultiSpectralDistributions(
         zonotope.camera("Sigma SDMerill (NPL)").copy().align(SSF_SHAPE).values, W, name="sigma"
     )
-    assert estimate_ssf(synthesise_dng_matrices(sigma)).band_k == ssf_basis().band_k
+    fell = estimate_ssf(synthesise_dng_matrices(sigma))
+    assert fell.band_k == ssf_basis().band_k and fell.calibration.startswith("synthesised matrices (misfit")
     assert estimate_ssf(dng).band_k == ssf_basis().real_dng.band_k
+    assert estimate_ssf(dng).calibration == "real DNG matrices"
+    assert estimate_ssf(chart=Chart(_chart_rgb(_nikon()))).calibration == "synthesised matrices"
 
 
 def test_real_dng_calibration_round_trips_and_bad_ones_are_refused():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from fractions import Fraction
 
+import colour
 import numpy as np
 import pytest
 
@@ -36,7 +37,8 @@ def test_estimate_writes_json_that_load_camera_reads(tmp_path, capsys):
     dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
     out = tmp_path / "cam.json"
     assert main(["ssf", "estimate", dng, "-o", str(out)]) == 0
-    assert "Test Cam" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert "Test Cam" in said and "band calibrated on real DNG matrices" in said
     cam = zonotope.load_camera(out)
     assert cam.values.shape == (len(SSF_SHAPE.wavelengths), 3) and cam.values.min() >= 0
     truth = spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), SSF_SHAPE.wavelengths)
@@ -139,3 +141,17 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     # the render corrected alone: the pipeline's default method told σ per channel (it raised before)
     prior = capture.fit_corrector(spec, [0, 1], "Prior", 0.012, mix=capture.pipeline_mix("Prior"))
     assert np.all(np.isfinite(prior(np.full((2, 6), 0.3))))
+
+
+def test_a_foveon_dng_says_it_fell_back_to_the_exact_matrix_calibration(tmp_path, capsys):
+    """The Sigma's (Foveon) matrices fit worse than any real-DNG calibration camera's: the message says
+    which calibration the band is from and why."""
+    sigma = colour.MultiSpectralDistributions(
+        zonotope.camera("Sigma SDMerill (NPL)").copy().align(SSF_SHAPE).values,
+        SSF_SHAPE.wavelengths,
+        name="sigma",
+    )
+    dng = _dng(tmp_path / "sigma.dng", synthesise_dng_matrices(sigma))
+    assert main(["ssf", "estimate", dng, "-o", str(tmp_path / "sigma.json")]) == 0
+    said = capsys.readouterr().out
+    assert "band calibrated on synthesised matrices (misfit" in said and "any calibration camera's" in said
