@@ -248,13 +248,15 @@ def splat_run(capture: Path, out: Path, options: list[str], log: Path) -> dict:
 
 
 def step_cost(sizes, gaussians, steps: int = 10, views: int = 3) -> list[dict]:
-    """CPU seconds of one training step (:func:`splat.train`, the capture's loss and render back-end)
-    at each working size ``(W, H)`` and number of alive Gaussians: the median over the steps after the
-    first two (compilation), ``views`` views per camera of the synthetic scene at that size, no
-    densification (the alive count stays as given). Why: the train step's cost at a real size is
+    """CPU and wall seconds of one training step (:func:`splat.train`, the capture's loss and render
+    back-end, ``"auto"``: the CPU one on a CPU, ``"tiled"`` on a GPU) at each working size ``(W, H)`` and
+    number of alive Gaussians: the median over the steps after the first two (compilation), ``views``
+    views per camera of the synthetic scene at that size, no densification (the alive count stays as
+    given); on a GPU also the device's peak memory so far. Why: the train step's cost at a real size is
     steps × this; its growth in pixels and Gaussians decides what a working resolution costs."""
     from dataclasses import replace
 
+    import jax
     import numpy as np
 
     from splat import SceneConfig, synthetic_scene
@@ -275,9 +277,10 @@ def step_cost(sizes, gaussians, steps: int = 10, views: int = 3) -> list[dict]:
             marks = []
 
             def cb(step, state, loss, marks=marks):
-                marks.append((time.process_time(), int(state.alive.sum())))
+                alive = int(state.alive.sum())  # waits for the step's result
+                marks.append((time.process_time(), time.perf_counter(), alive))
 
-            t = time.process_time()
+            t, w = time.process_time(), time.perf_counter()
             train(
                 scene.capture,
                 scene.images,
@@ -288,16 +291,22 @@ def step_cost(sizes, gaussians, steps: int = 10, views: int = 3) -> list[dict]:
                 callback=cb,
             )
             per = np.diff([t] + [m[0] for m in marks])[2:]
+            wall = np.diff([w] + [m[1] for m in marks])[2:]
+            peak = (jax.devices()[0].memory_stats() or {}).get("peak_bytes_in_use")
             rows.append(
                 {
                     "size": [W, H],
                     "pixels": W * H,
-                    "gaussians": marks[-1][1],
+                    "gaussians": marks[-1][2],
                     "cpu_s_per_step": float(np.median(per)),
+                    "wall_s_per_step": float(np.median(wall)),
+                    "device": str(jax.devices()[0]),
+                    "device_peak_mib": None if peak is None else round(peak / 2**20, 1),
                 }
             )
             print(
-                f"step cost {W}×{H}, {marks[-1][1]} Gaussians: {rows[-1]['cpu_s_per_step']:.3f} s CPU",
+                f"step cost {W}×{H}, {marks[-1][2]} Gaussians: {rows[-1]['cpu_s_per_step']:.3f} s CPU, "
+                f"{rows[-1]['wall_s_per_step']:.3f} s wall",
                 flush=True,
             )
     return rows
@@ -396,6 +405,8 @@ def main(argv=None) -> int:
         action="store_true",
         help="only time one training step at working sizes × Gaussians (no capture, no run)",
     )
+    ap.add_argument("--step-sizes", default="128x96,256x192,512x384", help="with --step-cost: W×H list")
+    ap.add_argument("--step-gaussians", default="1024,4096", help="with --step-cost: Gaussians")
     ap.add_argument(
         "--select", nargs="+", default=None, help="splat run --views: photographs to render and correct"
     )
@@ -415,13 +426,19 @@ def main(argv=None) -> int:
                 print(f"| {nv} | {'all' if k is None else k} | {np.median(xs):.1f} |")
         return 0
     if args.step_cost:
-        sizes = [(128, 96), (256, 192), (512, 384)]
-        rows = step_cost(sizes, [1024, 4096], steps=8)
+        sizes = [tuple(int(v) for v in s.split("x")) for s in args.step_sizes.split(",")]
+        rows = step_cost(sizes, [int(g) for g in args.step_gaussians.split(",")], steps=8)
         (work / "results_step_cost.json").write_text(json.dumps(rows, indent=1))
-        print("| working size | pixels | Gaussians | CPU s per step |\n|---|---:|---:|---:|")
+        print(
+            "| working size | pixels | Gaussians | CPU s per step | wall s per step |\n"
+            "|---|---:|---:|---:|---:|"
+        )
         for r in rows:
             w, h = r["size"]
-            print(f"| {w}×{h} | {r['pixels']} | {r['gaussians']} | {r['cpu_s_per_step']:.3f} |")
+            print(
+                f"| {w}×{h} | {r['pixels']} | {r['gaussians']} | {r['cpu_s_per_step']:.3f} "
+                f"| {r['wall_s_per_step']:.3f} |"
+            )
         return 0
     opts = []
     if args.steps is not None:

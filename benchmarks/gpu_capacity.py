@@ -21,6 +21,15 @@ than the training views, and only the normalised numbers separate the fit from t
 The float16 values quantise the mosaics 91 dB below their peak.
 Figures of one H200 (2026-11-27) are in docs/benchmarks.md.
 
+``--baseline cpu`` times the ``"cpu"`` back-end on the host's cores first instead of the serial tiles,
+``--time-capacities`` names the capacities timed (every buffer slot alive: the COLMAP points resampled);
+each timing row also holds the compiled step's memory (XLA's analysis) and the device's peak so far.
+``--reference SCENE.npz`` writes one view's Gaussians and this project's render for
+``gsplat_reference.py`` and times the render and its gradient on them. ``--min-steps`` trains a shorter
+schedule where ``--steps`` does not fit; ``--train-anyway`` trains regardless and scores the model where
+the budget stopped it (``stopped`` in the results). ``benchmarks/gpu_run.sh`` runs the whole device
+batch.
+
 ``--set FIELD=VALUE`` (repeatable) overrides a :class:`splat.TrainConfig` field of that schedule, e.g.
 ``--set densify_gradient=screen --set densify_fraction=0.5``; the overrides are written to the results.
 """
@@ -130,6 +139,12 @@ def run(
     tile_capacity: int = 0,
     save_model: str | None = None,
     overrides: dict | None = None,
+    *,
+    min_steps: int | None = None,
+    baseline: str = "serial",
+    time_capacities: list[int] | None = None,
+    reference: str | None = None,
+    train_anyway: bool = False,
 ) -> None:
     import jax
     import jax.numpy as jnp
@@ -142,6 +157,7 @@ def run(
     from splat.training import init_state, train, train_step
 
     t_start = time.perf_counter()
+    min_steps = steps if min_steps is None else min_steps
     res = {
         "device": str(jax.devices()[0]),
         "backend": jax.default_backend(),
@@ -174,8 +190,8 @@ def run(
     res["data"]["depth_targets"] = 0 if depth is None else int(depth[2].sum())
     print(res, flush=True)
 
-    def config(capacity, render):  # the pipeline's train step, without checkpoints
-        tc = train_config(PipelineConfig(steps=steps, capacity=capacity))
+    def config(capacity, render, n_steps=steps):  # the pipeline's train step, without checkpoints
+        tc = train_config(PipelineConfig(steps=n_steps, capacity=capacity))
         return dataclasses.replace(tc, render=render, method=method, **(overrides or {}))
 
     def init_points(capacity):
@@ -216,49 +232,91 @@ def run(
         k = tile_capacity or (1024 if capacity <= 65536 else 2048)
         return RenderConfig(tile_batch=tile_batch, tile_capacity=k)
 
-    def time_steps_of(capacity, render):
-        cfg = config(capacity, render)
+    cpu = jax.devices("cpu")[0]
+
+    def full_points(capacity):  # every buffer slot alive: the COLMAP points, resampled and jittered
         pts, cols = init_points(capacity)
-        state = init_state(
-            cfg, bounds=bounds, n_channels=capture.n_channels, points=pts, colours=cols, n_views=len(views)
-        )
-        ts = []
-        for k in range(time_steps + 1):
-            v = k % len(views)
-            t0 = time.perf_counter()
-            state, loss, dropped = train_step(
-                state,
-                views[v].camera,
-                ims[v],
-                wts[v],
-                masks[v],
-                jnp.float32(views[v].exposure),
-                config=cfg,
-                extent=extent,
+        rng = np.random.default_rng(1)
+        take = rng.integers(0, len(pts), capacity)
+        jitter = rng.normal(scale=1e-3 * extent, size=(capacity, 3))
+        return pts[take] + jitter, cols[take]
+
+    def time_steps_of(capacity, render, backend=method, on_cpu=False, full=False):
+        """Median wall seconds of a train step (after one compiled run), the step's compiled memory
+        (arguments + outputs + temporaries, XLA's own analysis) and the device's peak so far."""
+        cfg = dataclasses.replace(config(capacity, render), method=backend)
+        pts, cols = full_points(capacity) if full else init_points(capacity)
+        dev = cpu if on_cpu else jax.devices()[0]
+        with jax.default_device(dev):
+            state = init_state(
+                cfg,
+                bounds=bounds,
+                n_channels=capture.n_channels,
+                points=pts,
+                colours=cols,
+                n_init=len(pts),
+                n_views=len(views),
             )
-            loss.block_until_ready()
-            ts.append(time.perf_counter() - t0)
+            state = jax.device_put(state, dev)
+            args = [
+                (
+                    views[v].camera,
+                    *jax.device_put((ims[v], wts[v], masks[v], jnp.float32(views[v].exposure)), dev),
+                )
+                for v in range(min(len(views), time_steps + 1))
+            ]
+            t0 = time.perf_counter()
+            step = train_step.lower(state, *args[0], config=cfg, extent=extent).compile()
+            compile_s = time.perf_counter() - t0
+            ts = []
+            for k in range(time_steps + 1):
+                t0 = time.perf_counter()
+                state, loss, dropped = step(state, *args[k % len(args)])
+                loss.block_until_ready()
+                ts.append(time.perf_counter() - t0)
         return {
             "capacity": capacity,
+            "backend": backend,
+            "device": str(dev),
+            "alive": int(state.alive.sum()),
             "tile_batch": render.tile_batch,
             "tile_capacity": render.tile_capacity,
-            "first_step_s": round(ts[0], 2),
+            "compile_s": round(compile_s, 2),
+            "first_step_s": round(ts[0], 3),
             "step_s_median": round(float(np.median(ts[1:])), 4),
             "dropped_last": int(dropped),
             "loss_last": float(loss),
+            **_memory(step, dev),
         }
 
-    # 1. step time: tiles one after another (baseline) and all at once, in the same process
+    # 1. step time, in the same process: the baseline (tiles one after another, or the "cpu" back-end on
+    # the host's cores), then all tiles at once at each timed capacity, every buffer slot alive
     lo, hi = min(capacities), max(capacities)
-    for cap_, tb in [(lo, 1), (lo, 0)] + ([(hi, 0)] if hi != lo else []):
+    plan = {"serial": [(lo, method, 1, False)], "cpu": [(lo, "cpu", 1, True)], "none": []}[baseline]
+    plan += [(c, method, 0, False) for c in sorted(set(time_capacities or [lo, hi]))]
+    for cap_, backend, tb, on_cpu in plan:
         if time.perf_counter() - t_start > 0.3 * budget:
             continue
         try:
-            r = time_steps_of(cap_, tiles(cap_, tb))
+            r = time_steps_of(cap_, tiles(cap_, tb), backend=backend, on_cpu=on_cpu, full=True)
         except Exception as e:  # record it and go on: the run's other phases still measure
-            r = {"capacity": cap_, "tile_batch": tb, "error": f"{type(e).__name__}: {e}"[:500]}
+            r = {
+                "capacity": cap_,
+                "backend": backend,
+                "tile_batch": tb,
+                "error": f"{type(e).__name__}: {e}"[:500],
+            }
         res["timing"].append(r)
         print(r, flush=True)
+        save()
+    if reference:  # the same Gaussians and view for an outside rasteriser (gsplat_reference.py)
+        try:
+            res["reference"] = _reference_scene(
+                reference, full_points(lo), lo, views[0].camera, tiles(lo), method
+            )
+        except Exception as e:
+            res["reference"] = {"error": f"{type(e).__name__}: {e}"[:500]}
+        print(res["reference"], flush=True)
         save()
     known = sorted(
         (t["capacity"], t["step_s_median"])
@@ -280,45 +338,62 @@ def run(
     for capacity in sorted(capacities, reverse=True):
         left = budget - (time.perf_counter() - t_start)
         est = step_time(capacity)
-        if est is None or steps * est * 1.2 + 45 > left:
+        n_steps = next(
+            (n for n in range(steps, min_steps - 1, -500) if est is not None and n * est * 1.2 + 45 <= left),
+            None,
+        )
+        if n_steps is None and train_anyway:  # the budget stops it; the model is scored as it stood
+            n_steps = steps
+        if n_steps is None:
             res["runs"].append({"capacity": capacity, "skipped": f"{left:.0f} s left, ≈ {est} s/step"})
             save()
             continue
         render = tiles(capacity)
-        cfg = config(capacity, render)
+        cfg = config(capacity, render, n_steps)
         pts, cols = init_points(capacity)
-        marks = {}
+        marks, last = {}, {}
         t0 = time.perf_counter()
 
-        def cb(step, state, loss, t0=t0, marks=marks, capacity=capacity):
-            if step in (1, steps // 2, steps) or step % 500 == 0:
+        def cb(step, state, loss, t0=t0, marks=marks, last=last, capacity=capacity, n=n_steps):
+            last.update(step=step, state=state)
+            if step in (1, n // 2, n) or step % 500 == 0:
                 marks[step] = (round(time.perf_counter() - t0, 1), float(loss), int(state.alive.sum()))
                 print(capacity, step, marks[step], flush=True)
             if step % 100 == 0 and time.perf_counter() - t_start > budget:
                 raise OutOfTime(f"stopped at step {step}: past the {budget:.0f} s budget")
 
+        stopped = None
         try:
-            out = train(
-                capture,
-                ims,
-                wts,
-                config=cfg,
-                bounds=bounds,
-                points=pts,
-                colours=cols,
-                callback=cb,
-                depth=depth,
-            )
+            try:
+                out = train(
+                    capture,
+                    ims,
+                    wts,
+                    config=cfg,
+                    bounds=bounds,
+                    points=pts,
+                    colours=cols,
+                    callback=cb,
+                    depth=depth,
+                )
+                params, alive, n_dropped = out.gaussians, jnp.asarray(out.alive), out.history["n_dropped"]
+            except OutOfTime as e:  # score the model as it stood: a shorter schedule, said so
+                stopped = str(e)
+                params, alive, n_dropped = last["state"].params, last["state"].alive, None
+            done = last.get("step", n_steps)
             t_train = time.perf_counter() - t0
             t1 = time.perf_counter()
-            alive = jnp.asarray(out.alive)
-            mean, low, held_norm = psnr(out.gaussians, alive, render)
-            train_norm = psnr_training(out.gaussians, alive, render)
+            mean, low, held_norm = psnr(params, alive, render)
+            train_norm = psnr_training(params, alive, render)
             run_ = {
                 "capacity": capacity,
-                "steps": steps,
+                "steps": done,
+                "schedule_steps": n_steps,
+                "stopped": stopped,
                 "train_s": round(t_train, 1),
-                "step_s_mean": round(t_train / steps, 4),
+                "step_s_mean": round(t_train / done, 4),
+                # seconds per step between the last two marks: the grown model's step
+                "step_s_last_interval": _last_interval(marks),
                 "psnr_heldout_db": round(mean, 2),
                 "psnr_lowest_channel_view_db": round(low, 2),
                 # normalised to the median exposure: held out vs the training views' own fit
@@ -326,12 +401,13 @@ def run(
                 "psnr_training_normalised_db": round(train_norm, 2),
                 "psnr_heldout_views_normalised_db": {k: round(v, 2) for k, v in held_norm.items()},
                 "score_s": round(time.perf_counter() - t1, 1),
-                "alive": int(out.alive.sum()),
-                "dropped_mean_last100": float(np.mean(out.history["n_dropped"][-100:])),
+                "alive": int(np.asarray(alive).sum()),
+                "dropped_mean_last100": None if n_dropped is None else float(np.mean(n_dropped[-100:])),
                 "marks": marks,
+                **_memory(None, jax.devices()[0]),
             }
             if save_model and not any("psnr_heldout_db" in r for r in res["runs"]):
-                run_["saved"] = _save_model(out.gaussians, np.asarray(out.alive), Path(save_model), capacity)
+                run_["saved"] = _save_model(params, np.asarray(alive), Path(save_model), capacity)
         except Exception as e:
             run_ = {"capacity": capacity, "error": f"{type(e).__name__}: {e}"[:500], "marks": marks}
         res["runs"].append(run_)
@@ -339,6 +415,107 @@ def run(
         save()
     res["total_s"] = round(time.perf_counter() - t_start, 1)
     save()
+
+
+def _last_interval(marks: dict) -> float | None:
+    """Seconds per step between the last two marks (the grown model), or None with fewer than two."""
+    k = sorted(marks)[-2:]
+    if len(k) < 2:
+        return None
+    return round((marks[k[1]][0] - marks[k[0]][0]) / (k[1] - k[0]), 4)
+
+
+def _memory(compiled, device) -> dict:
+    """The compiled step's own memory (XLA's analysis: arguments + outputs + temporaries − aliased, MiB)
+    and the device's peak allocation so far in this process (MiB; None where the device keeps none,
+    as JAX's CPU device)."""
+    out = {}
+    if compiled is not None:
+        try:
+            m = compiled.memory_analysis()
+            total = m.argument_size_in_bytes + m.output_size_in_bytes + m.temp_size_in_bytes
+            out["step_memory_mib"] = round((total - m.alias_size_in_bytes) / 2**20, 1)
+            out["step_temp_mib"] = round(m.temp_size_in_bytes / 2**20, 1)
+        except Exception:  # an analysis this back-end does not give
+            pass
+    stats = device.memory_stats() or {}
+    peak = stats.get("peak_bytes_in_use")
+    out["device_peak_mib"] = None if peak is None else round(peak / 2**20, 1)
+    return out
+
+
+def _reference_scene(
+    path: str, points, capacity: int, camera, render, method: str, repeats: int = 20
+) -> dict:
+    """Write one view's Gaussians (constrained values), camera and image to ``path`` for
+    ``gsplat_reference.py``, and time this project's render and its gradient on them (median of
+    ``repeats`` after a compiled run): an outside rasteriser is then timed on the very same input."""
+    import jax
+    import jax.numpy as jnp
+
+    from splat.rendering import render as render_fn
+    from splat.training import TrainConfig, init_state
+
+    pts, cols = points
+    cfg = dataclasses.replace(TrainConfig(), capacity=capacity)
+    g = init_state(
+        cfg,
+        bounds=np.stack([pts.min(0), pts.max(0)]),
+        n_channels=cols.shape[1],
+        points=pts,
+        colours=cols,
+        n_init=len(pts),
+    ).params
+    target = jnp.full((camera.height, camera.width, g.n_channels), 0.5, jnp.float32)
+
+    def loss(params):
+        out = render_fn(params, camera, method=method, config=render)
+        return jnp.mean((out.image - target) ** 2), out
+
+    fwd = jax.jit(lambda p: render_fn(p, camera, method=method, config=render).image)
+    grad = jax.jit(jax.value_and_grad(loss, has_aux=True))
+
+    def median_s(f):
+        jax.block_until_ready(f(g))
+        ts = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            jax.block_until_ready(f(g))
+            ts.append(time.perf_counter() - t0)
+        return round(float(np.median(ts)), 5)
+
+    t_fwd, t_grad = median_s(fwd), median_s(grad)
+    (_, out), _ = grad(g)
+    viewmat = np.eye(4, dtype=np.float32)
+    viewmat[:3, :3], viewmat[:3, 3] = np.asarray(camera.R), np.asarray(camera.t)
+    K = np.array(
+        [[camera.focal[0], 0, camera.principal[0]], [0, camera.focal[1], camera.principal[1]], [0, 0, 1]],
+        np.float32,
+    )
+    np.savez(
+        path,
+        means=np.asarray(g.means, np.float32),
+        quats=np.asarray(g.quats, np.float32),
+        scales=np.asarray(g.scales, np.float32),
+        opacities=np.asarray(g.opacities, np.float32),
+        colours=np.asarray(g.colours, np.float32),
+        viewmat=viewmat,
+        K=K,
+        size=np.array([camera.width, camera.height]),
+        image=np.asarray(out.image, np.float32),
+        eps2d=render.eps2d,
+        near=render.near,
+    )
+    return {
+        "capacity": capacity,
+        "gaussians": int(g.n),
+        "size": [camera.width, camera.height],
+        "channels": int(g.n_channels),
+        "render_s": t_fwd,
+        "render_grad_s": t_grad,
+        "dropped": int(out.n_dropped),
+        "file": path,
+    }
 
 
 def _save_model(params, alive, folder: Path, capacity: int, limit: float = 15.5 * 2**20) -> list[str]:
@@ -392,6 +569,26 @@ def main(argv=None) -> None:
     r.add_argument("--tile-capacity", type=int, default=0, help="0: 1024 up to 65 536 Gaussians, else 2048")
     r.add_argument("--save-model", default=None, help="folder for the largest trained model's Gaussians")
     r.add_argument(
+        "--min-steps",
+        type=int,
+        default=None,
+        help="train fewer steps (down to this, by 500) where --steps does not fit the budget",
+    )
+    r.add_argument(
+        "--baseline",
+        choices=("serial", "cpu", "none"),
+        default="serial",
+        help="timed first: tiles one after another, or the 'cpu' back-end on the host's cores",
+    )
+    r.add_argument("--time-capacities", default=None, help="capacities to time (default: the least and most)")
+    r.add_argument(
+        "--train-anyway",
+        action="store_true",
+        help="train even where the estimate (every slot alive) says it will not fit: stopped at the "
+        "budget and scored as it stood",
+    )
+    r.add_argument("--reference", default=None, help="write one view's scene here for gsplat_reference.py")
+    r.add_argument(
         "--set",
         action="append",
         default=[],
@@ -414,6 +611,11 @@ def main(argv=None) -> None:
             a.tile_capacity,
             a.save_model,
             _overrides(a.set),
+            min_steps=a.min_steps,
+            baseline=a.baseline,
+            time_capacities=[int(c) for c in a.time_capacities.split(",")] if a.time_capacities else None,
+            reference=a.reference,
+            train_anyway=a.train_anyway,
         )
 
 
