@@ -21,7 +21,8 @@ than the training views, and only the normalised numbers separate the fit from t
 The float16 values quantise the mosaics 91 dB below their peak.
 Figures of one H200 (2026-11-27) are in docs/benchmarks.md.
 
-``--baseline cpu`` times the ``"cpu"`` back-end on the host's cores first instead of the serial tiles,
+``--baseline cpu`` times the ``"cpu"`` back-end on the host's cores first instead of the serial tiles
+(either at the least of ``--capacities``),
 ``--time-capacities`` names the capacities timed (every buffer slot alive: the COLMAP points resampled);
 each timing row also holds the compiled step's memory (XLA's analysis) and the device's peak so far.
 ``--reference SCENE.npz`` writes one view's Gaussians and this project's render for

@@ -3,11 +3,12 @@
 #   bash benchmarks/gpu_run.sh BUNDLE.npz RESULTS_DIR [BUDGET_S] [WHEELS_DIR]
 # BUNDLE.npz: `python benchmarks/gpu_capacity.py export CAPTURE OUT BUNDLE.npz` of the benchmark capture.
 # WHEELS_DIR: wheels of what the machine lacks (colour-science, gsplat), installed to /tmp/site.
-# 1. gpu_capacity.py: a training step of the "cpu" back-end on the host's cores, then "tiled" with all
-#    tiles at once at 32 768, 1 048 576 and 2 097 152 Gaussians (every slot alive), the reference scene,
-#    and a 1 048 576-Gaussian training stopped at the budget; 2. a step at the real-size capture's
-#    working size (bench_capture_realsize.py --step-cost); 3. gsplat on the reference scene, compiled in
-#    the background once the host's cores are no longer timed.
+# 1. gpu_capacity.py: a training step of the "cpu" back-end on the host's cores at the trained capacity
+#    (1 048 576), then "tiled" with all tiles at once at 32 768, 1 048 576 and 2 097 152 Gaussians
+#    (every slot alive), the reference scene (1 048 576), and a 1 048 576-Gaussian training stopped at
+#    the budget; 2. a step at the real-size capture's working size (bench_capture_realsize.py
+#    --step-cost); 3. gsplat on the reference scene, compiled in the background once the host's cores
+#    are no longer timed.
 set -u
 bundle=$1 res=$2 budget=${3:-330} wheels=${4:-}
 # sizes (override for a quick check on a CPU: CAPS=4096 TIMES=4096,8192 STEP_G=512 METHOD=tiled)

@@ -117,3 +117,65 @@ def dcp_matrices(folder: str | Path, names) -> dict[str, dict]:
                 out[n] = tags
                 break
     return out
+
+
+def common_transform_report(cams: dict[str, dict], table) -> dict:
+    """How much of the difference between Adobe's D65 ColorMatrix and the one synthesised from the same
+    model's measured curves one transform common to every camera explains, leave one camera out.
+
+    Each matrix is scaled to unit Frobenius norm; a difference is ``‖S − s·A‖ / ‖S‖`` with the best
+    scale ``s``. The common transform is fitted by least squares on the other cameras, on the XYZ side
+    (``A T``) or on the camera side (``C A``). Why: a systematic part (another observer, training set or
+    white) could be removed before the fit; what is left is each model's own tuning.
+    """
+    from bench_ssf import msds
+
+    from zonotope.spectra.estimate import synthesise_dng_matrices
+
+    A, S = [], []
+    for n, c in cams.items():
+        m = colour_matrix(table, n)
+        if m is not None:
+            syn = synthesise_dng_matrices(msds(c["values"], n), illuminants=("D65",)).color_matrices[0]
+            A.append(m / np.linalg.norm(m))
+            S.append(syn / np.linalg.norm(syn))
+    A, S = np.array(A), np.array(S)
+
+    def diff(a, s):
+        return float(np.linalg.norm(s - np.sum(a * s) / np.sum(a * a) * a) / np.linalg.norm(s))
+
+    out = {"cameras": len(A), "none": [], "xyz side": [], "camera side": []}
+    for i in range(len(A)):
+        rest = np.arange(len(A)) != i
+        T = np.linalg.lstsq(np.vstack(A[rest]), np.vstack(S[rest]), rcond=None)[0]
+        C = np.linalg.lstsq(np.hstack(A[rest]).T, np.hstack(S[rest]).T, rcond=None)[0].T
+        out["none"].append(diff(A[i], S[i]))
+        out["xyz side"].append(diff(A[i] @ T, S[i]))
+        out["camera side"].append(diff(C @ A[i], S[i]))
+    return out
+
+
+def main(argv=None) -> int:
+    """``python benchmarks/real_matrices.py --data ../shared/data --colordata colordata.cpp``: the
+    common-transform report (:func:`common_transform_report`) over the measured cameras."""
+    import argparse
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from bench_ssf import measured_cameras
+
+    p = argparse.ArgumentParser(description=main.__doc__.split("\n\n")[0])
+    p.add_argument("--data", type=Path, required=True, help="the measured data folder (camera SSFs)")
+    p.add_argument("--colordata", type=Path, required=True, help="LibRaw's src/tables/colordata.cpp")
+    a = p.parse_args(argv)
+    r = common_transform_report(measured_cameras(a.data), read_colordata(a.colordata))
+    print(f"{r['cameras']} cameras; ‖synthesised − Adobe's‖ / ‖synthesised‖, leave one camera out:")
+    print("| common transform | median | mean | 90th percentile |\n|---|---:|---:|---:|")
+    for k in ("none", "xyz side", "camera side"):
+        v = np.asarray(r[k])
+        print(f"| {k} | {np.median(v):.3f} | {v.mean():.3f} | {np.percentile(v, 90):.3f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
