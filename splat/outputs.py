@@ -28,19 +28,29 @@ def render_views(
     mask : array_like of bool, shape (G,), optional
         Alive Gaussians (e.g. :attr:`TrainResult.alive`).
     method, config
-        As in :func:`splat.render` (default ``RenderConfig()``).
+        As in :func:`splat.render` (default ``RenderConfig()``); nothing is dropped whatever
+        ``config.tile_capacity`` (see ``_render_complete``).
     """
     cams: list[Camera] = list(cameras)
     config = config or RenderConfig()
-    out = [
-        np.asarray(
-            render(
-                gaussians, c, method=method, config=config, mask=None if mask is None else jnp.asarray(mask)
-            ).image
-        )
-        for c in cams
-    ]
-    return np.stack(out)
+    m = None if mask is None else jnp.asarray(mask)
+    return np.stack(
+        [np.asarray(_render_complete(gaussians, c, method=method, config=config, mask=m).image) for c in cams]
+    )
+
+
+def _render_complete(
+    gaussians: Gaussians, camera: Camera, *, method: str = "auto", config: RenderConfig, mask=None
+):
+    """:func:`splat.render` with nothing dropped: where the ``"tiled"`` back-end's tile capacity is too
+    small for the model, the view is rendered again with the power of two at or above its fullest tile
+    (one compilation per capacity). Why: a render the pipeline writes or measures from (renders, depth
+    maps, residual noise, scores) must show the whole model, whatever the capacity training used."""
+    out = render(gaussians, camera, method=method, config=config, mask=mask)
+    if int(out.n_dropped) > 0:
+        k = 1 << max(int(out.max_per_tile) - 1, 1).bit_length()
+        out = render(gaussians, camera, method=method, config=replace(config, tile_capacity=k), mask=mask)
+    return out
 
 
 def render_depth(
@@ -65,7 +75,8 @@ def render_depth(
     mask : array_like of bool, shape (G,), optional
         Alive Gaussians (e.g. :attr:`TrainResult.alive`).
     method, config
-        As in :func:`splat.render` (default ``RenderConfig()``; its ``background`` is ignored).
+        As in :func:`splat.render` (default ``RenderConfig()``; its ``background`` is ignored); nothing
+        is dropped (see ``_render_complete``).
 
     Returns
     -------
@@ -77,7 +88,9 @@ def render_depth(
     config = replace(config or RenderConfig(), background=0.0)
     depth = depth_colour_params(gaussians, camera, near=config.near)[:, None]
     g = replace(gaussians, colour_params=depth.astype(gaussians.colour_params.dtype))
-    out = render(g, camera, method=method, config=config, mask=None if mask is None else jnp.asarray(mask))
+    out = _render_complete(
+        g, camera, method=method, config=config, mask=None if mask is None else jnp.asarray(mask)
+    )
     alpha = np.asarray(out.alpha, np.float64)
     num = np.asarray(out.image[..., 0], np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
