@@ -82,6 +82,16 @@ def _parser() -> argparse.ArgumentParser:
             "(0: off; default: TrainConfig.depth_weight)",
         )
         s.add_argument(
+            "--tile-capacity",
+            type=int,
+            default=None,
+            metavar="N",
+            help='Gaussians one 16-pixel tile composites in training on a GPU (the "tiled" back-end; '
+            "default 2048): below the model's fullest tile a step is faster and leaves pairs out "
+            "(OUT/train/summary.json: dropped_per_step); renders are always made whole; no effect on "
+            "the CPU",
+        )
+        s.add_argument(
             "--train-size",
             type=int,
             default=None,
@@ -190,12 +200,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     import os
 
     os.environ.setdefault("GLOG_minloglevel", "2")  # COLMAP's own log lines would drown the progress bars
+    from dataclasses import replace
+
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from zonotope import ZonotopeError
     from zonotope.correct import parse_noise
 
+    from ._errors import SplatError
     from .capture import STEPS, PipelineConfig, capture_train_config, run
 
     try:
@@ -208,6 +221,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             refine_poses=args.refine_poses,
             depth_weight=args.depth_weight,
         )
+        if args.tile_capacity is not None:
+            if args.tile_capacity < 1:
+                raise SplatError(f"--tile-capacity {args.tile_capacity}: must be a number of Gaussians ≥ 1.")
+            train = replace(train, render=replace(train.render, tile_capacity=args.tile_capacity))
         config = PipelineConfig(
             train=train,
             camera=args.camera,

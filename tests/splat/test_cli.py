@@ -71,3 +71,28 @@ def test_render_sources_and_workers_reach_the_config(monkeypatch, tmp_path, caps
             err
         )
     assert len(seen) == 3
+
+
+def test_tile_capacity_reaches_the_training(monkeypatch, tmp_path, capsys):
+    """``--tile-capacity N`` sets the training's RenderConfig.tile_capacity (default RenderConfig's); a
+    value below 1 is one line naming the option, before any step runs."""
+    import splat.capture
+    from splat import RenderConfig
+    from splat.cli import main
+
+    seen = []
+
+    def fake_run(capture, out, *, config, steps, progress):
+        seen.append(config.train.render.tile_capacity)
+        return {}
+
+    monkeypatch.setattr(splat.capture, "run", fake_run)
+    o = str(tmp_path / "out")
+    assert main(["train", str(tmp_path), "-o", o]) == 0
+    assert main(["train", str(tmp_path), "-o", o, "--tile-capacity", "4096"]) == 0
+    assert seen == [RenderConfig().tile_capacity, 4096]
+    capsys.readouterr()
+    assert main(["train", str(tmp_path), "-o", o, "--tile-capacity", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("splat: error: --tile-capacity 0") and err.count("\n") == 1
+    assert len(seen) == 2
