@@ -154,7 +154,7 @@ def run(
     from splat.capture.train import _initial_points
     from splat.data import Capture, View
     from splat.outputs import render_views
-    from splat.rendering import RenderConfig
+    from splat.rendering import RenderConfig, default_method
     from splat.training import init_state, train, train_step
 
     t_start = time.perf_counter()
@@ -277,7 +277,7 @@ def run(
                 ts.append(time.perf_counter() - t0)
         return {
             "capacity": capacity,
-            "backend": backend,
+            "backend": default_method() if backend == "auto" else backend,
             "device": str(dev),
             "alive": int(state.alive.sum()),
             "tile_batch": render.tile_batch,

@@ -11,8 +11,9 @@
 #    are no longer timed.
 set -u
 bundle=$1 res=$2 budget=${3:-330} wheels=${4:-}
-# sizes (override for a quick check on a CPU: CAPS=4096 TIMES=4096,8192 STEP_G=512 METHOD=tiled)
-caps=${CAPS:-1048576} times=${TIMES:-32768,1048576,2097152} step_g=${STEP_G:-4096,262144}
+# sizes (override for a quick check on a CPU: CAPS=4096 TIMES=4096,8192 STEP_G=512 METHOD=tiled); TILE:
+# the tile capacity (8192 in the figures of 2026-11-29; 4096 trains 1 M Gaussians twice as fast)
+caps=${CAPS:-1048576} times=${TIMES:-32768,1048576,2097152} step_g=${STEP_G:-4096,262144} tile=${TILE:-8192}
 mkdir -p "$res"
 if [ -n "$wheels" ]; then
   python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site "$wheels"/*.whl \
@@ -28,7 +29,7 @@ python3 -c "import splat.training, splat.capture" || exit 1  # a broken import c
   > "$res/gsplat_build.log" 2>&1 &
 build=$!
 python3 benchmarks/gpu_capacity.py run "$bundle" "$res/capacity.json" --budget "$budget" \
-  --capacities "$caps" --time-capacities "$times" --baseline cpu --tile-capacity 8192 --method "${METHOD:-auto}" \
+  --capacities "$caps" --time-capacities "$times" --baseline cpu --tile-capacity "$tile" --method "${METHOD:-auto}" \
   --train-anyway --reference /tmp/scene.npz 2>&1 | grep --line-buffered -v "^WARNING" > "$res/capacity.log"
 timeout 90 python3 benchmarks/bench_capture_realsize.py --work /tmp/rs --step-cost --step-sizes 576x432 \
   --step-gaussians "$step_g" > "$res/realsize_step.log" 2>&1
