@@ -118,9 +118,12 @@ def chart_photo(
 
 #: The simulated photograph's errors (relative; see chart_photo).
 CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN, CHART_NOISE = 0.02, 0.02, 0.01, 5e-4
-SOURCES = ("dng", "chart", "both", "dng-d65", "libraw", "dcp", "mean")
+SOURCES = ("dng", "chart", "both", "dng-d65", "libraw", "libraw-common", "dcp", "mean")
 #: ``--colordata``: measured-camera name → the real D65 ColorMatrix LibRaw carries for it (Adobe's).
 LIBRAW: dict[str, np.ndarray] = {}
+#: ``--colordata``: the same, times the transform common to the other models' matrices that takes
+#: them closest to the ones synthesised from their measured curves (real_matrices.common_transform).
+LIBRAW_COMMON: dict[str, np.ndarray] = {}
 #: ``--dcp-dir``: measured-camera name → the DNG tags of RawTherapee's profile of the model.
 DCP: dict[str, dict] = {}
 
@@ -155,6 +158,8 @@ def held_out_estimates(
             )
         elif source == "libraw":
             dng = DNGMatrices((LIBRAW[n],), ("D65",), name=n)
+        elif source == "libraw-common":
+            dng = DNGMatrices((LIBRAW_COMMON[n],), ("D65",), name=n)
         elif source == "dcp":
             dng = read_dng_matrices(DCP[n])
         chart = None
@@ -557,7 +562,7 @@ def main(argv=None) -> int:
         global CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN
         CHART_REFLECTANCE = CHART_LIGHT = CHART_UNEVEN = 0.0
     cams = pool = measured_cameras(a.data)
-    if "libraw" in a.sources.split(",") and not a.colordata:
+    if {"libraw", "libraw-common"} & set(a.sources.split(",")) and not a.colordata:
         ap.error("--sources libraw needs --colordata LibRaw/src/tables/colordata.cpp")
     if a.colordata:
         from real_matrices import colour_matrix, read_colordata
@@ -565,6 +570,14 @@ def main(argv=None) -> int:
         table = read_colordata(a.colordata)
         LIBRAW.update({n: M for n in cams if (M := colour_matrix(table, n)) is not None})
         cams = {n: c for n, c in cams.items() if n in LIBRAW}
+        if "libraw-common" in a.sources.split(","):
+            from real_matrices import common_transform, synthesised_d65
+
+            syn = synthesised_d65(cams, cams)
+            for n in cams:  # leave the model out, as the basis does
+                rest = [m for m in cams if cams[m]["model"] != cams[n]["model"]]
+                T = common_transform([LIBRAW[m] for m in rest], [syn[m] for m in rest])
+                LIBRAW_COMMON[n] = LIBRAW[n] @ T * (np.linalg.norm(LIBRAW[n]) / np.linalg.norm(LIBRAW[n] @ T))
         print(f"{len(cams)} measured cameras with a LibRaw (Adobe) matrix", file=sys.stderr)
     if "dcp" in a.sources.split(",") and not a.dcp_dir:
         ap.error("--sources dcp needs --dcp-dir /usr/share/rawtherapee/dcpprofiles")

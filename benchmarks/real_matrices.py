@@ -119,39 +119,55 @@ def dcp_matrices(folder: str | Path, names) -> dict[str, dict]:
     return out
 
 
+def synthesised_d65(cams: dict[str, dict], names) -> dict[str, np.ndarray]:
+    """The D65 ColorMatrix synthesised from each named camera's measured curves (what a converter fitted
+    to them would write; :func:`zonotope.spectra.estimate.synthesise_dng_matrices`)."""
+    from bench_ssf import msds
+
+    from zonotope.spectra.estimate import synthesise_dng_matrices
+
+    return {
+        n: synthesise_dng_matrices(msds(cams[n]["values"], n), illuminants=("D65",)).color_matrices[0]
+        for n in names
+    }
+
+
+def common_transform(real: list[np.ndarray], synthesised: list[np.ndarray], side: str = "xyz") -> np.ndarray:
+    """The 3 × 3 transform, common to the cameras, that best takes each real matrix (unit norm) to the
+    synthesised one (unit norm), least squares: ``A T`` on the XYZ side, ``C A`` on the camera side."""
+    A = np.array([m / np.linalg.norm(m) for m in real])
+    S = np.array([m / np.linalg.norm(m) for m in synthesised])
+    if side == "xyz":
+        return np.linalg.lstsq(np.vstack(A), np.vstack(S), rcond=None)[0]
+    return np.linalg.lstsq(np.hstack(A).T, np.hstack(S).T, rcond=None)[0].T
+
+
 def common_transform_report(cams: dict[str, dict], table) -> dict:
     """How much of the difference between Adobe's D65 ColorMatrix and the one synthesised from the same
     model's measured curves one transform common to every camera explains, leave one camera out.
 
     Each matrix is scaled to unit Frobenius norm; a difference is ``‖S − s·A‖ / ‖S‖`` with the best
-    scale ``s``. The common transform is fitted by least squares on the other cameras, on the XYZ side
-    (``A T``) or on the camera side (``C A``). Why: a systematic part (another observer, training set or
-    white) could be removed before the fit; what is left is each model's own tuning.
+    scale ``s``. The common transform (:func:`common_transform`) is fitted on the other cameras, on the
+    XYZ side (``A T``) or on the camera side (``C A``). Why: a systematic part (another observer,
+    training set or white) could be removed before the fit; what is left is each model's own tuning.
     """
-    from bench_ssf import msds
-
-    from zonotope.spectra.estimate import synthesise_dng_matrices
-
-    A, S = [], []
-    for n, c in cams.items():
-        m = colour_matrix(table, n)
-        if m is not None:
-            syn = synthesise_dng_matrices(msds(c["values"], n), illuminants=("D65",)).color_matrices[0]
-            A.append(m / np.linalg.norm(m))
-            S.append(syn / np.linalg.norm(syn))
-    A, S = np.array(A), np.array(S)
+    real = {n: m for n in cams if (m := colour_matrix(table, n)) is not None}
+    syn = synthesised_d65(cams, real)
+    names = list(real)
 
     def diff(a, s):
+        a, s = a / np.linalg.norm(a), s / np.linalg.norm(s)
         return float(np.linalg.norm(s - np.sum(a * s) / np.sum(a * a) * a) / np.linalg.norm(s))
 
-    out = {"cameras": len(A), "none": [], "xyz side": [], "camera side": []}
-    for i in range(len(A)):
-        rest = np.arange(len(A)) != i
-        T = np.linalg.lstsq(np.vstack(A[rest]), np.vstack(S[rest]), rcond=None)[0]
-        C = np.linalg.lstsq(np.hstack(A[rest]).T, np.hstack(S[rest]).T, rcond=None)[0].T
-        out["none"].append(diff(A[i], S[i]))
-        out["xyz side"].append(diff(A[i] @ T, S[i]))
-        out["camera side"].append(diff(C @ A[i], S[i]))
+    out = {"cameras": len(names), "none": [], "xyz side": [], "camera side": []}
+    for n in names:
+        rest = [m for m in names if m != n]
+        T = common_transform([real[m] for m in rest], [syn[m] for m in rest], "xyz")
+        C = common_transform([real[m] for m in rest], [syn[m] for m in rest], "camera")
+        a = real[n] / np.linalg.norm(real[n])
+        out["none"].append(diff(a, syn[n]))
+        out["xyz side"].append(diff(a @ T, syn[n]))
+        out["camera side"].append(diff(C @ a, syn[n]))
     return out
 
 
