@@ -340,7 +340,13 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float, transf
     (:func:`real_matrices.common_transform`) fitted on the other models' matrices, and the one fitted on
     all of them is stored (:attr:`SSFCalibration.transform`)."""
     from bench_ssf import calibrate_band
-    from real_matrices import colour_matrix, common_transform, read_colordata, synthesised_d65
+    from real_matrices import (
+        colour_matrix,
+        common_transform,
+        read_colordata,
+        synthesised_d65,
+        times_transform,
+    )
 
     from zonotope.spectra.estimate import SSFBasis, SSFCalibration
 
@@ -356,8 +362,7 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float, transf
         c = cams[n]
         if transform:  # the transform of the other models, as the basis is learned without this one
             rest = [m for m in real if cams[m]["model"] != c["model"]]
-            MT = M @ common_transform([real[m] for m in rest], [syn[m] for m in rest])
-            M = MT * (np.linalg.norm(M) / np.linalg.norm(MT))
+            M = times_transform(M, common_transform([real[m] for m in rest], [syn[m] for m in rest]))
         basis = basis_without(cams, c["model"], redistributable_only=True, k=k)
         held[n] = (estimate_ssf(DNGMatrices((M,), ("D65",), name=n), basis=basis, prior=prior), c["values"])
     errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
@@ -592,13 +597,13 @@ def main(argv=None) -> int:
         LIBRAW.update({n: M for n in cams if (M := colour_matrix(table, n)) is not None})
         cams = {n: c for n, c in cams.items() if n in LIBRAW}
         if "libraw-common" in a.sources.split(","):
-            from real_matrices import common_transform, synthesised_d65
+            from real_matrices import common_transform, synthesised_d65, times_transform
 
             syn = synthesised_d65(cams, cams)
             for n in cams:  # leave the model out, as the basis does
                 rest = [m for m in cams if cams[m]["model"] != cams[n]["model"]]
                 T = common_transform([LIBRAW[m] for m in rest], [syn[m] for m in rest])
-                LIBRAW_COMMON[n] = LIBRAW[n] @ T * (np.linalg.norm(LIBRAW[n]) / np.linalg.norm(LIBRAW[n] @ T))
+                LIBRAW_COMMON[n] = times_transform(LIBRAW[n], T)
         print(f"{len(cams)} measured cameras with a LibRaw (Adobe) matrix", file=sys.stderr)
     if "dcp" in a.sources.split(",") and not a.dcp_dir:
         ap.error("--sources dcp needs --dcp-dir /usr/share/rawtherapee/dcpprofiles")

@@ -142,6 +142,13 @@ def common_transform(real: list[np.ndarray], synthesised: list[np.ndarray], side
     return np.linalg.lstsq(np.hstack(A).T, np.hstack(S).T, rcond=None)[0].T
 
 
+def times_transform(M: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """``M · T`` at ``M``'s norm: a real matrix corrected by :func:`common_transform` (as ``estimate_ssf``
+    does with :attr:`SSFCalibration.transform`)."""
+    MT = M @ T
+    return MT * (np.linalg.norm(M) / np.linalg.norm(MT))
+
+
 def common_transform_report(cams: dict[str, dict], table) -> dict:
     """How much of the difference between Adobe's D65 ColorMatrix and the one synthesised from the same
     model's measured curves one transform common to every camera explains, leave one camera out.
