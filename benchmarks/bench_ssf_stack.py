@@ -332,38 +332,23 @@ def write_errors(data: Path, path: Path) -> int:
     return 0
 
 
-def write_real_dng(data: Path, path: Path, colordata: Path, prior: float, transform: bool = True) -> int:
+def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int:
     """Add the calibration of estimates from real DNG matrices to the basis file ``path``: for every
     redistributable camera LibRaw has Adobe's matrix for, the estimate from that matrix (prior weight
-    ``prior``) with the basis learned without its model, against its measured curves. With
-    ``transform``, each matrix is first multiplied by the common XYZ-side transform
-    (:func:`real_matrices.common_transform`) fitted on the other models' matrices, and the one fitted on
-    all of them is stored (:attr:`SSFCalibration.transform`)."""
+    ``prior``) with the basis learned without its model, against its measured curves."""
     from bench_ssf import calibrate_band
-    from real_matrices import (
-        colour_matrix,
-        common_transform,
-        read_colordata,
-        synthesised_d65,
-        times_transform,
-    )
+    from real_matrices import colour_matrix, read_colordata
 
     from zonotope.spectra.estimate import SSFBasis, SSFCalibration
 
     cams = measured_cameras(data)
     table = read_colordata(colordata)
-    real = {
-        n: M for n, c in cams.items() if c["redistributable"] and (M := colour_matrix(table, n)) is not None
-    }
-    syn = synthesised_d65(cams, real) if transform else {}
-    k = ssf_basis().n_components
     held = {}
-    for n, M in real.items():
-        c = cams[n]
-        if transform:  # the transform of the other models, as the basis is learned without this one
-            rest = [m for m in real if cams[m]["model"] != c["model"]]
-            M = times_transform(M, common_transform([real[m] for m in rest], [syn[m] for m in rest]))
-        basis = basis_without(cams, c["model"], redistributable_only=True, k=k)
+    for n, c in cams.items():
+        M = colour_matrix(table, n)
+        if M is None or not c["redistributable"]:
+            continue
+        basis = basis_without(cams, c["model"], redistributable_only=True, k=ssf_basis().n_components)
         held[n] = (estimate_ssf(DNGMatrices((M,), ("D65",), name=n), basis=basis, prior=prior), c["values"])
     errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
     spread = np.sqrt(np.mean(np.square(errs), axis=0))
@@ -371,16 +356,12 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float, transf
     errors, weight = held_out_error_model(list(held.values()))
     doc = json.loads(path.read_text(encoding="utf-8"))
     top = float(np.ceil(max(e.residual for e, _ in held.values()) * 1e6) / 1e6)  # as stored: 6 decimals
-    T = common_transform(list(real.values()), [syn[n] for n in real]) if transform else None
-    doc["real_dng"] = SSFCalibration(
-        prior, spread, band_k, scale, errors, weight, len(held), top, T
-    ).to_json()
+    doc["real_dng"] = SSFCalibration(prior, spread, band_k, scale, errors, weight, len(held), top).to_json()
     doc = SSFBasis.from_json(doc).to_json()
     path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     print(
         f"wrote {path}: real DNG calibration from {len(held)} cameras, prior {prior:g}, band_k {band_k:.3f}, "
-        f"response_scale {np.round(scale, 3).tolist()}, max_residual {top:.4f}, "
-        f"transform {'none' if T is None else np.round(T, 3).tolist()}",
+        f"response_scale {np.round(scale, 3).tolist()}, max_residual {top:.4f}",
         file=sys.stderr,
     )
     return 0
@@ -548,11 +529,6 @@ def main(argv=None) -> int:
         "--real-dng-prior", type=float, default=None, help="the prior weight --write-real-dng uses"
     )
     ap.add_argument(
-        "--no-common-transform",
-        action="store_true",
-        help="--write-real-dng without the common transform of Adobe's matrices (as before 2026-11-29)",
-    )
-    ap.add_argument(
         "--rejected",
         action="store_true",
         help="also the rejected fits: shrink to one camera, chart anchoring",
@@ -570,9 +546,7 @@ def main(argv=None) -> int:
     if a.write_real_dng:
         if not (a.colordata and a.real_dng_prior is not None):
             ap.error("--write-real-dng needs --colordata and --real-dng-prior")
-        return write_real_dng(
-            a.data, a.write_real_dng, a.colordata, a.real_dng_prior, not a.no_common_transform
-        )
+        return write_real_dng(a.data, a.write_real_dng, a.colordata, a.real_dng_prior)
     scales = [float(v) for v in a.scales.split(",") if v]
     draw_scales = [float(v) for v in a.draw_scales.split(",") if v]
     fit_names = (

@@ -137,12 +137,6 @@ class SSFCalibration:
         The largest misfit (:attr:`SSFEstimate.residual`) among them: an estimate that fits its data
         worse is unlike every camera the calibration saw (a Foveon sensor among Bayer ones), and
         :func:`estimate_ssf` does not apply the calibration to it.
-    transform : ndarray of shape (3, 3) or None
-        The XYZ-side transform ``T`` that takes the calibration cameras' real D65 ColorMatrix closest to
-        the one their measured curves give (least squares, each matrix at unit norm);
-        :func:`estimate_ssf` fits ``ColorMatrix · T`` (at the matrix's norm) for a D65 matrix. Why: part
-        of the difference between Adobe's matrices and the measured curves' is common to every camera
-        (docs/notes/2026-11-29-real-dng-matrices.md).
     """
 
     prior: float
@@ -153,7 +147,6 @@ class SSFCalibration:
     error_weight: np.ndarray = field(default_factory=lambda: np.array([[1.0] * 3, [0.0] * 3]))
     cameras: int = 0
     max_residual: float = float("inf")
-    transform: np.ndarray | None = None
 
     def to_json(self) -> dict:
         """The calibration as a JSON-ready document (the ``real_dng`` entry of ``ssf_basis.json``)."""
@@ -170,7 +163,6 @@ class SSFCalibration:
             "response_scale": np.round(self.response_scale, 4).tolist(),
             **({} if self.errors is None else {"errors": np.round(self.errors, 6).tolist()}),
             "error_weight": np.round(self.error_weight, 6).tolist(),
-            **({} if self.transform is None else {"transform": np.round(self.transform, 6).tolist()}),
         }
 
     @classmethod
@@ -186,7 +178,6 @@ class SSFCalibration:
                 np.asarray(doc.get("error_weight", [[1.0] * 3, [0.0] * 3]), dtype=np.float64),
                 int(doc.get("cameras", 0)),
                 float(doc.get("max_residual", float("inf"))),
-                None if doc.get("transform") is None else np.asarray(doc["transform"], dtype=np.float64),
             )
         except (KeyError, TypeError, ValueError) as error:
             raise SpectralDataError(f"SSF basis: malformed calibration ({error}).") from None
@@ -197,15 +188,11 @@ class SSFCalibration:
             or not np.all(cal.response_scale > 0)
             or cal.error_weight.shape != (2, 3)
             or (cal.errors is not None and (cal.errors.ndim != 3 or cal.errors.shape[1:] != (n, 3)))
-            or (
-                cal.transform is not None
-                and (cal.transform.shape != (3, 3) or not np.all(np.isfinite(cal.transform)))
-            )
         ):
             raise SpectralDataError(
                 f"SSF basis: calibration of prior {cal.prior!r}, band_k {cal.band_k!r}, spread "
                 f"{cal.spread.shape} does not fit {n} wavelengths (3 positive response scales, "
-                "error_weight (2, 3), a finite 3 × 3 transform)."
+                "error_weight (2, 3))."
             )
         return cal
 
@@ -495,20 +482,6 @@ class DNGMatrices:
         object.__setattr__(self, "color_matrices", cms)
         object.__setattr__(self, "forward_matrices", fms[: len(cms)])
         object.__setattr__(self, "illuminants", tuple(self.illuminants))
-
-
-def _transformed(matrices: DNGMatrices, transform: np.ndarray | None) -> DNGMatrices:
-    """``matrices`` with each D65 ColorMatrix ``M`` replaced by ``M · transform`` at ``M``'s norm
-    (:attr:`SSFCalibration.transform`); unchanged without a transform."""
-    if transform is None:
-        return matrices
-    cms = []
-    for M, light in zip(matrices.color_matrices, matrices.illuminants):
-        if light == "D65":
-            MT = M @ transform
-            M = MT * (np.linalg.norm(M) / np.linalg.norm(MT))
-        cms.append(M)
-    return dataclasses.replace(matrices, color_matrices=tuple(cms))
 
 
 def _matrix(m, name: str) -> np.ndarray:
@@ -1049,14 +1022,10 @@ def estimate_ssf(
     # a DNG alone is judged by what real files' matrices give; a chart brings data of its own
     cal = basis.real_dng if chart is None else None
     if cal is not None and prior is None:
-        kw = dict(training=training, smoothness=smoothness, subspace=subspace)
-        matrices = read_dng_matrices(dng)
-        est = estimate_ssf(
-            _transformed(matrices, cal.transform), basis=basis, prior=cal.prior, name=name, **kw
-        )
+        kw = dict(dng=read_dng_matrices(dng), training=training, smoothness=smoothness, subspace=subspace)
+        est = estimate_ssf(basis=basis, prior=cal.prior, name=name, **kw)
         if est.residual <= cal.max_residual:
             return est
-        kw["dng"] = matrices
         # unlike every camera the calibration saw: trust the matrices, as for exact ones
         exact = estimate_ssf(
             basis=dataclasses.replace(basis, real_dng=None), prior=SSF_PRIOR, name=name, **kw
