@@ -36,16 +36,16 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_capture_accuracy import MEASURES, _labels, table
 
-#: ``--colordata``: measured-camera name → Adobe's D65 matrix (LibRaw's table), estimated from instead
-#: of the simulated DNG's exact matrices; ``--exact-prior``: no real-DNG calibration (prior 1e-4).
-REAL_MATRICES: dict = {}
-EXACT_PRIOR = False
 
-
-def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]:
+def estimated_curves(
+    capture: Path, data: Path | None, *, real_matrices: dict | None = None, exact_prior: bool = False
+) -> tuple[list[str], dict]:
     """Estimate every camera's curves from its first DNG, write them beside capture.toml and point
     capture.toml at them (once: a capture already pointing at them keeps its file); returns one line per
-    camera (RMSE against the measured curves) and the estimates by folder."""
+    camera (RMSE against the measured curves) and the estimates by folder. ``real_matrices``
+    (``--colordata``): measured-camera name → Adobe's D65 matrix (LibRaw's table), estimated from instead
+    of the simulated DNG's exact matrices; ``exact_prior`` (``--exact-prior``): no real-DNG calibration
+    (prior 1e-4)."""
     from bench_ssf import _model_key, basis_without, curve_errors, measured_cameras
 
     import zonotope
@@ -56,6 +56,8 @@ def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]
     measured_names = {c.folder: c.ssf for c in SimCaptureConfig.ci().cameras}
     toml = (capture / "capture.toml").read_text(encoding="utf-8")
     tables = re.findall(r'folder = "([^"]+)"\nssf = "([^"]+)"', toml)
+    real_matrices = real_matrices or {}
+    real_dng = None if exact_prior else ssf_basis().real_dng
     notes, ests = [], {}
     for folder, name in tables:
         again = name == f"ssf_estimated_{folder}.json"  # estimated by an earlier run: kept as written
@@ -63,14 +65,13 @@ def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]
         dng = sorted((capture / folder).glob("*.dng"))[0]
         model = _model_key(name)
         basis = None
-        real_dng = None if EXACT_PRIOR else ssf_basis().real_dng
         if cams:  # held out; judged, as ssf = "estimate" judges a DNG alone, by the real-DNG calibration
             basis = dataclasses.replace(
                 basis_without(cams, model, redistributable_only=True, k=5), real_dng=real_dng
             )
-        elif EXACT_PRIOR:
+        elif exact_prior:
             basis = dataclasses.replace(ssf_basis(), real_dng=None)
-        source = REAL_MATRICES.get(name, dng)
+        source = real_matrices.get(name, dng)
         est = ests[folder] = estimate_ssf(source, basis=basis, name=name)
         if not again:
             out = write_ssf_json(est, capture / f"ssf_estimated_{folder}.json", overwrite=True)
@@ -80,7 +81,7 @@ def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]
         true = np.asarray(zonotope.camera(name).copy().align(SSF_SHAPE).values)  # Sigma: held at 680 nm
         rmse, ang = curve_errors(est.values, true)
         notes.append(
-            f"{folder} ({name}): estimated from {'Adobe' if name in REAL_MATRICES else dng.name}, basis "
+            f"{folder} ({name}): estimated from {'Adobe' if name in real_matrices else dng.name}, basis "
             f"{'without its model' if cams else 'shipped (not held out)'}; RMSE R/G/B "
             + " / ".join(f"{v:.3f}" for v in rmse)
             + ", angle "
@@ -93,7 +94,15 @@ def estimated_curves(capture: Path, data: Path | None) -> tuple[list[str], dict]
 
 
 def run_variant(
-    work: Path, steps: int, capacity: int, threads: int, stride: int, data, estimate: bool, ssf_sigma: bool
+    work: Path,
+    steps: int,
+    capacity: int,
+    threads: int,
+    stride: int,
+    data,
+    estimate: bool,
+    ssf_sigma: bool,
+    **estimate_kw,
 ):
     from splat.capture import PipelineConfig, read_capture, run
     from splat.scoring import score
@@ -110,7 +119,7 @@ def run_variant(
             fh.write('\n[poses]\ncolmap = "poses"\n')
     ests = {}
     if estimate:
-        notes, ests = estimated_curves(capture, data)
+        notes, ests = estimated_curves(capture, data, **estimate_kw)
     spec = read_capture(capture)
     cfg = PipelineConfig(steps=steps, capacity=capacity, threads=threads, views=tuple(spec.holdout))
     if not (out / "render" / "index.json").is_file():
@@ -167,8 +176,7 @@ def main(argv=None) -> int:
         "--exact-prior", action="store_true", help="estimate without the real-DNG calibration (prior 1e-4)"
     )
     a = ap.parse_args(argv)
-    global EXACT_PRIOR
-    EXACT_PRIOR = a.exact_prior
+    real = {}
     if a.colordata:
         from real_matrices import colour_matrix, read_colordata
 
@@ -179,8 +187,8 @@ def main(argv=None) -> int:
         for cam in SimCaptureConfig.ci().cameras:
             M = colour_matrix(libraw, cam.ssf.replace(" (NPL)", "").replace("5100", "D5100"))
             if M is not None:
-                REAL_MATRICES[cam.ssf] = DNGMatrices((M,), ("D65",), name=cam.ssf)
-        print(f"Adobe's matrices for {sorted(REAL_MATRICES)}", file=sys.stderr)
+                real[cam.ssf] = DNGMatrices((M,), ("D65",), name=cam.ssf)
+        print(f"Adobe's matrices for {sorted(real)}", file=sys.stderr)
     results = {}
     for variant in ("measured", "estimated"):
         t0 = time.perf_counter()
@@ -193,6 +201,8 @@ def main(argv=None) -> int:
             a.data,
             variant == "estimated",
             not a.no_ssf_sigma,
+            real_matrices=real,
+            exact_prior=a.exact_prior,
         )
         results[variant] = (sc, folders)
         text, _ = table(sc, folders)

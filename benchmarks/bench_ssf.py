@@ -372,11 +372,17 @@ def calibrate_band(held: dict[str, tuple], spread: np.ndarray) -> tuple[float, n
     return band_k, scale
 
 
+def held_out_spread(held: dict) -> np.ndarray:
+    """The RMS over held-out cameras of (estimate − measured curve), each at peak 1, per wavelength and
+    channel: the ``spread`` of a basis or a calibration, from ``held`` (name → (estimate, measured))."""
+    errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
+    return np.sqrt(np.mean(np.square(errs), axis=0))
+
+
 def write_basis(cams: dict[str, dict], path: Path, k: int) -> int:
     t0 = time.perf_counter()
     held = loo_errors(cams, k, redistributable_only=True)
-    errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
-    spread = np.sqrt(np.mean(np.square(errs), axis=0))
+    spread = held_out_spread(held)
     band_k, scale = calibrate_band(held, spread)
     pool = {n: c["values"] for n, c in cams.items() if c["redistributable"]}
     basis = learn_ssf_basis(

@@ -336,22 +336,22 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int
     """Add the calibration of estimates from real DNG matrices to the basis file ``path``: for every
     redistributable camera LibRaw has Adobe's matrix for, the estimate from that matrix (prior weight
     ``prior``) with the basis learned without its model, against its measured curves."""
-    from bench_ssf import calibrate_band
+    from bench_ssf import calibrate_band, held_out_spread
     from real_matrices import colour_matrix, read_colordata
 
     from zonotope.spectra.estimate import SSFBasis, SSFCalibration
 
     cams = measured_cameras(data)
     table = read_colordata(colordata)
+    k = ssf_basis().n_components
     held = {}
     for n, c in cams.items():
         M = colour_matrix(table, n)
         if M is None or not c["redistributable"]:
             continue
-        basis = basis_without(cams, c["model"], redistributable_only=True, k=ssf_basis().n_components)
+        basis = basis_without(cams, c["model"], redistributable_only=True, k=k)
         held[n] = (estimate_ssf(DNGMatrices((M,), ("D65",), name=n), basis=basis, prior=prior), c["values"])
-    errs = [e.values / e.values.max(axis=0) - t / t.max(axis=0) for e, t in held.values()]
-    spread = np.sqrt(np.mean(np.square(errs), axis=0))
+    spread = held_out_spread(held)
     band_k, scale = calibrate_band(held, spread)
     errors, weight = held_out_error_model(list(held.values()))
     doc = json.loads(path.read_text(encoding="utf-8"))

@@ -242,11 +242,11 @@ def run(
         jitter = rng.normal(scale=1e-3 * extent, size=(capacity, 3))
         return pts[take] + jitter, cols[take]
 
-    def time_steps_of(capacity, render, backend=method, on_cpu=False, full=False):
+    def time_steps_of(capacity, render, backend=method, on_cpu=False):
         """Median wall seconds of a train step (after one compiled run), the step's compiled memory
         (arguments + outputs + temporaries, XLA's own analysis) and the device's peak so far."""
         cfg = dataclasses.replace(config(capacity, render), method=backend)
-        pts, cols = full_points(capacity) if full else init_points(capacity)
+        pts, cols = full_points(capacity)
         dev = cpu if on_cpu else jax.devices()[0]
         with jax.default_device(dev):
             state = init_state(
@@ -299,7 +299,7 @@ def run(
         if time.perf_counter() - t_start > 0.3 * budget:
             continue
         try:
-            r = time_steps_of(cap_, tiles(cap_, tb), backend=backend, on_cpu=on_cpu, full=True)
+            r = time_steps_of(cap_, tiles(cap_, tb), backend=backend, on_cpu=on_cpu)
         except Exception as e:  # record it and go on: the run's other phases still measure
             r = {
                 "capacity": cap_,
