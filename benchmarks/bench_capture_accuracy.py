@@ -238,6 +238,165 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
     return "\n".join(lines)
 
 
+def ladder(capture: Path, out: Path, config, stride: int) -> dict:
+    """Where the fused estimate's region-mean error comes from, on a capture of ``splat.sim.capture``
+    (its scene rebuilt from ``config``: truth, never given to the pipeline).
+
+    Each held-out view's true responses of every camera (the ray-caster's noise-free render, white → 1
+    at exposure 1) replace the pipeline's fused responses step by step, for three cameras and for the
+    view's camera alone (b). Rows, ΔE00 of region means as the scorer takes them (chart patches /
+    uniform surfaces):
+
+    - ``true, δ``: the true responses corrected as the oracle would be, with the pipeline's δ alone
+      (what the scene and the corrector allow);
+    - ``true, pipeline σ``: the same responses through :func:`splat.capture.correct_fused` with the
+      fused view's own noise pattern per pixel (the estimator's noise awareness alone);
+    - ``own fused``: the view's own channels as the pipeline fused them, the others true; ``, bias
+      only``: their error's median over each region alone; ``, noise only``: the error less that median;
+    - ``own photograph alone``: the view's own photograph demosaiced (no fusion) as its own channels;
+    - ``others fused`` (likewise): the other cameras' channels as fused, the own channels true;
+    - ``pipeline``: everything as fused (the scorer's row).
+
+    Also each channel group's level and scatter: the median and the median absolute deviation over
+    regions of (pipeline region mean ÷ true region mean).
+
+    Returns ``{"rows": {(views, "three" | "one", responses): (chart ΔE00s, uniform ΔE00s)}, "levels":
+    {view camera: (regions, 3 n) ratios}, "folders": [...]}`` (views: a camera folder or "all views");
+    :func:`ladder_table` prints it."""
+    import tifffile
+
+    from splat.capture import (
+        correct_fused,
+        delta_of,
+        fit_corrector,
+        fused_fitter,
+        fused_view,
+        fusion_of,
+        levelled_white,
+        load_views,
+        read_capture,
+        read_index,
+        reprojected_of,
+        white_of,
+    )
+    from splat.fusion import measured
+    from splat.scoring import _chart_XYZ, _region_dE, _truth_stem, region_labels
+    from splat.sim.capture import build_scene
+    from zonotope.correct.image import correct_image
+
+    spec = read_capture(capture)
+    scene = build_scene(config)
+    G = [np.asarray(g, float) / np.asarray(g, float).sum(0) for g in scene.camera_generators]  # white → 1
+    raws = {v.name: v for v in load_views(spec)}
+    index = read_index(spec, out / "render" / "index.json")
+    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
+    scale = np.concatenate(white["scale"])
+    delta = delta_of(spec, out, index, scale)["delta"]
+    fusion = fusion_of(spec, out, index, raws, scale)
+    n = len(spec.cameras)
+    chart_XYZ = _chart_XYZ(spec)
+    by_stem = {f"{config.cameras[v.camera].folder}/{v.stem}": v for v in scene.views}
+    rows: dict = {}
+    levels: dict = {}
+    fitters, oracles = {}, {}
+    for name in (k for k, v in index.items() if v["kind"] == "holdout"):
+        sv = by_stem.get(_truth_stem(name))
+        if sv is None or name not in fusion["views"]:
+            continue
+        ref = np.asarray(tifffile.imread(capture / "truth" / "xyz" / f"{_truth_stem(name)}.tiff"), float)
+        if not np.allclose(scene.XYZ(sv), ref, rtol=1e-4, atol=1e-6):
+            raise SystemExit(f"--ladder: the scene rebuilt does not match {name}'s truth")
+        lab, chart = region_labels(ref, chart_XYZ)
+        lab, r = lab[::stride, ::stride], ref[::stride, ::stride]
+        true = scene.render(sv, scene.library @ np.concatenate(G, 1))[::stride, ::stride]
+        k = raws[name].camera
+        folder = spec.cameras[k].folder
+        render = np.asarray(tifffile.imread(out / "render" / spec.out_stem(name) / "render.tiff"), float)
+        rep = reprojected_of(out / "render" / spec.out_stem(name), scale)
+        for who, sub in (("three", tuple(range(n))), ("one", (k,))):
+            f, code, sigma = fused_view(fusion, name, render / scale, raws[name], scale, list(sub), rep)
+            f, code = f[::stride, ::stride], code[::stride, ::stride]
+            idx = [3 * c + j for c in sub for j in range(3)]
+            t = true[..., idx]
+            own = np.zeros(len(idx), bool)
+            own[3 * sub.index(k) : 3 * sub.index(k) + 3] = True
+            if sub not in fitters:
+                fitters[sub] = fused_fitter(spec, list(sub), "Prior")
+                oracles[sub] = fit_corrector(spec, list(sub), "Prior", delta)
+            ests = {
+                "true, δ": correct_image(np.maximum(t, 0), oracles[sub], quantum=2e-3),
+                "true, pipeline σ": correct_fused(t, code, sigma, fitters[sub], 2e-3),
+            }
+            if who == "three":
+                # the fused error split per region into its median over the region (bias: demosaicing,
+                # reprojection, level) and what is left about it (noise, misplaced pixels)
+                err = f - t
+                bias = np.zeros_like(err)
+                for reg in np.unique(lab[lab > 0]):
+                    m = lab == reg
+                    bias[m] = np.median(err[m], 0)
+                for part, sel in (("own", own), ("others", ~own)):
+                    for what, e in (("", err), (", bias only", bias), (", noise only", err - bias)):
+                        ests[f"{part} fused{what}"] = correct_fused(
+                            np.where(sel, t + e, t), code, sigma, fitters[sub], 2e-3
+                        )
+                # the own photograph alone, demosaiced, in place of the own channels fused
+                for dm in ("Malvar 2004", "bilinear"):
+                    photo = measured(raws[name], scale[3 * k : 3 * k + 3], method=dm)[::stride, ::stride]
+                    mixed = t.copy()
+                    mixed[..., own] = photo
+                    ests[f"own photograph alone ({dm})"] = correct_fused(
+                        mixed, code, sigma, fitters[sub], 2e-3
+                    )
+            ests["pipeline"] = correct_fused(f, code, sigma, fitters[sub], 2e-3)
+            for label, e in ests.items():
+                ch, un = _region_dE(oracles[sub].problem, e, r, lab, chart)
+                for g in (folder, "all views"):
+                    row = rows.setdefault((g, who, label), ([], []))
+                    row[0].extend(ch)
+                    row[1].extend(un)
+            if who == "three":
+                for reg in np.unique(lab[lab > 0]):
+                    m = lab == reg
+                    levels.setdefault(folder, []).append(f[m].mean(0) / t[m].mean(0))
+    folders = [c.folder for c in spec.cameras]
+    return {"rows": rows, "levels": {k: np.array(v) for k, v in levels.items()}, "folders": folders}
+
+
+def ladder_table(result: dict) -> str:
+    """Markdown tables of :func:`ladder`'s result: ΔE00 means per row, then the levels."""
+    rows, folders = result["rows"], result["folders"]
+    n = len(folders)
+    groups = [f for f in folders if (f, "three", "pipeline") in rows] + ["all views"]
+    lines = [
+        "| views | cameras | responses | chart patch mean | uniform surface mean |",
+        "|---|---|---|---:|---:|",
+    ]
+    for g in groups:
+        ch, un = rows[(g, "three", "pipeline")]
+        lines.append(f"| {g} | regions | | {len(ch)} | {len(un)} |")
+        for (g_, who, label), (ch, un) in rows.items():
+            if g_ == g:
+                c = f"{np.mean(ch):.2f}" if ch else "—"
+                u = f"{np.mean(un):.2f}" if un else "—"
+                lines.append(
+                    f"| {g} | {'three' if who == 'three' else '(b) own camera'} | {label} | {c} | {u} |"
+                )
+    head = " | ".join(f"{f}: level (scatter) R, G, B" for f in folders)
+    lines += ["", f"| view camera | {head} |", "|---|" + "---|" * n]
+    for folder, lv in result["levels"].items():
+        med = np.median(lv, 0)
+        mad = np.median(np.abs(lv - med), 0)
+        lines.append(
+            f"| {folder} | "
+            + " | ".join(
+                ", ".join(f"{med[3 * c + j]:.3f} ({mad[3 * c + j]:.3f})" for j in range(3)) for c in range(n)
+            )
+            + " |"
+        )
+    return "\n".join(lines)
+
+
 def truth_noise(truth: Path, regions, stride: int) -> dict | None:
     """The expected ΔE00 of each region mean of a separately rendered truth from its own Monte Carlo
     noise (``truth/xyz_se``, :func:`splat.sim.mitsuba.truth_xyz`), on the scorer's stride grid: camera
@@ -347,6 +506,12 @@ def main(argv=None) -> int:
         metavar="SPP",
         help="a splat.sim.mitsuba capture: score against its held-out views' XYZ rendered again on their "
         "own at SPP samples per pixel (splat.sim.mitsuba.write_truth, in the work folder's copy)",
+    )
+    ap.add_argument(
+        "--ladder",
+        action="store_true",
+        help="a capture this script writes: replace the fused responses by the true ones step by step "
+        "and print where the region-mean error comes from (ladder)",
     )
     ap.add_argument(
         "--render-sources",
@@ -460,6 +625,14 @@ def main(argv=None) -> int:
     if args.oracle and regions is not None:
         print("\nDiagnostics from the scene (not available to the pipeline):\n")
         print(oracle(capture, out, args.oracle, regions))
+    if args.ladder:
+        if args.capture is not None:
+            print("\n--ladder: needs a capture this script writes (its scene is rebuilt); skipped")
+        else:
+            make = SimCaptureConfig.benchmark if big else SimCaptureConfig.ci
+            print("\nWhere the region-mean error comes from (truth, not available to the pipeline):\n")
+            config = make(texture=args.texture, noise=not args.no_noise)
+            print(ladder_table(ladder(capture, out, config, args.stride)))
     print(f"\nwork folder {work}")
     return 0
 

@@ -265,6 +265,33 @@ def test_depth_error_against_the_simulated_geometry(ci_run):
         depth_error(cap, out, size="benchmark", model=None, views=None)
 
 
+def test_ladder_puts_the_true_responses_in_place_of_the_fused(ci_run):
+    """benchmarks/bench_capture_accuracy.py's ladder on the run: the true responses are on the fused
+    ones' scale (each own channel's median level within 5 %), corrected they stay far below the pipeline's
+    error of a 130-step model on the scene's uniform surfaces, every camera's held-out views have every
+    row, and a scene rebuilt from another configuration is refused."""
+    from benchmarks.bench_capture_accuracy import ladder, ladder_table
+    from splat.sim.capture import SimCaptureConfig
+
+    cap, out, *_ = ci_run
+    res = ladder(cap, out, SimCaptureConfig.ci(), stride=4)
+    rows = res["rows"]
+    labels = {"true, δ", "true, pipeline σ", "own fused", "others fused", "pipeline"}
+    for g in (*res["folders"], "all views"):
+        assert labels <= {lb for (g_, who, lb) in rows if g_ == g and who == "three"}
+        assert {"true, δ", "pipeline"} <= {lb for (g_, who, lb) in rows if g_ == g and who == "one"}
+    uniform = {lb: np.mean(rows[("all views", "three", lb)][1]) for lb in labels}
+    assert len(rows[("all views", "three", "pipeline")][1]) >= 10
+    assert all(np.isfinite(v) for v in uniform.values())
+    assert uniform["true, pipeline σ"] < 1.5 and uniform["true, pipeline σ"] < 0.5 * uniform["pipeline"]
+    for folder, lv in res["levels"].items():  # the view's own channels (the others: a rough model's)
+        k = res["folders"].index(folder)
+        assert np.all(np.abs(np.median(lv[:, 3 * k : 3 * k + 3], 0) - 1) < 0.05)
+    assert "| all views | three | pipeline |" in ladder_table(res)
+    with pytest.raises(SystemExit, match="does not match"):
+        ladder(cap, out, SimCaptureConfig.ci(seed=1), stride=4)
+
+
 def test_render_step_on_threads_writes_the_same_files(ci_run, tmp_path):
     """`splat render --workers 2` renders views at once and writes byte-identical files to one at a
     time, in the same index order."""
