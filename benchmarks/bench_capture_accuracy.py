@@ -20,6 +20,7 @@ uniform-surface colour.
     python benchmarks/bench_capture_accuracy.py --size ci --work /tmp/acc_ci
     python benchmarks/bench_capture_accuracy.py --size ci --texture coarse --work /tmp/acc_coarse
     python benchmarks/bench_capture_accuracy.py --size benchmark --steps 3000 --work /tmp/acc_bench
+    python benchmarks/bench_capture_accuracy.py --size benchmark --work /tmp/acc_bench --ladder
     python -m splat.sim.mitsuba /tmp/mitsuba --size 2 --spp 32
     python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_mitsuba
     python benchmarks/bench_capture_accuracy.py --capture /tmp/mitsuba --colmap --work /tmp/acc_m --oracle 64
@@ -29,6 +30,8 @@ whose ``truth/`` has the same layout): it is copied into ``--work`` (the origina
 and run with ``--steps`` / ``--capacity`` (default the CI size's). Give the Mitsuba capture ``--colmap``:
 its truth has no 3-D points, so with the true poses training starts from random Gaussians. Its regions
 come from ``truth/labels`` (:func:`labelled_regions`).
+``--ladder`` (a capture the script writes) adds :func:`ladder`: the fused responses replaced by the true
+ones step by step, to say where the region-mean error comes from.
 ``--oracle SPP`` (a Mitsuba capture) adds :func:`oracle`'s diagnostics from a second render of the
 scene: the truth's Monte Carlo floor and each camera's level against the true responses.
 
@@ -251,6 +254,9 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
       (what the scene and the corrector allow);
     - ``true, pipeline σ``: the same responses through :func:`splat.capture.correct_fused` with the
       fused view's own noise pattern per pixel (the estimator's noise awareness alone);
+    - ``true + fused σ noise``: the true responses with independent Gaussian noise of that σ added per
+      pixel: the error the fused responses declare (an upper bound, as the guided re-reading averages
+      noise below the σ it reports), against which the fused rows say whether they keep within it;
     - ``own fused``: the view's own channels as the pipeline fused them, the others true; ``, bias
       only``: their error's median over each region alone; ``, noise only``: the error less that median;
     - ``own photograph alone``: the view's own photograph demosaiced (no fusion) as its own channels;
@@ -327,6 +333,14 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
                 "true, δ": correct_image(np.maximum(t, 0), oracles[sub], quantum=2e-3),
                 "true, pipeline σ": correct_fused(t, code, sigma, fitters[sub], 2e-3),
             }
+            # the true responses with the noise the fused ones declare (σ of each pixel's code)
+            rng = np.random.default_rng(0)
+            sd = np.zeros_like(t)
+            for cd, s_ in sigma.items():
+                sd[code == cd] = np.asarray(s_, float)
+            ests["true + fused σ noise"] = correct_fused(
+                t + sd * rng.standard_normal(t.shape), code, sigma, fitters[sub], 2e-3
+            )
             if who == "three":
                 # the fused error split per region into its median over the region (bias: demosaicing,
                 # reprojection, level) and what is left about it (noise, misplaced pixels)
