@@ -132,8 +132,9 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
     import tifffile
 
     import zonotope
-    from splat.capture import levelled_white, load_views, read_capture, read_index, reprojected_of, white_of
+    from splat.capture import read_capture, reprojected_of
     from splat.fusion import measured
+    from splat.scoring import correction_inputs
     from splat.sim.capture import build_scene
     from splat.sim.mitsuba import mitsuba_config, mitsuba_scene
 
@@ -152,10 +153,7 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
     curves = [np.asarray(g, float) / (E[:, None] * step) for g in scene.camera_generators]
     film = np.concatenate([*curves, np.asarray(scene.observer, float) / (E[:, None] * step)], axis=1)
     neutral = np.concatenate([c["as_shot_neutral"] for c in tt["camera"]])
-    raws = {v.name: v for v in load_views(spec)}
-    index = read_index(spec, out / "render" / "index.json")
-    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
-    scale = np.concatenate(white["scale"])
+    raws, index, _white, scale = correction_inputs(spec, out)
     from splat.capture import correction_problem_of
 
     problem = correction_problem_of(spec, list(range(len(spec.cameras))))
@@ -278,25 +276,18 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
         fused_fitter,
         fused_view,
         fusion_of,
-        levelled_white,
-        load_views,
         read_capture,
-        read_index,
         reprojected_of,
-        white_of,
     )
     from splat.fusion import measured
-    from splat.scoring import _chart_XYZ, _region_dE, _truth_stem, region_labels
+    from splat.scoring import _chart_XYZ, _region_dE, _truth_stem, correction_inputs, region_labels
     from splat.sim.capture import build_scene
     from zonotope.correct.image import correct_image
 
     spec = read_capture(capture)
     scene = build_scene(config)
     G = [np.asarray(g, float) / np.asarray(g, float).sum(0) for g in scene.camera_generators]  # white → 1
-    raws = {v.name: v for v in load_views(spec)}
-    index = read_index(spec, out / "render" / "index.json")
-    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
-    scale = np.concatenate(white["scale"])
+    raws, index, _white, scale = correction_inputs(spec, out)
     delta = delta_of(spec, out, index, scale)["delta"]
     fusion = fusion_of(spec, out, index, raws, scale)
     n = len(spec.cameras)

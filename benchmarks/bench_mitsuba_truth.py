@@ -186,19 +186,12 @@ def scored(work: Path, spec, regions, conv: dict) -> None:
         fused_fitter,
         fused_view,
         fusion_of,
-        levelled_white,
-        load_views,
         pipeline_mix,
-        read_index,
         reprojected_of,
-        white_of,
     )
 
     out = work / "out"
-    raws = {v.name: v for v in load_views(spec)}
-    index = read_index(spec, out / "render" / "index.json")
-    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
-    scale = np.concatenate(white["scale"])
+    raws, index, white, scale = S.correction_inputs(spec, out)
     delta = delta_of(spec, out, index, scale)["delta"]
     fusion = fusion_of(spec, out, index, raws, scale)
     n = len(spec.cameras)

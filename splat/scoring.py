@@ -63,7 +63,16 @@ import numpy as np
 
 from ._tol import REGION_MIN_PIXELS, REGION_RTOL
 
-__all__ = ["chart_matrix", "develop", "flat_mask", "raw_balanced", "region_labels", "score", "similarity"]
+__all__ = [
+    "chart_matrix",
+    "correction_inputs",
+    "develop",
+    "flat_mask",
+    "raw_balanced",
+    "region_labels",
+    "score",
+    "similarity",
+]
 
 
 def similarity(X, Y):
@@ -239,6 +248,20 @@ def flat_mask(XYZ, *, radius: int = 2, rtol: float = 0.01) -> np.ndarray:
     return ok
 
 
+def correction_inputs(spec, out: Path) -> tuple[dict, dict, dict, np.ndarray]:
+    """What the correct step works from in ``OUT``: the RAW views by name, the render step's index, the
+    white (the patch's, each camera at its level against the others: ``levelled_white``) and its
+    scale (3 per camera, white → 1). Why: every scorer of fused estimates must start where the correct
+    step does, or it scores another white."""
+    from .capture import levelled_white, load_views, read_index, white_of
+
+    out = Path(out)
+    raws = {v.name: v for v in load_views(spec)}
+    index = read_index(spec, out / "render" / "index.json")
+    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
+    return raws, index, white, np.concatenate(white["scale"])
+
+
 def score(
     capture: str | os.PathLike,
     out: str | os.PathLike,
@@ -289,14 +312,10 @@ def score(
         fused_fitter,
         fused_view,
         fusion_of,
-        levelled_white,
-        load_views,
         photographed_view,
         pipeline_mix,
         read_capture,
-        read_index,
         reprojected_of,
-        white_of,
     )
     from .capture.illuminant import illuminant_of
     from .colmap import read_colmap
@@ -308,11 +327,7 @@ def score(
     truth = spec.root / "truth"
     n = len(spec.cameras)
     subsets = subsets or [s for r in range(1, n + 1) for s in itertools.combinations(range(n), r)]
-    raws = {v.name: v for v in load_views(spec)}
-    index = read_index(spec, out / "render" / "index.json")
-    # the correct step's white: the patch's, each camera at its level against the others
-    white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
-    scale = np.concatenate(white["scale"])
+    raws, index, white, scale = correction_inputs(spec, out)
     delta = delta_of(spec, out, index, scale)["delta"]
     held = [
         k
