@@ -262,7 +262,9 @@ CAMERA_LEVEL_MIN_PIXELS = 200
 #: Photographs of each camera reprojected into a rendered view (PipelineConfig.render_sources): those
 #: that see most of it. Of 2, 4 and 6, the fewest whose held-out ΔE00 on the CI capture is within 0.05
 #: of all of them on flat pixels and on uniform surfaces (4: +0.08 on uniform surfaces; see
-#: docs/notes/2026-11-29-realsize-scaling.md); it makes the render step linear in the photographs.
+#: docs/notes/2026-11-29-realsize-scaling.md); it makes the render step linear in the photographs. On
+#: the benchmark capture (16 per camera) all of them lose to 6 on uniform surfaces, 0.81 against 0.44
+#: ΔE00 (docs/notes/2026-11-30-region-mean-ladder.md).
 RENDER_SOURCES = 6
 
 #: Pixel stride at which a view's pixels are counted to rank the photographs that see it: a ranking by
