@@ -57,6 +57,7 @@ ROWS = (
     ("render", "render only, three cameras"),
     ("three", "three cameras fused"),
 )
+QUANTUM = 2e-3  #: the colour deduplication step of the ladder's corrections, the scorer's default
 MEASURES = (("mean", "per pixel, all"), ("flat", "per pixel, flat"), ("chart", "chart patch mean"),
             ("uniform", "uniform surface mean"))  # fmt: skip
 
@@ -321,8 +322,8 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
                 fitters[sub] = fused_fitter(spec, list(sub), "Prior")
                 oracles[sub] = fit_corrector(spec, list(sub), "Prior", delta)
             ests = {
-                "true, δ": correct_image(np.maximum(t, 0), oracles[sub], quantum=2e-3),
-                "true, pipeline σ": correct_fused(t, code, sigma, fitters[sub], 2e-3),
+                "true, δ": correct_image(np.maximum(t, 0), oracles[sub], quantum=QUANTUM),
+                "true, pipeline σ": correct_fused(t, code, sigma, fitters[sub], QUANTUM),
             }
             # the true responses with the noise the fused ones declare (σ of each pixel's code)
             rng = np.random.default_rng(0)
@@ -330,7 +331,7 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
             for cd, s_ in sigma.items():
                 sd[code == cd] = np.asarray(s_, float)
             ests["true + fused σ noise"] = correct_fused(
-                t + sd * rng.standard_normal(t.shape), code, sigma, fitters[sub], 2e-3
+                t + sd * rng.standard_normal(t.shape), code, sigma, fitters[sub], QUANTUM
             )
             if who == "three":
                 # the fused error split per region into its median over the region (bias: demosaicing,
@@ -343,7 +344,7 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
                 for part, sel in (("own", own), ("others", ~own)):
                     for what, e in (("", err), (", bias only", bias), (", noise only", err - bias)):
                         ests[f"{part} fused{what}"] = correct_fused(
-                            np.where(sel, t + e, t), code, sigma, fitters[sub], 2e-3
+                            np.where(sel, t + e, t), code, sigma, fitters[sub], QUANTUM
                         )
                 # the own photograph alone, demosaiced, in place of the own channels fused
                 for dm in ("Malvar 2004", "bilinear"):
@@ -351,9 +352,9 @@ def ladder(capture: Path, out: Path, config, stride: int) -> dict:
                     mixed = t.copy()
                     mixed[..., own] = photo
                     ests[f"own photograph alone ({dm})"] = correct_fused(
-                        mixed, code, sigma, fitters[sub], 2e-3
+                        mixed, code, sigma, fitters[sub], QUANTUM
                     )
-            ests["pipeline"] = correct_fused(f, code, sigma, fitters[sub], 2e-3)
+            ests["pipeline"] = correct_fused(f, code, sigma, fitters[sub], QUANTUM)
             for label, e in ests.items():
                 ch, un = _region_dE(oracles[sub].problem, e, r, lab, chart)
                 for g in (folder, "all views"):
