@@ -127,7 +127,10 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
     regions: (1) the truth's own floor, the ΔE00 of the region means of the two XYZ renders (Monte Carlo
     noise of the 32-sample truth, at the scorer's stride); (2) each camera's level, the median over
     regions of its white → 1 channels in the pipeline (its own photograph where it took the view, its
-    reprojected photographs elsewhere) over the true responses (the render ÷ the camera's white)."""
+    reprojected photographs elsewhere) over the true responses (the render ÷ the camera's white); (3)
+    the true responses corrected with the view camera alone and with all cameras, by a corrector fitted
+    to δ alone and as the pipeline corrects a fused view (:func:`splat.capture.correct_fused`, the fused
+    view's σ per pixel: what the scene allows the pipeline's estimator)."""
     import tomllib
 
     import tifffile
@@ -167,19 +170,23 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
         la, lb = colour.XYZ_to_Lab(a / wXYZ[1], xy), colour.XYZ_to_Lab(b / wXYZ[1], xy)
         return float(colour.delta_E(la, lb, method="CIE 2000"))
 
-    from splat.capture import delta_of, fit_corrector
+    from splat.capture import correct_fused, delta_of, fit_corrector, fused_fitter, fused_view, fusion_of
     from zonotope.correct.image import correct_image
 
     delta = delta_of(spec, out, index, scale)["delta"]
+    fusion = fusion_of(spec, out, index, raws, scale)
     n = len(spec.cameras)
     corr = {
         s: fit_corrector(spec, list(s), "Prior", delta) for s in [(c,) for c in range(n)] + [tuple(range(n))]
     }
+    fitters = {s: fused_fitter(spec, list(s), "Prior") for s in corr}
     lines = [
         "| view camera | truth floor, chart | truth floor, uniform | "
         + " | ".join(f"{c.folder} level (R, G, B)" for c in spec.cameras)
-        + " | true responses: own camera, chart / uniform | three cameras | three ÷ own |",
-        "|---|---:|---:|" + "---|" * len(spec.cameras) + "---|---|---|",
+        + " | true responses, corrector fitted to δ: own camera, chart / uniform | three cameras"
+        + " | three ÷ own"
+        + " | the same, corrected as the pipeline (its σ): own camera | three cameras | three ÷ own |",
+        "|---|---:|---:|" + "---|" * len(spec.cameras) + "---|---|---|---|---|---|",
     ]
     per = {}
     for vi, v in enumerate(scene.views):
@@ -196,7 +203,7 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
         true9 = img[..., :-3] / neutral
         r = raws[name]
         k = r.camera
-        values, _count = reprojected_of(out / "render" / index[name]["dir"], scale)
+        values, count = reprojected_of(out / "render" / index[name]["dir"], scale)
         pipe = values.copy()
         pipe[..., 3 * k : 3 * k + 3] = measured(r, scale[3 * k : 3 * k + 3])
         row = per.setdefault(spec.cameras[k].folder, {"chart": [], "uniform": [], "level": []})
@@ -207,13 +214,21 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
             s: correct_image(np.maximum(true9[s2][..., [3 * c + j for c in s for j in range(3)]], 0), cor)
             for s, cor in corr.items()
         }
+        render = np.asarray(tifffile.imread(out / "render" / index[name]["dir"] / "render.tiff"), float)
+        rep = (values, count)
+        for s in [(k,), tuple(range(n))]:  # with the fused view's σ per pixel, as the pipeline corrects
+            _f, code, sigma = fused_view(fusion, name, render / scale, r, scale, list(s), rep)
+            t = true9[s2][..., [3 * c + j for c in s for j in range(3)]]
+            est[("σ", s)] = correct_fused(t, code[s2], sigma, fitters[s], QUANTUM)
         for reg in np.unique(lab[lab > 0]):
             m2 = lab[s2] == reg
             kind = "chart" if int(reg) in chart else "uniform"
             d = dE(img[s2][m2][:, -3:].mean(0), ref[s2][m2].mean(0))
             row[kind].append(d)
             for s, e in est.items():
+                tag, s = s if s[0] == "σ" else ("", s)
                 who = "three" if len(s) == n else ("own" if s == (k,) else None)
+                who = f"{who} {tag}".strip() if who else None
                 if who:
                     row.setdefault((who, kind), []).append(dE(e[m2].mean(0), img[s2][m2][:, -3:].mean(0)))
             m = lab == reg
@@ -225,7 +240,8 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
     for cam, row in per.items():
         lv = np.median(np.array(row["level"]), 0)
         tr = {
-            key: mean(row.get(key, [])) for key in itertools.product(("own", "three"), ("chart", "uniform"))
+            key: mean(row.get(key, []))
+            for key in itertools.product(("own", "three", "own σ", "three σ"), ("chart", "uniform"))
         }
         lines.append(
             f"| {cam} | {np.mean(row['chart']):.2f} | {np.mean(row['uniform']):.2f} | "
@@ -235,7 +251,11 @@ def oracle(capture: Path, out: Path, spp: int, regions) -> str:
             + f" | {tr[('own', 'chart')]:.2f} / {tr[('own', 'uniform')]:.2f}"
             + f" | {tr[('three', 'chart')]:.2f} / {tr[('three', 'uniform')]:.2f}"
             + f" | {tr[('three', 'chart')] / tr[('own', 'chart')]:.2f}"
-            + f" / {tr[('three', 'uniform')] / tr[('own', 'uniform')]:.2f} |"
+            + f" / {tr[('three', 'uniform')] / tr[('own', 'uniform')]:.2f}"
+            + f" | {tr[('own σ', 'chart')]:.2f} / {tr[('own σ', 'uniform')]:.2f}"
+            + f" | {tr[('three σ', 'chart')]:.2f} / {tr[('three σ', 'uniform')]:.2f}"
+            + f" | {tr[('three σ', 'chart')] / tr[('own σ', 'chart')]:.2f}"
+            + f" / {tr[('three σ', 'uniform')] / tr[('own σ', 'uniform')]:.2f} |"
         )
     return "\n".join(lines)
 
