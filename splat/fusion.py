@@ -73,8 +73,10 @@ __all__ = [
     "camera_levels",
     "guided",
     "guided_demosaic",
+    "impossible",
     "measured",
     "photo_variance",
+    "rejected_bit",
     "render_noise",
     "reprojection_noise",
     "sensor_noise",
@@ -375,6 +377,50 @@ def site_noise(view, white_scale) -> np.ndarray:
         raise SplatError(f"{view.name}: no exposure (EXIF or the capture file's override); cannot fuse.")
     var = photo_variance(view, np.asarray(view.values, float) / view.exif, reach=None)
     return np.sqrt(var) / np.asarray(white_scale, float)
+
+
+def impossible(generators, values_a, values_b, tol: float) -> np.ndarray:
+    """Which pairs of two cameras' responses no surface can produce: farther than ``tol`` (L1, white → 1
+    units) from the two cameras' joint object-colour solid (:func:`zonotope.solid_distance`).
+
+    A misplaced reprojection reads another surface: the view's own channels say a black chart patch,
+    the other camera's say its orange neighbour. Metamerism cannot explain that, since no reflectance
+    in [0, 1] gives both, so the test rejects only what physics rules out and keeps every real
+    difference between the cameras (the information stacking them is for). A pair brighter than the
+    white (a surface lit more strongly than the card) is tested at the white's level, divided by its
+    largest response, and its distance scaled back.
+
+    Parameters
+    ----------
+    generators : array_like of shape (n, 6)
+        Camera A's three generators, then camera B's (white → 1 per channel, as the correction's).
+    values_a, values_b : array_like of shape (N, 3)
+        The two cameras' responses at N pixels (white → 1, exposure 1).
+    tol : float
+        L1 slack: the pair's noise (a few σ summed over the six channels).
+
+    Returns
+    -------
+    ndarray of shape (N,), bool
+    """
+    from zonotope import solid_distance
+
+    z = np.concatenate([np.asarray(values_a, float), np.asarray(values_b, float)], axis=-1)
+    if z.ndim != 2 or z.shape[1] != 6 or np.shape(generators)[-1] != 6:
+        raise SplatError(
+            f"impossible: need (N, 3) responses of each camera and (n, 6) generators; got {z.shape}."
+        )
+    if not len(z):
+        return np.zeros(0, bool)
+    level = np.maximum(z.max(axis=1), 1.0)
+    return solid_distance(generators, z / level[:, None]) * level > tol
+
+
+def rejected_bit(m: int, i: int) -> int:
+    """The bit of a fused view's noise-pattern code (``splat.capture.fused_view``, ``m`` cameras) set
+    where camera ``i``'s reprojection was rejected (:func:`impossible`): the full-resolution pass
+    (:mod:`splat.strips`) does not read that camera's photographs there either."""
+    return 1 << (m + 5 + i)
 
 
 def unclipped(view, *, reach: int = 2) -> np.ndarray:

@@ -18,9 +18,11 @@ one strip of ``STRIP_ROWS`` rows at a time:
    demosaiced bilinearly a band at a time, :func:`raw_row_source`), kept where the source's own depth
    (working resolution) agrees (:func:`splat.reproject.reproject_rows`), and combined per camera as the
    render step combines them (:func:`splat.reproject.reprojected`). Pixels no photograph of a camera
-   sees, and pixels where the photograph is textured at full resolution (:func:`textured_rows`: a
+   sees, pixels where the photograph is textured at full resolution (:func:`textured_rows`: a
    reprojection misplaced by a fraction of a pixel is off by the step there, as at the working
-   resolution, :func:`splat.capture.fused_view`), take the
+   resolution, :func:`splat.capture.fused_view`), and pixels where the working fusion rejected the
+   camera's reprojection (:func:`splat.fusion.rejected_bit`: no surface gives it with the own
+   channels) take the
    working-resolution fused responses upsampled bilinearly (pixel centres aligned: full-resolution
    centre ``y + ½`` lies at ``(y + ½)/f`` in the working image, clamped at the borders), then sharpened
    by the photograph itself — every channel times the ratio of the own channels' full-resolution sum
@@ -460,6 +462,8 @@ def full_resolution_view(
     ndarray of shape (rows, W, 3), float32
         XYZ of consecutive strips, top to bottom.
     """
+    from .fusion import rejected_bit
+
     source, exposure, own_scale, own_sigma = photo
     fused, code, sigma, own, f = working
     H, W = source.shape
@@ -499,7 +503,7 @@ def full_resolution_view(
             plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
             values, seen = reprojected_strip(reprojection, r0, r1, need=plain)  # read only where used
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
-                use = (n > 0) & plain
+                use = (n > 0) & plain & (cd & rejected_bit(m, i) == 0)  # not where rejected at work
                 resp[..., 3 * i : 3 * i + 3] = np.where(
                     use[..., None], np.maximum(vals, 0), resp[..., 3 * i : 3 * i + 3]
                 )

@@ -157,7 +157,13 @@ __getattr__, __dir__, _LAZY = lazy_exports(
     __name__,
     {
         "geometry.polytope": ["Polytope"],
-        "mismatch.membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
+        "mismatch.membership": [
+            "joint_halfspaces",
+            "mmv_contains",
+            "mmv_distance",
+            "outside_mmv_fraction",
+            "solid_distance",
+        ],
         "mismatch.illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
         "spectra.illuminant_estimate": [
             "CANDIDATE_KINDS",

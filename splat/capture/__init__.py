@@ -136,6 +136,7 @@ _EXPORTS = {
     "correct": [
         "WHITE_POINT",
         "XYZ_to_sRGB",
+        "capture_generators",
         "choose_delta",
         "correct_fused",
         "correct_step",

@@ -713,6 +713,76 @@ def test_fused_view_reads_a_clipped_photographs_own_channels_elsewhere(sim):
     np.testing.assert_array_equal(sigmas[clipped_bit | 1], [0.004] * 3 + [0.017] * 3)
 
 
+def test_fused_view_rejects_reprojections_that_no_surface_gives_with_the_own_channels(sim):
+    """Another camera's true responses (the simulator's scene, noise-free) are kept; where they are made
+    physically impossible with the view's own channels (a red that the view's camera would have seen)
+    they are rejected: the render anchored to the photograph instead, as where no photograph sees the
+    pixel, σ the render's, the rejection bit set. Which pixels are rejected agrees with an independent
+    HiGHS LP of the L1 distance to the two cameras' joint solid."""
+    import scipy.ndimage as ndi
+    from scipy.optimize import linprog
+
+    from splat._tol import JOINT_NSIGMA
+    from splat.capture import capture_generators, fused_view
+    from splat.fusion import rejected_bit
+    from splat.scoring import _truth_stem, flat_mask
+    from splat.sim.capture import SimCaptureConfig, build_scene
+
+    cfg = SimCaptureConfig.ci(n_train=2, n_holdout=1, texture="coarse")  # the fixture's scene
+    scene = build_scene(cfg)
+    view = next(v for v in sim["views"] if v.camera == 1 and v.full_colour)  # no guided demosaicing
+    sv = next(v for v in scene.views if f"{cfg.cameras[v.camera].folder}/{v.stem}" == _truth_stem(view.name))
+    gens = [np.asarray(g, float) / np.asarray(g, float).sum(0) for g in scene.camera_generators]
+    true = scene.render(sv, scene.library @ np.concatenate(gens, 1))  # white → 1, every camera
+    H, W = view.shape
+    values = np.zeros((H, W, 9))
+    values[..., 0:3] = true[..., 0:3]
+    values[: H // 3, : W // 3, 0:3] *= [3.0, 0.2, 0.2]  # a red no surface gives with the own channels
+    count = np.zeros((H, W, 3))
+    count[..., 0] = 1
+    render = np.random.default_rng(3).uniform(0.05, 1.0, (H, W, 9))
+    own_sigma = np.maximum(fusion.sensor_noise(view, sim["scale"][3:6]), fusion.OWN_NOISE_FLOOR)
+    doc = {
+        "render_sigma": 0.017,
+        "reprojected_sigma": [0.004, 0.003, 0.006],
+        "views": {view.name: {"camera": 1, "own_sigma": own_sigma.tolist()}},
+    }
+    G = capture_generators(sim["spec"])
+    kw = {"texture_rtol": np.inf}
+    rest = (view.name, render, view, sim["scale"], [0, 1])
+    f0, c0, _ = fused_view(doc, *rest, (values, count), **kw)  # no generators: nothing rejected
+    f1, c1, s1 = fused_view(dict(doc, generators=G), *rest, (values, count), **kw)
+    alone, _, _ = fused_view(doc, *rest, (values, np.zeros_like(count)), **kw)  # camera 0 unseen: anchored
+    rej = (c1 & rejected_bit(2, 0)) != 0
+    block = np.zeros((H, W), bool)
+    block[: H // 3, : W // 3] = True
+    valid = fusion.unclipped(view)
+    # on surfaces (not at the scene's edges, where the guided re-reading mixes two sides) and away from
+    # the block, the true responses are kept
+    surface = flat_mask(true[..., 0:3], radius=2) & ~ndi.binary_dilation(block, iterations=3) & valid
+    assert rej[block & valid].mean() > 0.8 and surface.sum() > 1000 and rej[surface].mean() < 0.002
+    assert not rej[~valid].any()  # a clipped photograph is no measurement to test against
+    np.testing.assert_array_equal(f1[~rej], f0[~rej])
+    np.testing.assert_array_equal(c1[~rej], c0[~rej])
+    np.testing.assert_array_equal(f1[rej], alone[rej])
+    np.testing.assert_array_equal(c1[rej], rejected_bit(2, 0))  # camera 0 rejected: as if unseen
+    np.testing.assert_array_equal(s1[rejected_bit(2, 0)], [0.017] * 3 + own_sigma.tolist())
+    # the rejection rule against HiGHS: L1 distance (at the white's level) beyond JOINT_NSIGMA σ
+    tol = JOINT_NSIGMA * (own_sigma.sum() + 3 * 0.004)
+    J = G[:, [3, 4, 5, 0, 1, 2]]
+    n = J.shape[0]
+    rng = np.random.default_rng(0)
+    for y, x in zip(*[a[rng.permutation(len(a))[:15]] for a in np.nonzero(valid & (rej | ~block))]):
+        z = np.r_[f0[y, x, 3:6], f0[y, x, 0:3]]
+        level = max(z.max(), 1.0)
+        A = np.hstack([J.T, -np.eye(6), np.eye(6)])
+        d = linprog(
+            np.r_[np.zeros(n), np.ones(12)], A_eq=A, b_eq=z / level, bounds=[(0, 1)] * n + [(0, None)] * 12
+        )
+        if abs(d.fun * level - tol) > 1e-6:
+            assert rej[y, x] == (d.fun * level > tol), (y, x, d.fun * level, tol)
+
+
 def test_fused_view_refuses_a_subset_without_the_view_camera(sim):
     from splat.capture import fused_view
 
@@ -835,7 +905,7 @@ def test_fusion_of(sim, tmp_path):
     """Renders whose own channels are the photograph (measured, white → 1) times a per-view factor and
     whose other channels are anything: the render's error after anchoring is ≈ 0 (ε effect only) and does
     not depend on the other channels; the noise-free files' own σ is the floor; the result is cached."""
-    from splat.capture import fusion_of, write_tiff
+    from splat.capture import capture_generators, fusion_of, write_tiff
     from splat.fusion import OWN_NOISE_FLOOR
 
     spec, views, scale = sim["clean_spec"], sim["clean"], sim["scale"]
@@ -861,11 +931,14 @@ def test_fusion_of(sim, tmp_path):
     assert a["channels"] == 9 and set(a["views"]) == set(raws)
     for v in views:
         assert a["views"][v.name] == {"camera": v.camera, "own_sigma": [OWN_NOISE_FLOOR] * 3}
+    # the capture's joint solid, for the rejection test: with the record, never in its file
+    G = capture_generators(spec)
+    assert G.shape[1] == 9 and np.array_equal(a["generators"], G)
     # cached: a second call reads OUT/correct/fusion.json, whatever the renders are now
     write(tmp_path / "a", 5.0)
-    assert fusion_of(spec, tmp_path / "a", {}, {}, scale) == json.loads(
-        (tmp_path / "a" / "correct" / "fusion.json").read_text()
-    )
+    again = fusion_of(spec, tmp_path / "a", {}, {}, scale)
+    assert np.array_equal(again.pop("generators"), G)
+    assert again == json.loads((tmp_path / "a" / "correct" / "fusion.json").read_text())
     assert fusion_of(spec, tmp_path / "a", {}, {}, scale)["render_sigma"] == a["render_sigma"]
 
 

@@ -277,6 +277,48 @@ def test_full_resolution_view_strips_equal_whole_and_use_full_res_photographs(sp
     assert any(np.allclose(s[3:], 0.05) and np.allclose(s[:3], 0.01) for s in fits)
 
 
+def test_full_resolution_view_skips_a_camera_rejected_at_the_working_resolution(splat_scene):
+    """Where the working fusion rejected camera 1's reprojection (``splat.fusion.rejected_bit``: no
+    surface gives it with the own channels), its full-resolution photographs are not read either: its
+    channels are the working responses upsampled and anchored there, camera 2's still reprojected."""
+    from splat.fusion import rejected_bit
+
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    fused = np.full((H // f, W // f, 9), 0.2)
+    code = np.zeros((H // f, W // f), int)
+    code[:, : W // f // 2] = rejected_bit(3, 1)  # camera 1 rejected in the left half
+    sigma = {0: np.full(9, 0.02), rejected_bit(3, 1): np.full(9, 0.02)}
+    rep = FullReprojection(g, None, cam, groups, np.full(9, 0.05))
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    work = WorkingFusion(fused, code, sigma, slice(0, 3), f)
+    fit = lambda s: (_Linear(), np.ones(9))  # noqa: E731
+    out = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=H, reprojection=rep)))
+    plain = np.concatenate(
+        list(
+            full_resolution_view(
+                photo,
+                WorkingFusion(fused, np.zeros_like(code), {0: sigma[0]}, slice(0, 3), f),
+                fit,
+                strip_rows=H,
+            )
+        )
+    )
+    values, seen = reprojected_strip(rep, 0, H)
+    tex = textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01))
+    both = (seen[0] > 0) & (seen[1] > 0) & ~tex
+    left = np.zeros((H, W), bool)
+    left[:, : W // 2] = True
+    own = _Source(H, W).img
+    anchored = (plain - own) / 0.15  # the working 0.2 anchored: the same in cameras 1 and 2
+    want = np.where(
+        left[..., None], own + 0.1 * anchored + 0.05 * values[1], own + 0.1 * values[0] + 0.05 * values[1]
+    )
+    assert (both & left).sum() > 50 and (both & ~left).sum() > 20
+    np.testing.assert_allclose(out[both], want[both], rtol=1e-5, atol=1e-6)
+
+
 def test_full_resolution_view_refuses_own_camera_as_source(splat_scene):
     g, cam, groups = splat_scene
     W, H = _SIZE

@@ -24,7 +24,13 @@ from .volume import (
 __getattr__, __dir__, _LAZY = lazy_exports(
     __name__,
     {
-        "membership": ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"],
+        "membership": [
+            "joint_halfspaces",
+            "mmv_contains",
+            "mmv_distance",
+            "outside_mmv_fraction",
+            "solid_distance",
+        ],
         "illuminant": ["illuminant_mismatch", "illuminant_pair", "relative_volume"],
     },
 )

@@ -32,7 +32,7 @@ import numpy as np
 from .._errors import GeometryError, float_array
 from .._tol import HYPERPLANE_RANK, PHASE1, TOL
 
-__all__ = ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction"]
+__all__ = ["joint_halfspaces", "mmv_contains", "mmv_distance", "outside_mmv_fraction", "solid_distance"]
 
 
 def joint_halfspaces(generators, *, max_terms: int = 2_000_000) -> tuple[np.ndarray, np.ndarray]:
@@ -214,6 +214,43 @@ def mmv_distance(Phi, Psi, responses, targets) -> np.ndarray:
             )
             d[p] = res.fun if res.status == 0 else np.nan
     return d.reshape(lead)
+
+
+def solid_distance(Phi, responses) -> np.ndarray:
+    """L1 distance from each response to the object-colour solid ``{Φᵀx : 0 ≤ x ≤ 1}``, exactly.
+
+    ``min Σ_i |(Φᵀx)_i − c_i|`` over reflectances in [0, 1]: 0 when some reflectance gives ``c``,
+    else how far outside it lies, in response units. For stacked cameras (``Φ = [Φ_A Φ_B]``) this
+    says whether two cameras' responses can come from one surface: the joint solid holds every pair
+    a reflectance can produce. It is :func:`mmv_distance` with an empty source (nothing fixed), one
+    compiled bounded-variable simplex per response (k rows), so it works for any k and wavelength
+    count, where the solid's facets (:func:`joint_halfspaces`) are too many to list.
+
+    Parameters
+    ----------
+    Phi : array_like of shape (n, k)
+    responses : array_like of shape (..., k)
+
+    Returns
+    -------
+    ndarray of shape (...)
+        Distances ≥ 0.
+
+    Examples
+    --------
+    >>> import numpy as np, zonotope
+    >>> grid = np.arange(400, 701, 10.0)
+    >>> Phi = zonotope.generators("Nikon 5100 (NPL)", shape=grid).values
+    >>> x = np.full(31, 0.5)
+    >>> d = solid_distance(Phi, [x @ Phi, x @ Phi * [1.0, 1.0, 3.0]])
+    >>> float(d[0]), bool(d[1] > 0.1)
+    (0.0, True)
+    """
+    Phi = float_array(getattr(Phi, "values", Phi), "Phi", GeometryError)
+    if Phi.ndim != 2:
+        raise GeometryError(f"Phi must be (n, k); got shape {Phi.shape}.")
+    c = float_array(responses, "responses", GeometryError)
+    return mmv_distance(np.zeros((Phi.shape[0], 1)), Phi, np.zeros((*c.shape[:-1], 1)), c)
 
 
 def outside_mmv_fraction(Phi, Psi, responses, estimates, *, atol: float | None = None) -> float:

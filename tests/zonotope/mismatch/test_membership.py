@@ -101,3 +101,32 @@ def test_mmv_distance_matches_the_lp_twin_and_membership(cameras):
         outside_mmv_fraction(Phi, Psi, C, np.full_like(Y, np.nan))
     with pytest.raises(GeometryError, match="atol"):
         outside_mmv_fraction(Phi, Psi, C, Y, atol=-1.0)
+
+
+def test_solid_distance_matches_an_independent_lp_of_the_joint_solid(cameras):
+    """Two cameras' responses of one reflectance lie in their joint solid (distance 0); pairs moved
+    off it are as far as HiGHS's L1 LP over the stacked generators says, with no source fixed."""
+    from zonotope.mismatch.membership import solid_distance
+
+    Phi, Psi = cameras
+    J = np.hstack([Phi, Psi])
+    n, k = J.shape
+    rng = np.random.default_rng(5)
+    x = rng.random((25, n))
+    Z = x @ J
+    Z[5:] += 0.05 * rng.normal(size=(20, k))
+    Z[-1] = [0.03, 0.03, 0.03, 0.45, 0.2, 0.06]  # dark for one camera, bright for the other
+    d = solid_distance(J, Z)
+
+    def lp(z):  # min Σ|Jᵀx − z| over 0 ≤ x ≤ 1, slacks s⁺, s⁻ ≥ 0
+        A = np.hstack([J.T, -np.eye(k), np.eye(k)])
+        r = linprog(
+            np.r_[np.zeros(n), np.ones(2 * k)], A_eq=A, b_eq=z, bounds=[(0, 1)] * n + [(0, None)] * 2 * k
+        )
+        return r.fun
+
+    np.testing.assert_allclose(d, [lp(z) for z in Z], rtol=0, atol=1e-10)
+    assert np.all(d[:5] <= 1e-12) and np.all(d >= 0) and d[-1] > 0.1
+    assert solid_distance(J, Z.reshape(5, 5, k)).shape == (5, 5)
+    with pytest.raises(GeometryError, match="NaN"):
+        solid_distance(J, np.full((1, k), np.nan))
