@@ -475,10 +475,11 @@ def fused_view(
     rtol = TEXTURE_RTOL if texture_rtol is None else texture_rtol
     m = len(cameras)
     so = np.asarray(fusion["views"][name]["own_sigma"], float)
+    tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
     if anchored is not None:  # reprojections that no surface gives together with the own channels
         G = np.asarray(generators, float)
         for i, c in enumerate(cameras):
-            at = (code >> i & 1).astype(bool) & valid
+            at = (code >> i & 1).astype(bool) & valid & ~tex  # textured pixels: anchored to their site
             if c == k or not at.any():
                 continue
             tol = JOINT_NSIGMA * (float(so.sum()) + 3 * float(rep_sigma[c]))
@@ -488,7 +489,6 @@ def fused_view(
             fused[bad, 3 * i : 3 * i + 3] = anchored[bad, 3 * i : 3 * i + 3]
             code = np.where(bad, (code & ~(1 << i)) | rejected_bit(m, i), code)
         del anchored
-    tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
     if tex.any():  # the render anchored to the pixel's own site(s): no demosaicing, no reprojection
         mosaic, at = sites(view, ws)
         fused[tex] = anchor(render[..., idx], mosaic, own, at)[tex]
