@@ -777,7 +777,8 @@ def correct_step(
     from zonotope.correct import CORRECTION_METHODS
     from zonotope.correct.image import correct_image
 
-    from ..fusion import measured
+    from .._tol import JOINT_NSIGMA
+    from ..fusion import measured, rejected_bit
 
     spec, ws = step_workspace(capture, out, config)
     out = ws.root
@@ -847,7 +848,7 @@ def correct_step(
     full_model = full_reprojection(spec, out, raws, fusion, scale) if config.full_reprojection else None
     prepared()
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
-    full_info = {}
+    full_info, rejected = {}, {}
     # one progress bar over the rows of every photograph still to correct at full resolution
     todo_rows = {
         m: raws[m].size[0]
@@ -892,6 +893,11 @@ def correct_step(
                 fused, code, sigma = photographed_view(fusion, img, rep, list(range(n)))
             else:  # a photograph: its RAW file, the others reprojected into it, the render anchored to it
                 fused, code, sigma = fused_view(fusion, name, img, r, scale, list(range(n)), rep)
+                rejected[name] = {
+                    spec.label(c): round(float(np.mean(code & rejected_bit(n, c) != 0)), 6)
+                    for c in range(n)
+                    if c != r.camera
+                }
             if want_fused:
                 XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
                 _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
@@ -934,6 +940,11 @@ def correct_step(
             "views": n_fused["views"],
             "novel": n_fused["novel"],
             "files": f"{mname}_fused_XYZ.tiff / _sRGB.tiff / .png next to {mname}_XYZ.tiff",
+            "rejected": rejected,
+            "rejected_rule": "share of each photograph's pixels where another camera's reprojected "
+            "photographs were left out: no surface gives them together with the photograph's own channels "
+            f"(beyond {JOINT_NSIGMA:g} σ of the two cameras' joint object-colour solid); the render "
+            "anchored to the photograph instead (views fused in this run)",
         },
         "full_resolution": {
             "views": n_fused["full_resolution"],

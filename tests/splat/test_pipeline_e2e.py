@@ -102,6 +102,11 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     assert "correct/nikon/DSC_0002/Prior_sRGB.png" in html and name in html
     corr = json.loads((out / "correct" / "summary.json").read_text())
     assert corr["fusion"]["views"] == len(held) and corr["fusion"]["novel"] == 0
+    # reprojections no surface gives with the photograph, left out: a small share, each other camera
+    rej = corr["fusion"]["rejected"]
+    assert set(rej) == set(held) and all(
+        len(v) == 2 and all(0 <= s < 0.05 for s in v.values()) for v in rej.values()
+    )
     tol = corr["noise"]  # δ: 95th percentile of the responses' distances to the object-colour solid
     assert corr["delta"] == tol["delta"] > 0 and tol["beyond_delta"] <= 0.06
     # every photograph also at its RAW file's full size (here the working resolution is the full one)
