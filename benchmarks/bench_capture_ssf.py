@@ -18,6 +18,14 @@ that camera and over all views; goal ≤ 0.5×.
     python benchmarks/bench_capture_ssf.py --data ../shared/data --work /tmp/capture_ssf
     python benchmarks/bench_capture_ssf.py --data ../shared/data --work /tmp/capture_ssf_adobe \
         --colordata LibRaw/src/tables/colordata.cpp [--exact-prior]    # Adobe's matrices
+    python benchmarks/bench_capture_ssf.py --data ../shared/data --work /tmp/capture_ssf_bench \
+        --from /tmp/acc_bench    # the benchmark capture, its trained model reused
+
+``--from WORK`` scores a finished ``bench_capture_accuracy.py`` work folder (``WORK/capture``, ``WORK/out``
+with its render step done) instead of simulating and training a CI-size capture: the splat, its renders
+and the reprojections do not depend on the curves (training fits the RAW channels), only the
+corrections do, so both variants score the same model (a copy of the capture each, the steps' folders
+linked, a fresh ``correct/``).
 """
 
 from __future__ import annotations
@@ -102,6 +110,7 @@ def run_variant(
     data,
     estimate: bool,
     ssf_sigma: bool,
+    source: Path | None = None,
     **estimate_kw,
 ):
     from splat.capture import PipelineConfig, read_capture, run
@@ -110,6 +119,12 @@ def run_variant(
 
     capture, out = work / "capture", work / "out"
     notes: list[str] = []
+    if source is not None and not (capture / "capture.toml").is_file():  # a trained capture, reused
+        shutil.copytree(source / "capture", capture)
+        (out / "correct").mkdir(parents=True)
+        for step in ("decoded", "poses", "train", "render"):
+            if (source / "out" / step).exists():
+                (out / step).symlink_to((source / "out" / step).resolve())
     if not (capture / "capture.toml").is_file():
         write_synthetic_capture(capture, SimCaptureConfig.ci())
         (capture / "poses").mkdir()
@@ -175,7 +190,19 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--exact-prior", action="store_true", help="estimate without the real-DNG calibration (prior 1e-4)"
     )
+    ap.add_argument(
+        "--from",
+        dest="source",
+        type=Path,
+        help="a bench_capture_accuracy.py work folder with its render step done: its model is scored",
+    )
     a = ap.parse_args(argv)
+    if a.source is not None and not (a.source / "out" / "render" / "index.json").is_file():
+        print(
+            f"--from {a.source}: no out/render/index.json (run bench_capture_accuracy.py there first)",
+            file=sys.stderr,
+        )
+        return 2
     real = {}
     if a.colordata:
         from real_matrices import colour_matrix, read_colordata
@@ -201,6 +228,7 @@ def main(argv=None) -> int:
             a.data,
             variant == "estimated",
             not a.no_ssf_sigma,
+            a.source,
             real_matrices=real,
             exact_prior=a.exact_prior,
         )

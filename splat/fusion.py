@@ -62,6 +62,7 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
     GUIDE_RADIUS,
     GUIDE_RANGE,
     GUIDE_RELIABILITY,
+    JOINT_FIT_RIDGE,
     OWN_NOISE_FLOOR,
     SMOOTH_RTOL,
     TEXTURE_NSIGMA,
@@ -425,7 +426,7 @@ def impossible(generators, values_a, values_b, tol: float) -> np.ndarray:
     basis = np.cos(np.outer(np.linspace(0.0, np.pi, G.shape[0]), np.arange(6)))  # (n, 6), smooth
     A = G.T @ basis
     AtA = A.T @ A
-    fit = basis @ np.linalg.solve(AtA + 1e-3 * np.trace(AtA) / 6 * np.eye(6), A.T)  # (n, 6)
+    fit = basis @ np.linalg.solve(AtA + JOINT_FIT_RIDGE * np.trace(AtA) / 6 * np.eye(6), A.T)  # (n, 6)
     grey = 0.5 * G.sum(axis=0)  # the responses of the mid-grey, x = 0.5 (the basis' constant)
     out = np.zeros(len(z), bool)
     for s in range(0, len(z), 65536):  # (rows, n) reflectances at a time
