@@ -429,12 +429,13 @@ def impossible(generators, values_a, values_b, tol: float) -> np.ndarray:
     fit = basis @ np.linalg.solve(AtA + JOINT_FIT_RIDGE * np.trace(AtA) / 6 * np.eye(6), A.T)  # (n, 6)
     grey = 0.5 * G.sum(axis=0)  # the responses of the mid-grey, x = 0.5 (the basis' constant)
     out = np.zeros(len(z), bool)
-    for s in range(0, len(z), 65536):  # (rows, n) reflectances at a time
-        part = z[s : s + 65536]
+    step = 65536  # pairs at a time: (step, n) reflectances in memory
+    for s in range(0, len(z), step):
+        part, lv = z[s : s + step], level[s : s + step]
         x = np.clip(0.5 + (part - grey) @ fit.T, 0.0, 1.0)
-        need = np.abs(x @ G - part).sum(axis=1) * level[s : s + 65536] > tol
+        need = np.abs(x @ G - part).sum(axis=1) * lv > tol
         if need.any():
-            out[s : s + 65536][need] = solid_distance(G, part[need]) * level[s : s + 65536][need] > tol
+            out[s : s + step][need] = solid_distance(G, part[need]) * lv[need] > tol
     return out
 
 

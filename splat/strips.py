@@ -53,6 +53,7 @@ import numpy as np
 
 from ._errors import SplatError
 from ._tol import ANCHOR_EPS, CORRECT_CHUNK, FULL_WORKERS, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
+from .fusion import rejected_bit
 
 __all__ = [
     "FULL_METHOD",
@@ -462,8 +463,6 @@ def full_resolution_view(
     ndarray of shape (rows, W, 3), float32
         XYZ of consecutive strips, top to bottom.
     """
-    from .fusion import rejected_bit
-
     source, exposure, own_scale, own_sigma = photo
     fused, code, sigma, own, f = working
     H, W = source.shape
