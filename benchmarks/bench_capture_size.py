@@ -339,12 +339,14 @@ def main(argv=None) -> int:
         ts, cs, pk = (np.array([r[i] for r in sel]) for i in (2, 5, 3))
 
         def fit(y, mp=mp):
-            return float(np.polyfit(np.log(mp), np.log(y), 1)[0]) if len(mp) > 1 else float("nan")
+            return float(np.polyfit(np.log(mp), np.log(y), 1)[0])
 
-        print(
-            f"growth, {path}: wall ∝ pixels^{fit(ts):.2f}, CPU ∝ pixels^{fit(cs):.2f}, peak RSS ∝ "
-            f"pixels^{fit(pk):.2f}; {cs[-1] / mp[-1]:.2f} s of CPU per MP at the largest size"
+        growth = (
+            f"wall ∝ pixels^{fit(ts):.2f}, CPU ∝ pixels^{fit(cs):.2f}, peak RSS ∝ pixels^{fit(pk):.2f}; "
+            if len(mp) > 1  # --no-growth: one size, no slope
+            else ""
         )
+        print(f"{path}: {growth}{cs[-1] / mp[-1]:.2f} s of CPU per MP at the largest size")
     last = {r[6]: r for r in rows}  # each path at the largest size
     base = [p for p in paths if p not in full]  # previous and REV: the baselines in this process
     for p in full:
