@@ -33,6 +33,7 @@ __all__ = [
     "TEXTURE_RTOL",
     "TRACK_VISIBLE_ATOL",
     "TRACK_VISIBLE_RTOL",
+    "UNCERTAINTY_PNG_MAX",
     "WARP_RADIUS_MIN",
 ]
 
@@ -205,6 +206,11 @@ STRIP_ROWS = 128
 #: Pixels corrected per call of the regression within a strip (memory only: a root-polynomial of nine
 #: channels has 45 terms, 2¹⁷ pixels × 45 × 8 B = 47 MB).
 CORRECT_CHUNK = 2**17
+#: The ΔE00 at which the uncertainty map's PNG (``splat.capture.correct``) turns fully yellow: one scale for
+#: every view, so that two maps compare by eye. 10 ΔE00 is a plainly different colour; the fused
+#: corrections' flat pixels on the benchmark capture have radii of 1–2, textured and render-only
+#: pixels 8 and more (docs/notes/2026-11-30-uncertainty-map.md).
+UNCERTAINTY_PNG_MAX = 10.0
 # --- region means in scoring (splat.scoring.region_labels) ---
 
 #: A region of the true image is uniform where its XYZ varies by at most 1 % (relative, floor 0.02 in Y)

@@ -23,7 +23,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from ._tol import CARD_DELTA_E_FLOOR
+from ._tol import CARD_DELTA_E_FLOOR, UNCERTAINTY_PNG_MAX
 from .capture import CaptureError, CaptureSpec
 from .capture.workspace import read_json
 
@@ -102,6 +102,7 @@ section.photo h2 small{font-weight:normal;color:#555}
 .frame img{display:block;width:100%;height:100%}
 span.card{position:absolute;outline:2px solid #d00;box-shadow:0 0 0 3px rgba(255,255,255,.8)}
 img.small{image-rendering:pixelated}
+img.umap{display:block;width:min(100%,420px);image-rendering:pixelated;margin:4px 0}
 figcaption{font-size:14px;margin-top:4px}
 figcaption b{display:block}
 .missing{display:flex;align-items:center;justify-content:center;min-height:200px;background:#f3f3f3;
@@ -397,7 +398,7 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
     return " ".join(bits)
 
 
-def _noise(run: _Run, name: str, fused: bool) -> str:
+def _noise(run: _Run, name: str, fused: bool, cdir: Path) -> str:
     c = run.correct
     if c is None:
         return "Not corrected yet."
@@ -415,7 +416,7 @@ def _noise(run: _Run, name: str, fused: bool) -> str:
             "this RAW file; the other cameras' photographs reprojected here σ = "
             f"{', '.join(others) or 'none'}, from their error against each camera's own views; the model's "
             f"render σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
-            "<p>No per-pixel uncertainty map is written.</p>"
+            f"{_uncertainty(run, cdir)}"
         )
     if fused and f.get("reprojected_sigma"):  # a novel view corrected from the photographs
         every = [
@@ -425,13 +426,37 @@ def _noise(run: _Run, name: str, fused: bool) -> str:
             "<p>Noise assumed (white = 1): the photographs reprojected here σ = "
             f"{', '.join(every)}, from their error against each camera's own views; the model's render "
             f"σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
-            "<p>No per-pixel uncertainty map is written.</p>"
+            f"{_uncertainty(run, cdir)}"
         )
     return (
         f"<p>Noise tolerance δ = {float(c['delta']):.3g} (white = 1): the "
         f"{_e(c['noise'].get('rule', ''))}; the model's training residual "
         f"{float(c.get('training_residual', float('nan'))):.2g}.</p>"
         "<p>No per-pixel uncertainty map is written.</p>"
+    )
+
+
+def _uncertainty(run: _Run, cdir: Path) -> str:
+    """The fused correction's per-pixel uncertainty map (``<method>_fused_uncertainty``), or a line
+    saying there is none."""
+    m = run.mname
+    tiff, png = (cdir / f"{m}_fused_uncertainty.{ext}" for ext in ("tiff", "png"))
+    if m is None or not (tiff.is_file() and png.is_file()):
+        return "<p>No per-pixel uncertainty map was written for this view.</p>"
+    r = _read_tiff(tiff)
+    r = r[np.isfinite(r)]
+    if not r.size:
+        return "<p>The uncertainty map of this view holds no value.</p>"
+    return (
+        "<p><b>Uncertainty per pixel</b> (the map below; dark purple 0, yellow ≥ "
+        f"{UNCERTAINTY_PNG_MAX:g} ΔE00): the radius around each corrected colour within which the true "
+        "colour lies with 95 % probability, for natural surfaces seen with the noise above. It grows "
+        "where the cameras cannot tell surfaces apart and where only one camera or the model saw the "
+        "pixel; it does not know of errors of the model's shape beyond that noise. Median "
+        f"{np.median(r):.2g} ΔE00, 90th percentile {np.percentile(r, 90):.2g}; {np.mean(r <= 2.0):.0%} "
+        "of the pixels within 2 ΔE00.</p>"
+        f"<img class='umap' src='{_src(run.out, png)}' alt='uncertainty map' "
+        "title='95 % credible radius per pixel, ΔE00'>"
     )
 
 
@@ -607,7 +632,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
         made += f" {whose} see {coverage:.0%} of this view."
     todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size))
     facts = (
-        f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused)}</div>"
+        f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused, cdir)}</div>"
         f"<div><h3>Next</h3><ul>{todo}</ul><h3>What was done</h3><p>{made}</p>"
         f"<h3>Time</h3><p>{_times(run)}</p></div>"
     )

@@ -201,6 +201,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "fiber_lsq",
             "interior_solution",
             "map_reflectance",
+            "posterior_radius",
             "project_to_mmv",
         ],
         "spectra.atypical": [

@@ -625,6 +625,48 @@ def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
     write_png8(o / f"{stem}_sRGB.png", rgb)
 
 
+def fused_uncertainty(problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, band=None) -> np.ndarray:
+    """Per pixel, the 95 % credible radius in ΔE00 of a fused correction's colour
+    (:func:`zonotope.correct.posterior_radius`): the natural-reflectance prior seen through the cameras
+    with each pixel's noise pattern (``sigma[code]``, and estimated curves' ``band`` in quadrature, as
+    the fit is told). It says where the answer is sure (several cameras saw the pixel) and where it is
+    not (one camera's site on a textured pixel, or the render alone), on a capture without a reference.
+
+    Returns
+    -------
+    ndarray of shape code.shape, float32
+    """
+    from zonotope.correct import ReflectancePrior, posterior_radius
+
+    prior = ReflectancePrior.fit(problem.training)
+    out = np.full(code.shape, np.nan, np.float32)
+    for cd, s_ in sigma.items():
+        sel = code == cd
+        if sel.any():
+            s_ = np.asarray(s_, float) if band is None else np.hypot(np.asarray(s_, float), band)
+            out[sel] = posterior_radius(problem, XYZ[sel], s_, prior=prior)
+    return out
+
+
+def _write_uncertainty(o: Path, stem: str, radius: np.ndarray) -> dict:
+    """``<stem>_uncertainty.tiff`` (float32 ΔE00) and a viridis ``.png`` (dark purple 0, yellow ≥
+    :data:`splat._tol.UNCERTAINTY_PNG_MAX` ΔE00: one scale for every view); returns its summary."""
+    from matplotlib import colormaps
+
+    from .._tol import UNCERTAINTY_PNG_MAX
+
+    write_tiff(o / f"{stem}_uncertainty.tiff", radius)
+    level = np.clip(np.nan_to_num(radius, nan=UNCERTAINTY_PNG_MAX) / UNCERTAINTY_PNG_MAX, 0, 1)
+    rgb = colormaps["viridis"](level)
+    write_png8(o / f"{stem}_uncertainty.png", rgb[..., :3])
+    r = radius[np.isfinite(radius)]
+    return {
+        "median": round(float(np.median(r)), 3),
+        "p90": round(float(np.percentile(r, 90)), 3),
+        "within_2": round(float(np.mean(r <= 2.0)), 4),
+    }
+
+
 def reprojected_of(d: Path, scale: np.ndarray):
     """A rendered view's reprojected photographs (white → 1) and counts, or None (not written)."""
     if not (d / "reprojected_count.tiff").is_file():
@@ -777,7 +819,7 @@ def correct_step(
     from zonotope.correct import CORRECTION_METHODS
     from zonotope.correct.image import correct_image
 
-    from .._tol import JOINT_NSIGMA
+    from .._tol import JOINT_NSIGMA, UNCERTAINTY_PNG_MAX
     from ..fusion import measured, rejected_bit
 
     spec, ws = step_workspace(capture, out, config)
@@ -848,7 +890,9 @@ def correct_step(
     full_model = full_reprojection(spec, out, raws, fusion, scale) if config.full_reprojection else None
     prepared()
     n_fused = {"views": 0, "novel": 0, "full_resolution": 0}
-    full_info, rejected = {}, {}
+    full_info, rejected, uncertainty = {}, {}, {}
+    band = ssf_sigma(spec, list(range(n)))
+    band = band if band.any() else None
     # one progress bar over the rows of every photograph still to correct at full resolution
     todo_rows = {
         m: raws[m].size[0]
@@ -901,6 +945,8 @@ def correct_step(
             if want_fused:
                 XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
                 _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
+                radius = fused_uncertainty(problem, XYZ, code, sigma, band)
+                uncertainty[name] = _write_uncertainty(o, f"{mname}_fused", radius)
             if want_full:  # at the photograph's own size, strip by strip (splat.strips)
                 full_info[name] = _full_resolution(
                     spec,
@@ -945,6 +991,16 @@ def correct_step(
             "photographs were left out: no surface gives them together with the photograph's own channels "
             f"(beyond {JOINT_NSIGMA:g} σ of the two cameras' joint object-colour solid); the render "
             "anchored to the photograph instead (views fused in this run)",
+        },
+        "uncertainty": {
+            "files": f"{mname}_fused_uncertainty.tiff (float32, ΔE00) / .png (dark purple 0, yellow ≥ "
+            f"{UNCERTAINTY_PNG_MAX:g})",
+            "rule": "per pixel of the fused correction (working size), the 95 % credible radius in ΔE00 "
+            "of its colour under the natural-reflectance prior (rawtoaces 190, Gaussian, bounds ignored) "
+            "seen through the cameras with that pixel's noise (zonotope.correct.posterior_radius): what "
+            "the cameras cannot tell apart and what their noise hides; not the model's geometry errors "
+            "beyond the noise the fusion declares",
+            "per_view": uncertainty,
         },
         "full_resolution": {
             "views": n_fused["full_resolution"],

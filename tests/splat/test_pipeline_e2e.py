@@ -114,6 +114,14 @@ def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     assert full.dtype == np.float32 and full.shape == (96, 128, 3) and np.all(np.isfinite(full))
     assert corr["full_resolution"]["views"] == len(held)
     assert set(corr["own_noise"]) == set(held)
+    # the fused correction's uncertainty per pixel: narrower where both other cameras' photographs see
+    # the pixel than where neither does (there their channels are the model's render)
+    u = tifffile.imread(d / "Prior_fused_uncertainty.tiff")
+    assert u.dtype == np.float32 and u.shape == (96, 128) and np.all(np.isfinite(u)) and (u > 0).all()
+    both, neither = (count[..., 1:] > 0).all(-1), ~(count[..., 1:] > 0).any(-1)
+    assert both.sum() > 50 and neither.sum() > 50 and np.median(u[both]) < np.median(u[neither])
+    assert (d / "Prior_fused_uncertainty.png").is_file() and "Prior_fused_uncertainty.png" in html
+    assert set(corr["uncertainty"]["per_view"]) == set(held)
     for step in ("poses", "train", "render", "correct"):  # time and peak memory of every step
         doc = json.loads((out / step / "summary.json").read_text())
         assert doc["duration_s"] > 0 and doc["peak_rss_mib"] > 0

@@ -23,6 +23,7 @@ VIEWS = {  # name → kind; the card photograph held out, one photograph trained
 }
 WHITE_XYZ = np.array([0.95047, 1.0, 1.08883])
 TINT = np.array([0.98, 1.0, 1.0])  # the corrected card's XYZ is the known white times this
+RADIUS = np.linspace(0.5, 12.0, 36 * 48).reshape(36, 48)  # a per-pixel uncertainty map, ΔE00
 
 
 @pytest.fixture(scope="module")
@@ -110,7 +111,9 @@ def make_out(cap, out, *, score=False):
         xyz = np.broadcast_to(0.5 * WHITE_XYZ, (H, W, 3)).copy()
         xyz[BOX[1] : BOX[3], BOX[0] : BOX[2]] = 0.9 * WHITE_XYZ * TINT
         _tiff(c / "Prior_fused_XYZ.tiff", xyz)
-        if info["kind"] != "novel":
+        if info["kind"] != "novel":  # the uncertainty map of the photographs' fused corrections
+            _tiff(c / "Prior_fused_uncertainty.tiff", RADIUS)
+            _png(c / "Prior_fused_uncertainty.png", np.repeat(RADIUS[..., None], 3, -1) / 10)
             _png(c / "raw_dng_sRGB.png", _pattern(H, W, 4.0 + i)[..., ::-1])
             cam = xyz.copy()
             cam[BOX[1] : BOX[3], BOX[0] : BOX[2]] = 0.9 * WHITE_XYZ
@@ -170,7 +173,13 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         for what in ("Accuracy", "What was done", "Time", "Next"):
             assert f"<h3>{what}</h3>" in sec
         assert "Prior_fused_sRGB.tiff" in sec  # which file to use
-        assert "No per-pixel uncertainty map is written" in sec
+        if kind == "novel":
+            assert "No per-pixel uncertainty map was written for this view" in sec
+        else:  # the map, and its median, 90th percentile and share within 2 ΔE00 in words
+            umap = re.search(r"<img class='umap' src='([^']+)'", sec).group(1)
+            assert umap.endswith("Prior_fused_uncertainty.png") and (out / umap).is_file()
+            want = (np.median(RADIUS), np.percentile(RADIUS, 90), np.mean(RADIUS <= 2))
+            assert f"Median {want[0]:.2g} ΔE00, 90th percentile {want[1]:.2g}; {want[2]:.0%}" in sec
         assert "poses took 4.2 s, peak 512 MiB" in sec and "train took 12 min 34 s" in sec
         assert "render took 3.0 s ·" in sec and "correct time not recorded" in sec
         assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec

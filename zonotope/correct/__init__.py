@@ -19,7 +19,14 @@ __getattr__, __dir__, _LAZY = lazy_exports(
         "eiv": ["fit_errors_in_variables"],
         "image": ["correct_image"],
         "neutral": ["neutral_offsets", "white_point_preserving"],
-        "prior": ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"],
+        "prior": [
+            "ReflectancePrior",
+            "fiber_lsq",
+            "interior_solution",
+            "map_reflectance",
+            "posterior_radius",
+            "project_to_mmv",
+        ],
         "profile": [
             "LUT_SHAPERS",
             "LUT_SPACES",

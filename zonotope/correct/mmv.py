@@ -24,7 +24,14 @@ from .._tol import (
 )
 from ..utilities.config import check_count, check_nonnegative, with_options
 from .noise import NoiseModel, noisy, scalar_sigma
-from .prior import ReflectancePrior, _bounded_map, interior_solution, map_reflectance, project_to_mmv
+from .prior import (
+    ReflectancePrior,
+    _bounded_map,
+    gaussian_radius,
+    interior_solution,
+    map_reflectance,
+    project_to_mmv,
+)
 from .problem import CorrectionProblem, Corrector
 from .regressions import REGRESSIONS, fit_Cheung2004, fit_Finlayson2015
 
@@ -463,18 +470,12 @@ def learn_mix(
     return lam, cv
 
 
-#: 95 % quantile of χ² with 3 degrees of freedom: the radius² (in σ² units) of the 95 % ball of an
-#: isotropic 3-D Gaussian, used for the CIELAB spread of response noise.
-_CHI2_3_95 = 7.814727903251178
-
-
 def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, responses) -> np.ndarray:
     """95 % ΔE00 reach of the response noise carried through ``regression`` at ``responses (N, k)``.
 
     The noise covariance ``diag(noise.variance(c))`` is mapped to a target-space covariance ``S`` by
-    the regression's Jacobian (central differences); with ``S = Σ λᵢ vᵢvᵢᵀ`` the mean squared ΔE00 of
-    the noise is ``Σ ΔE00(t, t + √λᵢ vᵢ)²`` (exact where ΔE00 is locally quadratic), and the radius that
-    of the 95 % ball of a 3-D Gaussian with that mean square, ``sqrt(mean² · χ²₃(0.95) / 3)``.
+    the regression's Jacobian (central differences), whose 95 % ΔE00 reach is
+    :func:`zonotope.correct.prior.gaussian_radius`'s.
     Returns ``(N,)``.
     """
     c = np.atleast_2d(np.asarray(responses, dtype=np.float64))
@@ -487,12 +488,7 @@ def _noise_radius(problem: CorrectionProblem, regression, noise: NoiseModel, res
         e[j] = h
         d = (regression(c + e) - regression(np.maximum(c - e, 0.0))) / (h + np.minimum(c[:, j], h))[:, None]
         S += var[:, j, None, None] * d[:, :, None] * d[:, None, :]
-    lam, vec = np.linalg.eigh(S)  # (N, m), (N, m, m): columns are eigenvectors
-    mean_sq = np.zeros(c.shape[0])
-    for i in range(problem.m):
-        step = np.sqrt(np.maximum(lam[:, i], 0.0))[:, None] * vec[:, :, i]
-        mean_sq += problem.delta_E(t + step, t) ** 2
-    return np.sqrt(mean_sq * _CHI2_3_95 / 3.0)
+    return gaussian_radius(problem, t, S)
 
 
 def _mmv_radius(problem: CorrectionProblem, t_cen, t_arb, vol) -> np.ndarray:

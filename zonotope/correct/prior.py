@@ -22,7 +22,18 @@ from .._errors import GeometryError, SpectralDataError
 from .._tol import INTERIOR_SLACK, METRIC_JITTER, PROJECTION_TIE
 from .bvls import box_lsq, fiber_box_lsq
 
-__all__ = ["ReflectancePrior", "fiber_lsq", "interior_solution", "map_reflectance", "project_to_mmv"]
+__all__ = [
+    "ReflectancePrior",
+    "fiber_lsq",
+    "interior_solution",
+    "map_reflectance",
+    "posterior_radius",
+    "project_to_mmv",
+]
+
+#: 95 % quantile of χ² with 3 degrees of freedom: the radius² (in σ² units) of the 95 % ball of an
+#: isotropic 3-D Gaussian, used for the CIELAB spread of a target-space Gaussian.
+CHI2_3_95 = 7.814727903251178
 
 #: :func:`fiber_lsq` with one objective block per response builds its ``(rows, p + k, n)`` matrices this
 #: many rows at a time (≈ 10 MB for p + k = 40, n = 31).
@@ -186,6 +197,62 @@ class ReflectancePrior:
         d = np.asarray(x, dtype=np.float64) - self.mean
         y = d @ self.root.T
         return 0.5 * np.einsum("...i,...i->...", y, y)
+
+
+def gaussian_radius(problem, targets, covariance) -> np.ndarray:
+    """95 % ΔE00 reach of a Gaussian spread of target colours around ``targets (N, m)``.
+
+    With the target-space covariance ``S = Σ λᵢ vᵢvᵢᵀ`` (one ``(m, m)`` for every target, or ``(N, m, m)``)
+    the mean squared ΔE00 is ``Σ ΔE00(t, t + √λᵢ vᵢ)²`` (exact where ΔE00 is locally quadratic), and the
+    radius that of the 95 % ball of a 3-D Gaussian with that mean square, ``sqrt(mean² · χ²₃(0.95) / 3)``.
+    Returns ``(N,)``.
+    """
+    t = np.atleast_2d(np.asarray(targets, dtype=np.float64))
+    lam, vec = np.linalg.eigh(np.asarray(covariance, dtype=np.float64))  # columns are eigenvectors
+    mean_sq = np.zeros(t.shape[0])
+    for i in range(problem.m):
+        step = np.sqrt(np.maximum(lam[..., i], 0.0))[..., None] * vec[..., :, i]
+        mean_sq += problem.delta_E(t + step, t) ** 2
+    return np.sqrt(mean_sq * CHI2_3_95 / 3.0)
+
+
+def posterior_radius(problem, targets, noise, *, prior: ReflectancePrior | None = None) -> np.ndarray:
+    """95 % credible radius in ΔE00 of the colour of a surface seen through its responses, per target.
+
+    The surface's reflectance is taken from the Gaussian natural-reflectance prior ``N(μ, Σ)``
+    (:class:`ReflectancePrior` of ``problem.training`` unless given) and seen with Gaussian noise σ per
+    channel, bounds ignored. Its colour's posterior covariance is
+    ``Ψᵀ(Σ − ΣΦ(ΦᵀΣΦ + diag σ²)⁻¹ΦᵀΣ)Ψ``, the same for every response, and each target gets its ΔE00
+    reach (:func:`gaussian_radius`). It holds both what the cameras cannot tell apart (metamer mismatch
+    as the prior weighs it) and what their noise hides; in closed form, so an image of any size gets
+    one per pixel (Prior's own credible radius, :meth:`Corrector.with_uncertainty`, computes an MMV
+    wherever its gate opens: ~300× the time on a fused capture view, with similar coverage;
+    docs/notes/2026-11-30-uncertainty-map.md).
+
+    Parameters
+    ----------
+    problem : CorrectionProblem
+    targets : array_like of shape (N, m)
+        The estimates the radius is drawn around (their colour sets the ΔE00 scale).
+    noise : float or array_like of shape (k,)
+        Response noise σ per channel (white = 1).
+    prior : ReflectancePrior, optional
+
+    Returns
+    -------
+    ndarray of shape (N,)
+    """
+    if prior is None:
+        prior = ReflectancePrior.fit(problem.training)
+    A = np.asarray(problem.Phi, dtype=np.float64)
+    sigma = np.broadcast_to(np.asarray(noise, dtype=np.float64), (A.shape[1],))
+    if not (np.isfinite(sigma).all() and (sigma >= 0).all()):
+        raise SpectralDataError(f"noise: give finite σ >= 0 per channel; got {np.asarray(noise)!r}.")
+    SA = prior.cov @ A
+    K = A.T @ SA + np.diag(sigma**2)
+    post = prior.cov - SA @ np.linalg.solve(K, SA.T)
+    Psi = np.asarray(problem.Psi, dtype=np.float64)
+    return gaussian_radius(problem, targets, Psi.T @ post @ Psi)
 
 
 def map_reflectance(problem, responses, prior: ReflectancePrior, *, noise: float = 0.0) -> np.ndarray:
