@@ -226,7 +226,7 @@ def posterior_radius(problem, targets, noise, *, prior: ReflectancePrior | None 
     reach (:func:`gaussian_radius`). It holds both what the cameras cannot tell apart (metamer mismatch
     as the prior weighs it) and what their noise hides; in closed form, so an image of any size gets
     one per pixel (Prior's own credible radius, :meth:`Corrector.with_uncertainty`, computes an MMV
-    wherever its gate opens: ~300× the time on a fused capture view, with similar coverage;
+    wherever its gate opens: 270–680× the time on fused capture views, with similar coverage;
     docs/notes/2026-11-30-uncertainty-map.md).
 
     Parameters
