@@ -199,6 +199,82 @@ def card_check(
     return check
 
 
+@dataclass
+class ChartCheck:
+    """The marked ColorChecker (``[chart]``) in the photograph that shows it: each patch's known
+    L*a*b* (its reflectance under the light the correction renders colours under, seen by the target
+    observer) and its ΔE00 in the corrected image and in the camera's own development.
+
+    Attributes
+    ----------
+    names : list of str
+    expected_Lab : ndarray of shape (24, 3)
+    delta_E : dict
+        ``"corrected"`` / ``"camera"`` → ΔE00 per patch (24,), NaN where the patch's box falls outside
+        that image; a key is absent when the image is not in ``OUT``.
+    """
+
+    names: list
+    expected_Lab: np.ndarray
+    delta_E: dict = field(default_factory=dict)
+
+
+def chart_check(
+    spec: CaptureSpec, out: Path, name: str, corrected: Path, camera: Path, *, raw_size=None
+) -> ChartCheck | None:
+    """The ``[chart]`` ColorChecker measured in view ``name`` (None unless it is the chart's photograph).
+
+    Each patch is read as the mean of a box around its centre (a quarter of the distance between
+    neighbouring centres on each side), in each image scaled from the RAW file's grid (``raw_size``,
+    (H, W); default the camera development's size). Its known colour is the chart's reflectance
+    (colour-science's "ColorChecker N Ohta") seen through the correction's target: the capture's
+    observer under the light colours are rendered under (``[reference]``, else the scene light,
+    estimated or named), white Y = 1, the same as the corrected images'.
+
+    Why: a chart of known reflectances is a reference a real capture can have for many colours, where
+    the white card is one grey.
+    """
+    import colour
+
+    import zonotope
+    from isp.profiles.chart import chart_patch_centres
+
+    from .capture.correct import correction_problem_of
+    from .capture.illuminant import illuminant_of
+
+    if spec.chart is None or Path(spec.chart.image).as_posix() != name:
+        return None
+    spec, _ = illuminant_of(spec, out)
+    problem = correction_problem_of(spec, [0])  # the target: observer and rendering light, any camera
+    msds = zonotope.reflectances("ColorChecker N Ohta")
+    R = np.asarray(zonotope.resample(msds, problem.wavelengths), float).T  # (24, n)
+    white = np.asarray(problem.white_XYZ, float)
+    xy = colour.XYZ_to_xy(white)
+    expected = np.asarray(colour.XYZ_to_Lab(problem.target_of(R) @ problem.XYZ_from_target, illuminant=xy))
+    check = ChartCheck(list(msds.labels), expected)
+    centres = chart_patch_centres(spec.chart.corners, 4, 6)  # (24, 2) x, y in RAW pixels
+    step = np.linalg.norm(centres[1] - centres[0])
+    for key, p in (("corrected", corrected), ("camera", camera)):
+        if not p.is_file():
+            continue
+        img = _read_tiff(p)
+        H, W = img.shape[:2]
+        h0, w0 = raw_size if raw_size is not None else (H, W)
+        sx, sy = W / w0, H / h0
+        half = max(step * min(sx, sy) / 4, 0.5)
+        dE = np.full(len(centres), np.nan)
+        for j, (x, y) in enumerate(centres * (sx, sy)):
+            y0, y1 = int(np.floor(y - half + 0.5)), int(np.floor(y + half + 0.5))
+            x0, x1 = int(np.floor(x - half + 0.5)), int(np.floor(x + half + 0.5))
+            if y0 < 0 or x0 < 0 or y1 > H or x1 > W or y1 <= y0 or x1 <= x0:
+                continue
+            mean = img[y0:y1, x0:x1].reshape(-1, 3).mean(0)
+            lab = np.asarray(colour.XYZ_to_Lab(mean, illuminant=xy))
+            dE[j] = float(colour.delta_E(lab, expected[j], method="CIE 2000"))
+        check.delta_E[key] = dE
+    return check
+
+
 # ------------------------------------------------------------------------------------------- helpers
 
 
@@ -460,14 +536,60 @@ def _uncertainty(run: _Run, cdir: Path) -> str:
     )
 
 
-def _reference(run: _Run, name: str, check: CardCheck | None) -> str:
+def _chart_reference(run: _Run, chart: ChartCheck) -> str:
+    """The marked ColorChecker's ΔE00 per patch in both images: mean and largest up front, every patch
+    in a collapsed table."""
+    got = {k: v for k, v in chart.delta_E.items() if np.isfinite(v).any()}
+    if not got:
+        return (
+            "<p>The marked ColorChecker's patches fall outside this photograph's images; check "
+            "<code>[chart] corners</code> in capture.toml.</p>"
+        )
+    labels = (("corrected", "corrected (left)"), ("camera", "camera's development (right)"))
+    rows = "".join(
+        f"<tr><td>{label}</td><td>{np.nanmean(got[k]):.2f}</td><td>{np.nanmax(got[k]):.2f}</td>"
+        f"<td>{int(np.isfinite(got[k]).sum())}</td></tr>"
+        for k, label in labels
+        if k in got
+    )
+    ratio = ""
+    if {"corrected", "camera"} <= set(got) and np.nanmean(got["camera"]) > CARD_DELTA_E_FLOOR:
+        times = np.nanmean(got["corrected"]) / np.nanmean(got["camera"])
+        ratio = f"The corrected image's mean is {times:.2f}× the camera's. "
+    head = "".join(f"<th>{_e(lb)}</th>" for k, lb in labels if k in got)
+    patches = "".join(
+        f"<tr><td>{_e(n)}</td><td>{L:.1f}, {a:+.1f}, {b:+.1f}</td>"
+        + "".join(f"<td>{got[k][j]:.2f}</td>" for k, _ in labels if k in got)
+        + "</tr>"
+        for j, (n, (L, a, b)) in enumerate(zip(chart.names, np.round(chart.expected_Lab, 1) + 0.0))
+    )
+    return (
+        "<p>Marked ColorChecker (<code>[chart]</code>; its 24 patches' known colours under the light the "
+        "colours are rendered under), ΔE00 per patch:</p>"
+        "<table><tr><th>image</th><th>mean ΔE00</th><th>largest</th><th>patches</th></tr>"
+        f"{rows}</table><p>{ratio}The chart took no part in the correction.</p>"
+        "<details><summary>Every patch (known L*a*b*, ΔE00)</summary><table><tr><th>patch</th>"
+        f"<th>known L*a*b*</th>{head}</tr>{patches}</table></details>"
+    )
+
+
+def _reference(run: _Run, name: str, check: CardCheck | None, chart: ChartCheck | None = None) -> str:
+    if chart is not None:
+        return _chart_reference(run, chart) + (_reference(run, name, check) if check is not None else "")
     if check is None:
+        where = []
+        if run.spec.chart is not None:
+            where.append(f"the marked ColorChecker is in <code>{_e(run.spec.chart.image)}</code>")
         if run.spec.white.method == "patch":
+            where.append(f"the marked white card is in <code>{_e(run.spec.white.image)}</code>")
+        if where:
             return (
-                "<p>No reference in this photograph (the marked white card is in "
-                f"<code>{_e(run.spec.white.image)}</code>): accuracy here is not measured.</p>"
+                f"<p>No reference in this photograph ({'; '.join(where)}): accuracy here is not measured.</p>"
             )
-        return "<p>No reference in the capture (no marked white card): accuracy is not measured.</p>"
+        return (
+            "<p>No reference in the capture (no marked white card or ColorChecker): accuracy is not "
+            "measured.</p>"
+        )
     rows = []
     for key, label in (("corrected", "corrected (left)"), ("camera", "camera's development (right)")):
         if key in check.delta_E:
@@ -603,6 +725,16 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             run.correct["white_XYZ"],
             raw_size=raw_size,
         )
+    chart = None
+    if answer is not None and photographed and run.correct is not None:
+        chart = chart_check(
+            spec,
+            out,
+            name,
+            answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff")),
+            cdir / "raw_dng_XYZ.tiff",
+            raw_size=raw_size,
+        )
     right_p = cdir / ("raw_dng_sRGB.png" if photographed else f"dng_{spec.label(k)}_sRGB.png")
     card = {}
     if check is not None:  # the box is given in the RAW file's pixels (W × H for the figures)
@@ -632,7 +764,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
         made += f" {whose} see {coverage:.0%} of this view."
     todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size))
     facts = (
-        f"<div><h3>Accuracy</h3>{_reference(run, name, check)}{_noise(run, name, fused, cdir)}</div>"
+        f"<div><h3>Accuracy</h3>{_reference(run, name, check, chart)}{_noise(run, name, fused, cdir)}</div>"
         f"<div><h3>Next</h3><ul>{todo}</ul><h3>What was done</h3><p>{made}</p>"
         f"<h3>Time</h3><p>{_times(run)}</p></div>"
     )

@@ -84,6 +84,7 @@ _EXPORTS = {
         "RawView",
         "brightest_neutral",
         "camera_white",
+        "check_chart",
         "check_white_box",
         "exif_exposure",
         "load_view",

@@ -16,7 +16,7 @@ import numpy as np
 
 from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import write_json, write_png8
-from .raw import RawView, camera_white, check_white_box
+from .raw import RawView, camera_white, check_chart, check_white_box
 from .spec import CaptureError
 from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
 
@@ -103,6 +103,7 @@ def poses_step(
     # (preview_binning) once, and kept in the run's decode cache, from which the later steps read it
     views = read_working(spec, ws, config, progress, automatic=True)
     check_white_box(spec, views)
+    check_chart(spec, views)
     names = [v.name for v in views]
     if spec.colmap is not None or spec.transforms is not None:
         source = "colmap" if spec.colmap is not None else "transforms"

@@ -79,6 +79,18 @@ class WhiteSpec:
 
 
 @dataclass(frozen=True)
+class ChartSpec:
+    """The ``[chart]`` table: a photograph of the capture that shows a ColorChecker Classic (24
+    patches, colour-science's "ColorChecker N Ohta" reflectances), the reference the report measures
+    that photograph's corrections against, ΔE00 per patch. ``corners``: (x, y) of the centres of the
+    top-left (dark skin), top-right (bluish green), bottom-right (black) and bottom-left (white)
+    patches, in the RAW file's pixels, as ``isp profile --chart-corners`` takes them."""
+
+    image: str
+    corners: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
 class CaptureSpec:
     """A validated ``capture.toml``.
 
@@ -102,6 +114,8 @@ class CaptureSpec:
     train_size : int or None
         Longer side (pixels) of the working resolution of training (``train_size = 640`` at the top
         level; ``--train-size`` overrides it); None: automatic (:mod:`splat.resolution`).
+    chart : ChartSpec or None
+        A photographed ColorChecker the report measures against (``[chart]``).
     """
 
     root: Path
@@ -114,6 +128,7 @@ class CaptureSpec:
     transforms: Path | None = None
     train_size: int | None = None
     reference: str | None = None
+    chart: ChartSpec | None = None
 
     @property
     def file(self) -> Path:
@@ -260,10 +275,21 @@ def _light(doc: dict, key: str, default, root: Path, file: Path, *, estimate: bo
     return name
 
 
-_TOP_KEYS = ("illuminant", "reference", "observer", "camera", "white", "holdout", "poses", "train_size")
+_TOP_KEYS = (
+    "illuminant",
+    "reference",
+    "observer",
+    "camera",
+    "white",
+    "holdout",
+    "poses",
+    "train_size",
+    "chart",
+)
 _CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
 _WHITE_KEYS = ("method", "image", "box", "reflectance")
 _HOLDOUT_KEYS = ("images",)
+_CHART_KEYS = ("image", "corners")
 _POSES_KEYS = ("colmap", "transforms")
 
 
@@ -386,6 +412,39 @@ def _white(w: dict, root: Path, file: Path) -> WhiteSpec:
     return WhiteSpec(method, image, tuple(box), float(refl))
 
 
+def _chart(t: dict, root: Path, file: Path, folders: list[str]) -> ChartSpec | None:
+    if not t:
+        return None
+    image = _need(t, "image", str, "[chart]", file)
+    corners = _need(t, "corners", list, "[chart]", file)
+    if (
+        len(corners) != 4
+        or not all(isinstance(c, list) and len(c) == 2 and all(_is_number(x) for x in c) for c in corners)
+        or not all(math.isfinite(x) and x >= 0 for c in corners for x in c)
+    ):
+        raise CaptureError(
+            f"{file}: [chart].corners = {corners!r} must be four [x, y] pixel positions ≥ 0: the centres "
+            "of the top-left, top-right, bottom-right and bottom-left patches."
+        )
+    turns = [  # the z of each corner's cross product: one sign all round for a convex quadrilateral
+        (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+        for a, b, c in zip(corners, corners[1:] + corners[:1], corners[2:] + corners[:2], strict=True)
+    ]
+    if not (all(t > 0 for t in turns) or all(t < 0 for t in turns)):
+        raise CaptureError(
+            f"{file}: [chart].corners = {corners!r} do not make a four-sided chart (three on one line, or "
+            "out of order); give the top-left, top-right, bottom-right and bottom-left patch centres."
+        )
+    if not (root / image).is_file():
+        raise CaptureError(f"{file}: [chart].image = {image!r} does not exist.")
+    if not any(image.startswith(f"{f}/") and "/" not in image[len(f) + 1 :] for f in folders):
+        raise CaptureError(
+            f"{file}: [chart].image = {image!r} is not a file of a camera folder {folders}; "
+            'name it "<folder>/<file>".'
+        )
+    return ChartSpec(image, tuple((float(x), float(y)) for x, y in corners))
+
+
 def _colliding_stems(files: list[Path]) -> list[str] | None:
     seen: dict[str, str] = {}
     for f in files:
@@ -477,8 +536,19 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
             f"{file}: train_size = {train_size!r} must be a whole number of pixels ≥ 16 (the longer side of "
             "the working resolution of training), e.g. train_size = 640; leave it out for the automatic one."
         )
+    chart = _chart(_table(doc, "chart", _CHART_KEYS, file), root, file, folders)
     spec = CaptureSpec(
-        root, illuminant, observer, tuple(specs), white, holdout, colmap, transforms, train_size, reference
+        root,
+        illuminant,
+        observer,
+        tuple(specs),
+        white,
+        holdout,
+        colmap,
+        transforms,
+        train_size,
+        reference,
+        chart,
     )
     for k, c in enumerate(specs):
         files = spec.raw_files(k)

@@ -580,6 +580,40 @@ def _color_matrices(scene: SimScene, ci: int):
     return out
 
 
+def _chart_corners(scene, view, idx: np.ndarray):
+    """The ``[chart] corners`` of ``view``: the centres of the ColorChecker's top-left (dark skin),
+    top-right, bottom-right and bottom-left patches in pixel-index coordinates (pixel ``j`` centred at
+    ``j``), and the chart's area in pixels; None unless every patch's centre pixel sees that patch alone
+    (the chart whole and unoccluded in the view)."""
+    x0, y0, side, gap = CHART
+    k = np.arange(24)
+    col, row = k % 6, k // 6  # row 0 (dark skin …) farthest along -y: geometry.shade's layout
+    X = np.stack(
+        [
+            x0 + gap + col * (side + gap) + side / 2,
+            y0 + gap + (3 - row) * (side + gap) + side / 2,
+            np.zeros(24),
+        ],
+        -1,
+    )
+    cam = scene.config.cameras[view.camera]
+    p = X @ view.R.T + view.t  # camera coordinates
+    if (p[:, 2] <= 0).any():
+        return None
+    u = view.f * p[:, 0] / p[:, 2] + cam.width / 2 - 0.5
+    v = view.f * p[:, 1] / p[:, 2] + cam.height / 2 - 0.5
+    j, i = np.rint(u).astype(int), np.rint(v).astype(int)
+    if (j < 0).any() or (i < 0).any() or (j >= cam.width).any() or (i >= cam.height).any():
+        return None
+    chart = scene.palettes["colorchecker"]
+    if not all((idx[i[n], j[n], :, 0] == chart[n]).all() for n in range(24)):
+        return None
+    corners = [[round(float(u[n]), 2), round(float(v[n]), 2)] for n in (0, 5, 23, 18)]
+    a = np.array(corners)
+    area = 0.5 * abs(np.dot(a[:, 0], np.roll(a[:, 1], -1)) - np.dot(a[:, 1], np.roll(a[:, 0], -1)))
+    return corners, float(area)
+
+
 def _white_box(idx: np.ndarray, wts: np.ndarray):
     """The largest pixel box [x0, y0, x1, y1) grown from the white card's centre with every sample ray on
     the card, or None where the card is not seen whole."""
@@ -743,7 +777,7 @@ def write_synthetic_capture(
     try:
         rng = np.random.default_rng(config.seed + 1)
         (tmp / "truth" / "xyz").mkdir(parents=True)
-        cameras, images, view_rows, white = {}, {}, [], None
+        cameras, images, view_rows, white, chart = {}, {}, [], None, None
         image_ids = {}  # index in scene.views → COLMAP image id
         for ci, cam in enumerate(config.cameras):
             (tmp / cam.folder).mkdir()
@@ -763,6 +797,9 @@ def write_synthetic_capture(
                     area = (x1 - x0) * (y1 - y0)
                     if peak < 0.9 and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
+                seen = _chart_corners(scene, v, idx)
+                if seen is not None and (chart is None or seen[1] > chart[0]):
+                    chart = (seen[1], f"{cam.folder}/{v.stem}.dng", seen[0])
                 write_view_dng(
                     tmp / cam.folder / f"{v.stem}.dng", dn, scene, ci, v, (cm1, cm2), noise=config.noise
                 )
@@ -819,6 +856,8 @@ def write_synthetic_capture(
         text.append(
             _toml_table("white", {"method": "patch", "image": white[1], "box": white[2], "reflectance": 0.9})
         )
+        if chart is not None:  # the photograph that shows the ColorChecker largest, whole and unoccluded
+            text.append(_toml_table("chart", {"image": chart[1], "corners": chart[2]}))
         if holdout:
             text.append(_toml_table("holdout", {"images": holdout}))
         (tmp / "capture.toml").write_text("\n".join(text))

@@ -196,6 +196,24 @@ CAM = '[[camera]]\nfolder = "a"\nssf = "Nikon 5100 (NPL)"\n'
         (CAM + "white_level = nan\n", "finite number"),
         (CAM + "black_level = -1\n", "finite number"),
         (CAM + "white_level = 'high'\n", "finite number"),
+        # a marked ColorChecker
+        (
+            CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorner = []\n",
+            r"\[chart\] has unknown key\(s\) \['corner'\]",
+        ),
+        (CAM + "[chart]\ncorners = [[1, 1], [9, 1], [9, 5], [1, 5]]\n", r"\[chart\] lacks the key 'image'"),
+        (CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorners = [[1, 1], [9, 1], [9, 5]]\n", "four \\[x, y\\]"),
+        (CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorners = [[1, 1], [9, 1], [9, -5], [1, 5]]\n", "≥ 0"),
+        (CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorners = [[1, 1], [9, 1], [9, nan], [1, 5]]\n", "≥ 0"),
+        (CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorners = [[1, 1], [5, 1], [9, 1], [1, 5]]\n", "one line"),
+        (
+            CAM + "[chart]\nimage = 'a/IMG_0.dng'\ncorners = [[1, 1], [9, 5], [9, 1], [1, 5]]\n",
+            "out of order",
+        ),
+        (
+            CAM + "[chart]\nimage = 'a/IMG_7.dng'\ncorners = [[1, 1], [9, 1], [9, 5], [1, 5]]\n",
+            "does not exist",
+        ),
         # poses
         (CAM + "[poses]\ncolmap = 'a'\ntransforms = 'a/IMG_0.dng'\n", "both"),
         (CAM + "[poses]\ncolmap = 3\n", "must be a str"),
@@ -225,6 +243,21 @@ def test_colliding_stems_and_foreign_holdout_are_refused(tmp_path):
     _toml(tmp_path, CAM + "[holdout]\nimages = ['b/x.dng']\n")
     with pytest.raises(CaptureError, match="not a file of a camera folder"):
         read_capture(tmp_path)
+
+
+def test_a_marked_chart_is_read_and_its_patches_must_lie_in_the_photograph(tmp_path):
+    from splat.capture import check_chart
+
+    _simple(tmp_path, n=2)  # 40 × 32 px
+    body = CAM + "[chart]\nimage = 'a/IMG_1.dng'\ncorners = [[2, 3], [37, 3], [37, 28.5], [2, 28.5]]\n"
+    spec = read_capture(_toml(tmp_path, body))
+    assert spec.chart.image == "a/IMG_1.dng" and spec.chart.corners[2] == (37.0, 28.5)
+    check_chart(spec, load_views(spec))
+    spec = read_capture(_toml(tmp_path, body.replace("[37, 28.5]", "[45, 28.5]")))
+    with pytest.raises(CaptureError, match=r"put patches outside the 40×32 image") as e:
+        check_chart(spec, load_views(spec))
+    assert "\n" not in str(e.value)
+    assert read_capture(_toml(tmp_path, CAM)).chart is None
 
 
 def test_a_zero_exif_exposure_is_refused_naming_the_file(tmp_path):

@@ -61,9 +61,12 @@ def ci_run(tmp_path_factory):
 def test_run_writes_every_output_and_never_touches_the_capture(ci_run):
     import tifffile
 
+    from splat.capture import read_capture
+
     cap, out, before, status, _ = ci_run
     assert status == 0
     assert _digest(cap) == before  # the capture (RAW files, capture.toml, truth/) is untouched
+    assert read_capture(cap).chart is not None  # the simulator marks its ColorChecker (poses checked it)
     poses = json.loads((out / "poses" / "summary.json").read_text())
     assert poses["source"] == "pycolmap" and poses["registered"] >= 0.5 * poses["views"]
     train = json.loads((out / "train" / "summary.json").read_text())

@@ -491,3 +491,59 @@ def test_viewer_first_frame_matches_the_renderer(scene_run, tmp_path):
     np.testing.assert_allclose(img.mean((0, 1)), want.mean((0, 1)), atol=0.01)  # mean colour
     assert np.corrcoef(down(img).ravel(), down(want).ravel())[0, 1] > 0.98  # structure
     assert np.abs(down(img) - down(want)).mean() < 0.01
+
+
+CHART_VIEW = "nikon/IMG_0000.dng"
+CORNERS = [[6, 6], [41, 6], [41, 29], [6, 29]]  # patch centres, top-left … bottom-left, in its 48 × 36 px
+
+
+def test_a_marked_chart_is_measured_patch_by_patch(tmp_path):
+    """``[chart]``: in the chart's photograph, each of the 24 patches' ΔE00 against its known colour
+    (colour-science: the ColorChecker N Ohta reflectances under D65, CIE 1931 2°, 1 nm) in the
+    corrected image and the camera's development, painted here with those colours (the camera's
+    exactly, the corrected ones tinted); elsewhere the page names the chart's photograph."""
+    import colour
+    import tifffile
+
+    from isp.profiles.chart import chart_patch_centres
+    from splat.capture import report_step
+
+    cap = tmp_path / "cap"
+    chart = f'\n[chart]\nimage = "{CHART_VIEW}"\ncorners = {CORNERS}\n'
+    write_capture(cap, views=1, holdout=1, extra_toml=chart)
+    out = tmp_path / "out"
+    spec = make_out(cap, out)
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    white = colour.sd_to_XYZ(colour.sd_ones(), cmfs, d65) / 100
+    known = np.array([colour.sd_to_XYZ(sd, cmfs, d65) for sd in sds.values()]) / 100
+    tint = np.array([1.04, 1.0, 0.93])
+    c = out / "correct" / spec.out_stem(CHART_VIEW)
+    images = {}
+    for f, xyz in (("Prior_fused_XYZ.tiff", known * tint), ("raw_dng_XYZ.tiff", known)):
+        img = np.broadcast_to(0.2 * white, (36, 48, 3)).copy()
+        for (x, y), v in zip(np.rint(chart_patch_centres(CORNERS, 4, 6)).astype(int), xyz):
+            img[y - 2 : y + 3, x - 2 : x + 3] = v
+        tifffile.imwrite(c / f, img.astype(np.float32), photometric="rgb")
+        images[f] = img
+    html = report_step(cap, out).read_text()
+    sections = _sections(html)
+    sec = next(s_ for s_ in sections if f"<h2>{CHART_VIEW} " in s_)
+    xy = colour.XYZ_to_xy(white)
+    lab = colour.XYZ_to_Lab(known, xy)
+    want = colour.delta_E(colour.XYZ_to_Lab(known * tint, xy), lab, method="CIE 2000")
+    every = re.search(r"<details><summary>Every patch.*?</details>", sec, flags=re.S).group(0)
+    rows = re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td><td>([0-9.]+)</td></tr>", every)
+    assert [r[0] for r in rows][:3] == ["dark skin", "light skin", "blue sky"] and len(rows) == 24
+    corrected = np.array([float(r[1]) for r in rows])
+    camera = np.array([float(r[2]) for r in rows])
+    # the 10 nm, 400–700 nm grid of the capture's correction against colour-science at 1 nm, 360–830
+    assert camera.max() < 0.6 and np.abs(corrected - want).max() < 0.6 and corrected.mean() > 1.0
+    summary = re.search(r"<td>corrected \(left\)</td><td>([0-9.]+)</td><td>([0-9.]+)</td><td>24</td>", sec)
+    assert float(summary.group(1)) == pytest.approx(corrected.mean(), abs=0.01)
+    assert "The chart took no part in the correction" in sec
+    ratio = float(re.search(r"mean is ([0-9.]+)× the camera's", sec).group(1))
+    assert ratio == pytest.approx(corrected.mean() / camera.mean(), rel=0.02)
+    other = next(s_ for s_ in sections if f"<h2>{CARD} " in s_)
+    assert f"the marked ColorChecker is in <code>{CHART_VIEW}</code>" in other
