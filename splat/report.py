@@ -224,8 +224,8 @@ def chart_check(
 ) -> ChartCheck | None:
     """The ``[chart]`` ColorChecker measured in view ``name`` (None unless it is the chart's photograph).
 
-    Each patch is read as the mean of a box around its centre (a quarter of the distance between
-    neighbouring centres on each side), in each image scaled from the RAW file's grid (``raw_size``,
+    Each patch is read as the mean of a box around its centre (a quarter of the distance to the nearest
+    patch centre on each side), in each image scaled from the RAW file's grid (``raw_size``,
     (H, W); default the camera development's size). Its known colour is the chart's reflectance
     (colour-science's "ColorChecker N Ohta") seen through the correction's target: the capture's
     observer under the light colours are rendered under (``[reference]``, else the scene light,
@@ -253,7 +253,8 @@ def chart_check(
     expected = np.asarray(colour.XYZ_to_Lab(problem.target_of(R) @ problem.XYZ_from_target, illuminant=xy))
     check = ChartCheck(list(msds.labels), expected)
     centres = chart_patch_centres(spec.chart.corners, 4, 6)  # (24, 2) x, y in RAW pixels
-    step = np.linalg.norm(centres[1] - centres[0])
+    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1) + np.diag(np.full(len(centres), np.inf))
+    reach = gaps.min(1) / 4  # a quarter of each patch's distance to its nearest: inside it under perspective
     for key, p in (("corrected", corrected), ("camera", camera)):
         if not p.is_file():
             continue
@@ -261,9 +262,10 @@ def chart_check(
         H, W = img.shape[:2]
         h0, w0 = raw_size if raw_size is not None else (H, W)
         sx, sy = W / w0, H / h0
-        half = max(step * min(sx, sy) / 4, 0.5)
         dE = np.full(len(centres), np.nan)
-        for j, (x, y) in enumerate(centres * (sx, sy)):
+        # pixel j of the RAW grid is centred at j: at (j + ½)·s − ½ on a grid s times as fine
+        for j, ((x, y), r) in enumerate(zip((centres + 0.5) * (sx, sy) - 0.5, reach, strict=True)):
+            half = max(r * min(sx, sy), 0.5)
             y0, y1 = int(np.floor(y - half + 0.5)), int(np.floor(y + half + 0.5))
             x0, x1 = int(np.floor(x - half + 0.5)), int(np.floor(x + half + 0.5))
             if y0 < 0 or x0 < 0 or y1 > H or x1 > W or y1 <= y0 or x1 <= x0:
