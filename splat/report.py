@@ -262,18 +262,16 @@ def chart_check(
         H, W = img.shape[:2]
         h0, w0 = raw_size if raw_size is not None else (H, W)
         sx, sy = W / w0, H / h0
-        dE = np.full(len(centres), np.nan)
+        means = np.full((len(centres), 3), np.nan)
         # pixel j of the RAW grid is centred at j: at (j + ½)·s − ½ on a grid s times as fine
         for j, ((x, y), r) in enumerate(zip((centres + 0.5) * (sx, sy) - 0.5, reach, strict=True)):
             half = max(r * min(sx, sy), 0.5)
             y0, y1 = int(np.floor(y - half + 0.5)), int(np.floor(y + half + 0.5))
             x0, x1 = int(np.floor(x - half + 0.5)), int(np.floor(x + half + 0.5))
-            if y0 < 0 or x0 < 0 or y1 > H or x1 > W or y1 <= y0 or x1 <= x0:
-                continue
-            mean = img[y0:y1, x0:x1].reshape(-1, 3).mean(0)
-            lab = np.asarray(colour.XYZ_to_Lab(mean, illuminant=xy))
-            dE[j] = float(colour.delta_E(lab, expected[j], method="CIE 2000"))
-        check.delta_E[key] = dE
+            if 0 <= y0 < y1 <= H and 0 <= x0 < x1 <= W:  # else outside this image: NaN
+                means[j] = img[y0:y1, x0:x1].reshape(-1, 3).mean(0)
+        lab = np.asarray(colour.XYZ_to_Lab(means, illuminant=xy))
+        check.delta_E[key] = np.asarray(colour.delta_E(lab, expected, method="CIE 2000"), float)
     return check
 
 

@@ -625,12 +625,17 @@ def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
     write_png8(o / f"{stem}_sRGB.png", rgb)
 
 
-def fused_uncertainty(problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, band=None) -> np.ndarray:
+def fused_uncertainty(
+    problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, band=None, *, prior=None
+) -> np.ndarray:
     """Per pixel, the 95 % credible radius in ΔE00 of a fused correction's colour
     (:func:`zonotope.correct.posterior_radius`): the natural-reflectance prior seen through the cameras
     with each pixel's noise pattern (``sigma[code]``, and estimated curves' ``band`` in quadrature, as
     the fit is told). It says where the answer is sure (several cameras saw the pixel) and where it is
     not (one camera's site on a textured pixel, or the render alone), on a capture without a reference.
+
+    ``prior``: the problem's :class:`zonotope.correct.ReflectancePrior`, when the caller keeps it over
+    many views (default: fitted here).
 
     Returns
     -------
@@ -638,7 +643,8 @@ def fused_uncertainty(problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, b
     """
     from zonotope.correct import ReflectancePrior, posterior_radius
 
-    prior = ReflectancePrior.fit(problem.training)
+    if prior is None:
+        prior = ReflectancePrior.fit(problem.training)
     out = np.full(code.shape, np.nan, np.float32)
     for cd, s_ in sigma.items():
         sel = code == cd
@@ -893,6 +899,9 @@ def correct_step(
     full_info, rejected, uncertainty = {}, {}, {}
     band = ssf_sigma(spec, list(range(n)))
     band = band if band.any() else None
+    from zonotope.correct import ReflectancePrior
+
+    prior = ReflectancePrior.fit(problem.training)  # the uncertainty maps' prior, once for every view
     # one progress bar over the rows of every photograph still to correct at full resolution
     todo_rows = {
         m: raws[m].size[0]
@@ -945,7 +954,7 @@ def correct_step(
             if want_fused:
                 XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
                 _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
-                radius = fused_uncertainty(problem, XYZ, code, sigma, band)
+                radius = fused_uncertainty(problem, XYZ, code, sigma, band, prior=prior)
                 uncertainty[name] = _write_uncertainty(o, f"{mname}_fused", radius)
             if want_full:  # at the photograph's own size, strip by strip (splat.strips)
                 full_info[name] = _full_resolution(

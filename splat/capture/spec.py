@@ -412,6 +412,11 @@ def _white(w: dict, root: Path, file: Path) -> WhiteSpec:
     return WhiteSpec(method, image, tuple(box), float(refl))
 
 
+def _in_camera_folder(name: str, folders: list[str]) -> bool:
+    """``name`` is ``"<folder>/<file>"`` of one of the camera ``folders`` (no deeper path)."""
+    return any(name.startswith(f"{f}/") and "/" not in name[len(f) + 1 :] for f in folders)
+
+
 def _chart(t: dict, root: Path, file: Path, folders: list[str]) -> ChartSpec | None:
     if not t:
         return None
@@ -437,7 +442,7 @@ def _chart(t: dict, root: Path, file: Path, folders: list[str]) -> ChartSpec | N
         )
     if not (root / image).is_file():
         raise CaptureError(f"{file}: [chart].image = {image!r} does not exist.")
-    if not any(image.startswith(f"{f}/") and "/" not in image[len(f) + 1 :] for f in folders):
+    if not _in_camera_folder(image, folders):
         raise CaptureError(
             f"{file}: [chart].image = {image!r} is not a file of a camera folder {folders}; "
             'name it "<folder>/<file>".'
@@ -511,7 +516,7 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
     for name in holdout:
         if not (root / name).is_file():
             raise CaptureError(f"{file}: [holdout] image {name!r} does not exist.")
-        if not any(name.startswith(f"{c.folder}/") and "/" not in name[len(c.folder) + 1 :] for c in specs):
+        if not _in_camera_folder(name, folders):
             raise CaptureError(
                 f"{file}: [holdout] image {name!r} is not a file of a camera folder {folders}; "
                 'name it "<folder>/<file>".'
