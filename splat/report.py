@@ -101,6 +101,7 @@ section.photo h2 small{font-weight:normal;color:#555}
 .frame{position:relative;margin:0 auto}
 .frame img{display:block;width:100%;height:100%}
 span.card{position:absolute;outline:2px solid #d00;box-shadow:0 0 0 3px rgba(255,255,255,.8)}
+span.patch{position:absolute;outline:1px solid #fff;box-shadow:0 0 0 1px #000}
 img.small{image-rendering:pixelated}
 img.umap{display:block;width:min(100%,420px);image-rendering:pixelated;margin:4px 0}
 figcaption{font-size:14px;margin-top:4px}
@@ -210,23 +211,39 @@ class ChartCheck:
     names : list of str
     expected_Lab : ndarray of shape (24, 3)
     delta_E : dict
-        ``"corrected"`` / ``"camera"`` → ΔE00 per patch (24,), NaN where the patch's box falls outside
-        that image; a key is absent when the image is not in ``OUT``.
+        ``"corrected"`` / ``"full"`` / ``"camera"`` → ΔE00 per patch (24,), NaN where the patch's box
+        falls outside that image; a key is absent when the image is not in ``OUT``.
+    corners : tuple or None
+        The corner patches' centres measured at (given, or found by the poses step); None when
+        neither is known.
+    boxes : list
+        Each patch's box, ``(x0, y0, x1, y1)`` pixel edges in the RAW file's pixels.
     """
 
     names: list
     expected_Lab: np.ndarray
     delta_E: dict = field(default_factory=dict)
+    corners: tuple | None = None
+    boxes: list = field(default_factory=list)
 
 
 def chart_check(
-    spec: CaptureSpec, out: Path, name: str, corrected: Path, camera: Path, *, raw_size=None
+    spec: CaptureSpec,
+    out: Path,
+    name: str,
+    corrected: Path,
+    camera: Path,
+    *,
+    raw_size=None,
+    full: Path | None = None,
 ) -> ChartCheck | None:
     """The ``[chart]`` ColorChecker measured in view ``name`` (None unless it is the chart's photograph).
 
     Each patch is read as the mean of a box around its centre (a quarter of the distance to the nearest
     patch centre on each side), in each image scaled from the RAW file's grid (``raw_size``,
-    (H, W); default the camera development's size). Its known colour is the chart's reflectance
+    (H, W); default the camera development's size): the working-size ``corrected`` image, the same
+    correction at the photograph's full size (``full``, when given and written) and the camera's own
+    development. Its known colour is the chart's reflectance
     (colour-science's "ColorChecker N Ohta") seen through the correction's target: the capture's
     observer under the light colours are rendered under (``[reference]``, else the scene light,
     estimated or named), white Y = 1, the same as the corrected images'.
@@ -239,11 +256,13 @@ def chart_check(
     import zonotope
     from isp.profiles.chart import chart_patch_centres
 
+    from .capture.chart import recorded_corners
     from .capture.correct import correction_problem_of
     from .capture.illuminant import illuminant_of
 
     if spec.chart is None or Path(spec.chart.image).as_posix() != name:
         return None
+    corners = spec.chart.corners or recorded_corners(spec, out)
     spec, _ = illuminant_of(spec, out)
     problem = correction_problem_of(spec, [0])  # the target: observer and rendering light, any camera
     msds = zonotope.reflectances("ColorChecker N Ohta")
@@ -251,12 +270,16 @@ def chart_check(
     white = np.asarray(problem.white_XYZ, float)
     xy = colour.XYZ_to_xy(white)
     expected = np.asarray(colour.XYZ_to_Lab(problem.target_of(R) @ problem.XYZ_from_target, illuminant=xy))
-    check = ChartCheck(list(msds.labels), expected)
-    centres = chart_patch_centres(spec.chart.corners, 4, 6)  # (24, 2) x, y in RAW pixels
+    check = ChartCheck(list(msds.labels), expected, corners=corners)
+    if corners is None:
+        return check
+    centres = chart_patch_centres(corners, 4, 6)  # (24, 2) x, y in RAW pixels
     gaps = np.linalg.norm(centres[:, None] - centres[None], axis=-1) + np.diag(np.full(len(centres), np.inf))
     reach = gaps.min(1) / 4  # a quarter of each patch's distance to its nearest: inside it under perspective
-    for key, p in (("corrected", corrected), ("camera", camera)):
-        if not p.is_file():
+    # RAW pixel j spans edges [j, j + 1]: a box of half-width r about centre c spans c + ½ ± r
+    check.boxes = [(x + 0.5 - r, y + 0.5 - r, x + 0.5 + r, y + 0.5 + r) for (x, y), r in zip(centres, reach)]
+    for key, p in (("corrected", corrected), ("full", full), ("camera", camera)):
+        if p is None or not p.is_file():
             continue
         img = _read_tiff(p)
         H, W = img.shape[:2]
@@ -310,10 +333,11 @@ def _size(p: Path) -> tuple[int, int] | None:
 
 
 def _figure(
-    out: Path, path: Path | None, title: str, caption: str, missing: str, *, card=None, base=None
+    out: Path, path: Path | None, title: str, caption: str, missing: str, *, boxes=(), base=None
 ) -> str:
-    """One image of a pair, as large as fits half the page and 48 % of the window's height; ``card``
-    (x0, y0, x1, y1 in an image of size ``base``, W × H) is outlined on it."""
+    """One image of a pair, as large as fits half the page and 48 % of the window's height; each of
+    ``boxes`` ((x0, y0, x1, y1) pixel edges in an image of size ``base``, W × H, with its CSS class and
+    title) is outlined on it."""
     if path is None or not path.is_file():
         return (
             f"<figure><div class='missing'>{_e(missing)}</div>"
@@ -324,19 +348,19 @@ def _figure(
         return f"<figure><div class='missing'>{_e(path.name)} is not a readable image.</div></figure>"
     W, H = size
     cls = " class='small'" if W < 600 else ""
-    mark = ""
-    if card is not None:
-        bw, bh = base or size
-        x0, y0, x1, y1 = (c * f for c, f in zip(card, (W / bw, H / bh, W / bw, H / bh)))
-        mark = (
-            f"<span class='card' title='marked white card' style='left:{100 * x0 / W:.3f}%;"
+    bw, bh = base or size
+    marks = []
+    for box, kind, tip in boxes:
+        x0, y0, x1, y1 = (c * f for c, f in zip(box, (W / bw, H / bh, W / bw, H / bh)))
+        marks.append(
+            f"<span class='{kind}' title='{_e(tip)}' style='left:{100 * x0 / W:.3f}%;"
             f"top:{100 * y0 / H:.3f}%;width:{100 * (x1 - x0) / W:.3f}%;height:{100 * (y1 - y0) / H:.3f}%'>"
             "</span>"
         )
     frame = f"aspect-ratio:{W}/{H};width:min(100%,calc(48vh*{W}/{H}))"
     return (
         f"<figure><div class='frame' style='{frame}'><img{cls} src='{_src(out, path)}' alt='{_e(title)}'>"
-        f"{mark}</div><figcaption><b>{_e(title)} ({W}×{H} px)</b>{caption}</figcaption></figure>"
+        f"{''.join(marks)}</div><figcaption><b>{_e(title)} ({W}×{H} px)</b>{caption}</figcaption></figure>"
     )
 
 
@@ -540,12 +564,21 @@ def _chart_reference(run: _Run, chart: ChartCheck) -> str:
     """The marked ColorChecker's ΔE00 per patch in both images: mean and largest up front, every patch
     in a collapsed table."""
     got = {k: v for k, v in chart.delta_E.items() if np.isfinite(v).any()}
+    if chart.corners is None:
+        return (
+            "<p>The marked ColorChecker's corners are not known yet: <code>splat run</code> finds them "
+            "(or give <code>[chart] corners</code> in capture.toml).</p>"
+        )
     if not got:
         return (
             "<p>The marked ColorChecker's patches fall outside this photograph's images; check "
             "<code>[chart] corners</code> in capture.toml.</p>"
         )
-    labels = (("corrected", "corrected (left)"), ("camera", "camera's development (right)"))
+    labels = (
+        ("corrected", "corrected (left)"),
+        ("full", "corrected, full size"),
+        ("camera", "camera's development (right)"),
+    )
     rows = "".join(
         f"<tr><td>{label}</td><td>{np.nanmean(got[k]):.2f}</td><td>{np.nanmax(got[k]):.2f}</td>"
         f"<td>{int(np.isfinite(got[k]).sum())}</td></tr>"
@@ -555,7 +588,16 @@ def _chart_reference(run: _Run, chart: ChartCheck) -> str:
     ratio = ""
     if {"corrected", "camera"} <= set(got) and np.nanmean(got["camera"]) > CARD_DELTA_E_FLOOR:
         times = np.nanmean(got["corrected"]) / np.nanmean(got["camera"])
-        ratio = f"The corrected image's mean is {times:.2f}× the camera's. "
+        full = ""
+        if "full" in got:
+            full = f" ({np.nanmean(got['full']) / np.nanmean(got['camera']):.2f}× at full size)"
+        ratio = f"The corrected image's mean is {times:.2f}× the camera's{full}. "
+    where = (
+        "Its corners were found in the photograph (recorded in <code>poses/chart.json</code>); if the "
+        "boxes on the images miss the patches, give <code>[chart] corners</code> in capture.toml."
+        if run.spec.chart is not None and (run.spec.chart.corners is None or run.spec.chart.found)
+        else "The boxes on the images show where each patch was read."
+    )
     head = "".join(f"<th>{_e(lb)}</th>" for k, lb in labels if k in got)
     patches = "".join(
         f"<tr><td>{_e(n)}</td><td>{L:.1f}, {a:+.1f}, {b:+.1f}</td>"
@@ -567,7 +609,7 @@ def _chart_reference(run: _Run, chart: ChartCheck) -> str:
         "<p>Marked ColorChecker (<code>[chart]</code>; its 24 patches' known colours under the light the "
         "colours are rendered under), ΔE00 per patch:</p>"
         "<table><tr><th>image</th><th>mean ΔE00</th><th>largest</th><th>patches</th></tr>"
-        f"{rows}</table><p>{ratio}The chart took no part in the correction.</p>"
+        f"{rows}</table><p>{ratio}The chart took no part in the correction. {where}</p>"
         "<details><summary>Every patch (known L*a*b*, ΔE00)</summary><table><tr><th>patch</th>"
         f"<th>known L*a*b*</th>{head}</tr>{patches}</table></details>"
     )
@@ -734,13 +776,19 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             answer.with_name(answer.name.replace("_sRGB.png", "_XYZ.tiff")),
             cdir / "raw_dng_XYZ.tiff",
             raw_size=raw_size,
+            full=cdir / "full_XYZ.tiff" if fused else None,
         )
     right_p = cdir / ("raw_dng_sRGB.png" if photographed else f"dng_{spec.label(k)}_sRGB.png")
-    card = {}
-    if check is not None:  # the box is given in the RAW file's pixels (W × H for the figures)
+    boxes = []  # given in the RAW file's pixels (W × H for the figures)
+    if check is not None:
+        boxes.append((spec.white.box, "card", "marked white card"))
+    if chart is not None:
+        boxes += [(b, "patch", f"ColorChecker patch: {n}") for b, n in zip(chart.boxes, chart.names)]
+    marks = {}
+    if boxes:
         base = raw_size[::-1] if raw_size is not None else None
-        card = {"card": spec.white.box, "base": base or (_size(right_p) if right_p.is_file() else photo)}
-    left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.", **card)
+        marks = {"boxes": boxes, "base": base or (_size(right_p) if right_p.is_file() else photo)}
+    left = _figure(out, answer, "Corrected — the answer", f" {how}", "Not corrected yet.", **marks)
     if photographed:
         right = _figure(
             out,
@@ -748,7 +796,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
             f"The camera's own development ({info['camera']})",
             " This RAW file, its DNG colour matrix, the same white.",
             "No camera development: the RAW file carries no colour matrix.",
-            **card,
+            **marks,
         )
     else:
         right = _figure(

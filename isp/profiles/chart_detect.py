@@ -41,7 +41,14 @@ from .._tol import (
 )
 from .chart import ChartError, ChartReading, _chart_type, fit_chart
 
-__all__ = ["ChartDetection", "detect_chart", "detect_chart_rgb", "raw_preview", "require_detector"]
+__all__ = [
+    "ChartDetection",
+    "detect_chart",
+    "detect_chart_rgb",
+    "raw_preview",
+    "require_detector",
+    "white_scaled",
+]
 
 #: What to tell a user whose chart was not found (every failure ends with it).
 _BY_HAND = (
@@ -85,19 +92,19 @@ class ChartDetection:
         return " ".join(f"{x:.1f},{y:.1f}" for x, y in self.corners)
 
 
-def require_detector() -> None:
-    """Raise :class:`ChartError` (one line: how to install it, or to give the corners) when the
-    optional ``colour-checker-detection`` package is missing, before any long work."""
-    _detector()
+def require_detector(*, by_hand: str = _BY_HAND) -> None:
+    """Raise :class:`ChartError` (one line: how to install it, or ``by_hand``, how to give the corners)
+    when the optional ``colour-checker-detection`` package is missing, before any long work."""
+    _detector(by_hand)
 
 
-def _detector():
+def _detector(by_hand: str = _BY_HAND):
     try:
         from colour_checker_detection import SETTINGS_SEGMENTATION_COLORCHECKER_CLASSIC, segmenter_default
     except ImportError:
         raise ChartError(
             "finding the chart automatically needs the package colour-checker-detection: pip install "
-            f"'zonotope[chart]', or {_BY_HAND}."
+            f"'zonotope[chart]', or {by_hand}."
         ) from None
     return segmenter_default, SETTINGS_SEGMENTATION_COLORCHECKER_CLASSIC
 
@@ -121,8 +128,14 @@ def raw_preview(raw) -> np.ndarray:
         total = (m * site).reshape(H // 2, 2, W // 2, 2).sum((1, 3))
         out[..., ch] = total / site.reshape(H // 2, 2, W // 2, 2).sum((1, 3))
     out /= np.asarray(raw.as_shot_neutral, dtype=np.float64)
-    top = np.percentile(out[..., 1], CHART_DETECT_WHITE_PERCENTILE)
-    return np.clip(out / top, 0, None) if top > 0 else out
+    return white_scaled(out)
+
+
+def white_scaled(rgb: np.ndarray) -> np.ndarray:
+    """White-balanced linear ``rgb`` on the scale :func:`detect_chart_rgb` expects: divided by the
+    :data:`isp._tol.CHART_DETECT_WHITE_PERCENTILE` percentile of its green (white ≈ 1), clipped at 0."""
+    top = np.percentile(rgb[..., 1], CHART_DETECT_WHITE_PERCENTILE)
+    return np.clip(rgb / top, 0, None) if top > 0 else rgb
 
 
 def _homography(src, dst) -> np.ndarray:
@@ -231,7 +244,12 @@ def _neutrals_ordered(rgb: np.ndarray, neutrals) -> bool:
 
 
 def detect_chart_rgb(
-    image, *, chart: str = "colorchecker", illuminant: str = "D50", path: str = "image"
+    image,
+    *,
+    chart: str = "colorchecker",
+    illuminant: str = "D50",
+    path: str = "image",
+    by_hand: str = _BY_HAND,
 ) -> ChartDetection:
     """Find a ColorChecker Classic in a linear RGB image.
 
@@ -247,6 +265,9 @@ def detect_chart_rgb(
         against.
     path
         Name of the image in error messages.
+    by_hand
+        How the caller's user gives the corners instead, ending every failure's message (default:
+        ``isp profile``'s ``--chart-corners``).
 
     Returns
     -------
@@ -262,9 +283,9 @@ def detect_chart_rgb(
     t = _chart_type(chart)
     if (t.rows, t.cols) != (4, 6):
         raise ChartError(
-            f"--chart-type {chart}: only a ColorChecker Classic is found automatically; {_BY_HAND}."
+            f"--chart-type {chart}: only a ColorChecker Classic is found automatically; {by_hand}."
         )
-    segment, settings = _detector()
+    segment, settings = _detector(by_hand)
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 3 or img.shape[2] < 3 or min(img.shape[:2]) < 8:
         raise ChartError(
@@ -316,12 +337,12 @@ def detect_chart_rgb(
             found.append(ChartDetection(corners, centres, float(fit.delta_E.mean()), *_pose(corners), n))
     if not found:
         what = "no patch grid" if not candidates else "no grid whose neutral patches run from white to black"
-        raise ChartError(f"{path}: no ColorChecker found ({what}); {_BY_HAND}.")
+        raise ChartError(f"{path}: no ColorChecker found ({what}); {by_hand}.")
     best = min(found, key=lambda d: d.delta_E)
     if not best.delta_E <= CHART_DETECT_MAX_DE:
         raise ChartError(
             f"{path}: no ColorChecker found (the best grid's colours are {best.delta_E:.1f} ΔE00 from the "
-            f"chart's, over {CHART_DETECT_MAX_DE:g}); {_BY_HAND}."
+            f"chart's, over {CHART_DETECT_MAX_DE:g}); {by_hand}."
         )
     return best
 
@@ -432,13 +453,15 @@ def _inside(quad: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
-def detect_chart(raw, *, chart: str = "colorchecker", illuminant: str = "D50") -> ChartDetection:
+def detect_chart(
+    raw, *, chart: str = "colorchecker", illuminant: str = "D50", by_hand: str = _BY_HAND
+) -> ChartDetection:
     """Find a ColorChecker Classic in a RAW file: :func:`detect_chart_rgb` on its :func:`raw_preview`.
 
     Parameters
     ----------
     raw : isp.RawImage or path
-    chart, illuminant
+    chart, illuminant, by_hand
         As :func:`detect_chart_rgb`.
 
     Returns
@@ -455,9 +478,9 @@ def detect_chart(raw, *, chart: str = "colorchecker", illuminant: str = "D50") -
 
     if not hasattr(raw, "mosaic"):
         raw = read_raw(raw)
-    require_detector()  # the missing package is said before the preview is computed
+    require_detector(by_hand=by_hand)  # the missing package is said before the preview is computed
     name = str(getattr(raw, "path", None) or "RAW file")
-    d = detect_chart_rgb(raw_preview(raw), chart=chart, illuminant=illuminant, path=name)
+    d = detect_chart_rgb(raw_preview(raw), chart=chart, illuminant=illuminant, path=name, by_hand=by_hand)
     return ChartDetection(  # preview pixel (u, v) is centred on mosaic (2u + 0.5, 2v + 0.5)
         corners=2 * d.corners + 0.5,
         centres=2 * d.centres + 0.5,

@@ -14,9 +14,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .chart import chart_of, check_chart
 from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import write_json, write_png8
-from .raw import RawView, camera_white, check_chart, check_white_box
+from .raw import RawView, camera_white, check_white_box
 from .spec import CaptureError
 from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
 
@@ -99,6 +100,7 @@ def poses_step(
         return read_json(done)
     t0 = time.perf_counter()
     reset_peak_rss()
+    spec = chart_of(spec, ws)  # [chart] corners searched for (when not given) before the files are decoded
     # previews of a bounded size: each file read and binned to the automatic working resolution
     # (preview_binning) once, and kept in the run's decode cache, from which the later steps read it
     views = read_working(spec, ws, config, progress, automatic=True)

@@ -52,7 +52,6 @@ __all__ = [
     "RawView",
     "brightest_neutral",
     "camera_white",
-    "check_chart",
     "check_white_box",
     "exif_exposure",
     "load_view",
@@ -706,33 +705,6 @@ def brightest_neutral(
             'white patch in capture.toml ([white] method = "patch").'
         )
     return float(np.percentile(lv, percentile))
-
-
-def check_chart(spec: CaptureSpec, views: list[RawView]) -> None:
-    """``[chart] image`` is one of the capture's views and its patch centres lie inside it; checked with
-    the white box, as soon as the files are read.
-
-    Raises
-    ------
-    CaptureError
-        The image is no camera's view, or a patch centre falls outside it.
-    """
-    if spec.chart is None:
-        return
-    from isp.profiles.chart import chart_patch_centres
-
-    v = next((v for v in views if v.name == Path(spec.chart.image).as_posix()), None)
-    if v is None:
-        raise CaptureError(
-            f"{spec.file}: [chart].image {spec.chart.image!r} is not one of the capture's views."
-        )
-    H, W = v.size
-    xy = chart_patch_centres(spec.chart.corners, 4, 6)
-    if not ((xy >= 0).all() and (xy[:, 0] < W).all() and (xy[:, 1] < H).all()):
-        raise CaptureError(
-            f"{spec.file}: [chart].corners {[list(c) for c in spec.chart.corners]} put patches outside the "
-            f"{W}×{H} image; give the four corner patches' centres in the RAW file's pixels."
-        )
 
 
 def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:

@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .chart import chart_of
 from .config import PipelineConfig, step_workspace
 from .files import read_index
 
@@ -32,6 +33,7 @@ def report_step(
     from ..report import write_report
 
     spec, ws = step_workspace(capture, out, config, "report", lambda spec: {})
+    spec = chart_of(spec, ws)  # the poses step found them, unless [chart] was added after it ran
     out = ws.root
     index = (
         read_index(spec, out / "render" / "index.json") if (out / "render" / "index.json").is_file() else {}

@@ -84,10 +84,12 @@ class ChartSpec:
     patches, colour-science's "ColorChecker N Ohta" reflectances), the reference the report measures
     that photograph's corrections against, ΔE00 per patch. ``corners``: (x, y) of the centres of the
     top-left (dark skin), top-right (bluish green), bottom-right (black) and bottom-left (white)
-    patches, in the RAW file's pixels, as ``isp profile --chart-corners`` takes them."""
+    patches, in the RAW file's pixels, as ``isp profile --chart-corners`` takes them; None when left
+    out, for the poses step to find (:func:`splat.capture.chart_of`, which sets ``found``)."""
 
     image: str
-    corners: tuple[tuple[float, float], ...]
+    corners: tuple[tuple[float, float], ...] | None = None
+    found: bool = False
 
 
 @dataclass(frozen=True)
@@ -421,6 +423,15 @@ def _chart(t: dict, root: Path, file: Path, folders: list[str]) -> ChartSpec | N
     if not t:
         return None
     image = _need(t, "image", str, "[chart]", file)
+    if not (root / image).is_file():
+        raise CaptureError(f"{file}: [chart].image = {image!r} does not exist.")
+    if not _in_camera_folder(image, folders):
+        raise CaptureError(
+            f"{file}: [chart].image = {image!r} is not a file of a camera folder {folders}; "
+            'name it "<folder>/<file>".'
+        )
+    if "corners" not in t:
+        return ChartSpec(image)  # found in the photograph by the poses step
     corners = _need(t, "corners", list, "[chart]", file)
     if (
         len(corners) != 4
@@ -439,13 +450,6 @@ def _chart(t: dict, root: Path, file: Path, folders: list[str]) -> ChartSpec | N
         raise CaptureError(
             f"{file}: [chart].corners = {corners!r} do not make a four-sided chart (three on one line, or "
             "out of order); give the top-left, top-right, bottom-right and bottom-left patch centres."
-        )
-    if not (root / image).is_file():
-        raise CaptureError(f"{file}: [chart].image = {image!r} does not exist.")
-    if not _in_camera_folder(image, folders):
-        raise CaptureError(
-            f"{file}: [chart].image = {image!r} is not a file of a camera folder {folders}; "
-            'name it "<folder>/<file>".'
         )
     return ChartSpec(image, tuple((float(x), float(y)) for x, y in corners))
 

@@ -34,6 +34,7 @@ __all__ = [
     "STEP_OUTPUTS",
     "Workspace",
     "capture_fingerprint",
+    "file_stamp",
     "peak_rss_mib",
     "read_json",
     "reset_peak_rss",
@@ -83,7 +84,8 @@ def read_json(path: Path, *, what: str = "summary") -> dict:
     return doc
 
 
-def _file_entry(p: Path) -> list:
+def file_stamp(p: Path) -> list:
+    """``[size, modification time in ns]`` of a file: what a cached result made from it is keyed on."""
     st = p.stat()
     return [st.st_size, st.st_mtime_ns]
 
@@ -92,8 +94,8 @@ def _files_of(path: Path | None) -> dict:
     if path is None:
         return {}
     if path.is_file():
-        return {path.name: _file_entry(path)}
-    return {q.relative_to(path).as_posix(): _file_entry(q) for q in sorted(path.rglob("*")) if q.is_file()}
+        return {path.name: file_stamp(path)}
+    return {q.relative_to(path).as_posix(): file_stamp(q) for q in sorted(path.rglob("*")) if q.is_file()}
 
 
 def capture_fingerprint(spec: CaptureSpec) -> dict:
@@ -109,19 +111,19 @@ def capture_fingerprint(spec: CaptureSpec) -> dict:
             {
                 "folder": c.folder,
                 "ssf": c.ssf,
-                "ssf_file": _file_entry(ssf) if ssf.is_absolute() and ssf.is_file() else None,
+                "ssf_file": file_stamp(ssf) if ssf.is_absolute() and ssf.is_file() else None,
                 "cfa": c.cfa,
                 "black_level": c.black_level,
                 "white_level": c.white_level,
                 "exposure": dict(sorted(c.exposure.items())),
-                "files": {p.name: _file_entry(p) for p in spec.raw_files(k)},
+                "files": {p.name: file_stamp(p) for p in spec.raw_files(k)},
             }
         )
     light = spec.root / spec.illuminant
     return {
         "cameras": cams,
         "illuminant": spec.illuminant,
-        "illuminant_file": _file_entry(light) if light.is_file() else None,
+        "illuminant_file": file_stamp(light) if light.is_file() else None,
         "colmap": _files_of(spec.colmap),
         "transforms": _files_of(spec.transforms),
     }

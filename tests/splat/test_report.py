@@ -521,7 +521,11 @@ def test_a_marked_chart_is_measured_patch_by_patch(tmp_path):
     tint = np.array([1.04, 1.0, 0.93])
     c = out / "correct" / spec.out_stem(CHART_VIEW)
     images = {}
-    for f, xyz in (("Prior_fused_XYZ.tiff", known * tint), ("raw_dng_XYZ.tiff", known)):
+    for f, xyz in (
+        ("Prior_fused_XYZ.tiff", known * tint),
+        ("full_XYZ.tiff", known),  # the same correction at full size: here exact
+        ("raw_dng_XYZ.tiff", known),
+    ):
         img = np.broadcast_to(0.2 * white, (36, 48, 3)).copy()
         for (x, y), v in zip(np.rint(chart_patch_centres(CORNERS, 4, 6)).astype(int), xyz):
             img[y - 2 : y + 3, x - 2 : x + 3] = v
@@ -534,16 +538,39 @@ def test_a_marked_chart_is_measured_patch_by_patch(tmp_path):
     lab = colour.XYZ_to_Lab(known, xy)
     want = colour.delta_E(colour.XYZ_to_Lab(known * tint, xy), lab, method="CIE 2000")
     every = re.search(r"<details><summary>Every patch.*?</details>", sec, flags=re.S).group(0)
-    rows = re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td><td>([0-9.]+)</td></tr>", every)
+    rows = re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td>" + "<td>([0-9.]+)</td>" * 3 + "</tr>", every)
     assert [r[0] for r in rows][:3] == ["dark skin", "light skin", "blue sky"] and len(rows) == 24
     corrected = np.array([float(r[1]) for r in rows])
-    camera = np.array([float(r[2]) for r in rows])
+    full = np.array([float(r[2]) for r in rows])
+    camera = np.array([float(r[3]) for r in rows])
+    assert full.max() < 0.6
     # the 10 nm, 400–700 nm grid of the capture's correction against colour-science at 1 nm, 360–830
     assert camera.max() < 0.6 and np.abs(corrected - want).max() < 0.6 and corrected.mean() > 1.0
     summary = re.search(r"<td>corrected \(left\)</td><td>([0-9.]+)</td><td>([0-9.]+)</td><td>24</td>", sec)
     assert float(summary.group(1)) == pytest.approx(corrected.mean(), abs=0.01)
     assert "The chart took no part in the correction" in sec
-    ratio = float(re.search(r"mean is ([0-9.]+)× the camera's", sec).group(1))
-    assert ratio == pytest.approx(corrected.mean() / camera.mean(), rel=0.02)
+    ratio, at_full = re.search(r"mean is ([0-9.]+)× the camera's \(([0-9.]+)× at full size\)", sec).groups()
+    assert float(ratio) == pytest.approx(corrected.mean() / camera.mean(), rel=0.02)
+    assert float(at_full) == pytest.approx(full.mean() / camera.mean(), rel=0.05)
+    # every patch's box is outlined on both images, inside the 48 × 36 frame, around its centre
+    spans = re.findall(
+        r"<span class='patch' title='ColorChecker patch: ([^']+)' style='left:([0-9.]+)%;top:([0-9.]+)%", sec
+    )
+    assert len(spans) == 48 and spans[0][0] == "dark skin"
+    left, top = float(spans[0][1]) * 48 / 100, float(spans[0][2]) * 36 / 100
+    x0, y0 = chart_patch_centres(CORNERS, 4, 6)[0]
+    assert x0 + 0.5 - 2 < left < x0 + 0.5 and y0 + 0.5 - 2 < top < y0 + 0.5
+    assert "The boxes on the images show where each patch was read" in sec
+
+    # corners left out and found by the poses step (its record): the same figures, and the page says so
+    from splat.capture import CHART_RECORD, file_stamp, write_json
+
+    toml = cap / "capture.toml"
+    toml.write_text(toml.read_text().replace(f"corners = {CORNERS}", ""))
+    record = {"image": CHART_VIEW, "file": file_stamp(cap / CHART_VIEW), "corners": CORNERS}
+    write_json(out / CHART_RECORD, record)
+    again = next(s_ for s_ in _sections(report_step(cap, out).read_text()) if f"<h2>{CHART_VIEW} " in s_)
+    assert "Its corners were found in the photograph" in again
+    assert re.search(r"<details><summary>Every patch.*?</details>", again, flags=re.S).group(0) == every
     other = next(s_ for s_ in sections if f"<h2>{CARD} " in s_)
     assert f"the marked ColorChecker is in <code>{CHART_VIEW}</code>" in other
