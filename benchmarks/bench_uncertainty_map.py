@@ -5,7 +5,8 @@ Scores a finished :mod:`bench_capture_accuracy` (or ``splat run``) work folder w
 cameras, as the correct step makes them) corrected by Prior, every ``--stride``-th pixel, and per pixel
 
 * the map the correct step writes (:func:`splat.capture.correct.fused_uncertainty`: the 95 % credible
-  radius of the Gaussian natural-reflectance posterior, closed form);
+  radius of the Gaussian natural-reflectance posterior, closed form, the rendered channels told the
+  render's local error against the view's own sites, :func:`splat.fusion.render_error`);
 * with ``--prior-radius``, Prior's own credible radius (:meth:`zonotope.correct.Corrector.with_uncertainty`,
   which computes an MMV wherever its gate opens), for comparison, on the same pixels.
 
@@ -51,6 +52,7 @@ def main(argv=None) -> int:
 
     from splat.capture import correct_fused, fused_fitter, fused_view, fusion_of, read_capture, reprojected_of
     from splat.capture.correct import correction_problem_of, fused_uncertainty, ssf_sigma
+    from splat.fusion import render_error
     from splat.scoring import _dE_all, _truth_stem, correction_inputs, flat_mask
 
     spec = read_capture(capture)
@@ -77,7 +79,10 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         est = correct_fused(f, code, sigma, fit, QUANTUM)
         t1 = time.perf_counter()
-        radii["map"].append(fused_uncertainty(problem, est, code, sigma, band).ravel())
+        own = slice(3 * raws[name].camera, 3 * raws[name].camera + 3)  # as the correct step tells its map
+        local = render_error(raws[name], scale[own], render[..., own])[::s, ::s]
+        rendered = (fusion["render_sigma"], local * np.maximum(f, 0).mean(-1))
+        radii["map"].append(fused_uncertainty(problem, est, code, sigma, band, rendered=rendered).ravel())
         t2 = time.perf_counter()
         seconds["correction"] += t1 - t0
         seconds["map"] += t2 - t1

@@ -626,13 +626,19 @@ def _write_corrected(o: Path, stem: str, XYZ: np.ndarray, white_XYZ) -> None:
 
 
 def fused_uncertainty(
-    problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, band=None, *, prior=None
+    problem, XYZ: np.ndarray, code: np.ndarray, sigma: dict, band=None, *, prior=None, rendered=None
 ) -> np.ndarray:
     """Per pixel, the 95 % credible radius in ΔE00 of a fused correction's colour
     (:func:`zonotope.correct.posterior_radius`): the natural-reflectance prior seen through the cameras
     with each pixel's noise pattern (``sigma[code]``, and estimated curves' ``band`` in quadrature, as
     the fit is told). It says where the answer is sure (several cameras saw the pixel) and where it is
     not (one camera's site on a textured pixel, or the render alone), on a capture without a reference.
+
+    ``rendered``: ``(render_sigma, local)``, the fusion's render σ and, per pixel (H, W), the render's
+    local error there (:func:`splat.fusion.render_error` times the pixel's level). The channels that
+    are the render (σ equal to ``render_sigma``) are then given the larger of the two, in half-octave
+    steps: the fit keeps the one σ (told the local one, its all-pixel ΔE00 on the benchmark capture went
+    from 3.97 to 4.67), the map says how far the render may be off at this pixel.
 
     ``prior``: the problem's :class:`zonotope.correct.ReflectancePrior`, when the caller keeps it over
     many views (default: fitted here).
@@ -645,12 +651,23 @@ def fused_uncertainty(
 
     if prior is None:
         prior = ReflectancePrior.fit(problem.training)
+    level = np.zeros(code.shape, int)
+    rs = None
+    if rendered is not None:
+        rs, local = float(rendered[0]), np.asarray(rendered[1], float)
+        if rs > 0:  # half-octave steps above the render σ, at most 2¹⁰ times it
+            ratio = np.maximum(np.nan_to_num(local / rs, nan=1.0, posinf=1.0), 1.0)
+            level = np.minimum(np.rint(2 * np.log2(ratio)).astype(int), 20)
     out = np.full(code.shape, np.nan, np.float32)
     for cd, s_ in sigma.items():
-        sel = code == cd
-        if sel.any():
-            s_ = np.asarray(s_, float) if band is None else np.hypot(np.asarray(s_, float), band)
-            out[sel] = posterior_radius(problem, XYZ[sel], s_, prior=prior)
+        at = code == cd
+        for q in np.unique(level[at]) if at.any() else ():
+            sel = at & (level == q)
+            s_q = np.asarray(s_, float).copy()
+            if q > 0:
+                s_q[s_q == rs] = rs * 2.0 ** (q / 2)
+            s_q = s_q if band is None else np.hypot(s_q, band)
+            out[sel] = posterior_radius(problem, XYZ[sel], s_q, prior=prior)
     return out
 
 
@@ -826,7 +843,7 @@ def correct_step(
     from zonotope.correct.image import correct_image
 
     from .._tol import JOINT_NSIGMA, UNCERTAINTY_PNG_MAX
-    from ..fusion import measured, rejected_bit
+    from ..fusion import measured, rejected_bit, render_error
 
     spec, ws = step_workspace(capture, out, config)
     out = ws.root
@@ -954,7 +971,12 @@ def correct_step(
             if want_fused:
                 XYZ = correct_fused(fused, code, sigma, fit, config.quantum)
                 _write_corrected(o, f"{mname}_fused", XYZ, wXYZ)
-                radius = fused_uncertainty(problem, XYZ, code, sigma, band, prior=prior)
+                rendered = None
+                if not novel:  # the render's local error, told by this photograph's own sites
+                    own = img[..., 3 * r.camera : 3 * r.camera + 3]
+                    local = render_error(r, scale[3 * r.camera : 3 * r.camera + 3], own)
+                    rendered = (fusion["render_sigma"], local * np.maximum(fused, 0).mean(-1))
+                radius = fused_uncertainty(problem, XYZ, code, sigma, band, prior=prior, rendered=rendered)
                 uncertainty[name] = _write_uncertainty(o, f"{mname}_fused", radius)
             if want_full:  # at the photograph's own size, strip by strip (splat.strips)
                 full_info[name] = _full_resolution(

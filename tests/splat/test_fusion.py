@@ -1756,3 +1756,34 @@ def test_levelled_white_without_reprojections_is_the_white_and_is_cached(sim, tm
     again = levelled_white(sim["spec"], tmp_path, {}, {}, white)
     np.testing.assert_allclose(again["scale"][1], 0.5 * white["scale"][1])
     np.testing.assert_allclose(again["scale"][2], 2.0 * white["scale"][2])
+
+
+# ------------------------------------------------------------------------------------ render_error
+
+
+@pytest.mark.parametrize("pattern", ["RGGB", None])
+def test_render_error_ignores_a_common_gain_and_measures_a_wrong_edge(pattern):
+    """A render off by one gain everywhere has no local error; a render whose vertical edge sits two
+    pixels to the right of the photograph's is wrong only within the window of that edge, where the
+    error is the standard deviation of log(measured / rendered) over the window's sites, by hand."""
+    H, W = 16, 24
+    truth = _scene(H, W)
+    mask = _cfa_mask(H, W, pattern)
+    exif = 2.5
+    view = _view(truth * exif * WHITE * mask, mask, full_colour=pattern is None)
+    assert np.abs(fusion.render_error(view, WHITE, 1.7 * truth)).max() < 1e-6  # float32 sites
+    render = truth.copy()
+    edge = 3 * W // 8
+    render[:, edge : edge + 2] = render[:, edge - 1 : edge]  # the left colour reaches 2 px too far
+    err = fusion.render_error(view, WHITE, render)
+    assert (err[:, : edge - 3] < 1e-6).all() and (err[:, edge + 4 :] < 1e-6).all()
+    y, x = 3, edge  # by hand: the 5 × 5 window's usable sites
+    win = (slice(y - 2, y + 3), slice(x - 2, x + 3))
+    logs = np.log(truth[win] / render[win])[mask[win] > 0]
+    assert err[y, x] == pytest.approx(logs.std(), rel=1e-6) and err[y, x] > 0.1
+
+
+def test_render_error_refuses_a_render_of_another_shape():
+    view = _view(np.ones((4, 6, 3)), np.ones((4, 6, 3)), full_colour=True)
+    with pytest.raises(splat.SplatError, match=r"render_error: render \(4, 5, 3\)"):
+        fusion.render_error(view, WHITE, np.ones((4, 5, 3)))
