@@ -63,6 +63,7 @@ __all__ = [
     "PNGStripWriter",
     "Photograph",
     "WorkingFusion",
+    "corrected_working",
     "default_workers",
     "demosaic_rows",
     "full_resolution_view",
@@ -535,6 +536,25 @@ def full_resolution_view(
             yield XYZ
         return
     yield from _in_order(strip, bounds, workers, lambda r1: progress and progress("full resolution", r1, H))
+
+
+def corrected_working(fused: np.ndarray, code: np.ndarray, sigma: dict, fit: Callable) -> np.ndarray:
+    """The working fused responses corrected noise pattern by noise pattern (``fit(σ) → (corrector,
+    scale)``, each pattern its working σ), as the strips correct theirs: float32 XYZ (h, w, 3).
+
+    The full-resolution output where the working grid is the RAW file's own: there the working fusion
+    is a full-resolution one that knows more than a strip (the own channels demosaiced with the other
+    cameras' help and averaged with the camera's other photographs, textured pixels anchored to their
+    own sites)."""
+    fused = np.asarray(fused, np.float32)
+    code = np.asarray(code)
+    out = np.zeros((*code.shape, 3), np.float32)
+    for c, s_ in sigma.items():
+        sel = code == c
+        if sel.any():
+            cor, scale = fit(np.asarray(s_, float))
+            out[sel] = _apply(cor, fused[sel] * np.asarray(scale, np.float32))
+    return out
 
 
 def _in_order(work: Callable, bounds: list, workers: int, done: Callable):

@@ -4,6 +4,8 @@ full camera, strip processing against the whole image, the output at the RAW fil
 
 from __future__ import annotations
 
+import types
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -426,3 +428,39 @@ def test_raw_rows_against_the_per_site_formula(cfa):
     np.testing.assert_array_equal(values, np.where(site, x, 0).astype(np.float32))
     np.testing.assert_array_equal(weight, (site & ~(sat | dead)[..., None]).astype(np.float32))
     assert (n_sat, n_dead) == (int(sat.sum()), int(dead.sum())) and n_sat > 0 and n_dead > 0
+
+
+@pytest.mark.parametrize("f", [1, 2])
+def test_full_resolution_at_binning_one_is_the_working_fusion_corrected(raw_file, tmp_path, f):
+    """Where the working grid is the RAW file's (binning 1) the full-size output is the working fused
+    responses corrected pattern by pattern (they know more than the strips: the other cameras' help in
+    demosaicing, the camera's other photographs averaged in); at binning 2 it is the strips'."""
+    import tifffile
+
+    from splat import strips
+    from splat.capture import CameraSpec
+    from splat.capture.correct import _full_resolution
+
+    src, fused, code, sigma, fit, _ = _full_inputs(raw_file, f=f)
+    H, W = src.shape
+    view = types.SimpleNamespace(camera=0, path=raw_file, binning=f, exif=1.3)
+    spec = types.SimpleNamespace(cameras=[CameraSpec("a", "Nikon 5100 (NPL)")], label=lambda k: "a")
+    noise = {"sigma_full": np.full(3, 0.01)}
+    scale = np.array([0.5, 0.6, 0.7])
+    info = _full_resolution(
+        spec, tmp_path, view, fused, code, sigma, scale, noise, fit, np.array([0.95, 1.0, 1.09]), None
+    )
+    got = tifffile.imread(tmp_path / "full_XYZ.tiff")
+    assert got.shape == (H, W, 3) and info["size"] == [W, H]
+    if f == 1:
+        want = np.zeros((H, W, 3))  # each pattern's corrector on its pixels, by hand
+        for c, s_ in sigma.items():
+            want[code == c] = fit(s_)[0].predict(fused[code == c])
+        np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
+        assert info["from"].startswith("the working fusion")
+    else:
+        photo = strips.Photograph(src, 1.3, scale, noise["sigma_full"])
+        work = strips.WorkingFusion(fused, code, sigma, slice(0, 3), 2)
+        whole = np.concatenate(list(strips.full_resolution_view(photo, work, fit)))
+        np.testing.assert_array_equal(got, whole)
+        assert "from" not in info
