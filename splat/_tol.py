@@ -26,6 +26,7 @@ __all__ = [
     "RAY_T_MIN",
     "REGION_MIN_PIXELS",
     "REGION_RTOL",
+    "RENDER_ERROR_FLOOR",
     "RENDER_ERROR_WINDOW",
     "ROTATION_ATOL",
     "SMOOTH_RTOL",
@@ -218,6 +219,10 @@ UNCERTAINTY_PNG_MAX = 10.0
 #: 0.881 to 0.977 on the benchmark capture and from 0.786 to 0.936 at CI size, claim 0.95
 #: (docs/notes/2026-11-30-uncertainty-map.md).
 RENDER_ERROR_WINDOW = 5
+#: Sites whose measured or rendered level (white → 1) is at most this are left out of the render's local
+#: error: their ratio is the sensor's noise, not the render's shape (a measured 10⁻³ is ~1 % of a
+#: 10 %-grey's level, a few σ of the simulated sensors' read noise).
+RENDER_ERROR_FLOOR = 1e-3
 # --- region means in scoring (splat.scoring.region_labels) ---
 
 #: A region of the true image is uniform where its XYZ varies by at most 1 % (relative, floor 0.02 in Y)

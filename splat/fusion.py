@@ -124,10 +124,11 @@ def sites(view, white_scale) -> tuple[np.ndarray, np.ndarray]:
 
 def render_error(view, white_scale, render_own: np.ndarray, *, size: int | None = None) -> np.ndarray:
     """The render's local relative error against a RAW view's own measured sites: per pixel, the
-    standard deviation of ``log(measured / rendered)`` over the usable sites (:func:`sites`, level
-    above 10⁻³) of the ``size × size`` window (default :data:`splat._tol.RENDER_ERROR_WINDOW`); 0 where
-    the window holds fewer than two. A common gain over the window (what anchoring to the photograph
-    removes) does not count; a render whose shape is wrong within the window does.
+    standard deviation of ``log(measured / rendered)`` over the usable sites (:func:`sites`, both
+    levels above :data:`splat._tol.RENDER_ERROR_FLOOR`) of the ``size × size`` window (default
+    :data:`splat._tol.RENDER_ERROR_WINDOW`); 0 where the window holds fewer than two. A common gain
+    over the window (what anchoring to the photograph removes) does not count; a render whose shape is
+    wrong within the window does.
 
     Why: the fusion's one render σ is the render's error averaged over every photograph, and most of
     it sits at the edges of surfaces, where the render is off by a step; a pixel there is told of it
@@ -139,19 +140,20 @@ def render_error(view, white_scale, render_own: np.ndarray, *, size: int | None 
     """
     from scipy.ndimage import uniform_filter
 
-    from ._tol import RENDER_ERROR_WINDOW
+    from ._tol import RENDER_ERROR_FLOOR, RENDER_ERROR_WINDOW
 
     size = RENDER_ERROR_WINDOW if size is None else int(size)
     values, at = sites(view, white_scale)
     r = np.asarray(render_own, float)
     if r.shape != values.shape:
         raise SplatError(f"render_error: render {r.shape} and the view's sites {values.shape} do not match.")
-    ok = at & (values > 1e-3) & (r > 1e-4)
-    lg = np.where(ok, np.log(np.maximum(values, 1e-3) / np.maximum(r, 1e-4)), 0.0)
+    floor = RENDER_ERROR_FLOOR
+    ok = at & (values > floor) & (r > floor)
+    lg = np.where(ok, np.log(np.maximum(values, floor) / np.maximum(r, floor)), 0.0)
     n = uniform_filter(ok.sum(-1).astype(float), size, mode="nearest")
     s1 = uniform_filter(lg.sum(-1), size, mode="nearest")
     s2 = uniform_filter((lg**2).sum(-1), size, mode="nearest")
-    enough = n * size**2 > 1.5  # at least two sites in the window
+    enough = np.rint(n * size * size) >= 2  # at least two sites in the window
     mean = s1 / np.maximum(n, 1e-12)
     return np.where(enough, np.sqrt(np.maximum(s2 / np.maximum(n, 1e-12) - mean**2, 0.0)), 0.0)
 
