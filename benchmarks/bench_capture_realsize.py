@@ -9,8 +9,9 @@ by :func:`_upsample.upsampled_dng` (bilinear, re-mosaicked, fresh shot + read no
 NoiseProfile, written by isp's DNG writer with the source's EXIF): at the default 12 MP, Nikon
 4096 × 3072 (×16), Sigma 4032 × 3024 (×18, LinearRaw), Canon 4352 × 2880 (×16). The files have a
 real camera's pixel count and noise but no detail finer than the simulated render. ``capture.toml``
-is the simulator's with the white card's box scaled with its photograph; the ground truth (``truth/``,
-at the simulated size) is not copied: this benchmark measures cost, not colour.
+is the simulator's with the white card's box and the chart's corners scaled with their photographs;
+the ground truth (``truth/``, at the simulated size) is not copied: this benchmark measures cost, not
+colour.
 
 Why upsampled rather than rendered at 12 MP: the ray-caster costs 18–33 s per megapixel on these
 cores (docs/benchmarks.md, "The Mitsuba 3 capture"), so 36 × 12 MP would take 2–4 h to simulate;
@@ -120,6 +121,9 @@ def realsize_capture(sim: Path, out: Path, mp: float) -> tuple[Path, dict]:
     white = doc["white"]
     f = sizes[white["image"].split("/")[0]][2]
     white["box"] = [int(x) * f for x in white["box"]]
+    if "chart" in doc and "corners" in doc["chart"]:  # RAW pixel j's centre moves to (j + 1/2) f - 1/2
+        g = sizes[doc["chart"]["image"].split("/")[0]][2]
+        doc["chart"]["corners"] = [[(x + 0.5) * g - 0.5 for x in c] for c in doc["chart"]["corners"]]
     (out / "capture.toml").write_text(_toml(doc, f"{sim.name} upsampled to ≥ {mp:g} MP"))
     return out, sizes
 
@@ -160,7 +164,7 @@ def _toml(doc: dict, note: str) -> str:
     lines += [f"{k} = {val(v)}" for k, v in doc.items() if not isinstance(v, dict | list)]
     for cam in doc["camera"]:
         lines += ["", "[[camera]]", *(f"{k} = {val(v)}" for k, v in cam.items())]
-    for table in ("white", "holdout", "poses"):
+    for table in ("white", "chart", "holdout", "poses"):
         if table in doc:
             lines += ["", f"[{table}]", *(f"{k} = {val(v)}" for k, v in doc[table].items())]
     return "\n".join(lines) + "\n"
