@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 
 import jax.numpy as jnp
@@ -14,6 +15,13 @@ from .gaussians import Gaussians, depth_colour_params
 from .rendering import RenderConfig, render
 
 __all__ = ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"]
+
+#: One render at a time in the process. Renders issued from several threads at once (the full-resolution
+#: strips' depth maps, ``splat.strips.full_resolution_view(workers=)``) deadlock on the "cpu" back-end:
+#: each render's host callback holds one of XLA's intra-op threads while it waits for an operand that
+#: another must compute (two threads on two cores: 20 concurrent strip renders hung where one thread made
+#: 300 in 6.4 s). The callback's kernel runs one at a time anyway (``splat.rendering``'s kernel lock).
+_RENDER_LOCK = threading.Lock()
 
 
 def render_views(
@@ -33,10 +41,14 @@ def render_views(
     """
     cams: list[Camera] = list(cameras)
     config = config or RenderConfig()
-    m = None if mask is None else jnp.asarray(mask)
-    return np.stack(
-        [np.asarray(_render_complete(gaussians, c, method=method, config=config, mask=m).image) for c in cams]
-    )
+    with _RENDER_LOCK:
+        m = None if mask is None else jnp.asarray(mask)
+        return np.stack(
+            [
+                np.asarray(_render_complete(gaussians, c, method=method, config=config, mask=m).image)
+                for c in cams
+            ]
+        )
 
 
 def _render_complete(

@@ -706,3 +706,51 @@ def test_full_resolution_view_on_threads_memory_does_not_grow_with_height():
     strip = rows * W * 9 * 8  # one strip's responses in float64
     assert peaks[1] < peaks[0] + 6 * strip, peaks
     assert peaks[1] < H * W * 9 * 8 / 10, peaks  # the whole image's responses: 10× more
+
+
+_CONCURRENT_DEPTHS = """
+import numpy as np
+from concurrent.futures import ThreadPoolExecutor
+from splat import init_gaussians
+from splat.camera import look_at
+from splat.reproject import depth_map
+from splat.strips import strip_camera
+
+rng = np.random.default_rng(0)
+means = rng.uniform(-1, 1, (16384, 3)) * [1, 1, 0.3]
+g = init_gaussians(means, np.ones((len(means), 2)), scales=0.05, opacity=0.9)
+cams = [look_at((2.5 * np.cos(t), 2.5 * np.sin(t), 2.0), (0, 0, 0), width=480, height=320, fov_deg=60)
+        for t in np.linspace(0, 5, 4)]
+
+
+def strip(i):
+    r0 = (16 * i) % 288
+    return depth_map(g, strip_camera(cams[i % 4], r0, r0 + 32))
+
+
+with ThreadPoolExecutor(2) as ex:  # as full_resolution_view(workers=2) renders its strips
+    n = sum(1 for _ in ex.map(strip, range(60)))
+print("rendered", n)
+"""
+
+
+def test_depth_maps_rendered_from_several_threads_at_once_do_not_hang(tmp_path):
+    """The strips render their depth maps on ``workers`` threads: 60 strip renders of 16,384 Gaussians
+    issued from two threads at once all finish (~5 s); without the renders' lock
+    (``splat.outputs._RENDER_LOCK``) they deadlock on XLA's intra-op threads (hung in 2 of 2 runs).
+    Run in a child process, so that a deadlock fails the test after its timeout instead of stopping
+    the suite."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    script = tmp_path / "depths.py"
+    script.write_text(_CONCURRENT_DEPTHS)
+    try:
+        done = subprocess.run(
+            [sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=120
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail("60 depth maps rendered on 2 threads did not finish in 120 s (deadlock)")
+    assert done.returncode == 0 and "rendered 60" in done.stdout, done.stderr[-2000:]
