@@ -10,13 +10,20 @@ as the correct step makes them, ``fused_view``) give:
   fused responses corrected (:func:`splat.strips.corrected_working`), else the strips;
 * **strips**: the strip path forced (:func:`splat.strips.full_resolution_view` with the other cameras'
   photographs reprojected at full resolution, as the correct step prepares them), which the full-size
-  output was at every binning before.
+  output was at every binning before;
+* **working answer sharpened**: the working answer upsampled bilinearly and multiplied by the ratio of
+  the photograph's own channel sum to the upsampled fused one (the strips' Brovey ratio carried into
+  the colour instead of the responses), an alternative for binnings above 1.
+
+At a binning above 1 the working answer is scored upsampled bilinearly to the photograph's size. A run
+made with ``--train-size`` is scored with the same ``--train-size`` (the views are read at its binning).
 
 Printed per estimate: mean ΔE00 over all and flat pixels, and over the regions' mean colours (chart
 patches, uniform surfaces: noise averaged), per camera and over the views; and the time of the last two
 in one process (median over the views).
 
     python benchmarks/bench_full_output.py --work /tmp/acc_bench
+    python benchmarks/bench_full_output.py --capture /tmp/acc_bench/capture --out /tmp/acc_f2 --train-size 255
 """
 
 from __future__ import annotations
@@ -36,6 +43,7 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, help="a bench_capture_accuracy work folder (capture/, out/)")
     ap.add_argument("--capture", type=Path, help="the capture (default WORK/capture)")
     ap.add_argument("--out", type=Path, help="the run's output folder (default WORK/out)")
+    ap.add_argument("--train-size", type=int, default=None, help="the run's --train-size, if it had one")
     a = ap.parse_args(argv)
     capture = a.capture or (a.work / "capture" if a.work else None)
     out = a.out or (a.work / "out" if a.work else None)
@@ -48,15 +56,22 @@ def main(argv=None) -> int:
 
     from splat import strips
     from splat.capture import (
+        PipelineConfig,
         correct_fused,
         fused_fitter,
         fused_view,
         fusion_of,
+        levelled_white,
+        load_views,
         open_raw,
         read_capture,
+        read_index,
         reprojected_of,
+        white_of,
     )
+    from splat.capture.config import working_binning
     from splat.capture.correct import _full_resolution, correction_problem_of, full_reprojection, own_noise
+    from splat.fusion import ANCHOR_EPS
     from splat.scoring import (
         _chart_XYZ,
         _dE_all,
@@ -68,7 +83,14 @@ def main(argv=None) -> int:
     )
 
     spec = read_capture(capture)
-    raws, index, _white, scale = correction_inputs(spec, out)
+    if a.train_size is None:
+        raws, index, _white, scale = correction_inputs(spec, out)
+    else:  # the views at the run's binning, the white as the correct step levelled it
+        binning = working_binning(PipelineConfig(train_size=a.train_size), spec)
+        raws = {v.name: v for v in load_views(spec, binning=binning)}
+        index = read_index(spec, out / "render" / "index.json")
+        white = levelled_white(spec, out, index, raws, white_of(spec, out, list(raws.values())))
+        scale = np.concatenate(white["scale"])
     fusion = fusion_of(spec, out, index, raws, scale)
     cams = list(range(len(spec.cameras)))
     prior, full_fit = fused_fitter(spec, cams, "Prior"), fused_fitter(spec, cams, strips.FULL_METHOD)
@@ -78,7 +100,7 @@ def main(argv=None) -> int:
     wXYZ = np.asarray(problem.white_XYZ, float)
     C = _chart_XYZ(spec)
     held = [k for k, v in index.items() if v["kind"] == "holdout"]
-    keys = ("working answer", "full-size output", "strips")
+    keys = ("working answer", "full-size output", "strips", "working answer sharpened")
     rows = {k: {"all": [], "flat": [], "chart": [], "uniform": [], "camera": []} for k in keys}
     seconds: dict[str, list] = {"full-size output": [], "strips": []}
     tmp = Path(tempfile.mkdtemp(prefix="bench_full_output_"))
@@ -107,6 +129,15 @@ def main(argv=None) -> int:
             list(strips.full_resolution_view(photo, work, full_fit, reprojection=rep))
         )
         seconds["strips"].append(time.perf_counter() - t0)
+        H, W = source.shape
+        fb = v.binning
+        up_answer = strips.upsample_rows(est["working answer"], fb, 0, H, W)
+        lin, valid = strips.demosaic_rows(source, 0, H)
+        photo_sum = np.maximum(lin / (v.exif * scale[own]), 0).sum(-1)
+        fused_sum = np.maximum(strips.upsample_rows(f, fb, 0, H, W)[..., own], 0).sum(-1)
+        ratio = (photo_sum + ANCHOR_EPS) / (fused_sum + ANCHOR_EPS)
+        est["working answer sharpened"] = up_answer * np.where(valid, ratio, 1)[..., None]
+        est["working answer"] = up_answer
         for key in keys:
             e = _dE_all(problem, est[key], truth)
             ch, un = _region_dE(problem, est[key], truth, labels, chart)
