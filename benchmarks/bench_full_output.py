@@ -37,20 +37,18 @@ from pathlib import Path
 
 import numpy as np
 
+try:  # run as a script (python benchmarks/bench_X.py) or imported as benchmarks.bench_X
+    from _workfolder import add_work_arguments, work_folders
+except ImportError:
+    from benchmarks._workfolder import add_work_arguments, work_folders
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--work", type=Path, help="a bench_capture_accuracy work folder (capture/, out/)")
-    ap.add_argument("--capture", type=Path, help="the capture (default WORK/capture)")
-    ap.add_argument("--out", type=Path, help="the run's output folder (default WORK/out)")
+    add_work_arguments(ap)
     ap.add_argument("--train-size", type=int, default=None, help="the run's --train-size, if it had one")
     a = ap.parse_args(argv)
-    capture = a.capture or (a.work / "capture" if a.work else None)
-    out = a.out or (a.work / "out" if a.work else None)
-    if capture is None or out is None:
-        ap.error("give --work, or --capture and --out")
-    if not (capture / "truth" / "xyz").is_dir() or not (out / "render" / "index.json").is_file():
-        ap.error(f"{capture} needs truth/xyz and {out} a finished render step")
+    capture, out = work_folders(ap, a)
 
     import tifffile
 
