@@ -1,5 +1,6 @@
-"""The train step on real-size files: it says that it is reading each RAW file (minutes at 12 MP), and
-its recorded duration covers that reading."""
+"""Steps on files larger than the working size: the train step says that it is reading each RAW file
+(minutes at 12 MP) and its recorded duration covers that reading; the correct step makes every
+photograph's full-size output by the strips."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ def _capture(root):
             yy, xx = np.mgrid[: cam.height, : cam.width]
             ph = np.arange(9)[None, None] * 0.7
             self.image = 0.1 + 0.08 * np.sin(xx[..., None] / 4.0 + ph) * np.cos(yy[..., None] / 5.0 + ph)
+            self.image[:12, :12] = 0.6  # a grey card in every view, for the white
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(splat, "render_reference", lambda g, cam: Image(cam))
@@ -55,3 +57,40 @@ def test_training_inputs_report_every_file_read(tmp_path, monkeypatch):
     monkeypatch.setattr(time, "perf_counter", lambda: real_clock() + jump[0])
     s = fit_step(cap, out, config=PipelineConfig(steps=2, capacity=64, train_size=24))
     assert s["duration_s"] >= 3600.0 * n
+
+
+def test_the_correct_step_above_binning_one_writes_the_strips(tmp_path):
+    """A run whose working size is half the files' (``train_size``): every photograph's full-size
+    output is made by the strips, two at once on threads, with the other cameras' photographs
+    reprojected at full resolution (the correct step's whole path above binning 1), at its RAW file's
+    size."""
+    import json
+
+    import tifffile
+
+    from splat.capture import (
+        PipelineConfig,
+        correct_step,
+        fit_step,
+        open_raw,
+        poses_step,
+        read_capture,
+        render_step,
+    )
+
+    cap = _capture(tmp_path / "cap")
+    out = tmp_path / "out"
+    spec = read_capture(cap)
+    config = PipelineConfig(steps=2, capacity=256, train_size=24, workers=2)
+    for step in (poses_step, fit_step, render_step, correct_step):
+        step(cap, out, config=config)
+    doc = json.loads((out / "correct" / "summary.json").read_text())["full_resolution"]
+    names = [f"{c.folder}/{p.name}" for k, c in enumerate(spec.cameras) for p in spec.raw_files(k)]
+    assert doc["views"] == len(names) == 9 and set(doc["per_view"]) == set(names)
+    for name in names:
+        info = doc["per_view"][name]
+        H, W = open_raw(cap / name, spec.cameras[spec.camera_index(name.split("/")[0])]).shape
+        assert info["binning"] > 1 and "from" not in info and info["workers"] == 2
+        assert info["reprojected_at_full_resolution"]  # the other cameras' photographs read
+        full = tifffile.imread(out / "correct" / spec.out_stem(name) / "full_XYZ.tiff")
+        assert full.shape == (H, W, 3) and np.isfinite(full).all()
