@@ -151,6 +151,17 @@ def _read_tiff(path: Path) -> np.ndarray:
     return np.asarray(tifffile.imread(path), np.float64)
 
 
+def _tiff_pixels(path: Path) -> np.ndarray:
+    """The pixels of a float32 TIFF without reading it whole where its data lie in one piece (the
+    full-size outputs: 24 MP is 288 MB, and a chart needs 24 small boxes of it); else read."""
+    import tifffile
+
+    try:
+        return tifffile.memmap(path, mode="r")
+    except ValueError:  # compressed or in pieces
+        return _read_tiff(path)
+
+
 def card_check(
     spec: CaptureSpec, name: str, corrected: Path, camera: Path, white_XYZ, *, raw_size=None
 ) -> CardCheck | None:
@@ -281,7 +292,7 @@ def chart_check(
     for key, p in (("corrected", corrected), ("full", full), ("camera", camera)):
         if p is None or not p.is_file():
             continue
-        img = _read_tiff(p)
+        img = _tiff_pixels(p)
         H, W = img.shape[:2]
         h0, w0 = raw_size if raw_size is not None else (H, W)
         sx, sy = W / w0, H / h0
@@ -292,7 +303,7 @@ def chart_check(
             y0, y1 = int(np.floor(y - half + 0.5)), int(np.floor(y + half + 0.5))
             x0, x1 = int(np.floor(x - half + 0.5)), int(np.floor(x + half + 0.5))
             if 0 <= y0 < y1 <= H and 0 <= x0 < x1 <= W:  # else outside this image: NaN
-                means[j] = img[y0:y1, x0:x1].reshape(-1, 3).mean(0)
+                means[j] = np.asarray(img[y0:y1, x0:x1], np.float64).reshape(-1, 3).mean(0)
         lab = np.asarray(colour.XYZ_to_Lab(means, illuminant=xy))
         check.delta_E[key] = np.asarray(colour.delta_E(lab, expected, method="CIE 2000"), float)
     return check

@@ -101,7 +101,7 @@ def chart_of(spec: CaptureSpec, ws: Workspace) -> CaptureSpec:
     where = f"{spec.file}: [chart] image {chart.image!r}"
     try:
         require_detector(by_hand=_BY_HAND)
-        camera = next(c for c in spec.cameras if name.startswith(f"{Path(c.folder).as_posix()}/"))
+        camera = spec.cameras[spec.camera_index(chart.image.rsplit("/", 1)[0])]  # "<folder>/<file>"
         d = detect_chart_rgb(
             chart_preview(path, camera), illuminant=_detection_light(spec), path=where, by_hand=_BY_HAND
         )
