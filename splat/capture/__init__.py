@@ -93,6 +93,7 @@ _EXPORTS = {
         "read_linear",
         "relative_exposures",
         "white_box",
+        "white_patch",
         "white_scale",
     ],
     "workspace": [

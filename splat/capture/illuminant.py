@@ -24,7 +24,7 @@ import numpy as np
 
 from .._tol import LIGHT_BOOTSTRAP, LIGHT_DARK, LIGHT_PIXELS, LIGHT_SPECULAR
 from .files import read_tiff, write_json
-from .raw import white_box
+from .raw import white_box, white_patch
 from .spec import CaptureError, CaptureSpec
 from .workspace import read_json
 
@@ -81,11 +81,9 @@ def estimate_scene_light(spec: CaptureSpec, out: Path, index: dict, raws: dict) 
             n = len(img)
             used, where = cams, f"its view's render ({n} pixels, every camera)"
         else:  # not rendered: the photograph's own channels (valid sites only)
-            val = np.asarray(v.values, float)[y0:y1, x0:x1].reshape(-1, 3)
-            wt = np.asarray(v.weight, float)[y0:y1, x0:x1].reshape(-1, 3)
-            with np.errstate(invalid="ignore", divide="ignore"):  # a channel without a site: refused below
-                img = ((val * wt).sum(0) / wt.sum(0))[None]
-            n = int((wt > 0).any(-1).sum())
+            mean, sites = white_patch(spec, v)  # a channel without a site (NaN): refused below
+            img = mean[None]
+            n = int(sites.sum())
             used, where = (
                 [cams[v.camera]],
                 f"the photograph ({n} sites, {spec.cameras[v.camera].folder} only)",

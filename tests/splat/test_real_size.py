@@ -354,6 +354,44 @@ def test_training_inputs_are_binned_and_their_cameras_scaled(small_capture, tmp_
         assert not inp.weights[i, h:].any() and not inp.weights[i, :, w:].any()
 
 
+def test_the_white_patch_does_not_depend_on_the_binning(small_capture):
+    """A box whose edges are not on the blocks' grid: the binned view's white is the mean of the box's
+    own sites, as at full resolution, never of the blocks it straddles (which average in sites beyond
+    its edges); the rendered card is read on the blocks wholly inside it."""
+    from dataclasses import replace
+
+    from splat.capture import (
+        PipelineConfig,
+        WhiteSpec,
+        load_views,
+        read_capture,
+        white_box,
+        white_patch,
+    )
+    from splat.capture.config import working_binning
+
+    spec = read_capture(small_capture)
+    full = load_views(spec)
+    name = full[0].name
+    H, W = full[0].shape
+    box = (3, 5, W // 2 + 1, H // 2 + 3)  # odd edges
+    spec = replace(spec, white=WhiteSpec("patch", name, box, 0.9))
+    binned = load_views(spec, binning=working_binning(PipelineConfig(train_size=16), spec))
+    v1, vb = full[0], next(v for v in binned if v.name == name)
+    f = vb.binning
+    assert f >= 2
+    m1, n1 = white_patch(spec, v1)
+    mb, nb = white_patch(spec, vb)
+    np.testing.assert_allclose(mb, m1, rtol=1e-6)
+    np.testing.assert_array_equal(nb, n1)
+    # the straddling blocks give another white on this field, so the test can tell them apart
+    x0, y0, x1, y1 = box
+    touched = vb.values[y0 // f : -(-y1 // f), x0 // f : -(-x1 // f)].reshape(-1, 3).mean(0)
+    assert np.max(np.abs(touched / m1 - 1)) > 1e-3
+    a0, b0, a1, b1 = white_box(spec, vb)
+    assert (a0 * f, b0 * f) >= (x0, y0) and (a1 * f, b1 * f) <= (x1, y1) and a1 > a0 and b1 > b0
+
+
 def test_train_size_and_noise_are_checked_before_work(small_capture, tmp_path, capsys):
     from splat.capture import CaptureError, PipelineConfig, read_capture
     from splat.cli import main
