@@ -34,14 +34,18 @@ Measured, in one process:
 ``splat/reproject.py``, the rasteriser's kernels (``splat/_raster_kernel.py``) and the root-polynomial
 regression's terms (``zonotope/correct/regressions.py``) were at git ``REV`` (their sources
 made by that version, one strip after the other), for before/after ratios in one process.
-``--workers 1,2`` times the current full-res reprojection with each number of strips computed at once
-(threads; default ``1`` and :func:`splat.strips.default_workers`), each printed with its process CPU
-and wall time, CPU / wall (the cores it kept busy) and the machine's load average; ``--no-previous``
-and ``--no-growth`` leave out the previous path and the smaller sizes; ``--no-write`` drops the strips
-instead of writing the files.
+``--own-sources N`` adds the current path reading ``N`` of the photograph's own camera's other
+photographs (0: the other cameras' only, as before they were averaged in) instead of
+:data:`splat._tol.FULL_OWN_SOURCES`, on as many threads as the most of ``--workers``; the ``REV`` path
+reads the other cameras' only. ``--workers 1,2`` times the current full-res reprojection with each
+number of strips computed at once (threads; default ``1`` and :func:`splat.strips.default_workers`),
+each printed with its process CPU and wall time, CPU / wall (the cores it kept busy) and the machine's
+load average; ``--no-previous`` and ``--no-growth`` leave out the previous path and the smaller sizes;
+``--no-write`` drops the strips instead of writing the files.
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full] [--against REV] [--workers 1,2] [--no-previous] [--no-growth] [--no-write]
+        [--only-full] [--against REV] [--own-sources N] [--workers 1,2] [--no-previous] [--no-growth]
+        [--no-write]
 """
 
 from __future__ import annotations
@@ -157,6 +161,13 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--workers", help="comma-separated numbers of strips computed at once (default 1,<cores>)"
     )
+    ap.add_argument(
+        "--own-sources",
+        type=int,
+        metavar="N",
+        help="also time the full-res reprojection reading N of the own camera's other photographs "
+        "(0: the other cameras' only) instead of splat._tol.FULL_OWN_SOURCES",
+    )
     ap.add_argument("--no-previous", action="store_true", help="leave out the previous (upsampled) path")
     ap.add_argument("--no-growth", action="store_true", help="time --scale only (no smaller sizes)")
     ap.add_argument(
@@ -220,7 +231,7 @@ def main(argv=None) -> int:
     _, cap = load_model_capture(spec, out)
     wviews = {v.name: v for v in refined_views(P.working_views(cap.views, raws), out)}
 
-    def model_at(s):
+    def model_at(s, own=None):
         fake = {m: dataclasses.replace(r, binning=s) for m, r in raws.items()}
 
         def open_source(r):
@@ -229,9 +240,15 @@ def main(argv=None) -> int:
                 _upsampled_dng(raws[r.name], spec, args.work / f"{stem}_x{s}.dng", s), spec.cameras[r.camera]
             )
 
-        return full_reprojection(spec, out, fake, fusion, scale, views=wviews, open_source=open_source), fake[
-            name
-        ]
+        import splat._tol as tol
+
+        kept = tol.FULL_OWN_SOURCES
+        tol.FULL_OWN_SOURCES = kept if own is None else own  # read when the model is made
+        try:
+            made = full_reprojection(spec, out, fake, fusion, scale, views=wviews, open_source=open_source)
+        finally:
+            tol.FULL_OWN_SOURCES = kept
+        return made, fake[name]
 
     rows = []
     counts = sorted({int(w) for w in (args.workers or f"1,{strips.default_workers()}").split(",")})
@@ -246,6 +263,10 @@ def main(argv=None) -> int:
         for w in counts
     }
     paths = (*(() if args.no_previous else ("previous",)), *full)
+    own_path = None
+    if args.own_sources is not None:
+        own_path = f"full-res reprojection, {args.own_sources} own photographs"
+        paths = (*paths, own_path)
     older = _modules_at(args.against) if args.against else None
     if older is not None:
         paths = (*paths, f"full-res reprojection at {args.against}")
@@ -259,7 +280,8 @@ def main(argv=None) -> int:
         model, fake_view = model_at(s)
         if older is not None:
             with _using(strips, older[0]):  # the older path's sources as the older module makes them
-                older_model, _ = model_at(s)
+                older_model, _ = model_at(s, own=0)  # the other cameras' photographs only
+        own_model = model_at(s, own=args.own_sources)[0] if own_path else None
         H, W = open_raw(big, spec.cameras[view.camera]).shape
         chosen = model(fake_view, (H, W))  # writes the sources' DNGs once, outside the timing
         t = time.perf_counter()  # the depth renderer compiled for this width (once per image size)
@@ -283,11 +305,11 @@ def main(argv=None) -> int:
                 t, c0 = time.perf_counter(), time.process_time()
                 src = open_raw(big, spec.cameras[view.camera])
                 mod = older[0] if path == paths[-1] and older is not None else strips
-                made = older_model if mod is not strips else model
+                made = older_model if mod is not strips else own_model if path == own_path else model
                 rep = made(fake_view, (H, W)) if path != "previous" else None
                 given = None if rep is None else rep.rep
                 if mod is strips:
-                    threads = {"workers": full.get(path, 1)}
+                    threads = {"workers": full.get(path, max(full.values()))}
                 else:  # the older code with as many strips at once as the current one, where it can
                     takes = "workers" in inspect.signature(mod.full_resolution_view).parameters
                     threads = {"workers": max(full.values())} if takes else {}
@@ -348,7 +370,7 @@ def main(argv=None) -> int:
         )
         print(f"{path}: {growth}{cs[-1] / mp[-1]:.2f} s of CPU per MP at the largest size")
     last = {r[6]: r for r in rows}  # each path at the largest size
-    base = [p for p in paths if p not in full]  # previous and REV: the baselines in this process
+    base = [p for p in paths if p not in full]  # previous, REV, own N: the baselines in this process
     for p in full:
         for b in base:
             new, old = last[p], last[b]

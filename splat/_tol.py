@@ -289,6 +289,11 @@ SOURCE_BLOCK_ROWS = 128
 #: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
 #: 24 MP) while the photograph is corrected; the working fusion averages all of them.
 FULL_SOURCES = 2
+
+#: Other photographs of the corrected photograph's own camera read at full resolution, averaged into its
+#: own channels with the measurement (inverse variance) where they see a plain pixel: the noise the
+#: working fusion averages away, kept from the full-size output otherwise.
+FULL_OWN_SOURCES = 2
 # --- camera levels and clipped photographs (splat.fusion.camera_levels, splat.fusion.unclipped) ---
 
 #: Pixels a view must share with another camera's reprojected photographs for their ratio to count

@@ -17,7 +17,10 @@ one strip of ``STRIP_ROWS`` rows at a time:
    each source photograph, read there from the source's RAW rows (only the rows the strip lands on,
    demosaiced bilinearly a band at a time, :func:`raw_row_source`), kept where the source's own depth
    (working resolution) agrees (:func:`splat.reproject.reproject_rows`), and combined per camera as the
-   render step combines them (:func:`splat.reproject.reprojected`). Pixels no photograph of a camera
+   render step combines them (:func:`splat.reproject.reprojected`). The photograph's own camera's
+   other photographs are read the same way and averaged into its own channels with the measurement,
+   inverse-variance weighted, where they see a plain pixel whose own site is valid (the noise the
+   working fusion averages away; the fit is told the two σ combined). Pixels no photograph of a camera
    sees, pixels where the photograph is textured at full resolution (:func:`textured_rows`: a
    reprojection misplaced by a fraction of a pixel is off by the step there, as at the working
    resolution, :func:`splat.capture.fused_view`), and pixels where the working fusion rejected the
@@ -219,7 +222,7 @@ class WorkingFusion(NamedTuple):
 
 
 class FullReprojection(NamedTuple):
-    """The other cameras' photographs, to be reprojected into a photograph at its full resolution.
+    """The cameras' photographs, to be reprojected into a photograph at its full resolution.
 
     Attributes
     ----------
@@ -233,9 +236,11 @@ class FullReprojection(NamedTuple):
         Camera position ``i`` among the fused channels (``3 i : 3 i + 3``) → list of
         :class:`splat.reproject.RowSource`: that camera's photographs at their full resolution, values
         on the white → 1 scale at exposure 1, their variance if known (the render step's combination
-        rule, :func:`splat.reproject.reprojected`).
+        rule, :func:`splat.reproject.reprojected`). At the photograph's own position: its camera's
+        other photographs, averaged with the measurement.
     sigma : ndarray of shape (k,)
-        σ of a channel where it is reprojected at full resolution.
+        σ of a channel where it is reprojected at full resolution (at the own position, of the
+        reprojection alone).
     """
 
     gaussians: object
@@ -449,11 +454,12 @@ def full_resolution_view(
     progress : callable, optional
         ``progress("full resolution", rows done, rows)`` after each strip.
     reprojection : FullReprojection, optional
-        The other cameras' photographs at full resolution (:func:`reprojected_strip`): where one of them
-        sees a pixel and the photograph is not textured there at full resolution (:func:`textured_rows`),
-        that camera's channels are their values there instead of the upsampled working responses, σ
-        ``reprojection.sigma``. Without, every other channel is the upsampled working fusion (the
-        previous path).
+        The cameras' photographs at full resolution (:func:`reprojected_strip`): where one of another
+        camera's sees a pixel and the photograph is not textured there at full resolution
+        (:func:`textured_rows`), that camera's channels are their values there instead of the upsampled
+        working responses, σ ``reprojection.sigma``; the own camera's other photographs are averaged
+        with the measurement there (inverse variance, σ combined). Without, every other channel is the
+        upsampled working fusion (the previous path).
     workers : int
         Strips computed at once, each on a thread of its own (NumPy, the renderer and the regressions
         release the GIL for most of a strip's work): time only, the output is the same for any number;
@@ -480,13 +486,18 @@ def full_resolution_view(
     # a pixel's pattern: its working code, and from bit `shift` on, the cameras reprojected at full size
     shift = max(int(code.max()).bit_length(), m + 1) if code.size else m + 1
     rep_sigma = None
+    me = own.start // 3
     if reprojection is not None:
         rep_sigma = np.asarray(reprojection.sigma, float)
-        if rep_sigma.shape != (k,) or any(not 0 <= i < m or i == own.start // 3 for i in reprojection.groups):
+        if rep_sigma.shape != (k,) or any(not 0 <= i < m for i in reprojection.groups):
             raise SplatError(
-                f"full_resolution_view: reprojection σ {rep_sigma.shape} must be ({k},) and its groups other "
-                f"cameras' positions among {m}, not the photograph's own ({own.start // 3})."
+                f"full_resolution_view: reprojection σ {rep_sigma.shape} must be ({k},) and its groups "
+                f"cameras' positions among {m}."
             )
+        # the own channels where the camera's other photographs are averaged in: the two σ combined
+        w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
+        rep_sigma = rep_sigma.copy()
+        rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
     divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
     fitted = _Fitted(fit, patterns, rep_sigma, shift, m)
 
@@ -503,10 +514,16 @@ def full_resolution_view(
             plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
             values, seen = reprojected_strip(reprojection, r0, r1, need=plain)  # read only where used
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
-                use = (n > 0) & plain & (cd & rejected_bit(m, i) == 0)  # not where rejected at work
-                resp[..., 3 * i : 3 * i + 3] = np.where(
-                    use[..., None], np.maximum(vals, 0), resp[..., 3 * i : 3 * i + 3]
-                )
+                if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
+                    use = (n > 0) & plain & valid
+                    a, b = (w.astype(np.float32) for w in w_own)
+                    mean = (a * resp[..., own] + b * np.maximum(vals, 0)) / (a + b)
+                    resp[..., own] = np.where(use[..., None], mean, resp[..., own])
+                else:
+                    use = (n > 0) & plain & (cd & rejected_bit(m, i) == 0)  # not where rejected at work
+                    resp[..., 3 * i : 3 * i + 3] = np.where(
+                        use[..., None], np.maximum(vals, 0), resp[..., 3 * i : 3 * i + 3]
+                    )
                 cd = cd | (use.astype(cd.dtype) << (shift + i))
             del values, seen
         # pixels grouped by noise pattern: one gather and one scatter per strip

@@ -1126,7 +1126,8 @@ def full_reprojection(
 ):
     """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
     working resolution, or no camera's reprojection noise is known): for each other camera, its
-    :data:`splat._tol.FULL_SOURCES` photographs that see most of the view (at the working resolution,
+    :data:`splat._tol.FULL_SOURCES` photographs that see most of the view, and for the view's own camera
+    its :data:`splat._tol.FULL_OWN_SOURCES` other photographs that do (at the working resolution,
     through the splat's depth: :func:`splat.capture.nearest_sources` counting every pixel, photographs
     that see none of it left out), read from their RAW files (bilinear demosaic, as the render step's
     sources) a band of rows at a time. σ of a channel reprojected at full resolution: the camera's
@@ -1136,7 +1137,7 @@ def full_reprojection(
     ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
     views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
     :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks)."""
-    from .._tol import FULL_SOURCE_STRIDE, FULL_SOURCES
+    from .._tol import FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
     from ..reproject import MIN_ALPHA, depth_map
@@ -1185,15 +1186,14 @@ def full_reprojection(
             cam.R, cam.t, np.asarray(cam.focal) * f, np.asarray(cam.principal) * f, shape[1], shape[0]
         )
         groups, names, sig = {}, {}, np.zeros(3 * len(spec.cameras))
-        for c in range(len(spec.cameras)):
-            if c == view.camera:
-                continue
+        for c in range(len(spec.cameras)):  # the view's own camera too: its other photographs
             cands = [
                 (name, st["views"][name].camera, depth(name)[2])
                 for name, r in raws.items()
-                if r.camera == c and r.exif is not None and name in st["views"]
+                if r.camera == c and r.exif is not None and name in st["views"] and name != view.name
             ]
-            best = nearest_sources(cam, d, a, cands, FULL_SOURCES, seen_only=True, stride=FULL_SOURCE_STRIDE)
+            n_src = FULL_OWN_SOURCES if c == view.camera else FULL_SOURCES
+            best = nearest_sources(cam, d, a, cands, n_src, seen_only=True, stride=FULL_SOURCE_STRIDE)
             chosen = [raws[nm] for nm, _, _ in best]
             if not chosen:
                 continue

@@ -61,9 +61,9 @@ def test_training_inputs_report_every_file_read(tmp_path, monkeypatch):
 
 def test_the_correct_step_above_binning_one_writes_the_strips(tmp_path):
     """A run whose working size is half the files' (``train_size``): every photograph's full-size
-    output is made by the strips, two at once on threads, with the other cameras' photographs
-    reprojected at full resolution (the correct step's whole path above binning 1), at its RAW file's
-    size."""
+    output is made by the strips, two at once on threads, with the other cameras' photographs and its
+    own camera's other photographs reprojected at full resolution (the correct step's whole path above
+    binning 1), at its RAW file's size."""
     import json
 
     import tifffile
@@ -91,6 +91,8 @@ def test_the_correct_step_above_binning_one_writes_the_strips(tmp_path):
         info = doc["per_view"][name]
         H, W = open_raw(cap / name, spec.cameras[spec.camera_index(name.split("/")[0])]).shape
         assert info["binning"] > 1 and "from" not in info and info["workers"] == 2
-        assert info["reprojected_at_full_resolution"]  # the other cameras' photographs read
+        read = info["reprojected_at_full_resolution"]  # the cameras' photographs read at full size
+        k = spec.camera_index(name.split("/")[0])
+        assert len(read) == 3 and name.split("/")[1] not in read[spec.label(k)]  # its camera's others
         full = tifffile.imread(out / "correct" / spec.out_stem(name) / "full_XYZ.tiff")
         assert full.shape == (H, W, 3) and np.isfinite(full).all()

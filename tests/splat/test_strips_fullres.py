@@ -319,14 +319,52 @@ def test_full_resolution_view_skips_a_camera_rejected_at_the_working_resolution(
     np.testing.assert_allclose(out[both], want[both], rtol=1e-5, atol=1e-6)
 
 
-def test_full_resolution_view_refuses_own_camera_as_source(splat_scene):
+def test_full_resolution_view_averages_the_own_cameras_other_photographs(splat_scene):
+    """A group at the photograph's own position is its camera's other photographs: where one sees a
+    plain pixel, the own channels are the inverse-variance mean of the measurement (σ 0.01) and their
+    reprojection (σ 0.02), and the fit is told the two σ combined; another camera's group replaces its
+    channels as before."""
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    own = slice(3, 6)
+    work = WorkingFusion(
+        np.full((H // f, W // f, 9), 0.2), np.zeros((H // f, W // f), int), {0: np.full(9, 0.03)}, own, f
+    )
+    fits = []
+
+    def fit(s):
+        fits.append(np.array(s))
+        return _Linear(), np.ones(9)
+
+    rep_sigma = np.array([0.05, 0.05, 0.05, 0.02, 0.02, 0.02, 0.04, 0.04, 0.04])
+    rep = FullReprojection(g, None, cam, groups, rep_sigma)
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    out = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=16, reprojection=rep)))
+    values, seen = reprojected_strip(rep, 0, H)
+    tex = textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01))
+    both = (seen[0] > 0) & (seen[1] > 0) & ~tex
+    assert both.sum() > 50
+    measured = _Source(H, W).img
+    mean = (measured / 0.01**2 + values[0] / 0.02**2) / (1 / 0.01**2 + 1 / 0.02**2)
+    plain = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=H)))
+    # cameras 0 and 2 without reprojection: the working 0.2 upsampled and anchored, alike in both
+    anchored = (plain - 0.1 * measured) / 1.05
+    want = anchored + 0.1 * mean + 0.05 * values[1]  # camera 0 still anchored, camera 2 reprojected
+    np.testing.assert_allclose(out[both], want[both], rtol=1e-5, atol=1e-6)
+    assert np.abs(mean - measured)[both].max() > 1e-3  # the average moved the measurement
+    combined = 1 / np.sqrt(1 / 0.01**2 + 1 / 0.02**2)
+    assert any(np.allclose(s[3:6], combined) and np.allclose(s[6:], 0.04) for s in fits)
+
+
+def test_full_resolution_view_refuses_a_group_outside_the_cameras(splat_scene):
     g, cam, groups = splat_scene
     W, H = _SIZE
     work = WorkingFusion(
         np.zeros((H // 2, W // 2, 9)), np.zeros((H // 2, W // 2), int), {0: np.ones(9)}, slice(3, 6), 2
     )
-    rep = FullReprojection(g, None, cam, groups, np.ones(9))
-    with pytest.raises(SplatError, match="own"):
+    rep = FullReprojection(g, None, cam, {**groups, 3: groups[1]}, np.ones(9))
+    with pytest.raises(SplatError, match="positions among 3"):
         next(
             full_resolution_view(
                 Photograph(_Source(H, W), 1.0, np.ones(3), np.ones(3)), work, None, reprojection=rep
