@@ -37,15 +37,17 @@ made by that version, one strip after the other), for before/after ratios in one
 ``--own-sources N`` adds the current path reading ``N`` of the photograph's own camera's other
 photographs (0: the other cameras' only, as before they were averaged in) instead of
 :data:`splat._tol.FULL_OWN_SOURCES`, on as many threads as the most of ``--workers``; the ``REV`` path
-reads the other cameras' only. ``--workers 1,2`` times the current full-res reprojection with each
-number of strips computed at once (threads; default ``1`` and :func:`splat.strips.default_workers`),
-each printed with its process CPU and wall time, CPU / wall (the cores it kept busy) and the machine's
-load average; ``--no-previous`` and ``--no-growth`` leave out the previous path and the smaller sizes;
-``--no-write`` drops the strips instead of writing the files.
+reads the other cameras' only. ``--plain-texture`` adds it without the render at full resolution
+anchored at textured pixels (their responses the working ones upsampled, as before). ``--workers 1,2``
+times the current full-res reprojection with each number of strips computed at once (threads; default
+``1`` and :func:`splat.strips.default_workers`), each printed with its process CPU and wall time, CPU /
+wall (the cores it kept busy) and the machine's load average; ``--no-previous`` and ``--no-growth``
+leave out the previous path and the smaller sizes; ``--no-write`` drops the strips instead of writing
+the files.
 
     python benchmarks/bench_capture_size.py --work /tmp/bench_capture_size [--scale 44] [--runs 3]
-        [--only-full] [--against REV] [--own-sources N] [--workers 1,2] [--no-previous] [--no-growth]
-        [--no-write]
+        [--only-full] [--against REV] [--own-sources N] [--plain-texture] [--workers 1,2]
+        [--no-previous] [--no-growth] [--no-write]
 """
 
 from __future__ import annotations
@@ -132,12 +134,14 @@ def _kernels_of(older):
 @contextlib.contextmanager
 def _using(strips, mod):
     """``splat.strips``' row sources and :class:`FullReprojection` taken from ``mod`` meanwhile (the
-    correct step's ``full_reprojection`` imports them when called)."""
+    correct step's ``full_reprojection`` imports them when called; fields the older one lacks are
+    dropped)."""
     names = ("raw_row_source", "FullReprojection")
     kept = {n: getattr(strips, n) for n in names}
+    older = mod.FullReprojection
     try:
-        for n in names:
-            setattr(strips, n, getattr(mod, n))
+        strips.raw_row_source = mod.raw_row_source
+        strips.FullReprojection = lambda *args: older(*args[: len(older._fields)])
         yield
     finally:
         for n, v in kept.items():
@@ -167,6 +171,11 @@ def main(argv=None) -> int:
         metavar="N",
         help="also time the full-res reprojection reading N of the own camera's other photographs "
         "(0: the other cameras' only) instead of splat._tol.FULL_OWN_SOURCES",
+    )
+    ap.add_argument(
+        "--plain-texture",
+        action="store_true",
+        help="also time the full-res reprojection without the render anchored at textured pixels",
     )
     ap.add_argument("--no-previous", action="store_true", help="leave out the previous (upsampled) path")
     ap.add_argument("--no-growth", action="store_true", help="time --scale only (no smaller sizes)")
@@ -267,6 +276,9 @@ def main(argv=None) -> int:
     if args.own_sources is not None:
         own_path = f"full-res reprojection, {args.own_sources} own photographs"
         paths = (*paths, own_path)
+    tex_path = "full-res reprojection, textured pixels upsampled" if args.plain_texture else None
+    if tex_path:
+        paths = (*paths, tex_path)
     older = _modules_at(args.against) if args.against else None
     if older is not None:
         paths = (*paths, f"full-res reprojection at {args.against}")
@@ -308,6 +320,8 @@ def main(argv=None) -> int:
                 made = older_model if mod is not strips else own_model if path == own_path else model
                 rep = made(fake_view, (H, W)) if path != "previous" else None
                 given = None if rep is None else rep.rep
+                if path == tex_path:
+                    given = given._replace(render_scale=None)
                 if mod is strips:
                     threads = {"workers": full.get(path, max(full.values()))}
                 else:  # the older code with as many strips at once as the current one, where it can

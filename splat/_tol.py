@@ -89,6 +89,11 @@ WARP_RADIUS_MIN = 1e-12
 #: ≈ 0.03), and ≪ any lit surface's sum of three channels (≥ 0.05 on the simulated capture).
 ANCHOR_EPS = 1e-3
 
+#: Opacity of the splat's render at full resolution above which a textured pixel of the full-size
+#: output is that render anchored to its own sites (:func:`splat.strips.full_resolution_view`); below
+#: it the render holds too little of the surface for its colour to be the pixel's.
+RENDER_ANCHOR_ALPHA = 0.05
+
 #: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the
 #: correction's 10 nm grid, the white scale's estimate, 14-bit rounding) when the sensor noise itself
 #: is ~0 (a noise-free simulation). Chosen on one training run of the simulated capture (2000 steps;

@@ -93,12 +93,14 @@ SWEEP_PRIOR = 1.0
 SWEEP_FLOOR = 0.01
 
 
-def depth_map(gaussians, camera, *, mask=None) -> tuple[np.ndarray, np.ndarray]:
+def depth_map(gaussians, camera, *, mask=None, colour: bool = False):
     """The splat's depth (expected camera-space ``z`` of the composited Gaussians, divided by their
-    opacity) and accumulated opacity of a view, each (H, W).
+    opacity) and accumulated opacity of a view, each (H, W); with ``colour``, also its render
+    (H, W, k), from the same pass.
 
-    Renders the Gaussians with two channels, ``z`` of each centre in the camera and 1, through the
-    same renderer as the colours (so depth and colour come from the same compositing weights).
+    Renders the Gaussians with two channels, ``z`` of each centre in the camera and 1 (after their
+    ``k`` colour channels when ``colour``), through the same renderer as the colours (so depth and
+    colour come from the same compositing weights).
     """
     from .gaussians import Gaussians, inverse_softplus
     from .outputs import render_views
@@ -106,10 +108,16 @@ def depth_map(gaussians, camera, *, mask=None) -> tuple[np.ndarray, np.ndarray]:
     means = np.asarray(gaussians.means, np.float64)
     z = means @ np.asarray(camera.R, np.float64)[2] + float(np.asarray(camera.t, np.float64)[2])
     params = inverse_softplus(np.stack([np.maximum(z, 1e-3), np.ones_like(z)], 1).astype(np.float32))
+    k = 0
+    if colour:
+        own = np.asarray(gaussians.colour_params, np.float32)
+        k = own.shape[1]
+        params = np.concatenate([own, params], 1)
     g = Gaussians(gaussians.means, gaussians.quats, gaussians.log_scales, gaussians.opacity_logits, params)
     img = render_views(g, [camera], mask=mask)[0].astype(np.float64)
-    alpha = img[..., 1]
-    return img[..., 0] / np.maximum(alpha, 1e-6), alpha
+    alpha = img[..., k + 1]
+    depth = img[..., k] / np.maximum(alpha, 1e-6)
+    return (depth, alpha, img[..., :k]) if colour else (depth, alpha)
 
 
 def _on_host(camera):

@@ -32,8 +32,13 @@ one strip of ``STRIP_ROWS`` rows at a time:
    to their upsampled working-resolution sum (the Brovey transform of :func:`splat.fusion.anchor`,
    Gillespie et al. 1987): an edge the photograph shows within a working pixel appears in every
    channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose own site is saturated
-   or dead keep the upsampled values. The working fusion's depth sweep
-   (:func:`splat.reproject.consistent_depth`) and guided re-reading are not repeated at full size.
+   or dead keep the upsampled values. Where the photograph is textured and the splat covers the pixel
+   (opacity ≥ :data:`splat._tol.RENDER_ANCHOR_ALPHA`), every channel is instead the splat's render at
+   full resolution (from the same pass as the strip's depth) anchored to the pixel's own measured
+   sites (:func:`splat.fusion.anchor`), as the working fusion treats its textured pixels: the render
+   is sharper than the working responses upsampled, and no demosaicing crosses the edge. The working
+   fusion's depth sweep (:func:`splat.reproject.consistent_depth`) and guided re-reading are not
+   repeated at full size.
 3. **Per-pixel correction**: each pixel takes the noise pattern (``code``) of the working pixel it lies
    in, its own channels the sensor's full-resolution noise, its other channels their working σ plus the
    noise the ratio carries into them, or where they are reprojected at full resolution, the σ given for
@@ -55,8 +60,16 @@ from typing import NamedTuple
 import numpy as np
 
 from ._errors import SplatError
-from ._tol import ANCHOR_EPS, CORRECT_CHUNK, FULL_WORKERS, SOURCE_BLOCK_ROWS, SOURCE_CACHE_ROWS, STRIP_ROWS
-from .fusion import rejected_bit
+from ._tol import (
+    ANCHOR_EPS,
+    CORRECT_CHUNK,
+    FULL_WORKERS,
+    RENDER_ANCHOR_ALPHA,
+    SOURCE_BLOCK_ROWS,
+    SOURCE_CACHE_ROWS,
+    STRIP_ROWS,
+)
+from .fusion import anchor, rejected_bit
 
 __all__ = [
     "FULL_METHOD",
@@ -241,6 +254,10 @@ class FullReprojection(NamedTuple):
     sigma : ndarray of shape (k,)
         σ of a channel where it is reprojected at full resolution (at the own position, of the
         reprojection alone).
+    render_scale : ndarray of shape (k,), optional
+        What puts the splat's render on the white → 1 scale (its divisor): given, the photograph's
+        textured pixels are the render at full resolution anchored to their own measured sites
+        instead of the working responses upsampled.
     """
 
     gaussians: object
@@ -248,6 +265,7 @@ class FullReprojection(NamedTuple):
     camera: object
     groups: dict
     sigma: np.ndarray
+    render_scale: np.ndarray | None = None
 
 
 def strip_camera(camera, r0: int, r1: int):
@@ -266,32 +284,39 @@ def strip_camera(camera, r0: int, r1: int):
     )
 
 
-def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None) -> tuple[list, list]:
+def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, colour: bool = False):
     """Rows ``r0:r1`` of the photograph, each other camera's photographs reprojected there at full
     resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
     :func:`strip_camera`), every pixel lifted with it and read in the sources (only the rows they need),
     occlusion tested against each source's working-resolution depth, combined per camera as the render
-    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W).
+    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W); with
+    ``colour``, also the splat's render of the strip (r1 − r0, W, k), as :func:`splat.outputs.render_views`
+    gives it, from the same pass as the depth, and its opacity (r1 − r0, W).
 
     ``need`` (r1 − r0, W) bool: the pixels wanted; the others are not read (count 0), and a strip with
-    none is neither rendered nor read (the wanted pixels' values are the same either way)."""
+    none is neither rendered nor read unless ``colour`` (the wanted pixels' values are the same either
+    way)."""
     from .reproject import depth_map, reprojected
 
     W = int(rep.camera.width)
-    if need is not None and not np.any(need):
+    if need is not None and not np.any(need) and not colour:
         return [np.zeros((r1 - r0, W, 3), np.float32) for _ in rep.groups], [
             np.zeros((r1 - r0, W), np.int64) for _ in rep.groups
         ]
     cam = strip_camera(rep.camera, r0, r1)
-    depth, alpha = depth_map(rep.gaussians, cam, mask=rep.mask)
+    depth, alpha, *render = depth_map(rep.gaussians, cam, mask=rep.mask, colour=colour)
+    opacity = alpha
     if need is not None:  # a pixel below MIN_ALPHA is not lifted nor read
         alpha = np.where(need, alpha, 0.0)
     values, counts = [], []
     for sources in rep.groups.values():
-        v, n = reprojected(cam, depth, alpha, sources)
+        if need is not None and not np.any(need):
+            v, n = np.zeros((r1 - r0, W, 3)), np.zeros((r1 - r0, W), np.int64)
+        else:
+            v, n = reprojected(cam, depth, alpha, sources)
         values.append(v.astype(np.float32))
         counts.append(n)
-    return values, counts
+    return (values, counts, render[0].astype(np.float32), opacity) if colour else (values, counts)
 
 
 class CachedRows:
@@ -500,6 +525,11 @@ def full_resolution_view(
         rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
     divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
     fitted = _Fitted(fit, patterns, rep_sigma, shift, m)
+    render_scale = None
+    if reprojection is not None and reprojection.render_scale is not None:
+        render_scale = np.asarray(reprojection.render_scale, np.float32)
+        if render_scale.shape != (k,):
+            raise SplatError(f"full_resolution_view: render_scale {render_scale.shape} must be ({k},).")
 
     def strip(r0: int, r1: int) -> np.ndarray:
         lin, valid = demosaic_rows(source, r0, r1)
@@ -512,7 +542,21 @@ def full_resolution_view(
         cd = nearest_rows(code, f, r0, r1, W)
         if reprojection is not None:  # the other cameras' photographs at full resolution
             plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
-            values, seen = reprojected_strip(reprojection, r0, r1, need=plain)  # read only where used
+            anchored = render_scale is not None and not plain.all()
+            values, seen, *render = reprojected_strip(  # read only where used
+                reprojection, r0, r1, need=plain, colour=anchored
+            )
+            if anchored:  # textured: the render at full resolution anchored to the pixel's own sites
+                sites, weight = source.rows(r0, r1)
+                tex = ~plain & (weight > 0).any(-1) & (render[1] >= RENDER_ANCHOR_ALPHA)  # the splat there
+                got = anchor(  # the pixels as one column: (N, 1, ·)
+                    (render[0][tex] / render_scale)[:, None],
+                    (sites[tex] / divisor)[:, None],
+                    own,
+                    (weight[tex] > 0)[:, None],
+                )
+                resp[tex] = got[:, 0]
+                del render, sites, weight, got
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
                     use = (n > 0) & plain & valid

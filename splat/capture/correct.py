@@ -1211,7 +1211,7 @@ def full_reprojection(
             sig[3 * c : 3 * c + 3] = np.hypot(float(rep_sigma[c]), np.mean(noise, 0) / np.sqrt(len(noise)))
         if not groups:
             return None
-        return _Reprojection(FullReprojection(st["g"], st["alive"], full, groups, sig), names)
+        return _Reprojection(FullReprojection(st["g"], st["alive"], full, groups, sig, scale), names)
 
     return model
 

@@ -357,6 +357,68 @@ def test_full_resolution_view_averages_the_own_cameras_other_photographs(splat_s
     assert any(np.allclose(s[3:6], combined) and np.allclose(s[6:], 0.04) for s in fits)
 
 
+def test_depth_map_with_colour_is_the_depth_and_the_render_of_one_pass(splat_scene):
+    """``depth_map(colour=True)``: the same depth and opacity as without, and the colours
+    :func:`splat.outputs.render_views` renders for the view."""
+    from splat.outputs import render_views
+
+    _, cam, _ = splat_scene
+    g = _gaussians(_floor(), lambda m: 0.2 + 0.1 * np.abs(np.concatenate([m, m, m], 1)))
+    d, a = depth_map(g, cam)
+    d2, a2, col = depth_map(g, cam, colour=True)
+    np.testing.assert_allclose(a2, a, atol=1e-6)
+    np.testing.assert_allclose(d2[a > 0.5], d[a > 0.5], rtol=1e-5)
+    np.testing.assert_allclose(col, render_views(g, [cam])[0], rtol=1e-5, atol=1e-6)
+    assert col.shape == (cam.height, cam.width, 9) and col[a > 0.5].std(0).min() > 1e-3
+
+
+def test_full_resolution_view_anchors_the_render_at_textured_pixels(splat_scene):
+    """With ``render_scale``: a textured pixel the splat covers (opacity ≥ ``RENDER_ANCHOR_ALPHA``) has the
+    splat's render at full resolution (÷ render_scale) anchored to the photograph's own sites
+    (:func:`splat.fusion.anchor`), not the working responses upsampled; other pixels do not change."""
+    from splat._tol import RENDER_ANCHOR_ALPHA
+    from splat.fusion import anchor
+    from splat.outputs import render_views
+
+    _, cam, groups = splat_scene
+    g = _gaussians(_floor(), lambda m: 0.2 + 0.1 * np.abs(np.concatenate([m, m, m], 1)))
+    W, H = _SIZE
+    f = 2
+    own = slice(0, 3)
+    work = WorkingFusion(
+        np.full((H // f, W // f, 9), 0.2), np.zeros((H // f, W // f), int), {0: np.full(9, 0.03)}, own, f
+    )
+    fit = lambda s: (_Linear(), np.ones(9))  # noqa: E731
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    scale = np.full(9, 2.0)
+    outs = {
+        key: np.concatenate(
+            list(
+                full_resolution_view(
+                    photo,
+                    work,
+                    fit,
+                    strip_rows=16,
+                    reprojection=FullReprojection(g, None, cam, groups, np.full(9, 0.05), rs),
+                )
+            )
+        )
+        for key, rs in (("plain", None), ("anchored", scale))
+    }
+    _, alpha = depth_map(g, cam)
+    tex = textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01)) & (
+        alpha >= RENDER_ANCHOR_ALPHA
+    )
+    assert tex.sum() > 20 and (~tex).sum() > 20
+    np.testing.assert_allclose(outs["anchored"][~tex], outs["plain"][~tex], rtol=1e-6)
+    render = render_views(g, [cam])[0] / scale
+    want = anchor(render, _Source(H, W).img, own)
+    x = want.reshape(-1, 9)
+    want_xyz = _Linear().predict(x).reshape(H, W, 3)
+    np.testing.assert_allclose(outs["anchored"][tex], want_xyz[tex], rtol=2e-5, atol=1e-6)
+    assert np.abs(outs["anchored"] - outs["plain"])[tex].max() > 1e-2
+
+
 def test_full_resolution_view_refuses_a_group_outside_the_cameras(splat_scene):
     g, cam, groups = splat_scene
     W, H = _SIZE
