@@ -285,8 +285,8 @@ def strip_camera(camera, r0: int, r1: int):
 
 
 def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, colour: bool = False):
-    """Rows ``r0:r1`` of the photograph, each other camera's photographs reprojected there at full
-    resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
+    """Rows ``r0:r1`` of the photograph, each group's photographs (``rep.groups``) reprojected there at
+    full resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
     :func:`strip_camera`), every pixel lifted with it and read in the sources (only the rows they need),
     occlusion tested against each source's working-resolution depth, combined per camera as the render
     step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W); with
