@@ -32,7 +32,8 @@ one strip of ``STRIP_ROWS`` rows at a time:
    to their upsampled working-resolution sum (the Brovey transform of :func:`splat.fusion.anchor`,
    Gillespie et al. 1987): an edge the photograph shows within a working pixel appears in every
    channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose own site is saturated
-   or dead keep the upsampled values. Where the photograph is textured and the splat covers the pixel
+   or dead keep the upsampled values. At binning 2 (:data:`splat._tol.RENDER_ANCHOR_BINNING`), where
+   the photograph is textured and the splat covers the pixel
    (opacity ≥ :data:`splat._tol.RENDER_ANCHOR_ALPHA`), every channel is instead the splat's render at
    full resolution (from the same pass as the strip's depth) anchored to the pixel's own measured
    sites (:func:`splat.fusion.anchor`), as the working fusion treats its textured pixels: the render
@@ -65,6 +66,7 @@ from ._tol import (
     CORRECT_CHUNK,
     FULL_WORKERS,
     RENDER_ANCHOR_ALPHA,
+    RENDER_ANCHOR_BINNING,
     SOURCE_BLOCK_ROWS,
     SOURCE_CACHE_ROWS,
     STRIP_ROWS,
@@ -255,9 +257,10 @@ class FullReprojection(NamedTuple):
         σ of a channel where it is reprojected at full resolution (at the own position, of the
         reprojection alone).
     render_scale : ndarray of shape (k,), optional
-        What puts the splat's render on the white → 1 scale (its divisor): given, the photograph's
-        textured pixels are the render at full resolution anchored to their own measured sites
-        instead of the working responses upsampled.
+        What puts the splat's render on the white → 1 scale (its divisor): given, and the binning at
+        most :data:`splat._tol.RENDER_ANCHOR_BINNING`, the photograph's textured pixels are the render
+        at full resolution anchored to their own measured sites instead of the photograph demosaiced
+        and the working responses upsampled.
     """
 
     gaussians: object
@@ -542,7 +545,7 @@ def full_resolution_view(
         cd = nearest_rows(code, f, r0, r1, W)
         if reprojection is not None:  # the other cameras' photographs at full resolution
             plain = ~textured_rows(source, r0, r1, exposure, own_scale, own_sigma)
-            anchored = render_scale is not None and not plain.all()
+            anchored = render_scale is not None and f <= RENDER_ANCHOR_BINNING and not plain.all()
             values, seen, *render = reprojected_strip(  # read only where used
                 reprojection, r0, r1, need=plain, colour=anchored
             )

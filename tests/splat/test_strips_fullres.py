@@ -373,9 +373,10 @@ def test_depth_map_with_colour_is_the_depth_and_the_render_of_one_pass(splat_sce
 
 
 def test_full_resolution_view_anchors_the_render_at_textured_pixels(splat_scene):
-    """With ``render_scale``: a textured pixel the splat covers (opacity ≥ ``RENDER_ANCHOR_ALPHA``) has the
-    splat's render at full resolution (÷ render_scale) anchored to the photograph's own sites
-    (:func:`splat.fusion.anchor`), not the working responses upsampled; other pixels do not change."""
+    """With ``render_scale`` at binning 2: a textured pixel the splat covers (opacity ≥
+    ``RENDER_ANCHOR_ALPHA``) has the splat's render at full resolution (÷ render_scale) anchored to the
+    photograph's own sites (:func:`splat.fusion.anchor`), not the working responses upsampled; other
+    pixels do not change. At binning 4 nothing changes."""
     from splat._tol import RENDER_ANCHOR_ALPHA
     from splat.fusion import anchor
     from splat.outputs import render_views
@@ -417,6 +418,25 @@ def test_full_resolution_view_anchors_the_render_at_textured_pixels(splat_scene)
     want_xyz = _Linear().predict(x).reshape(H, W, 3)
     np.testing.assert_allclose(outs["anchored"][tex], want_xyz[tex], rtol=2e-5, atol=1e-6)
     assert np.abs(outs["anchored"] - outs["plain"])[tex].max() > 1e-2
+    # above RENDER_ANCHOR_BINNING the render is too blurred at an edge: the photograph is kept
+    f = 4
+    work = WorkingFusion(
+        np.full((H // f, W // f, 9), 0.2), np.zeros((H // f, W // f), int), {0: np.full(9, 0.03)}, own, f
+    )
+    coarse = [
+        np.concatenate(
+            list(
+                full_resolution_view(
+                    photo,
+                    work,
+                    fit,
+                    reprojection=FullReprojection(g, None, cam, groups, np.full(9, 0.05), rs),
+                )
+            )
+        )
+        for rs in (None, scale)
+    ]
+    np.testing.assert_array_equal(coarse[1], coarse[0])
 
 
 def test_full_resolution_view_refuses_a_group_outside_the_cameras(splat_scene):
