@@ -249,14 +249,9 @@ def main(argv=None) -> int:
                 _upsampled_dng(raws[r.name], spec, args.work / f"{stem}_x{s}.dng", s), spec.cameras[r.camera]
             )
 
-        import splat._tol as tol
-
-        kept = tol.FULL_OWN_SOURCES
-        tol.FULL_OWN_SOURCES = kept if own is None else own  # read when the model is made
-        try:
-            made = full_reprojection(spec, out, fake, fusion, scale, views=wviews, open_source=open_source)
-        finally:
-            tol.FULL_OWN_SOURCES = kept
+        made = full_reprojection(
+            spec, out, fake, fusion, scale, views=wviews, open_source=open_source, own_sources=own
+        )
         return made, fake[name]
 
     rows = []

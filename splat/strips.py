@@ -302,7 +302,8 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, col
     from .reproject import depth_map, reprojected
 
     W = int(rep.camera.width)
-    if need is not None and not np.any(need) and not colour:
+    none = need is not None and not np.any(need)
+    if none and not colour:
         return [np.zeros((r1 - r0, W, 3), np.float32) for _ in rep.groups], [
             np.zeros((r1 - r0, W), np.int64) for _ in rep.groups
         ]
@@ -313,7 +314,7 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, col
         alpha = np.where(need, alpha, 0.0)
     values, counts = [], []
     for sources in rep.groups.values():
-        if need is not None and not np.any(need):
+        if none:
             v, n = np.zeros((r1 - r0, W, 3)), np.zeros((r1 - r0, W), np.int64)
         else:
             v, n = reprojected(cam, depth, alpha, sources)
@@ -526,6 +527,7 @@ def full_resolution_view(
         w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
         rep_sigma = rep_sigma.copy()
         rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
+        w_own = tuple(w.astype(np.float32) for w in w_own)
     divisor = (exposure * np.asarray(own_scale, float)).astype(np.float32)
     fitted = _Fitted(fit, patterns, rep_sigma, shift, m)
     render_scale = None
@@ -563,7 +565,7 @@ def full_resolution_view(
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
                     use = (n > 0) & plain & valid
-                    a, b = (w.astype(np.float32) for w in w_own)
+                    a, b = w_own
                     mean = (a * resp[..., own] + b * np.maximum(vals, 0)) / (a + b)
                     resp[..., own] = np.where(use[..., None], mean, resp[..., own])
                 else:

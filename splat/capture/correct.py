@@ -1122,7 +1122,15 @@ class _Reprojection:
 
 
 def full_reprojection(
-    spec: CaptureSpec, out: Path, raws: dict, fusion: dict, scale: np.ndarray, *, views=None, open_source=None
+    spec: CaptureSpec,
+    out: Path,
+    raws: dict,
+    fusion: dict,
+    scale: np.ndarray,
+    *,
+    views=None,
+    open_source=None,
+    own_sources: int | None = None,
 ):
     """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
     working resolution, or no camera's reprojection noise is known): for each other camera, its
@@ -1136,7 +1144,8 @@ def full_reprojection(
 
     ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
     views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
-    :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks)."""
+    :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks);
+    ``own_sources`` replaces :data:`splat._tol.FULL_OWN_SOURCES` (0: the other cameras' only)."""
     from .._tol import FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
@@ -1148,6 +1157,7 @@ def full_reprojection(
     from .train import load_gaussians, load_model_capture, refined_views
 
     rep_sigma = fusion.get("reprojected_sigma")
+    own_n = FULL_OWN_SOURCES if own_sources is None else own_sources
     state: dict = {}
 
     def loaded():
@@ -1192,7 +1202,7 @@ def full_reprojection(
                 for name, r in raws.items()
                 if r.camera == c and r.exif is not None and name in st["views"] and name != view.name
             ]
-            n_src = FULL_OWN_SOURCES if c == view.camera else FULL_SOURCES
+            n_src = own_n if c == view.camera else FULL_SOURCES
             best = nearest_sources(cam, d, a, cands, n_src, seen_only=True, stride=FULL_SOURCE_STRIDE)
             chosen = [raws[nm] for nm, _, _ in best]
             if not chosen:

@@ -720,6 +720,11 @@ def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:
     """
     if spec.white.method != "patch":
         return None
+    return _checked_white(spec, views)[0]
+
+
+def _checked_white(spec: CaptureSpec, views: list[RawView]) -> tuple[RawView, np.ndarray]:
+    """:func:`check_white_box`'s view and the box's mean (:func:`white_patch`), read once."""
     v = next((v for v in views if v.name == Path(spec.white.image).as_posix()), None)
     if v is None:
         raise CaptureError(
@@ -729,13 +734,13 @@ def check_white_box(spec: CaptureSpec, views: list[RawView]) -> RawView | None:
     _, _, x1, y1 = spec.white.box
     if x1 > W or y1 > H:
         raise CaptureError(f"{spec.file}: [white].box {list(spec.white.box)} lies outside the {W}×{H} image.")
-    _, sites = white_patch(spec, v)
+    mean, sites = white_patch(spec, v)
     if np.any(sites == 0):
         raise CaptureError(
             f"{spec.file}: [white].box {list(spec.white.box)} has no valid pixel in some channel "
             "(saturated or too small); choose a larger, unsaturated patch."
         )
-    return v
+    return v, mean
 
 
 def white_box(spec: CaptureSpec, v: RawView) -> tuple[int, int, int, int]:
@@ -798,8 +803,7 @@ def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     ks = list(levels)
     if spec.white.method == "patch":
         k0 = spec.camera_index(Path(spec.white.image).parent.as_posix())
-        v = check_white_box(spec, views)
-        mean, _ = white_patch(spec, v)
+        v, mean = _checked_white(spec, views)  # the RAW file read once for the check and the mean
         patch = mean / (spec.white.reflectance * v.exif)  # the patch camera's white, per channel
         k_patch = float(np.mean(patch / whites[k0]))
         ks = [k_patch * levels[k] / levels[k0] for k in range(len(spec.cameras))]
