@@ -13,7 +13,11 @@ as the correct step makes them, ``fused_view``) give:
   output was at every binning before;
 * **working answer sharpened**: the working answer upsampled bilinearly and multiplied by the ratio of
   the photograph's own channel sum to the upsampled fused one (the strips' Brovey ratio carried into
-  the colour instead of the responses), an alternative for binnings above 1.
+  the colour instead of the responses), an alternative for binnings above 1;
+* **strips, training's depth rule**: the strips with the splat's depth at full resolution as it was
+  before :data:`splat._tol.FULL_MIN_ALPHA` and :func:`splat.resolution.working_footprint`: rendered
+  with the renderer's own 2-D dilation, a pixel lifted (and a source's depth vouching) from opacity
+  :data:`splat.reproject.MIN_ALPHA`.
 
 At a binning above 1 the working answer is scored upsampled bilinearly to the photograph's size. A run
 made with ``--train-size`` is scored with the same ``--train-size`` (the views are read at its binning).
@@ -70,6 +74,7 @@ def main(argv=None) -> int:
     from splat.capture.config import working_binning
     from splat.capture.correct import _full_resolution, correction_problem_of, full_reprojection, own_noise
     from splat.fusion import ANCHOR_EPS
+    from splat.reproject import MIN_ALPHA
     from splat.scoring import (
         _chart_XYZ,
         _dE_all,
@@ -95,10 +100,17 @@ def main(argv=None) -> int:
     problem = correction_problem_of(spec, cams)
     noise = own_noise(fusion, raws, scale, "auto")
     model = full_reprojection(spec, out, raws, fusion, scale)
+    former = full_reprojection(spec, out, raws, fusion, scale, min_alpha=MIN_ALPHA)
     wXYZ = np.asarray(problem.white_XYZ, float)
     C = _chart_XYZ(spec)
     held = [k for k, v in index.items() if v["kind"] == "holdout"]
-    keys = ("working answer", "full-size output", "strips", "working answer sharpened")
+    keys = (
+        "working answer",
+        "full-size output",
+        "strips",
+        "working answer sharpened",
+        "strips, training's depth rule",
+    )
     rows = {k: {"all": [], "flat": [], "chart": [], "uniform": [], "camera": []} for k in keys}
     seconds: dict[str, list] = {"full-size output": [], "strips": []}
     tmp = Path(tempfile.mkdtemp(prefix="bench_full_output_"))
@@ -127,6 +139,11 @@ def main(argv=None) -> int:
             list(strips.full_resolution_view(photo, work, full_fit, reprojection=rep))
         )
         seconds["strips"].append(time.perf_counter() - t0)
+        old = former(v, source.shape)
+        old = None if old is None else old.rep._replace(binning=1)
+        est["strips, training's depth rule"] = np.concatenate(
+            list(strips.full_resolution_view(photo, work, full_fit, reprojection=old))
+        )
         H, W = source.shape
         fb = v.binning
         up_answer = strips.upsample_rows(est["working answer"], fb, 0, H, W)

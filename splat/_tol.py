@@ -301,6 +301,19 @@ SOURCE_BLOCK_ROWS = 128
 #: 24 MP) while the photograph is corrected; the working fusion averages all of them.
 FULL_SOURCES = 2
 
+#: Opacity of the splat from which the full-resolution stage lifts a pixel with its depth and a source's
+#: depth vouches for visibility (the render step's is :data:`splat.reproject.MIN_ALPHA`, 0.5). A splat
+#: trained on binned photographs is half-transparent over its surfaces (benchmark capture, 16,384
+#: Gaussians: median Gaussian opacity 0.67 / 0.54 / 0.26 at binning 1 / 2 / 4; at binning 4, 39 % of a
+#: held-out view's region pixels reach 0.5), while its depth, normalised by the opacity, stays the
+#: surface's (0.2–0.4 % from the sources' at the median) and the 3 % depth test still rejects occluded
+#: points. Full-size output, 12 held-out views, chart / uniform region means (ΔE00) at binning 4 | 2:
+#: the training's 2-D dilation and 0.5, 1.184 / 1.271 | 0.499 / 0.663; the working footprint and 0.5,
+#: 1.074 / 1.176 | 0.484 / 0.637; 0.2, 0.539 / 0.885 | 0.440 / 0.557; **0.05, 0.447 / 0.622 | 0.440 /
+#: 0.548**; 0.02, 0.448 / 0.597 | 0.440 / 0.549, where a pixel that faint may be a floater's
+#: (docs/notes/2026-11-30-low-opacity-depth.md).
+FULL_MIN_ALPHA = 0.05
+
 #: Other photographs of the corrected photograph's own camera read at full resolution, averaged into its
 #: own channels with the measurement (inverse variance) where they see a plain pixel: the noise the
 #: working fusion averages away, kept from the full-size output otherwise.

@@ -93,14 +93,15 @@ SWEEP_PRIOR = 1.0
 SWEEP_FLOOR = 0.01
 
 
-def depth_map(gaussians, camera, *, mask=None, colour: bool = False):
+def depth_map(gaussians, camera, *, mask=None, colour: bool = False, config=None):
     """The splat's depth (expected camera-space ``z`` of the composited Gaussians, divided by their
     opacity) and accumulated opacity of a view, each (H, W); with ``colour``, also its render
     (H, W, k), from the same pass.
 
     Renders the Gaussians with two channels, ``z`` of each centre in the camera and 1 (after their
     ``k`` colour channels when ``colour``), through the same renderer as the colours (so depth and
-    colour come from the same compositing weights).
+    colour come from the same compositing weights), with ``config`` (:class:`splat.RenderConfig`,
+    default the renderer's).
     """
     from .gaussians import Gaussians, inverse_softplus
     from .outputs import render_views
@@ -114,7 +115,7 @@ def depth_map(gaussians, camera, *, mask=None, colour: bool = False):
         k = own.shape[1]
         params = np.concatenate([own, params], 1)
     g = Gaussians(gaussians.means, gaussians.quats, gaussians.log_scales, gaussians.opacity_logits, params)
-    img = render_views(g, [camera], mask=mask)[0].astype(np.float64)
+    img = render_views(g, [camera], mask=mask, config=config)[0].astype(np.float64)
     alpha = img[..., k + 1]
     depth = img[..., k] / np.maximum(alpha, 1e-6)
     return (depth, alpha, img[..., :k]) if colour else (depth, alpha)
@@ -175,10 +176,10 @@ class RowSource(NamedTuple):
     channels: int = 3
 
 
-def _project(target, target_depth, target_alpha, source):
+def _project(target, target_depth, target_alpha, source, min_alpha: float = MIN_ALPHA):
     """Each target pixel lifted to 3-D with ``target_depth`` and projected into ``source``: its column
     ``u`` and row ``v`` there (pixel-centre coordinates, centre of pixel (0, 0) at (0, 0)), its depth
-    ``zs`` in the source, and whether it can be read (opacity ≥ :data:`MIN_ALPHA`, in front, inside).
+    ``zs`` in the source, and whether it can be read (opacity ≥ ``min_alpha``, in front, inside).
 
     The point in the source's frame is ``d · M (x, y, 1) + c`` with ``M = R_s R_tᵀ``, ``c = t_s − M t_t``
     (the same as lifting to world coordinates and projecting): ``M (x, y, 1)`` is separable in the
@@ -200,7 +201,7 @@ def _project(target, target_depth, target_alpha, source):
         u = fxs * ps[0] / zs + (cxs - 0.5)  # column coordinate of pixel centres
         v = fys * ps[1] / zs + (cys - 0.5)
     inside = (
-        (np.asarray(target_alpha) >= MIN_ALPHA)
+        (np.asarray(target_alpha) >= min_alpha)
         & (zs > 0)
         & (u >= 0)
         & (u <= source.width - 1)
@@ -243,16 +244,25 @@ def _sample(image, v, u):
     return top + (c + (d - c) * tx - top) * ty
 
 
-def visibility(target, target_depth, target_alpha, source, source_depth, *, binning: int = 1) -> np.ndarray:
-    """Where a source sees each target pixel (:func:`reproject`'s ``valid``) without reading its image:
-    (H, W) bool; ``source_depth`` at ``1 / binning`` of ``source``'s resolution."""
+def visibility(
+    target,
+    target_depth,
+    target_alpha,
+    source,
+    source_depth,
+    *,
+    binning: int = 1,
+    min_alpha: float = MIN_ALPHA,
+) -> np.ndarray:
+    """Where a source sees each target pixel (:func:`reproject`'s ``valid``, with ``min_alpha``) without
+    reading its image: (H, W) bool; ``source_depth`` at ``1 / binning`` of ``source``'s resolution."""
     _check_target(target, target_depth, target_alpha)
     target, source = _on_host(target), _on_host(source)
-    u, v, zs, inside = _project(target, target_depth, target_alpha, source)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, source, min_alpha)
     return _visible(u, v, zs, inside, source_depth, binning)
 
 
-def reproject(target, target_depth, target_alpha, source, source_depth, source_image):
+def reproject(target, target_depth, target_alpha, source, source_depth, source_image, *, min_alpha=MIN_ALPHA):
     """A source photograph's values at each pixel of a target view, and where they are valid.
 
     Parameters
@@ -270,8 +280,9 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
     -------
     values : ndarray of shape (H, W, c)
     valid : ndarray of shape (H, W), bool
-        The target pixel has a depth (opacity ≥ :data:`MIN_ALPHA`), projects inside the source, in
-        front of it, and the source's depth there agrees within :data:`DEPTH_RTOL` (not occluded).
+        The target pixel has a depth (opacity ≥ ``min_alpha``, default :data:`MIN_ALPHA`), projects
+        inside the source, in front of it, and the source's depth there agrees within
+        :data:`DEPTH_RTOL` (not occluded).
     """
     src = np.asarray(source_image, np.float64)
     sd = np.asarray(source_depth, np.float64)
@@ -283,7 +294,7 @@ def reproject(target, target_depth, target_alpha, source, source_depth, source_i
             f"camera's size {(source.height, source.width)}."
         )
     _check_target(target, target_depth, target_alpha)
-    u, v, zs, inside = _project(target, target_depth, target_alpha, source)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, source, min_alpha)
     valid = _visible(u, v, zs, inside, sd)
     return np.where(valid[..., None], _sample(src, v, u), 0.0), valid
 
@@ -296,7 +307,15 @@ def _check_target(target, target_depth, target_alpha):
         raise SplatError(f"reproject: target alpha {np.shape(target_alpha)} is not the target's size {d}.")
 
 
-def reproject_rows(target, target_depth, target_alpha, source: RowSource, *, band: int = SOURCE_BAND_ROWS):
+def reproject_rows(
+    target,
+    target_depth,
+    target_alpha,
+    source: RowSource,
+    *,
+    band: int = SOURCE_BAND_ROWS,
+    min_alpha: float = MIN_ALPHA,
+):
     """:func:`reproject` from a :class:`RowSource`, reading only the source rows the target's pixels
     land on, at most ``band`` (+ 1) rows at a time (``rows`` is asked for just the rows a band needs;
     a caching reader can keep more): the same values and validity as :func:`reproject`
@@ -317,7 +336,7 @@ def reproject_rows(target, target_depth, target_alpha, source: RowSource, *, ban
     if band < 1:
         raise SplatError(f"reproject_rows: band={band} rows; give at least 1.")
     _check_target(target, target_depth, target_alpha)
-    u, v, zs, inside = _project(target, target_depth, target_alpha, cam)
+    u, v, zs, inside = _project(target, target_depth, target_alpha, cam, min_alpha)
     valid = _visible(u, v, zs, inside, depth, f)
     out = np.zeros((*valid.shape, source.channels), np.float32)
     idx = np.flatnonzero(valid)
@@ -392,7 +411,9 @@ def _combine(values, ok, var=None, *, rows: int = COMBINE_ROWS) -> tuple[np.ndar
     return out, count
 
 
-def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray, np.ndarray]:
+def reprojected(
+    target, target_depth, target_alpha, sources, *, min_alpha: float = MIN_ALPHA
+) -> tuple[np.ndarray, np.ndarray]:
     """Several source photographs reprojected into a target view and combined, and how many see each
     pixel.
 
@@ -406,6 +427,8 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
         their inverse-variance mean over those within ``TRIM_SIGMA`` σ + ``TRIM_RTOL`` × |median| of
         the median (the median where none is); without, by the median. A :class:`RowSource` is read a
         band of rows at a time (:func:`reproject_rows`).
+    min_alpha : float
+        A target pixel is lifted where the splat's opacity reaches this (default :data:`MIN_ALPHA`).
 
     Returns
     -------
@@ -419,7 +442,11 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
     for src in sources:
         if isinstance(src, RowSource):
             vals, ok = reproject_rows(
-                target, target_depth, target_alpha, src._replace(camera=_on_host(src.camera))
+                target,
+                target_depth,
+                target_alpha,
+                src._replace(camera=_on_host(src.camera)),
+                min_alpha=min_alpha,
             )
             values.append(vals)
             oks.append(ok)
@@ -440,7 +467,7 @@ def reprojected(target, target_depth, target_alpha, sources) -> tuple[np.ndarray
                     f"image {image.shape}."
                 )
             image = np.concatenate([image, v], axis=-1)
-        vals, ok = reproject(target, target_depth, target_alpha, cam, depth, image)
+        vals, ok = reproject(target, target_depth, target_alpha, cam, depth, image, min_alpha=min_alpha)
         values.append(vals[..., :c])
         oks.append(ok)
         if rest:

@@ -36,6 +36,7 @@ __all__ = [
     "scale_camera",
     "sites_per_block",
     "working_factor",
+    "working_footprint",
 ]
 
 
@@ -166,3 +167,18 @@ def scale_camera(camera, f: int):
         camera.width // f,
         camera.height // f,
     )
+
+
+def working_footprint(f: int, config=None):
+    """The :class:`splat.RenderConfig` (``config``, default the renderer's) that renders a splat
+    trained at ``1 / f`` of a photograph's resolution at its full resolution with the footprint each
+    Gaussian had in training: the 2-D dilation ``eps2d`` is in pixels², so ``f²`` times it covers the
+    same patch of the scene. Why: with the training's ``eps2d`` at ``f`` times the resolution each
+    Gaussian shrinks, and the surfaces it covered open up (lower opacity, holes); with this the full-size
+    render is the working one, evaluated at the finer pixel centres."""
+    from dataclasses import replace
+
+    from .rendering import RenderConfig
+
+    config = config or RenderConfig()
+    return config if f == 1 else replace(config, eps2d=config.eps2d * f * f)

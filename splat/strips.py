@@ -64,6 +64,7 @@ from ._errors import SplatError
 from ._tol import (
     ANCHOR_EPS,
     CORRECT_CHUNK,
+    FULL_MIN_ALPHA,
     FULL_WORKERS,
     RENDER_ANCHOR_ALPHA,
     RENDER_ANCHOR_BINNING,
@@ -261,6 +262,12 @@ class FullReprojection(NamedTuple):
         most :data:`splat._tol.RENDER_ANCHOR_BINNING`, the photograph's textured pixels are the render
         at full resolution anchored to their own measured sites instead of the photograph demosaiced
         and the working responses upsampled.
+    binning : int
+        The working resolution's factor: the splat's depth (and colour) is rendered at full resolution
+        with the footprint it was trained with (:func:`splat.resolution.working_footprint`).
+    min_alpha : float, optional
+        The splat's opacity from which a pixel is lifted with its depth (default
+        :data:`splat._tol.FULL_MIN_ALPHA`; the groups' depths should be cut at the same).
     """
 
     gaussians: object
@@ -269,6 +276,8 @@ class FullReprojection(NamedTuple):
     groups: dict
     sigma: np.ndarray
     render_scale: np.ndarray | None = None
+    binning: int = 1
+    min_alpha: float | None = None
 
 
 def strip_camera(camera, r0: int, r1: int):
@@ -290,7 +299,8 @@ def strip_camera(camera, r0: int, r1: int):
 def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, colour: bool = False):
     """Rows ``r0:r1`` of the photograph, each group's photographs (``rep.groups``) reprojected there at
     full resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
-    :func:`strip_camera`), every pixel lifted with it and read in the sources (only the rows they need),
+    :func:`strip_camera`, the working footprint), every pixel whose opacity reaches ``rep.min_alpha``
+    lifted with it and read in the sources (only the rows they need),
     occlusion tested against each source's working-resolution depth, combined per camera as the render
     step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W); with
     ``colour``, also the splat's render of the strip (r1 − r0, W, k), as :func:`splat.outputs.render_views`
@@ -300,24 +310,28 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, col
     none is neither rendered nor read unless ``colour`` (the wanted pixels' values are the same either
     way)."""
     from .reproject import depth_map, reprojected
+    from .resolution import working_footprint
 
     W = int(rep.camera.width)
     none = need is not None and not np.any(need)
+    min_alpha = FULL_MIN_ALPHA if rep.min_alpha is None else float(rep.min_alpha)
     if none and not colour:
         return [np.zeros((r1 - r0, W, 3), np.float32) for _ in rep.groups], [
             np.zeros((r1 - r0, W), np.int64) for _ in rep.groups
         ]
     cam = strip_camera(rep.camera, r0, r1)
-    depth, alpha, *render = depth_map(rep.gaussians, cam, mask=rep.mask, colour=colour)
+    depth, alpha, *render = depth_map(
+        rep.gaussians, cam, mask=rep.mask, colour=colour, config=working_footprint(rep.binning)
+    )
     opacity = alpha
-    if need is not None:  # a pixel below MIN_ALPHA is not lifted nor read
+    if need is not None:  # a pixel below min_alpha is not lifted nor read
         alpha = np.where(need, alpha, 0.0)
     values, counts = [], []
     for sources in rep.groups.values():
         if none:
             v, n = np.zeros((r1 - r0, W, 3)), np.zeros((r1 - r0, W), np.int64)
         else:
-            v, n = reprojected(cam, depth, alpha, sources)
+            v, n = reprojected(cam, depth, alpha, sources, min_alpha=min_alpha)
         values.append(v.astype(np.float32))
         counts.append(n)
     return (values, counts, render[0].astype(np.float32), opacity) if colour else (values, counts)

@@ -1131,6 +1131,7 @@ def full_reprojection(
     views=None,
     open_source=None,
     own_sources: int | None = None,
+    min_alpha: float | None = None,
 ):
     """``model(view, (H, W)) → splat.strips.FullReprojection`` (None where the photograph is at its
     working resolution, or no camera's reprojection noise is known): for each other camera, its
@@ -1145,11 +1146,13 @@ def full_reprojection(
     ``views`` (name → :class:`splat.data.View` at the working resolution; default the model's registered
     views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
     :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks);
-    ``own_sources`` replaces :data:`splat._tol.FULL_OWN_SOURCES` (0: the other cameras' only)."""
-    from .._tol import FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
+    ``own_sources`` replaces :data:`splat._tol.FULL_OWN_SOURCES` (0: the other cameras' only),
+    ``min_alpha`` :data:`splat._tol.FULL_MIN_ALPHA` (where a pixel of the view and of a source has a
+    depth)."""
+    from .._tol import FULL_MIN_ALPHA, FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
-    from ..reproject import MIN_ALPHA, depth_map
+    from ..reproject import depth_map
     from ..resolution import sites_per_block
     from ..strips import FullReprojection, raw_row_source
     from .config import working_views
@@ -1158,6 +1161,7 @@ def full_reprojection(
 
     rep_sigma = fusion.get("reprojected_sigma")
     own_n = FULL_OWN_SOURCES if own_sources is None else own_sources
+    t = FULL_MIN_ALPHA if min_alpha is None else float(min_alpha)
     state: dict = {}
 
     def loaded():
@@ -1175,7 +1179,7 @@ def full_reprojection(
         st = loaded()
         if name not in st["depth"]:
             d, a = depth_map(st["g"], st["views"][name].camera, mask=st["alive"])
-            st["depth"][name] = (d, a, np.where(a >= MIN_ALPHA, d, 0.0))
+            st["depth"][name] = (d, a, np.where(a >= t, d, 0.0))
         return st["depth"][name]
 
     def full_sigma(r):  # a photograph's own full-resolution sensor noise, white → 1 at exposure 1
@@ -1203,7 +1207,9 @@ def full_reprojection(
                 if r.camera == c and r.exif is not None and name in st["views"] and name != view.name
             ]
             n_src = own_n if c == view.camera else FULL_SOURCES
-            best = nearest_sources(cam, d, a, cands, n_src, seen_only=True, stride=FULL_SOURCE_STRIDE)
+            best = nearest_sources(
+                cam, d, a, cands, n_src, seen_only=True, stride=FULL_SOURCE_STRIDE, min_alpha=t
+            )
             chosen = [raws[nm] for nm, _, _ in best]
             if not chosen:
                 continue
@@ -1221,7 +1227,7 @@ def full_reprojection(
             sig[3 * c : 3 * c + 3] = np.hypot(float(rep_sigma[c]), np.mean(noise, 0) / np.sqrt(len(noise)))
         if not groups:
             return None
-        return _Reprojection(FullReprojection(st["g"], st["alive"], full, groups, sig, scale), names)
+        return _Reprojection(FullReprojection(st["g"], st["alive"], full, groups, sig, scale, f, t), names)
 
     return model
 

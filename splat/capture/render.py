@@ -65,7 +65,15 @@ def _novel_cameras(views, n: int):
 
 
 def nearest_sources(
-    cam, depth, alpha, candidates, k: int | None, *, seen_only: bool = False, stride: int | None = None
+    cam,
+    depth,
+    alpha,
+    candidates,
+    k: int | None,
+    *,
+    seen_only: bool = False,
+    stride: int | None = None,
+    min_alpha: float | None = None,
 ) -> list:
     """The ``k`` of ``candidates`` (``(name, camera, source depth)``, one camera's photographs) that see
     most of the view ``cam`` through its ``depth`` and ``alpha``, most first (ties by name); all of them,
@@ -80,11 +88,12 @@ def nearest_sources(
 
     Why: reprojecting every other photograph into every view grows as the square of the photographs;
     the nearest few carry the view's measurement (the farther ones see less of it, at a slant, and
-    mostly add noise averaging the fusion already has). ``seen_only`` and ``stride`` are for the correct
-    step, which reads each chosen photograph at full resolution and counts it in the reprojected noise
-    (:data:`splat._tol.FULL_SOURCE_STRIDE`)."""
+    mostly add noise averaging the fusion already has). ``seen_only``, ``stride`` and ``min_alpha`` (the
+    view's opacity that gives a pixel a depth; default :data:`splat.reproject.MIN_ALPHA`) are for the
+    correct step, which reads each chosen photograph at full resolution and counts it in the reprojected
+    noise (:data:`splat._tol.FULL_SOURCE_STRIDE`, :data:`splat._tol.FULL_MIN_ALPHA`)."""
     from .._tol import RENDER_SOURCE_STRIDE
-    from ..reproject import visibility
+    from ..reproject import MIN_ALPHA, visibility
     from ..resolution import scale_camera
 
     everything = k is None or len(candidates) <= k
@@ -95,7 +104,8 @@ def nearest_sources(
     h, w = coarse.height, coarse.width
     d = np.asarray(depth)[s // 2 :: s, s // 2 :: s][:h, :w]
     a = np.asarray(alpha)[s // 2 :: s, s // 2 :: s][:h, :w]
-    seen = [(int(visibility(coarse, d, a, c, sd).sum()), name) for name, c, sd in candidates]
+    t = MIN_ALPHA if min_alpha is None else float(min_alpha)
+    seen = [(int(visibility(coarse, d, a, c, sd, min_alpha=t).sum()), name) for name, c, sd in candidates]
     if everything:
         return [c for c, (n, _) in zip(candidates, seen, strict=True) if n > 0]
     order = sorted(range(len(candidates)), key=lambda i: (-seen[i][0], seen[i][1]))

@@ -199,6 +199,28 @@ def test_target_alpha_threshold():
     assert np.isfinite(values).all()
 
 
+def test_target_alpha_threshold_given():
+    """``min_alpha``: the same rule at another threshold, in :func:`reproject`, :func:`reprojected` and
+    :func:`visibility` alike; a source's depth of 0 still does not vouch."""
+    from splat.reproject import visibility
+
+    src = SOURCES[0]
+    d, _, X = _depth_alpha(TARGET)
+    a = np.random.default_rng(4).uniform(0, 1, d.shape)
+    _, col, row = _project(src, X)
+    inside = _inside(src, col, row, 1e-6)
+    depth, image = _photo(src)
+    for t in (0.05, 0.2):
+        _, valid = reproject(TARGET, d, a, src, depth, image, min_alpha=t)
+        np.testing.assert_array_equal(valid[inside], (a >= t)[inside])
+        np.testing.assert_array_equal(visibility(TARGET, d, a, src, depth, min_alpha=t), valid)
+        _, n = reprojected(TARGET, d, a, [(src, depth, image)], min_alpha=t)
+        np.testing.assert_array_equal(n, valid)
+    assert (inside & (a >= 0.05) & (a < MIN_ALPHA)).sum() > 20
+    _, valid = reproject(TARGET, d, a, src, np.zeros_like(depth), image, min_alpha=0.05)
+    assert not valid.any()
+
+
 # ------------------------------------------------------------------------------------ 2. occlusion
 
 

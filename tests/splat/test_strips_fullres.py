@@ -203,6 +203,66 @@ def test_strip_camera_is_rows_of_the_view(splat_scene):
         np.testing.assert_allclose(as_, a[r0:r1], atol=1e-4)
 
 
+def test_working_footprint_renders_the_working_view_at_full_resolution():
+    """At ``f = 3`` full-resolution pixel ``3 i + 1`` has working pixel ``i``'s centre: rendered with
+    :func:`splat.resolution.working_footprint`, the full-size depth and opacity there are the working
+    render's; with the renderer's own 2-D dilation the small Gaussians cover less of the floor."""
+    from splat import init_gaussians
+    from splat.camera import look_at
+    from splat.resolution import working_footprint
+
+    means = _floor(step=0.04)
+    g = init_gaussians(means, np.ones((len(means), 2)), scales=0.008, opacity=0.7)
+    full = look_at((0.6, -2.2, 2.4), (0.0, 0.0, 0.0), width=96, height=72, fov_deg=60)
+    d, a = depth_map(g, scale_camera(full, 3))
+    d3, a3 = depth_map(g, full, config=working_footprint(3))
+    on = a > 0.5
+    assert on.mean() > 0.3
+    np.testing.assert_allclose(a3[1::3, 1::3], a, atol=1e-4)
+    np.testing.assert_allclose(d3[1::3, 1::3][on], d[on], rtol=1e-5)
+    _, a1 = depth_map(g, full)
+    assert a1[1::3, 1::3][on].mean() < a[on].mean() - 0.1
+    assert working_footprint(1).eps2d == 0.3 and working_footprint(3).eps2d == pytest.approx(2.7)
+
+
+def test_reprojected_strip_renders_with_the_working_footprint(splat_scene):
+    """``FullReprojection.binning``: the strip's depth, render and opacity are those of
+    :func:`splat.resolution.working_footprint` at that factor."""
+    from splat.resolution import working_footprint
+
+    g, cam, groups = splat_scene
+    for f in (1, 3):
+        rep = FullReprojection(g, None, cam, groups, np.full(9, 0.01), binning=f)
+        *_, render, opacity = reprojected_strip(rep, 0, 16, colour=True)
+        _, a, col = depth_map(g, strip_camera(cam, 0, 16), colour=True, config=working_footprint(f))
+        np.testing.assert_allclose(opacity, a, atol=1e-6)
+        np.testing.assert_allclose(render, col, rtol=1e-5, atol=1e-6)
+    assert np.abs(opacity - depth_map(g, strip_camera(cam, 0, 16))[1]).max() > 1e-2
+
+
+def test_reprojected_strip_lifts_a_half_transparent_splat(splat_scene):
+    """A splat of faint Gaussians (opacity 0.06 each, nowhere 0.5 in all): the strip lifts and reads
+    the pixels whose opacity reaches ``FULL_MIN_ALPHA``, those below ``MIN_ALPHA`` too, as
+    :func:`splat.reproject.reprojected` does with that threshold; none below it."""
+    from splat import init_gaussians
+    from splat._tol import FULL_MIN_ALPHA
+    from splat.reproject import MIN_ALPHA
+
+    from .test_reproject import _SIGMA
+
+    _, cam, groups = splat_scene
+    means = _floor()
+    faint = init_gaussians(means, np.ones((len(means), 2)), scales=_SIGMA, opacity=0.06)
+    d, a = depth_map(faint, cam)
+    assert not (a >= MIN_ALPHA).any()
+    values, counts = reprojected_strip(FullReprojection(faint, None, cam, groups, np.ones(9)), 0, cam.height)
+    for sources, v, n in zip(groups.values(), values, counts, strict=True):
+        want_v, want_n = reprojected(cam, d, a, sources, min_alpha=FULL_MIN_ALPHA)
+        np.testing.assert_array_equal(n, want_n)
+        np.testing.assert_allclose(v, want_v, rtol=1e-6, atol=1e-7)
+        assert (n > 0).sum() > 20 and not n[a < FULL_MIN_ALPHA].any()
+
+
 def test_reprojected_strip_equals_whole(splat_scene):
     g, cam, groups = splat_scene
     rep = FullReprojection(g, None, cam, groups, np.full(9, 0.01))
