@@ -95,10 +95,12 @@ ANCHOR_EPS = 1e-3
 RENDER_ANCHOR_ALPHA = 0.05
 
 #: Largest binning at which the full-size output's textured pixels are the render anchored to their
-#: sites: the render is as sharp as the working grid, and at binning 2 it beat the photograph
-#: demosaiced (all pixels 5.66 against 7.03 ΔE00 on the benchmark capture), at binning 4 it lost (7.90
-#: against 7.60): its colour is blurred over f pixels at an edge, the photograph's own channels are not.
-RENDER_ANCHOR_BINNING = 2
+#: sites: the render is as sharp as the working grid, and it beat the photograph demosaiced on the
+#: benchmark capture's all pixels (ΔE00) at binning 2 (5.24 against 5.66) and 4 (6.06 against 7.31),
+#: rendered with the working footprint (:func:`splat.resolution.working_footprint`; with the renderer's
+#: own dilation it had lost at 4, 7.90 against 7.60, its surfaces open). At binning 8 it lost (9.40
+#: against 9.23): its colour is blurred over f pixels at an edge, the photograph's own channels are not.
+RENDER_ANCHOR_BINNING = 4
 
 #: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the
 #: correction's 10 nm grid, the white scale's estimate, 14-bit rounding) when the sensor noise itself
@@ -300,19 +302,6 @@ SOURCE_BLOCK_ROWS = 128
 #: most of it (at the working resolution): each holds its file's samples (2 bytes a pixel, 48 MB at
 #: 24 MP) while the photograph is corrected; the working fusion averages all of them.
 FULL_SOURCES = 2
-
-#: Opacity of the splat from which the full-resolution stage lifts a pixel with its depth and a source's
-#: depth vouches for visibility (the render step's is :data:`splat.reproject.MIN_ALPHA`, 0.5). A splat
-#: trained on binned photographs is half-transparent over its surfaces (benchmark capture, 16,384
-#: Gaussians: median Gaussian opacity 0.67 / 0.54 / 0.26 at binning 1 / 2 / 4; at binning 4, 39 % of a
-#: held-out view's region pixels reach 0.5), while its depth, normalised by the opacity, stays the
-#: surface's (0.2–0.4 % from the sources' at the median) and the 3 % depth test still rejects occluded
-#: points. Full-size output, 12 held-out views, chart / uniform region means (ΔE00) at binning 4 | 2:
-#: the training's 2-D dilation and 0.5, 1.184 / 1.271 | 0.499 / 0.663; the working footprint and 0.5,
-#: 1.074 / 1.176 | 0.484 / 0.637; 0.2, 0.539 / 0.885 | 0.440 / 0.557; **0.05, 0.447 / 0.622 | 0.440 /
-#: 0.548**; 0.02, 0.448 / 0.597 | 0.440 / 0.549, where a pixel that faint may be a floater's
-#: (docs/notes/2026-11-30-low-opacity-depth.md).
-FULL_MIN_ALPHA = 0.05
 
 #: Other photographs of the corrected photograph's own camera read at full resolution, averaged into its
 #: own channels with the measurement (inverse variance) where they see a plain pixel: the noise the

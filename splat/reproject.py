@@ -51,16 +51,21 @@ __all__ = [
 #: occluder in front is ≥ 10 % nearer.
 DEPTH_RTOL = 0.03
 
-#: Pixels whose splat opacity is below this have no reliable depth (background, holes): a target pixel
-#: below it is not reprojected, and a source whose depth is given as 0 there (as the pipeline does,
+#: Pixels whose splat opacity is below this have no depth (background, holes): a target pixel below it
+#: is not reprojected, and a source whose depth is given as 0 there (as the pipeline does,
 #: ``np.where(alpha >= MIN_ALPHA, depth, 0)``) does not vouch for visibility. The depth is normalised by
-#: the opacity, so a half-transparent surface still has one; a trained splat is half-transparent over much
-#: of a surface (on the CI coarse captures, 1000 steps, 9–28 % of the flat pixels of a held-out view are
-#: below 0.9, 3–6 % of all pixels below 0.5), and the 3 % depth test still rejects occluded points. With
-#: 0.5 instead of 0.9 those pixels are read from photographs rather than the render: three cameras fused,
-#: flat held-out pixels, 0.460 → 0.396 ΔE00 (seed 0), 0.459 → 0.405 (seed 1), 0.493 → 0.469 (2000
-#: steps), 1.368 → 1.298 (shot + read noise); 0.3 was no better on any of them.
-MIN_ALPHA = 0.5
+#: the opacity, so a half-transparent surface still has one, and the 3 % depth test still rejects
+#: occluded points. A trained splat is half-transparent over much of its surfaces, the more so when
+#: trained on binned photographs (benchmark capture, 16,384 Gaussians: median Gaussian opacity 0.67 /
+#: 0.54 / 0.26 at binning 1 / 2 / 4; at binning 4, 39 % of a held-out view's region pixels reach 0.5),
+#: while its depth stays the surface's (0.2–0.4 % from the sources' at the median). 12 held-out views,
+#: Prior on the fused responses (chart / uniform region means, flat pixels; ΔE00), 0.5 → 0.05 with the
+#: own camera's reprojection tested against the measurement: binning 1, 0.298 / 0.422, 0.522 → 0.294 /
+#: 0.386, 0.508; binning 4 (uniform, flat, at working size) 0.668, 1.202 → 0.397, 0.563; 0.1 the same to
+#: 0.01. The full-size output at binning 4, region means 1.184 / 1.271 → 0.447 / 0.622 (0.2: 0.539 /
+#: 0.885; 0.02: 0.448 / 0.597, where a pixel that faint may be a floater's). Earlier, 0.9 → 0.5 on the CI
+#: coarse captures (flat pixels 0.460 → 0.396 ΔE00). docs/notes/2026-11-30-low-opacity-depth.md
+MIN_ALPHA = 0.05
 
 #: With the sources' noise variances given, :func:`reprojected` averages (inverse-variance weights) the
 #: sources within ``TRIM_SIGMA`` of their own σ plus ``TRIM_RTOL`` of the median from the median: the

@@ -64,8 +64,8 @@ from ._errors import SplatError
 from ._tol import (
     ANCHOR_EPS,
     CORRECT_CHUNK,
-    FULL_MIN_ALPHA,
     FULL_WORKERS,
+    JOINT_NSIGMA,
     RENDER_ANCHOR_ALPHA,
     RENDER_ANCHOR_BINNING,
     SOURCE_BLOCK_ROWS,
@@ -267,7 +267,7 @@ class FullReprojection(NamedTuple):
         with the footprint it was trained with (:func:`splat.resolution.working_footprint`).
     min_alpha : float, optional
         The splat's opacity from which a pixel is lifted with its depth (default
-        :data:`splat._tol.FULL_MIN_ALPHA`; the groups' depths should be cut at the same).
+        :data:`splat.reproject.MIN_ALPHA`; the groups' depths should be cut at the same).
     """
 
     gaussians: object
@@ -309,12 +309,12 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, col
     ``need`` (r1 − r0, W) bool: the pixels wanted; the others are not read (count 0), and a strip with
     none is neither rendered nor read unless ``colour`` (the wanted pixels' values are the same either
     way)."""
-    from .reproject import depth_map, reprojected
+    from .reproject import MIN_ALPHA, depth_map, reprojected
     from .resolution import working_footprint
 
     W = int(rep.camera.width)
     none = need is not None and not np.any(need)
-    min_alpha = FULL_MIN_ALPHA if rep.min_alpha is None else float(rep.min_alpha)
+    min_alpha = MIN_ALPHA if rep.min_alpha is None else float(rep.min_alpha)
     if none and not colour:
         return [np.zeros((r1 - r0, W, 3), np.float32) for _ in rep.groups], [
             np.zeros((r1 - r0, W), np.int64) for _ in rep.groups
@@ -501,8 +501,9 @@ def full_resolution_view(
         camera's sees a pixel and the photograph is not textured there at full resolution
         (:func:`textured_rows`), that camera's channels are their values there instead of the upsampled
         working responses, σ ``reprojection.sigma``; the own camera's other photographs are averaged
-        with the measurement there (inverse variance, σ combined). Without, every other channel is the
-        upsampled working fusion (the previous path).
+        with the measurement there (inverse variance, σ combined) where they agree with it within
+        :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ in every channel. Without, every
+        other channel is the upsampled working fusion (the previous path).
     workers : int
         Strips computed at once, each on a thread of its own (NumPy, the renderer and the regressions
         release the GIL for most of a strip's work): time only, the output is the same for any number;
@@ -537,7 +538,9 @@ def full_resolution_view(
                 f"full_resolution_view: reprojection σ {rep_sigma.shape} must be ({k},) and its groups "
                 f"cameras' positions among {m}."
             )
-        # the own channels where the camera's other photographs are averaged in: the two σ combined
+        # the own channels where the camera's other photographs are averaged in: the two σ combined, where
+        # they agree within JOINT_NSIGMA times the two σ (farther: a misplaced reprojection, as at work)
+        own_tol = (JOINT_NSIGMA * (own_sigma + rep_sigma[own])).astype(np.float32)
         w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
         rep_sigma = rep_sigma.copy()
         rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
@@ -576,14 +579,16 @@ def full_resolution_view(
                 )
                 resp[tex] = got[:, 0]
                 del render, sites, weight, got
+            work_cd = cd  # the working code: its rejections, before the full-resolution flags join it
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
-                    use = (n > 0) & plain & valid
+                    vals = np.maximum(vals, 0)
+                    use = (n > 0) & plain & valid & (np.abs(vals - resp[..., own]) <= own_tol).all(-1)
                     a, b = w_own
-                    mean = (a * resp[..., own] + b * np.maximum(vals, 0)) / (a + b)
+                    mean = (a * resp[..., own] + b * vals) / (a + b)
                     resp[..., own] = np.where(use[..., None], mean, resp[..., own])
                 else:
-                    use = (n > 0) & plain & (cd & rejected_bit(m, i) == 0)  # not where rejected at work
+                    use = (n > 0) & plain & (work_cd & rejected_bit(m, i) == 0)  # not where rejected at work
                     resp[..., 3 * i : 3 * i + 3] = np.where(
                         use[..., None], np.maximum(vals, 0), resp[..., 3 * i : 3 * i + 3]
                     )

@@ -359,12 +359,15 @@ def fused_view(
 
     The own channels are measured (where the camera's other photographs see the pixel, the
     inverse-variance mean of the measurement and their reprojection: noise is averaged, a noise-free
-    photograph keeps most of its weight); another camera's channels are its photographs reprojected into
-    the view where any sees the pixel (``reprojected``: values (H, W, 3n) white → 1 and counts (H, W, n),
-    all cameras, as the render step writes them), else the render anchored to the photograph. Every
-    camera's reprojection (the view's own camera's too) is first re-read by
-    :func:`splat.fusion.guided`, guided by the view's photograph. Its σ stays the unfiltered
-    reprojection's (``fusion_of``): an upper bound, as the filter averages noise.
+    photograph keeps most of its weight; where their reprojection is farther from the measurement than
+    :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ in any channel, it is misplaced and the
+    measurement stays alone: on the benchmark capture a 4-pixel black patch read its neighbour, 1.56 →
+    18.96 ΔE00, once the render step lifted half-transparent pixels); another camera's channels are its
+    photographs reprojected into the view where any sees the pixel (``reprojected``: values (H, W, 3n)
+    white → 1 and counts (H, W, n), all cameras, as the render step writes them), else the render
+    anchored to the photograph. Every camera's reprojection (the view's own camera's too) is first
+    re-read by :func:`splat.fusion.guided`, guided by the view's photograph. Its σ stays the
+    unfiltered reprojection's (``fusion_of``): an upper bound, as the filter averages noise.
 
     Where the photograph is **textured** (:func:`splat.fusion.textured`, with the view's ``own_sigma``
     as the noise) none of that holds: a reprojection misplaced by a fraction of a pixel, or a channel
@@ -398,7 +401,8 @@ def fused_view(
         bit ``m + 4`` set: its own channels are the camera's other photographs reprojected (bit of the
         own camera set; σ theirs) or the render (σ the render's), never the clipped measurement.
         Bit ``m + 5 + i`` is set where ``cameras[i]``'s reprojection was rejected (bit ``i``
-        cleared, σ as where none was; :func:`splat.fusion.rejected_bit`).
+        cleared, σ as where none was; :func:`splat.fusion.rejected_bit`); for the view's own camera,
+        where its other photographs disagreed with the measurement.
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
@@ -418,6 +422,7 @@ def fused_view(
 
     k = view.camera
     cameras = list(cameras)
+    m = len(cameras)
     if k not in cameras:
         raise SplatError(f"{name}: its camera is not among the cameras {cameras} to fuse.")
     idx = [3 * c + j for c in cameras for j in range(3)]
@@ -460,20 +465,23 @@ def fused_view(
         for i, c in enumerate(cameras):
             seen = count[..., c] > 0
             if c == k:  # inverse-variance mean of the measurement and the camera's other photographs
+                rep_own = np.maximum(values[..., 3 * c : 3 * c + 3], 0)
+                # …where they agree with it: farther than the two σ allow is a misplaced reprojection
+                far = seen & valid & (np.abs(rep_own - m_own) > JOINT_NSIGMA * (s_own + s_rep)).any(-1)
+                seen = seen & ~far
                 wm, wr = 1 / s_own**2, 1 / s_rep**2
-                comb = (wm * m_own + wr * np.maximum(values[..., 3 * c : 3 * c + 3], 0)) / (wm + wr)
+                comb = (wm * m_own + wr * rep_own) / (wm + wr)
                 fused[..., own] = np.where(seen[..., None] & valid[..., None], comb, m_own)
                 # clipped: the camera's other photographs alone where they see the pixel, else the render
-                rep_own = np.maximum(values[..., 3 * c : 3 * c + 3], 0)
                 fused[..., own] = np.where((seen & ~valid)[..., None], rep_own, fused[..., own])
                 code |= seen.astype(int) << i
+                code = np.where(far, code | rejected_bit(m, i), code)
                 continue
             fused[..., 3 * i : 3 * i + 3] = np.where(
                 seen[..., None], np.maximum(values[..., 3 * c : 3 * c + 3], 0), fused[..., 3 * i : 3 * i + 3]
             )
             code |= seen.astype(int) << i
     rtol = TEXTURE_RTOL if texture_rtol is None else texture_rtol
-    m = len(cameras)
     so = np.asarray(fusion["views"][name]["own_sigma"], float)
     tex = textured(view, ws, rtol=rtol, noise=so) & valid if np.isfinite(rtol) else np.zeros_like(valid)
     if anchored is not None:  # reprojections that no surface gives together with the own channels
@@ -512,7 +520,8 @@ def fused_view(
         s_ = np.full(3 * m, float(fusion["render_sigma"]))
         s_[own] = np.where((cd >> (m + 1)) >> np.arange(3) & 1, so, s_[own])
         sigma[int(cd)] = s_
-    return fused, code, sigma
+    present = {int(c) for c in np.unique(code)}  # a base pattern only a rejection led to is not one
+    return fused, code, {c: s_ for c, s_ in sigma.items() if c in present}
 
 
 def _sigma_by_code(fusion: dict, code: np.ndarray, cameras: list) -> dict:
@@ -1147,12 +1156,12 @@ def full_reprojection(
     views, pose corrections applied) and ``open_source`` (``RawView → RawSource``; default
     :func:`open_raw` of its file) stand in for what ``OUT`` and the capture hold (benchmarks);
     ``own_sources`` replaces :data:`splat._tol.FULL_OWN_SOURCES` (0: the other cameras' only),
-    ``min_alpha`` :data:`splat._tol.FULL_MIN_ALPHA` (where a pixel of the view and of a source has a
+    ``min_alpha`` :data:`splat.reproject.MIN_ALPHA` (where a pixel of the view and of a source has a
     depth)."""
-    from .._tol import FULL_MIN_ALPHA, FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
+    from .._tol import FULL_OWN_SOURCES, FULL_SOURCE_STRIDE, FULL_SOURCES
     from ..camera import Camera
     from ..fusion import OWN_NOISE_FLOOR, sensor_noise
-    from ..reproject import depth_map
+    from ..reproject import MIN_ALPHA, depth_map
     from ..resolution import sites_per_block
     from ..strips import FullReprojection, raw_row_source
     from .config import working_views
@@ -1161,7 +1170,7 @@ def full_reprojection(
 
     rep_sigma = fusion.get("reprojected_sigma")
     own_n = FULL_OWN_SOURCES if own_sources is None else own_sources
-    t = FULL_MIN_ALPHA if min_alpha is None else float(min_alpha)
+    t = MIN_ALPHA if min_alpha is None else float(min_alpha)
     state: dict = {}
 
     def loaded():

@@ -91,7 +91,7 @@ def nearest_sources(
     mostly add noise averaging the fusion already has). ``seen_only``, ``stride`` and ``min_alpha`` (the
     view's opacity that gives a pixel a depth; default :data:`splat.reproject.MIN_ALPHA`) are for the
     correct step, which reads each chosen photograph at full resolution and counts it in the reprojected
-    noise (:data:`splat._tol.FULL_SOURCE_STRIDE`, :data:`splat._tol.FULL_MIN_ALPHA`)."""
+    noise (:data:`splat._tol.FULL_SOURCE_STRIDE`)."""
     from .._tol import RENDER_SOURCE_STRIDE
     from ..reproject import MIN_ALPHA, visibility
     from ..resolution import scale_camera

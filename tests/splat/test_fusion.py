@@ -618,10 +618,12 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     demosaiced with the other cameras' help (``guided_demosaic``, guided by the mean of the other
     cameras' reprojections re-read by ``guided`` with the view's Malvar photograph, next to that
     photograph), averaged by inverse variance with the own camera's reprojected photographs where those
-    see it; every reprojection is finally re-read by ``guided`` with the demosaiced photograph as the
-    guide; each pattern gets its own σ."""
+    see it and agree with it (within ``JOINT_NSIGMA`` times the sum of the two σ in every channel; else
+    the measurement alone, the camera's rejection bit set); every reprojection is finally re-read by
+    ``guided`` with the demosaiced photograph as the guide; each pattern gets its own σ."""
+    from splat._tol import JOINT_NSIGMA
     from splat.capture import fused_view
-    from splat.fusion import anchor, guided, guided_demosaic
+    from splat.fusion import anchor, guided, guided_demosaic, rejected_bit
 
     view = next(v for v in sim["views"] if v.camera == 2)
     assert not view.full_colour
@@ -630,6 +632,10 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     rng = np.random.default_rng(5)
     render = rng.uniform(0.05, 1.0, (H, W, 9))
     values = rng.uniform(0.05, 1.0, (H, W, 9))
+    # the own camera's photographs: the measurement, nudged (top) or misplaced by far more than σ (bottom)
+    values[..., 6:9] = measured(view, sim["scale"][6:9]) + np.where(
+        np.arange(H)[:, None, None] < H // 2, 0.004, 0.3
+    )
     count = np.zeros((H, W, 3))
     count[: H // 2, :, 0] = 3  # camera 0 seen in the top half
     count[:, : W // 3, 1] = 1  # camera 1 in the left third
@@ -657,7 +663,13 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     g = [guided(values[..., 3 * c : 3 * c + 3], seen[c], own_photo) for c in range(3)]
     assert not np.allclose(g[0][seen0], values[..., 0:3][seen0])  # the filter did something
     anchored = anchor(render[..., [3, 4, 5, 6, 7, 8, 0, 1, 2]], own_photo, slice(3, 6), valid)
-    np.testing.assert_array_equal(code, (seen1 << 0) | (own << 1) | (seen0 << 2))  # bit i: cams[i]
+    g[2] = np.maximum(g[2], 0)  # a reprojection is never negative
+    far = own & (np.abs(g[2] - anchored[..., 3:6]) > JOINT_NSIGMA * (0.003 + 0.006)).any(-1)
+    assert far[H // 2 :].mean() > 0.4 and (own & ~far)[: H // 2].sum() > 100 and not far[: H // 2].all()
+    own &= ~far
+    rej = rejected_bit(3, 1)
+    want = (seen1 << 0) | (own << 1) | (seen0 << 2)  # bit i: cams[i]
+    np.testing.assert_array_equal(code, np.where(far, want | rej, want))
     np.testing.assert_array_equal(fused[..., 6:9][seen0], g[0][seen0])
     np.testing.assert_array_equal(fused[..., 6:9][~seen0], anchored[..., 6:9][~seen0])
     np.testing.assert_array_equal(fused[..., 0:3][seen1], g[1][seen1])
@@ -665,6 +677,7 @@ def test_fused_view_takes_reprojected_photographs_where_they_see(sim):
     np.testing.assert_allclose(fused[..., 3:6][own], (0.8 * anchored[..., 3:6] + 0.2 * g[2])[own], rtol=1e-12)
     np.testing.assert_array_equal(fused[..., 3:6][~own], anchored[..., 3:6][~own])
     assert sorted(sigmas) == sorted({int(c) for c in np.unique(code)})
+    np.testing.assert_array_equal(sigmas[4 | rej], sigmas[4])  # rejected: the measurement's σ
     both = 1 / np.sqrt(1 / 0.003**2 + 1 / 0.006**2)
     np.testing.assert_array_equal(sigmas[5], [0.002] * 3 + [0.003] * 3 + [0.004] * 3)
     np.testing.assert_allclose(sigmas[6], [0.017] * 3 + [both] * 3 + [0.004] * 3, rtol=1e-12)

@@ -210,14 +210,14 @@ def test_target_alpha_threshold_given():
     _, col, row = _project(src, X)
     inside = _inside(src, col, row, 1e-6)
     depth, image = _photo(src)
-    for t in (0.05, 0.2):
+    for t in (0.2, 0.3):
         _, valid = reproject(TARGET, d, a, src, depth, image, min_alpha=t)
         np.testing.assert_array_equal(valid[inside], (a >= t)[inside])
         np.testing.assert_array_equal(visibility(TARGET, d, a, src, depth, min_alpha=t), valid)
         _, n = reprojected(TARGET, d, a, [(src, depth, image)], min_alpha=t)
         np.testing.assert_array_equal(n, valid)
-    assert (inside & (a >= 0.05) & (a < MIN_ALPHA)).sum() > 20
-    _, valid = reproject(TARGET, d, a, src, np.zeros_like(depth), image, min_alpha=0.05)
+    assert (inside & (a >= 0.2) & (a < 0.3)).sum() > 20
+    _, valid = reproject(TARGET, d, a, src, np.zeros_like(depth), image, min_alpha=0.2)
     assert not valid.any()
 
 
@@ -315,7 +315,7 @@ def _sorted_median(x):
 def test_reprojected_median_rejects_one_outlier_and_counts():
     d, a, X = _depth_alpha(TARGET)
     a = a.copy()
-    a[:4] = 0.3  # the top rows have no depth: nobody sees them
+    a[:4] = 0.03  # the top rows have no depth: nobody sees them
     sources, bad_any = [], np.zeros(d.shape, bool)
     for k, src in enumerate(SOURCES):
         sd, photo = _photo(src)

@@ -242,10 +242,9 @@ def test_reprojected_strip_renders_with_the_working_footprint(splat_scene):
 
 def test_reprojected_strip_lifts_a_half_transparent_splat(splat_scene):
     """A splat of faint Gaussians (opacity 0.06 each, nowhere 0.5 in all): the strip lifts and reads
-    the pixels whose opacity reaches ``FULL_MIN_ALPHA``, those below ``MIN_ALPHA`` too, as
-    :func:`splat.reproject.reprojected` does with that threshold; none below it."""
+    the pixels whose opacity reaches ``rep.min_alpha`` (default ``MIN_ALPHA``), as
+    :func:`splat.reproject.reprojected` does with that threshold; none below it, none at all from 0.5."""
     from splat import init_gaussians
-    from splat._tol import FULL_MIN_ALPHA
     from splat.reproject import MIN_ALPHA
 
     from .test_reproject import _SIGMA
@@ -254,13 +253,15 @@ def test_reprojected_strip_lifts_a_half_transparent_splat(splat_scene):
     means = _floor()
     faint = init_gaussians(means, np.ones((len(means), 2)), scales=_SIGMA, opacity=0.06)
     d, a = depth_map(faint, cam)
-    assert not (a >= MIN_ALPHA).any()
+    assert not (a >= 0.5).any() and ((a >= MIN_ALPHA) & (a < 0.5)).mean() > 0.3
     values, counts = reprojected_strip(FullReprojection(faint, None, cam, groups, np.ones(9)), 0, cam.height)
     for sources, v, n in zip(groups.values(), values, counts, strict=True):
-        want_v, want_n = reprojected(cam, d, a, sources, min_alpha=FULL_MIN_ALPHA)
+        want_v, want_n = reprojected(cam, d, a, sources, min_alpha=MIN_ALPHA)
         np.testing.assert_array_equal(n, want_n)
         np.testing.assert_allclose(v, want_v, rtol=1e-6, atol=1e-7)
-        assert (n > 0).sum() > 20 and not n[a < FULL_MIN_ALPHA].any()
+        assert (n > 0).sum() > 20 and not n[a < MIN_ALPHA].any()
+    rep = FullReprojection(faint, None, cam, groups, np.ones(9), min_alpha=0.5)
+    assert not any(n.any() for n in reprojected_strip(rep, 0, cam.height)[1])
 
 
 def test_reprojected_strip_equals_whole(splat_scene):
@@ -379,11 +380,19 @@ def test_full_resolution_view_skips_a_camera_rejected_at_the_working_resolution(
     np.testing.assert_allclose(out[both], want[both], rtol=1e-5, atol=1e-6)
 
 
+class _Given(_Source):
+    """A full-colour RAW stand-in showing a given image."""
+
+    def __init__(self, img):
+        self.img, self.shape = img, img.shape[:2]
+
+
 def test_full_resolution_view_averages_the_own_cameras_other_photographs(splat_scene):
     """A group at the photograph's own position is its camera's other photographs: where one sees a
-    plain pixel, the own channels are the inverse-variance mean of the measurement (σ 0.01) and their
-    reprojection (σ 0.02), and the fit is told the two σ combined; another camera's group replaces its
-    channels as before."""
+    plain pixel and agrees with the measurement (σ 0.01) within ``JOINT_NSIGMA`` times the sum of the
+    two σ, the own channels are the inverse-variance mean of the measurement and their reprojection
+    (σ 0.02), and the fit is told the two σ combined; where it is farther, the measurement alone; another
+    camera's group replaces its channels as before."""
     g, cam, groups = splat_scene
     W, H = _SIZE
     f = 2
@@ -399,22 +408,55 @@ def test_full_resolution_view_averages_the_own_cameras_other_photographs(splat_s
 
     rep_sigma = np.array([0.05, 0.05, 0.05, 0.02, 0.02, 0.02, 0.04, 0.04, 0.04])
     rep = FullReprojection(g, None, cam, groups, rep_sigma)
-    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
-    out = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=16, reprojection=rep)))
     values, seen = reprojected_strip(rep, 0, H)
+    # the photograph: what the camera's other photographs show, off by 0.01 (top) or 0.5 (bottom)
+    top = (np.arange(H) < 17)[:, None, None]  # the two groups see rows 10–23 together
+    measured = np.where(seen[0][..., None] > 0, values[0], 0.3) + np.where(top, 0.01, 0.5)
+    photo = Photograph(_Given(measured.astype(float)), 1.0, np.ones(3), np.full(3, 0.01))
+    out = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=16, reprojection=rep)))
     tex = textured_rows(photo.source, 0, H, 1.0, np.ones(3), np.full(3, 0.01))
     both = (seen[0] > 0) & (seen[1] > 0) & ~tex
-    assert both.sum() > 50
-    measured = _Source(H, W).img
+    near = both & top[..., 0]
+    assert near.sum() > 20 and (both & ~top[..., 0]).sum() > 20
     mean = (measured / 0.01**2 + values[0] / 0.02**2) / (1 / 0.01**2 + 1 / 0.02**2)
     plain = np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=H)))
     # cameras 0 and 2 without reprojection: the working 0.2 upsampled and anchored, alike in both
     anchored = (plain - 0.1 * measured) / 1.05
-    want = anchored + 0.1 * mean + 0.05 * values[1]  # camera 0 still anchored, camera 2 reprojected
+    own_now = np.where(near[..., None], mean, measured)
+    want = anchored + 0.1 * own_now + 0.05 * values[1]  # camera 0 still anchored, camera 2 reprojected
     np.testing.assert_allclose(out[both], want[both], rtol=1e-5, atol=1e-6)
-    assert np.abs(mean - measured)[both].max() > 1e-3  # the average moved the measurement
+    assert np.abs(mean - measured)[near].max() > 1e-3  # the average moved the measurement
     combined = 1 / np.sqrt(1 / 0.01**2 + 1 / 0.02**2)
     assert any(np.allclose(s[3:6], combined) and np.allclose(s[6:], 0.04) for s in fits)
+    assert any(np.allclose(s[3:6], 0.01) and np.allclose(s[6:], 0.04) for s in fits)  # far: measured
+
+
+def test_full_resolution_flags_do_not_read_as_working_rejections(splat_scene):
+    """A working code that carries the own camera's rejection bit widens the patterns; the cameras'
+    full-resolution flags then sit where other cameras' rejection bits are, and must not be taken for
+    them: every other pixel is as without that bit (camera 2 still reprojected where camera 1 is)."""
+    from splat.fusion import rejected_bit
+
+    g, cam, groups = splat_scene
+    W, H = _SIZE
+    f = 2
+    own = slice(0, 3)
+    fit = lambda s: (_Linear(), np.ones(9))  # noqa: E731
+    photo = Photograph(_Source(H, W), 1.0, np.ones(3), np.full(3, 0.01))
+    rep = FullReprojection(g, None, cam, groups, np.full(9, 0.05))
+    outs = []
+    for bit in (0, rejected_bit(3, 0)):
+        code = np.zeros((H // f, W // f), int)
+        code[0, 0] = bit
+        work = WorkingFusion(
+            np.full((H // f, W // f, 9), 0.2), code, {0: np.full(9, 0.03), bit: np.full(9, 0.03)}, own, f
+        )
+        outs.append(
+            np.concatenate(list(full_resolution_view(photo, work, fit, strip_rows=16, reprojection=rep)))
+        )
+    _, seen = reprojected_strip(rep, 0, H)
+    assert ((seen[0] > 0) & (seen[1] > 0)).sum() > 50
+    np.testing.assert_array_equal(outs[1][f:], outs[0][f:])
 
 
 def test_depth_map_with_colour_is_the_depth_and_the_render_of_one_pass(splat_scene):
@@ -436,7 +478,7 @@ def test_full_resolution_view_anchors_the_render_at_textured_pixels(splat_scene)
     """With ``render_scale`` at binning 2: a textured pixel the splat covers (opacity ≥
     ``RENDER_ANCHOR_ALPHA``) has the splat's render at full resolution (÷ render_scale) anchored to the
     photograph's own sites (:func:`splat.fusion.anchor`), not the working responses upsampled; other
-    pixels do not change. At binning 4 nothing changes."""
+    pixels do not change. At binning 8 nothing changes."""
     from splat._tol import RENDER_ANCHOR_ALPHA
     from splat.fusion import anchor
     from splat.outputs import render_views
@@ -479,7 +521,7 @@ def test_full_resolution_view_anchors_the_render_at_textured_pixels(splat_scene)
     np.testing.assert_allclose(outs["anchored"][tex], want_xyz[tex], rtol=2e-5, atol=1e-6)
     assert np.abs(outs["anchored"] - outs["plain"])[tex].max() > 1e-2
     # above RENDER_ANCHOR_BINNING the render is too blurred at an edge: the photograph is kept
-    f = 4
+    f = 8
     work = WorkingFusion(
         np.full((H // f, W // f, 9), 0.2), np.zeros((H // f, W // f), int), {0: np.full(9, 0.03)}, own, f
     )
