@@ -96,10 +96,11 @@ RENDER_ANCHOR_ALPHA = 0.05
 
 #: Largest binning at which the full-size output's textured pixels are the render anchored to their
 #: sites: the render is as sharp as the working grid, and it beat the photograph demosaiced on the
-#: benchmark capture's all pixels (ΔE00) at binning 2 (5.24 against 5.66) and 4 (6.06 against 7.31),
-#: rendered with the working footprint (:func:`splat.resolution.working_footprint`; with the renderer's
-#: own dilation it had lost at 4, 7.90 against 7.60, its surfaces open). At binning 8 it lost (9.40
-#: against 9.23): its colour is blurred over f pixels at an edge, the photograph's own channels are not.
+#: benchmark capture's all pixels (ΔE00) at binning 2 (5.66 against 7.03) and, rendered with the working
+#: footprint (:func:`splat.resolution.working_footprint`), at binning 4 (6.06 against 7.31; with the
+#: renderer's own dilation, its surfaces open, it had lost there, 7.90 against 7.60). At binning 8 it
+#: lost (9.40 against 9.23): its colour is blurred over f pixels at an edge, the photograph's own
+#: channels are not.
 RENDER_ANCHOR_BINNING = 4
 
 #: Floor of the measured channels' noise σ (white = 1): the forward model's own error (SSFs on the

@@ -300,11 +300,11 @@ def reprojected_strip(rep: FullReprojection, r0: int, r1: int, need=None, *, col
     """Rows ``r0:r1`` of the photograph, each group's photographs (``rep.groups``) reprojected there at
     full resolution: the splat's depth rendered for the strip alone (:func:`splat.reproject.depth_map` of
     :func:`strip_camera`, the working footprint), every pixel whose opacity reaches ``rep.min_alpha``
-    lifted with it and read in the sources (only the rows they need),
-    occlusion tested against each source's working-resolution depth, combined per camera as the render
-    step does. Returns, in ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W); with
-    ``colour``, also the splat's render of the strip (r1 − r0, W, k), as :func:`splat.outputs.render_views`
-    gives it, from the same pass as the depth, and its opacity (r1 − r0, W).
+    lifted with it and read in the sources (only the rows they need), occlusion tested against each
+    source's working-resolution depth, combined per camera as the render step does. Returns, in
+    ``rep.groups``' order, values (r1 − r0, W, 3) and counts (r1 − r0, W); with ``colour``, also the
+    splat's render of the strip (r1 − r0, W, k), as :func:`splat.outputs.render_views` gives it, from
+    the same pass as the depth, and its opacity (r1 − r0, W).
 
     ``need`` (r1 − r0, W) bool: the pixels wanted; the others are not read (count 0), and a strip with
     none is neither rendered nor read unless ``colour`` (the wanted pixels' values are the same either
