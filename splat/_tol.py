@@ -165,6 +165,16 @@ TEXTURE_NSIGMA = 6.0
 #: are rejected.
 JOINT_NSIGMA = 3.0
 
+#: The own camera's other photographs are averaged into its measured channels where they agree with the
+#: measurement within JOINT_NSIGMA times the sum of the two σ plus this fraction of the measurement, in
+#: every channel: the σ are the sensor's at the median level, and a brighter surface's noise exceeds them
+#: (a misplaced reprojection, a neighbour read across an edge, is off by far more). Benchmark capture,
+#: binning 1, Prior, chart / uniform region means: one camera (b), the Sigma's views, 0 → 1.817 /
+#: 2.372, **0.05 → 1.460 / 2.246**, 0.1 → 1.502 / 2.236, no test 1.477 / 2.234; three cameras 0 →
+#: 0.294 / 0.386, **0.05 → 0.292 / 0.386**, no test 0.337 / 0.388 (a 4-pixel black patch read its
+#: neighbour, 18.96 ΔE00).
+OWN_AGREE_RTOL = 0.05
+
 #: Ridge weight (relative to the mean diagonal) of the smooth reflectance that
 #: :func:`splat.fusion.impossible` fits to a pair before its LP: the pair is then settled without the
 #: LP when that reflectance's responses lie within the tolerance. It changes which pairs need the LP,

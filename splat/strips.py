@@ -66,6 +66,7 @@ from ._tol import (
     CORRECT_CHUNK,
     FULL_WORKERS,
     JOINT_NSIGMA,
+    OWN_AGREE_RTOL,
     RENDER_ANCHOR_ALPHA,
     RENDER_ANCHOR_BINNING,
     SOURCE_BLOCK_ROWS,
@@ -502,7 +503,8 @@ def full_resolution_view(
         (:func:`textured_rows`), that camera's channels are their values there instead of the upsampled
         working responses, σ ``reprojection.sigma``; the own camera's other photographs are averaged
         with the measurement there (inverse variance, σ combined) where they agree with it within
-        :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ in every channel. Without, every
+        :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ plus
+        :data:`splat._tol.OWN_AGREE_RTOL` of the measurement in every channel. Without, every
         other channel is the upsampled working fusion (the previous path).
     workers : int
         Strips computed at once, each on a thread of its own (NumPy, the renderer and the regressions
@@ -539,7 +541,7 @@ def full_resolution_view(
                 f"cameras' positions among {m}."
             )
         # the own channels where the camera's other photographs are averaged in: the two σ combined, where
-        # they agree within JOINT_NSIGMA times the two σ (farther: a misplaced reprojection, as at work)
+        # they agree within JOINT_NSIGMA times the two σ and OWN_AGREE_RTOL (farther: misplaced, as at work)
         own_tol = (JOINT_NSIGMA * (own_sigma + rep_sigma[own])).astype(np.float32)
         w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
         rep_sigma = rep_sigma.copy()
@@ -583,7 +585,8 @@ def full_resolution_view(
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
                     vals = np.maximum(vals, 0)
-                    use = (n > 0) & plain & valid & (np.abs(vals - resp[..., own]) <= own_tol).all(-1)
+                    tol = own_tol + np.float32(OWN_AGREE_RTOL) * np.abs(resp[..., own])
+                    use = (n > 0) & plain & valid & (np.abs(vals - resp[..., own]) <= tol).all(-1)
                     a, b = w_own
                     mean = (a * resp[..., own] + b * vals) / (a + b)
                     resp[..., own] = np.where(use[..., None], mean, resp[..., own])

@@ -360,7 +360,8 @@ def fused_view(
     The own channels are measured (where the camera's other photographs see the pixel, the
     inverse-variance mean of the measurement and their reprojection: noise is averaged, a noise-free
     photograph keeps most of its weight; where their reprojection is farther from the measurement than
-    :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ in any channel, it is misplaced and the
+    :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ plus :data:`splat._tol.OWN_AGREE_RTOL`
+    of the measurement in any channel, it is misplaced and the
     measurement stays alone: on the benchmark capture a 4-pixel black patch read its neighbour, 1.56 →
     18.96 ΔE00, once the render step lifted half-transparent pixels); another camera's channels are its
     photographs reprojected into the view where any sees the pixel (``reprojected``: values (H, W, 3n)
@@ -406,7 +407,7 @@ def fused_view(
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
-    from .._tol import JOINT_NSIGMA
+    from .._tol import JOINT_NSIGMA, OWN_AGREE_RTOL
     from ..fusion import (
         TEXTURE_RTOL,
         anchor,
@@ -467,7 +468,8 @@ def fused_view(
             if c == k:  # inverse-variance mean of the measurement and the camera's other photographs
                 rep_own = np.maximum(values[..., 3 * c : 3 * c + 3], 0)
                 # …where they agree with it: farther than the two σ allow is a misplaced reprojection
-                far = seen & valid & (np.abs(rep_own - m_own) > JOINT_NSIGMA * (s_own + s_rep)).any(-1)
+                tol = JOINT_NSIGMA * (s_own + s_rep) + OWN_AGREE_RTOL * np.abs(m_own)
+                far = seen & valid & (np.abs(rep_own - m_own) > tol).any(-1)
                 seen = seen & ~far
                 wm, wr = 1 / s_own**2, 1 / s_rep**2
                 comb = (wm * m_own + wr * rep_own) / (wm + wr)
