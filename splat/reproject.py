@@ -60,10 +60,10 @@ DEPTH_RTOL = 0.03
 #: 0.54 / 0.26 at binning 1 / 2 / 4; at binning 4, 39 % of a held-out view's region pixels reach 0.5),
 #: while its depth stays the surface's (0.2–0.4 % from the sources' at the median). 12 held-out views,
 #: Prior on the fused responses (chart / uniform region means, flat pixels; ΔE00), 0.5 → 0.05 with the
-#: own camera's reprojection tested against the measurement: binning 1, 0.298 / 0.422, 0.522 → 0.294 /
+#: own camera's reprojection tested against the measurement (3 σ): binning 1, 0.298 / 0.422, 0.522 → 0.294 /
 #: 0.386, 0.508; binning 4 (uniform, flat, at working size) 0.668, 1.202 → 0.397, 0.563; 0.1 the same to
 #: 0.01. The full-size output at binning 4 (with :func:`splat.resolution.working_footprint`), region
-#: means 1.184 / 1.271 → 0.442 / 0.622; at its stage alone, 0.2 gave 0.539 / 0.885 and 0.02 0.448 /
+#: means 1.184 / 1.271 → 0.440 / 0.621; at its stage alone, 0.2 gave 0.539 / 0.885 and 0.02 0.448 /
 #: 0.597, where a pixel that faint may be a floater's. Earlier, 0.9 → 0.5 on the CI coarse captures
 #: (flat pixels 0.460 → 0.396 ΔE00). docs/notes/2026-11-30-low-opacity-depth.md
 MIN_ALPHA = 0.05
