@@ -63,6 +63,8 @@ from ._tol import (  # noqa: F401  (OWN_NOISE_FLOOR: pipeline, tests)
     GUIDE_RANGE,
     GUIDE_RELIABILITY,
     JOINT_FIT_RIDGE,
+    JOINT_NSIGMA,
+    OWN_AGREE_RTOL,
     OWN_NOISE_FLOOR,
     SMOOTH_RTOL,
     TEXTURE_NSIGMA,
@@ -76,6 +78,7 @@ __all__ = [
     "guided_demosaic",
     "impossible",
     "measured",
+    "own_agrees",
     "photo_variance",
     "rejected_bit",
     "render_error",
@@ -474,6 +477,18 @@ def impossible(generators, values_a, values_b, tol: float) -> np.ndarray:
         if need.any():
             out[s : s + step][need] = solid_distance(G, part[need]) * lv[need] > tol
     return out
+
+
+def own_agrees(measured, reprojected, sigma, reprojected_sigma) -> np.ndarray:
+    """Where the view's own camera's other photographs, reprojected, agree with its measurement
+    (..., 3): within :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ (3,) plus
+    :data:`splat._tol.OWN_AGREE_RTOL` of the measurement, in every channel; (...) bool. Elsewhere the
+    reprojection is misplaced (a neighbour read across an edge) and must not be averaged in. Computed in
+    ``measured``'s dtype (float32 in the full-resolution strips)."""
+    m = np.asarray(measured)
+    dt = m.dtype if np.issubdtype(m.dtype, np.floating) else np.float64
+    tol = (JOINT_NSIGMA * (np.asarray(sigma, float) + np.asarray(reprojected_sigma, float))).astype(dt)
+    return (np.abs(reprojected - m) <= tol + dt.type(OWN_AGREE_RTOL) * np.abs(m)).all(-1)
 
 
 def rejected_bit(m: int, i: int) -> int:

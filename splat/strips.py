@@ -32,7 +32,7 @@ one strip of ``STRIP_ROWS`` rows at a time:
    to their upsampled working-resolution sum (the Brovey transform of :func:`splat.fusion.anchor`,
    Gillespie et al. 1987): an edge the photograph shows within a working pixel appears in every
    channel, where plain upsampling would blur it over ``f`` pixels. Pixels whose own site is saturated
-   or dead keep the upsampled values. At binning 2 (:data:`splat._tol.RENDER_ANCHOR_BINNING`), where
+   or dead keep the upsampled values. Up to binning :data:`splat._tol.RENDER_ANCHOR_BINNING`, where
    the photograph is textured and the splat covers the pixel
    (opacity ≥ :data:`splat._tol.RENDER_ANCHOR_ALPHA`), every channel is instead the splat's render at
    full resolution (from the same pass as the strip's depth) anchored to the pixel's own measured
@@ -65,15 +65,13 @@ from ._tol import (
     ANCHOR_EPS,
     CORRECT_CHUNK,
     FULL_WORKERS,
-    JOINT_NSIGMA,
-    OWN_AGREE_RTOL,
     RENDER_ANCHOR_ALPHA,
     RENDER_ANCHOR_BINNING,
     SOURCE_BLOCK_ROWS,
     SOURCE_CACHE_ROWS,
     STRIP_ROWS,
 )
-from .fusion import anchor, rejected_bit
+from .fusion import anchor, own_agrees, rejected_bit
 
 __all__ = [
     "FULL_METHOD",
@@ -502,10 +500,9 @@ def full_resolution_view(
         camera's sees a pixel and the photograph is not textured there at full resolution
         (:func:`textured_rows`), that camera's channels are their values there instead of the upsampled
         working responses, σ ``reprojection.sigma``; the own camera's other photographs are averaged
-        with the measurement there (inverse variance, σ combined) where they agree with it within
-        :data:`splat._tol.JOINT_NSIGMA` times the sum of the two σ plus
-        :data:`splat._tol.OWN_AGREE_RTOL` of the measurement in every channel. Without, every
-        other channel is the upsampled working fusion (the previous path).
+        with the measurement there (inverse variance, σ combined) where they agree with it
+        (:func:`splat.fusion.own_agrees`). Without, every other channel is the upsampled working fusion
+        (the previous path).
     workers : int
         Strips computed at once, each on a thread of its own (NumPy, the renderer and the regressions
         release the GIL for most of a strip's work): time only, the output is the same for any number;
@@ -540,9 +537,9 @@ def full_resolution_view(
                 f"full_resolution_view: reprojection σ {rep_sigma.shape} must be ({k},) and its groups "
                 f"cameras' positions among {m}."
             )
-        # the own channels where the camera's other photographs are averaged in: the two σ combined, where
-        # they agree within JOINT_NSIGMA times the two σ and OWN_AGREE_RTOL (farther: misplaced, as at work)
-        own_tol = (JOINT_NSIGMA * (own_sigma + rep_sigma[own])).astype(np.float32)
+        # the own channels where the camera's other photographs agree with the measurement (own_agrees) and
+        # are averaged in: the two σ combined
+        own_rep_sigma = rep_sigma[own].copy()
         w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
         rep_sigma = rep_sigma.copy()
         rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
@@ -585,8 +582,8 @@ def full_resolution_view(
             for i, (vals, n) in zip(reprojection.groups, zip(values, seen, strict=True), strict=True):
                 if i == me:  # the camera's other photographs: the inverse-variance mean with the measurement
                     vals = np.maximum(vals, 0)
-                    tol = own_tol + np.float32(OWN_AGREE_RTOL) * np.abs(resp[..., own])
-                    use = (n > 0) & plain & valid & (np.abs(vals - resp[..., own]) <= tol).all(-1)
+                    agree = own_agrees(resp[..., own], vals, own_sigma, own_rep_sigma)
+                    use = (n > 0) & plain & valid & agree
                     a, b = w_own
                     mean = (a * resp[..., own] + b * vals) / (a + b)
                     resp[..., own] = np.where(use[..., None], mean, resp[..., own])

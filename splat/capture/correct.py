@@ -407,7 +407,7 @@ def fused_view(
     sigma : dict
         ``code`` → σ per channel (3·len(cameras),).
     """
-    from .._tol import JOINT_NSIGMA, OWN_AGREE_RTOL
+    from .._tol import JOINT_NSIGMA
     from ..fusion import (
         TEXTURE_RTOL,
         anchor,
@@ -415,6 +415,7 @@ def fused_view(
         guided_demosaic,
         impossible,
         measured,
+        own_agrees,
         rejected_bit,
         sites,
         textured,
@@ -468,8 +469,7 @@ def fused_view(
             if c == k:  # inverse-variance mean of the measurement and the camera's other photographs
                 rep_own = np.maximum(values[..., 3 * c : 3 * c + 3], 0)
                 # …where they agree with it: farther than the two σ allow is a misplaced reprojection
-                tol = JOINT_NSIGMA * (s_own + s_rep) + OWN_AGREE_RTOL * np.abs(m_own)
-                far = seen & valid & (np.abs(rep_own - m_own) > tol).any(-1)
+                far = seen & valid & ~own_agrees(m_own, rep_own, s_own, s_rep)
                 seen = seen & ~far
                 wm, wr = 1 / s_own**2, 1 / s_rep**2
                 comb = (wm * m_own + wr * rep_own) / (wm + wr)

@@ -1802,3 +1802,17 @@ def test_render_error_refuses_a_render_of_another_shape():
     view = _view(np.ones((4, 6, 3)), np.ones((4, 6, 3)), full_colour=True)
     with pytest.raises(splat.SplatError, match=r"render_error: render \(4, 5, 3\)"):
         fusion.render_error(view, WHITE, np.ones((4, 5, 3)))
+
+
+def test_own_agrees_within_the_two_sigma_and_a_share_of_the_measurement():
+    """Agreement in every channel within JOINT_NSIGMA × (σ + σ_rep) + OWN_AGREE_RTOL × |measurement|,
+    computed in the measurement's dtype."""
+    from splat._tol import JOINT_NSIGMA, OWN_AGREE_RTOL
+    from splat.fusion import own_agrees
+
+    m = np.array([[0.5, 0.2, 0.03], [0.5, 0.2, 0.03]])
+    tol = JOINT_NSIGMA * (0.01 + 0.02) + OWN_AGREE_RTOL * m[0]
+    rep = np.stack([m[0] + 0.99 * tol, m[1] + np.array([0, 1.01 * tol[1], 0])])
+    np.testing.assert_array_equal(own_agrees(m, rep, [0.01] * 3, [0.02] * 3), [True, False])
+    got = own_agrees(m.astype(np.float32), rep.astype(np.float32), [0.01] * 3, [0.02] * 3)
+    np.testing.assert_array_equal(got, [True, False])
