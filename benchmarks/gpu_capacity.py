@@ -25,6 +25,7 @@ Figures of one H200 (2026-11-27) are in docs/benchmarks.md.
 (either at the least of ``--capacities``),
 ``--time-capacities`` names the capacities timed (every buffer slot alive: the COLMAP points resampled);
 each timing row also holds the compiled step's memory (XLA's analysis) and the device's peak so far.
+``--time-only`` stops after the timings.
 ``--reference SCENE.npz`` writes one view's Gaussians and this project's render for
 ``gsplat_reference.py`` and times the render and its gradient on them. ``--min-steps`` trains a shorter
 schedule where ``--steps`` does not fit; ``--train-anyway`` trains regardless and scores the model where
@@ -146,6 +147,7 @@ def run(
     time_capacities: list[int] | None = None,
     reference: str | None = None,
     train_anyway: bool = False,
+    train_none: bool = False,
 ) -> None:
     import jax
     import jax.numpy as jnp
@@ -336,7 +338,7 @@ def run(
     class OutOfTime(Exception):
         pass
 
-    for capacity in sorted(capacities, reverse=True):
+    for capacity in [] if train_none else sorted(capacities, reverse=True):
         left = budget - (time.perf_counter() - t_start)
         est = step_time(capacity)
         n_steps = next(
@@ -360,7 +362,7 @@ def run(
             if step in (1, n // 2, n) or step % 500 == 0:
                 marks[step] = (round(time.perf_counter() - t0, 1), float(loss), int(state.alive.sum()))
                 print(capacity, step, marks[step], flush=True)
-            if step % 100 == 0 and time.perf_counter() - t_start > budget:
+            if step % 100 == 0 and step < n and time.perf_counter() - t_start > budget:
                 raise OutOfTime(f"stopped at step {step}: past the {budget:.0f} s budget")
 
         stopped = None
@@ -596,6 +598,7 @@ def main(argv=None) -> None:
         metavar="FIELD=VALUE",
         help="override a TrainConfig field of the pipeline's schedule, e.g. densify_gradient=screen",
     )
+    r.add_argument("--time-only", action="store_true", help="time the steps, train nothing")
     a = p.parse_args(argv)
     if a.cmd == "export":
         export(a.capture, a.out, a.bundle)
@@ -617,6 +620,7 @@ def main(argv=None) -> None:
             time_capacities=[int(c) for c in a.time_capacities.split(",")] if a.time_capacities else None,
             reference=a.reference,
             train_anyway=a.train_anyway,
+            train_none=a.time_only,
         )
 
 
