@@ -509,7 +509,7 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
     return " ".join(bits)
 
 
-def _noise(run: _Run, name: str, fused: bool, cdir: Path) -> str:
+def _noise(run: _Run, name: str, fused: bool, cdir: Path, raw_size=None) -> str:
     c = run.correct
     if c is None:
         return "Not corrected yet."
@@ -527,7 +527,7 @@ def _noise(run: _Run, name: str, fused: bool, cdir: Path) -> str:
             "this RAW file; the other cameras' photographs reprojected here σ = "
             f"{', '.join(others) or 'none'}, from their error against each camera's own views; the model's "
             f"render σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
-            f"{_uncertainty(run, cdir)}"
+            f"{_uncertainty(run, cdir, raw_size)}"
         )
     if fused and f.get("reprojected_sigma"):  # a novel view corrected from the photographs
         every = [
@@ -537,7 +537,7 @@ def _noise(run: _Run, name: str, fused: bool, cdir: Path) -> str:
             "<p>Noise assumed (white = 1): the photographs reprojected here σ = "
             f"{', '.join(every)}, from their error against each camera's own views; the model's render "
             f"σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
-            f"{_uncertainty(run, cdir)}"
+            f"{_uncertainty(run, cdir, raw_size)}"
         )
     return (
         f"<p>Noise tolerance δ = {float(c['delta']):.3g} (white = 1): the "
@@ -547,17 +547,27 @@ def _noise(run: _Run, name: str, fused: bool, cdir: Path) -> str:
     )
 
 
-def _uncertainty(run: _Run, cdir: Path) -> str:
+def _uncertainty(run: _Run, cdir: Path, raw_size: tuple[int, int] | None = None) -> str:
     """The fused correction's per-pixel uncertainty map (``<method>_fused_uncertainty``), or a line
-    saying there is none."""
+    saying there is none. Where the photograph's size ``raw_size`` ``(H, W)`` is not the map's, the
+    page says that the map is of the working answer: a reader must not take it for the full-size
+    photograph's."""
     m = run.mname
     tiff, png = (cdir / f"{m}_fused_uncertainty.{ext}" for ext in ("tiff", "png"))
     if m is None or not (tiff.is_file() and png.is_file()):
         return "<p>No per-pixel uncertainty map was written for this view.</p>"
     r = _read_tiff(tiff)
+    h, w = r.shape[:2]
     r = r[np.isfinite(r)]
     if not r.size:
         return "<p>The uncertainty map of this view holds no value.</p>"
+    working = ""
+    if raw_size is not None and tuple(raw_size) != (h, w):
+        working = (
+            f" The map is of the working answer ({w}×{h} px), where each pixel averages a block of "
+            f"the RAW file; the {raw_size[1]}×{raw_size[0]} px photograph, read pixel by pixel, has "
+            "no map of its own."
+        )
     return (
         "<p><b>Uncertainty per pixel</b> (the map below; dark purple 0, yellow ≥ "
         f"{UNCERTAINTY_PNG_MAX:g} ΔE00): the radius around each corrected colour within which the true "
@@ -566,7 +576,7 @@ def _uncertainty(run: _Run, cdir: Path) -> str:
         "pixel, and where the model disagrees with this photograph around the pixel; it does not know "
         "of errors the photograph cannot show. Median "
         f"{np.median(r):.2g} ΔE00, 90th percentile {np.percentile(r, 90):.2g}; {np.mean(r <= 2.0):.0%} "
-        "of the pixels within 2 ΔE00.</p>"
+        f"of the pixels within 2 ΔE00.{working}</p>"
         f"<img class='umap' src='{_src(run.out, png)}' alt='uncertainty map' "
         "title='95 % credible radius per pixel, ΔE00'>"
     )
@@ -824,7 +834,8 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
         made += f" {whose} see {coverage:.0%} of this view."
     todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size))
     facts = (
-        f"<div><h3>Accuracy</h3>{_reference(run, name, check, chart)}{_noise(run, name, fused, cdir)}</div>"
+        f"<div><h3>Accuracy</h3>{_reference(run, name, check, chart)}"
+        f"{_noise(run, name, fused, cdir, raw_size)}</div>"
         f"<div><h3>Next</h3><ul>{todo}</ul><h3>What was done</h3><p>{made}</p>"
         f"<h3>Time</h3><p>{_times(run)}</p></div>"
     )

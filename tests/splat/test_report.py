@@ -183,6 +183,7 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         assert "poses took 4.2 s, peak 512 MiB" in sec and "train took 12 min 34 s" in sec
         assert "render took 3.0 s ·" in sec and "correct time not recorded" in sec
         assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec
+        assert "The map is of the working answer" not in sec  # no working resolution recorded
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
     assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels
@@ -239,6 +240,8 @@ def test_next_points_to_the_full_size_photograph_and_the_card_is_read_in_raw_pix
     first = re.search(r"<h3>Next</h3><ul><li>(.*?)</li>", view, flags=re.S).group(1)
     assert "full size (96 × 72 px, the RAW file's size)" in first and "full_sRGB.png" in first
     assert "full_sRGB.png" not in card  # no full-size file there
+    # the uncertainty map is the working answer's, and the page says so where the sizes differ
+    assert "The map is of the working answer (48×36 px)" in view and "the 96×72 px photograph" in view
     marks = re.findall(r"<span class='card'[^>]*style='([^']+)'", card)
     assert marks[0].startswith(f"left:{100 * BOX[0] / 96:.3f}%;top:{100 * BOX[1] / 72:.3f}%")
     rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
