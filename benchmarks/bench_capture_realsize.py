@@ -30,6 +30,9 @@ and split at the moment each step's summary appears), and the load average while
         --select nikon/DSC_0003.dng sigma/SDIM0003.dng canon/IMG_0003.dng   # every file, 3 corrected
     python benchmarks/bench_capture_realsize.py --work W --run 3mp 6views --steps 30 --select ...
 
+``--sim mitsuba`` simulates the photographs with Mitsuba 3 (:mod:`splat.sim.mitsuba`, ``--spp``
+samples per pixel) instead of the ray-caster before they are upsampled alike.
+
 ``main``: 12 views per camera at ``--mp``; ``3mp``: the same views at ``--mp-small`` megapixels;
 ``6views``: every second photograph of ``main``'s capture (the same files, 6 per camera); ``cap``:
 ``main``'s capture with ``--capacity-large`` Gaussians, its poses reused (copied from ``main``'s OUT,
@@ -68,12 +71,24 @@ STEPS = ("poses", "train", "render", "correct", "report")
 TICK = 1.0  # seconds between samples of the child's CPU time and the load average
 
 
-def sim_capture(work: Path, scale: float, views: int, seed: int = 0) -> Path:
-    """The simulated capture at ``scale`` × the CI size, ``views`` per camera (2 held out)."""
+def sim_capture(
+    work: Path, scale: float, views: int, seed: int = 0, *, sim: str = "raycaster", spp: int = 16
+) -> Path:
+    """The simulated capture at ``scale`` × the CI size, ``views`` per camera (2 held out): the
+    ray-caster's (:mod:`splat.sim.capture`) or, with ``sim="mitsuba"``, Mitsuba 3's path-traced one
+    (:mod:`splat.sim.mitsuba`, ``spp`` samples per pixel; specular and rough surfaces,
+    inter-reflection, soft shadows), so that the real-size run also meets a physically made scene."""
     from dataclasses import replace
 
     from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
 
+    if sim == "mitsuba":
+        from splat.sim.mitsuba import write_mitsuba_capture
+
+        path = work / f"mitsuba_x{scale:g}_{views}v_{spp}spp"
+        if not (path / "capture.toml").is_file():
+            write_mitsuba_capture(path, size=scale, views=views - 2, holdout=2, spp=spp, seed=seed)
+        return path
     path = work / f"sim_x{scale:g}_{views}v"
     if not (path / "capture.toml").is_file():
         cams = tuple(
@@ -384,6 +399,13 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, default=Path("/tmp/bench_capture_realsize"))
     ap.add_argument("--run", nargs="+", default=["main"], choices=["main", "3mp", "6views", "cap"])
     ap.add_argument("--sim-scale", type=float, default=2.0, help="simulated size, × the CI size")
+    ap.add_argument(
+        "--sim",
+        choices=["raycaster", "mitsuba"],
+        default="raycaster",
+        help="the simulator of the photographs before upsampling (mitsuba: pip install mitsuba)",
+    )
+    ap.add_argument("--spp", type=int, default=16, help="with --sim mitsuba: samples per pixel")
     ap.add_argument("--views", type=int, default=12, help="photographs per camera")
     ap.add_argument("--mp", type=float, default=12.0, help="megapixels of every photograph (at least)")
     ap.add_argument("--mp-small", type=float, default=3.0)
@@ -453,7 +475,7 @@ def main(argv=None) -> int:
         opts += ["--views", *args.select]
 
     t = time.perf_counter()
-    sim = sim_capture(work, args.sim_scale, args.views)
+    sim = sim_capture(work, args.sim_scale, args.views, sim=args.sim, spp=args.spp)
     print(f"simulated capture {sim}: {time.perf_counter() - t:.1f} s", flush=True)
 
     def build(mp):
