@@ -14,16 +14,8 @@ bundle=$1 res=$2 budget=${3:-330} wheels=${4:-}
 # sizes (override for a quick check on a CPU: CAPS=4096 TIMES=4096,8192 STEP_G=512 METHOD=tiled); TILE:
 # the tile capacity (8192 in the figures of 2026-11-29; 4096 trains 1 M Gaussians twice as fast)
 caps=${CAPS:-1048576} times=${TIMES:-32768,1048576,2097152} step_g=${STEP_G:-4096,262144} tile=${TILE:-8192}
-mkdir -p "$res"
-if [ -n "$wheels" ]; then
-  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site "$wheels"/*.whl \
-    && export PYTHONPATH=/tmp/site:$PWD || exit 1
-else
-  export PYTHONPATH=$PWD
-fi
-export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$res/gpu.txt" 2>&1
-python3 -c "import splat.training, splat.capture" || exit 1  # a broken import costs seconds, not minutes
+source "$(dirname "$0")/_gpu_env.sh"
+export XLA_PYTHON_CLIENT_MEM_FRACTION=0.9
 (for _ in $(seq 240); do grep -q '"backend": "tiled"' "$res/capacity.json" 2>/dev/null && break; sleep 1; done
  MAX_JOBS=10 TORCH_CUDA_ARCH_LIST=9.0 timeout 420 python3 -c "from gsplat.cuda._backend import _C; print(_C)") \
   > "$res/gsplat_build.log" 2>&1 &

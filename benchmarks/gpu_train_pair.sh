@@ -10,16 +10,8 @@ set -u
 bundle=$1 res=$2 budget=${3:-430} wheels=${4:-}
 # sizes (override for a quick check on a CPU: CAPS=2048,4096 TILE=512 METHOD=tiled STEPS=40)
 caps=${CAPS:-1048576,2097152} tile=${TILE:-4096} steps=${STEPS:-3000}
-mkdir -p "$res"
-if [ -n "$wheels" ]; then
-  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site "$wheels"/*.whl \
-    && export PYTHONPATH=/tmp/site:$PWD || exit 1
-else
-  export PYTHONPATH=$PWD
-fi
-export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_PREALLOCATE=false
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$res/gpu.txt" 2>&1
-python3 -c "import splat.training, splat.capture" || exit 1  # a broken import costs seconds, not minutes
+source "$(dirname "$0")/_gpu_env.sh"
+export XLA_PYTHON_CLIENT_PREALLOCATE=false
 largest=${caps##*,}
 python3 benchmarks/gpu_capacity.py run "$bundle" "$res/timing.json" --budget 150 --capacities "$largest" --time-only \
   --time-capacities "$caps" --baseline none --tile-capacity "$tile" --method "${METHOD:-auto}" --steps "$steps" \
