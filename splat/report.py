@@ -509,7 +509,7 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
     return " ".join(bits)
 
 
-def _noise(run: _Run, name: str, fused: bool, cdir: Path, raw_size=None) -> str:
+def _noise(run: _Run, name: str, fused: bool, cdir: Path, raw_size: tuple[int, int] | None = None) -> str:
     c = run.correct
     if c is None:
         return "Not corrected yet."
@@ -537,7 +537,7 @@ def _noise(run: _Run, name: str, fused: bool, cdir: Path, raw_size=None) -> str:
             "<p>Noise assumed (white = 1): the photographs reprojected here σ = "
             f"{', '.join(every)}, from their error against each camera's own views; the model's render "
             f"σ = {float(f['render_sigma']):.2g}, from its error against the photographs.</p>"
-            f"{_uncertainty(run, cdir, raw_size)}"
+            f"{_uncertainty(run, cdir)}"  # a novel view has no full-size photograph
         )
     return (
         f"<p>Noise tolerance δ = {float(c['delta']):.3g} (white = 1): the "

@@ -231,17 +231,21 @@ def test_next_points_to_the_full_size_photograph_and_the_card_is_read_in_raw_pix
     c = out / "correct" / spec.out_stem(name)
     _tiff(c / "full_XYZ.tiff", np.zeros((4, 4, 3)))
     _png(c / "full_sRGB.png", np.zeros((4, 4, 3)))
+    novel = out / "correct" / spec.out_stem("nikon/novel_000")  # a novel view with a map too
+    _tiff(novel / "Prior_fused_uncertainty.tiff", RADIUS)
+    _png(novel / "Prior_fused_uncertainty.png", np.repeat(RADIUS[..., None], 3, -1) / 10)
     doc = json.loads((out / "correct" / "summary.json").read_text())
     doc["working"] = {"nikon": {"full": [96, 72], "working": [48, 36], "binning": 2}}
     doc["full_resolution"] = {"per_view": {name: {"size": [96, 72]}}}
     _json(out / "correct" / "summary.json", doc)
     index = json.loads((out / "render" / "index.json").read_text())
-    card, view, _novel = _sections(report_html(spec, out, index))
+    card, view, novel_sec = _sections(report_html(spec, out, index))
     first = re.search(r"<h3>Next</h3><ul><li>(.*?)</li>", view, flags=re.S).group(1)
     assert "full size (96 × 72 px, the RAW file's size)" in first and "full_sRGB.png" in first
     assert "full_sRGB.png" not in card  # no full-size file there
     # the uncertainty map is the working answer's, and the page says so where the sizes differ
     assert "The map is of the working answer (48×36 px)" in view and "the 96×72 px photograph" in view
+    assert "class='umap'" in novel_sec and "The map is of the working answer" not in novel_sec  # no photo
     marks = re.findall(r"<span class='card'[^>]*style='([^']+)'", card)
     assert marks[0].startswith(f"left:{100 * BOX[0] / 96:.3f}%;top:{100 * BOX[1] / 72:.3f}%")
     rows = dict(re.findall(r"<tr><td>([^<]+)</td><td>[^<]+</td><td>([0-9.]+)</td></tr>", card))
