@@ -78,10 +78,6 @@ def sim_capture(
     ray-caster's (:mod:`splat.sim.capture`) or, with ``sim="mitsuba"``, Mitsuba 3's path-traced one
     (:mod:`splat.sim.mitsuba`, ``spp`` samples per pixel; specular and rough surfaces,
     inter-reflection, soft shadows), so that the real-size run also meets a physically made scene."""
-    from dataclasses import replace
-
-    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
-
     if sim == "mitsuba":
         from splat.sim.mitsuba import write_mitsuba_capture
 
@@ -89,6 +85,10 @@ def sim_capture(
         if not (path / "capture.toml").is_file():
             write_mitsuba_capture(path, size=scale, views=views - 2, holdout=2, spp=spp, seed=seed)
         return path
+    from dataclasses import replace
+
+    from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
+
     path = work / f"sim_x{scale:g}_{views}v"
     if not (path / "capture.toml").is_file():
         cams = tuple(

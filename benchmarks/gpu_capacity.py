@@ -147,7 +147,7 @@ def run(
     time_capacities: list[int] | None = None,
     reference: str | None = None,
     train_anyway: bool = False,
-    train_none: bool = False,
+    time_only: bool = False,
 ) -> None:
     import jax
     import jax.numpy as jnp
@@ -338,7 +338,7 @@ def run(
     class OutOfTime(Exception):
         pass
 
-    for capacity in [] if train_none else sorted(capacities, reverse=True):
+    for capacity in [] if time_only else sorted(capacities, reverse=True):
         left = budget - (time.perf_counter() - t_start)
         est = step_time(capacity)
         n_steps = next(
@@ -620,7 +620,7 @@ def main(argv=None) -> None:
             time_capacities=[int(c) for c in a.time_capacities.split(",")] if a.time_capacities else None,
             reference=a.reference,
             train_anyway=a.train_anyway,
-            train_none=a.time_only,
+            time_only=a.time_only,
         )
 
 

@@ -539,8 +539,8 @@ def full_resolution_view(
             )
         # the own channels where the camera's other photographs agree with the measurement (own_agrees) and
         # are averaged in: the two σ combined
-        own_rep_sigma = rep_sigma[own].copy()
-        w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(rep_sigma[own], 1e-6))
+        own_rep_sigma = rep_sigma[own]  # kept: rep_sigma is replaced by a copy below
+        w_own = 1 / np.square(np.maximum(own_sigma, 1e-6)), 1 / np.square(np.maximum(own_rep_sigma, 1e-6))
         rep_sigma = rep_sigma.copy()
         rep_sigma[own] = 1 / np.sqrt(w_own[0] + w_own[1])
         w_own = tuple(w.astype(np.float32) for w in w_own)
