@@ -39,7 +39,7 @@ import numpy as np
 
 from .._errors import SplatError
 from .._tol import GRID_NM, PURE_WEIGHT, TRACK_VISIBLE_ATOL, TRACK_VISIBLE_RTOL
-from .geometry import CARD, CHART, shade
+from .geometry import CARD, CHART, chart_in_view, shade
 
 __all__ = [
     "SimCamera",
@@ -581,37 +581,16 @@ def _color_matrices(scene: SimScene, ci: int):
 
 
 def _chart_corners(scene, view, idx: np.ndarray):
-    """The ``[chart] corners`` of ``view``: the centres of the ColorChecker's top-left (dark skin),
-    top-right, bottom-right and bottom-left patches in pixel-index coordinates (pixel ``j`` centred at
-    ``j``), and the chart's area in pixels; None unless every patch's centre pixel sees that patch alone
-    (the chart whole and unoccluded in the view)."""
-    x0, y0, side, gap = CHART
-    k = np.arange(24)
-    col, row = k % 6, k // 6  # row 0 (dark skin …) farthest along -y: geometry.shade's layout
-    X = np.stack(
-        [
-            x0 + gap + col * (side + gap) + side / 2,
-            y0 + gap + (3 - row) * (side + gap) + side / 2,
-            np.zeros(24),
-        ],
-        -1,
-    )
+    """The ``[chart] corners`` of ``view`` and the chart's area in pixels (:func:`chart_in_view`); None
+    unless every patch's centre pixel sees that patch alone (the chart whole and unoccluded)."""
     cam = scene.config.cameras[view.camera]
-    p = X @ view.R.T + view.t  # camera coordinates
-    if (p[:, 2] <= 0).any():
+    seen = chart_in_view(view, cam.width, cam.height)
+    if seen is None:
         return None
-    u = view.f * p[:, 0] / p[:, 2] + cam.width / 2 - 0.5
-    v = view.f * p[:, 1] / p[:, 2] + cam.height / 2 - 0.5
-    j, i = np.rint(u).astype(int), np.rint(v).astype(int)
-    if (j < 0).any() or (i < 0).any() or (j >= cam.width).any() or (i >= cam.height).any():
-        return None
-    chart = scene.palettes["colorchecker"]
+    (i, j), chart = seen[0].T, scene.palettes["colorchecker"]
     if not all((idx[i[n], j[n], :, 0] == chart[n]).all() for n in range(24)):
         return None
-    corners = [[round(float(u[n]), 2), round(float(v[n]), 2)] for n in (0, 5, 23, 18)]
-    a = np.array(corners)
-    area = 0.5 * abs(np.dot(a[:, 0], np.roll(a[:, 1], -1)) - np.dot(a[:, 1], np.roll(a[:, 0], -1)))
-    return corners, float(area)
+    return seen[1], seen[2]
 
 
 def _white_box(idx: np.ndarray, wts: np.ndarray):

@@ -15,7 +15,7 @@ import numpy as np
 
 from .._tol import RAY_SURFACE, RAY_T_MIN, WARP_RADIUS_MIN
 
-__all__ = ["CARD", "CHART", "SceneLike", "shade"]
+__all__ = ["CARD", "CHART", "SceneLike", "chart_in_view", "shade"]
 
 
 class SceneLike(Protocol):
@@ -40,6 +40,35 @@ _BOXES = [
 _SPHERES = [((-0.15, 0.05, 0.32), 0.32, "natural", 0.6), ((0.75, 0.45, 0.78), 0.18, "chart", 0.5)]
 # capped vertical cylinders: x, y, radius, height, palette, cell factor
 _CYLINDERS = [(0.95, -0.55, 0.2, 0.75, "test", 0.6), (-1.2, -0.45, 0.14, 0.5, "chart", 0.6)]
+
+
+def chart_in_view(view, width: int, height: int):
+    """Where the ColorChecker's 24 patch centres fall in a pinhole ``view`` (``R``, ``t``, ``f``, principal
+    point at the image centre) of ``width`` × ``height`` pixels, pixel ``j`` centred at ``j``.
+
+    Returns ``(ij, corners, area)``: the rounded (row, column) of each patch centre (24, 2), patch
+    ``k`` = row · 6 + column with row 0 (dark skin …) farthest along −y; the ``[chart] corners`` (centres
+    of the top-left, top-right, bottom-right and bottom-left patches, 2 decimals); the chart's area in
+    pixels. None where a centre lies behind the camera or outside the image. Whether the patches are
+    seen (not occluded) is the caller's to test: each simulator knows what its pixels see.
+    """
+    x0, y0, side, gap = CHART
+    k = np.arange(24)
+    col, row = k % 6, k // 6
+    centre = gap + side / 2
+    X = np.stack([x0 + centre + col * (side + gap), y0 + centre + (3 - row) * (side + gap), np.zeros(24)], -1)
+    p = X @ np.asarray(view.R).T + view.t  # camera coordinates
+    if (p[:, 2] <= 0).any():
+        return None
+    u = view.f * p[:, 0] / p[:, 2] + width / 2 - 0.5
+    v = view.f * p[:, 1] / p[:, 2] + height / 2 - 0.5
+    j, i = np.rint(u).astype(int), np.rint(v).astype(int)
+    if (j < 0).any() or (i < 0).any() or (j >= width).any() or (i >= height).any():
+        return None
+    corners = [[round(float(u[n]), 2), round(float(v[n]), 2)] for n in (0, 5, 23, 18)]
+    a = np.array(corners)
+    area = 0.5 * abs(np.dot(a[:, 0], np.roll(a[:, 1], -1)) - np.dot(a[:, 1], np.roll(a[:, 0], -1)))
+    return np.stack([i, j], -1), corners, float(area)
 
 
 def _hash(a, b, salt: int) -> np.ndarray:

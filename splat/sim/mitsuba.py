@@ -45,7 +45,7 @@ from .capture import (
     build_scene,
     write_view_dng,
 )
-from .geometry import CARD, CHART
+from .geometry import CARD, CHART, chart_in_view
 
 __all__ = [
     "LABEL_CHART",
@@ -314,6 +314,20 @@ def _card_box(scene, view):
     return [bx0, by0, bx1, by1]
 
 
+def _seen_chart(scene, candidates: list):
+    """``(image, corners)`` of the largest candidate ``(area, image, corners, view, ij)`` whose 24 patch
+    centres each see their patch (:func:`surface_labels`), or None. A patch that Mitsuba merged with
+    another shape of its reflectance has no label of its own: there a uniform surface's label passes."""
+    codes = LABEL_CHART + np.arange(24)
+    for _, image, corners, view, ij in sorted(candidates, key=lambda c: -c[0]):
+        labels = surface_labels(scene, view)
+        at = labels[ij[:, 0], ij[:, 1]].astype(int)
+        merged = ~np.isin(codes, labels) & (at >= LABEL_UNIFORM) & (at < LABEL_OTHER)
+        if ((at == codes) | merged).all():
+            return image, corners
+    return None
+
+
 def _check(folder: Path, size: float, views: int | None, holdout: int | None, spp: int) -> None:
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise SplatError(f"folder {folder} exists and is not empty; choose a new or empty folder.")
@@ -548,6 +562,11 @@ def write_mitsuba_capture(
 ) -> Path:
     """Render a three-camera capture with Mitsuba 3 and write it as DNG files, ``capture.toml``, ``truth/``.
 
+    ``capture.toml`` marks the white card (``[white]``, the training view that sees it largest, whole
+    and unclipped) and, as the ray-caster's capture does, the ColorChecker (``[chart]``: the view that
+    shows it largest with every patch centre on its patch and the white patch unclipped), so that the
+    report measures that photograph against the chart.
+
     Parameters
     ----------
     folder : path
@@ -601,7 +620,7 @@ def write_mitsuba_capture(
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     try:
         rng = np.random.default_rng(seed + 1)
-        renders, k, white = [], None, None
+        renders, k, white, charts = [], None, None, []
         for vi, v in enumerate(scene.views):
             film = np.concatenate([curves[v.camera], xyz_curve], axis=1)
             img = np.asarray(
@@ -634,6 +653,11 @@ def write_mitsuba_capture(
                     area = (x1 - x0) * (y1 - y0)
                     if peak < MITSUBA_WHITE_PEAK and (white is None or area > white[0]):
                         white = (area, f"{cam.folder}/{v.stem}.dng", box)
+                seen = chart_in_view(v, cam.width, cam.height)
+                if seen is not None:  # the chart's white patch unclipped, as the card
+                    i, j = seen[0][18]
+                    if float(np.max(v.relative_exposure * config.gain * resp[i, j])) < MITSUBA_WHITE_PEAK:
+                        charts.append((seen[2], f"{cam.folder}/{v.stem}.dng", seen[1], v, seen[0]))
                 dn = _raw_values(scene, v, resp, rng)
                 write_view_dng(tmp / cam.folder / f"{v.stem}.dng", dn, scene, ci, v, (cm1, cm2), noise=noise)
                 if v.holdout:
@@ -680,6 +704,9 @@ def write_mitsuba_capture(
                 {"method": "patch", "image": white[1], "box": white[2], "reflectance": _CARD_REFLECTANCE},
             )
         )
+        chart = _seen_chart(scene, charts)
+        if chart is not None:  # the photograph that shows the ColorChecker largest, whole and unoccluded
+            text.append(_toml_table("chart", {"image": chart[0], "corners": chart[1]}))
         if held:
             text.append(_toml_table("holdout", {"images": held}))
         (tmp / "capture.toml").write_text("\n".join(text))

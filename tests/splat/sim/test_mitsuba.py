@@ -216,3 +216,32 @@ def test_surface_labels_sit_where_the_geometry_projects(capture):
     ]
     with pytest.raises(SplatError, match="camera sizes"):
         sm.write_surface_labels(capture, size=0.5, views=2, holdout=1, seed=1)
+
+
+def test_the_chart_is_marked_where_its_patches_are(tmp_path):
+    """``[chart]`` names a photograph and the four corner patches of a whole ColorChecker: its raw values
+    at the 24 patch centres follow the patches' camera responses computed from colour-science's tables
+    (ColorChecker N Ohta × D65 × the camera's measured curves), in every channel; any other order of the
+    patches (turned, mirrored) does not."""
+    from isp.profiles.chart import chart_patch_centres
+
+    cap = sm.write_mitsuba_capture(tmp_path / "c", size=1, views=4, holdout=0, spp=4, seed=0)
+    spec = read_capture(cap)
+    assert spec.chart is not None and spec.chart.corners is not None
+    values, weight, _ = read_linear(cap / spec.chart.image)
+    seen = []
+    for x, y in np.rint(chart_patch_centres(spec.chart.corners, 4, 6)).astype(int):
+        w = weight[y - 1 : y + 2, x - 1 : x + 2].sum((0, 1))
+        seen.append((values * weight)[y - 1 : y + 2, x - 1 : x + 2].sum((0, 1)) / w)
+    seen = np.log(np.array(seen))
+    grid = np.arange(400, 701, 5.0)
+    cam = zonotope.camera(next(c.ssf for c in spec.cameras if spec.chart.image.startswith(c.folder + "/")))
+    S = np.stack([np.interp(grid, cam.wavelengths, cam.values[:, c]) for c in range(3)], 1)
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"].values()
+    R = np.stack([np.interp(grid, sd.wavelengths, sd.values) for sd in sds])
+    D65 = colour.SDS_ILLUMINANTS["D65"]
+    expected = np.log(R @ (S * np.interp(grid, D65.wavelengths, D65.values)[:, None]))
+    k = np.arange(24).reshape(4, 6)
+    for order, ok in ((k, True), (k[::-1, ::-1], False), (k[:, ::-1], False), (k[::-1], False)):
+        r = [np.corrcoef(seen[order.ravel(), c], expected[:, c])[0, 1] for c in range(3)]
+        assert (min(r) > 0.9) if ok else (max(r) < 0.7), (order[0], r)
