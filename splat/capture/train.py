@@ -121,12 +121,10 @@ def training_inputs(
         c = v.camera
         padded.append(type(v)(v.name, Camera(c.R, c.t, c.focal, c.principal, W, H), v.camera_id, v.exposure))
     train_cap = Capture(tuple(padded), cap.channels, cap.labels)
-    xyz, rgb, bounds = _scene_points(model, [v.camera for v in views])
+    xyz, rgb, bounds = _scene_points(model, [v.camera for v in views], seed=config.train.seed)
     valid = weights > 0
     level = float(np.median(images[valid])) if valid.any() else 0.2
-    colours = None
-    if xyz is not None:
-        xyz, colours = _initial_points(xyz, rgb, level, config.train.capacity, N, seed=config.train.seed)
+    xyz, colours = _initial_points(xyz, rgb, level, config.train.capacity, N, seed=config.train.seed)
     depth = depth_targets(model, padded)
     working = working_summary(spec, list(raws.values()))
     return TrainingInputs(train_cap, views, images, weights, bounds, xyz, colours, depth, working)
@@ -175,7 +173,7 @@ def depth_targets(model, views) -> tuple[np.ndarray, np.ndarray, np.ndarray] | N
     return pixel, depth, valid
 
 
-def _scene_points(model, cameras):
+def _scene_points(model, cameras, *, seed: int = 0):
     """The COLMAP points for the initial Gaussians (all of them), their preview colours and the scene's
     bounds: the 2–98th percentile box of each coordinate, padded by 10 % (it sets the scale of the
     centres' learning rate, so a few stray points must not widen it).
@@ -184,14 +182,52 @@ def _scene_points(model, cameras):
     by few views, holds few points and lies partly outside the percentile box, and densification cannot
     fill a region where nothing starts (the box used to filter the points too, and on the benchmark
     capture the Gaussians cloned towards the backdrop settled 1–3 m in front of it). With fewer than 8
-    points, ``(None, None, bounds)`` around the camera centres."""
+    points (a poses-only model), points drawn where the cameras' views overlap
+    (:func:`_seen_region`), grey."""
     xyz, rgb = model.points()
-    if len(xyz) >= 8:
-        lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
-        return xyz, rgb, np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
-    centres = np.array([np.asarray(c.centre) for c in cameras])
-    lo, hi = centres.min(0), centres.max(0)
-    return None, None, np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
+    if len(xyz) < 8:
+        xyz = _seen_region(cameras, seed=seed)
+        rgb = np.full((len(xyz), 3), 128, np.uint8)
+    lo, hi = np.percentile(xyz, 2, axis=0), np.percentile(xyz, 98, axis=0)
+    return xyz, rgb, np.stack([lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)])
+
+
+def _seen_region(cameras, n: int = 8192, *, seed: int = 0) -> np.ndarray:
+    """``n`` points (or fewer) where the cameras' views overlap: each camera's pixels back-projected at
+    random depths between 0.2 and 2 times its distance to the point nearest every optical axis (least
+    squares; the cameras' spread where the axes are parallel), kept where at least half of the
+    cameras (two at least) see them in front of them and inside their images.
+
+    Why: a model without points gave the Gaussians a box around the camera centres, where nothing of
+    the scene is, and training made the loss worse (a three-camera capture from poses alone: 0.65 → 0.82
+    in 200 steps)."""
+    rng = np.random.default_rng(seed)
+    R = np.array([np.asarray(c.R, float) for c in cameras])
+    t = np.array([np.asarray(c.t, float) for c in cameras])
+    o = -np.einsum("kji,kj->ki", R, t)  # centres −Rᵀt
+    a = R[:, 2]  # optical axes in the world (the camera's +z)
+    P = np.eye(3) - a[:, :, None] * a[:, None, :]  # projectors onto each axis's normal plane
+    focus = np.linalg.lstsq(P.sum(0), np.einsum("kij,kj->i", P, o), rcond=None)[0]
+    depth = np.einsum("ki,ki->k", focus - o, a)
+    spread = float(np.linalg.norm(o.max(0) - o.min(0))) or 1.0
+    depth = np.where(np.isfinite(depth) & (depth > 1e-3 * spread), depth, spread)
+    K = np.array([np.asarray(c.K, float) for c in cameras])
+    size = np.array([(c.width, c.height) for c in cameras], float)
+    m = -(-4 * n // len(cameras))
+    pts = []
+    for k in range(len(cameras)):
+        uv = rng.uniform(0, 1, (m, 2)) * size[k]
+        ray = np.linalg.solve(K[k], np.c_[uv, np.ones(m)].T).T  # camera coordinates at z = 1
+        z = depth[k] * rng.uniform(0.2, 2.0, (m, 1))
+        pts.append((ray * z - t[k]) @ R[k])  # world: Rᵀ(x_cam − t)
+    X = np.concatenate(pts)
+    cam = np.einsum("kij,pj->kpi", R, X) + t[:, None]
+    zc = cam[..., 2]
+    uv = np.einsum("kij,kpj->kpi", K[:, :2, :], cam / np.where(zc > 0, zc, 1)[..., None])
+    inside = (zc > 0) & (uv >= 0).all(-1) & (uv < size[:, None]).all(-1)
+    keep = inside.sum(0) >= max(2, -(-len(cameras) // 2))
+    X = X[keep] if keep.sum() >= 8 else X
+    return X[rng.permutation(len(X))[:n]]
 
 
 def _initial_points(xyz, rgb, level: float, capacity: int, n_channels: int, *, seed: int = 0):
