@@ -46,14 +46,19 @@ from bench_capture_accuracy import MEASURES, _labels, table
 
 
 def estimated_curves(
-    capture: Path, data: Path | None, *, real_matrices: dict | None = None, exact_prior: bool = False
+    capture: Path,
+    data: Path | None,
+    *,
+    real_matrices: dict | None = None,
+    exact_prior: bool = False,
+    only: tuple[str, ...] | None = None,
 ) -> tuple[list[str], dict]:
     """Estimate every camera's curves from its first DNG, write them beside capture.toml and point
     capture.toml at them (once: a capture already pointing at them keeps its file); returns one line per
     camera (RMSE against the measured curves) and the estimates by folder. ``real_matrices``
     (``--colordata``): measured-camera name → Adobe's D65 matrix (LibRaw's table), estimated from instead
     of the simulated DNG's exact matrices; ``exact_prior`` (``--exact-prior``): no real-DNG calibration
-    (prior 1e-4)."""
+    (prior 1e-4); ``only`` (``--estimate``): the folders estimated, the others keep their measured curves."""
     from bench_ssf import _model_key, basis_without, curve_errors, measured_cameras
 
     import zonotope
@@ -68,6 +73,8 @@ def estimated_curves(
     real_dng = None if exact_prior else ssf_basis().real_dng
     notes, ests = [], {}
     for folder, name in tables:
+        if only is not None and folder not in only:
+            continue
         again = name == f"ssf_estimated_{folder}.json"  # estimated by an earlier run: kept as written
         name = measured_names[folder] if again else name
         dng = sorted((capture / folder).glob("*.dng"))[0]
@@ -191,6 +198,11 @@ def main(argv=None) -> int:
         "--exact-prior", action="store_true", help="estimate without the real-DNG calibration (prior 1e-4)"
     )
     ap.add_argument(
+        "--estimate",
+        metavar="FOLDERS",
+        help="comma-separated camera folders to estimate (default all); the others keep measured curves",
+    )
+    ap.add_argument(
         "--from",
         dest="source",
         type=Path,
@@ -231,6 +243,7 @@ def main(argv=None) -> int:
             a.source,
             real_matrices=real,
             exact_prior=a.exact_prior,
+            only=None if a.estimate is None else tuple(a.estimate.split(",")),
         )
         results[variant] = (sc, folders)
         text, _ = table(sc, folders)
