@@ -682,16 +682,49 @@ def _gain(check: CardCheck) -> str:
     return f"On the card the corrected image's ΔE00 is {d['corrected'] / d['camera']:.2f}× the camera's. "
 
 
+def _worse_than_camera(name: str, chart: ChartCheck | None) -> str | None:
+    """A warning when the marked chart puts the photograph to keep (the full-size one, else the working
+    answer) further from the patches' known colours than the camera's own development; else None.
+    Why: the page's first advice is to keep the corrected photograph, which the one reference of many
+    colours then contradicts (an under-trained model, a wrong white or wrong curves)."""
+    if chart is None or "camera" not in chart.delta_E:
+        return None
+    key = "full" if "full" in chart.delta_E else "corrected"
+    ours, theirs = chart.delta_E.get(key), chart.delta_E["camera"]
+    if ours is None or not (np.isfinite(ours).any() and np.isfinite(theirs).any()):
+        return None
+    ours, theirs = float(np.nanmean(ours)), float(np.nanmean(theirs))
+    if ours <= theirs:
+        return None
+    return (
+        f"<strong>On the marked chart the corrected photograph is worse than the camera's own "
+        f"development</strong> (mean ΔE00 {ours:.2f} against {theirs:.2f}): for this photograph prefer "
+        f"the development (<code>isp develop {_e(name)} -o {_e(Path(name).stem)}.tiff</code> in the capture "
+        "folder) until the model is better — train longer, "
+        "and check the marked white card and each camera's <code>ssf</code>."
+    )
+
+
 def _next(
-    run: _Run, name: str, info: dict, answer: Path | None, coverage: float | None, raw_size=None
+    run: _Run,
+    name: str,
+    info: dict,
+    answer: Path | None,
+    coverage: float | None,
+    raw_size=None,
+    chart: ChartCheck | None = None,
 ) -> list[str]:
     todo = []
+    worse = _worse_than_camera(name, chart)
+    if worse is not None:
+        todo.append(worse)
     full = None if answer is None else answer.parent / "full_XYZ.tiff"
     if full is not None and full.is_file():  # the photograph at its own size: what to keep
         at = f" ({raw_size[1]} × {raw_size[0]} px, the RAW file's size)" if raw_size is not None else ""
         png = _rel(run.out, full.with_name("full_sRGB.png"))
+        keep = "Keep the corrected photograph" if worse is None else "The corrected photograph is"
         todo.append(
-            f"Keep the corrected photograph at full size{at}: {png} (8-bit sRGB) or {_rel(run.out, full)} "
+            f"{keep} at full size{at}: {png} (8-bit sRGB) or {_rel(run.out, full)} "
             "(linear XYZ, float32, scene white Y = 1). The images above are at the working size."
         )
     if answer is not None:
@@ -832,7 +865,7 @@ def _section(run: _Run, i: int, name: str, info: dict) -> str:
     if coverage is not None:
         whose = "Other cameras' photographs" if photographed else "Photographs"
         made += f" {whose} see {coverage:.0%} of this view."
-    todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size))
+    todo = "".join(f"<li>{t}</li>" for t in _next(run, name, info, answer, coverage, raw_size, chart))
     facts = (
         f"<div><h3>Accuracy</h3>{_reference(run, name, check, chart)}"
         f"{_noise(run, name, fused, cdir, raw_size)}</div>"

@@ -568,6 +568,7 @@ def test_a_marked_chart_is_measured_patch_by_patch(tmp_path):
     x0, y0 = chart_patch_centres(CORNERS, 4, 6)[0]
     assert x0 + 0.5 - 2 < left < x0 + 0.5 and y0 + 0.5 - 2 < top < y0 + 0.5
     assert "The boxes on the images show where each patch was read" in sec
+    assert "worse than the camera's own development" not in sec  # the photograph to keep is exact
 
     # corners left out and found by the poses step (its record): the same figures, and the page says so
     from splat.capture import CHART_RECORD, file_stamp, write_json
@@ -581,3 +582,16 @@ def test_a_marked_chart_is_measured_patch_by_patch(tmp_path):
     assert re.search(r"<details><summary>Every patch.*?</details>", again, flags=re.S).group(0) == every
     other = next(s_ for s_ in sections if f"<h2>{CARD} " in s_)
     assert f"the marked ColorChecker is in <code>{CHART_VIEW}</code>" in other
+
+    # the photograph to keep (full size) further from the chart than the camera's development: the first
+    # advice says so, with both means, instead of "keep the corrected photograph"
+    tinted = images["Prior_fused_XYZ.tiff"].astype(np.float32)
+    tifffile.imwrite(c / "full_XYZ.tiff", tinted, photometric="rgb")
+    worse = next(s_ for s_ in _sections(report_step(cap, out).read_text()) if f"<h2>{CHART_VIEW} " in s_)
+    first = re.search(r"<h3>Next</h3><ul><li>(.*?)</li>", worse, flags=re.S).group(1)
+    assert "worse than the camera's own development" in first and f"isp develop {CHART_VIEW}" in first
+    assert "Keep the corrected photograph" not in worse
+    assert "The corrected photograph is at full size" in worse
+    ours, theirs = (float(x) for x in re.search(r"mean ΔE00 ([0-9.]+) against ([0-9.]+)", first).groups())
+    assert ours == pytest.approx(corrected.mean(), abs=0.01)
+    assert theirs == pytest.approx(camera.mean(), abs=0.01)
