@@ -373,3 +373,10 @@ MITSUBA_TRUTH_CHUNKS = 8
 #: must lie here. A normal's is 0.67; a standard error estimated from 4 renders (3 degrees of freedom
 #: each) makes it a t's, a little larger; equal seeds give 0 and an error not divided by √chunks 0.34.
 MITSUBA_TRUTH_Z_MEDIAN = (0.5, 0.95)
+
+# --- the initial points of a model without any (splat.capture.train._seen_region) ---
+
+#: A camera whose distance along its axis to the point nearest every optical axis is below this
+#: fraction of the camera centres' spread has no usable focus (parallel or diverging axes); its depths
+#: are then scaled by the spread itself.
+SEEN_REGION_MIN_DEPTH = 1e-3

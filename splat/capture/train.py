@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from .._tol import SEEN_REGION_MIN_DEPTH
 from .config import (
     PipelineConfig,
     read_working,
@@ -210,7 +211,7 @@ def _seen_region(cameras, n: int = 8192, *, seed: int = 0) -> np.ndarray:
     focus = np.linalg.lstsq(P.sum(0), np.einsum("kij,kj->i", P, o), rcond=None)[0]
     depth = np.einsum("ki,ki->k", focus - o, a)
     spread = float(np.linalg.norm(o.max(0) - o.min(0))) or 1.0
-    depth = np.where(np.isfinite(depth) & (depth > 1e-3 * spread), depth, spread)
+    depth = np.where(np.isfinite(depth) & (depth > SEEN_REGION_MIN_DEPTH * spread), depth, spread)
     K = np.array([np.asarray(c.K, float) for c in cameras])
     size = np.array([(c.width, c.height) for c in cameras], float)
     m = -(-4 * n // len(cameras))
