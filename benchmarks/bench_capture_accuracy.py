@@ -27,10 +27,10 @@ uniform-surface colour.
 
 ``--capture`` scores a capture written elsewhere (e.g. by :func:`splat.sim.mitsuba.write_mitsuba_capture`,
 whose ``truth/`` has the same layout): it is copied into ``--work`` (the original is never written to)
-and run with ``--steps`` / ``--capacity`` (default the CI size's). Give the Mitsuba capture ``--colmap``:
-its truth has no 3-D points, so with the true poses training starts from points where the views overlap
-(``splat.capture.train``), which scores well behind pycolmap's points (docs/benchmarks.md). Its regions
-come from ``truth/labels`` (:func:`labelled_regions`).
+and run with ``--steps`` / ``--capacity`` (default the CI size's). The Mitsuba capture's truth has no
+3-D points: with its true poses the poses step triangulates them on the previews
+(:func:`splat.poses.triangulate_points`; ``--colmap`` recovers poses and points with pycolmap instead).
+Its regions come from ``truth/labels`` (:func:`labelled_regions`).
 ``--ladder`` (a capture the script writes) adds :func:`ladder`: the fused responses replaced by the true
 ones step by step, to say where the region-mean error comes from.
 ``--oracle SPP`` (a Mitsuba capture) adds :func:`oracle`'s diagnostics from a second render of the

@@ -8,7 +8,8 @@ is fitted to all the images, then renders pixel-aligned N-channel images from an
 - model and renderer: :class:`Gaussians`, :func:`render` (``method="auto"``: ``"cpu"``, numba kernels
   on the CPU, or ``"tiled"``, pure JAX, on a GPU; ``"reference"``, the dense twin);
 - data: :func:`read_colmap` / :func:`write_colmap`, :func:`read_transforms` /
-  :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`;
+  :func:`write_transforms`, :class:`Capture` (views, channel map, exposures), :func:`recover_poses`,
+  :func:`triangulate_points`;
 - training: :func:`train` with :class:`TrainConfig`; outputs: :func:`render_views`,
   :func:`render_depth`, :func:`split_cameras`, :func:`pca_false_colour`, :func:`correct_image`;
 - export: :func:`export_scene` (a 3DGS ``.ply`` of the corrected colours, an N-channel ``.ply``, the
@@ -71,7 +72,7 @@ _EXPORTS = {
         "train_step",
     ],
     "outputs": ["correct_image", "pca_false_colour", "psnr", "render_depth", "render_views", "split_cameras"],
-    "poses": ["PoseConfig", "recover_poses"],
+    "poses": ["PoseConfig", "recover_poses", "triangulate_points"],
     "export": ["PlyOptions", "export_scene", "gaussians_from_ply", "prepare_scene", "read_ply", "write_ply"],
     "sim.capture": [
         "SimCamera",

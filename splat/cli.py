@@ -298,7 +298,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if "poses" in results:
         p = results["poses"]
         cams = ", ".join(f"{k} {v['registered']}/{v['views']}" for k, v in p["cameras"].items())
-        print(f"poses ({p['source']}): {p['registered']} of {p['views']} views registered ({cams})")
+        tri = f"; {p['triangulated']} points triangulated on them" if p.get("triangulated") else ""
+        print(f"poses ({p['source']}): {p['registered']} of {p['views']} views registered ({cams}){tri}")
     if "train" in results:
         t = results["train"]
         for folder, w in (t.get("working") or {}).items():

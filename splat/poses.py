@@ -13,7 +13,7 @@ from pathlib import Path
 from ._errors import SplatError
 from .colmap import ColmapModel, read_colmap
 
-__all__ = ["PoseConfig", "recover_poses"]
+__all__ = ["PoseConfig", "recover_poses", "triangulate_points"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,32 @@ def recover_poses(
     image_dir, workdir = Path(image_dir), Path(workdir)
     if not any(p.is_file() for p in image_dir.glob("*/*")):
         raise SplatError(f"{image_dir} has no images in camera sub-folders ({image_dir}/<camera>/<image>).")
+    db = _features(image_dir, workdir, config)
+    pycolmap.match_exhaustive(db, device=pycolmap.Device.cpu)
+    options = pycolmap.IncrementalPipelineOptions()
+    options.min_num_matches = config.min_num_matches
+    options.num_threads = config.num_threads
+    options.random_seed = config.seed
+    options.ba_refine_principal_point = False
+    out = workdir / "sparse"
+    models = pycolmap.incremental_mapping(db, image_dir, out, options=options)
+    if not models:
+        raise SplatError(
+            f"COLMAP registered no model from {image_dir}: the previews need more texture "
+            "or overlap (or lower PoseConfig.min_num_matches)."
+        )
+    best = max(models.values(), key=lambda r: r.num_reg_images())
+    folder = out / "best"
+    folder.mkdir(parents=True, exist_ok=True)
+    best.write_binary(str(folder))
+    return read_colmap(folder)
+
+
+def _features(image_dir: Path, workdir: Path, config: PoseConfig) -> Path:
+    """``workdir/database.db`` (made anew) with SIFT features of every image under ``image_dir`` (one
+    COLMAP camera per sub-folder), on the CPU."""
+    import pycolmap
+
     workdir.mkdir(parents=True, exist_ok=True)
     db = workdir / "database.db"
     if db.exists():
@@ -91,21 +117,76 @@ def recover_poses(
         extraction_options=extraction,
         device=device,
     )
-    pycolmap.match_exhaustive(db, device=device)
+    return db
+
+
+def triangulate_points(
+    image_dir: str | Path, workdir: str | Path, model: ColmapModel, *, config: PoseConfig = PoseConfig()
+) -> ColmapModel:
+    """3-D points for known poses: SIFT features and exhaustive matches of the images (as
+    :func:`recover_poses`), triangulated by pycolmap with the poses and intrinsics held fixed.
+
+    Parameters
+    ----------
+    image_dir : path
+        One sub-folder per physical camera, as for :func:`recover_poses`.
+    workdir : path
+        Receives ``database.db``, the given model (``given/``) and the result (``triangulated/``).
+    model : ColmapModel
+        The known poses: its images named as the files under ``image_dir`` (``<camera>/<file>``), each
+        sub-folder's images sharing one camera, its intrinsics in those files' pixels.
+
+    Returns
+    -------
+    ColmapModel
+        ``model``'s cameras and poses (COLMAP's ids) with the triangulated points and their tracks.
+
+    Raises
+    ------
+    SplatError
+        An image of ``model`` is not under ``image_dir``, or one sub-folder's images have cameras of
+        different ids.
+
+    Why: a model of poses alone (a ``transforms.json``, a rig calibration) gives training no points to
+    start from nor sparse depth; matching the photographs against the known poses gives both.
+    """
+    import pycolmap
+
+    from .colmap import ColmapCamera, ColmapImage, write_colmap
+
+    image_dir, workdir = Path(image_dir), Path(workdir)
+    db = _features(image_dir, workdir, config)
+    with pycolmap.Database.open(str(db)) as d:
+        found = {im.name: im for im in d.read_all_images()}
+    cams, images = {}, {}
+    for im in model.images.values():
+        got = found.get(im.name)
+        if got is None:
+            raise SplatError(f"triangulate_points: {im.name!r} is not an image under {image_dir}.")
+        c = model.cameras[im.camera_id]
+        mine = ColmapCamera(got.camera_id, c.model, c.width, c.height, tuple(c.params))
+        same = cams.setdefault(got.camera_id, mine)
+        if (same.width, same.height, tuple(same.params)) != (mine.width, mine.height, mine.params):
+            where = Path(im.name).parent
+            raise SplatError(f"triangulate_points: the images of {where} have different cameras.")
+        images[got.image_id] = ColmapImage(got.image_id, im.qvec, im.tvec, got.camera_id, im.name)
+    with pycolmap.Database.open(str(db)) as d:  # the known intrinsics, for matching and triangulating
+        for c in cams.values():
+            known = pycolmap.Camera(
+                model=c.model, width=c.width, height=c.height, params=list(c.params), camera_id=c.id
+            )
+            known.has_prior_focal_length = True
+            d.update_camera(known)
+    pycolmap.match_exhaustive(db, device=pycolmap.Device.cpu)
+    given = workdir / "given"
+    write_colmap(ColmapModel(cams, images, {}), given, binary=False)
     options = pycolmap.IncrementalPipelineOptions()
-    options.min_num_matches = config.min_num_matches
     options.num_threads = config.num_threads
     options.random_seed = config.seed
-    options.ba_refine_principal_point = False
-    out = workdir / "sparse"
-    models = pycolmap.incremental_mapping(db, image_dir, out, options=options)
-    if not models:
-        raise SplatError(
-            f"COLMAP registered no model from {image_dir}: the previews need more texture "
-            "or overlap (or lower PoseConfig.min_num_matches)."
-        )
-    best = max(models.values(), key=lambda r: r.num_reg_images())
-    folder = out / "best"
-    folder.mkdir(parents=True, exist_ok=True)
-    best.write_binary(str(folder))
-    return read_colmap(folder)
+    out = workdir / "triangulated"
+    out.mkdir(parents=True, exist_ok=True)
+    rec = pycolmap.triangulate_points(
+        pycolmap.Reconstruction(str(given)), db, image_dir, out, options=options, refine_intrinsics=False
+    )
+    rec.write_binary(str(out))
+    return read_colmap(out)

@@ -1,5 +1,6 @@
 """The poses step: previews of every photograph (developed by :mod:`isp`) and a COLMAP model of the
-capture's poses (recovered, or read from ``[poses]``). Each RAW file is decoded here for the whole
+capture's poses (recovered, or read from ``[poses]``, with points triangulated on the previews where
+the given model has none). Each RAW file is decoded here for the whole
 run: binned to the automatic working resolution and kept in ``OUT/decoded``
 (:meth:`splat.capture.Workspace.decode_cache`), from which the later steps read it.
 """
@@ -14,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._errors import SplatError
 from .chart import chart_of, check_chart
 from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import write_json, write_png8
@@ -60,6 +62,56 @@ def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
     return encode_sRGB(np.clip(img, 0, 1))
 
 
+def _triangulated(spec, views, model, by_name, out: Path, previews, config, progress):
+    """``model`` (poses without points) in the previews' pixels with points matched and triangulated
+    on the previews (:func:`splat.poses.triangulate_points`), or None where that cannot be done: no
+    pycolmap, a camera whose size is not its RAW files' (the caller's check then says so), a distorted
+    camera, or fewer than 8 points triangulated (training then starts where the views overlap)."""
+    import dataclasses
+
+    from ..colmap import ColmapCamera, ColmapImage, ColmapModel
+    from ..poses import triangulate_points
+
+    try:
+        import pycolmap  # noqa: F401
+    except ImportError:
+        return None
+    cams, images = {}, {}
+    for v in views:
+        im = by_name.get(v.name)
+        if im is None:
+            continue
+        c = model.cameras[im.camera_id]
+        if (c.width, c.height) != tuple(v.size[::-1]):
+            return None
+        h, w = v.shape
+        u = preview_upscale((h, w))
+        try:
+            fx, fy, cx, cy = (p * u / v.binning for p in c.pinhole())  # preview pixels
+        except SplatError:  # a distorted model: the train step's own check says so
+            return None
+        cams[v.camera + 1] = ColmapCamera(v.camera + 1, "PINHOLE", w * u, h * u, (fx, fy, cx, cy))
+        name = f"{spec.out_stem(v.name)}.png"
+        images[len(images) + 1] = ColmapImage(len(images) + 1, im.qvec, im.tvec, v.camera + 1, name)
+    if len(images) < 2:
+        return None
+    previews()
+    if progress is not None:
+        progress("triangulate", 0, 1)
+    try:
+        tri = triangulate_points(
+            out / "previews",
+            out / "poses" / "colmap",
+            ColmapModel(cams, images, {}),
+            config=dataclasses.replace(config, camera_model="PINHOLE"),
+        )
+    except (RuntimeError, ValueError, SplatError):
+        return None
+    if progress is not None:
+        progress("triangulate", 1, 1)
+    return tri if len(tri.points3D) >= 8 else None
+
+
 def poses_step(
     capture: str | os.PathLike,
     out: str | os.PathLike,
@@ -67,12 +119,14 @@ def poses_step(
     config: PipelineConfig = PipelineConfig(),
     progress: ProgressCallback | None = None,
 ) -> dict:
-    """Recover (or read) the poses of every RAW file; one COLMAP camera per physical camera.
+    """Recover (or read) the poses of every RAW file; one COLMAP camera per physical camera. Given
+    poses without points get points triangulated on the previews with the poses held fixed.
 
     Returns
     -------
     dict
-        The summary written to ``poses/summary.json``: registered views per camera, source.
+        The summary written to ``poses/summary.json``: registered views per camera, source, points
+        (``triangulated``: how many were triangulated from given poses, else None).
 
     Raises
     ------
@@ -107,6 +161,30 @@ def poses_step(
     check_white_box(spec, views)
     check_chart(spec, views)
     names = [v.name for v in views]
+
+    def previews():  # 8-bit previews for SIFT, in OUT/previews/<label>/<stem>.png
+        whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
+        for i, v in enumerate(views):
+            path = ws.path("previews", f"{spec.out_stem(v.name)}.png")
+            if not path.is_file():
+                write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
+            if progress is not None:
+                progress("previews", i + 1, len(views))
+
+    def raw_names(m):  # a model of the previews: its images by RAW file name
+        by = {}
+        for im in m.images.values():
+            stem = Path(im.name)
+            raw = next(
+                (n for n in names if spec.out_stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None
+            )
+            if raw is not None:
+                by[raw] = im
+        return by
+
+    pose_config = PoseConfig(num_threads=config.threads, seed=config.seed, max_image_size=-1)
+    in_previews = False  # whether the model's pixels are the previews' (else the RAW files')
+    triangulated = None
     if spec.colmap is not None or spec.transforms is not None:
         source = "colmap" if spec.colmap is not None else "transforms"
         if spec.colmap is not None:
@@ -116,31 +194,20 @@ def poses_step(
 
             model = colmap_from_capture(read_transforms(spec.transforms))
         by_name = {im.name: im for im in model.images.values()}
+        if len(model.points3D) < 8:  # poses alone: points matched and triangulated on the previews
+            found = _triangulated(spec, views, model, by_name, out, previews, pose_config, progress)
+            if found is not None:
+                model, in_previews = found, True
+                by_name = raw_names(model)
+                triangulated = len(model.points3D)
     else:
         source = "pycolmap"
-        whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
-        for i, v in enumerate(views):
-            path = ws.path("previews", f"{spec.out_stem(v.name)}.png")
-            if not path.is_file():
-                write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
-            if progress is not None:
-                progress("previews", i + 1, len(views))
+        previews()
         if progress is not None:
             progress("colmap", 0, 1)
-        work = out / "poses" / "colmap"
-        model = recover_poses(
-            out / "previews",
-            work,
-            config=PoseConfig(num_threads=config.threads, seed=config.seed, max_image_size=-1),
-        )
-        by_name = {}
-        for im in model.images.values():
-            stem = Path(im.name)
-            raw = next(
-                (n for n in names if spec.out_stem(n) == f"{stem.parent.as_posix()}/{stem.stem}"), None
-            )
-            if raw is not None:
-                by_name[raw] = im
+        model = recover_poses(out / "previews", out / "poses" / "colmap", config=pose_config)
+        by_name = raw_names(model)
+        in_previews = True
         if progress is not None:
             progress("colmap", 1, 1)
     # one camera id per physical camera, in the capture's order; COLMAP's own ids are remapped
@@ -158,7 +225,7 @@ def poses_step(
             )
         src = model.cameras[by_name[reg[0].name].camera_id]
         H, W = mine[0].size  # the model is stored at full resolution
-        if source == "pycolmap":  # preview pixels → full-resolution pixels: × binning / upscale
+        if in_previews:  # preview pixels → full-resolution pixels: × binning / upscale
             h, w = mine[0].shape
             u = preview_upscale((h, w))
             expect, f = (w * u, h * u), u / mine[0].binning
@@ -206,6 +273,7 @@ def poses_step(
         "registered": sum(c["registered"] for c in counts.values()),
         "views": len(views),
         "points": len(pts),
+        "triangulated": triangulated,
         "seconds": time.perf_counter() - t0,
         "folders": [c.folder for c in spec.cameras],
         "exposures": {v.name: v.exif for v in views},

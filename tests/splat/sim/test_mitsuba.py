@@ -245,3 +245,38 @@ def test_the_chart_is_marked_where_its_patches_are(tmp_path):
     for order, ok in ((k, True), (k[::-1, ::-1], False), (k[:, ::-1], False), (k[::-1], False)):
         r = [np.corrcoef(seen[order.ravel(), c], expected[:, c])[0, 1] for c in range(3)]
         assert (min(r) > 0.9) if ok else (max(r) < 0.7), (order[0], r)
+
+
+def test_poses_without_points_get_points_triangulated_on_the_previews(tmp_path):
+    """``[poses] colmap`` with the true poses and no points (as ``truth/`` holds them): the poses step
+    matches the previews and triangulates points with the poses held fixed, and keeps them in RAW
+    pixels: each point reprojects through the kept cameras onto its track's keypoints (preview pixels
+    mapped back by the previews' upscale), and the poses are the given ones."""
+    from splat.camera import qvec_to_rotmat
+    from splat.capture import poses_step
+    from splat.colmap import read_colmap
+
+    cap = sm.write_mitsuba_capture(tmp_path / "c", size=1, views=4, holdout=0, spp=8, seed=0)
+    (cap / "poses").mkdir()
+    for f in ("cameras.txt", "images.txt", "points3D.txt"):
+        shutil.copy(cap / "truth" / f, cap / "poses" / f)
+    with open(cap / "capture.toml", "a") as fh:
+        fh.write('\n[poses]\ncolmap = "poses"\n')
+    summary = poses_step(cap, tmp_path / "out")
+    assert summary["registered"] == 12 and summary["triangulated"] >= 50
+    model = read_colmap(tmp_path / "out" / "poses" / "model")
+    given = read_colmap(cap / "truth")
+    assert len(model.points3D) == summary["triangulated"]
+    poses = {im.name: im for im in given.images.values()}
+    errors = []
+    for im in model.images.values():
+        np.testing.assert_allclose(im.qvec, poses[im.name].qvec, atol=1e-9)
+        np.testing.assert_allclose(im.tvec, poses[im.name].tvec, atol=1e-9)
+        assert model.cameras[im.camera_id].params == given.cameras[poses[im.name].camera_id].params
+        fx, fy, cx, cy = model.cameras[im.camera_id].pinhole()
+        R = qvec_to_rotmat(im.qvec)
+        for xy, pid in zip(np.asarray(im.xys).reshape(-1, 2), im.point3D_ids):
+            if pid > 0:
+                p = R @ model.points3D[int(pid)].xyz + im.tvec
+                errors.append(np.hypot(fx * p[0] / p[2] + cx - xy[0], fy * p[1] / p[2] + cy - xy[1]))
+    assert len(errors) >= 2 * len(model.points3D) and np.median(errors) < 0.5
