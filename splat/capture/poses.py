@@ -66,7 +66,8 @@ def _triangulated(spec, views, model, by_name, out: Path, previews, config, prog
     """``model`` (poses without points) in the previews' pixels with points matched and triangulated
     on the previews (:func:`splat.poses.triangulate_points`), or None where that cannot be done: no
     pycolmap, a camera whose size is not its RAW files' (the caller's check then says so), a distorted
-    camera, or fewer than 8 points triangulated (training then starts where the views overlap)."""
+    camera, one camera's views with different intrinsics, or fewer than 8 points triangulated
+    (training then starts where the views overlap)."""
     import dataclasses
 
     from ..colmap import ColmapCamera, ColmapImage, ColmapModel
@@ -90,7 +91,9 @@ def _triangulated(spec, views, model, by_name, out: Path, previews, config, prog
             fx, fy, cx, cy = (p * u / v.binning for p in c.pinhole())  # preview pixels
         except SplatError:  # a distorted model: the train step's own check says so
             return None
-        cams[v.camera + 1] = ColmapCamera(v.camera + 1, "PINHOLE", w * u, h * u, (fx, fy, cx, cy))
+        cam = ColmapCamera(v.camera + 1, "PINHOLE", w * u, h * u, (fx, fy, cx, cy))
+        if cams.setdefault(v.camera + 1, cam) != cam:  # one physical camera, two intrinsics
+            return None
         name = f"{spec.out_stem(v.name)}.png"
         images[len(images) + 1] = ColmapImage(len(images) + 1, im.qvec, im.tvec, v.camera + 1, name)
     if len(images) < 2:

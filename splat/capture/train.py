@@ -222,11 +222,13 @@ def _seen_region(cameras, n: int = 8192, *, seed: int = 0) -> np.ndarray:
         z = depth[k] * rng.uniform(0.2, 2.0, (m, 1))
         pts.append((ray * z - t[k]) @ R[k])  # world: Rᵀ(x_cam − t)
     X = np.concatenate(pts)
-    cam = np.einsum("kij,pj->kpi", R, X) + t[:, None]
-    zc = cam[..., 2]
-    uv = np.einsum("kij,kpj->kpi", K[:, :2, :], cam / np.where(zc > 0, zc, 1)[..., None])
-    inside = (zc > 0) & (uv >= 0).all(-1) & (uv < size[:, None]).all(-1)
-    keep = inside.sum(0) >= max(2, -(-len(cameras) // 2))
+    seen = np.zeros(len(X), int)
+    for k in range(len(cameras)):  # one camera at a time: memory of the points, not points × cameras
+        p = X @ R[k].T + t[k]
+        z = np.where(p[:, 2] > 0, p[:, 2], 1.0)[:, None]
+        uv = p[:, :2] / z @ K[k][:2, :2].T + K[k][:2, 2]
+        seen += (p[:, 2] > 0) & (uv >= 0).all(1) & (uv < size[k]).all(1)
+    keep = seen >= max(2, -(-len(cameras) // 2))
     X = X[keep] if keep.sum() >= 8 else X
     return X[rng.permutation(len(X))[:n]]
 
