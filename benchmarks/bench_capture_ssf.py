@@ -198,6 +198,12 @@ def main(argv=None) -> int:
         "--exact-prior", action="store_true", help="estimate without the real-DNG calibration (prior 1e-4)"
     )
     ap.add_argument(
+        "--sigma-scale",
+        type=float,
+        help="tell the fits this multiple of each estimate's RMS response error (default "
+        "SSF_FIT_SIGMA_SCALE, the value chosen on natural sets)",
+    )
+    ap.add_argument(
         "--estimate",
         metavar="FOLDERS",
         help="comma-separated camera folders to estimate (default all); the others keep measured curves",
@@ -228,6 +234,13 @@ def main(argv=None) -> int:
             if M is not None:
                 real[cam.ssf] = DNGMatrices((M,), ("D65",), name=cam.ssf)
         print(f"Adobe's matrices for {sorted(real)}", file=sys.stderr)
+    if a.sigma_scale is not None:  # the told σ of every estimate (SSFEstimate.response_sigma) meanwhile
+        import zonotope.spectra.estimate as est_module
+
+        if not (np.isfinite(a.sigma_scale) and a.sigma_scale >= 0):
+            print(f"--sigma-scale {a.sigma_scale}: must be a finite number ≥ 0", file=sys.stderr)
+            return 2
+        est_module.SSF_FIT_SIGMA_SCALE = a.sigma_scale
     results = {}
     for variant in ("measured", "estimated"):
         t0 = time.perf_counter()
