@@ -247,7 +247,7 @@ def test_the_chart_is_marked_where_its_patches_are(tmp_path):
         assert (min(r) > 0.9) if ok else (max(r) < 0.7), (order[0], r)
 
 
-def test_poses_without_points_get_points_triangulated_on_the_previews(tmp_path):
+def test_poses_without_points_get_points_triangulated_on_the_previews(tmp_path, monkeypatch):
     """``[poses] colmap`` with the true poses and no points (as ``truth/`` holds them): the poses step
     matches the previews and triangulates points with the poses held fixed, and keeps them in RAW
     pixels: each point reprojects through the kept cameras onto its track's keypoints (preview pixels
@@ -280,3 +280,14 @@ def test_poses_without_points_get_points_triangulated_on_the_previews(tmp_path):
                 p = R @ model.points3D[int(pid)].xyz + im.tvec
                 errors.append(np.hypot(fx * p[0] / p[2] + cx - xy[0], fy * p[1] / p[2] + cy - xy[1]))
     assert len(errors) >= 2 * len(model.points3D) and np.median(errors) < 0.5
+
+    # where pycolmap cannot triangulate, the poses are kept without points (training then starts where
+    # the views overlap) and the summary says none were triangulated
+    import splat.poses
+
+    def fails(*args, **kwargs):
+        raise RuntimeError("no matches")
+
+    monkeypatch.setattr(splat.poses, "triangulate_points", fails)
+    summary = poses_step(cap, tmp_path / "out2")
+    assert summary["registered"] == 12 and summary["triangulated"] is None and summary["points"] == 0
