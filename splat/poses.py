@@ -156,22 +156,20 @@ def triangulate_points(
 
     image_dir, workdir = Path(image_dir), Path(workdir)
     db = _features(image_dir, workdir, config)
+    cams, images = {}, {}
     with pycolmap.Database.open(str(db)) as d:
         found = {im.name: im for im in d.read_all_images()}
-    cams, images = {}, {}
-    for im in model.images.values():
-        got = found.get(im.name)
-        if got is None:
-            raise SplatError(f"triangulate_points: {im.name!r} is not an image under {image_dir}.")
-        c = model.cameras[im.camera_id]
-        mine = ColmapCamera(got.camera_id, c.model, c.width, c.height, tuple(c.params))
-        same = cams.setdefault(got.camera_id, mine)
-        if (same.width, same.height, tuple(same.params)) != (mine.width, mine.height, mine.params):
-            where = Path(im.name).parent
-            raise SplatError(f"triangulate_points: the images of {where} have different cameras.")
-        images[got.image_id] = ColmapImage(got.image_id, im.qvec, im.tvec, got.camera_id, im.name)
-    with pycolmap.Database.open(str(db)) as d:  # the known intrinsics, for matching and triangulating
-        for c in cams.values():
+        for im in model.images.values():
+            got = found.get(im.name)
+            if got is None:
+                raise SplatError(f"triangulate_points: {im.name!r} is not an image under {image_dir}.")
+            c = model.cameras[im.camera_id]
+            mine = ColmapCamera(got.camera_id, c.model, c.width, c.height, tuple(c.params))
+            if cams.setdefault(got.camera_id, mine) != mine:
+                where = Path(im.name).parent
+                raise SplatError(f"triangulate_points: the images of {where} have different cameras.")
+            images[got.image_id] = ColmapImage(got.image_id, im.qvec, im.tvec, got.camera_id, im.name)
+        for c in cams.values():  # the known intrinsics, for matching and triangulating
             known = pycolmap.Camera(
                 model=c.model, width=c.width, height=c.height, params=list(c.params), camera_id=c.id
             )
