@@ -9,7 +9,12 @@ __all__ = ["add_commands"]
 
 
 def _read_chart_csv(path: str):
-    """Patch means (N, 3) from a CSV/TXT file: one row per patch, R, G, B (a header line is skipped)."""
+    """Patch means (N, 3) from a CSV/TXT file: one row per patch, R, G, B (a header line is skipped).
+
+    A header naming ``raw_R, raw_G, raw_B`` (the per-patch report ``isp profile --chart`` writes) or
+    ``R, G, B`` picks those columns; otherwise the last three cells of each row are read. Why: the
+    profile's report is where a photographer already has the patch means of a chart photograph.
+    """
     from pathlib import Path
 
     import numpy as np
@@ -26,14 +31,24 @@ def _read_chart_csv(path: str):
         lines = p.read_text(encoding="utf-8").splitlines()
     except (OSError, UnicodeDecodeError) as error:
         raise SpectralDataError(f"--chart {path}: cannot read it ({error}).") from None
+    columns = None  # the header's R, G, B columns; None: the last three cells
     for i, line in enumerate(lines):
-        cells = [c for c in line.replace(";", ",").replace("\t", ",").split(",") if c.strip()]
-        if not cells or line.lstrip().startswith("#"):
+        cells = [c.strip() for c in line.replace(";", ",").replace("\t", ",").split(",")]
+        if not any(cells) or line.lstrip().startswith("#"):
             continue
+        if not rows and columns is None:
+            names = [c.lower() for c in cells]
+            for want in (("raw_r", "raw_g", "raw_b"), ("r", "g", "b")):
+                if all(w in names for w in want):
+                    columns = [names.index(w) for w in want]
+                    break
+            if columns is not None:
+                continue
         try:
-            rows.append([float(c) for c in cells[-3:]])
-        except ValueError:
-            if rows or i > 0:
+            picked = [cells[j] for j in columns] if columns is not None else [c for c in cells if c][-3:]
+            rows.append([float(c) for c in picked])
+        except (ValueError, IndexError):
+            if rows or i > 0 or columns is not None:
                 raise SpectralDataError(
                     f"--chart {path}, line {i + 1}: not three numbers ({line.strip()!r})."
                 ) from None
@@ -91,7 +106,7 @@ def add_commands(sub) -> None:
     e.add_argument(
         "--chart",
         help="CSV of raw patch means, one row R,G,B per patch in chart order, black subtracted and divided "
-        "by WhiteLevel − BlackLevel",
+        "by WhiteLevel − BlackLevel (the _patches.csv `isp profile --chart` writes is read as it is)",
     )
     e.add_argument(
         "--reflectances", default="ColorChecker N Ohta", help="the chart's reflectances (name or file)"

@@ -66,6 +66,29 @@ def test_chart_csv_alone_and_with_the_dng(tmp_path):
     assert zonotope.load_camera(tmp_path / "b.json").values.shape[1] == 3
 
 
+def test_chart_csv_of_isp_profile_is_read_by_its_raw_columns(tmp_path):
+    """The per-patch report ``isp profile --chart`` writes carries the raw means in columns 3–5 and
+    Lab and ΔE00 after them: the estimate must read the raw columns, not the last three cells."""
+    from isp.profiles.chart import REPORT_CSV_HEADER
+
+    w = SSF_SHAPE.wavelengths
+    R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T
+    E = spectra.resample(zonotope.illuminant("D65"), w)[:, 0]
+    C = (R * E) @ spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), w)
+    C = 0.8 * C / C.max()
+    plain, report = tmp_path / "plain.csv", tmp_path / "chart_patches.csv"
+    plain.write_text("\n".join(",".join(f"{x:.6g}" for x in row) for row in C) + "\n")
+    rows = [
+        f"{k + 1},patch {k + 1}," + ",".join(f"{x:.6g}" for x in (*C[k], 50, 3, -4, 51, 2, -5, 1.5, 1.2))
+        for k in range(24)
+    ]
+    report.write_text(REPORT_CSV_HEADER + "\n" + "\n".join(rows) + "\n")
+    for f in (plain, report):
+        assert main(["ssf", "estimate", "--chart", str(f), "-o", str(tmp_path / f"{f.stem}.json")]) == 0
+    a, b = (zonotope.load_camera(tmp_path / f"{s}.json").values for s in ("plain", "chart_patches"))
+    np.testing.assert_allclose(a, b)
+
+
 @pytest.mark.parametrize(
     ("make", "match"),
     [
