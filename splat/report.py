@@ -497,6 +497,18 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
             )
             + "."
         )
+        est = {f: d for f, d in (run.correct.get("ssf") or {}).items() if "estimated" in d}
+        if est:
+            bits.append(
+                "Sensitivities not measured: estimated from the DNG colour matrices of "
+                + ", ".join(
+                    f"{_e(f)} ({_e(d['file'])}, response σ "
+                    + " / ".join(f"{v:.3f}" for v in d["sigma"])
+                    + ")"
+                    for f, d in est.items()
+                )
+                + "; the fit is told that σ as noise."
+            )
         light = run.correct.get("illuminant")
         if light:
             est = light.get("estimate")

@@ -157,6 +157,7 @@ _EXPORTS = {
         "own_noise",
         "photographed_view",
         "reprojected_of",
+        "ssf_record",
         "ssf_sigma",
         "white_of",
     ],

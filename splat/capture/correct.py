@@ -47,6 +47,7 @@ __all__ = [
     "photographed_view",
     "pipeline_mix",
     "reprojected_of",
+    "ssf_record",
     "ssf_sigma",
     "white_of",
 ]
@@ -804,6 +805,27 @@ def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
     return np.concatenate(out)
 
 
+def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
+    """Per camera (its folder), where its sensitivities came from: ``{"measured": name or file}`` or
+    ``{"estimated": "DNG colour matrices", "file", "sigma", "calibration"}`` (the σ told to the fit).
+    Why: the report must say when the colours rest on estimated curves, and how well they are known."""
+    light = spec.load_illuminant()
+    out = {}
+    for k in cameras:
+        cam, est = spec.cameras[k], spec.ssf_estimate(k)
+        if est is None:
+            out[cam.folder] = {"measured": cam.ssf}
+            continue
+        dng = next(f for f in spec.raw_files(k) if f.suffix.lower() == ".dng")
+        out[cam.folder] = {
+            "estimated": "DNG colour matrices",
+            "file": dng.name,
+            "sigma": [round(float(v), 6) for v in est.response_sigma(light)],
+            "calibration": est.calibration,
+        }
+    return out
+
+
 def _fit_on(problem, method: str, sigma, *, mix=None):
     """``method`` fitted on ``problem`` with responses of noise ``sigma`` (one σ or one per channel), told
     to it as its registry entry says (:func:`zonotope.correct.noise_options`), with
@@ -1069,6 +1091,7 @@ def correct_step(
             "reference": spec.reference or spec.illuminant,
             "estimate": light,
         },
+        "ssf": ssf_record(spec, list(range(n))),
         "views": list(index),
         "duration_s": time.perf_counter() - t0,
         "peak_rss_mib": peak_rss_mib(),

@@ -127,6 +127,15 @@ def make_out(cap, out, *, score=False):
             "training_residual": 0.004,
             "white": {"method": "patch"},
             "white_XYZ": WHITE_XYZ.tolist(),
+            "ssf": {  # one camera's curves estimated, as splat.capture.ssf_record writes it
+                "nikon": {
+                    "estimated": "DNG colour matrices",
+                    "file": "IMG_0000.dng",
+                    "sigma": [0.0074, 0.0029, 0.0025],
+                    "calibration": "real DNG matrices",
+                },
+                "sigma": {"measured": "Sigma SDMerill (NPL)"},
+            },
             "views": list(index),
         },
     )
@@ -184,6 +193,8 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         assert "render took 3.0 s ·" in sec and "correct time not recorded" in sec
         assert "--steps 3000" in sec and "48×36 px" in sec and "see 25%" in sec
         assert "The map is of the working answer" not in sec  # no working resolution recorded
+        said = re.search(r"Sensitivities not measured: [^;]*;", sec).group(0)  # estimated curves said
+        assert "nikon (IMG_0000.dng, response σ 0.007 / 0.003 / 0.003)" in said and "sigma" not in said
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
     assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels

@@ -155,6 +155,10 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     np.testing.assert_allclose(band[:3], expected)
     assert (band[:3] > 0).all() and not band[3:].any()
     assert spec.ssf_estimate(1) is None
+    record = capture.ssf_record(spec, [0, 1])  # what the correct summary (and the report) says
+    assert record["meas"] == {"measured": "Nikon 5100 (NPL)"}
+    assert record["cam"]["file"] == "a.dng" and record["cam"]["estimated"] == "DNG colour matrices"
+    np.testing.assert_allclose(record["cam"]["sigma"], expected, atol=1e-6)
 
     noise = np.full(6, 0.002)
     _, scale = capture.fit_fused_corrector(spec, [0, 1], "least squares", noise)
