@@ -29,9 +29,11 @@ __all__ = [
     "METAMER_RANGE",
     "MetamerConfig",
     "MetamerCorrection",
+    "maker_mismatch",
     "metamer_correction",
     "metamer_noise",
     "photograph_method",
+    "sensitivities_maker",
 ]
 
 
@@ -493,3 +495,57 @@ def _balanced_planes(raw, gains: np.ndarray) -> np.ndarray:
             done.add(c)
     planes = np.where(planes >= 1.0, np.nan, planes)
     return planes * gains
+
+
+#: First words of an EXIF ``Make`` that name another company than the cameras' brand, and the brand.
+MAKER_ALIASES = {"ricoh": "pentax", "om": "olympus", "arashi": "insta360"}
+
+
+def _maker_key(name: str) -> str:
+    words = str(name).replace(",", " ").split()
+    first = words[0].lower().rstrip(".") if words else ""
+    return MAKER_ALIASES.get(first, first)
+
+
+def sensitivities_maker(camera) -> str | None:
+    """The manufacturer a camera's sensitivities name, or None where they name none.
+
+    A built-in name (``zonotope.list_builtin()["cameras"]``) gives its first word; a rawtoaces JSON file
+    its ``header.manufacturer`` (``zonotope ssf estimate`` writes the DNG's make there); a CSV or a
+    colour MSDS gives None. Why: a metamer correction is right only for the sensor whose curves it is
+    fitted on, and a file's make is the one check every DNG allows (:func:`maker_mismatch`).
+    """
+    import json
+    import os
+    from pathlib import Path
+
+    if not isinstance(camera, str | os.PathLike):
+        return None
+    path = Path(camera)
+    if path.suffix.lower() == ".json" and path.is_file():
+        try:
+            header = json.loads(path.read_text(encoding="utf-8")).get("header") or {}
+        except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+            return None
+        made = header.get("manufacturer") if isinstance(header, dict) else None
+        return str(made).strip() or None if made else None
+    import zonotope
+
+    name = str(camera)
+    return name.split()[0] if name in zonotope.list_builtin()["cameras"] else None
+
+
+def maker_mismatch(camera, make: str) -> str | None:
+    """A warning when a RAW file's ``make`` (EXIF Make; "" when not recorded) is another manufacturer
+    than the one ``camera``'s sensitivities name (:func:`sensitivities_maker`), else None.
+
+    Compared by first word, case ignored, with :data:`MAKER_ALIASES` ("NIKON CORPORATION" is a Nikon,
+    "RICOH IMAGING" a Pentax). Different makers can share a sensor, so this warns, never refuses.
+    """
+    made = sensitivities_maker(camera)
+    if not made or not str(make).strip() or _maker_key(made) == _maker_key(make):
+        return None
+    return (
+        f"the sensitivities {str(camera)!r} are a {made} camera's but the file is from "
+        f"{str(make).strip()!r}: its colours are right only if they are this sensor's curves."
+    )

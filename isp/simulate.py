@@ -430,6 +430,7 @@ def simulate_dng(
     capture: Capture,
     *,
     model: str = "simulated",
+    make: str | None = None,
     noise_profile=None,
     overwrite: bool = False,
 ) -> Path:
@@ -443,6 +444,9 @@ def simulate_dng(
         From :func:`simulate_capture`.
     model
         Model tag (e.g. the camera name).
+    make
+        Make tag; default the maker a built-in camera's ``model`` names (its first word:
+        :func:`isp.metamer.sensitivities_maker`), else ``"zonotope"``.
     noise_profile : array_like of shape (2,) or (3, 2), optional
         DNG NoiseProfile to write (e.g. ``capture.noise_profile``, the true one); None: no tag.
     overwrite
@@ -452,6 +456,8 @@ def simulate_dng(
     -------
     Path
     """
+    from .metamer import sensitivities_maker
+
     code = ILLUMINANT_LIGHT_SOURCE.get(capture.setup.illuminant.upper().replace(" ", ""), 255)
     return write_dng(
         path,
@@ -462,7 +468,7 @@ def simulate_dng(
         color_matrix_1=capture.color_matrix,
         as_shot_neutral=capture.neutral,
         calibration_illuminant_1=code,
-        make="zonotope",
+        make=make if make is not None else sensitivities_maker(model) or "zonotope",
         model=model,
         noise_profile=noise_profile,
         overwrite=overwrite,

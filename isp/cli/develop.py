@@ -217,6 +217,9 @@ def _develop_folder(args: argparse.Namespace) -> int:
     else:
         settings["reference"] = f"colours as under {settings['reference']}"
     if config is not None:  # one fit for the folder: the noise of its first file
+        other = _folder_makers(args)
+        if other:
+            console.print(f"[yellow]warning:[/] {other}", soft_wrap=True)
         config, note, origin = _folder_noise(args, config, noise)  # develop_folder records it in settings
         if not args.quiet or note:
             said = "; ".join(x for x in (note, origin) if x)
@@ -252,6 +255,43 @@ def _develop_folder(args: argparse.Namespace) -> int:
             soft_wrap=True,
         )
     return 1 if failed else 0
+
+
+def _folder_makers(args: argparse.Namespace) -> str | None:
+    """A warning naming the DNG files of the folder made by another manufacturer than the one
+    ``--camera``'s sensitivities name (:func:`isp.metamer.maker_mismatch`), else None. Why: one fit
+    serves the whole folder, so a folder that mixes cameras gets one camera's colours for all; only
+    the DNG tags are read (other RAW files record no make here)."""
+    from .._errors import PipelineError, RawFormatError
+    from ..batch import raw_files
+    from ..dng import read_dng_tags
+    from ..metamer import maker_mismatch, sensitivities_maker
+
+    if sensitivities_maker(args.camera) is None:
+        return None
+    others: dict[str, list[str]] = {}
+    try:
+        files = [f for f in raw_files(args.input) if f.suffix.lower() == ".dng"]
+    except PipelineError:
+        return None
+    for f in files:
+        try:
+            make = str(read_dng_tags(f).get("Make", "") or "").strip()
+        except (OSError, RawFormatError):
+            continue  # the development says what is wrong with it
+        if maker_mismatch(args.camera, make):
+            others.setdefault(make, []).append(f.name)
+    if not others:
+        return None
+    n = sum(len(v) for v in others.values())
+    listed = ", ".join(
+        f"{make} ({len(v)}: {', '.join(v[:3])}{', …' if len(v) > 3 else ''})" for make, v in others.items()
+    )
+    return (
+        f"{n} of {len(files)} DNG files are not from a {sensitivities_maker(args.camera)} camera, the maker "
+        f"--camera {args.camera!r} names: {listed}; their colours are right only if these are their "
+        "sensor's curves (develop each camera's files with its own --camera, in its own folder)."
+    )
 
 
 def _folder_noise(args: argparse.Namespace, config, noise):
@@ -350,6 +390,11 @@ def _develop_one_or_folder(args: argparse.Namespace) -> int:
         if other:
             console.print(f"[yellow]warning:[/] {other}", soft_wrap=True)
         if metamer is not None:
+            from ..metamer import maker_mismatch
+
+            other = maker_mismatch(args.camera, raw.make)
+            if other:
+                console.print(f"[yellow]warning:[/] {src.name}: {other}", soft_wrap=True)
             mismatch = metamer.neutral_mismatch(raw.as_shot_neutral)
             if mismatch > NEUTRAL_MISMATCH:
                 console.print(
