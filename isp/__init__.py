@@ -50,7 +50,15 @@ from .dng import (
 )
 from .exif import output_tags, srgb_icc_profile
 from .io import write_image
-from .metamer import MetamerConfig, MetamerCorrection, metamer_correction, metamer_noise, photograph_method
+from .metamer import (
+    MetamerConfig,
+    MetamerCorrection,
+    maker_mismatch,
+    metamer_correction,
+    metamer_noise,
+    photograph_method,
+    sensitivities_maker,
+)
 from .pipeline import Development, Pipeline, Stage, chain, correction_stage, default_pipeline, develop
 from .raw import RawImage, auto_white_balance, read_raw
 from .stages import (
@@ -99,6 +107,7 @@ __all__ = [
     "develop",
     "encode_sRGB",
     "linearise",
+    "maker_mismatch",
     "matrix_XYZ_from_balanced",
     "matrix_interpolated",
     "metamer_correction",
@@ -110,6 +119,7 @@ __all__ = [
     "photograph_method",
     "read_dng_tags",
     "read_raw",
+    "sensitivities_maker",
     "srgb_icc_profile",
     "tonemap",
     "white_balance",
