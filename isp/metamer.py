@@ -497,6 +497,9 @@ def _balanced_planes(raw, gains: np.ndarray) -> np.ndarray:
     return planes * gains
 
 
+#: ``manufacturer`` values that name no maker: ``zonotope.ssf_json`` writes them for an estimate made
+#: without a make (a chart photograph alone, a one-word ``--name``).
+NO_MAKER = frozenset({"", "unknown", "estimated"})
 #: First words of an EXIF ``Make`` that name another company than the cameras' brand, and the brand.
 MAKER_ALIASES = {"ricoh": "pentax", "om": "olympus", "arashi": "insta360"}
 
@@ -527,8 +530,8 @@ def sensitivities_maker(camera) -> str | None:
             header = json.loads(path.read_text(encoding="utf-8")).get("header") or {}
         except (OSError, UnicodeDecodeError, ValueError, AttributeError):
             return None
-        made = header.get("manufacturer") if isinstance(header, dict) else None
-        return str(made).strip() or None if made else None
+        made = str(header.get("manufacturer") or "").strip() if isinstance(header, dict) else ""
+        return None if made.lower() in NO_MAKER else made
     import zonotope
 
     name = str(camera)

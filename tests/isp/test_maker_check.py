@@ -39,6 +39,9 @@ def test_makers_compared_by_first_word_with_aliases(tmp_path):
     assert sensitivities_maker(f) == "Pentax"
     assert maker_mismatch(f, "RICOH IMAGING COMPANY, LTD.") is None  # Pentax files name Ricoh
     assert maker_mismatch(f, "Canon") is not None
+    for unnamed in ("estimated", "unknown"):  # ssf_json of an estimate without a make (a chart alone)
+        f.write_text(json.dumps({"header": {"manufacturer": unnamed, "model": "camera"}}))
+        assert sensitivities_maker(f) is None and maker_mismatch(f, "Canon") is None
     (tmp_path / "cam.csv").write_text("380,0.1,0.2,0.3\n")
     assert sensitivities_maker(tmp_path / "cam.csv") is None  # a CSV names no maker: never flagged
     assert sensitivities_maker("not a camera") is None
