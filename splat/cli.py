@@ -243,6 +243,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"splat: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     steps = STEPS if args.step == "run" else (args.step,)
+    if args.step in ("run", "poses"):  # before any work: each camera's curves against its files' maker
+        from .capture import maker_warnings, read_capture
+
+        try:
+            for line in maker_warnings(read_capture(args.capture)):
+                print(f"splat: warning: {line}", file=sys.stderr)
+        except (ZonotopeError, OSError, ValueError):
+            pass  # the run itself says what is wrong with the capture, in one line
     console = Console(stderr=True)
     bar = Progress(
         TextColumn("{task.description:>9}"),

@@ -75,6 +75,7 @@ _EXPORTS = {
         "CaptureError",
         "CaptureSpec",
         "WhiteSpec",
+        "maker_warnings",
         "read_capture",
     ],
     "illuminant": ["estimate_scene_light", "illuminant_of"],

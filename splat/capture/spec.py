@@ -22,6 +22,7 @@ __all__ = [
     "CaptureError",
     "CaptureSpec",
     "WhiteSpec",
+    "maker_warnings",
     "read_capture",
 ]
 
@@ -573,6 +574,33 @@ def read_capture(path: str | os.PathLike) -> CaptureSpec:
                 "name twice (their outputs would collide); keep one of them in the folder."
             )
     return spec
+
+
+def maker_warnings(spec: CaptureSpec) -> list[str]:
+    """One line per camera whose named curves are another maker's than its first DNG's Make
+    (:func:`isp.maker_mismatch`); cameras with ``ssf = "estimate"``, curves that name no maker and
+    folders without a DNG are not checked. Why: two ``[[camera]]`` tables with their ``ssf`` lines
+    swapped develop every photograph with another camera's curves, and nothing else would say so."""
+    from isp import RawFormatError, maker_mismatch, read_dng_tags
+
+    out = []
+    for k, cam in enumerate(spec.cameras):
+        if cam.ssf == "estimate":
+            continue
+        dngs = [f for f in spec.raw_files(k) if f.suffix.lower() == ".dng"]
+        if not dngs:
+            continue
+        try:
+            make = str(read_dng_tags(dngs[0]).get("Make", "") or "")
+        except (OSError, RawFormatError):
+            continue  # the steps say what is wrong with the file
+        other = maker_mismatch(cam.ssf, make)
+        if other:
+            out.append(
+                f"{spec.file}: camera {cam.folder!r} ({dngs[0].name}): {other} Check that each [[camera]] "
+                "names its own curves."
+            )
+    return out
 
 
 @functools.lru_cache(maxsize=16)

@@ -14,7 +14,9 @@ CAMERAS = (
 )
 
 
-def write_dng_exif(path, data, *, cfa, black, white, neutral, exposure_time, iso, fnumber, color_matrix=None):
+def write_dng_exif(
+    path, data, *, cfa, black, white, neutral, exposure_time, iso, fnumber, color_matrix=None, make="zonotope"
+):
     """A DNG (CFA when ``cfa`` is given, else LinearRaw (H, W, 3)) with EXIF exposure tags in IFD 0."""
     import tifffile
 
@@ -23,7 +25,7 @@ def write_dng_exif(path, data, *, cfa, black, white, neutral, exposure_time, iso
     cm = np.eye(3) if color_matrix is None else color_matrix
     tags = [
         (254, "I", 1, 0, True),
-        (271, "s", 0, "zonotope", True),
+        (271, "s", 0, make, True),
         (272, "s", 0, "test", True),
         (50706, "B", 4, (1, 4, 0, 0), True),
         (50707, "B", 4, (1, 1, 0, 0), True),
@@ -121,6 +123,7 @@ def write_capture(
                 exposure_time=t,
                 iso=iso,
                 fnumber=f,
+                make=ssf.split()[0],  # the maker its curves name (splat.capture.maker_warnings)
             )
             full = f"{folder}/{name}"
             out["cams"][full] = cam

@@ -392,3 +392,40 @@ def test_cli_bad_option_is_one_line(capsys, tmp_path):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "steps=-3" in err[0]
     assert not (tmp_path / "out").exists()  # refused before any work
+
+
+def test_curves_of_another_maker_are_named_before_the_run(tmp_path, capsys):
+    """Two [[camera]] tables with their ssf lines swapped: each camera's named curves are another
+    maker's than its DNG files' Make; ``splat run`` says so, camera by camera, before any work."""
+    from splat.capture import maker_warnings
+    from splat.cli import main
+
+    rng = np.random.default_rng(0)
+    for folder, make in (("nik", "NIKON CORPORATION"), ("can", "Canon")):
+        (tmp_path / folder).mkdir()
+        for k in range(2):
+            write_dng_exif(
+                tmp_path / folder / f"IMG_{k}.dng",
+                rng.integers(300, 4000, (32, 40)),
+                cfa="RGGB",
+                black=256,
+                white=4095,
+                neutral=NEUTRAL,
+                exposure_time=1 / 100,
+                iso=100,
+                fnumber=4.0,
+                make=make,
+            )
+    body = (
+        'illuminant = "D65"\n[[camera]]\nfolder = "nik"\nssf = "{}"\n[[camera]]\nfolder = "can"\nssf = "{}"\n'
+    )
+    _toml(tmp_path, body.format("Nikon 5100 (NPL)", "Canon EOS 5D Mark II"))
+    assert maker_warnings(read_capture(tmp_path)) == []
+    _toml(tmp_path, body.format("Canon EOS 5D Mark II", "Nikon 5100 (NPL)"))
+    said = maker_warnings(read_capture(tmp_path))
+    assert len(said) == 2 and "camera 'nik' (IMG_0.dng)" in said[0] and "from 'NIKON CORPORATION'" in said[0]
+    assert "'Nikon 5100 (NPL)' are a Nikon camera's" in said[1]
+    assert main(["run", str(tmp_path), "-o", str(tmp_path / "out")]) == 2  # OUT inside: refused, after
+    lines = capsys.readouterr().err.splitlines()
+    assert [x.startswith("splat: warning:") for x in lines] == [True, True, False]
+    assert "lies inside the capture" in lines[2]
