@@ -402,7 +402,8 @@ class ProfileConfig:
         natural ones' (default 1: equal), finite ≥ 0.
     unique_camera_model : str, optional
         The string a raw developer matches against the file's camera model (e.g. ``"Canon EOS
-        550D"``); default the camera's name.
+        550D"``); default the camera's name (a camera file's maker and model) as Adobe names the model
+        (:func:`isp.profiles.models.canonical_model`).
     profile_name, copyright : str
         ProfileName (default ``"<camera> <method> (zonotope)"``), ProfileCopyright.
     embed_policy : int
@@ -512,6 +513,25 @@ class ProfileConfig:
         object.__setattr__(self, "noise", checked.noise)
 
 
+def _camera_name(camera) -> str:
+    """The camera's name: an MSDS's; a rawtoaces JSON file's maker and model, as
+    ``zonotope.load_camera`` names it (``zonotope ssf estimate`` writes the DNG's make and model there);
+    else the built-in name or the file's stem. Why: the profile's default UniqueCameraModel, which raw
+    developers match against a file's camera, must not be a file name."""
+    name = getattr(camera, "name", None)
+    if name:
+        return str(name)
+    path = str(camera)
+    if path.lower().endswith(".json") and os.path.isfile(path):
+        import zonotope
+
+        try:
+            return str(zonotope.load_camera(path).name)
+        except zonotope.ZonotopeError:
+            pass  # the fit itself says what is wrong with the file
+    return os.path.splitext(os.path.basename(path))[0]
+
+
 def fit_dcp(
     camera,
     config: ProfileConfig | None = None,
@@ -556,6 +576,7 @@ def fit_dcp(
     """
     from .._config import with_options
     from ..metamer import MetamerConfig, metamer_correction
+    from .models import canonical_model
 
     cfg = with_options(ProfileConfig, config, options, where="fit_dcp")
     illuminants, dims, look_table_dims = cfg.illuminants, cfg.dims, cfg.look_table_dims
@@ -640,7 +661,7 @@ def fit_dcp(
             encoding=look_table_encoding,
             unbiased_saturation=unbiased_saturation,
         )
-    name = getattr(camera, "name", None) or os.path.splitext(os.path.basename(str(camera)))[0]
+    name = _camera_name(camera)
     profile = DCPProfile(
         color_matrix_1=CM[0],
         color_matrix_2=CM[1],
@@ -653,7 +674,7 @@ def fit_dcp(
         look_table=look,
         look_table_encoding=look_table_encoding if look is not None else 0,
         profile_name=cfg.profile_name or f"{name} {corrections[0].method} (zonotope)",
-        unique_camera_model=cfg.unique_camera_model or str(name),
+        unique_camera_model=cfg.unique_camera_model or canonical_model(name),
         copyright=cfg.copyright,
         embed_policy=cfg.embed_policy,
     )

@@ -125,3 +125,22 @@ def test_cli_icc_lut_and_tone_curve(tmp_path, capsys):
         assert main([*argv[:6], *bad, "-o", str(tmp_path / "n.dcp")]) == 2
         assert message in capsys.readouterr().err
     assert not (tmp_path / "n.dcp").exists()
+
+
+def test_profile_of_an_estimated_camera_is_named_for_its_model(tmp_path):
+    """``zonotope ssf estimate`` writes the DNG's make and model into the camera file; a profile fitted
+    on it is offered for that camera: its UniqueCameraModel is that model as Adobe names it, not the
+    file's name."""
+    import zonotope
+    from isp.cli import main
+    from isp.profiles.dcp import read_dcp
+    from zonotope.spectra.estimate import DNGMatrices, synthesise_dng_matrices
+
+    m = synthesise_dng_matrices("Canon EOS 5D Mark II")
+    est = zonotope.estimate_ssf(DNGMatrices(m.color_matrices, m.illuminants, name="Canon EOS Kiss X4"))
+    zonotope.write_ssf_json(est, tmp_path / "cam.json")
+    argv = ["profile", "--camera", str(tmp_path / "cam.json"), "--method", "root-polynomial", "--matrix-only"]
+    assert main([*argv, "-o", str(tmp_path / "cam.dcp")]) == 0
+    dcp = read_dcp(tmp_path / "cam.dcp")
+    assert dcp.unique_camera_model == "Canon EOS 550D"
+    assert dcp.profile_name.startswith("Canon EOS Kiss X4 ")
