@@ -267,6 +267,17 @@ def write_report(
             f"<h1>Camera set report: {html.escape(' + '.join(names))}</h1>",
             f"<p>{html.escape(md[1])}</p>",
         ]
+        bands = _estimated_bands(cameras, curves, full, illuminant, w)
+        notes, band_k = bands[0]["notes"], bands[1]
+        for i in sorted(notes):
+            note = (
+                f"{names[i]}: curves estimated, not measured ({notes[i]}). Every figure below is "
+                "for the estimated curves; the sensitivity plot shades "
+                f"±{band_k:.2g} σ of their uncertainty (where held-out measured curves lay at 90 % of "
+                "wavelengths)."
+            )
+            md.append(note + "\n")
+            parts.append(f"<p><b>{html.escape(note)}</b></p>")
 
         def section(title: str, header, rows, note: str = "") -> None:
             md.append(f"\n## {title}\n\n" + (note + "\n\n" if note else "") + _table_md(header, rows))
@@ -365,7 +376,7 @@ def write_report(
 
         # 4. pictures
         if pictures:
-            pics = _pictures(tmp, curves, full, singles, chain, step)
+            pics = _pictures(tmp, curves, full, singles, chain, step, bands)
             md.append("\n## Pictures\n\n" + "".join(f"![{t}]({f})\n\n" for f, t in pics))
             parts.append(
                 "<h2>Pictures</h2>"
@@ -414,12 +425,42 @@ def _pooled_html(ev) -> str:
     return "<h3>Pooled over the test sets, and paired comparisons</h3>" + _table_html(header, rows)
 
 
-def _pictures(folder: Path, curves, full, singles, chain, step) -> list[tuple[str, str]]:
+def _estimated_bands(cameras, curves, full, illuminant, w) -> tuple[dict, float]:
+    """``({"notes": {camera index: description}, "phi": (n, k) half-widths in Phi's units or None},
+    band_k)`` for the cameras whose files carry an uncertainty (:func:`read_ssf_band`): ± band_k σ,
+    carried to ``full.Phi``'s units by each channel's own normalisation (white → 1)."""
+    from .spectra import builtin as spectra
+    from .spectra.estimate import read_ssf_band, ssf_basis
+
+    notes, phi = {}, np.zeros_like(np.asarray(full.Phi, dtype=np.float64))
+    E = spectra.resample(spectra.illuminant(illuminant), w)[:, 0]
+    band_k = float(ssf_basis().band_k)
+    for i, c in enumerate(cameras):
+        found = read_ssf_band(c, w)
+        if found is None or not found[0].any():
+            continue
+        sigma, notes[i] = found
+        S = np.clip(spectra.resample(curves[i], w), 0, None)
+        cols = slice(3 * i, 3 * i + 3)
+        scale = np.asarray(full.Phi, dtype=np.float64)[:, cols].sum(0) / np.maximum(
+            (S * E[:, None]).sum(0), 1e-300
+        )
+        phi[:, cols] = band_k * sigma * E[:, None] * scale
+    return {"notes": notes, "phi": phi if notes else None}, band_k
+
+
+def _pictures(folder: Path, curves, full, singles, chain, step, bands=None) -> list[tuple[str, str]]:
     from . import viz
 
     pics: list[tuple[str, str]] = []
     step("pictures: charts", 2)
-    viz.plot_sensitivities(full, filename=folder / "sensitivities.png")
+    phi = None if bands is None else bands[0]["phi"]
+    viz.plot_sensitivities(
+        full,
+        bands=phi,
+        band_label=None if phi is None else f"±{bands[1]:.2g} σ of the estimated curves",
+        filename=folder / "sensitivities.png",
+    )
     pics.append(("sensitivities.png", "Camera sensitivities against the target"))
     viz.plot_vora_chain(chain, filename=folder / "vora_channels.png")
     pics.append(("vora_channels.png", "Vora value vs number of channels (greedy order)"))

@@ -474,8 +474,12 @@ def _save(fig, filename):
         atomic_path(filename, lambda tmp: fig.savefig(tmp, dpi=110))
 
 
-def plot_sensitivities(problem, *, ax=None, filename=None):
+def plot_sensitivities(problem, *, bands=None, band_label=None, ax=None, filename=None):
     """Source channels against the target (both × illuminant, white-normalised), matplotlib.
+
+    ``bands``: optional (n, k) half-widths in the units of ``problem.Phi`` (0 where a channel's curve
+    is known exactly), shaded around each channel, e.g. an estimated camera's uncertainty band
+    (:func:`zonotope.spectra.estimate.read_ssf_band`); ``band_label`` names it in the legend.
 
     Returns
     -------
@@ -483,7 +487,25 @@ def plot_sensitivities(problem, *, ax=None, filename=None):
     """
     fig, ax = _figure(ax)
     w = problem.wavelengths
-    Phi = problem.Phi / problem.Phi.max(axis=0)
+    peak = problem.Phi.max(axis=0)
+    Phi = problem.Phi / peak
+    if bands is not None:
+        half = np.asarray(bands, dtype=np.float64) / peak
+        shaded = False
+        for j in range(problem.k):
+            if np.any(half[:, j] > 0):
+                colour_j = ["tab:red", "tab:green", "tab:blue"][j % 3]
+                label = band_label if not shaded else None
+                ax.fill_between(
+                    w,
+                    np.maximum(Phi[:, j] - half[:, j], 0),  # sensitivities are never negative
+                    Phi[:, j] + half[:, j],
+                    color=colour_j,
+                    alpha=0.15,
+                    lw=0,
+                    label=label,
+                )
+                shaded = True
     Psi = problem.Psi / problem.Psi.max(axis=0)
     colours = ["tab:red", "tab:green", "tab:blue"]
     per = 3 if problem.k % 3 == 0 else problem.k

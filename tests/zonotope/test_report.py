@@ -181,3 +181,41 @@ def test_illuminant_mmv_figure_sets_the_three_cases_side_by_side(monkeypatch, tm
     # under A the second light is D65
     full_a = correction_problem(curves, illuminant="A", shape=shape)
     assert report._illuminant_mmvs(curves, full_a, x, tmp_path / "g.png") == ("A", "D65")
+
+
+def test_an_estimated_camera_is_said_and_its_band_shaded(tmp_path):
+    """A camera file written by ``zonotope ssf estimate`` carries its uncertainty: the report says the
+    curves are estimated, and the sensitivity plot shades ± band_k σ around that camera's channels
+    only, in the plot's units (each channel's peak 1)."""
+    import colour
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import zonotope
+    from zonotope import viz
+    from zonotope.correct import correction_problem
+    from zonotope.report import _estimated_bands
+    from zonotope.spectra.estimate import read_ssf_band, ssf_basis, synthesise_dng_matrices
+
+    est = zonotope.estimate_ssf(synthesise_dng_matrices("Canon EOS 5D Mark II"), name="Canon EOS Kiss X4")
+    cam = zonotope.write_ssf_json(est, tmp_path / "cam.json")
+    sigma, said = read_ssf_band(cam, GRID)  # the file's σ back on the grid
+    np.testing.assert_allclose(sigma, est.uncertainty, atol=1e-6)
+    assert "estimated by zonotope.estimate_ssf" in said
+    assert read_ssf_band("Nikon 5100 (NPL)", GRID) is None  # measured curves: no band
+    out = tmp_path / "rep"
+    write_report([str(cam), "Nikon 5100 (NPL)"], out, **_QUICK)
+    md = (out / "report.md").read_text()
+    assert "Canon EOS Kiss X4: curves estimated, not measured" in md and "Nikon 5100 (NPL): curves" not in md
+    cameras = [str(cam), "Nikon 5100 (NPL)"]
+    curves = [zonotope.load_camera(cam), zonotope.camera("Nikon 5100 (NPL)")]
+    full = correction_problem(curves, shape=colour.SpectralShape(400, 700, 10))
+    (bands, band_k) = _estimated_bands(cameras, curves, full, "D65", GRID)
+    phi = bands["phi"]
+    assert band_k == ssf_basis().band_k and not phi[:, 3:].any()  # only the estimated camera's channels
+    peak = np.asarray(full.Phi)[:, :3].max(0)
+    rel = (phi[:, :3] / peak).max(0)  # the band relative to the peak, as the plot shows it
+    own = band_k * (est.uncertainty / est.values.max(0)).max(0)  # the same, from the estimate itself
+    assert np.all(rel > 0.3 * own) and np.all(rel < 3 * own)
+    fig = viz.plot_sensitivities(full, bands=phi, band_label="band")
+    assert len(fig.axes[0].collections) == 3  # one shaded band per estimated channel

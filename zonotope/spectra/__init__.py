@@ -61,6 +61,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "estimate_ssf",
             "learn_ssf_basis",
             "read_dng_matrices",
+            "read_ssf_band",
             "sample_ssfs",
             "ssf_basis",
             "synthesise_dng_matrices",

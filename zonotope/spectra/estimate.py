@@ -73,6 +73,7 @@ __all__ = [
     "held_out_error_model",
     "learn_ssf_basis",
     "read_dng_matrices",
+    "read_ssf_band",
     "sample_ssfs",
     "ssf_basis",
     "synthesise_dng_matrices",
@@ -1192,6 +1193,37 @@ def ssf_json(estimate: SSFEstimate) -> dict:
             },
         },
     }
+
+
+def read_ssf_band(camera, wavelengths) -> tuple[np.ndarray, str] | None:
+    """The uncertainty a camera file carries, on ``wavelengths``: ``(σ (n, 3), description)``, or None.
+
+    ``camera``: a rawtoaces JSON file with ``spectral_data.data.uncertainty`` (one standard deviation
+    per wavelength and channel, in the curves' own units, as :func:`ssf_json` writes it) and its
+    header's ``description``; anything else (a built-in name, a CSV, a measured curve's file) gives
+    None. σ is interpolated linearly and 0 outside the file's range. Why: a report on an estimated
+    camera must say its curves are estimated and show how well they are known.
+    """
+    import json
+    import os
+
+    if not isinstance(camera, str | os.PathLike) or Path(camera).suffix.lower() != ".json":
+        return None
+    path = Path(camera)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        table = doc["spectral_data"]["data"]["uncertainty"]
+        w = np.array([float(k) for k in table], dtype=np.float64)
+        u = np.array([[float(x) for x in table[k]] for k in table], dtype=np.float64)
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    if u.ndim != 2 or u.shape[1] != 3 or not np.isfinite(u).all():
+        return None
+    order = np.argsort(w)
+    grid = np.asarray(wavelengths, dtype=np.float64)
+    sigma = np.stack([np.interp(grid, w[order], u[order, c], left=0.0, right=0.0) for c in range(3)], 1)
+    header = doc.get("header") if isinstance(doc.get("header"), dict) else {}
+    return sigma, str(header.get("description") or "uncertainty given in the file")
 
 
 def write_ssf_json(estimate: SSFEstimate, path, *, overwrite: bool = False) -> Path:
