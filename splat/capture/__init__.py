@@ -104,6 +104,7 @@ _EXPORTS = {
         "STEP_OUTPUTS",
         "Workspace",
         "capture_fingerprint",
+        "curves_fingerprint",
         "file_stamp",
         "peak_rss_mib",
         "read_json",

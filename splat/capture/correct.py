@@ -22,7 +22,7 @@ from .files import read_index, read_tiff, write_json, write_png8, write_tiff
 from .illuminant import illuminant_of
 from .raw import RawView, load_views, open_raw, white_scale
 from .spec import CaptureError, CaptureSpec
-from .workspace import peak_rss_mib, read_json, release_free_memory, reset_peak_rss
+from .workspace import curves_fingerprint, peak_rss_mib, read_json, release_free_memory, reset_peak_rss
 
 if TYPE_CHECKING:
     from zonotope.utilities import ProgressCallback
@@ -894,6 +894,7 @@ def correct_step(
         "correct",
         {
             "white": [spec.white.method, spec.white.image, spec.white.box, spec.white.reflectance],
+            "curves": curves_fingerprint(spec),  # the poses and the model do not depend on them
             "observer": spec.observer,
             "illuminant": spec.illuminant,
             "reference": spec.reference,

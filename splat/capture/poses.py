@@ -19,7 +19,7 @@ from .._errors import SplatError
 from .chart import chart_of, check_chart
 from .config import PipelineConfig, read_working, step_workspace, working_summary
 from .files import write_json, write_png8
-from .raw import RawView, camera_white, check_white_box
+from .raw import RawView, check_white_box
 from .spec import CaptureError
 from .workspace import capture_fingerprint, peak_rss_mib, read_json, reset_peak_rss
 
@@ -48,8 +48,8 @@ def preview_upscale(shape: tuple[int, int]) -> int:
 
 
 def _preview(v: RawView, white: np.ndarray) -> np.ndarray:
-    """8-bit-ready sRGB-ish preview of a linear mosaic: isp bilinear demosaic, SSF white balance,
-    exposure normalised, sRGB transfer curve."""
+    """8-bit-ready sRGB-ish preview of a linear mosaic: isp bilinear demosaic, balanced by ``white``
+    (the file's as-shot neutral), exposure normalised, sRGB transfer curve."""
     from isp.stages import demosaic, encode_sRGB
 
     img = (
@@ -166,11 +166,13 @@ def poses_step(
     names = [v.name for v in views]
 
     def previews():  # 8-bit previews for SIFT, in OUT/previews/<label>/<stem>.png
-        whites = [camera_white(spec, k) for k in range(len(spec.cameras))]
+        # balanced by each file's own as-shot neutral, not the curves' white: the poses (and so the
+        # training) do not depend on the curves or the light, which only the correct step reads
         for i, v in enumerate(views):
             path = ws.path("previews", f"{spec.out_stem(v.name)}.png")
             if not path.is_file():
-                write_png8(path, _preview(v, whites[v.camera]), upscale=preview_upscale(v.shape))
+                white = np.asarray(v.neutral, float) / max(float(np.max(v.neutral)), 1e-12)
+                write_png8(path, _preview(v, white), upscale=preview_upscale(v.shape))
             if progress is not None:
                 progress("previews", i + 1, len(views))
 

@@ -34,6 +34,7 @@ __all__ = [
     "STEP_OUTPUTS",
     "Workspace",
     "capture_fingerprint",
+    "curves_fingerprint",
     "file_stamp",
     "peak_rss_mib",
     "read_json",
@@ -99,19 +100,18 @@ def _files_of(path: Path | None) -> dict:
 
 
 def capture_fingerprint(spec: CaptureSpec) -> dict:
-    """What the poses (and so every later step) read of the capture: each camera's table and RAW files
-    (name, size, modification time), the SSF and illuminant files, the ``[poses]`` files.
+    """What the poses (and so every later step) read of the capture: each camera's table but its curves
+    and RAW files (name, size, modification time), the ``[poses]`` files.
 
     Sizes and times rather than contents: hashing tens of gigabytes of RAW files on every run would cost
-    more than a step; any edit or replacement of a file changes its time."""
+    more than a step; any edit or replacement of a file changes its time. The curves and the light are
+    read by the correct step only (:func:`curves_fingerprint`), so changing them keeps the poses and
+    the trained model."""
     cams = []
     for k, c in enumerate(spec.cameras):
-        ssf = Path(c.ssf)
         cams.append(
             {
                 "folder": c.folder,
-                "ssf": c.ssf,
-                "ssf_file": file_stamp(ssf) if ssf.is_absolute() and ssf.is_file() else None,
                 "cfa": c.cfa,
                 "black_level": c.black_level,
                 "white_level": c.white_level,
@@ -119,13 +119,28 @@ def capture_fingerprint(spec: CaptureSpec) -> dict:
                 "files": {p.name: file_stamp(p) for p in spec.raw_files(k)},
             }
         )
-    light = spec.root / spec.illuminant
     return {
         "cameras": cams,
-        "illuminant": spec.illuminant,
-        "illuminant_file": file_stamp(light) if light.is_file() else None,
         "colmap": _files_of(spec.colmap),
         "transforms": _files_of(spec.transforms),
+    }
+
+
+def curves_fingerprint(spec: CaptureSpec) -> dict:
+    """What the correct step reads besides the earlier steps' results: each camera's curves (name, or
+    file with its size and time; ``"estimate"`` is of the DNG files the poses already record) and the
+    scene and reference lights (name, or file)."""
+
+    def stamp(name: str | None, root: Path) -> dict | None:
+        if name is None:
+            return None
+        p = Path(name) if Path(name).is_absolute() else root / name
+        return {"name": name, "file": file_stamp(p) if p.is_file() else None}
+
+    return {
+        "ssf": [stamp(c.ssf, spec.root) for c in spec.cameras],
+        "illuminant": stamp(spec.illuminant, spec.root),
+        "reference": stamp(spec.reference, spec.root),
     }
 
 

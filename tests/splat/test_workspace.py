@@ -135,6 +135,32 @@ def test_rerun_reuses_and_a_changed_capture_recomputes_the_step_and_its_dependen
     )
 
 
+def test_other_curves_or_light_keep_the_poses_and_the_model_and_recompute_the_correction(cap, tmp_path):
+    """The curves and the light enter the correct step only (the previews are balanced by the files' own
+    as-shot neutral): another ``ssf`` or ``illuminant`` keeps the poses and the trained model, which
+    take longest, and changes the correct step's key, so its results are recomputed."""
+    from splat.capture.workspace import curves_fingerprint
+
+    c = _copy(cap, tmp_path)
+    out = tmp_path / "out"
+    s1 = _poses(c, out)
+    stamp = (out / "poses" / "summary.json").stat().st_mtime_ns
+    Workspace(read_capture(c), out).begin("train", {"steps": 1})
+    (out / "train").mkdir()
+    (out / "train" / "model.npz").write_bytes(b"kept")
+    before = curves_fingerprint(read_capture(c))
+    toml = (c / "capture.toml").read_text()
+    swapped = toml.replace('ssf = "Nikon 5100 (NPL)"', 'ssf = "Canon EOS 5D Mark II"', 1)
+    for edit in (swapped, swapped.replace('illuminant = "D65"', 'illuminant = "A"', 1)):
+        assert edit != toml
+        (c / "capture.toml").write_text(edit)
+        assert _poses(c, out) == s1 and (out / "poses" / "summary.json").stat().st_mtime_ns == stamp
+        assert (out / "train" / "model.npz").read_bytes() == b"kept"
+        after = curves_fingerprint(read_capture(c))
+        assert after != before  # the correct step's key (splat.capture.correct_step) holds it
+        before = after
+
+
 def test_changed_options_recompute_only_what_depends_on_them(cap, tmp_path):
     ws = Workspace(read_capture(cap), tmp_path / "out")
     ws.begin("poses", {"seed": 0})
