@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import measured_cameras
-from bench_ssf_stack import Source, W, msds
+from bench_ssf_stack import Source, W, msds, random_sets
 
 from zonotope.correct import NoiseModel, correction_problem, fit_correction, noise_options
 from zonotope.correct.regressions import root_polynomial_terms
@@ -123,15 +123,7 @@ def main(argv=None) -> int:
     tests = natural_test_sets(W, data_dir=a.data, size=150, seed=a.seed)
     scene = scene_reflectances(a.data)
     E = spectra.resample(spectra.illuminant("D65"), W)[:, 0]
-    rng = np.random.default_rng(a.seed)
-    sets = []
-    for size in (2, 3):
-        k = 0
-        while k < a.sets:
-            pick = list(rng.choice(names, size, replace=False))
-            if len({cams[n]["model"] for n in pick}) == size:
-                sets.append(pick)
-                k += 1
+    sets = random_sets(cams, a.sets, np.random.default_rng(a.seed))
     acc: dict = {}
     for cam_set in sets:
         K, models = len(cam_set), {cams[n]["model"] for n in cam_set}

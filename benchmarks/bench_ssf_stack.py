@@ -367,6 +367,20 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int
     return 0
 
 
+def random_sets(cams: dict[str, dict], n: int, rng: np.random.Generator) -> list[list[str]]:
+    """``n`` random two-camera sets, then ``n`` three-camera sets, of the cameras ``cams``, each of
+    distinct models (drawn in this order from ``rng``, so a seed gives the same sets everywhere)."""
+    names, sets = list(cams), []
+    for size in (2, 3):
+        k = 0
+        while k < n:
+            pick = list(rng.choice(names, size, replace=False))
+            if len({cams[m]["model"] for m in pick}) == size:
+                sets.append(pick)
+                k += 1
+    return sets
+
+
 def normal_equations_fit(pb, told, method: str, *, extra=(), toward=None, weight: float = 0.0):
     """The noise-aware regression of ``pb`` (told ``told`` per channel) solved from its normal
     equations, with ``extra`` (responses, targets, weight) rows added and a ridge of ``weight`` × the
@@ -622,16 +636,8 @@ def main(argv=None) -> int:
     if a.mmv_sets:
         src = next(iter(sources.values()))
         return mmv_table(cams, src.est, src.err, src.bound, src.calibrated, a)
-    rng = np.random.default_rng(a.seed)
     step = max(1, len(names) // a.singles)
-    sets = [[n] for n in names[::step]]
-    for size in (2, 3):
-        k = 0
-        while k < a.sets:
-            pick = list(rng.choice(names, size, replace=False))
-            if len({cams[n]["model"] for n in pick}) == size:
-                sets.append(pick)
-                k += 1
+    sets = [[n] for n in names[::step]] + random_sets(cams, a.sets, np.random.default_rng(a.seed))
     tests = natural_test_sets(W, data_dir=a.data, size=150, seed=a.seed) + atypical_test_sets(
         W, 100, seed=a.seed
     )
