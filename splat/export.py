@@ -333,8 +333,8 @@ def corrected_colours(
     """Each Gaussian's N-channel colour corrected as the correct step corrects a rendered view: divided
     by the white scale (white → 1), through :func:`splat.capture.fit_corrector` with the step's method
     and δ (cameras stacked), deduplicated at the step's ``quantum``; cached in :data:`SCENE` with the
-    registered cameras (the report's viewer reads it), recomputed when the model, method (and its λ), δ
-    or white changed.
+    registered cameras (the report's viewer reads it), recomputed when the model, method (and its λ), δ,
+    white, curves or lights changed.
 
     Parameters
     ----------
@@ -359,7 +359,7 @@ def corrected_colours(
     from zonotope.correct.image import correct_image
     from zonotope.utilities import atomic_path
 
-    from .capture import XYZ_to_sRGB, pipeline_mix
+    from .capture import XYZ_to_sRGB, curves_fingerprint, pipeline_mix
 
     out = Path(out)
     c = _correct_summary(out)
@@ -371,8 +371,8 @@ def corrected_colours(
             f"capture's {len(spec.cameras)} cameras need {k}; run the train and correct steps again."
         )
     key = np.concatenate([colours.ravel(), c["scale"], c["white_XYZ"], [c["delta"], _quantum(out)]])
-    # the estimator's λ too, so that colours made with another rule are not reused
-    rule = repr((c["method"], pipeline_mix(c["method"]))).encode()
+    # the estimator's λ and the curves and lights too, so that colours made with another rule are not reused
+    rule = repr((c["method"], pipeline_mix(c["method"]), curves_fingerprint(spec))).encode()
     digest = hashlib.sha256(key.tobytes() + rule).hexdigest()
     done = lambda XYZ: SceneColours(  # noqa: E731
         XYZ, XYZ_to_sRGB(XYZ, c["white_XYZ"]), c["white_XYZ"], c["scale"], c["method"], c["delta"]
@@ -429,7 +429,7 @@ def prepare_scene(capture: str | os.PathLike, out: str | os.PathLike, *, progres
     spec, out = read_capture(capture), Path(out)
     if not (out / OUT_MARKER).is_file():
         return None
-    Workspace(spec, out)  # the capture's and OUT's checks before anything is written there
+    Workspace(spec, out).check_made_from(spec)  # OUT's checks, and its results made from this capture
     if not ((out / "train" / "model.npz").is_file() and (out / "correct" / "summary.json").is_file()):
         return None
     g, alive = load_gaussians(out)
@@ -546,7 +546,7 @@ def export_scene(
     out = Path(out)
     if not (out / OUT_MARKER).is_file():
         raise CaptureError(f"{out}: not a splat output folder (no {OUT_MARKER}); give the OUT of splat run.")
-    Workspace(spec, out)  # the capture's and OUT's checks (inputs outside OUT, a splat marker)
+    Workspace(spec, out).check_made_from(spec)  # OUT's checks, and its results made from this capture
     todo = {"ply": ply, "ply_channels": ply_channels, "transforms": transforms, "colmap": colmap}
     todo = {k: v for k, v in todo.items() if v is not None}
     if not todo:

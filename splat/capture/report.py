@@ -33,6 +33,7 @@ def report_step(
     from ..report import write_report
 
     spec, ws = step_workspace(capture, out, config, "report", lambda spec: {})
+    ws.check_made_from(spec)  # a capture edited since the run: its old results are not reported as new
     spec = chart_of(spec, ws)  # the poses step found them, unless [chart] was added after it ran
     out = ws.root
     index = (

@@ -222,6 +222,32 @@ class Workspace:
         entry = self.record["steps"].get(step)
         return entry.get("key") if isinstance(entry, dict) else None
 
+    def check_made_from(self, spec: CaptureSpec) -> None:
+        """Refuse to read results made from other inputs: the recorded poses' capture fingerprint and
+        correction's curves must be those of ``spec`` as it is now (steps not recorded are not checked).
+        Why: ``splat report`` and ``splat export`` read OUT without rerunning the steps, so an edited
+        ``capture.toml``, a replaced RAW file or another capture would otherwise get the old results.
+
+        Raises
+        ------
+        CaptureError
+            One line naming OUT and the command that brings it up to date.
+        """
+        steps = self.record["steps"]
+        now = {
+            "poses": ("capture", capture_fingerprint(spec)),
+            "correct": ("curves", curves_fingerprint(spec)),
+        }
+        for step, (field, value) in now.items():
+            recorded = steps.get(step, {}).get("settings", {})
+            if field in recorded and recorded[field] != json.loads(json.dumps(value, default=str)):
+                what = "its RAW files or camera tables" if step == "poses" else "its curves or lights"
+                raise CaptureError(
+                    f"{self.root} was made from another capture or an earlier {spec.file.name} ({what} "
+                    f"differ): give the capture it was made from, or run `splat run {spec.root} -o "
+                    f"{self.root}` to bring it up to date first."
+                )
+
     def begin(self, step: str, settings: dict) -> str:
         """Record that ``step`` now works from ``settings`` (plus the key of the step before it and the
         software version); when that differs from the record, first remove the results of ``step`` and

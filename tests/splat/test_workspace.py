@@ -161,6 +161,30 @@ def test_other_curves_or_light_keep_the_poses_and_the_model_and_recompute_the_co
         before = after
 
 
+def test_reading_out_checks_it_was_made_from_this_capture(cap, tmp_path):
+    """``splat report`` and ``splat export`` read OUT without rerunning the steps: an edited capture (its
+    files, camera tables or curves) is refused in one line instead of getting the old results."""
+    from splat.capture.workspace import curves_fingerprint
+
+    c = _copy(cap, tmp_path)
+    out = tmp_path / "out"
+    _poses(c, out)
+    ws = Workspace(read_capture(c), out)
+    ws.begin("correct", {"curves": curves_fingerprint(read_capture(c))})
+    ws.check_made_from(read_capture(c))  # as it was: fine
+    toml = (c / "capture.toml").read_text()
+    (c / "capture.toml").write_text(
+        toml.replace('ssf = "Nikon 5100 (NPL)"', 'ssf = "Canon EOS 5D Mark II"', 1)
+    )
+    with pytest.raises(CaptureError, match="its curves or lights differ"):
+        Workspace(read_capture(c), out).check_made_from(read_capture(c))
+    (c / "capture.toml").write_text(toml)
+    f = c / "nikon" / "IMG_0001.dng"  # a replaced RAW file
+    os.utime(f, ns=(f.stat().st_atime_ns, f.stat().st_mtime_ns + 10**9))
+    with pytest.raises(CaptureError, match=r"its RAW files or camera tables differ.*splat run"):
+        Workspace(read_capture(c), out).check_made_from(read_capture(c))
+
+
 def test_changed_options_recompute_only_what_depends_on_them(cap, tmp_path):
     ws = Workspace(read_capture(cap), tmp_path / "out")
     ws.begin("poses", {"seed": 0})
