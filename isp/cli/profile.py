@@ -52,7 +52,8 @@ def _written_by_isp_profile(path: Path) -> bool:
 
             with open(path, "rb") as fh:
                 head = fh.read(4096)
-            return head.startswith(REPORT_CSV_HEADER.encode()) or REPORT_MARK.encode() in head
+            columns = REPORT_CSV_HEADER.rsplit(",", 1)[0]  # an earlier version's report lacks the last
+            return head.startswith(columns.encode()) or REPORT_MARK.encode() in head
         if suffix == ".dcp":
             return b"zonotope profile\x00" in path.read_bytes()
         if suffix in (".cube", ".csp"):

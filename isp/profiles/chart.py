@@ -47,8 +47,12 @@ __all__ = [
 ]
 
 
-#: The CSV report's header line: how ``isp profile --overwrite`` recognises a report it wrote.
-REPORT_CSV_HEADER = "patch,name,raw_R,raw_G,raw_B,ref_L,ref_a,ref_b,fit_L,fit_a,fit_b,dE00_linear,dE00"
+#: The CSV report's header line: how ``isp profile --overwrite`` recognises a report it wrote (by all but
+#: the last column, ``illuminant``, which reports of earlier versions lack). The illuminant column names
+#: the light the chart was photographed under, for ``zonotope ssf estimate --chart`` to read.
+REPORT_CSV_HEADER = (
+    "patch,name,raw_R,raw_G,raw_B,ref_L,ref_a,ref_b,fit_L,fit_a,fit_b,dE00_linear,dE00,illuminant"
+)
 #: The HTML report's generator tag, for the same purpose (``--overwrite`` replaces no other file).
 REPORT_MARK = '<meta name="generator" content="isp profile chart report">'
 
@@ -416,7 +420,8 @@ def write_chart_report(
 
     Columns: patch number and name, mean raw camera RGB (raw-range units), reference and fitted
     CIELAB (relative to the illuminant's white), ΔE00 of the least-squares and of the refined
-    matrix; the HTML adds reference/fitted swatches (sRGB) and the mean, median and maximum.
+    matrix, the illuminant; the HTML adds reference/fitted swatches (sRGB) and the mean, median and
+    maximum.
 
     Raises
     ------
@@ -435,7 +440,7 @@ def write_chart_report(
     lines = [REPORT_CSV_HEADER]
     for k, name in enumerate(fit.names):
         vals = [*fit.reading.rgb[k], *L_ref[k], *L_fit[k], fit.delta_E_linear[k], fit.delta_E[k]]
-        lines.append(f"{k + 1},{name}," + ",".join(f"{v:.6g}" for v in vals))
+        lines.append(f"{k + 1},{name}," + ",".join(f"{v:.6g}" for v in vals) + f",{fit.illuminant}")
     white = chart_reference(fit.reading.chart, fit.illuminant)[2]
     sw_ref, sw_fit = _srgb8(fit.reference, white), _srgb8(fit.fitted, white)
     rows = "\n".join(

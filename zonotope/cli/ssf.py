@@ -9,11 +9,13 @@ __all__ = ["add_commands"]
 
 
 def _read_chart_csv(path: str):
-    """Patch means (N, 3) from a CSV/TXT file: one row per patch, R, G, B (a header line is skipped).
+    """``(means (N, 3), light or None)`` from a CSV/TXT file: one row per patch, R, G, B (a header line
+    is skipped).
 
     A header naming ``raw_R, raw_G, raw_B`` (the per-patch report ``isp profile --chart`` writes) or
-    ``R, G, B`` picks those columns; otherwise the last three cells of each row are read. Why: the
-    profile's report is where a photographer already has the patch means of a chart photograph.
+    ``R, G, B`` picks those columns; otherwise the last three cells of each row are read. An
+    ``illuminant`` column (the report has one) gives the light the chart was photographed under. Why:
+    the profile's report is where a photographer already has the patch means of a chart photograph.
     """
     from pathlib import Path
 
@@ -26,12 +28,12 @@ def _read_chart_csv(path: str):
         raise SpectralDataError(
             f"--chart {path}: no such file; give a CSV of raw patch means (R,G,B per row)."
         )
-    rows = []
+    rows, lights = [], set()
     try:
         lines = p.read_text(encoding="utf-8").splitlines()
     except (OSError, UnicodeDecodeError) as error:
         raise SpectralDataError(f"--chart {path}: cannot read it ({error}).") from None
-    columns = None  # the header's R, G, B columns; None: the last three cells
+    columns = light = None  # the header's R, G, B (None: the last three cells) and illuminant columns
     for i, line in enumerate(lines):
         cells = [c.strip() for c in line.replace(";", ",").replace("\t", ",").split(",")]
         if not any(cells) or line.lstrip().startswith("#"):
@@ -41,12 +43,15 @@ def _read_chart_csv(path: str):
             for want in (("raw_r", "raw_g", "raw_b"), ("r", "g", "b")):
                 if all(w in names for w in want):
                     columns = [names.index(w) for w in want]
+                    light = names.index("illuminant") if "illuminant" in names else None
                     break
             if columns is not None:
                 continue
         try:
             picked = [cells[j] for j in columns] if columns is not None else [c for c in cells if c][-3:]
             rows.append([float(c) for c in picked])
+            if light is not None:
+                lights.add(cells[light])
         except (ValueError, IndexError):
             if rows or i > 0 or columns is not None:
                 raise SpectralDataError(
@@ -54,7 +59,19 @@ def _read_chart_csv(path: str):
                 ) from None
     if not rows or any(len(r) != 3 for r in rows):
         raise SpectralDataError(f"--chart {path}: expected one row of three numbers (R, G, B) per patch.")
-    return np.array(rows)
+    if len(lights) > 1:
+        raise SpectralDataError(
+            f"--chart {path}: its illuminant column names {sorted(lights)}; give one light."
+        )
+    return np.array(rows), (lights.pop() or None) if lights else None
+
+
+#: The light of a chart photograph when neither ``--illuminant`` nor the CSV names one.
+DEFAULT_CHART_LIGHT = "D65"
+
+
+def _light_key(name: str) -> str:
+    return "".join(str(name).upper().split())
 
 
 def _estimate(args: argparse.Namespace) -> int:
@@ -64,6 +81,10 @@ def _estimate(args: argparse.Namespace) -> int:
 
     if args.file is None and args.chart is None:
         raise SpectralDataError("give a DNG file, --chart CSV, or both.")
+    if args.illuminant is not None and args.chart is None:
+        raise SpectralDataError(
+            f"--illuminant {args.illuminant}: the light of a chart photograph; it applies to --chart only."
+        )
     inputs = [args.file, args.chart]
     check_output(
         args.output,
@@ -72,18 +93,25 @@ def _estimate(args: argparse.Namespace) -> int:
         what="-o",
         inputs=inputs,
     )
-    chart = None
+    chart, under = None, ""
     if args.chart is not None:
-        chart = Chart(
-            _read_chart_csv(args.chart), args.reflectances, args.illuminant, name=f"--chart {args.chart}"
-        )
+        means, light = _read_chart_csv(args.chart)
+        given = args.illuminant
+        if given is not None and light is not None and _light_key(given) != _light_key(light):
+            raise SpectralDataError(
+                f"--chart {args.chart} was photographed under {light} (its illuminant column) but "
+                f"--illuminant is {given}; leave --illuminant out or give {light}."
+            )
+        illuminant = given or light or DEFAULT_CHART_LIGHT
+        chart = Chart(means, args.reflectances, illuminant, name=f"--chart {args.chart}")
+        under = f", the chart under {illuminant}"
     est = estimate_ssf(args.file, chart=chart, name=args.name)
     write_ssf_json(est, args.output, overwrite=args.force)
     peaks = est.wavelengths[est.values.argmax(axis=0)]
     print(
-        f"{est.name}: sensitivities from {' + '.join(est.sources)} (peaks R {peaks[0]:g}, G {peaks[1]:g}, "
-        f"B {peaks[2]:g} nm; relative misfit {est.residual:.3g}; band calibrated on {est.calibration}) "
-        f"→ {args.output}",
+        f"{est.name}: sensitivities from {' + '.join(est.sources)}{under} (peaks R {peaks[0]:g}, "
+        f"G {peaks[1]:g}, B {peaks[2]:g} nm; relative misfit {est.residual:.3g}; band calibrated on "
+        f"{est.calibration}) → {args.output}",
         file=sys.stdout,
     )
     return 0
@@ -111,7 +139,12 @@ def add_commands(sub) -> None:
     e.add_argument(
         "--reflectances", default="ColorChecker N Ohta", help="the chart's reflectances (name or file)"
     )
-    e.add_argument("--illuminant", default="D65", help="the light the chart was photographed under")
+    e.add_argument(
+        "--illuminant",
+        default=None,
+        help="the light the chart was photographed under (default: the CSV's illuminant column, which "
+        f"isp profile --chart writes, else {DEFAULT_CHART_LIGHT})",
+    )
     e.add_argument("--name", help="camera name written into the file (default the DNG's make and model)")
     e.add_argument("--force", action="store_true", help="replace an output file an earlier estimate wrote")
     e.set_defaults(func=_estimate)

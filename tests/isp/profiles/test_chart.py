@@ -149,6 +149,7 @@ def test_cli_chart_profile_and_errors(chart_dng, tmp_path, capsys):
     np.testing.assert_allclose(M, FM, atol=1e-4)  # s15Fixed16 and SRATIONAL/10000
     rows = list(csv.DictReader(open(out / "cam_patches.csv")))
     assert len(rows) == 24 and rows[18]["name"] == "white 9.5 (.05 D)"
+    assert {r["illuminant"] for r in rows} == {"D65"}  # the light, for zonotope ssf estimate --chart
     assert "<table>" in (out / "cam_patches.html").read_text()
     # rerun with --overwrite replaces our own outputs; a user's file of the same name is kept
     assert main([*argv, "-o", str(out / "cam.dcp"), "--overwrite", "--no-tone-curve"]) == 0
@@ -158,6 +159,12 @@ def test_cli_chart_profile_and_errors(chart_dng, tmp_path, capsys):
     assert main([*argv, "-o", str(tmp_path / "mine.dcp"), "--overwrite"]) == 2
     assert "not written by isp profile" in capsys.readouterr().err and mine.read_text() == "my notes\n"
     assert not (tmp_path / "mine.dcp").exists()
+    # a report of an earlier version (no illuminant column) is still recognised as isp's own
+    old = (out / "cam_patches.csv").read_text().splitlines()
+    (out / "cam_patches.csv").write_text("\n".join(line.rsplit(",", 1)[0] for line in old) + "\n")
+    assert main([*argv, "-o", str(out / "cam.dcp"), "--overwrite"]) == 0
+    assert (out / "cam_patches.csv").read_text().splitlines()[0].endswith(",illuminant")
+    capsys.readouterr()
     for bad, message in (
         (["--chart-corners", "1,2", "3,4", "5", "6,7"], "--chart-corners 1,2 3,4 5 6,7: give four X,Y"),
         (["--chart-corners", *CORNER_ARGS, "--illuminant", "XYZ"], "illuminant 'XYZ'"),

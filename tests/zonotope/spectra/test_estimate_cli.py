@@ -66,27 +66,42 @@ def test_chart_csv_alone_and_with_the_dng(tmp_path):
     assert zonotope.load_camera(tmp_path / "b.json").values.shape[1] == 3
 
 
-def test_chart_csv_of_isp_profile_is_read_by_its_raw_columns(tmp_path):
-    """The per-patch report ``isp profile --chart`` writes carries the raw means in columns 3–5 and
-    Lab and ΔE00 after them: the estimate must read the raw columns, not the last three cells."""
+def test_chart_csv_of_isp_profile_is_read_by_its_raw_columns_and_its_light(tmp_path, capsys):
+    """The per-patch report ``isp profile --chart`` writes carries the raw means in columns 3–5, Lab and
+    ΔE00 after them and the light last: the estimate reads the raw columns (not the last three cells)
+    and takes the light from the file, refusing an --illuminant that contradicts it."""
     from isp.profiles.chart import REPORT_CSV_HEADER
 
     w = SSF_SHAPE.wavelengths
     R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T
-    E = spectra.resample(zonotope.illuminant("D65"), w)[:, 0]
+    E = spectra.resample(zonotope.illuminant("A"), w)[:, 0]
     C = (R * E) @ spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), w)
     C = 0.8 * C / C.max()
     plain, report = tmp_path / "plain.csv", tmp_path / "chart_patches.csv"
     plain.write_text("\n".join(",".join(f"{x:.6g}" for x in row) for row in C) + "\n")
     rows = [
-        f"{k + 1},patch {k + 1}," + ",".join(f"{x:.6g}" for x in (*C[k], 50, 3, -4, 51, 2, -5, 1.5, 1.2))
+        f"{k + 1},patch {k + 1},"
+        + ",".join(f"{x:.6g}" for x in (*C[k], 50, 3, -4, 51, 2, -5, 1.5, 1.2))
+        + ",A"
         for k in range(24)
     ]
     report.write_text(REPORT_CSV_HEADER + "\n" + "\n".join(rows) + "\n")
-    for f in (plain, report):
-        assert main(["ssf", "estimate", "--chart", str(f), "-o", str(tmp_path / f"{f.stem}.json")]) == 0
-    a, b = (zonotope.load_camera(tmp_path / f"{s}.json").values for s in ("plain", "chart_patches"))
-    np.testing.assert_allclose(a, b)
+    assert (
+        main(["ssf", "estimate", "--chart", str(plain), "--illuminant", "A", "-o", str(tmp_path / "a.json")])
+        == 0
+    )
+    assert main(["ssf", "estimate", "--chart", str(report), "-o", str(tmp_path / "b.json")]) == 0
+    assert "the chart under A" in capsys.readouterr().out
+    a, b = (zonotope.load_camera(tmp_path / f"{s}.json").values for s in "ab")
+    np.testing.assert_allclose(a, b)  # the same means, the same light
+    assert (
+        main(
+            ["ssf", "estimate", "--chart", str(report), "--illuminant", "D65", "-o", str(tmp_path / "c.json")]
+        )
+        == 2
+    )
+    assert "photographed under A (its illuminant column) but --illuminant is D65" in capsys.readouterr().err
+    assert not (tmp_path / "c.json").exists()
 
 
 @pytest.mark.parametrize(
@@ -182,3 +197,10 @@ def test_a_foveon_dng_says_it_fell_back_to_the_exact_matrix_calibration(tmp_path
     assert main(["ssf", "estimate", dng, "-o", str(tmp_path / "sigma.json")]) == 0
     said = capsys.readouterr().out
     assert "band calibrated on synthesised matrices (misfit" in said and "any calibration camera's" in said
+
+
+def test_illuminant_without_a_chart_is_refused(tmp_path, capsys):
+    """``--illuminant`` is the light of a chart photograph: given without ``--chart`` it would be ignored."""
+    dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    assert main(["ssf", "estimate", dng, "--illuminant", "A", "-o", str(tmp_path / "x.json")]) == 2
+    assert "applies to --chart only" in capsys.readouterr().err and not (tmp_path / "x.json").exists()
