@@ -150,6 +150,22 @@ def test_batch_removes_the_writer_temporaries_of_a_killed_attempt(tmp_path):
     assert all(k.read_text() == "mine" for k in keep)
 
 
+def test_a_finished_batch_run_again_starts_no_cluster(tmp_path, monkeypatch):
+    """Every output already made: nothing to do, so no executor (no Dask cluster to start and wait for)."""
+    import zonotope.parallel.files as files
+
+    tasks = _inputs(tmp_path / "in", 3)
+    manifest = tmp_path / "out" / "manifest.csv"
+    run_files(tasks, slow_digest, 0.0, manifest=manifest, scheduler="serial")
+
+    def no_executor(*args, **kwargs):
+        raise AssertionError("an executor was started with nothing to do")
+
+    monkeypatch.setattr(files, "executor", no_executor)
+    again = run_files(tasks, slow_digest, 0.0, manifest=manifest, scheduler="local:2")
+    assert [r["status"] for r in again] == ["done"] * 3
+
+
 def test_run_files_serial_resume_and_manifest(tmp_path):
     tasks = _inputs(tmp_path / "in", 5, bad=(2,))
     before = {t.input: Path(t.input).read_bytes() for t in tasks}

@@ -379,17 +379,22 @@ def run_files(
     _write_manifest(manifest, rows)
     last = time.monotonic()
     try:
-        with executor(scheduler, tasks=len(todo), min_tasks=min_tasks) as ex:
-            for j, out in ex.outcomes(
-                _file_task, [tasks[i] for i in todo], shared=(work, options), progress=progress, stage="files"
-            ):
-                i = todo[j]
-                if isinstance(out, TaskFailure):  # the task itself was lost (e.g. killed too often)
-                    out = {**rows[i], "status": "failed", "error": out.error.replace("\n", " ")}
-                rows[i] = out
-                if time.monotonic() - last > 2.0:
-                    _write_manifest(manifest, rows)
-                    last = time.monotonic()
+        if todo:  # a finished batch run again has nothing to make: no cluster is started
+            with executor(scheduler, tasks=len(todo), min_tasks=min_tasks) as ex:
+                for j, out in ex.outcomes(
+                    _file_task,
+                    [tasks[i] for i in todo],
+                    shared=(work, options),
+                    progress=progress,
+                    stage="files",
+                ):
+                    i = todo[j]
+                    if isinstance(out, TaskFailure):  # the task itself was lost (e.g. killed too often)
+                        out = {**rows[i], "status": "failed", "error": out.error.replace("\n", " ")}
+                    rows[i] = out
+                    if time.monotonic() - last > 2.0:
+                        _write_manifest(manifest, rows)
+                        last = time.monotonic()
     finally:
         _remove_temporaries(tasks)
         _forget_stale(tasks)
