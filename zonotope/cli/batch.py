@@ -256,6 +256,31 @@ def _resolve_cli_noise(noise, files, k: int):
     return model, ("none" if model is None else "--noise"), ""
 
 
+def _with_ssf_bands(model, cameras, illuminant: str, k: int):
+    """``(noise, note)``: ``model`` (None, a σ or a NoiseModel) with the response σ of every camera whose
+    file holds estimated curves (:func:`zonotope.spectra.estimate.read_ssf_estimate`) added to its
+    channels' read variance, and a note naming them ("" and ``model`` unchanged when none does). Why: a
+    fit of stacked cameras told only the images' noise leans on channel differences finer than
+    estimated curves are known (+2.5 to +4.6 ΔE00 noise-free; docs/notes/2026-11-29-ssf-stacking.md),
+    which the capture avoids the same way (``splat.capture.ssf_sigma``)."""
+    from ..correct.noise import NoiseModel, noise_model
+    from ..spectra.estimate import read_ssf_estimate
+
+    estimates = [read_ssf_estimate(c) for c in cameras]
+    if all(e is None for e in estimates) or k != 3 * len(cameras):
+        return model, ""
+    sigmas = [np.zeros(3) if e is None else e.response_sigma(illuminant) for e in estimates]
+    band = np.concatenate(sigmas)
+    base = noise_model(model, k) or NoiseModel.constant(0.0, k, source="noise-free")
+    told = NoiseModel(base.shot, base.read + band**2, source=f"{base.source} + estimated curves' band")
+    named = [
+        f"{c} σ {' / '.join(f'{v:.4f}' for v in sig)}"
+        for c, e, sig in zip(cameras, estimates, sigmas, strict=True)
+        if e is not None
+    ]
+    return told, "estimated curves: their band added, " + ", ".join(named)
+
+
 def _describe(noise) -> str:
     if noise is None:
         return "none"
@@ -311,7 +336,9 @@ def _correct(args: argparse.Namespace) -> int:
         reference=args.reference,
     )
     model, _, note = _resolve_cli_noise(args.noise, files, problem.k)
-    if not args.quiet:
+    model, band = _with_ssf_bands(model, args.camera, args.illuminant, problem.k)
+    note = "; ".join(x for x in (note, band) if x)
+    if not args.quiet or band:
         console.print(f"noise: {_describe(model)}" + (f" ({note})" if note else ""), soft_wrap=True)
     settings = {  # what the outputs depend on: a rerun into this folder must ask for the same
         "cameras": list(args.camera),

@@ -62,6 +62,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "learn_ssf_basis",
             "read_dng_matrices",
             "read_ssf_band",
+            "read_ssf_estimate",
             "sample_ssfs",
             "ssf_basis",
             "synthesise_dng_matrices",

@@ -74,6 +74,7 @@ __all__ = [
     "learn_ssf_basis",
     "read_dng_matrices",
     "read_ssf_band",
+    "read_ssf_estimate",
     "sample_ssfs",
     "ssf_basis",
     "synthesise_dng_matrices",
@@ -1177,6 +1178,13 @@ def ssf_json(estimate: SSFEstimate) -> dict:
             ),
             "document_creator": "zonotope.estimate_ssf",
             "comments": f"relative misfit {estimate.residual:.3g}; 'uncertainty' is one standard deviation",
+            "zonotope": {  # what SSFEstimate.response_sigma needs (read_ssf_estimate); rawtoaces ignores it
+                "sources": list(estimate.sources),
+                "residual": round(float(estimate.residual), 6),
+                "band_k": round(float(estimate.band_k), 6),
+                "response_scale": [round(float(v), 6) for v in estimate.response_scale],
+                "calibration": estimate.calibration,
+            },
         },
         "spectral_data": {
             "units": "relative",
@@ -1224,6 +1232,52 @@ def read_ssf_band(camera, wavelengths) -> tuple[np.ndarray, str] | None:
     sigma = np.stack([np.interp(grid, w[order], u[order, c], left=0.0, right=0.0) for c in range(3)], 1)
     header = doc.get("header") if isinstance(doc.get("header"), dict) else {}
     return sigma, str(header.get("description") or "uncertainty given in the file")
+
+
+def read_ssf_estimate(camera) -> SSFEstimate | None:
+    """The :class:`SSFEstimate` a camera file written by :func:`write_ssf_json` holds (its curves, band and
+    calibration: what :meth:`~SSFEstimate.response_sigma` needs), or None for any other camera (a
+    built-in name, a CSV, a measured curve's file). Why: a fit on a file's curves must be told their
+    band as noise, as the capture does, wherever the file goes (``zonotope correct --camera FILE``).
+
+    The held-out error draws are not stored (:meth:`~SSFEstimate.response_errors` needs the basis); a
+    file of an earlier version, without the calibration block, gets the shipped basis' calibration.
+    """
+    import json
+    import os
+
+    if not isinstance(camera, str | os.PathLike) or Path(camera).suffix.lower() != ".json":
+        return None
+    try:
+        header = json.loads(Path(camera).read_text(encoding="utf-8")).get("header") or {}
+    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+        return None
+    if not isinstance(header, dict) or header.get("document_creator") != "zonotope.estimate_ssf":
+        return None
+    band = read_ssf_band(camera, SSF_SHAPE.wavelengths)
+    if band is None:
+        return None
+    from .loading import load_camera
+
+    curves = spectra.resample(load_camera(camera), SSF_SHAPE.wavelengths)
+    cal = header.get("zonotope") if isinstance(header.get("zonotope"), dict) else {}
+    basis = ssf_basis()
+    try:
+        scale = np.asarray(cal.get("response_scale", basis.response_scale), dtype=np.float64).reshape(3)
+        return SSFEstimate(
+            sensitivities=colour.MultiSpectralDistributions(
+                curves, SSF_SHAPE.wavelengths, labels=("R", "G", "B"), name=str(load_camera(camera).name)
+            ),
+            uncertainty=band[0],
+            sources=tuple(cal.get("sources", ())),
+            residual=float(cal.get("residual", np.nan)),
+            name=str(load_camera(camera).name),
+            band_k=float(cal.get("band_k", basis.band_k)),
+            response_scale=scale,
+            calibration=str(cal.get("calibration", "synthesised matrices (the shipped basis')")),
+        )
+    except (TypeError, ValueError) as error:
+        raise SpectralDataError(f"{camera}: a malformed 'zonotope' block in its header ({error}).") from None
 
 
 def write_ssf_json(estimate: SSFEstimate, path, *, overwrite: bool = False) -> Path:
