@@ -893,11 +893,8 @@ def correct_step(
     ws.begin(
         "correct",
         {
-            "white": [spec.white.method, spec.white.image, spec.white.box, spec.white.reflectance],
-            "curves": curves_fingerprint(spec),  # the poses and the model do not depend on them
-            "observer": spec.observer,
-            "illuminant": spec.illuminant,
-            "reference": spec.reference,
+            # the curves, lights, observer and white: the poses and the model do not depend on them
+            "curves": curves_fingerprint(spec),
             "method": CORRECTION_METHODS.resolve(config.method, argument="method"),
             "quantum": config.quantum,
             "photographed": sorted(photographed),

@@ -127,9 +127,9 @@ def capture_fingerprint(spec: CaptureSpec) -> dict:
 
 
 def curves_fingerprint(spec: CaptureSpec) -> dict:
-    """What the correct step reads besides the earlier steps' results: each camera's curves (name, or
-    file with its size and time; ``"estimate"`` is of the DNG files the poses already record) and the
-    scene and reference lights (name, or file)."""
+    """What the correct step reads of ``capture.toml`` besides the earlier steps' results: each camera's
+    curves (name, or file with its size and time; ``"estimate"`` is of the DNG files the poses already
+    record), the scene and reference lights (name, or file), the observer and the ``[white]`` table."""
 
     def stamp(name: str | None, root: Path) -> dict | None:
         if name is None:
@@ -137,10 +137,13 @@ def curves_fingerprint(spec: CaptureSpec) -> dict:
         p = Path(name) if Path(name).is_absolute() else root / name
         return {"name": name, "file": file_stamp(p) if p.is_file() else None}
 
+    w = spec.white
     return {
         "ssf": [stamp(c.ssf, spec.root) for c in spec.cameras],
         "illuminant": stamp(spec.illuminant, spec.root),
         "reference": stamp(spec.reference, spec.root),
+        "observer": spec.observer,
+        "white": [w.method, w.image, w.box, w.reflectance],
     }
 
 
@@ -241,7 +244,7 @@ class Workspace:
         for step, (field, value) in now.items():
             recorded = steps.get(step, {}).get("settings", {})
             if field in recorded and recorded[field] != json.loads(json.dumps(value, default=str)):
-                what = "its RAW files or camera tables" if step == "poses" else "its curves or lights"
+                what = "its RAW files or camera tables" if step == "poses" else "its curves, lights or white"
                 raise CaptureError(
                     f"{self.root} was made from another capture or an earlier {spec.file.name} ({what} "
                     f"differ): give the capture it was made from, or run `splat run {spec.root} -o "

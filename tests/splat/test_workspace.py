@@ -176,7 +176,10 @@ def test_reading_out_checks_it_was_made_from_this_capture(cap, tmp_path):
     (c / "capture.toml").write_text(
         toml.replace('ssf = "Nikon 5100 (NPL)"', 'ssf = "Canon EOS 5D Mark II"', 1)
     )
-    with pytest.raises(CaptureError, match="its curves or lights differ"):
+    with pytest.raises(CaptureError, match="its curves, lights or white differ"):
+        Workspace(read_capture(c), out).check_made_from(read_capture(c))
+    (c / "capture.toml").write_text(toml.replace('illuminant = "D65"', 'illuminant = "A"', 1))
+    with pytest.raises(CaptureError, match="its curves, lights or white differ"):
         Workspace(read_capture(c), out).check_made_from(read_capture(c))
     (c / "capture.toml").write_text(toml)
     f = c / "nikon" / "IMG_0001.dng"  # a replaced RAW file
