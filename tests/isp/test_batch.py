@@ -173,7 +173,8 @@ def test_folder_on_a_cluster_survives_a_killed_worker(dng_folder, singles, tmp_p
         progress=progress,
     )
     assert killed
-    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 4, [(r["input"], r["error"]) for r in rows]
+    said = "\n".join(f"{r['input']}: {r['status']} {r['error']}" for r in rows)  # in full, when it fails
+    assert [r["status"] for r in rows] == ["failed"] + ["ok"] * 4, said
     got = _digest(out)
     assert {k: v for k, v in got.items() if k != "manifest.csv"} == singles  # complete, correct, no temps
     assert len(_manifest(out)) == 5
