@@ -124,11 +124,11 @@ def main(argv=None) -> int:
     scene = scene_reflectances(a.data)
     E = spectra.resample(spectra.illuminant("D65"), W)[:, 0]
     sets = random_sets(cams, a.sets, np.random.default_rng(a.seed))
+    peak1 = {n: src.est[n].values / src.est[n].values.max(axis=0) for n in names}
     acc: dict = {}
     for cam_set in sets:
         K, models = len(cam_set), {cams[n]["model"] for n in cam_set}
         others = [n for n in names if cams[n]["model"] not in models]
-        peak1 = {n: v / v.max(axis=0) for n in names for v in [src.est[n].values]}
         errors = np.stack([cams[n]["values"] / cams[n]["values"].max(axis=0) - peak1[n] for n in others])
         comps = []
         for c in range(3):  # principal components of the other models' curve errors, scaled to their spread

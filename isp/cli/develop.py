@@ -269,7 +269,7 @@ def _folder_makers(args: argparse.Namespace) -> str | None:
 
     if sensitivities_maker(args.camera) is None:
         return None
-    others: dict[str, list[str]] = {}
+    makes: dict[str, list[str]] = {}
     try:
         files = [f for f in raw_files(args.input) if f.suffix.lower() == ".dng"]
     except PipelineError:
@@ -279,8 +279,8 @@ def _folder_makers(args: argparse.Namespace) -> str | None:
             make = str(read_dng_tags(f).get("Make", "") or "").strip()
         except (OSError, RawFormatError):
             continue  # the development says what is wrong with it
-        if maker_mismatch(args.camera, make):
-            others.setdefault(make, []).append(f.name)
+        makes.setdefault(make, []).append(f.name)
+    others = {make: v for make, v in makes.items() if maker_mismatch(args.camera, make)}  # once a make
     if not others:
         return None
     n = sum(len(v) for v in others.values())

@@ -816,10 +816,9 @@ def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
         if est is None:
             out[cam.folder] = {"measured": cam.ssf}
             continue
-        dng = next(f for f in spec.raw_files(k) if f.suffix.lower() == ".dng")
         out[cam.folder] = {
             "estimated": "DNG colour matrices",
-            "file": dng.name,
+            "file": spec.first_dng(k).name,
             "sigma": [round(float(v), 6) for v in est.response_sigma(light)],
             "calibration": est.calibration,
         }

@@ -172,6 +172,11 @@ class CaptureSpec:
         folder = self.root / self.cameras[k].folder
         return raw_files(folder)
 
+    def first_dng(self, k: int) -> Path | None:
+        """The first DNG file (by name) of camera ``k``'s folder, whose colour matrices ``ssf =
+        "estimate"`` reads and whose Make :func:`maker_warnings` checks; None when it has none."""
+        return next((f for f in self.raw_files(k) if f.suffix.lower() == ".dng"), None)
+
     def ssf_estimate(self, k: int):
         """Camera ``k``'s :class:`zonotope.SSFEstimate` from the colour matrices of its first DNG file
         (``ssf = "estimate"``), or None for measured curves. Why: the estimate's band is a response error
@@ -180,14 +185,14 @@ class CaptureSpec:
 
         if self.cameras[k].ssf != "estimate":
             return None
-        dngs = [f for f in self.raw_files(k) if f.suffix.lower() == ".dng"]
-        if not dngs:
+        dng = self.first_dng(k)
+        if dng is None:
             raise CaptureError(
                 f'{self.file}: camera {self.cameras[k].folder!r}: ssf = "estimate" needs a DNG file in '
                 "the folder (its colour matrices); convert one RAW with Adobe DNG Converter."
             )
         try:
-            return _estimate_ssf(str(dngs[0]), dngs[0].stat().st_mtime_ns)
+            return _estimate_ssf(str(dng), dng.stat().st_mtime_ns)
         except zonotope.ZonotopeError as e:
             raise CaptureError(f"{self.file}: camera {self.cameras[k].folder!r}: {e}") from e
 
@@ -587,17 +592,17 @@ def maker_warnings(spec: CaptureSpec) -> list[str]:
     for k, cam in enumerate(spec.cameras):
         if cam.ssf == "estimate":
             continue
-        dngs = [f for f in spec.raw_files(k) if f.suffix.lower() == ".dng"]
-        if not dngs:
+        dng = spec.first_dng(k)
+        if dng is None:
             continue
         try:
-            make = str(read_dng_tags(dngs[0]).get("Make", "") or "")
+            make = str(read_dng_tags(dng).get("Make", "") or "")
         except (OSError, RawFormatError):
             continue  # the steps say what is wrong with the file
         other = maker_mismatch(cam.ssf, make)
         if other:
             out.append(
-                f"{spec.file}: camera {cam.folder!r} ({dngs[0].name}): {other} Check that each [[camera]] "
+                f"{spec.file}: camera {cam.folder!r} ({dng.name}): {other} Check that each [[camera]] "
                 "names its own curves."
             )
     return out

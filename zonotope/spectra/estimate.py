@@ -1203,6 +1203,39 @@ def ssf_json(estimate: SSFEstimate) -> dict:
     }
 
 
+def _camera_json(camera) -> dict | None:
+    """The parsed document of a ``.json`` camera file, or None (not a path to readable JSON)."""
+    import json
+    import os
+
+    if not isinstance(camera, str | os.PathLike) or Path(camera).suffix.lower() != ".json":
+        return None
+    try:
+        doc = json.loads(Path(camera).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
+def _band_of(doc: dict | None, wavelengths) -> tuple[np.ndarray, str] | None:
+    """:func:`read_ssf_band` of a parsed camera document."""
+    if doc is None:
+        return None
+    try:
+        table = doc["spectral_data"]["data"]["uncertainty"]
+        w = np.array([float(k) for k in table], dtype=np.float64)
+        u = np.array([[float(x) for x in table[k]] for k in table], dtype=np.float64)
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return None
+    if u.ndim != 2 or u.shape[1] != 3 or not np.isfinite(u).all():
+        return None
+    order = np.argsort(w)
+    grid = np.asarray(wavelengths, dtype=np.float64)
+    sigma = np.stack([np.interp(grid, w[order], u[order, c], left=0.0, right=0.0) for c in range(3)], 1)
+    header = doc.get("header") if isinstance(doc.get("header"), dict) else {}
+    return sigma, str(header.get("description") or "uncertainty given in the file")
+
+
 def read_ssf_band(camera, wavelengths) -> tuple[np.ndarray, str] | None:
     """The uncertainty a camera file carries, on ``wavelengths``: ``(σ (n, 3), description)``, or None.
 
@@ -1212,26 +1245,7 @@ def read_ssf_band(camera, wavelengths) -> tuple[np.ndarray, str] | None:
     None. σ is interpolated linearly and 0 outside the file's range. Why: a report on an estimated
     camera must say its curves are estimated and show how well they are known.
     """
-    import json
-    import os
-
-    if not isinstance(camera, str | os.PathLike) or Path(camera).suffix.lower() != ".json":
-        return None
-    path = Path(camera)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        table = doc["spectral_data"]["data"]["uncertainty"]
-        w = np.array([float(k) for k in table], dtype=np.float64)
-        u = np.array([[float(x) for x in table[k]] for k in table], dtype=np.float64)
-    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
-        return None
-    if u.ndim != 2 or u.shape[1] != 3 or not np.isfinite(u).all():
-        return None
-    order = np.argsort(w)
-    grid = np.asarray(wavelengths, dtype=np.float64)
-    sigma = np.stack([np.interp(grid, w[order], u[order, c], left=0.0, right=0.0) for c in range(3)], 1)
-    header = doc.get("header") if isinstance(doc.get("header"), dict) else {}
-    return sigma, str(header.get("description") or "uncertainty given in the file")
+    return _band_of(_camera_json(camera), wavelengths)
 
 
 def read_ssf_estimate(camera) -> SSFEstimate | None:
@@ -1243,35 +1257,29 @@ def read_ssf_estimate(camera) -> SSFEstimate | None:
     The held-out error draws are not stored (:meth:`~SSFEstimate.response_errors` needs the basis); a
     file of an earlier version, without the calibration block, gets the shipped basis' calibration.
     """
-    import json
-    import os
-
-    if not isinstance(camera, str | os.PathLike) or Path(camera).suffix.lower() != ".json":
-        return None
-    try:
-        header = json.loads(Path(camera).read_text(encoding="utf-8")).get("header") or {}
-    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
-        return None
+    doc = _camera_json(camera)
+    header = (doc or {}).get("header")
     if not isinstance(header, dict) or header.get("document_creator") != "zonotope.estimate_ssf":
         return None
-    band = read_ssf_band(camera, SSF_SHAPE.wavelengths)
+    band = _band_of(doc, SSF_SHAPE.wavelengths)
     if band is None:
         return None
     from .loading import load_camera
 
-    curves = spectra.resample(load_camera(camera), SSF_SHAPE.wavelengths)
+    loaded = load_camera(camera)
+    curves = spectra.resample(loaded, SSF_SHAPE.wavelengths)
     cal = header.get("zonotope") if isinstance(header.get("zonotope"), dict) else {}
     basis = ssf_basis()
     try:
         scale = np.asarray(cal.get("response_scale", basis.response_scale), dtype=np.float64).reshape(3)
         return SSFEstimate(
             sensitivities=colour.MultiSpectralDistributions(
-                curves, SSF_SHAPE.wavelengths, labels=("R", "G", "B"), name=str(load_camera(camera).name)
+                curves, SSF_SHAPE.wavelengths, labels=("R", "G", "B"), name=str(loaded.name)
             ),
             uncertainty=band[0],
             sources=tuple(cal.get("sources", ())),
             residual=float(cal.get("residual", np.nan)),
-            name=str(load_camera(camera).name),
+            name=str(loaded.name),
             band_k=float(cal.get("band_k", basis.band_k)),
             response_scale=scale,
             calibration=str(cal.get("calibration", "synthesised matrices (the shipped basis')")),
