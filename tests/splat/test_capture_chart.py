@@ -87,8 +87,9 @@ def test_no_chart_in_the_photograph_is_one_line_saying_how_to_give_the_corners(c
     from splat.cli import main  # the poses step stops before it decodes or registers anything
 
     assert main(["poses", str(capture), "-o", str(tmp_path / "run")]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("splat: error: ") and err.count("\n") == 1 and "no ColorChecker found" in err
+    *warnings, error = capsys.readouterr().err.splitlines()  # the 550D's DNG under a Nikon's curves is
+    assert all(w.startswith("splat: warning: ") and "Canon" in w for w in warnings)  # a maker warning
+    assert error.startswith("splat: error: ") and "no ColorChecker found" in error
     assert sorted(p.name for p in (tmp_path / "run").iterdir()) == [".splat-output.json", "settings.json"]
 
 
