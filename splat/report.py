@@ -509,6 +509,20 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
                 )
                 + "; the fit is told that σ as noise."
             )
+        unit = {
+            f: d
+            for f, d in (run.correct.get("ssf") or {}).items()
+            if "measured" in d and any(d.get("sigma") or ())
+        }
+        if unit:
+            bits.append(
+                "Published sensitivities of "
+                + ", ".join(_e(f) for f in unit)
+                + ": measured on another unit of the model, so the fit is told the spread between units "
+                "(response σ "
+                + " / ".join(f"{v:.3f}" for v in next(iter(unit.values()))["sigma"])
+                + "); <code>ssf_exact = true</code> if they were measured on this very camera."
+            )
         light = run.correct.get("illuminant")
         if light:
             est = light.get("estimate")

@@ -20,8 +20,9 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``vora``, ``evaluate``    applications: Vora values, ΔE00 evaluation, camera surveys, executors,
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
 ``report``, ``viz``,
-``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`, :func:`ssf_response_errors`: the
-                          SSF band in noise, MMVs and error draws)
+``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`, :func:`ssf_response_errors`,
+                          :func:`unit_sigma`: the SSF band in noise, MMVs and error draws; the
+                          spread of published curves)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 
@@ -267,7 +268,7 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "source_split",
         ],
         "report": ["ReportConfig", "ReportExistsError", "write_report"],
-        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors"],
+        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors", "unit_sigma"],
         "viz": [
             "mmv_polytope",
             "plot_grey_mmvs",

@@ -653,6 +653,19 @@ __all__ += ["SSF_BAND_COVERAGE"]
 SSF_FIT_SIGMA_SCALE = 0.5
 
 __all__ += ["SSF_FIT_SIGMA_SCALE"]
+
+#: σ per channel (R, G, B; white-balanced responses, white → 1) that measured curves of another unit
+#: of a camera's model carry for this camera: the RMS difference of the 190 rawtoaces training
+#: patches' responses between two measurements of one model (7 models measured twice: D65 0.0105 /
+#: 0.0036 / 0.0037, A 0.0098 / 0.0045 / 0.0049, FL2 0.0063 / 0.0040 / 0.0036), told to fits of two or
+#: more stacked cameras. Noise-free Finlayson 2015 fits of 2 / 3 stacked cameras on another unit's
+#: curves lose +3.6 / +6.0 ΔE00 (natural sets) against the same fit on the camera's own curves, +0.60
+#: / +0.83 told 1 × this σ (0.5 × +0.65 / +0.91, 2 × +0.64 / +0.85); on the camera's own curves it
+#: costs +0.40 / +0.61, one camera +0.02 (benchmarks/bench_ssf_units.py,
+#: docs/notes/2026-12-01-published-curves.md).
+SSF_UNIT_SIGMA = (0.010, 0.004, 0.004)
+
+__all__ += ["SSF_UNIT_SIGMA"]
 # -- .cube speed: exact distance of a response to the source solid (zonotope.mismatch.volume) ---------
 
 #: Largest number of ``(k − 1)``-subsets of Φ's rows and the k unit vectors for which the max-norm

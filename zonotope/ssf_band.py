@@ -6,7 +6,8 @@ trusting channel differences finer than they are known; :func:`band_mmvs` comput
 mismatch volume of one reflectance with the estimate and with cameras drawn within its band
 (:func:`~zonotope.spectra.estimate.sample_ssfs`), and how far they differ (volume, centroid ΔE00);
 :func:`ssf_response_errors` gives a fit of stacked estimated cameras draws of their responses' error
-(:func:`zonotope.correct.eiv.fit_errors_in_variables`), correlated as the held-out estimates' were.
+(:func:`zonotope.correct.eiv.fit_errors_in_variables`), correlated as the held-out estimates' were;
+:func:`unit_sigma` is what measured curves of another unit of the same model carry.
 """
 
 from __future__ import annotations
@@ -17,12 +18,35 @@ import colour
 import numpy as np
 
 from ._errors import SpectralDataError
-from ._tol import SSF_ERROR_DRAW_SCALE, SSF_ERROR_PROBLEM_ATOL, SSF_SAMPLE_CORRELATION_NM
+from ._tol import SSF_ERROR_DRAW_SCALE, SSF_ERROR_PROBLEM_ATOL, SSF_SAMPLE_CORRELATION_NM, SSF_UNIT_SIGMA
 from .correct.noise import NoiseModel, noise_model
 from .correct.problem import CorrectionProblem, correction_problem
 from .spectra.estimate import SSFEstimate, sample_ssfs
 
-__all__ = ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors"]
+__all__ = ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors", "unit_sigma"]
+
+
+def unit_sigma(n_cameras: int, *, exact=()) -> np.ndarray:
+    """σ per channel (3 per camera, white → 1) that measured curves carry when they are a published
+    measurement of the camera's model rather than of the very camera: :data:`~zonotope._tol.SSF_UNIT_SIGMA`
+    for each camera of a stack of two or more, 0 for one camera alone and for the cameras whose index
+    is in ``exact`` (curves measured on that very unit). Add it to the images' noise in quadrature for
+    the cameras with measured curves (estimated ones carry their own band, :func:`ssf_noise`).
+
+    Why: two measurements of one model differ by more than the DNG-matrix estimate of either does from
+    it (responses 0.0105 / 0.0036 / 0.0037 RMS against 0.0047 / 0.0023 / 0.0030), and a stacked fit told
+    only the images' noise leans on them: +3.6 / +6.0 ΔE00 for 2 / 3 cameras noise-free, +0.60 / +0.83
+    told this σ (docs/notes/2026-12-01-published-curves.md); one camera loses nothing measurable
+    either way, so it is left alone.
+    """
+    if not (isinstance(n_cameras, (int, np.integer)) and n_cameras >= 1):
+        raise ValueError(f"n_cameras = {n_cameras!r}: expected a whole number ≥ 1.")
+    out = np.tile(np.asarray(SSF_UNIT_SIGMA, dtype=np.float64), (n_cameras, 1))
+    if n_cameras == 1:
+        out[:] = 0.0
+    for k in exact:
+        out[k] = 0.0
+    return out.ravel()
 
 
 def ssf_noise(

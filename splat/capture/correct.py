@@ -791,35 +791,45 @@ def pipeline_mix(method: str):
 
 
 def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
-    """σ per channel (3 per camera, white → 1) of the response error that estimated curves carry
-    (:meth:`zonotope.SSFEstimate.response_sigma` under the capture's light); 0 for measured curves.
+    """σ per channel (3 per camera, white → 1) of the response error that the cameras' curves carry:
+    estimated curves their band (:meth:`zonotope.SSFEstimate.response_sigma` under the capture's
+    light); measured curves, in a fit of two or more cameras, the spread between units of one model
+    (:func:`zonotope.unit_sigma`), unless the camera says ``ssf_exact = true``; else 0.
 
-    Why: a fit on several cameras' estimated curves that is told only the sensor noise amplifies the
-    curves' errors (three cameras: +4.1 ΔE00 over the measured curves noise-free, +0.6 with this σ;
-    docs/notes/2026-11-29-ssf-stacking.md), so the correct step adds it to the noise in quadrature."""
+    Why: a fit on several cameras' curves that is told only the sensor noise amplifies the curves'
+    errors — estimated curves, three cameras: +4.1 ΔE00 noise-free, +0.6 with their σ
+    (docs/notes/2026-11-29-ssf-stacking.md); published curves of another unit: +6.0, +0.8 with the
+    units' σ (docs/notes/2026-12-01-published-curves.md) — so the correct step adds it to the noise
+    in quadrature."""
+    import zonotope
+
     light = spec.load_illuminant()
+    exact = [i for i, k in enumerate(cameras) if spec.cameras[k].ssf_exact]
+    unit = zonotope.unit_sigma(len(cameras), exact=exact).reshape(-1, 3)
     out = []
-    for k in cameras:
+    for i, k in enumerate(cameras):
         est = spec.ssf_estimate(k)
-        out.append(np.zeros(3) if est is None else np.asarray(est.response_sigma(light), float))
+        out.append(unit[i] if est is None else np.asarray(est.response_sigma(light), float))
     return np.concatenate(out)
 
 
 def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
-    """Per camera (its folder), where its sensitivities came from: ``{"measured": name or file}`` or
-    ``{"estimated": "DNG colour matrices", "file", "sigma", "calibration"}`` (the σ told to the fit).
+    """Per camera (its folder), where its sensitivities came from and the σ told to the fit for them
+    (:func:`ssf_sigma`): ``{"measured": name or file, "exact": ssf_exact, "sigma"}`` or
+    ``{"estimated": "DNG colour matrices", "file", "sigma", "calibration"}``.
     Why: the report must say when the colours rest on estimated curves, and how well they are known."""
-    light = spec.load_illuminant()
+    sigma = ssf_sigma(spec, cameras).reshape(-1, 3)
     out = {}
-    for k in cameras:
+    for k, sig in zip(cameras, sigma, strict=True):
         cam, est = spec.cameras[k], spec.ssf_estimate(k)
+        told = [round(float(v), 6) for v in sig]
         if est is None:
-            out[cam.folder] = {"measured": cam.ssf}
+            out[cam.folder] = {"measured": cam.ssf, "exact": cam.ssf_exact, "sigma": told}
             continue
         out[cam.folder] = {
             "estimated": "DNG colour matrices",
             "file": spec.first_dng(k).name,
-            "sigma": [round(float(v), 6) for v in est.response_sigma(light)],
+            "sigma": told,
             "calibration": est.calibration,
         }
     return out

@@ -59,6 +59,10 @@ class CameraSpec:
         Overrides in raw DN.
     exposure : dict
         ``file name -> exposure`` overrides (any scale; made relative with the EXIF ones).
+    ssf_exact : bool
+        ``ssf_exact = true``: the measured curves are of this very camera (a lab measurement of the
+        unit), so the correct step does not add the spread between units of one model
+        (:func:`zonotope.unit_sigma`) to its noise. Default false: published curves of the model.
     """
 
     folder: str
@@ -67,6 +71,7 @@ class CameraSpec:
     black_level: float | None = None
     white_level: float | None = None
     exposure: dict = field(default_factory=dict)
+    ssf_exact: bool = False
 
 
 @dataclass(frozen=True)
@@ -294,7 +299,7 @@ _TOP_KEYS = (
     "train_size",
     "chart",
 )
-_CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure")
+_CAMERA_KEYS = ("folder", "ssf", "cfa", "black_level", "white_level", "exposure", "ssf_exact")
 _WHITE_KEYS = ("method", "image", "box", "reflectance")
 _HOLDOUT_KEYS = ("images",)
 _CHART_KEYS = ("image", "corners")
@@ -385,7 +390,15 @@ def _camera(c, i: int, root: Path, file: Path) -> CameraSpec:
             cfa = check_cfa(cfa)
         except ValueError as e:
             raise CaptureError(f"{file}: {where}: {e}") from e
-    return CameraSpec(folder, ssf, cfa, black, white, {k: float(v) for k, v in exp.items()})
+    exact = c.get("ssf_exact", False)
+    if not isinstance(exact, bool):
+        raise CaptureError(f"{file}: {where}.ssf_exact = {exact!r} must be true or false.")
+    if exact and ssf == "estimate":
+        raise CaptureError(
+            f"{file}: {where}: ssf_exact = true is for curves measured on this very camera, "
+            'not for ssf = "estimate".'
+        )
+    return CameraSpec(folder, ssf, cfa, black, white, {k: float(v) for k, v in exp.items()}, exact)
 
 
 def _white(w: dict, root: Path, file: Path) -> WhiteSpec:

@@ -129,7 +129,8 @@ def capture_fingerprint(spec: CaptureSpec) -> dict:
 def curves_fingerprint(spec: CaptureSpec) -> dict:
     """What the correct step reads of ``capture.toml`` besides the earlier steps' results: each camera's
     curves (name, or file with its size and time; ``"estimate"`` is of the DNG files the poses already
-    record), the scene and reference lights (name, or file), the observer and the ``[white]`` table."""
+    record) and whether they are the very camera's (``ssf_exact``), the scene and reference lights
+    (name, or file), the observer and the ``[white]`` table."""
 
     def stamp(name: str | None, root: Path) -> dict | None:
         if name is None:
@@ -140,6 +141,7 @@ def curves_fingerprint(spec: CaptureSpec) -> dict:
     w = spec.white
     return {
         "ssf": [stamp(c.ssf, spec.root) for c in spec.cameras],
+        "ssf_exact": [c.ssf_exact for c in spec.cameras],
         "illuminant": stamp(spec.illuminant, spec.root),
         "reference": stamp(spec.reference, spec.root),
         "observer": spec.observer,

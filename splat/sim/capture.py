@@ -831,7 +831,9 @@ def write_synthetic_capture(
             "",
         ]
         for cam in config.cameras:
-            text.append(_toml_table("camera", {"folder": cam.folder, "ssf": cam.ssf}, array=True))
+            text.append(
+                _toml_table("camera", {"folder": cam.folder, "ssf": cam.ssf, "ssf_exact": True}, array=True)
+            )
         text.append(
             _toml_table("white", {"method": "patch", "image": white[1], "box": white[2], "reflectance": 0.9})
         )

@@ -697,7 +697,9 @@ def write_mitsuba_capture(
             "",
         ]
         for cam in config.cameras:
-            text.append(_toml_table("camera", {"folder": cam.folder, "ssf": cam.ssf}, array=True))
+            text.append(
+                _toml_table("camera", {"folder": cam.folder, "ssf": cam.ssf, "ssf_exact": True}, array=True)
+            )
         text.append(
             _toml_table(
                 "white",

@@ -61,9 +61,19 @@ def write_dng_exif(
 
 
 def write_capture(
-    root: Path, *, views=4, holdout=1, seed=0, cameras=CAMERAS, colmap=True, white_gain=0.7, extra_toml=""
+    root: Path,
+    *,
+    views=4,
+    holdout=1,
+    seed=0,
+    cameras=CAMERAS,
+    colmap=True,
+    white_gain=0.7,
+    extra_toml="",
+    ssf_exact=True,
 ):
-    """Render the synthetic scene from an orbit, camera by camera, into DNG files.
+    """Render the synthetic scene from an orbit, camera by camera, into DNG files. ``ssf_exact``: the
+    cameras' tables say ``ssf_exact = true`` (true: the photographs are rendered with those very curves).
 
     Returns
     -------
@@ -95,7 +105,8 @@ def write_capture(
             cam_ssf, "D65", zonotope.common_shape(cam_ssf, interval=5), normalise=None
         ).values.sum(0)
         neutral = g / g.max()
-        toml += ["[[camera]]", f'folder = "{folder}"', f'ssf = "{ssf}"', ""]
+        toml += ["[[camera]]", f'folder = "{folder}"', f'ssf = "{ssf}"']
+        toml += ["ssf_exact = true", ""] if ssf_exact else [""]
         for k in range(views + holdout):
             a = 2 * np.pi * (k + c / len(cameras)) / (views + holdout)
             elev = 0.6 + 0.2 * np.sin(3 * a + c)

@@ -48,6 +48,12 @@ def add_commands(sub) -> None:
     )
     p.add_argument("--illuminant", default="D65", help="the scene light the images were taken under")
     p.add_argument(
+        "--exact-curves",
+        action="store_true",
+        help="the measured curves of --camera are of these very camera units (a lab measurement): do not "
+        "tell a fit of stacked cameras the spread between units of one model (zonotope.unit_sigma)",
+    )
+    p.add_argument(
         "--reference",
         metavar="LIGHT",
         help="output the colours as under this light (e.g. D65), fitted scene light → LIGHT "
@@ -256,29 +262,46 @@ def _resolve_cli_noise(noise, files, k: int):
     return model, ("none" if model is None else "--noise"), ""
 
 
-def _with_ssf_bands(model, cameras, illuminant: str, k: int):
+def _with_ssf_bands(model, cameras, illuminant: str, k: int, *, exact: bool = False):
     """``(noise, note)``: ``model`` (None, a σ or a NoiseModel) with the response σ of every camera whose
     file holds estimated curves (:func:`zonotope.spectra.estimate.read_ssf_estimate`) added to its
-    channels' read variance, and a note naming them ("" and ``model`` unchanged when none does). Why: a
-    fit of stacked cameras told only the images' noise leans on channel differences finer than
-    estimated curves are known (+2.5 to +4.6 ΔE00 noise-free; docs/notes/2026-11-29-ssf-stacking.md),
-    which the capture avoids the same way (``splat.capture.ssf_sigma``)."""
+    channels' read variance and, for two or more stacked cameras, the spread between units of one
+    model (:func:`zonotope.unit_sigma`) added for the measured ones unless ``exact``; a note naming
+    them ("" and ``model`` unchanged when nothing is added). Why: a fit of stacked cameras told only
+    the images' noise leans on channel differences finer than the curves are known: estimated curves
+    +2.5 to +4.6 ΔE00 noise-free (docs/notes/2026-11-29-ssf-stacking.md), published curves of another
+    unit +3.6 to +6.0 (docs/notes/2026-12-01-published-curves.md); the capture does the same
+    (``splat.capture.ssf_sigma``)."""
     from ..correct.noise import NoiseModel, noise_model
     from ..spectra.estimate import read_ssf_estimate
+    from ..ssf_band import unit_sigma
 
-    estimates = [read_ssf_estimate(c) for c in cameras]
-    if all(e is None for e in estimates) or k != 3 * len(cameras):
+    if k != 3 * len(cameras):
         return model, ""
-    sigmas = [np.zeros(3) if e is None else e.response_sigma(illuminant) for e in estimates]
+    estimates = [read_ssf_estimate(c) for c in cameras]
+    measured = [i for i, e in enumerate(estimates) if e is None]
+    unit = unit_sigma(len(cameras), exact=measured if exact else ()).reshape(-1, 3)
+    sigmas = [u if e is None else e.response_sigma(illuminant) for e, u in zip(estimates, unit, strict=True)]
     band = np.concatenate(sigmas)
+    if not band.any():
+        return model, ""
     base = noise_model(model, k) or NoiseModel.constant(0.0, k, source="noise-free")
-    told = NoiseModel(base.shot, base.read + band**2, source=f"{base.source} + estimated curves' band")
+    told = NoiseModel(base.shot, base.read + band**2, source=f"{base.source} + the curves' uncertainty")
+    notes = []
     named = [
         f"{c} σ {' / '.join(f'{v:.4f}' for v in sig)}"
         for c, e, sig in zip(cameras, estimates, sigmas, strict=True)
         if e is not None
     ]
-    return told, "estimated curves: their band added, " + ", ".join(named)
+    if named:
+        notes.append("estimated curves: their band added, " + ", ".join(named))
+    if measured and unit[measured[0]].any():
+        notes.append(
+            "measured curves of another unit of each model: the spread between units added, σ "
+            + " / ".join(f"{v:.4f}" for v in unit[measured[0]])
+            + " (--exact-curves if they were measured on these very cameras)"
+        )
+    return told, "; ".join(notes)
 
 
 def _describe(noise) -> str:
@@ -336,9 +359,9 @@ def _correct(args: argparse.Namespace) -> int:
         reference=args.reference,
     )
     model, _, note = _resolve_cli_noise(args.noise, files, problem.k)
-    model, band = _with_ssf_bands(model, args.camera, args.illuminant, problem.k)
+    model, band = _with_ssf_bands(model, args.camera, args.illuminant, problem.k, exact=args.exact_curves)
     note = "; ".join(x for x in (note, band) if x)
-    if not args.quiet or band:
+    if not args.quiet or "estimated curves" in band:  # the estimates' band is news even when quiet
         console.print(f"noise: {_describe(model)}" + (f" ({note})" if note else ""), soft_wrap=True)
     settings = {  # what the outputs depend on: a rerun into this folder must ask for the same
         "cameras": list(args.camera),

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import zonotope
+from zonotope._tol import SSF_UNIT_SIGMA
 from zonotope.cli import main
 from zonotope.spectra import builtin as spectra
 from zonotope.spectra.estimate import SSF_SHAPE, synthesise_dng_matrices
@@ -152,7 +153,8 @@ def test_capture_toml_ssf_estimate_uses_the_first_dng(tmp_path):
 
 def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     """A camera with estimated curves carries their response σ into the correct step's fits; a measured
-    camera carries none, and the fused fit is told the band in quadrature with the sensor noise."""
+    camera in the stack the spread between units of one model, none with ``ssf_exact = true``; the
+    fused fit is told the band in quadrature with the sensor noise."""
     capture = pytest.importorskip("splat.capture")
     from splat.fusion import whitened
 
@@ -168,10 +170,10 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     band = capture.ssf_sigma(spec, [0, 1])
     expected = spec.ssf_estimate(0).response_sigma(spec.load_illuminant())
     np.testing.assert_allclose(band[:3], expected)
-    assert (band[:3] > 0).all() and not band[3:].any()
+    assert (band[:3] > 0).all() and np.array_equal(band[3:], zonotope.unit_sigma(2)[3:])
     assert spec.ssf_estimate(1) is None
     record = capture.ssf_record(spec, [0, 1])  # what the correct summary (and the report) says
-    assert record["meas"] == {"measured": "Nikon 5100 (NPL)"}
+    assert record["meas"] == {"measured": "Nikon 5100 (NPL)", "exact": False, "sigma": list(SSF_UNIT_SIGMA)}
     assert record["cam"]["file"] == "a.dng" and record["cam"]["estimated"] == "DNG colour matrices"
     np.testing.assert_allclose(record["cam"]["sigma"], expected, atol=1e-6)
 
@@ -183,6 +185,19 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     # the render corrected alone: the pipeline's default method told σ per channel (it raised before)
     prior = capture.fit_corrector(spec, [0, 1], "Prior", 0.012, mix=capture.pipeline_mix("Prior"))
     assert np.all(np.isfinite(prior(np.full((2, 6), 0.3))))
+
+    (tmp_path / "capture.toml").write_text(  # curves measured on this very camera: nothing added
+        (tmp_path / "capture.toml").read_text() + "ssf_exact = true\n"
+    )
+    exact = capture.read_capture(tmp_path / "capture.toml")
+    assert exact.cameras[1].ssf_exact and not capture.ssf_sigma(exact, [0, 1])[3:].any()
+    assert capture.ssf_record(exact, [0, 1])["meas"] == {
+        "measured": "Nikon 5100 (NPL)",
+        "exact": True,
+        "sigma": [0, 0, 0],
+    }
+    assert capture.curves_fingerprint(exact) != capture.curves_fingerprint(spec)  # the correct step reruns
+    assert not capture.ssf_sigma(exact, [1]).any() and not capture.ssf_sigma(spec, [1]).any()  # alone
 
 
 def test_a_foveon_dng_says_it_fell_back_to_the_exact_matrix_calibration(tmp_path, capsys):
