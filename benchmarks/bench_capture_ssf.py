@@ -91,6 +91,10 @@ def estimated_curves(
         if not again:
             out = write_ssf_json(est, capture / f"ssf_estimated_{folder}.json", overwrite=True)
             toml = toml.replace(
+                f'folder = "{folder}"\nssf = "{name}"\nssf_exact = true',
+                f'folder = "{folder}"\nssf = "{name}"',
+            )
+            toml = toml.replace(  # not the simulated camera's own curves: its levels are measured per channel
                 f'folder = "{folder}"\nssf = "{name}"', f'folder = "{folder}"\nssf = "{out.name}"'
             )
         true = np.asarray(zonotope.camera(name).copy().align(SSF_SHAPE).values)  # Sigma: held at 680 nm

@@ -729,18 +729,28 @@ def whitened(problem, noise):
     return dataclasses.replace(problem, Phi=problem.Phi * scale), scale, ref
 
 
-def camera_levels(pairs, training_responses, cameras: int, *, fixed: int | None = None) -> dict:
-    """Each camera's exposure level relative to the others, from photographs of the same surfaces.
+def camera_levels(
+    pairs, training_responses, cameras: int, *, fixed: int | None = None, per_channel=()
+) -> dict:
+    """Each camera's level per channel relative to the others, from photographs of the same surfaces.
 
     A camera's white → 1 scale is measured on the white patch for the camera that photographed it; the
     others inherit it through their brightest neutral surfaces, which are not the same surface at the
     same light in every camera's photographs (the path-traced capture: the Sigma's channels 5 % low,
-    docs/benchmarks.md). Where camera ``c``'s photographs are reprojected into camera ``k``'s view, the
-    ratio of their channels to camera ``c``'s responses *predicted* from ``k``'s own measured channels
-    (the least-squares 3 × 3 map between the cameras' responses to ``training_responses``) is
-    ``level_c / level_k``; the levels are the least-squares solution of the logarithms of these ratios
-    (one per view and camera pair, the mean over the three channels of the ratio of sums), with camera
-    ``fixed`` at 1 (its white measured on the patch), else their geometric mean at 1.
+    docs/benchmarks.md), and through the white of their curves, whose channel gains two measurements
+    of one model give 5–25 % apart (docs/notes/2026-12-01-published-curves.md). Where camera ``c``'s
+    photographs are reprojected into camera ``k``'s view, the ratio of each of their channels to camera
+    ``c``'s responses *predicted* from ``k``'s own measured channels (the least-squares 3 × 3 map
+    between the cameras' responses to ``training_responses``) is ``level_c / level_k`` for that
+    channel, once ``k``'s own channels are divided by its level (per-channel levels do not commute with
+    the map); the levels are the least-squares solution of the logarithms of these ratios (one per
+    view, camera pair — each used both ways — and channel, each the ratio of sums), with camera
+    ``fixed`` at 1 (its white measured on the patch), else each channel's geometric mean at 1 over the
+    cameras with one level (all of them when every camera has three). Only the
+    cameras in ``per_channel`` get a level per channel (those whose curves' white is uncertain:
+    published or estimated curves); the others one level for all three, as their curves' white is
+    exact and a level per channel would only add the maps' mismatch (up to 3 % per channel for a
+    Foveon camera against two Bayer ones).
 
     Parameters
     ----------
@@ -751,13 +761,14 @@ def camera_levels(pairs, training_responses, cameras: int, *, fixed: int | None 
         The cameras' white → 1 responses to training reflectances (``problem.training @ problem.Phi``).
     cameras : int
     fixed : int, optional
+    per_channel : collection of int
 
     Returns
     -------
     dict
-        ``level`` (cameras,): divide camera ``c``'s white → 1 values by ``level[c]`` (multiply its white
-        scale by it); ``ratios``: ``[k, c, pixels, ratio]`` per pair used; cameras that no pair links to
-        ``fixed`` (or to the others) keep 1.
+        ``level`` (cameras, 3): divide camera ``c``'s white → 1 values by ``level[c]`` (multiply its
+        white scale by it); ``ratios``: ``[k, c, pixels, [ratio per channel]]`` per pair used; cameras
+        that no pair links to ``fixed`` (or to the others) keep 1.
     """
     from ._tol import CAMERA_LEVEL_MIN_PIXELS
 
@@ -766,30 +777,43 @@ def camera_levels(pairs, training_responses, cameras: int, *, fixed: int | None 
         raise SplatError(
             f"camera_levels: training responses must be finite (N, {3 * cameras}), got {R.shape}."
         )
-    rows, rhs, used = [], [], []
+    links, used = [], []
     for k, c, own, other in pairs:
         own, other = np.asarray(own, float).reshape(-1, 3), np.asarray(other, float).reshape(-1, 3)
         if own.shape != other.shape or k == c or len(own) < CAMERA_LEVEL_MIN_PIXELS:
             continue
         M, *_ = np.linalg.lstsq(R[:, 3 * k : 3 * k + 3], R[:, 3 * c : 3 * c + 3], rcond=None)
+        back, *_ = np.linalg.lstsq(R[:, 3 * c : 3 * c + 3], R[:, 3 * k : 3 * k + 3], rcond=None)
         pred = (own @ M).sum(0)
         if np.any(pred <= 0) or np.any(other.sum(0) <= 0):
             continue
-        ratio = float(np.mean(other.sum(0) / pred))
-        a = np.zeros(cameras)
-        a[c], a[k] = 1.0, -1.0
-        rows.append(a)
-        rhs.append(np.log(ratio))
-        used.append([int(k), int(c), len(own), ratio])
-    level = np.ones(cameras)
-    if rows:
-        A, b = np.array(rows), np.array(rhs)
-        linked = np.flatnonzero(np.abs(A).sum(0) > 0)
-        anchor_row = np.zeros(cameras)
-        if fixed is not None and fixed in linked:
-            anchor_row[fixed] = 1.0
-        else:
-            anchor_row[linked] = 1.0 / len(linked)
-        x, *_ = np.linalg.lstsq(np.vstack([A, anchor_row]), np.append(b, 0.0), rcond=None)
-        level[linked] = np.exp(x[linked])
+        links += [(k, c, own.sum(0), other.sum(0), M), (c, k, other.sum(0), own.sum(0), back)]  # both ways
+        used.append([int(k), int(c), len(own), [float(r) for r in other.sum(0) / pred]])
+    level = np.ones((cameras, 3))
+    linked = sorted({c for _, c, *_ in links})
+    free = [c for c in linked if c != fixed] if fixed in linked else linked
+    if links and free:
+        from scipy.optimize import least_squares
+
+        width = [3 if c in per_channel else 1 for c in free]
+        anchor = [c for c in linked if c not in per_channel] or linked  # exact whites, where there are
+        at = np.cumsum([0, *width])
+
+        def residuals(x):
+            lg = np.zeros((cameras, 3))
+            for i, c in enumerate(free):
+                lg[c] = x[at[i] : at[i + 1]]  # one value broadcast to three channels, or three
+            r = [  # the map is linear: the sum of its predictions is its prediction of the sum
+                np.log(seen) - lg[c] - np.log(np.maximum((own * np.exp(-lg[k])) @ M, 1e-300))
+                for k, c, own, seen, M in links
+            ]
+            if fixed not in linked:  # each channel's geometric mean over the anchor cameras at 1
+                r.append(lg[anchor].sum(0))
+            return np.concatenate(r)
+
+        x = least_squares(residuals, np.zeros(at[-1]), method="lm").x
+        for i, c in enumerate(free):
+            level[c] = np.exp(x[at[i] : at[i + 1]])
+        if fixed not in linked:
+            level[linked] /= np.exp(np.mean(np.log(level[anchor]), axis=0))
     return {"level": level, "ratios": used}

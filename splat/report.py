@@ -523,6 +523,17 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
                 + " / ".join(f"{v:.3f}" for v in next(iter(unit.values()))["sigma"])
                 + "); <code>ssf_exact = true</code> if they were measured on this very camera."
             )
+        loose = (run.correct.get("white") or {}).get("from_curves") or []
+        if loose:
+            bits.append(
+                "<strong>The white of "
+                + ", ".join(_e(f) for f in loose)
+                + " rests on its sensitivities alone</strong>: no plain surface was seen by both it and "
+                "another camera, where its level per channel would be measured, and published or estimated "
+                "curves can put a camera's channels 5–25 % apart, which its colours then carry. Include a "
+                "plain surface (the white card, a wall) that every camera sees, or say "
+                "<code>ssf_exact = true</code> if its curves were measured on this very camera."
+            )
         light = run.correct.get("illuminant")
         if light:
             est = light.get("estimate")

@@ -148,6 +148,7 @@ _EXPORTS = {
         "correction_problem_of",
         "delta_of",
         "dng_matrix_XYZ",
+        "curves_white",
         "fit_corrector",
         "fit_fused_corrector",
         "fused_fitter",

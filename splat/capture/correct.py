@@ -34,6 +34,7 @@ __all__ = [
     "correct_fused",
     "correct_step",
     "correction_problem_of",
+    "curves_white",
     "delta_of",
     "dng_matrix_XYZ",
     "fit_corrector",
@@ -201,13 +202,18 @@ def delta_of(spec: CaptureSpec, out: Path, index: dict, scale: np.ndarray) -> di
 
 def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white: dict) -> dict:
     """``white`` (:func:`white_of`) with each camera's scale times its level relative to the others
-    (:func:`splat.fusion.camera_levels`, the patch's camera fixed), measured where a view's own
-    unclipped, smooth, untextured channels meet another camera's reprojected photographs; cached in
+    (:func:`splat.fusion.camera_levels`, the patch's camera fixed; one per channel for cameras whose
+    curves are not ``ssf_exact``, one for all channels otherwise), measured where a view's own
+    unclipped, smooth, untextured channels meet another camera's reprojected photographs — for a pair
+    with such a camera, on every unclipped pixel where too few are smooth; cached in
     ``OUT/correct/levels.json``. Without reprojected photographs it is ``white`` unchanged.
 
-    Why: the cameras without the patch inherit its white through their brightest neutral surfaces; on
-    the path-traced capture that left the Sigma 3.7 % below and the Nikon 1.4 % above the Canon, and with
-    three cameras the correction took the mismatch for colour (docs/benchmarks.md)."""
+    Why: the cameras without the patch inherit its white through their brightest neutral surfaces and
+    their curves' white; on the path-traced capture the first left the Sigma 3.7 % below and the Nikon
+    1.4 % above the Canon, and with three cameras the correction took the mismatch for colour
+    (docs/benchmarks.md); published curves of another unit put a camera's channels 5–25 % apart
+    (docs/notes/2026-12-01-published-curves.md)."""
+    from .._tol import CAMERA_LEVEL_MIN_PIXELS
     from ..fusion import OWN_NOISE_FLOOR, camera_levels, measured, sensor_noise, smooth, textured, unclipped
 
     path = out / "correct" / "levels.json"
@@ -216,6 +222,7 @@ def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white:
     else:
         n = len(spec.cameras)
         scale = np.concatenate(white["scale"])
+        uncertain = [k for k, c in enumerate(spec.cameras) if not c.ssf_exact]  # published or estimated
         pairs = []
         for name, info in index.items():
             v = raws.get(name)
@@ -227,10 +234,15 @@ def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white:
             img = read_tiff(d / "render.tiff") / scale
             values, count = reprojected_of(d, scale)
             noise = np.maximum(sensor_noise(v, ws), OWN_NOISE_FLOOR)
-            ok = unclipped(v) & smooth(img) & ~textured(v, ws, noise=noise)
+            whole = unclipped(v)
+            ok = whole & smooth(img) & ~textured(v, ws, noise=noise)
             own = measured(v, ws)
             for c in range(n):
                 sel = ok & (count[..., c] > 0)
+                if np.count_nonzero(sel) < CAMERA_LEVEL_MIN_PIXELS and (k in uncertain or c in uncertain):
+                    # textured pixels too: their sums agree within 1–3 % per channel (exact curves, the
+                    # fine-textured CI capture), where an uncertain white is 5–25 % off
+                    sel = whole & (count[..., c] > 0)
                 if c != k and sel.any():
                     pairs.append((k, c, own[sel], values[..., 3 * c : 3 * c + 3][sel]))
         fixed = (
@@ -239,19 +251,40 @@ def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white:
             else None
         )
         problem = correction_problem_of(spec, list(range(n)))
-        got = camera_levels(pairs, problem.training @ problem.Phi, n, fixed=fixed)
+        got = camera_levels(pairs, problem.training @ problem.Phi, n, fixed=fixed, per_channel=uncertain)
         doc = {
-            "level": [round(float(x), 4) for x in got["level"]],
+            "level": [[round(float(x), 4) for x in row] for row in got["level"]],
             "ratios": got["ratios"],
+            "per_channel": uncertain,
             "rule": "camera c's reprojected photographs against its responses predicted from camera k's own "
-            "measured channels (least-squares map on the training reflectances), per view: "
-            "log-least-squares levels, the patch's camera at 1",
+            "measured channels (least-squares map on the training reflectances), per view and channel: "
+            "log-least-squares levels, per channel for the cameras without ssf_exact, the patch's camera "
+            "at 1",
         }
         write_json(path, doc)
-    level = np.asarray(doc["level"], float)
+    level = np.asarray(doc["level"], float)  # (cameras, 3); (cameras,) in records of earlier versions
     return dict(
-        white, scale=[np.asarray(s) * level[k] for k, s in enumerate(white["scale"])], levels_applied=level
+        white,
+        scale=[np.asarray(s) * level[k] for k, s in enumerate(white["scale"])],
+        levels_applied=level,
+        levels_measured=sorted({int(k) for r in doc["ratios"] for k in r[:2]}),
     )
+
+
+def curves_white(spec: CaptureSpec, white: dict) -> list[str]:
+    """The folders of the cameras whose white rests on their curves' white alone: curves not
+    ``ssf_exact`` (published or estimated), not the camera of the white patch, and no level measured
+    against another camera (:func:`levelled_white`'s ``levels_measured``: no plain surface that it and
+    another camera both saw). Why: two measurements of one model give a camera's channels 5–25 % apart
+    (docs/notes/2026-12-01-published-curves.md), which such a camera's colours then carry; the report
+    says so."""
+    patch = (
+        spec.camera_index(Path(spec.white.image).parent.as_posix()) if spec.white.method == "patch" else None
+    )
+    measured = set(white.get("levels_measured", ()))
+    return [
+        c.folder for k, c in enumerate(spec.cameras) if not c.ssf_exact and k != patch and k not in measured
+    ]
 
 
 def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.ndarray) -> dict:
@@ -1091,7 +1124,11 @@ def correct_step(
             for m, d in noise_used.items()
         },
         "working": working_summary(spec, list(raws.values())),
-        "white": {"method": white["method"], "scale": [np.asarray(s).tolist() for s in white["scale"]]},
+        "white": {
+            "method": white["method"],
+            "scale": [np.asarray(s).tolist() for s in white["scale"]],
+            "from_curves": curves_white(spec, white),
+        },
         "white_XYZ": np.asarray(wXYZ).tolist(),
         "illuminant": {
             "light": spec.illuminant,

@@ -195,7 +195,8 @@ def test_colours_are_the_estimators_correction_of_each_gaussian(run, exported):
     )
     from zonotope.correct import DELTA_SIGMAS
 
-    est = fit_correction(problem, method=METHOD, **noise_options(METHOD, 0.01 / DELTA_SIGMAS))
+    sigma = np.hypot(0.01 / DELTA_SIGMAS, zonotope.unit_sigma(3))  # published curves: the units' spread
+    est = fit_correction(problem, method=METHOD, **noise_options(METHOD, sigma))
     balanced = np.asarray(jax.nn.softplus(arrays["colour_params"][alive]), float) / SCALE.ravel()
     want = est(balanced)
     got = np.stack([v["XYZ_X"], v["XYZ_Y"], v["XYZ_Z"]], -1)

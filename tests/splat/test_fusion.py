@@ -1765,12 +1765,16 @@ def test_levelled_white_without_reprojections_is_the_white_and_is_cached(sim, tm
     for a, b in zip(got["scale"], white["scale"]):
         np.testing.assert_array_equal(a, b)
     doc = json.loads((tmp_path / "correct" / "levels.json").read_text())
-    assert doc["level"] == [1.0, 1.0, 1.0] and doc["ratios"] == []
-    doc["level"] = [1.0, 0.5, 2.0]
+    assert doc["level"] == [[1.0] * 3] * 3 and doc["ratios"] == []
+    doc["level"] = [[1.0] * 3, [0.5, 0.6, 0.7], [2.0] * 3]  # per channel
+    (tmp_path / "correct" / "levels.json").write_text(json.dumps(doc))
+    again = levelled_white(sim["spec"], tmp_path, {}, {}, white)
+    np.testing.assert_allclose(again["scale"][1], [0.5, 0.6, 0.7] * white["scale"][1])
+    np.testing.assert_allclose(again["scale"][2], 2.0 * white["scale"][2])
+    doc["level"] = [1.0, 0.5, 2.0]  # a record of an earlier version: one level per camera
     (tmp_path / "correct" / "levels.json").write_text(json.dumps(doc))
     again = levelled_white(sim["spec"], tmp_path, {}, {}, white)
     np.testing.assert_allclose(again["scale"][1], 0.5 * white["scale"][1])
-    np.testing.assert_allclose(again["scale"][2], 2.0 * white["scale"][2])
 
 
 # ------------------------------------------------------------------------------------ render_error
@@ -1816,3 +1820,22 @@ def test_own_agrees_within_the_two_sigma_and_a_share_of_the_measurement():
     np.testing.assert_array_equal(own_agrees(m, rep, [0.01] * 3, [0.02] * 3), [True, False])
     got = own_agrees(m.astype(np.float32), rep.astype(np.float32), [0.01] * 3, [0.02] * 3)
     np.testing.assert_array_equal(got, [True, False])
+
+
+def test_the_cameras_whose_white_rests_on_their_curves_are_named(sim):
+    """curves_white: cameras without ``ssf_exact`` that hold neither the white patch nor a level
+    measured against another camera; the simulated capture's own curves (ssf_exact) are never named."""
+    from splat.capture import curves_white
+
+    spec = sim["spec"]
+    assert all(c.ssf_exact for c in spec.cameras)  # the simulator renders with exactly these curves
+    white = {"method": "patch", "levels_measured": []}
+    assert curves_white(spec, white) == []
+    published = dataclasses.replace(
+        spec, cameras=tuple(dataclasses.replace(c, ssf_exact=False) for c in spec.cameras)
+    )
+    patch = spec.white.image.rsplit("/", 1)[0]  # "<folder>/<file>"
+    others = [c.folder for c in spec.cameras if c.folder != patch]
+    assert curves_white(published, white) == others
+    k = next(i for i, c in enumerate(spec.cameras) if c.folder == others[0])
+    assert curves_white(published, dict(white, levels_measured=[k])) == others[1:]

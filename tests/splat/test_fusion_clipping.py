@@ -9,6 +9,7 @@ scene's known value.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
@@ -154,30 +155,59 @@ def _responses(n_cameras, seed, N=300):
     return spectra @ sens / sens.sum(0)
 
 
+@functools.cache
+def _real_responses():
+    """(training, scene): white → 1 responses of the Nikon 5100, the Sigma SD Merrill (Foveon) and the
+    Canon 5D Mark II to the 190 training reflectances and to 241 natural surfaces."""
+    import zonotope
+    from zonotope.correct import correction_problem
+
+    pb = correction_problem(
+        ["Nikon 5100 (NPL)", "Sigma SDMerill (NPL)", "Canon EOS 5D Mark II"], shape=np.arange(400, 681, 10.0)
+    )
+    sets = ("ColorChecker N Ohta", "CIE 1995 TCS", "NIST CQS 9.0")
+    refl = np.concatenate([zonotope.resample(zonotope.reflectances(n), pb.wavelengths).T for n in sets])
+    return pb.training @ pb.Phi, np.clip(refl, 0, 1) @ pb.Phi
+
+
 @settings(max_examples=15, deadline=None)
 @given(
-    levels=st.lists(st.floats(0.8, 1.25), min_size=3, max_size=3),
+    levels=st.lists(st.lists(st.floats(0.8, 1.25), min_size=3, max_size=3), min_size=3, max_size=3),
     fixed=st.sampled_from([None, 0, 2]),
+    per_channel=st.sampled_from([(), (1,), (0, 2), (0, 1, 2)]),
     seed=st.integers(0, 2**16),
 )
-def test_camera_levels_recovers_known_levels(levels, fixed, seed):
-    """Pixels of the training spectra seen by camera k (its level applied) and camera c (its level):
-    the levels come back, relative to ``fixed`` (or with geometric mean 1), to within the cameras'
-    spectral mismatch (the 3 × 3 maps are least squares)."""
-    R = _responses(3, seed)
+def test_camera_levels_recovers_known_levels(levels, fixed, per_channel, seed):
+    """Pixels of natural surfaces (ColorChecker, CIE 1995 and NIST CQS samples) seen by camera k (its
+    level per channel applied: an exposure and a white of its curves off by up to 25 % per channel)
+    and camera c (its levels), the capture's three measured cameras (a Foveon among them): the levels
+    come back per channel, relative to ``fixed`` (or with each channel's geometric mean 1), to within
+    the cameras' spectral mismatch (the 3 × 3 maps are least squares on the training reflectances:
+    1.3 % at most per channel for these cameras; levels within 2 % with one level per camera, 3 % per
+    channel, 5 % when every camera has three and none is fixed)."""
+    R, scene = _real_responses()
     rng = np.random.default_rng(seed + 1)
-    lv = np.asarray(levels)
+    lv = np.asarray(levels)  # (camera, channel); one level for all channels outside per_channel and
+    for c in (set(range(3)) - set(per_channel)) | {fixed} - {None}:  # for the patch's (its white measured)
+        lv[c] = lv[c, 0]
     pairs = []
     for k in range(3):
         for c in range(3):
             if c != k:
-                idx = rng.choice(len(R), 250)
-                pairs.append((k, c, R[idx, 3 * k : 3 * k + 3] * lv[k], R[idx, 3 * c : 3 * c + 3] * lv[c]))
-    got = fusion.camera_levels(pairs, R, 3, fixed=fixed)["level"]
-    want = lv / (lv[fixed] if fixed is not None else np.exp(np.mean(np.log(lv))))
-    np.testing.assert_allclose(got, want, rtol=0.03)
+                idx = rng.choice(len(scene), 250)
+                pairs.append(
+                    (k, c, scene[idx, 3 * k : 3 * k + 3] * lv[k], scene[idx, 3 * c : 3 * c + 3] * lv[c])
+                )
+    got = fusion.camera_levels(pairs, R, 3, fixed=fixed, per_channel=per_channel)["level"]
+    anchor = [c for c in range(3) if c not in per_channel] or [0, 1, 2]
+    want = lv / (lv[fixed] if fixed is not None else np.exp(np.mean(np.log(lv[anchor]), axis=0)))
+    assert got.shape == (3, 3)
+    free_all = len(per_channel) == 3 and fixed is None  # nothing pins any channel: the maps' errors add
+    np.testing.assert_allclose(got, want, rtol=0.05 if free_all else 0.03 if per_channel else 0.02)
+    for c in set(range(3)) - set(per_channel):  # one level for all three channels
+        assert np.ptp(got[c]) < 1e-9
     if fixed is not None:
-        assert got[fixed] == pytest.approx(1.0, abs=1e-12)
+        np.testing.assert_allclose(got[fixed], 1.0, atol=1e-12)
 
 
 def test_camera_levels_leaves_a_camera_without_enough_shared_pixels_at_one():
@@ -190,9 +220,9 @@ def test_camera_levels_leaves_a_camera_without_enough_shared_pixels_at_one():
         (2, 0, R[:few, 6:9], R[:few, 0:3]),  # too few pixels: camera 2 stays unlinked
     ]
     got = fusion.camera_levels(pairs, R, 3, fixed=0)
-    np.testing.assert_allclose(got["level"], [1.0, 0.9, 1.0], rtol=0.02)
-    assert [r[:3] for r in got["ratios"]] == [[0, 1, 250]]
-    assert fusion.camera_levels([], R, 3)["level"].tolist() == [1.0, 1.0, 1.0]
+    np.testing.assert_allclose(got["level"], [[1.0] * 3, [0.9] * 3, [1.0] * 3], rtol=0.02)
+    assert [r[:3] for r in got["ratios"]] == [[0, 1, 250]] and len(got["ratios"][0][3]) == 3
+    assert fusion.camera_levels([], R, 3)["level"].tolist() == [[1.0] * 3] * 3
 
 
 def test_camera_levels_refuses_training_responses_of_another_width():

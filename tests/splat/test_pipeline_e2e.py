@@ -381,3 +381,43 @@ def test_photographed_views_skip_the_render_corrected_alone(ci_run, tmp_path):
     assert not (d / "Prior_XYZ.tiff").exists() and not (d / "Prior_sRGB.png").exists()
     other = o / "correct" / index[list(index)[1]]["dir"]
     assert (other / "Prior_XYZ.tiff").is_file()  # the held-out views keep it
+
+
+def test_a_curves_white_off_per_channel_is_measured_against_the_other_cameras(ci_run, tmp_path):
+    """The Nikon named by its curves with red × 0.8 and blue × 1.1 (as far apart as two published
+    measurements of one model put a camera's channels) and no ``ssf_exact``: its white from those
+    curves is 20 % / 10 % off, and its level per channel, measured where the other cameras' photographs
+    are reprojected into its views (textured pixels too: the CI capture has few plain ones), brings
+    the white it is corrected with back within 3 % of its true white per channel."""
+    import zonotope
+    from splat.capture import read_capture
+    from splat.capture.raw import camera_white
+    from splat.scoring import correction_inputs
+
+    cap, out, *_ = ci_run
+    truth = read_capture(cap)
+    k = next(i for i, c in enumerate(truth.cameras) if c.folder == "nikon")
+    nikon = zonotope.camera(truth.cameras[k].ssf)
+    gain = np.array([0.8, 1.0, 1.1])
+    rows = np.column_stack([nikon.wavelengths, np.asarray(nikon.values) * gain])
+    copy = tmp_path / "capture"
+    copy.mkdir()
+    np.savetxt(copy / "nikon_off.csv", rows, delimiter=",", header="wavelength,red,green,blue", comments="")
+    for c in truth.cameras:
+        (copy / c.folder).symlink_to(cap / c.folder)
+    text = (cap / "capture.toml").read_text()
+    table = f'folder = "nikon"\nssf = "{truth.cameras[k].ssf}"\nssf_exact = true\n'
+    assert table in text
+    (copy / "capture.toml").write_text(text.replace(table, 'folder = "nikon"\nssf = "nikon_off.csv"\n'))
+    spec = read_capture(copy)
+    assert not spec.cameras[k].ssf_exact and all(c.ssf_exact for i, c in enumerate(spec.cameras) if i != k)
+    out2 = tmp_path / "out"
+    (out2 / "correct").mkdir(parents=True)
+    (out2 / "render").symlink_to(out / "render")
+    _, _, white, _ = correction_inputs(spec, out2)
+    want = camera_white(truth, k)
+    before = camera_white(spec, k)
+    assert np.max(np.abs(before / before[1] / (want / want[1]) - 1)) > 0.09  # the curves' white is off
+    got = np.asarray(white["scale"][k])
+    np.testing.assert_allclose(got / got[1], want / want[1], rtol=0.03)
+    assert k in white["levels_measured"]

@@ -125,7 +125,7 @@ def make_out(cap, out, *, score=False):
             "delta": 0.011,
             "noise": {"delta": 0.011, "rule": "95th percentile of the distances of 200 sampled responses"},
             "training_residual": 0.004,
-            "white": {"method": "patch"},
+            "white": {"method": "patch", "from_curves": ["sigma"]},
             "white_XYZ": WHITE_XYZ.tolist(),
             "ssf": {  # one camera's curves estimated, as splat.capture.ssf_record writes it
                 "nikon": {
@@ -134,7 +134,8 @@ def make_out(cap, out, *, score=False):
                     "sigma": [0.0074, 0.0029, 0.0025],
                     "calibration": "real DNG matrices",
                 },
-                "sigma": {"measured": "Sigma SDMerill (NPL)"},
+                "sigma": {"measured": "Sigma SDMerill (NPL)", "exact": False, "sigma": [0.01, 0.004, 0.004]},
+                "canon": {"measured": "Canon EOS 5D Mark II", "exact": True, "sigma": [0.0, 0.0, 0.0]},
             },
             "views": list(index),
         },
@@ -195,6 +196,9 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         assert "The map is of the working answer" not in sec  # no working resolution recorded
         said = re.search(r"Sensitivities not measured: [^;]*;", sec).group(0)  # estimated curves said
         assert "nikon (IMG_0000.dng, response σ 0.007 / 0.003 / 0.003)" in said and "sigma" not in said
+        unit = re.search(r"Published sensitivities of [^;]*;[^.]*\.", sec).group(0)  # another unit's
+        assert "of sigma:" in unit and "canon" not in unit and "(response σ 0.010 / 0.004 / 0.004)" in unit
+        assert "<strong>The white of sigma rests on its sensitivities alone</strong>" in sec
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
     assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels

@@ -104,6 +104,9 @@ def correct_image(
         implausible estimate is reported and ignored) or, with a fitted corrector, takes the one it
         was fitted for; a :class:`~zonotope.correct.NoiseModel` (e.g. from the DNG ``NoiseProfile``,
         :meth:`~zonotope.correct.NoiseModel.from_noise_profile`), a σ, or None / 0 for noise-free.
+        The curves are taken as exact: for stacked cameras whose measured curves are published ones
+        of their models, add :func:`zonotope.unit_sigma` to σ in quadrature (as ``zonotope
+        correct`` does), or a noise-free fit leans on differences between units.
     quantum
         Pixels whose responses round to the same multiples of ``quantum`` form one group,
         corrected once at the response of its first pixel (0: exact deduplication only). For
