@@ -523,6 +523,18 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
                 + " / ".join(f"{v:.3f}" for v in next(iter(unit.values()))["sigma"])
                 + "); <code>ssf_exact = true</code> if they were measured on this very camera."
             )
+        levels = np.asarray((run.correct.get("white") or {}).get("levels") or [], float)
+        tinted = [
+            (run.spec.cameras[k].folder, lv)
+            for k, lv in enumerate(levels.reshape(-1, 3))
+            if k < len(run.spec.cameras) and np.ptp(np.log(lv)) > np.log(1.03)
+        ]
+        if tinted:  # a white per channel corrected by more than 3 %: say by how much
+            bits.append(
+                "White per channel measured against the other cameras' photographs: "
+                + ", ".join(f"{_e(f)} × " + " / ".join(f"{v:.2f}" for v in lv / lv[1]) for f, lv in tinted)
+                + " (R / G / B, relative to G) of what its sensitivities gave."
+            )
         loose = (run.correct.get("white") or {}).get("from_curves") or []
         if loose:
             bits.append(

@@ -1128,6 +1128,9 @@ def correct_step(
             "method": white["method"],
             "scale": [np.asarray(s).tolist() for s in white["scale"]],
             "from_curves": curves_white(spec, white),
+            "levels": np.broadcast_to(np.asarray(white["levels_applied"], float).reshape(n, -1), (n, 3))
+            .round(4)
+            .tolist(),
         },
         "white_XYZ": np.asarray(wXYZ).tolist(),
         "illuminant": {

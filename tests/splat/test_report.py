@@ -125,7 +125,11 @@ def make_out(cap, out, *, score=False):
             "delta": 0.011,
             "noise": {"delta": 0.011, "rule": "95th percentile of the distances of 200 sampled responses"},
             "training_residual": 0.004,
-            "white": {"method": "patch", "from_curves": ["sigma"]},
+            "white": {
+                "method": "patch",
+                "from_curves": ["sigma"],
+                "levels": [[1.0, 1.0, 1.0], [1.01, 1.0, 0.99], [1.31, 0.99, 1.06]],
+            },
             "white_XYZ": WHITE_XYZ.tolist(),
             "ssf": {  # one camera's curves estimated, as splat.capture.ssf_record writes it
                 "nikon": {
@@ -199,6 +203,8 @@ def test_a_section_per_view_with_the_pair_of_images(page):
         unit = re.search(r"Published sensitivities of [^;]*;[^.]*\.", sec).group(0)  # another unit's
         assert "of sigma:" in unit and "canon" not in unit and "(response σ 0.010 / 0.004 / 0.004)" in unit
         assert "<strong>The white of sigma rests on its sensitivities alone</strong>" in sec
+        assert "other cameras' photographs: canon × 1.32 / 1.00 / 1.07 (R / G / B" in sec  # > 3 % only
+        assert "sigma × " not in sec
     assert "17 pixels of this photograph are saturated" in sections[1]
     assert "own channels σ = (0.003, 0.002, 0.004)" in sections[0]
     assert "reprojected here σ = 0.011 (nikon), 0.012 (sigma)" in sections[2]  # novel: no own channels
