@@ -112,6 +112,20 @@ def estimated_curves(
     return notes, ests
 
 
+def reuse_trained(source: Path, work: Path) -> None:
+    """``work/capture`` a copy of ``source/capture`` and ``work/out`` its trained steps linked with a fresh
+    ``correct/`` (once: a ``work`` already holding a capture is kept). Why: the splat, its renders and the
+    reprojections do not depend on the curves, so every variant scores the same model."""
+    capture, out = work / "capture", work / "out"
+    if (capture / "capture.toml").is_file():
+        return
+    shutil.copytree(source / "capture", capture)
+    (out / "correct").mkdir(parents=True)
+    for step in ("decoded", "poses", "train", "render"):
+        if (source / "out" / step).exists():
+            (out / step).symlink_to((source / "out" / step).resolve())
+
+
 def run_variant(
     work: Path,
     steps: int,
@@ -130,12 +144,8 @@ def run_variant(
 
     capture, out = work / "capture", work / "out"
     notes: list[str] = []
-    if source is not None and not (capture / "capture.toml").is_file():  # a trained capture, reused
-        shutil.copytree(source / "capture", capture)
-        (out / "correct").mkdir(parents=True)
-        for step in ("decoded", "poses", "train", "render"):
-            if (source / "out" / step).exists():
-                (out / step).symlink_to((source / "out" / step).resolve())
+    if source is not None:
+        reuse_trained(source, work)
     if not (capture / "capture.toml").is_file():
         write_synthetic_capture(capture, SimCaptureConfig.ci())
         (capture / "poses").mkdir()

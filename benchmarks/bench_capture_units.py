@@ -35,7 +35,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_capture_accuracy import MEASURES, _labels, table
-from bench_capture_ssf import mean_over, run_variant
+from bench_capture_ssf import mean_over, reuse_trained, run_variant
 
 #: folder → camspec file of another measurement of the simulated camera's model.
 PUBLISHED = {
@@ -49,13 +49,8 @@ def published_capture(work: Path, source: Path, data: Path, *, trusted: bool) ->
     """A copy of ``source``'s capture (its trained steps linked, a fresh ``correct/``) whose
     ``capture.toml`` names :data:`PUBLISHED` for those folders, ``ssf_exact = true`` kept if
     ``trusted``; returns the copy's folder."""
-    capture, out = work / "capture", work / "out"
-    if not (capture / "capture.toml").is_file():
-        shutil.copytree(source / "capture", capture)
-        (out / "correct").mkdir(parents=True)
-        for step in ("decoded", "poses", "train", "render"):
-            if (source / "out" / step).exists():
-                (out / step).symlink_to((source / "out" / step).resolve())
+    capture = work / "capture"
+    reuse_trained(source, work)
     toml = (capture / "capture.toml").read_text(encoding="utf-8")
     for folder, rel in PUBLISHED.items():
         f = (data / rel).resolve()

@@ -326,6 +326,11 @@ FULL_OWN_SOURCES = 2
 #: corrects.
 CAMERA_LEVEL_MIN_PIXELS = 200
 
+#: The report names a camera's white per channel as corrected against the other cameras when its
+#: levels' largest channel ratio exceeds this: the levels of exact curves agree within 1–3 % per channel
+#: (docs/notes/2026-12-01-published-curves.md), published curves' whites differ by 5–25 %.
+REPORT_WHITE_TINT = 1.03
+
 # --- a real-size capture: sources per rendered view, decoding once (splat.capture.render, .raw) ---
 
 #: Photographs of each camera reprojected into a rendered view (PipelineConfig.render_sources): those

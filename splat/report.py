@@ -23,7 +23,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from ._tol import CARD_DELTA_E_FLOOR, UNCERTAINTY_PNG_MAX
+from ._tol import CARD_DELTA_E_FLOOR, REPORT_WHITE_TINT, UNCERTAINTY_PNG_MAX
 from .capture import CaptureError, CaptureSpec
 from .capture.workspace import read_json
 
@@ -502,9 +502,7 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
             bits.append(
                 "Sensitivities not measured: estimated from the DNG colour matrices of "
                 + ", ".join(
-                    f"{_e(f)} ({_e(d['file'])}, response σ "
-                    + " / ".join(f"{v:.3f}" for v in d["sigma"])
-                    + ")"
+                    f"{_e(f)} ({_e(d['file'])}, response σ {_per_channel(d['sigma'], 3)})"
                     for f, d in est.items()
                 )
                 + "; the fit is told that σ as noise."
@@ -519,20 +517,19 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
                 "Published sensitivities of "
                 + ", ".join(_e(f) for f in unit)
                 + ": measured on another unit of the model, so the fit is told the spread between units "
-                "(response σ "
-                + " / ".join(f"{v:.3f}" for v in next(iter(unit.values()))["sigma"])
-                + "); <code>ssf_exact = true</code> if they were measured on this very camera."
+                f"(response σ {_per_channel(next(iter(unit.values()))['sigma'], 3)}); "
+                "<code>ssf_exact = true</code> if they were measured on this very camera."
             )
         levels = np.asarray((run.correct.get("white") or {}).get("levels") or [], float)
         tinted = [
             (run.spec.cameras[k].folder, lv)
             for k, lv in enumerate(levels.reshape(-1, 3))
-            if k < len(run.spec.cameras) and np.ptp(np.log(lv)) > np.log(1.03)
+            if k < len(run.spec.cameras) and np.ptp(np.log(lv)) > np.log(REPORT_WHITE_TINT)
         ]
-        if tinted:  # a white per channel corrected by more than 3 %: say by how much
+        if tinted:  # a white per channel corrected by more than a few per cent: say by how much
             bits.append(
                 "White per channel measured against the other cameras' photographs: "
-                + ", ".join(f"{_e(f)} × " + " / ".join(f"{v:.2f}" for v in lv / lv[1]) for f, lv in tinted)
+                + ", ".join(f"{_e(f)} × {_per_channel(lv / lv[1], 2)}" for f, lv in tinted)
                 + " (R / G / B, relative to G) of what its sensitivities gave."
             )
         loose = (run.correct.get("white") or {}).get("from_curves") or []
@@ -556,6 +553,11 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
                 how = f" (estimated from {src}" + ("" if unc is None else f", ±{unc:.1f}°") + ")"
             bits.append(f"Light: {_e(light['light'])}{how}; colours as under {_e(light['reference'])}.")
     return " ".join(bits)
+
+
+def _per_channel(values, digits: int) -> str:
+    """``"a / b / c"``: one number per channel (R / G / B)."""
+    return " / ".join(f"{float(v):.{digits}f}" for v in values)
 
 
 def _noise(run: _Run, name: str, fused: bool, cdir: Path, raw_size: tuple[int, int] | None = None) -> str:
