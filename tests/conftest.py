@@ -41,3 +41,15 @@ def dask_cluster():
     cluster = LocalDaskCluster(2)
     yield cluster
     cluster.close()
+
+
+def pytest_terminal_summary(terminalreporter):
+    """One line saying whether the measured data was there: a run without it skips every test of real
+    cameras, files and reflectances and still ends green, so the summary says which run this was."""
+    skipped = [
+        r for r in terminalreporter.stats.get("skipped", ()) if "shared data folder" in str(r.longrepr)
+    ]
+    where = "present" if SHARED_DATA.is_dir() else "ABSENT"
+    terminalreporter.write_line(
+        f"shared data {SHARED_DATA}: {where}; {len(skipped)} tests skipped for want of it"
+    )
