@@ -784,11 +784,18 @@ def camera_levels(
             continue
         M, *_ = np.linalg.lstsq(R[:, 3 * k : 3 * k + 3], R[:, 3 * c : 3 * c + 3], rcond=None)
         back, *_ = np.linalg.lstsq(R[:, 3 * c : 3 * c + 3], R[:, 3 * k : 3 * k + 3], rcond=None)
-        pred = (own @ M).sum(0)
-        if np.any(pred <= 0) or np.any(other.sum(0) <= 0):
-            continue
-        links += [(k, c, own.sum(0), other.sum(0), M), (c, k, other.sum(0), own.sum(0), back)]  # both ways
-        used.append([int(k), int(c), len(own), [float(r) for r in other.sum(0) / pred]])
+        a, b = own.sum(0), other.sum(0)
+        pred = a @ M
+        if (
+            not np.all(np.isfinite([*a, *b]))
+            or np.any(pred <= 0)
+            or np.any(b <= 0)
+            or np.any(a <= 0)
+            or np.any(b @ back <= 0)
+        ):
+            continue  # a ratio of sums that is not positive both ways says nothing of a level
+        links += [(k, c, a, b, M), (c, k, b, a, back)]  # both ways
+        used.append([int(k), int(c), len(own), [float(r) for r in b / pred]])
     level = np.ones((cameras, 3))
     linked = sorted({c for _, c, *_ in links})
     free = [c for c in linked if c != fixed] if fixed in linked else linked

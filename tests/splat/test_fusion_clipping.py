@@ -158,7 +158,7 @@ def _responses(n_cameras, seed, N=300):
 @functools.cache
 def _real_responses():
     """(training, scene): white → 1 responses of the Nikon 5100, the Sigma SD Merrill (Foveon) and the
-    Canon 5D Mark II to the 190 training reflectances and to 241 natural surfaces."""
+    Canon 5D Mark II to the 190 training reflectances and to 53 natural surfaces (pixels draw from them)."""
     import zonotope
     from zonotope.correct import correction_problem
 
@@ -223,6 +223,18 @@ def test_camera_levels_leaves_a_camera_without_enough_shared_pixels_at_one():
     np.testing.assert_allclose(got["level"], [[1.0] * 3, [0.9] * 3, [1.0] * 3], rtol=0.02)
     assert [r[:3] for r in got["ratios"]] == [[0, 1, 250]] and len(got["ratios"][0][3]) == 3
     assert fusion.camera_levels([], R, 3)["level"].tolist() == [[1.0] * 3] * 3
+
+
+def test_camera_levels_skips_a_pair_whose_sums_are_not_positive_both_ways():
+    """A pair whose channel sums are zero, negative or not finite on either side carries no level (its
+    log ratio is undefined): it is left out, not allowed to turn the levels into NaN."""
+    R, scene = _real_responses()
+    px = scene[np.random.default_rng(0).choice(len(scene), 250)]
+    good = (0, 1, px[:, 0:3], 0.9 * px[:, 3:6])
+    for bad_own in (np.zeros((250, 3)), -px[:, 0:3], np.full((250, 3), np.nan)):
+        got = fusion.camera_levels([good, (2, 0, bad_own, px[:, 0:3])], R, 3, fixed=0, per_channel=(1,))
+        assert np.all(np.isfinite(got["level"])) and [r[:2] for r in got["ratios"]] == [[0, 1]]
+        np.testing.assert_allclose(got["level"][1], 0.9, rtol=0.03)
 
 
 def test_camera_levels_refuses_training_responses_of_another_width():
