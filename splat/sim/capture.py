@@ -826,6 +826,8 @@ def write_synthetic_capture(
         holdout = [f"{config.cameras[v.camera].folder}/{v.stem}.dng" for v in scene.views if v.holdout]
         text = [
             f"# Simulated capture written by {_GENERATOR} (seed {config.seed}); ground truth in truth/.",
+            "# ssf_exact = true: rendered with exactly these curves. Leave it out for real cameras, whose",
+            "# published curves are another unit's measurement (docs/guide/capture.rst).",
             f"illuminant = {_toml_value(config.illuminant)}",
             f"observer = {_toml_value(_OBSERVER)}",
             "",

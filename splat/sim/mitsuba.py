@@ -692,6 +692,8 @@ def write_mitsuba_capture(
         held = [f"{config.cameras[v.camera].folder}/{v.stem}.dng" for v in scene.views if v.holdout]
         text = [
             f"# Simulated capture rendered by {_GENERATOR} (seed {seed}); ground truth in truth/.",
+            "# ssf_exact = true: rendered with exactly these curves. Leave it out for real cameras, whose",
+            "# published curves are another unit's measurement (docs/guide/capture.rst).",
             f"illuminant = {_toml_value(illuminant)}",
             f"observer = {_toml_value(_OBSERVER)}",
             "",
