@@ -136,8 +136,11 @@ def run_variant(
     estimate: bool,
     ssf_sigma: bool,
     source: Path | None = None,
+    sim=None,
     **estimate_kw,
 ):
+    """Score one variant in ``work``: the trained capture of ``source`` reused, else a capture simulated
+    from ``sim`` (default ``SimCaptureConfig.ci()``) with its true poses and trained here."""
     from splat.capture import PipelineConfig, read_capture, run
     from splat.scoring import score
     from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
@@ -147,7 +150,7 @@ def run_variant(
     if source is not None:
         reuse_trained(source, work)
     if not (capture / "capture.toml").is_file():
-        write_synthetic_capture(capture, SimCaptureConfig.ci())
+        write_synthetic_capture(capture, sim or SimCaptureConfig.ci())
         (capture / "poses").mkdir()
         for f in ("cameras.txt", "images.txt", "points3D.txt"):
             shutil.copy(capture / "truth" / f, capture / "poses" / f)

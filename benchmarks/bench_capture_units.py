@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import re
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -107,25 +106,17 @@ def main(argv=None) -> int:
 
         splat._tol.CAMERA_LEVEL_MIN_PIXELS = a.level_pixels
 
-    own = a.work / "own" / "capture"
-    if a.texture != "fine" and not (own / "capture.toml").is_file():  # else run_variant writes the CI one
-        import dataclasses
-
-        from splat.sim.capture import SimCaptureConfig, write_synthetic_capture
-
-        write_synthetic_capture(own, dataclasses.replace(SimCaptureConfig.ci(), texture=a.texture))
-        (own / "poses").mkdir()
-        for f in ("cameras.txt", "images.txt", "points3D.txt"):
-            shutil.copy(own / "truth" / f, own / "poses" / f)
-        with open(own / "capture.toml", "a") as fh:
-            fh.write('\n[poses]\ncolmap = "poses"\n')
-
     results = {}
     for variant in VARIANTS:
         t0 = time.perf_counter()
         if variant == "own curves":
+            import dataclasses
+
+            from splat.sim.capture import SimCaptureConfig
+
+            sim = dataclasses.replace(SimCaptureConfig.ci(), texture=a.texture)
             sc, folders, _ = run_variant(
-                a.work / "own", a.steps, a.capacity, a.threads, a.stride, None, False, False
+                a.work / "own", a.steps, a.capacity, a.threads, a.stride, None, False, False, sim=sim
             )
         else:
             capture = published_capture(

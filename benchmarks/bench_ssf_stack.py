@@ -367,6 +367,11 @@ def write_real_dng(data: Path, path: Path, colordata: Path, prior: float) -> int
     return 0
 
 
+def delta_cells(values, ref: float) -> str:
+    """Markdown cells ``mean (Δ to ref)`` for mean ΔE00 ``values`` ("–" for NaN: a fit not made)."""
+    return " | ".join(f"{v:.3f} ({v - ref:+.2f})" if v == v else "–" for v in values)
+
+
 def random_sets(cams: dict[str, dict], n: int, rng: np.random.Generator) -> list[list[str]]:
     """``n`` random two-camera sets, then ``n`` three-camera sets, of the cameras ``cams``, each of
     distinct models (drawn in this order from ``rng``, so a seed gives the same sets everywhere)."""
@@ -743,8 +748,7 @@ def main(argv=None) -> int:
                     for m in methods:
                         ref = np.mean(acc[size, kind, sigma, m, "measured"])
                         row = [np.mean(acc.get((size, kind, sigma, m, (label, f)), np.nan)) for f in cols]
-                        cells = " | ".join(f"{v:.3f} ({v - ref:+.2f})" if v == v else "–" for v in row)
-                        print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {cells} |")
+                        print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {delta_cells(row, ref)} |")
     return 0
 
 

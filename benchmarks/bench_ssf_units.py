@@ -40,7 +40,7 @@ from zonotope.spectra.estimate import SSF_SHAPE
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import measured_cameras, msds
-from bench_ssf_stack import Source, training_responses
+from bench_ssf_stack import Source, delta_cells, training_responses
 
 W = np.asarray(SSF_SHAPE.wavelengths)
 FITS = ("another unit", "DNG estimate")
@@ -148,11 +148,8 @@ def main(argv=None) -> int:
             for sigma in (0.0, 0.005):
                 for m in methods:
                     ref = np.mean(acc[size, kind, sigma, m, "own curves"])
-                    cells = " | ".join(
-                        f"{v:.3f} ({v - ref:+.2f})"
-                        for v in (np.mean(acc[size, kind, sigma, m, f]) for f in cols)
-                    )
-                    print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {cells} |")
+                    row = [np.mean(acc[size, kind, sigma, m, f]) for f in cols]
+                    print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {delta_cells(row, ref)} |")
     return 0
 
 

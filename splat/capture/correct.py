@@ -245,13 +245,10 @@ def levelled_white(spec: CaptureSpec, out: Path, index: dict, raws: dict, white:
                     sel = whole & (count[..., c] > 0)
                 if c != k and sel.any():
                     pairs.append((k, c, own[sel], values[..., 3 * c : 3 * c + 3][sel]))
-        fixed = (
-            spec.camera_index(Path(spec.white.image).parent.as_posix())
-            if spec.white.method == "patch"
-            else None
-        )
         problem = correction_problem_of(spec, list(range(n)))
-        got = camera_levels(pairs, problem.training @ problem.Phi, n, fixed=fixed, per_channel=uncertain)
+        got = camera_levels(
+            pairs, problem.training @ problem.Phi, n, fixed=spec.white_camera, per_channel=uncertain
+        )
         doc = {
             "level": [[round(float(x), 4) for x in row] for row in got["level"]],
             "ratios": got["ratios"],
@@ -278,13 +275,8 @@ def curves_white(spec: CaptureSpec, white: dict) -> list[str]:
     another camera both saw). Why: two measurements of one model give a camera's channels 5–25 % apart
     (docs/notes/2026-12-01-published-curves.md), which such a camera's colours then carry; the report
     says so."""
-    patch = (
-        spec.camera_index(Path(spec.white.image).parent.as_posix()) if spec.white.method == "patch" else None
-    )
-    measured = set(white.get("levels_measured", ()))
-    return [
-        c.folder for k, c in enumerate(spec.cameras) if not c.ssf_exact and k != patch and k not in measured
-    ]
+    measured = set(white.get("levels_measured", ())) | {spec.white_camera}
+    return [c.folder for k, c in enumerate(spec.cameras) if not c.ssf_exact and k not in measured]
 
 
 def fusion_of(spec: CaptureSpec, out: Path, index: dict, raws: dict, scale: np.ndarray) -> dict:

@@ -802,7 +802,7 @@ def white_scale(spec: CaptureSpec, views: list[RawView]) -> dict:
     ]
     ks = list(levels)
     if spec.white.method == "patch":
-        k0 = spec.camera_index(Path(spec.white.image).parent.as_posix())
+        k0 = spec.white_camera
         v, mean = _checked_white(spec, views)  # the RAW file read once for the check and the mean
         patch = mean / (spec.white.reflectance * v.exif)  # the patch camera's white, per channel
         k_patch = float(np.mean(patch / whites[k0]))

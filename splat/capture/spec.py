@@ -139,6 +139,14 @@ class CaptureSpec:
     chart: ChartSpec | None = None
 
     @property
+    def white_camera(self) -> int | None:
+        """Index of the camera that photographed the white patch (``[white] method = "patch"``: its
+        white is measured per channel, the others' levels are relative to it), else None."""
+        if self.white.method != "patch":
+            return None
+        return self.camera_index(Path(self.white.image).parent.as_posix())
+
+    @property
     def file(self) -> Path:
         """The capture's ``capture.toml``."""
         return self.root / "capture.toml"
