@@ -38,6 +38,8 @@ Fits compared, all in one process:
         --estimate-kw '{"subspace": 1}'                          # estimator weights, curve errors only
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources chart --ideal-chart --sets 12 \
         --singles 2 --methods "Finlayson 2015"                                    # a lab chart photo
+    python benchmarks/bench_ssf_stack.py --data ../shared/data --sources chart,charts --seed 2 --curves-only \
+        --chart-lights D65,A --response-lights A,FL11          # the chart under several lights
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng --sets 12 --singles 2 \
         --methods "Finlayson 2015" --draw-scales 0.3,0.5,0.7                      # the draws' scale
     python benchmarks/bench_ssf_stack.py --data ../shared/data --sources dng,chart,both --seed 2 \
@@ -87,14 +89,19 @@ FITS = ("measured", "none", "calibrated RMS", "calibrated", "error draws", "one 
 REJECTED = ("shrink 0.001", "shrink 0.1", "anchor 4", "anchor 16", "measured anchor 4", "measured anchor 16")
 
 
-def training_responses(values: np.ndarray, name: str) -> np.ndarray:
-    """White-balanced responses (white → 1) to the 190 training reflectances under D65."""
-    pb = correction_problem(msds(values, name), shape=SSF_SHAPE)
+def training_responses(values: np.ndarray, name: str, illuminant: str = "D65") -> np.ndarray:
+    """White-balanced responses (white → 1) to the 190 training reflectances under ``illuminant``."""
+    pb = correction_problem(msds(values, name), shape=SSF_SHAPE, illuminant=illuminant)
     return pb.training @ pb.Phi
 
 
 def chart_photo(
-    values: np.ndarray, rng: np.random.Generator, noise_rng: np.random.Generator, *, illuminant: str = "D65"
+    values: np.ndarray,
+    rng: np.random.Generator,
+    noise_rng: np.random.Generator,
+    *,
+    illuminant: str = "D65",
+    light_rng: np.random.Generator | None = None,
 ) -> np.ndarray:
     """Raw patch means of a photographed 24-patch ColorChecker, with the errors of a real photograph.
 
@@ -103,22 +110,37 @@ def chart_photo(
     its nominal spectrum by a smooth 2 % (common to every patch), the light on each patch by 1 %
     (uneven lighting), all drawn from ``rng`` (one chart, one light: the same for every camera given
     the same ``rng`` state); each mean carries 5e-4 of noise from ``noise_rng`` (sensor noise averaged
-    over the patch).
+    over the patch). ``light_rng`` (default ``rng``) draws the light's errors: the same chart under
+    another light shares ``rng``'s reflectance errors and takes that light's from its own generator.
     """
     R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), W).T
     E = spectra.resample(zonotope.illuminant(illuminant), W)[:, 0]
     d = W[:, None] - W[None, :]
     L = np.linalg.cholesky(np.exp(-0.5 * (d / 40.0) ** 2) + 1e-9 * np.eye(W.size))
     R = R * (1 + CHART_REFLECTANCE * (L @ rng.standard_normal((W.size, R.shape[0]))).T)
-    E = E * (1 + CHART_LIGHT * (L @ rng.standard_normal(W.size)))
-    C = (R * E) @ values * (1 + CHART_UNEVEN * rng.standard_normal((R.shape[0], 1)))
+    light_rng = rng if light_rng is None else light_rng
+    E = E * (1 + CHART_LIGHT * (L @ light_rng.standard_normal(W.size)))
+    C = (R * E) @ values * (1 + CHART_UNEVEN * light_rng.standard_normal((R.shape[0], 1)))
     C = 0.8 * C / C.max()
     return C + CHART_NOISE * noise_rng.standard_normal(C.shape)
 
 
 #: The simulated photograph's errors (relative; see chart_photo).
 CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN, CHART_NOISE = 0.02, 0.02, 0.01, 5e-4
-SOURCES = ("dng", "chart", "both", "dng-d65", "libraw", "libraw-common", "dcp", "mean")
+SOURCES = (
+    "dng",
+    "chart",
+    "both",
+    "charts",
+    "both charts",
+    "dng-d65",
+    "libraw",
+    "libraw-common",
+    "dcp",
+    "mean",
+)
+#: ``charts`` / ``both charts``: the chart photographed under each of these lights (the first as ``chart``).
+CHART_LIGHTS = ("D65", "A")
 #: ``--colordata``: measured-camera name → the real D65 ColorMatrix LibRaw carries for it (Adobe's).
 LIBRAW: dict[str, np.ndarray] = {}
 #: ``--colordata``: the same, times the transform common to the other models' matrices that takes
@@ -151,6 +173,8 @@ def held_out_estimates(
     pool = cams if pool is None else pool
     for i, (n, c) in enumerate(cams.items()):
         basis = basis_without(pool, c["model"], redistributable_only=redistributable_only, k=5)
+        if source.startswith("both"):  # the shipped real-DNG calibration sets the matrices' weight
+            basis = dataclasses.replace(basis, real_dng=ssf_basis().real_dng)
         dng = synthesise_dng_matrices(msds(c["values"], n)) if source in ("dng", "both") else None
         if source == "dng-d65":
             dng = DNGMatrices(
@@ -168,6 +192,22 @@ def held_out_estimates(
             chart = Chart(photo)
             if photos is not None:
                 photos[n] = photo
+        elif source.startswith(("charts", "both ")):  # one chart under each light of CHART_LIGHTS
+            chart = [
+                Chart(
+                    chart_photo(
+                        c["values"],
+                        np.random.default_rng(seed),
+                        np.random.default_rng([seed, i, j]),
+                        illuminant=light,
+                        light_rng=np.random.default_rng([seed, 1000 + j]) if j else None,
+                    ),
+                    illuminant=light,
+                )
+                for j, light in enumerate(CHART_LIGHTS)
+            ]
+            if source.startswith("both "):
+                dng = synthesise_dng_matrices(msds(c["values"], n))
         if source == "mean":
             dng = synthesise_dng_matrices(msds(c["values"], n))
             mean = np.mean([pool[m]["values"] / pool[m]["values"].max(axis=0) for m in basis.sources], axis=0)
@@ -554,6 +594,14 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--estimate-kw", default="{}", help='estimate_ssf options as JSON, e.g. {"subspace": 1}')
     ap.add_argument("--ideal-chart", action="store_true", help="chart photos with only the patch noise")
+    ap.add_argument(
+        "--chart-lights",
+        default="D65,A",
+        help="the lights of the charts / both charts sources (comma-separated)",
+    )
+    ap.add_argument(
+        "--response-lights", default="", help="also the response error under these lights (comma-separated)"
+    )
     ap.add_argument("--curves-only", action="store_true", help="stop after the estimates' error table")
     ap.add_argument("--shipped-check", action="store_true", help="only the shipped basis on camspec cameras")
     a = ap.parse_args(argv)
@@ -580,6 +628,8 @@ def main(argv=None) -> int:
     if a.ideal_chart:  # a lab: the very chart's reflectances, the light measured, even light
         global CHART_REFLECTANCE, CHART_LIGHT, CHART_UNEVEN
         CHART_REFLECTANCE = CHART_LIGHT = CHART_UNEVEN = 0.0
+    global CHART_LIGHTS
+    CHART_LIGHTS = tuple(a.chart_lights.split(","))
     cams = pool = measured_cameras(a.data)
     if {"libraw", "libraw-common"} & set(a.sources.split(",")) and not a.colordata:
         ap.error("--sources libraw needs --colordata LibRaw/src/tables/colordata.cpp")
@@ -616,6 +666,17 @@ def main(argv=None) -> int:
         sources[s] = Source(cams, s, seed=a.seed, redistributable_only=not a.all_sets_basis, pool=pool, **kw)
     print(f"{len(names)} cameras estimated in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     curve_table(cams, sources)
+    for light in [v for v in a.response_lights.split(",") if v]:
+        print(f"\nresponse error RMS R / G / B under {light}:")
+        for label, src in sources.items():
+            e = np.concatenate(
+                [
+                    training_responses(cams[n]["values"], n, light)
+                    - training_responses(src.est[n].values, n, light)
+                    for n in src.names
+                ]
+            )
+            print(f"| {label} | {' / '.join(f'{v:.4f}' for v in np.sqrt(np.mean(np.square(e), axis=0)))} |")
     if a.curves_only:
         return 0
 

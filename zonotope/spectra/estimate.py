@@ -936,6 +936,12 @@ def _training(name: str, w: tuple[float, ...]) -> np.ndarray:
     return R
 
 
+def _luther_peak(A: np.ndarray, T: np.ndarray, cmfs: np.ndarray) -> float:
+    """Peak of the curves ``cmfs · M`` that best give ``A · s ≈ T`` (a block's scale, before any fit)."""
+    M = np.linalg.lstsq(A @ cmfs, T, rcond=None)[0]
+    return float(np.abs(cmfs @ M).max())
+
+
 def _second_difference(n: int) -> np.ndarray:
     D = np.zeros((n - 2, n))
     for i in range(n - 2):
@@ -961,8 +967,9 @@ def estimate_ssf(
     dng : path, mapping or DNGMatrices, optional
         A DNG file (its ColorMatrix1/2, ForwardMatrix1/2 and CalibrationIlluminant1/2 are read),
         ``isp.read_dng_tags`` output, or :class:`DNGMatrices`.
-    chart : Chart, optional
-        A photographed chart (raw patch means, reflectances, light).
+    chart : Chart or sequence of Chart, optional
+        A photographed chart (raw patch means, reflectances, light), or several (the same or other
+        charts, under other lights); each photograph's exposure is an unknown of its own.
     basis : SSFBasis, optional
         Default :func:`ssf_basis`.
     training : str or colour.MultiSpectralDistributions
@@ -997,8 +1004,13 @@ def estimate_ssf(
     illuminant after the first. Each matrix ``A_i`` (camera from XYZ) is the least-squares fit of the
     camera's responses on XYZ over ``R`` under ``E_i``, so its normal equations hold:
     ``x̄ᵀ·W_i·(s_c − k_i·x̄·a_c) = 0`` with ``W_i = diag(E_i)·RᵀR·diag(E_i)`` (9 rows per matrix,
-    whitened by the Cholesky factor of ``x̄ᵀ·W_i·x̄``). The chart adds ``R_c·diag(E)·S − C``. Each block
-    is scaled to unit norm of its target (the DNG blocks share one unit); the regularisers
+    whitened by the Cholesky factor of ``x̄ᵀ·W_i·x̄``). Each chart adds ``R_c·diag(E)·S − k_c·C``, with
+    ``k_c`` fixed to 1 only where the chart is the first block (no DNG); ``C`` is first brought to the
+    curves' scale of the first block (through the 3 × 3 on the CIE 1931 functions that best fits each),
+    so that every ``k`` is near 1. Each block is scaled to unit norm of its target (the DNG blocks
+    share one unit, the charts another; beside a chart, the DNG blocks are weighted by ``prior ÷`` the
+    real-DNG calibration's prior where the basis has one, as alone they are judged by that prior:
+    docs/notes/2026-12-01-dng-and-chart.md); the regularisers
     ``√smoothness · D₂ s_c``, ``√subspace · (I − V_c V_cᵀ) s_c`` and ``√prior · (V_c / σ_c)ᵀ s_c``
     (components beyond the first) are scaled by the data's column norm. Solved by
     :func:`scipy.optimize.lsq_linear` (bounded least squares); the result is scaled so that its
@@ -1016,13 +1028,16 @@ def estimate_ssf(
 
     from .loading import load_reflectances
 
-    if dng is None and chart is None:
+    charts = [] if chart is None else [chart] if isinstance(chart, Chart) else list(chart)
+    if not all(isinstance(c, Chart) for c in charts):
+        raise SpectralDataError("estimate_ssf: chart must be a Chart or a sequence of Charts.")
+    if dng is None and not charts:
         raise SpectralDataError(
             "estimate_ssf: give a DNG (its colour matrices), a chart photograph, or both."
         )
     basis = ssf_basis() if basis is None else basis
     # a DNG alone is judged by what real files' matrices give; a chart brings data of its own
-    cal = basis.real_dng if chart is None else None
+    cal = basis.real_dng if not charts else None
     if cal is not None and prior is None:
         kw = dict(dng=read_dng_matrices(dng), training=training, smoothness=smoothness, subspace=subspace)
         est = estimate_ssf(basis=basis, prior=cal.prior, name=name, **kw)
@@ -1039,7 +1054,9 @@ def estimate_ssf(
         prior = SSF_PRIOR
     w = np.asarray(basis.wavelengths, dtype=np.float64)
     n = w.size
-    blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []  # (A per channel, target (N,3), scale index)
+    # (A per channel, target (N, 3), its unknown exposure: an index, or None where the block fixes the scale)
+    blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []
+    n_exposures = 0
     matrices = None
     if dng is not None:
         matrices = read_dng_matrices(dng)
@@ -1060,22 +1077,35 @@ def estimate_ssf(
             L = np.linalg.cholesky(G @ cmfs)
             G = np.linalg.solve(L, G)
             blocks.append((G, G @ cmfs @ A.T, key))
-    if chart is not None:
-        A_c, C = _chart_terms(chart, w)
-        blocks.append((A_c, C, None))
-    n_scales = max([b[2] for b in blocks if b[2] is not None], default=-1)  # k_0 = 1 fixed
-    n_var = 3 * n + max(n_scales, 0)
+        n_exposures = len(lights) - 1
+        blocks = [(G, T, None if key == 0 else key - 1) for G, T, key in blocks]  # k_0 = 1 fixed
+    n_dng = len(blocks)
+    cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
+    for c in charts:
+        A_c, C = _chart_terms(c, w)
+        if blocks:
+            # every photograph has its own exposure k; its target is brought to the curves' scale the
+            # first block sets, so k ≈ 1 and the regularisers (scaled by the data) see one scale
+            C = C * (_luther_peak(*blocks[0][:2], cmfs) / _luther_peak(A_c, C, cmfs))
+            blocks.append((A_c, C, n_exposures))
+            n_exposures += 1
+        else:
+            blocks.append((A_c, C, None))
+    n_var = 3 * n + n_exposures
+    # beside a chart, matrices weigh against the basis prior as much as they do alone: with the real-DNG
+    # calibration (real files' matrices are not exact fits) 1 / (its prior ÷ this prior), else 1
+    dng_weight = prior / basis.real_dng.prior if charts and basis.real_dng is not None else 1.0
     rows, rhs = [], []
-    n_dng = sum(key is not None for _, _, key in blocks)
-    for A, T, key in blocks:
-        # the DNG blocks share one unit of weight, the chart has another
-        scale = 1.0 / max(np.linalg.norm(T), 1e-300) / np.sqrt(n_dng if key is not None else 1.0)
+    for i, (A, T, key) in enumerate(blocks):
+        # the DNG blocks share one unit of weight, the charts another
+        scale = 1.0 / max(np.linalg.norm(T), 1e-300) / np.sqrt(n_dng if i < n_dng else len(charts))
+        scale = scale * np.sqrt(dng_weight if i < n_dng else 1.0)
         for c in range(3):
             M = np.zeros((A.shape[0], n_var))
             M[:, c * n : (c + 1) * n] = A * scale
             t = T[:, c] * scale
-            if key is not None and key > 0:
-                M[:, 3 * n + key - 1] = -t  # R·E·s_c − k·t
+            if key is not None:
+                M[:, 3 * n + key] = -t  # R·E·s_c − k·t
                 t = np.zeros_like(t)
             rows.append(M)
             rhs.append(t)
@@ -1111,7 +1141,7 @@ def estimate_ssf(
     spread = np.asarray(held.spread, dtype=np.float64) * S.max(axis=0, keepdims=True)
     label = name or (matrices.name if matrices is not None and matrices.name else "estimated camera")
     msds = colour.MultiSpectralDistributions(S, w, labels=["red", "green", "blue"], name=label)
-    sources = tuple(s for s, given in (("dng", dng is not None), ("chart", chart is not None)) if given)
+    sources = tuple(s for s, given in (("dng", dng is not None), ("chart", bool(charts))) if given)
     return SSFEstimate(
         msds,
         spread,
