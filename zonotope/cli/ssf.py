@@ -79,13 +79,19 @@ def _estimate(args: argparse.Namespace) -> int:
     from ..spectra.estimate import Chart, estimate_ssf, write_ssf_json
     from ..utilities.io import check_output
 
-    if args.file is None and args.chart is None:
+    csvs, given = args.chart or [], args.illuminant or []
+    if args.file is None and not csvs:
         raise SpectralDataError("give a DNG file, --chart CSV, or both.")
-    if args.illuminant is not None and args.chart is None:
+    if given and not csvs:
         raise SpectralDataError(
-            f"--illuminant {args.illuminant}: the light of a chart photograph; it applies to --chart only."
+            f"--illuminant {given[0]}: the light of a chart photograph; it applies to --chart only."
         )
-    inputs = [args.file, args.chart]
+    if len(given) > 1 and len(given) != len(csvs):
+        raise SpectralDataError(
+            f"{len(given)} --illuminant for {len(csvs)} --chart; give one light for every chart, or one "
+            "per chart in the same order."
+        )
+    inputs = [args.file, *csvs]
     check_output(
         args.output,
         overwrite=args.force,
@@ -93,19 +99,22 @@ def _estimate(args: argparse.Namespace) -> int:
         what="-o",
         inputs=inputs,
     )
-    chart, under = None, ""
-    if args.chart is not None:
-        means, light = _read_chart_csv(args.chart)
-        given = args.illuminant
-        if given is not None and light is not None and _light_key(given) != _light_key(light):
+    charts = []
+    for i, csv in enumerate(csvs):
+        means, light = _read_chart_csv(csv)
+        told = given[i if len(given) > 1 else 0] if given else None
+        if told is not None and light is not None and _light_key(told) != _light_key(light):
             raise SpectralDataError(
-                f"--chart {args.chart} was photographed under {light} (its illuminant column) but "
-                f"--illuminant is {given}; leave --illuminant out or give {light}."
+                f"--chart {csv} was photographed under {light} (its illuminant column) but "
+                f"--illuminant is {told}; leave --illuminant out or give {light}."
             )
-        illuminant = given or light or DEFAULT_CHART_LIGHT
-        chart = Chart(means, args.reflectances, illuminant, name=f"--chart {args.chart}")
-        under = f", the chart under {illuminant}"
-    est = estimate_ssf(args.file, chart=chart, name=args.name)
+        illuminant = told or light or DEFAULT_CHART_LIGHT
+        charts.append(Chart(means, args.reflectances, illuminant, name=f"--chart {csv}"))
+    under = ""
+    if charts:
+        lights = ", ".join(str(c.illuminant) for c in charts)
+        under = f", the chart{'s' if len(charts) > 1 else ''} under {lights}"
+    est = estimate_ssf(args.file, chart=charts or None, name=args.name)
     write_ssf_json(est, args.output, overwrite=args.force)
     peaks = est.wavelengths[est.values.argmax(axis=0)]
     print(
@@ -133,17 +142,20 @@ def add_commands(sub) -> None:
     e.add_argument("-o", "--output", required=True, help="output JSON file (must not exist unless --force)")
     e.add_argument(
         "--chart",
+        action="append",
         help="CSV of raw patch means, one row R,G,B per patch in chart order, black subtracted and divided "
-        "by WhiteLevel − BlackLevel (the _patches.csv `isp profile --chart` writes is read as it is)",
+        "by WhiteLevel − BlackLevel (the _patches.csv `isp profile --chart` writes is read as it is); "
+        "repeat for photographs under other lights, each with an exposure of its own",
     )
     e.add_argument(
         "--reflectances", default="ColorChecker N Ohta", help="the chart's reflectances (name or file)"
     )
     e.add_argument(
         "--illuminant",
-        default=None,
+        action="append",
         help="the light the chart was photographed under (default: the CSV's illuminant column, which "
-        f"isp profile --chart writes, else {DEFAULT_CHART_LIGHT})",
+        f"isp profile --chart writes, else {DEFAULT_CHART_LIGHT}); once for every chart, or once per "
+        "--chart in the same order",
     )
     e.add_argument("--name", help="camera name written into the file (default the DNG's make and model)")
     e.add_argument("--force", action="store_true", help="replace an output file an earlier estimate wrote")

@@ -1058,12 +1058,12 @@ def estimate_ssf(
     blocks: list[tuple[np.ndarray, np.ndarray, int | None]] = []
     n_exposures = 0
     matrices = None
+    cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
     if dng is not None:
         matrices = read_dng_matrices(dng)
         R = _training(training, tuple(w)) if isinstance(training, str) else None
         if R is None:
             R = spectra.resample(load_reflectances(training), w).T
-        cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
         lights = []
         for E, A in _camera_from_XYZ(matrices, w):
             key = next((j for j, e in enumerate(lights) if np.array_equal(e, E)), None)
@@ -1080,7 +1080,6 @@ def estimate_ssf(
         n_exposures = len(lights) - 1
         blocks = [(G, T, None if key == 0 else key - 1) for G, T, key in blocks]  # k_0 = 1 fixed
     n_dng = len(blocks)
-    cmfs = spectra.resample(spectra.observer("CIE 1931 2°"), w)
     for c in charts:
         A_c, C = _chart_terms(c, w)
         if blocks:
@@ -1093,8 +1092,9 @@ def estimate_ssf(
             blocks.append((A_c, C, None))
     n_var = 3 * n + n_exposures
     # beside a chart, matrices weigh against the basis prior as much as they do alone: with the real-DNG
-    # calibration (real files' matrices are not exact fits) 1 / (its prior ÷ this prior), else 1
-    dng_weight = prior / basis.real_dng.prior if charts and basis.real_dng is not None else 1.0
+    # calibration (real files' matrices are not exact fits) this prior ÷ its prior, else 1
+    real = basis.real_dng
+    dng_weight = prior / real.prior if charts and real is not None and real.prior > 0 else 1.0
     rows, rhs = [], []
     for i, (A, T, key) in enumerate(blocks):
         # the DNG blocks share one unit of weight, the charts another
@@ -1135,6 +1135,8 @@ def estimate_ssf(
             "estimate_ssf: the data give all-zero sensitivities; check the matrices or chart."
         )
     fit = data @ sol.x - np.concatenate(rhs[: len(blocks) * 3])
+    n_dng_rows = sum(3 * A.shape[0] for A, _, _ in blocks[:n_dng])
+    fit[:n_dng_rows] /= np.sqrt(dng_weight)  # the misfit of each source in its own unit
     residual = float(np.linalg.norm(fit) / np.sqrt(len(blocks)))
     S = S / peak
     held = basis if cal is None else cal  # the calibration these data are judged by

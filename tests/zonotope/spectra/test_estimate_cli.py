@@ -12,7 +12,7 @@ import zonotope
 from zonotope._tol import SSF_UNIT_SIGMA
 from zonotope.cli import main
 from zonotope.spectra import builtin as spectra
-from zonotope.spectra.estimate import SSF_SHAPE, synthesise_dng_matrices
+from zonotope.spectra.estimate import SSF_SHAPE, Chart, estimate_ssf, synthesise_dng_matrices
 
 
 def _srational(m) -> tuple[int, ...]:
@@ -65,6 +65,30 @@ def test_chart_csv_alone_and_with_the_dng(tmp_path):
     dng = _dng(tmp_path / "cam.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
     assert main(["ssf", "estimate", dng, "--chart", str(csv), "-o", str(tmp_path / "b.json")]) == 0
     assert zonotope.load_camera(tmp_path / "b.json").values.shape[1] == 3
+
+
+def test_several_chart_csvs_each_under_its_light(tmp_path, capsys):
+    """Two --chart files with one --illuminant each give the API's estimate from both photographs; a
+    count of lights that matches neither one nor the charts is one line, before anything is written."""
+    w = SSF_SHAPE.wavelengths
+    R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T
+    truth = spectra.resample(zonotope.camera("Nikon 5100 (NPL)"), w)
+    csvs, charts = [], []
+    for light, top in (("D65", 0.8), ("A", 0.4)):
+        C = (R * spectra.resample(zonotope.illuminant(light), w)[:, 0]) @ truth
+        C = top * C / C.max()
+        csvs.append(tmp_path / f"chart_{light}.csv")
+        csvs[-1].write_text("\n".join(",".join(f"{x:.9g}" for x in row) for row in C) + "\n")
+        charts.append(Chart(np.loadtxt(csvs[-1], delimiter=","), illuminant=light))
+    out = tmp_path / "two.json"
+    argv = ["ssf", "estimate", "--chart", str(csvs[0]), "--chart", str(csvs[1]), "-o", str(out)]
+    assert main([*argv, "--illuminant", "D65", "--illuminant", "A"]) == 0
+    assert "the charts under D65, A" in capsys.readouterr().out
+    np.testing.assert_allclose(zonotope.load_camera(out).values, estimate_ssf(chart=charts).values, atol=1e-6)
+    three = [*argv[:-1], str(tmp_path / "three.json")]
+    assert main([*three, "--illuminant", "D65", "--illuminant", "A", "--illuminant", "A"]) == 2
+    assert "3 --illuminant for 2 --chart" in capsys.readouterr().err
+    assert not (tmp_path / "three.json").exists()
 
 
 def test_chart_csv_of_isp_profile_is_read_by_its_raw_columns_and_its_light(tmp_path, capsys):
