@@ -3,7 +3,8 @@
 Leave one camera model out (as ``bench_ssf.py``): every held-out camera is estimated, with the basis
 learned without its model, from ``--sources``: ``dng`` (DNG matrices synthesised from its measured
 curves), ``chart`` (a simulated photograph of a ColorChecker under D65 with the errors of a real one:
-:func:`chart_photo`, one chart and one light for every camera) or ``both``. For random sets of 1–3
+:func:`chart_photo`, one chart and one light for every camera), ``both``, ``charts`` (the chart under
+each of ``--chart-lights``) or ``both charts``. For random sets of 1–3
 cameras, a correction is fitted on the estimated curves and applied to the responses of the measured
 cameras (the honest setting), against the same correction fitted on the measured curves (the
 baseline: the same estimator, told only the sensor noise). Diagnostics: SSF RMSE / angle per channel
@@ -173,7 +174,7 @@ def held_out_estimates(
     pool = cams if pool is None else pool
     for i, (n, c) in enumerate(cams.items()):
         basis = basis_without(pool, c["model"], redistributable_only=redistributable_only, k=5)
-        if source.startswith("both"):  # the shipped real-DNG calibration sets the matrices' weight
+        if source.startswith("both"):  # beside a chart only its prior is read: the matrices' weight
             basis = dataclasses.replace(basis, real_dng=ssf_basis().real_dng)
         dng = synthesise_dng_matrices(msds(c["values"], n)) if source in ("dng", "both") else None
         if source == "dng-d65":
@@ -763,7 +764,7 @@ def main(argv=None) -> int:
                             )
                             continue
                         if fit_name in REJECTED:
-                            if size == 1 or (fit_name.startswith(("anchor", "measured")) and label == "dng"):
+                            if size == 1 or (fit_name.startswith(("anchor", "measured")) and not src.photos):
                                 continue
                             w = float(fit_name.split()[-1])
                             cal = np.sqrt(sigma**2 + np.square(told_by["calibrated"]))
