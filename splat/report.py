@@ -500,9 +500,10 @@ def _made(run: _Run, photo: tuple[int, int] | None) -> str:
         est = {f: d for f, d in (run.correct.get("ssf") or {}).items() if "estimated" in d}
         if est:
             bits.append(
-                "Sensitivities not measured: estimated from the DNG colour matrices of "
+                "Sensitivities not measured: estimated from the "
                 + ", ".join(
-                    f"{_e(f)} ({_e(d['file'])}, response σ {_per_channel(d['sigma'], 3)})"
+                    f"{_e(d['estimated'])} of {_e(f)} ({_e(d['file'])}, response σ "
+                    f"{_per_channel(d['sigma'], 3)})"
                     for f, d in est.items()
                 )
                 + "; the fit is told that σ as noise."

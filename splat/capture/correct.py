@@ -841,7 +841,8 @@ def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
 def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
     """Per camera (its folder), where its sensitivities came from and the σ told to the fit for them
     (:func:`ssf_sigma`): ``{"measured": name or file, "exact": ssf_exact, "sigma"}`` or
-    ``{"estimated": "DNG colour matrices", "file", "sigma", "calibration"}``.
+    ``{"estimated": what from (the DNG colour matrices, chart photographs), "file", "sigma",
+    "calibration"}``, ``file`` the DNG (``ssf = "estimate"``) or the estimate's own file.
     Why: the report must say when the colours rest on estimated curves, and how well they are known."""
     sigma = ssf_sigma(spec, cameras).reshape(-1, 3)
     out = {}
@@ -851,9 +852,12 @@ def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
         if est is None:
             out[cam.folder] = {"measured": cam.ssf, "exact": cam.ssf_exact, "sigma": told}
             continue
+        from_dng = cam.ssf == "estimate"
+        words = {"dng": "DNG colour matrices", "chart": "chart photographs"}
         out[cam.folder] = {
-            "estimated": "DNG colour matrices",
-            "file": spec.first_dng(k).name,
+            "estimated": " + ".join(words.get(s, s) for s in (("dng",) if from_dng else est.sources))
+            or "an estimate file",
+            "file": (spec.first_dng(k) if from_dng else Path(cam.ssf)).name,
             "sigma": told,
             "calibration": est.calibration,
         }

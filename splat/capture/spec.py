@@ -191,13 +191,16 @@ class CaptureSpec:
         return next((f for f in self.raw_files(k) if f.suffix.lower() == ".dng"), None)
 
     def ssf_estimate(self, k: int):
-        """Camera ``k``'s :class:`zonotope.SSFEstimate` from the colour matrices of its first DNG file
-        (``ssf = "estimate"``), or None for measured curves. Why: the estimate's band is a response error
-        that the correct step adds to the sensor noise (:func:`splat.capture.ssf_sigma`)."""
+        """Camera ``k``'s :class:`zonotope.SSFEstimate`: from the colour matrices of its first DNG file
+        (``ssf = "estimate"``), or the one a ``zonotope ssf estimate`` file named by ``ssf`` holds (from a
+        DNG, chart photographs or both); None for measured curves. Why: the estimate's band is a
+        response error that the correct step adds to the sensor noise (:func:`splat.capture.ssf_sigma`),
+        and the report must not call estimated curves measured ones."""
         import zonotope
 
-        if self.cameras[k].ssf != "estimate":
-            return None
+        s = self.cameras[k].ssf
+        if s != "estimate":
+            return _read_estimate(s, Path(s).stat().st_mtime_ns) if Path(s).is_file() else None
         dng = self.first_dng(k)
         if dng is None:
             raise CaptureError(
@@ -405,6 +408,11 @@ def _camera(c, i: int, root: Path, file: Path) -> CameraSpec:
         raise CaptureError(
             f"{file}: {where}: ssf_exact = true is for curves measured on this very camera, "
             'not for ssf = "estimate".'
+        )
+    if exact and Path(ssf).is_file() and _read_estimate(ssf, Path(ssf).stat().st_mtime_ns) is not None:
+        raise CaptureError(
+            f"{file}: {where}: ssf_exact = true is for curves measured on this very camera, not for "
+            f"{Path(ssf).name}, which zonotope ssf estimate wrote."
         )
     return CameraSpec(folder, ssf, cfa, black, white, {k: float(v) for k, v in exp.items()}, exact)
 
@@ -627,6 +635,18 @@ def maker_warnings(spec: CaptureSpec) -> list[str]:
                 "names its own curves."
             )
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _read_estimate(path: str, mtime_ns: int):
+    """:func:`zonotope.read_ssf_estimate` of an SSF file, once per file version (None: measured curves);
+    a malformed estimate block is a :class:`CaptureError` naming the file."""
+    import zonotope
+
+    try:
+        return zonotope.read_ssf_estimate(path)
+    except zonotope.ZonotopeError as e:
+        raise CaptureError(str(e)) from e
 
 
 @functools.lru_cache(maxsize=16)

@@ -224,6 +224,41 @@ def test_capture_adds_the_estimate_band_to_the_noise(tmp_path):
     assert not capture.ssf_sigma(exact, [1]).any() and not capture.ssf_sigma(spec, [1]).any()  # alone
 
 
+def test_a_capture_naming_an_estimate_file_treats_it_as_estimated(tmp_path):
+    """A file ``zonotope ssf estimate`` wrote (here from a DNG and a chart), named by ``ssf``: its own
+    band is told to the fits and the record says what it was estimated from, not "measured" (it got
+    the units' spread and the report called it published curves); ``ssf_exact = true`` with it is one
+    line."""
+    capture = pytest.importorskip("splat.capture")
+    w = SSF_SHAPE.wavelengths
+    R = spectra.resample(zonotope.reflectances("ColorChecker N Ohta"), w).T
+    C = (R * spectra.resample(zonotope.illuminant("D65"), w)[:, 0]) @ spectra.resample(
+        zonotope.camera("Nikon 5100 (NPL)"), w
+    )
+    (tmp_path / "chart.csv").write_text("\n".join(",".join(f"{x:.9g}" for x in r) for r in 0.8 * C / C.max()))
+    dng = _dng(tmp_path / "a.dng", synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    for d in ("cam", "meas"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "x.nef").write_bytes(b"not read here")
+    out = str(tmp_path / "cam.json")
+    assert main(["ssf", "estimate", dng, "--chart", str(tmp_path / "chart.csv"), "-o", out]) == 0
+    toml = 'illuminant = "D65"\n[[camera]]\nfolder = "cam"\nssf = "cam.json"\n'
+    toml += '[[camera]]\nfolder = "meas"\nssf = "Nikon 5100 (NPL)"\n'
+    (tmp_path / "capture.toml").write_text(toml)
+    spec = capture.read_capture(tmp_path / "capture.toml")
+    est = spec.ssf_estimate(0)
+    assert est is not None and est.sources == ("dng", "chart") and spec.ssf_estimate(1) is None
+    band = capture.ssf_sigma(spec, [0, 1])
+    np.testing.assert_allclose(band[:3], est.response_sigma(spec.load_illuminant()))
+    record = capture.ssf_record(spec, [0, 1])["cam"]
+    assert record["estimated"] == "DNG colour matrices + chart photographs" and record["file"] == "cam.json"
+    (tmp_path / "capture.toml").write_text(
+        toml.replace('ssf = "cam.json"\n', 'ssf = "cam.json"\nssf_exact = true\n')
+    )
+    with pytest.raises(capture.CaptureError, match=r"not for cam\.json, which zonotope ssf estimate wrote"):
+        capture.read_capture(tmp_path / "capture.toml")
+
+
 def test_a_foveon_dng_says_it_fell_back_to_the_exact_matrix_calibration(tmp_path, capsys):
     """The Sigma's (Foveon) matrices fit worse than any real-DNG calibration camera's: the message says
     which calibration the band is from and why."""
