@@ -413,6 +413,41 @@ def delta_cells(values, ref: float) -> str:
     return " | ".join(f"{v:.3f} ({v - ref:+.2f})" if v == v else "–" for v in values)
 
 
+def _inputs(key, C: np.ndarray) -> np.ndarray:
+    """The responses a fit takes: the first camera's alone for ``one camera``, else all."""
+    return C[:, :3] if key[1:] == ("one camera",) else C
+
+
+def score_fits(
+    acc: dict, truth, tests, fits: dict, *, size: int, sigma: float, method: str, seed: int, inputs=None
+):
+    """Each fit's mean ΔE00 over every test set, appended to ``acc[size, test kind, sigma, method, key]``:
+    applied to the true cameras' responses (``truth``) with noise ``sigma`` (seeded by ``seed`` and
+    ``size``); ``inputs(key, C)`` picks the channels a fit takes (default all)."""
+    for ts in tests:
+        C = truth.source_of(ts.reflectances)
+        if sigma:
+            C = C + sigma * np.random.default_rng([seed, size]).standard_normal(C.shape)
+        T = truth.target_of(ts.reflectances)
+        for key, f in fits.items():
+            dE = truth.delta_E(f(C if inputs is None else inputs(key, C)), T)
+            acc.setdefault((size, ts.kind, sigma, method, key), []).append(float(np.mean(dE)))
+
+
+def print_delta_table(acc: dict, methods, cols, ref: str, key=lambda col: col) -> None:
+    """The Markdown table of mean ΔE00 per cameras, test, σ and method: ``ref``'s fit, then every column
+    as :func:`delta_cells` against it; ``acc[cameras, test, σ, method, key(column)]`` holds the values."""
+    print(f"| cameras | test | σ | method | {ref} | " + " | ".join(cols) + " |")
+    print("|---" * (5 + len(cols)) + "|")
+    for size in (1, 2, 3):
+        for kind in ("natural", "atypical"):
+            for sigma in (0.0, 0.005):
+                for m in methods:
+                    base = np.mean(acc[size, kind, sigma, m, ref])
+                    row = [np.mean(acc.get((size, kind, sigma, m, key(f)), np.nan)) for f in cols]
+                    print(f"| {size} | {kind} | {sigma:g} | {m} | {base:.3f} | {delta_cells(row, base)} |")
+
+
 def random_sets(cams: dict[str, dict], n: int, rng: np.random.Generator) -> list[list[str]]:
     """``n`` random two-camera sets, then ``n`` three-camera sets, of the cameras ``cams``, each of
     distinct models (drawn in this order from ``rng``, so a seed gives the same sets everywhere)."""
@@ -784,15 +819,10 @@ def main(argv=None) -> int:
                         model = NoiseModel(np.zeros(np.size(told)), np.square(told), source=fit_name)
                         opts = noise_options(m, model) if np.any(told > 0) else {}
                         fits[key] = fit_correction(pb, method=m, **opts)
-                for ts in tests:
-                    C = truth.source_of(ts.reflectances)
-                    if sigma:
-                        C = C + sigma * np.random.default_rng([a.seed, size]).standard_normal(C.shape)
-                    T = truth.target_of(ts.reflectances)
-                    for key, f in fits.items():
-                        x = C[:, :3] if key[1:] == ("one camera",) else C
-                        dE = truth.delta_E(f(x), T)
-                        acc.setdefault((size, ts.kind, sigma, m, key), []).append(float(np.mean(dE)))
+                first = lambda key, C: C[:, :3] if key[1:] == ("one camera",) else C  # noqa: E731
+                score_fits(
+                    acc, truth, tests, fits, size=size, sigma=sigma, method=m, seed=a.seed, inputs=first
+                )
     print(f"corrections in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     for key, v in diag.items():
         print(
@@ -802,15 +832,7 @@ def main(argv=None) -> int:
     cols = [f for f in fit_names if f != "measured"]
     for label in sources:
         print(f"\nSource: {label} (mean ΔE00; in brackets Δ to the measured-curve fit)\n")
-        print("| cameras | test | σ | method | measured | " + " | ".join(cols) + " |")
-        print("|---" * (5 + len(cols)) + "|")
-        for size in (1, 2, 3):
-            for kind in ("natural", "atypical"):
-                for sigma in (0.0, 0.005):
-                    for m in methods:
-                        ref = np.mean(acc[size, kind, sigma, m, "measured"])
-                        row = [np.mean(acc.get((size, kind, sigma, m, (label, f)), np.nan)) for f in cols]
-                        print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {delta_cells(row, ref)} |")
+        print_delta_table(acc, methods, cols, "measured", key=lambda f, label=label: (label, f))
     return 0
 
 

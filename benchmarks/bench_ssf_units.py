@@ -40,7 +40,7 @@ from zonotope.spectra.estimate import SSF_SHAPE
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_ssf import measured_cameras, msds
-from bench_ssf_stack import Source, delta_cells, training_responses
+from bench_ssf_stack import Source, print_delta_table, score_fits, training_responses
 
 W = np.asarray(SSF_SHAPE.wavelengths)
 FITS = ("another unit", "DNG estimate")
@@ -129,27 +129,12 @@ def main(argv=None) -> int:
                             told = np.sqrt(sigma**2 + np.square(v * unit_rms))
                             fits[f"another unit, {v:g} × unit σ"] = fit(other, told, m)
                             fits[f"own curves, {v:g} × unit σ"] = fit(truth, told, m)
-                        for ts in tests:
-                            C = truth.source_of(ts.reflectances)
-                            if sigma:
-                                C = C + sigma * np.random.default_rng([a.seed, size]).standard_normal(C.shape)
-                            T = truth.target_of(ts.reflectances)
-                            for key, f in fits.items():
-                                dE = float(np.mean(truth.delta_E(f(C), T)))
-                                acc.setdefault((size, ts.kind, sigma, m, key), []).append(dE)
+                        score_fits(acc, truth, tests, fits, size=size, sigma=sigma, method=m, seed=a.seed)
     print(f"corrections in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     print(
         "\n(mean ΔE00 over test sets and role choices; in brackets Δ to the fit on the camera's own curves)\n"
     )
-    print("| cameras | test | σ | method | own curves | " + " | ".join(cols) + " |")
-    print("|---" * (5 + len(cols)) + "|")
-    for size in (1, 2, 3):
-        for kind in ("natural", "atypical"):
-            for sigma in (0.0, 0.005):
-                for m in methods:
-                    ref = np.mean(acc[size, kind, sigma, m, "own curves"])
-                    row = [np.mean(acc[size, kind, sigma, m, f]) for f in cols]
-                    print(f"| {size} | {kind} | {sigma:g} | {m} | {ref:.3f} | {delta_cells(row, ref)} |")
+    print_delta_table(acc, methods, cols, "own curves")
     return 0
 
 

@@ -21,8 +21,8 @@ Module map, in data-flow order (each layer imports only the layers above it; the
 ``survey``, ``parallel``  HTML/Markdown reports, pictures
 ``report``, ``viz``,
 ``ssf_band``              (:func:`ssf_noise`, :func:`band_mmvs`, :func:`ssf_response_errors`,
-                          :func:`unit_sigma`: the SSF band in noise, MMVs and error draws; the
-                          spread of published curves)
+                          :func:`unit_sigma`, :func:`curves_sigma`: the SSF band in noise, MMVs
+                          and error draws; the spread of published curves)
 ``cli``                   the ``zonotope`` command
 ========================  ========================================================================
 
@@ -268,7 +268,14 @@ __getattr__, __dir__, _LAZY = lazy_exports(
             "source_split",
         ],
         "report": ["ReportConfig", "ReportExistsError", "write_report"],
-        "ssf_band": ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors", "unit_sigma"],
+        "ssf_band": [
+            "BandMMVs",
+            "band_mmvs",
+            "curves_sigma",
+            "ssf_noise",
+            "ssf_response_errors",
+            "unit_sigma",
+        ],
         "viz": [
             "mmv_polytope",
             "plot_grey_mmvs",

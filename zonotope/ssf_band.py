@@ -23,7 +23,7 @@ from .correct.noise import NoiseModel, noise_model
 from .correct.problem import CorrectionProblem, correction_problem
 from .spectra.estimate import SSFEstimate, sample_ssfs
 
-__all__ = ["BandMMVs", "band_mmvs", "ssf_noise", "ssf_response_errors", "unit_sigma"]
+__all__ = ["BandMMVs", "band_mmvs", "curves_sigma", "ssf_noise", "ssf_response_errors", "unit_sigma"]
 
 
 def unit_sigma(n_cameras: int, *, exact=()) -> np.ndarray:
@@ -47,6 +47,21 @@ def unit_sigma(n_cameras: int, *, exact=()) -> np.ndarray:
     for k in exact:
         out[k] = 0.0
     return out.ravel()
+
+
+def curves_sigma(estimates, illuminant, *, exact=()) -> np.ndarray:
+    """σ per channel (3 per camera, white → 1) of the response error each camera's curves carry, for
+    one fit of the cameras together: an estimate's band (:meth:`SSFEstimate.response_sigma` under
+    ``illuminant``) where ``estimates[i]`` is one, else measured curves' :func:`unit_sigma` (0 for the
+    cameras in ``exact`` and for one camera alone). Why: the capture's correct step and ``zonotope
+    correct`` tell a fit the same uncertainty of the same curves."""
+    unit = unit_sigma(len(estimates), exact=exact).reshape(-1, 3)
+    return np.concatenate(
+        [
+            u if e is None else np.asarray(e.response_sigma(illuminant), float)
+            for e, u in zip(estimates, unit, strict=True)
+        ]
+    )
 
 
 def ssf_noise(

@@ -826,16 +826,14 @@ def ssf_sigma(spec: CaptureSpec, cameras: list[int]) -> np.ndarray:
     (docs/notes/2026-11-29-ssf-stacking.md); published curves of another unit: +6.0, +0.8 with the
     units' σ (docs/notes/2026-12-01-published-curves.md) — so the correct step adds it to the noise
     in quadrature."""
-    import zonotope
+    from zonotope.ssf_band import curves_sigma
 
-    light = spec.load_illuminant()
     exact = [i for i, k in enumerate(cameras) if spec.cameras[k].ssf_exact]
-    unit = zonotope.unit_sigma(len(cameras), exact=exact).reshape(-1, 3)
-    out = []
-    for i, k in enumerate(cameras):
-        est = spec.ssf_estimate(k)
-        out.append(unit[i] if est is None else np.asarray(est.response_sigma(light), float))
-    return np.concatenate(out)
+    return curves_sigma([spec.ssf_estimate(k) for k in cameras], spec.load_illuminant(), exact=exact)
+
+
+#: What an estimate's sources are called in ``correct/summary.json`` and the report.
+_SOURCE_WORDS = {"dng": "DNG colour matrices", "chart": "chart photographs"}
 
 
 def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
@@ -853,9 +851,8 @@ def ssf_record(spec: CaptureSpec, cameras: list[int]) -> dict:
             out[cam.folder] = {"measured": cam.ssf, "exact": cam.ssf_exact, "sigma": told}
             continue
         from_dng = cam.ssf == "estimate"
-        words = {"dng": "DNG colour matrices", "chart": "chart photographs"}
         out[cam.folder] = {
-            "estimated": " + ".join(words.get(s, s) for s in (("dng",) if from_dng else est.sources))
+            "estimated": " + ".join(_SOURCE_WORDS.get(s, s) for s in (("dng",) if from_dng else est.sources))
             or "an estimate file",
             "file": (spec.first_dng(k) if from_dng else Path(cam.ssf)).name,
             "sigma": told,

@@ -200,7 +200,7 @@ class CaptureSpec:
 
         s = self.cameras[k].ssf
         if s != "estimate":
-            return _read_estimate(s, Path(s).stat().st_mtime_ns) if Path(s).is_file() else None
+            return _estimate_file(s)
         dng = self.first_dng(k)
         if dng is None:
             raise CaptureError(
@@ -409,7 +409,7 @@ def _camera(c, i: int, root: Path, file: Path) -> CameraSpec:
             f"{file}: {where}: ssf_exact = true is for curves measured on this very camera, "
             'not for ssf = "estimate".'
         )
-    if exact and Path(ssf).is_file() and _read_estimate(ssf, Path(ssf).stat().st_mtime_ns) is not None:
+    if exact and _estimate_file(ssf) is not None:
         raise CaptureError(
             f"{file}: {where}: ssf_exact = true is for curves measured on this very camera, not for "
             f"{Path(ssf).name}, which zonotope ssf estimate wrote."
@@ -635,6 +635,13 @@ def maker_warnings(spec: CaptureSpec) -> list[str]:
                 "names its own curves."
             )
     return out
+
+
+def _estimate_file(ssf: str):
+    """The :class:`zonotope.SSFEstimate` an ``ssf`` file holds (written by ``zonotope ssf estimate``),
+    else None (a built-in name, measured curves)."""
+    p = Path(ssf)
+    return _read_estimate(ssf, p.stat().st_mtime_ns) if p.is_file() else None
 
 
 @functools.lru_cache(maxsize=16)

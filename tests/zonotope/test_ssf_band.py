@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 
 import zonotope
 from zonotope._errors import SpectralDataError
-from zonotope._tol import SSF_SAMPLE_MEAN_ATOL
+from zonotope._tol import SSF_SAMPLE_MEAN_ATOL, SSF_UNIT_SIGMA
 from zonotope.correct import NoiseModel, NoiseModelError, fit_correction, noise_options
 from zonotope.spectra.estimate import estimate_ssf, sample_ssfs, synthesise_dng_matrices
-from zonotope.ssf_band import band_mmvs, ssf_noise
+from zonotope.ssf_band import band_mmvs, curves_sigma, ssf_noise
 
 
 @pytest.fixture(scope="module")
@@ -132,3 +132,13 @@ def test_band_mmvs_draws_with_the_given_correlation(est):
         (draw,) = sample_ssfs(est, 1, seed=3, k=2.0, correlation=corr)
         expect = zonotope.correct.correction_problem(draw, shape=band.problem.wavelengths)
         np.testing.assert_allclose(band.samples[0].Phi, expect.Phi, rtol=1e-12)
+
+
+def test_curves_sigma_is_each_estimates_band_and_the_units_spread_for_measured_curves():
+    """An estimate carries its own band; measured curves the spread between units in a stack, nothing
+    alone or where they are the very camera's (``exact``)."""
+    est = estimate_ssf(synthesise_dng_matrices("Nikon 5100 (NPL)"))
+    band = np.asarray(est.response_sigma("D65"))
+    np.testing.assert_allclose(curves_sigma([None, est], "D65"), [*SSF_UNIT_SIGMA, *band])
+    np.testing.assert_allclose(curves_sigma([None, est], "D65", exact=[0]), [0, 0, 0, *band])
+    np.testing.assert_allclose(curves_sigma([None], "D65"), [0, 0, 0])

@@ -274,15 +274,14 @@ def _with_ssf_bands(model, cameras, illuminant: str, k: int, *, exact: bool = Fa
     (``splat.capture.ssf_sigma``)."""
     from ..correct.noise import NoiseModel, noise_model
     from ..spectra.estimate import read_ssf_estimate
-    from ..ssf_band import unit_sigma
+    from ..ssf_band import curves_sigma
 
     if k != 3 * len(cameras):
         return model, ""
     estimates = [read_ssf_estimate(c) for c in cameras]
     measured = [i for i, e in enumerate(estimates) if e is None]
-    unit = unit_sigma(len(cameras), exact=measured if exact else ()).reshape(-1, 3)
-    sigmas = [u if e is None else e.response_sigma(illuminant) for e, u in zip(estimates, unit, strict=True)]
-    band = np.concatenate(sigmas)
+    band = curves_sigma(estimates, illuminant, exact=measured if exact else ())
+    sigmas = band.reshape(-1, 3)
     if not band.any():
         return model, ""
     base = noise_model(model, k) or NoiseModel.constant(0.0, k, source="noise-free")
@@ -295,10 +294,10 @@ def _with_ssf_bands(model, cameras, illuminant: str, k: int, *, exact: bool = Fa
     ]
     if named:
         notes.append("estimated curves: their band added, " + ", ".join(named))
-    if measured and unit[measured[0]].any():
+    if measured and sigmas[measured[0]].any():
         notes.append(
             "measured curves of another unit of each model: the spread between units added, σ "
-            + " / ".join(f"{v:.4f}" for v in unit[measured[0]])
+            + " / ".join(f"{v:.4f}" for v in sigmas[measured[0]])
             + " (--exact-curves if they were measured on these very cameras)"
         )
     return told, "; ".join(notes)
